@@ -1,0 +1,66 @@
+// imukit: capture, characterize, simulate and augment wearable IMUs.
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+#include <fmt/core.h>
+
+#include "cli/command.hpp"
+#include "core/error.hpp"
+
+#ifndef IMUKIT_VERSION
+#define IMUKIT_VERSION "unknown"
+#endif
+
+namespace imukit::cli {
+
+namespace {
+std::vector<CommandSpec>& registry() {
+  static std::vector<CommandSpec> commands;
+  return commands;
+}
+}  // namespace
+
+bool register_command(CommandSpec spec) {
+  registry().push_back(std::move(spec));
+  return true;
+}
+
+const std::vector<CommandSpec>& registered_commands() { return registry(); }
+
+}  // namespace imukit::cli
+
+int main(int argc, char** argv) {
+  using imukit::cli::CommandSpec;
+  CLI::App app{"imukit: capture, characterize, simulate and augment wearable IMUs", "imukit"};
+  app.set_version_flag("--version", std::string("imukit ") + IMUKIT_VERSION);
+  app.require_subcommand(1);
+  app.footer("Run `imukit COMMAND --help` for a command's options and examples.");
+
+  std::vector<CommandSpec> commands = imukit::cli::registered_commands();
+  std::sort(commands.begin(), commands.end(),
+            [](const CommandSpec& a, const CommandSpec& b) { return a.order < b.order; });
+  std::function<int()> run;
+  for (const CommandSpec& spec : commands) {
+    CLI::App* sub = app.add_subcommand(spec.name, spec.summary);
+    auto action = std::make_shared<std::function<int()>>(spec.setup(*sub));
+    sub->callback([&run, action] { run = *action; });
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const imukit::Error& e) {
+    fmt::print(stderr, "imukit: error: {}\n", e.what());
+    return 2;
+  }
+  try {
+    return run ? run() : 0;
+  } catch (const imukit::Error& e) {
+    fmt::print(stderr, "imukit: error: {}\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "imukit: internal error: {}\n", e.what());
+    return 3;
+  }
+}

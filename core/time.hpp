@@ -1,0 +1,38 @@
+// Time in imukit is an int64_t count of nanoseconds (since the Unix epoch for recordings, since
+// the start of the motion for simulations). 2^63 ns is 292 years, so no clock in use wraps, and
+// integer sample times never accumulate rounding error over hours-long sequences.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+namespace imukit {
+
+using TimeNs = int64_t;
+
+inline constexpr TimeNs kNsPerSecond = 1'000'000'000;
+
+constexpr double to_seconds(TimeNs t) { return static_cast<double>(t) * 1e-9; }
+
+// Nearest nanosecond; the caller keeps |seconds| below 9.2e9.
+inline TimeNs from_seconds(double seconds) { return std::llround(seconds * 1e9); }
+
+// Sample period of a rate, to the nearest nanosecond (kept for display: sample times themselves
+// come from sample_time(), which does not round the period).
+inline TimeNs period_ns(double rate_hz) { return std::llround(1e9 / rate_hz); }
+
+// Time of sample `index` of a stream that starts at t0 with a constant rate: computed from the
+// index, never by adding periods, and exact to the nanosecond for hours-long streams. For an
+// integral rate the whole seconds are split off in integers (8.64e7 samples of a 24 h stream at
+// 1 kHz would otherwise need 57 bits); other rates use the 64-bit mantissa of long double.
+inline TimeNs sample_time(TimeNs t0, int64_t index, double rate_hz) {
+  double whole = 0.0;
+  if (std::modf(rate_hz, &whole) == 0.0 && whole >= 1.0 && whole < 4e18) {
+    const auto per_second = static_cast<int64_t>(whole);
+    return t0 + (index / per_second) * kNsPerSecond +
+           std::llround(static_cast<double>(index % per_second) * 1e9 / rate_hz);
+  }
+  return t0 + std::llround(static_cast<long double>(index) * 1e9L / rate_hz);
+}
+
+}  // namespace imukit

@@ -1,0 +1,42 @@
+#include "core/time.hpp"
+
+#include <gtest/gtest.h>
+
+namespace imukit {
+namespace {
+
+TEST(SampleTime, IsExactForIntegralRatesOverADay) {
+  // 24 h at 1 kHz: sample 86,399,999 lies at 86399.999 s exactly.
+  EXPECT_EQ(sample_time(0, 86'399'999, 1000.0), 86'399'999'000'000);
+  // 24 h at 100 Hz, offset start.
+  EXPECT_EQ(sample_time(5, 8'640'000, 100.0), 86'400'000'000'005);
+  // 3 Hz: 1/3 s rounds to the nearest ns.
+  EXPECT_EQ(sample_time(0, 1, 3.0), 333'333'333);
+  EXPECT_EQ(sample_time(0, 2, 3.0), 666'666'667);
+  EXPECT_EQ(sample_time(0, 3'000'000'001, 3.0), 1'000'000'000'333'333'333);
+}
+
+TEST(SampleTime, HandlesFractionalRates) {
+  // BROAD's 285.714285 Hz: sample k at k / 285.714285 s.
+  const double rate = 285.714285;
+  for (int64_t k : {int64_t{0}, int64_t{1}, int64_t{1000}, int64_t{52'000}, int64_t{24'685'714'000}}) {
+    const long double expected = static_cast<long double>(k) * 1e9L / rate;
+    EXPECT_NEAR(static_cast<long double>(sample_time(0, k, rate)), expected, 0.5L) << k;
+  }
+}
+
+TEST(SampleTime, NegativeIndicesMirrorPositiveOnes) {
+  EXPECT_EQ(sample_time(0, -1, 1000.0), -1'000'000);
+  EXPECT_EQ(sample_time(0, -1001, 1000.0), -1'001'000'000);
+}
+
+TEST(TimeConversions, RoundTripSeconds) {
+  EXPECT_EQ(from_seconds(1.5), 1'500'000'000);
+  EXPECT_EQ(from_seconds(-0.25), -250'000'000);
+  EXPECT_DOUBLE_EQ(to_seconds(2'500'000'000), 2.5);
+  EXPECT_EQ(period_ns(200.0), 5'000'000);
+  EXPECT_EQ(period_ns(285.714285), 3'500'000);
+}
+
+}  // namespace
+}  // namespace imukit

@@ -1,0 +1,43 @@
+// Where tests find the real recordings of ../shared/data, and a temporary folder per test.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace imukit::testing {
+
+// $IMUKIT_DATA_DIR, else the shared/data folder beside the checkout. Empty when the folder does
+// not exist; use IMUKIT_REQUIRE_DATA to skip (or fail under CI=true) in that case.
+std::optional<std::filesystem::path> data_dir();
+
+// True when running under CI (CI=true), where missing data is an error, not a skip.
+bool running_in_ci();
+
+// A fresh empty folder under the system's temp dir, removed by the destructor.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+  std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace imukit::testing
+
+// Declares `const std::filesystem::path var` as the data folder, or ends the test: skipped with a
+// visible message locally, failed under CI.
+#define IMUKIT_REQUIRE_DATA(var)                                                        \
+  const auto var##_opt = ::imukit::testing::data_dir();                                 \
+  if (!var##_opt) {                                                                     \
+    if (::imukit::testing::running_in_ci()) {                                           \
+      FAIL() << "test data folder missing (set IMUKIT_DATA_DIR); required under CI";    \
+    }                                                                                   \
+    GTEST_SKIP() << "test data folder missing: set IMUKIT_DATA_DIR to shared/data";     \
+  }                                                                                     \
+  const std::filesystem::path var = *var##_opt
