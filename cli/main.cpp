@@ -39,11 +39,10 @@ int main(int argc, char** argv) {
   std::vector<CommandSpec> commands = imukit::cli::registered_commands();
   std::sort(commands.begin(), commands.end(),
             [](const CommandSpec& a, const CommandSpec& b) { return a.order < b.order; });
-  std::function<int()> run;
+  std::vector<std::pair<CLI::App*, std::function<int()>>> actions;
   for (const CommandSpec& spec : commands) {
     CLI::App* sub = app.add_subcommand(spec.name, spec.summary);
-    auto action = std::make_shared<std::function<int()>>(spec.setup(*sub));
-    sub->callback([&run, action] { run = *action; });
+    actions.emplace_back(sub, spec.setup(*sub));
   }
 
   try {
@@ -55,7 +54,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    return run ? run() : 0;
+    for (auto& [sub, action] : actions) {
+      if (sub->parsed()) return action();
+    }
+    return 0;
   } catch (const imukit::Error& e) {
     fmt::print(stderr, "imukit: error: {}\n", e.what());
     return 1;

@@ -1,0 +1,99 @@
+#include "cli/inputs.hpp"
+
+#include <cmath>
+#include <fmt/core.h>
+
+#include "core/error.hpp"
+#include "core/euroc_csv.hpp"
+
+namespace imukit::cli {
+namespace {
+
+// The unit g is standard gravity g_n = 9.80665 m/s^2 by definition (not the local --gravity).
+constexpr double kStandardGravity = 9.80665;
+
+double accel_factor(const std::string& unit) {
+  if (unit == "m/s^2" || unit == "mps2") return 1.0;
+  if (unit == "g") return kStandardGravity;
+  if (unit == "mg") return kStandardGravity * 1e-3;
+  throw Error(fmt::format("--accel-unit '{}' is not one of m/s^2, g, mg", unit));
+}
+
+double gyro_factor(const std::string& unit) {
+  if (unit == "rad/s" || unit == "radps") return 1.0;
+  if (unit == "deg/s" || unit == "dps") return M_PI / 180.0;
+  throw Error(fmt::format("--gyro-unit '{}' is not one of rad/s, deg/s", unit));
+}
+
+double mag_factor(const std::string& unit) {
+  if (unit == "T") return 1.0;
+  if (unit == "uT") return 1e-6;
+  if (unit == "gauss" || unit == "G") return 1e-4;
+  throw Error(fmt::format("--mag-unit '{}' is not one of T, uT, gauss", unit));
+}
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+}  // namespace
+
+std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
+  std::vector<InputArg> inputs;
+  InputArg defaults;
+  for (std::size_t i = 0; i < tokens.size(); ++i) {
+    std::string token = tokens[i];
+    if (token.empty() || token[0] != '-' || token == "-") {
+      InputArg input = defaults;
+      input.path = token;
+      inputs.push_back(input);
+      continue;
+    }
+    std::string value;
+    const std::size_t eq = token.find('=');
+    if (eq != std::string::npos) {
+      value = token.substr(eq + 1);
+      token.resize(eq);
+    } else {
+      if (i + 1 >= tokens.size()) throw Error(fmt::format("option {} needs a value", token));
+      value = tokens[++i];
+    }
+    InputArg& target = inputs.empty() ? defaults : inputs.back();
+    if (token == "--columns") target.columns = value;
+    else if (token == "--gaps") target.gaps = value;
+    else if (token == "--time-unit") target.time_unit = value;
+    else if (token == "--accel-unit") target.accel_unit = value;
+    else if (token == "--gyro-unit") target.gyro_unit = value;
+    else if (token == "--mag-unit") target.mag_unit = value;
+    else throw Error(fmt::format("unknown option {} (see --help)", token));
+  }
+  return inputs;
+}
+
+std::string input_options_help() {
+  return "Inputs: EuRoC CSV files are recognised by their header; any other numeric text needs a\n"
+         "column map. Options after a file apply to that file, before the first file to all:\n"
+         "  --columns MAP      e.g. t,ax,ay,az,gx,gy,gz (names t ax..az gx..gz mx..mz qw..qz\n"
+         "                     px..pz temp; _ skips a column, _N skips N, a final _* ignores the rest)\n"
+         "  --time-unit U      s (default), ms, us or ns\n"
+         "  --gaps COLS        columns that may hold NaN or be empty, e.g. qw,qx,qy,qz\n"
+         "  --accel-unit U     m/s^2 (default), g (= 9.80665 m/s^2) or mg\n"
+         "  --gyro-unit U      rad/s (default) or deg/s\n"
+         "  --mag-unit U       uT (default), T or gauss\n"
+         "Details: docs/formats.md, section 'Column-mapped text'.";
+}
+
+ImuSeries load_imu_series(const InputArg& input) {
+  if (input.columns.empty()) {
+    if (ends_with(input.path, ".csv")) return read_euroc_csv(input.path);
+    throw Error(fmt::format("{}: say what its columns are with --columns, e.g. --columns t,ax,ay,az,gx,gy,gz",
+                            input.path));
+  }
+  const ColumnSpec spec =
+      ColumnSpec::parse(input.columns, input.gaps, parse_time_unit(input.time_unit));
+  const ChannelScale scale{accel_factor(input.accel_unit), gyro_factor(input.gyro_unit),
+                           mag_factor(input.mag_unit)};
+  return to_imu_series(read_column_text(input.path, spec), scale);
+}
+
+}  // namespace imukit::cli

@@ -1,0 +1,35 @@
+// Input files on the command line, with the column grammar of core/column_text.hpp. Options
+// that follow a file apply to that file; options before the first file apply to every file:
+//   imukit calibrate acc.txt --columns t,ax,ay,az gyro.txt --columns t,gx,gy,gz
+//   imukit info --time-unit ms a.txt b.txt --columns t,ax,ay,az
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/column_text.hpp"
+#include "core/imu_series.hpp"
+
+namespace imukit::cli {
+
+struct InputArg {
+  std::string path;
+  std::string columns;  // empty: the format is recognised from the file (EuRoC CSV)
+  std::string gaps;
+  std::string time_unit = "s";
+  std::string accel_unit = "m/s^2";
+  std::string gyro_unit = "rad/s";
+  std::string mag_unit = "uT";
+};
+
+// Splits the tokens CLI11 left over into inputs; throws imukit::Error on an unknown option or
+// an option without its value.
+std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens);
+
+// Help text describing the per-input options, for a subcommand's footer.
+std::string input_options_help();
+
+// Reads one input as an IMU stream in SI units.
+ImuSeries load_imu_series(const InputArg& input);
+
+}  // namespace imukit::cli

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The test command of the README: installs dependencies, builds and runs every test twice
+# (gcc Release with assertions; clang with ASan+UBSan, also running each fuzzer briefly),
+# and checks the firmware cross-build. Exits non-zero on any failure.
+#   IMUKIT_FUZZ_SECONDS   seconds per fuzzer (default 10; scripts/fuzz.sh runs the full 600)
+#   IMUKIT_SKIP_ASAN=1    skip the sanitizer pass (a quicker local run; CI never sets it)
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+jobs=${IMUKIT_JOBS:-2}
+fuzz_seconds=${IMUKIT_FUZZ_SECONDS:-10}
+start=$(date +%s)
+stamp() { echo "== [$(( $(date +%s) - start ))s] $*"; }
+
+stamp "setup"
+bash scripts/setup.sh
+
+stamp "release build (gcc, assertions on, -Werror)"
+cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DIMUKIT_ASSERTIONS=ON \
+  -DIMUKIT_WERROR=ON >/dev/null
+cmake --build build/release -j"$jobs"
+stamp "release tests"
+(cd build/release && ctest --output-on-failure -j"$jobs" --timeout 900)
+
+if [ -f scripts/check_firmware_size.sh ]; then
+  stamp "firmware_proto cross-build for Cortex-M4"
+  bash scripts/check_firmware_size.sh
+fi
+
+if [ "${IMUKIT_SKIP_ASAN:-0}" != 1 ]; then
+  stamp "sanitizer build (clang, ASan+UBSan, fuzzers)"
+  CC=clang CXX=clang++ cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DIMUKIT_SANITIZE=address,undefined -DIMUKIT_BUILD_FUZZERS=ON -DIMUKIT_BUILD_BENCHMARKS=OFF \
+    -DIMUKIT_WERROR=ON >/dev/null
+  cmake --build build/asan -j"$jobs"
+  stamp "sanitizer tests"
+  (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+     ctest --output-on-failure -j"$jobs" --timeout 1800 -LE no_sanitizer)
+  stamp "fuzzers, ${fuzz_seconds}s each"
+  bash scripts/fuzz.sh "$fuzz_seconds" build/asan
+fi
+stamp "all passed"

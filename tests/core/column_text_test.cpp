@@ -1,0 +1,195 @@
+#include "core/column_text.hpp"
+
+#include <cmath>
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit {
+namespace {
+
+// Runs `fn`, expects an imukit::Error whose message contains every one of `parts`.
+template <typename Fn>
+void expect_error(Fn fn, std::initializer_list<std::string> parts) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected an imukit::Error";
+  } catch (const Error& e) {
+    for (const std::string& p : parts) {
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << p << "'";
+    }
+  }
+}
+
+TEST(ColumnSpec, ParsesNamesSkipsAndRepeats) {
+  const ColumnSpec s = ColumnSpec::parse("t,_,ax,ay,az,_3,gx,gy,gz,_*", "ax", TimeUnit::ms);
+  ASSERT_EQ(s.columns.size(), 11u);
+  EXPECT_EQ(s.columns[0], Column::t);
+  EXPECT_FALSE(s.columns[1].has_value());
+  EXPECT_EQ(s.columns[2], Column::ax);
+  EXPECT_FALSE(s.columns[5].has_value());
+  EXPECT_FALSE(s.columns[7].has_value());
+  EXPECT_EQ(s.columns[8], Column::gx);
+  EXPECT_TRUE(s.ignore_extra);
+  EXPECT_TRUE(s.gappy[static_cast<std::size_t>(Column::ax)]);
+  EXPECT_EQ(s.time_unit, TimeUnit::ms);
+  EXPECT_EQ(s.to_string(), "t,_,ax,ay,az,_3,gx,gy,gz,_*");
+  EXPECT_EQ(ColumnSpec::parse("t gx gy gz").to_string(), "t,gx,gy,gz");
+}
+
+TEST(ColumnSpec, RejectsBadMapsNamingTheToken) {
+  expect_error([] { ColumnSpec::parse("t,ax,foo"); }, {"token 3", "'foo'", "unknown column"});
+  expect_error([] { ColumnSpec::parse("t,ax,ax"); }, {"'ax'", "named twice"});
+  expect_error([] { ColumnSpec::parse("t,_*,ax"); }, {"_* must be the last"});
+  expect_error([] { ColumnSpec::parse("t,_0"); }, {"'_0'"});
+  expect_error([] { ColumnSpec::parse("t,,ax"); }, {"token 2", "empty"});
+  expect_error([] { ColumnSpec::parse("t,ax", "ay"); }, {"--gaps", "'ay' is not in --columns"});
+  expect_error([] { ColumnSpec::parse("t,ax", "t"); }, {"time column cannot have gaps"});
+  expect_error([] { parse_time_unit("min"); }, {"'min'", "s, ms, us, ns"});
+}
+
+TEST(ColumnText, ReadsHeaderCommasBlanksAndTimeUnits) {
+  const std::string text =
+      "time,acc_x,acc_y,acc_z\n"
+      "1.5,1,2,3\n"
+      "\n"
+      "2.0, 4 ,5,6\r\n";
+  const ColumnTable t =
+      parse_column_text(text, "mem.csv", ColumnSpec::parse("t,ax,ay,az", {}, TimeUnit::ms));
+  ASSERT_EQ(t.rows, 2u);
+  ASSERT_EQ(t.header.size(), 4u);
+  EXPECT_EQ(t.header[1], "acc_x");
+  EXPECT_EQ(t.t[0], 1'500'000);
+  EXPECT_EQ(t.t[1], 2'000'000);
+  EXPECT_EQ(t[Column::ay][1], 5.0);
+  EXPECT_TRUE(t.has(Column::az));
+  EXPECT_FALSE(t.has(Column::gx));
+
+  const ColumnTable blanks =
+      parse_column_text("  10 0.5\t-0.5 \n20 1 2\n", "mem.txt", ColumnSpec::parse("t,gx,_"));
+  ASSERT_EQ(blanks.rows, 2u);
+  EXPECT_EQ(blanks.t[1], 20'000'000'000);
+  EXPECT_EQ(blanks[Column::gx][0], 0.5);
+}
+
+TEST(ColumnText, GappyColumnsKeepNaNOthersRejectIt) {
+  const ColumnSpec spec = ColumnSpec::parse("t,qw,px", "qw");
+  const ColumnTable t = parse_column_text("0,nan,1\n1,,2\n2,0.5,3\n", "g.csv", spec);
+  ASSERT_EQ(t.rows, 3u);
+  EXPECT_TRUE(std::isnan(t[Column::qw][0]));
+  EXPECT_TRUE(std::isnan(t[Column::qw][1]));
+  EXPECT_EQ(t[Column::qw][2], 0.5);
+  expect_error([&] { parse_column_text("0,1,nan\n", "g.csv", spec); },
+               {"g.csv:1:5", "column 3 (px)", "NaN", "--gaps px"});
+}
+
+TEST(ColumnText, MalformedLinesNameFileLineAndColumn) {
+  const ColumnSpec spec = ColumnSpec::parse("t,ax,ay,az");
+  expect_error([&] { parse_column_text("0,1,2,3\n1,1,2\n", "bad.csv", spec); },
+               {"bad.csv:2:1", "expected 4 columns", "found 3"});
+  expect_error([&] { parse_column_text("0,1,2,3\n1,1,2,3,4\n", "bad.csv", spec); },
+               {"bad.csv:2:1", "found 5", "_*"});
+  expect_error([&] { parse_column_text("0,1,2,3\n1,1,abc,3\n", "bad.csv", spec); },
+               {"bad.csv:2:5", "column 3 (ay)", "'abc' is not a number"});
+  expect_error([&] { parse_column_text("0,1,2,3\n1,1,2,inf\n", "bad.csv", spec); },
+               {"bad.csv:2:7", "infinite"});
+  expect_error([&] { parse_column_text("0,1,2,3\n1,NaN,2,3\n", "bad.csv", spec); },
+               {"bad.csv:2:3", "NaN is not allowed"});
+  expect_error([&] { parse_column_text("5,1,2,3\n4,1,2,3\n", "bad.csv", spec); },
+               {"bad.csv:2:1", "time goes backwards"});
+  expect_error([&] { parse_column_text("0,1,2,3\nx1,1,2,3\n", "bad.csv", spec); },
+               {"bad.csv:2:1", "'x1'"});
+  expect_error([&] { parse_column_text("0,1,2,3\n1,1,2,\n", "bad.csv", spec); },
+               {"bad.csv:2:7", "empty field"});
+}
+
+TEST(ColumnText, ToImuSeriesScalesAndChecksTriads) {
+  const ColumnTable t =
+      parse_column_text("0 1 2 3 10 20 30\n", "m", ColumnSpec::parse("t,ax,ay,az,gx,gy,gz"));
+  const ImuSeries s = to_imu_series(t, ChannelScale{9.80665, M_PI / 180.0, 1.0});
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_DOUBLE_EQ(s.accel(2, 0), 3 * 9.80665);
+  EXPECT_DOUBLE_EQ(s.gyro(0, 0), 10 * M_PI / 180.0);
+  EXPECT_FALSE(s.has_mag());
+  const ColumnTable partial = parse_column_text("0 1 2\n", "m", ColumnSpec::parse("t,ax,ay"));
+  expect_error([&] { to_imu_series(partial); }, {"accelerometer needs all three columns"});
+  const ColumnTable no_time = parse_column_text("1 2 3\n", "m", ColumnSpec::parse("ax,ay,az"));
+  expect_error([&] { to_imu_series(no_time); }, {"no time column"});
+}
+
+// Every numeric text file in shared/data reads with an appropriate map (DESIGN.md promise).
+struct DataFile {
+  std::string path;
+  std::string columns;
+  std::string gaps;
+  std::size_t rows;
+  double first_time_s;
+  double last_time_s;
+};
+
+TEST(ColumnText, ReadsEveryTextFileOfTheSharedData) {
+  IMUKIT_REQUIRE_DATA(data);
+  const std::vector<DataFile> files = {
+      {"imu_tk_xsens/xsens_acc.txt", "t,ax,ay,az", "", 51175, 0.02984, 511.718},
+      {"imu_tk_xsens/xsens_gyro.txt", "t,gx,gy,gz", "", 51175, 0.02984, 511.718},
+      {"hfi_static/imu_data.txt", "t,gx,gy,gz,ax,ay,az", "", 27963, 1459.63, 4294.96},
+      {"broad/02_undisturbed_slow_rotation_B.csv", "t,ax,ay,az,gx,gy,gz,mx,my,mz,qw,qx,qy,qz,px,py,pz,_",
+       "qw,qx,qy,qz,px,py,pz", 53240, 0.0, 186.3365},
+      {"broad/07_undisturbed_fast_rotation_B.csv", "t,ax,ay,az,gx,gy,gz,_3,qw,qx,qy,qz,px,py,pz,_",
+       "qw,qx,qy,qz,px,py,pz", 52518, 0.0, 183.8095},
+      {"broad/16_undisturbed_fast_translation_B.csv", "t,ax,ay,az,gx,gy,gz,_*", "", 53392, 0.0,
+       186.8685},
+      // forearm_left is the 6th of 16 segments of 10 columns each.
+      {"qmt_full_body/full_body_example_data.csv", "t,_50,ax,ay,az,gx,gy,gz,qw,qx,qy,qz,_*", "",
+       10000, 40.0, 139.99},
+      {"reference_sim/sceneA_imu_LWR_10s.csv", "t,ax,ay,az,gx,gy,gz", "", 1000, 0.0, 9.99},
+      {"reference_sim/sceneA_imu_RWR_10s.csv", "t,ax,ay,az,gx,gy,gz", "", 1000, 0.0, 9.99},
+      {"reference_sim/sceneA_D_translation_10s.csv", "t,px,py,pz", "", 1000, 0.0, 9.99},
+      {"reference_sim/sceneA_D_orientation_10s.csv", "t,qw,qx,qy,qz,_44", "", 1000, 0.0, 9.99},
+  };
+  for (const DataFile& f : files) {
+    SCOPED_TRACE(f.path);
+    const ColumnTable t = read_column_text((data / f.path).string(), ColumnSpec::parse(f.columns, f.gaps));
+    EXPECT_EQ(t.rows, f.rows);
+    ASSERT_EQ(t.t.size(), f.rows);
+    EXPECT_EQ(t.t.front(), from_seconds(f.first_time_s));
+    EXPECT_EQ(t.t.back(), from_seconds(f.last_time_s));
+  }
+  // The Allan-deviation curves of imu_utils: one number per line, no header, no time.
+  std::size_t curves = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(data / "imu_utils_allan")) {
+    if (entry.path().extension() != ".txt") continue;
+    const ColumnTable t = read_column_text(entry.path().string(), ColumnSpec::parse("gx"));
+    EXPECT_GT(t.rows, 50u) << entry.path();
+    for (double v : t[Column::gx]) EXPECT_GT(v, 0.0) << entry.path();
+    ++curves;
+  }
+  EXPECT_EQ(curves, 96u);
+}
+
+TEST(ColumnText, BroadGapsAreNaNExactlyWhereTheFileSaysNan) {
+  IMUKIT_REQUIRE_DATA(data);
+  const ColumnTable t = read_column_text(
+      (data / "broad/02_undisturbed_slow_rotation_B.csv").string(),
+      ColumnSpec::parse("t,_9,qw,qx,qy,qz,_*", "qw,qx,qy,qz"));
+  // README: optical data valid from 4.32 to 184.70 s, plus a 5-sample gap at 4.4 s.
+  std::size_t missing = 0;
+  for (std::size_t i = 0; i < t.rows; ++i) {
+    if (!std::isnan(t[Column::qw][i])) continue;
+    ++missing;
+    const double ts = to_seconds(t.t[i]);
+    EXPECT_TRUE(ts < 4.33 || ts > 184.69 || (ts > 4.35 && ts < 4.45)) << "unexpected gap at " << ts;
+  }
+  const std::size_t edges = static_cast<std::size_t>((4.32 + (186.3365 - 184.70)) * 285.714285);
+  EXPECT_NEAR(static_cast<double>(missing), static_cast<double>(edges + 5), 10.0);
+  const std::size_t mid = t.rows / 2;
+  EXPECT_FALSE(std::isnan(t[Column::qw][mid]));
+  double norm2 = 0.0;
+  for (Column c : {Column::qw, Column::qx, Column::qy, Column::qz}) norm2 += t[c][mid] * t[c][mid];
+  EXPECT_NEAR(std::sqrt(norm2), 1.0, 1e-6);  // printed with 7 decimals
+}
+
+}  // namespace
+}  // namespace imukit

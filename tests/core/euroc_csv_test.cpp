@@ -1,0 +1,122 @@
+#include "core/euroc_csv.hpp"
+
+#include <cstring>
+#include <fstream>
+#include <gtest/gtest.h>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/rng.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit {
+namespace {
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(EurocCsv, RoundTripIsBitExact) {
+  // Values chosen to need all 17 digits: random doubles over many magnitudes, subnormals,
+  // negative zero and extremes.
+  Rng rng(7);
+  const std::size_t n = 2000;
+  ImuSeries s = ImuSeries::with_channels(n, true, true);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<Eigen::Index>(i);
+    s.t[i] = 1'700'000'000'000'000'000 + static_cast<TimeNs>(i) * 2'500'001;
+    for (int k = 0; k < 3; ++k) {
+      s.accel(k, c) = rng.normal() * std::pow(10.0, rng.uniform(-12.0, 12.0));
+      s.gyro(k, c) = rng.uniform(-1.0, 1.0) / 3.0;
+    }
+  }
+  s.accel(0, 0) = -0.0;
+  s.accel(1, 0) = 4.9406564584124654e-324;
+  s.accel(2, 0) = 1.7976931348623157e308;
+  s.gyro(0, 1) = 2.2250738585072014e-308;
+  testing::TempDir dir;
+  const std::string path = (dir / "imu0.csv").string();
+  write_euroc_csv(path, s.view());
+  const ImuSeries back = read_euroc_csv(path);
+  ASSERT_EQ(back.size(), n);
+  EXPECT_EQ(back.t, s.t);
+  EXPECT_EQ(std::memcmp(back.accel.data(), s.accel.data(), sizeof(double) * 3 * n), 0);
+  EXPECT_EQ(std::memcmp(back.gyro.data(), s.gyro.data(), sizeof(double) * 3 * n), 0);
+  EXPECT_TRUE(std::signbit(back.accel(0, 0)));
+}
+
+TEST(EurocCsv, WritesTheKalibrHeaderAndColumnOrder) {
+  ImuSeries s = ImuSeries::with_channels(1, true, true);
+  s.t[0] = 1403636579758555392;
+  s.gyro.col(0) << 0.5, -0.25, 0.125;
+  s.accel.col(0) << 9.5, 0.0, -1.0;
+  testing::TempDir dir;
+  const std::string path = (dir / "imu0.csv").string();
+  write_euroc_csv(path, s.view());
+  EXPECT_EQ(slurp(path),
+            "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+            "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
+            "1403636579758555392,0.5,-0.25,0.125,9.5,0,-1\n");
+}
+
+TEST(EurocCsv, MalformedLinesAreRejectedWithTheLineNumber) {
+  const std::string header(kEurocHeader);
+  struct Case {
+    std::string body;
+    std::string expect;
+  };
+  const std::vector<Case> cases = {
+      {"1,0,0,0,0,0\n", "x.csv:3:1: expected 7 columns"},                 // missing column
+      {"1,0,0,zero,0,0,9.8\n", "x.csv:3:7: column 4 (gz): 'zero' is not a number"},
+      {"1,0,0,0,nan,0,9.8\n", "x.csv:3:9: column 5 (ax): NaN is not allowed"},
+      {"1,0,0,0,0,inf,9.8\n", "x.csv:3:11: column 6 (ay): infinite value"},
+      {"1,0,0,0,0,0,-Infinity\n", "x.csv:3:13: column 7 (az): infinite value"},
+      {"abc,0,0,0,0,0,9.8\n", "x.csv:3:1: column 1 (t): 'abc' is not a finite decimal time"},
+  };
+  for (const Case& c : cases) {
+    const std::string text = header + "\n0,0,0,0,0,0,9.8\n" + c.body;
+    try {
+      parse_euroc_csv(text, "x.csv");
+      ADD_FAILURE() << "accepted: " << c.body;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos)
+          << e.what() << "\n  expected: " << c.expect;
+    }
+  }
+}
+
+TEST(EurocCsv, RequiresTheHeader) {
+  EXPECT_THROW(parse_euroc_csv("0,0,0,0,0,0,9.8\n", "x.csv"), Error);
+  EXPECT_NO_THROW(parse_euroc_csv("timestamp,wx,wy,wz,ax,ay,az\n0,0,0,0,0,0,9.8\n", "x.csv"));
+}
+
+TEST(EurocCsv, UnwritablePathIsAClearError) {
+  ImuSeries s = ImuSeries::with_channels(1, true, true);
+  s.t[0] = 0;
+  s.accel.setZero();
+  s.gyro.setZero();
+  try {
+    write_euroc_csv("/nonexistent-dir/imu0.csv", s.view());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/imu0.csv"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("cannot open for writing"), std::string::npos);
+  }
+}
+
+TEST(EurocCsv, DiskFullIsAClearError) {
+  std::FILE* full = std::fopen("/dev/full", "wb");
+  if (!full) GTEST_SKIP() << "/dev/full is not available";
+  ImuSeries s = ImuSeries::with_channels(20000, true, true);
+  for (std::size_t i = 0; i < s.size(); ++i) s.t[i] = static_cast<TimeNs>(i);
+  s.accel.setConstant(1.0 / 3.0);
+  s.gyro.setConstant(2.0 / 3.0);
+  EXPECT_THROW(write_euroc_csv(full, "/dev/full", s.view()), Error);
+  std::fclose(full);
+}
+
+}  // namespace
+}  // namespace imukit
