@@ -44,4 +44,9 @@ class Rng {
   std::array<uint64_t, 4> state_;
 };
 
+// Natural logarithm of a finite x > 0 (asserted), built only from frexp and IEEE-exact
+// arithmetic, so it gives the same bits on every platform (libm's log may differ in the last
+// bit). Error below 1 ulp; normal() and its tables use it.
+double portable_log(double x);
+
 }  // namespace imukit

@@ -1,0 +1,178 @@
+#include "firmware_proto/frame.hpp"
+
+#include <string.h>
+
+#include "firmware_proto/crc32c.hpp"
+
+namespace imukit::proto {
+namespace {
+
+inline uint32_t load_le32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
+         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
+}
+
+// COBS decoding of a zero-free run in[0, n) (the bytes between two delimiters; memchr already
+// proved there is no zero). Returns the decoded size or kCobsError.
+//
+// kInPlace: out == in, blocks move left with memmove. Otherwise out is a separate buffer with at
+// least n + 16 bytes, and short blocks are copied with one fixed 16-byte copy (a single vector
+// load and store) whenever 16 input bytes are available; the extra bytes written past the block
+// are overwritten by the next block or lie beyond the decoded size. This avoids a variable-length
+// memcpy call per block: IMU samples near zero contain many 0x00 bytes, so blocks are short.
+template <bool kInPlace>
+size_t decode_cobs_run(const uint8_t* in, size_t n, uint8_t* out) {
+  size_t r = 0;
+  size_t w = 0;
+  while (r < n) {
+    const size_t code = in[r];
+    const size_t run = code - 1;
+    if (run > n - r - 1) return kCobsError;
+    const uint8_t* src = in + r + 1;
+    if constexpr (kInPlace) {
+      memmove(out + w, src, run);
+    } else if (run <= 16 && n - r - 1 >= 16) {
+      memcpy(out + w, src, 16);
+    } else {
+      memcpy(out + w, src, run);
+    }
+    w += run;
+    r += code;
+    if (code != 0xFF && r < n) out[w++] = 0;
+  }
+  return w;
+}
+
+}  // namespace
+
+size_t encode_frame(uint8_t type, uint16_t sequence, const uint8_t* payload, size_t payload_size,
+                    uint8_t* out, size_t out_capacity) {
+  if (payload_size > kMaxPayloadSize) return 0;
+  const size_t body_size = kHeaderSize + payload_size + kCrcSize;
+  if (out_capacity < cobs_max_encoded_size(body_size) + 1) return 0;
+  const uint8_t header[kHeaderSize] = {kProtocolVersion, type, static_cast<uint8_t>(sequence),
+                                       static_cast<uint8_t>(sequence >> 8)};
+  uint32_t crc = crc32c(header, kHeaderSize);
+  crc = crc32c_extend(crc, payload, payload_size);
+  const uint8_t crc_bytes[kCrcSize] = {static_cast<uint8_t>(crc), static_cast<uint8_t>(crc >> 8),
+                                       static_cast<uint8_t>(crc >> 16),
+                                       static_cast<uint8_t>(crc >> 24)};
+  CobsStreamEncoder cobs(out);
+  cobs.put(header, kHeaderSize);
+  cobs.put(payload, payload_size);
+  cobs.put(crc_bytes, kCrcSize);
+  return cobs.finish();
+}
+
+void FrameDecoder::append(const uint8_t* data, size_t n) {
+  if (skipping_) {
+    stats_.bytes_discarded += n;
+    return;
+  }
+  if (n > kMaxEncodedBodySize - size_) {
+    // No legal frame is this long: drop what we have and everything up to the next delimiter.
+    discard(size_ + n, stats_.oversize_frames);
+    size_ = 0;
+    skipping_ = true;
+    return;
+  }
+  memcpy(buf_ + size_, data, n);
+  size_ += n;
+}
+
+bool FrameDecoder::finish(const uint8_t* enc, size_t enc_size, uint64_t total_bytes) {
+  if (enc_size == 0) {
+    discard(total_bytes, stats_.empty_frames);
+    return false;
+  }
+  if (enc_size > kMaxEncodedBodySize) {
+    discard(total_bytes, stats_.oversize_frames);
+    return false;
+  }
+  const size_t body_size = enc == buf_ ? decode_cobs_run<true>(buf_, enc_size, buf_)
+                                       : decode_cobs_run<false>(enc, enc_size, buf_);
+  if (body_size == kCobsError) {
+    discard(total_bytes, stats_.cobs_errors);
+    return false;
+  }
+  if (body_size < kMinBodySize) {
+    discard(total_bytes, stats_.short_frames);
+    return false;
+  }
+  if (body_size > kMaxBodySize) {
+    discard(total_bytes, stats_.oversize_frames);
+    return false;
+  }
+  const size_t checked = body_size - kCrcSize;
+  if (crc32c(buf_, checked) != load_le32(buf_ + checked)) {
+    discard(total_bytes, stats_.crc_errors);
+    return false;
+  }
+  if (buf_[0] != kProtocolVersion) {
+    discard(total_bytes, stats_.version_errors);
+    return false;
+  }
+  frame_.version = buf_[0];
+  frame_.type = buf_[1];
+  frame_.sequence = static_cast<uint16_t>(buf_[2] | buf_[3] << 8);
+  frame_.payload = buf_ + kHeaderSize;
+  frame_.payload_size = checked - kHeaderSize;
+  if (have_sequence_) {
+    const uint16_t skipped = static_cast<uint16_t>(frame_.sequence - last_sequence_ - 1u);
+    if (skipped != 0) {
+      ++stats_.sequence_gaps;
+      stats_.frames_missed += skipped;
+    }
+  }
+  have_sequence_ = true;
+  last_sequence_ = frame_.sequence;
+  ++stats_.frames_ok;
+  stats_.bytes_accepted += total_bytes;
+  return true;
+}
+
+size_t FrameDecoder::consume(const uint8_t* data, size_t n) {
+  has_frame_ = false;
+  size_t pos = 0;
+  while (pos < n) {
+    const uint8_t* start = data + pos;
+    const size_t avail = n - pos;
+    const auto* zero = static_cast<const uint8_t*>(memchr(start, 0, avail));
+    if (zero == nullptr) {
+      stats_.bytes_received += avail;
+      append(start, avail);
+      return n;
+    }
+    const size_t run = static_cast<size_t>(zero - start);
+    pos += run + 1;
+    stats_.bytes_received += run + 1;
+    bool ok;
+    if (skipping_) {
+      // The oversize frame's bytes were counted as they arrived; only the delimiter is left.
+      stats_.bytes_discarded += run + 1;
+      skipping_ = false;
+      ok = false;
+    } else if (size_ == 0) {
+      // Fast path: the whole frame is in this chunk, decode straight from the caller's bytes.
+      ok = finish(start, run, run + 1);
+    } else {
+      const size_t held = size_;
+      append(start, run);
+      if (skipping_) {
+        stats_.bytes_discarded += 1;  // the delimiter that ends the oversize frame
+        skipping_ = false;
+        ok = false;
+      } else {
+        ok = finish(buf_, size_, held + run + 1);
+      }
+    }
+    size_ = 0;
+    if (ok) {
+      has_frame_ = true;
+      return pos;
+    }
+  }
+  return n;
+}
+
+}  // namespace imukit::proto
