@@ -40,8 +40,8 @@ void validate(const char* what, std::span<const double> x, const Eigen::Ref<cons
   for (Index k = 0; k < y.cols(); ++k) {
     for (Index c = 0; c < y.rows(); ++c) {
       if (!std::isfinite(y(c, k))) {
-        throw Error(fmt::format("{}: y(channel {}, knot {}) = {} is not finite", what, c, k,
-                                y(c, k)));
+        throw Error(
+            fmt::format("{}: y(channel {}, knot {}) = {} is not finite", what, c, k, y(c, k)));
       }
     }
   }
@@ -178,8 +178,8 @@ Interpolant Interpolant::pchip(std::span<const double> x, const Eigen::Ref<const
       for (Index c = 0; c < y.rows(); ++c) {
         const double m_prev = m(c, k - 1);
         const double m_next = m(c, k);
-        const bool same_strict_sign = (m_prev > 0.0 && m_next > 0.0) ||
-                                      (m_prev < 0.0 && m_next < 0.0);
+        const bool same_strict_sign =
+            (m_prev > 0.0 && m_next > 0.0) || (m_prev < 0.0 && m_next < 0.0);
         if (same_strict_sign) {
           const double harmonic = (w1 / m_prev + w2 / m_next) / (w1 + w2);
           d(c, k) = 1.0 / harmonic;
@@ -240,8 +240,7 @@ Interpolant Interpolant::cubic_spline(std::span<const double> x,
     dl[nn - 2] = dn;
     diag[nn - 1] = h(n - 3);
     s.col(n - 1) =
-        (h(n - 2) * h(n - 2) * m.col(n - 3) + (2.0 * dn + h(n - 2)) * h(n - 3) * m.col(n - 2)) /
-        dn;
+        (h(n - 2) * h(n - 2) * m.col(n - 3) + (2.0 * dn + h(n - 2)) * h(n - 3) * m.col(n - 2)) / dn;
     solve_tridiagonal(std::move(dl), std::move(diag), std::move(du), s);
   }
   out.set_hermite(y, std::move(s));

@@ -165,15 +165,12 @@ double portable_log(double x) {
   const double f = m - 1.0;  // exact (Sterbenz: m is within a factor 2 of 1)
   const double s = f / (2.0 + f);
   const double z = s * s;
-  const double r =
-      z * (2.0 / 3.0 +
-           z * (2.0 / 5.0 +
-                z * (2.0 / 7.0 +
-                     z * (2.0 / 9.0 +
-                          z * (2.0 / 11.0 +
-                               z * (2.0 / 13.0 +
-                                    z * (2.0 / 15.0 +
-                                         z * (2.0 / 17.0 + z * (2.0 / 19.0 + z * (2.0 / 21.0))))))))));
+  // 2 / (2k + 1), k = 1 .. 10.
+  static constexpr double kR[] = {2.0 / 3.0,  2.0 / 5.0,  2.0 / 7.0,  2.0 / 9.0,  2.0 / 11.0,
+                                  2.0 / 13.0, 2.0 / 15.0, 2.0 / 17.0, 2.0 / 19.0, 2.0 / 21.0};
+  double poly = kR[9];
+  for (int i = 8; i >= 0; --i) poly = poly * z + kR[i];
+  const double r = z * poly;
   const double hfsq = 0.5 * f * f;
   const double k = static_cast<double>(e);
   return k * kLn2Hi + (f - (hfsq - (s * (hfsq + r) + k * kLn2Lo)));

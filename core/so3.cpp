@@ -1,5 +1,6 @@
 #include "core/so3.hpp"
 
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -13,6 +14,14 @@ using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
 bool all_finite(const Quaterniond& q) { return q.coeffs().allFinite(); }
+
+// c[0] + c[1] x + c[2] x^2 + ... by Horner's rule.
+template <std::size_t N>
+double horner(double x, const std::array<double, N>& c) {
+  double acc = c[N - 1];
+  for (std::size_t i = N - 1; i-- > 0;) acc = acc * x + c[i];
+  return acc;
+}
 
 // sin(theta / 2) / theta. Below 1e-2 the Taylor series
 //   1/2 - theta^2/48 + theta^4/3840 - theta^6/645120 (next term theta^8/185794560)
@@ -66,16 +75,17 @@ Quaterniond unit_or_normalised(const Quaterniond& q) {
 // 6 eps / t^2 relative to cancellation.
 double one_minus_sinc_over_t2(double t) {
   if (t < 1.0) {
-    const double x = t * t;
-    return 1.0 / 6.0 -
-           x * (1.0 / 120.0 -
-                x * (1.0 / 5040.0 -
-                     x * (1.0 / 362880.0 -
-                          x * (1.0 / 39916800.0 -
-                               x * (1.0 / 6227020800.0 -
-                                    x * (1.0 / 1307674368000.0 -
-                                         x * (1.0 / 355687428096000.0 -
-                                              x * (1.0 / 121645100408832000.0))))))));
+    // (-1)^k / (2k + 3)!, k = 0 .. 8.
+    static constexpr std::array<double, 9> kCoefficients = {1.0 / 6.0,
+                                                            -1.0 / 120.0,
+                                                            1.0 / 5040.0,
+                                                            -1.0 / 362880.0,
+                                                            1.0 / 39916800.0,
+                                                            -1.0 / 6227020800.0,
+                                                            1.0 / 1307674368000.0,
+                                                            -1.0 / 355687428096000.0,
+                                                            1.0 / 121645100408832000.0};
+    return horner(t * t, kCoefficients);
   }
   return (t - std::sin(t)) / (t * t * t);
 }
@@ -86,15 +96,14 @@ double one_minus_sinc_over_t2(double t) {
 // 12 eps / t^2 relative.
 double jr_inverse_coefficient(double t) {
   if (t < 0.5) {
-    const double x = t * t;
-    return 1.0 / 12.0 +
-           x * (1.0 / 720.0 +
-                x * (1.0 / 30240.0 +
-                     x * (1.0 / 1209600.0 +
-                          x * (1.0 / 47900160.0 +
-                               x * (691.0 / 1307674368000.0 +
-                                    x * (1.0 / 74724249600.0 +
-                                         x * (3617.0 / 10670622842880000.0)))))));
+    // |B_2k| / (2k)!, k = 1 .. 8: 1/12, 1/720, 1/30240, 1/1209600, 1/47900160, 691/15!,
+    // (7/6)/14!, (3617/510)/16!.
+    static constexpr std::array<double, 8> kCoefficients = {
+        1.0 / 12.0,          1.0 / 720.0,
+        1.0 / 30240.0,       1.0 / 1209600.0,
+        1.0 / 47900160.0,    691.0 / 1307674368000.0,
+        1.0 / 74724249600.0, 3617.0 / 10670622842880000.0};
+    return horner(t * t, kCoefficients);
   }
   return 1.0 / (t * t) - (1.0 + std::cos(t)) / (2.0 * t * std::sin(t));
 }

@@ -313,21 +313,33 @@ TEST(Interpolation, RejectsBadInputWithAClearMessage) {
     EXPECT_THAT(message([&] { eval1(kind, {}, {}, xq); }), HasSubstr("at least 2 knots, got 0"));
     EXPECT_THAT(message([&] { eval1(kind, {1.0}, {1.0}, xq); }),
                 HasSubstr("at least 2 knots, got 1"));
-    EXPECT_THAT(message([&] { eval1(kind, {0.0, 1.0, 1.0}, good_y, xq); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, {0.0, 1.0, 1.0}, good_y, xq);
+                }),
                 HasSubstr("strictly increasing, but x[2] = 1 <= x[1] = 1"));
-    EXPECT_THAT(message([&] { eval1(kind, {0.0, 2.0, 1.0}, good_y, xq); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, {0.0, 2.0, 1.0}, good_y, xq);
+                }),
                 HasSubstr("strictly increasing, but x[2] = 1 <= x[1] = 2"));
-    EXPECT_THAT(message([&] { eval1(kind, {0.0, std::nan(""), 2.0}, good_y, xq); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, {0.0, std::nan(""), 2.0}, good_y, xq);
+                }),
                 HasSubstr("x[1] = nan is not finite"));
-    EXPECT_THAT(message([&] { eval1(kind, good_x, {0.0, 1.0, std::nan("")}, xq); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, good_x, {0.0, 1.0, std::nan("")}, xq);
+                }),
                 HasSubstr("y(channel 0, knot 2) = nan is not finite"));
     EXPECT_THAT(message([&] {
                   eval1(kind, good_x, {0.0, std::numeric_limits<double>::infinity(), 1.0}, xq);
                 }),
                 HasSubstr("y(channel 0, knot 1) = inf is not finite"));
-    EXPECT_THAT(message([&] { eval1(kind, good_x, {0.0, 1.0}, xq); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, good_x, {0.0, 1.0}, xq);
+                }),
                 HasSubstr("y has 2 columns (one per knot) but x has 3 knots"));
-    EXPECT_THAT(message([&] { eval1(kind, good_x, good_y, {0.5, std::nan("")}); }),
+    EXPECT_THAT(message([&] {
+                  eval1(kind, good_x, good_y, {0.5, std::nan("")});
+                }),
                 HasSubstr("query xq[1] = nan is not finite"));
   }
 }

@@ -51,8 +51,8 @@ TailCheck tail_check(const std::vector<double>& v, double k) {
 int64_t ulp_distance(double a, double b) {
   if (a == b) return 0;
   const double gap = std::abs(a - b);
-  const double ulp = std::nextafter(std::abs(b), std::numeric_limits<double>::infinity()) -
-                     std::abs(b);
+  const double ulp =
+      std::nextafter(std::abs(b), std::numeric_limits<double>::infinity()) - std::abs(b);
   return static_cast<int64_t>(std::ceil(gap / ulp));
 }
 
@@ -213,8 +213,8 @@ TEST(RngNormal, HasUnitMomentsAndNormalTails) {
     sum += x;
     sum_sq += x * x;
   }
-  EXPECT_NEAR(sum / n, 0.0, 4.0 / std::sqrt(n));                   // se 1/sqrt(n)
-  EXPECT_NEAR(sum_sq / n, 1.0, 4.0 * std::sqrt(2.0 / n));          // se sqrt(2/n)
+  EXPECT_NEAR(sum / n, 0.0, 4.0 / std::sqrt(n));           // se 1/sqrt(n)
+  EXPECT_NEAR(sum_sq / n, 1.0, 4.0 * std::sqrt(2.0 / n));  // se sqrt(2/n)
   // Beyond 3 sigma: p = 0.0026998, expected 2699.8 of 1e6, se 51.9.
   const TailCheck t3 = tail_check(v, 3.0);
   EXPECT_NEAR(t3.expected, 2699.8, 0.1);

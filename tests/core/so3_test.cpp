@@ -130,8 +130,7 @@ TEST(So3ExpLog, SmallAnglesKeepFullRelativeAccuracy) {
     EXPECT_LE(std::abs(static_cast<long double>(q.w()) - std::cos(half)), kEps) << theta;
     for (int k = 0; k < 3; ++k) {
       const long double expected = static_cast<long double>(v[k]) * factor;
-      EXPECT_LE(std::abs((static_cast<long double>(q.vec()[k]) - expected) / expected),
-                2.0L * kEps)
+      EXPECT_LE(std::abs((static_cast<long double>(q.vec()[k]) - expected) / expected), 2.0L * kEps)
           << theta;
     }
     const Vector3d back = so3_log(q);
@@ -208,9 +207,9 @@ TEST(Slerp, MatchesTheClosedFormOnAKnownPair) {
     if (omega < 0.1) continue;
     for (double t : {0.1, 0.25, 0.5, 0.9}) {
       Quaterniond expected;
-      expected.coeffs() = (std::sin((1.0 - t) * omega) * q0r.coeffs() +
-                           std::sin(t * omega) * q1r.coeffs()) /
-                          std::sin(omega);
+      expected.coeffs() =
+          (std::sin((1.0 - t) * omega) * q0r.coeffs() + std::sin(t * omega) * q1r.coeffs()) /
+          std::sin(omega);
       ASSERT_LE(max_diff(slerp(q0r, q1r, t), expected), 1e-15) << i << " t " << t;
     }
   }
@@ -398,9 +397,9 @@ TEST(So3Jacobian, RightJacobianAndInverseMatchFiniteDifferences) {
     for (int k = 0; k < 3; ++k) {
       const Vector3d e = Vector3d::Unit(k) * h;
       // exp(phi + d) ~= exp(phi) exp(J_r d)  =>  J_r e_k ~= log(exp(phi)^-1 exp(phi + h e_k)) / h.
-      const Vector3d fd_jr = (so3_log(q.conjugate() * so3_exp(phi + e)) -
-                              so3_log(q.conjugate() * so3_exp(phi - e))) /
-                             (2.0 * h);
+      const Vector3d fd_jr =
+          (so3_log(q.conjugate() * so3_exp(phi + e)) - so3_log(q.conjugate() * so3_exp(phi - e))) /
+          (2.0 * h);
       ASSERT_LE((jr.col(k) - fd_jr).norm(), 1e-8) << theta;
       // log(exp(phi) exp(d)) ~= phi + J_r^-1 d.
       const Vector3d fd_inv = (so3_log(q * so3_exp(e)) - so3_log(q * so3_exp(-e))) / (2.0 * h);
