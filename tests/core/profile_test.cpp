@@ -1,0 +1,476 @@
+#include "core/profile.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fmt/format.h>
+#include <fstream>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "core/error.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit {
+namespace {
+
+// The example of docs/formats.md, "Device profile (imukit.profile/1)"; keep the two identical.
+constexpr const char* kDocumentedExample = R"json({
+  "schema": "imukit.profile/1",
+  "units": {
+    "accelerometer": "m/s^2",
+    "gyroscope": "rad/s",
+    "magnetometer": "T",
+    "gravity": "m/s^2",
+    "noise_density": "sensor unit/sqrt(Hz)",
+    "bias_instability": "sensor unit",
+    "random_walk": "sensor unit/s/sqrt(Hz)",
+    "tau": "s",
+    "adev": "sensor unit",
+    "rate": "Hz",
+    "bandwidth": "Hz",
+    "range": "sensor unit",
+    "resolution": "sensor unit",
+    "scale": "1",
+    "misalignment": "rad",
+    "g_sensitivity": "(rad/s)/(m/s^2)",
+    "hard_iron": "T",
+    "soft_iron": "1"
+  },
+  "device": {"vendor": "Xsens", "model": "MTi-1", "serial": "03880001", "name": "left wrist"},
+  "gravity": 9.80665,
+  "accelerometer": {
+    "noise": {
+      "noise_density": [0.0011, 0.0012, 0.0015],
+      "noise_density_sigma": [2e-05, 2e-05, 3e-05],
+      "bias_instability": [0.00035, 0.0004, 0.0005],
+      "bias_instability_sigma": [5e-05, 6e-05, 8e-05],
+      "bias_instability_band": [10.0, 1000.0],
+      "random_walk": [2.5e-05, 3e-05, 4e-05],
+      "random_walk_sigma": [5e-06, 6e-06, 8e-06],
+      "allan": {
+        "tau": [0.01, 0.1, 1.0, 10.0, 100.0],
+        "adev": [
+          [0.011, 0.0035, 0.0011, 0.00042, 0.00031],
+          [0.012, 0.0038, 0.0012, 0.00047, 0.00036],
+          [0.015, 0.0047, 0.0015, 0.00058, 0.00044]
+        ]
+      }
+    },
+    "turn_on_bias": {"mean": [0.012, -0.031, 0.054], "spread": [0.004, 0.005, 0.009], "runs": 6},
+    "calibration": {
+      "scale": [1.0021, 0.9987, 1.0034],
+      "misalignment": [[1.0, 0.0012, -0.0008], [0.0, 1.0, 0.0021], [0.0, 0.0, 1.0]],
+      "bias": [0.011, -0.029, 0.05],
+      "residual": {"rms": 0.0042, "max": 0.011, "count": 38}
+    },
+    "limits": {"range": 156.9064, "resolution": 0.0047884033203125, "rate": 100.0, "bandwidth": 40.0}
+  },
+  "gyroscope": {
+    "noise": {
+      "noise_density": [0.00012, 0.00013, 0.00011],
+      "bias_instability": [2.1e-05, 2.6e-05, 2.3e-05],
+      "random_walk": [1.9e-06, 2.4e-06, 2.0e-06]
+    },
+    "calibration": {
+      "scale": [0.9961, 1.0042, 1.0008],
+      "misalignment": [[1.0, -0.0031, 0.0022], [0.0014, 1.0, -0.0019], [0.0041, 0.0007, 1.0]],
+      "bias": [0.0011, -0.0023, 0.0006],
+      "residual": {"rms": 0.0019, "max": 0.0052, "count": 37}
+    },
+    "limits": {"range": 34.906585039886593, "resolution": 0.0010652644360316953, "rate": 100.0},
+    "g_sensitivity": [[0.0001, 2e-05, 0.0], [-3e-05, 0.0001, 1e-05], [0.0, 2e-05, 8e-05]]
+  }
+})json";
+
+DeviceProfile full_profile() {
+  DeviceProfile p;
+  p.device = DeviceInfo{"Acme", "IMU-9", "SN 0042", "left wrist \xc3\xa9"};
+  p.gravity = 9.81744;
+  SensorProfile acc;
+  NoiseEstimate noise;
+  noise.noise_density = Eigen::Vector3d(0.1, 1.0 / 3.0, 1e-300);
+  noise.noise_density_sigma = Eigen::Vector3d(5e-324, 2.0 / 3.0, std::numeric_limits<double>::max());
+  noise.bias_instability = Eigen::Vector3d(3.0e-4, std::nextafter(3.0e-4, 1.0), 0.0);
+  noise.bias_instability_sigma = Eigen::Vector3d(1e-5, 2e-5, 3e-5);
+  noise.bias_instability_band_s = std::array<double, 2>{3.3, 470.0};
+  noise.random_walk = Eigen::Vector3d(2e-5, 3e-5, 4e-5);
+  noise.random_walk_sigma = Eigen::Vector3d(1e-6, 1e-6, 1e-6);
+  AllanCurve curve;
+  curve.tau_s = {0.005, 0.01, 0.1, 1.7};
+  curve.adev = {std::vector<double>{1.0, 0.7, 0.2, 0.05}, std::vector<double>{1.1, 0.8, 0.3, 0.06},
+                std::vector<double>{0.9, 0.6, 0.1, 0.04}};
+  noise.allan = curve;
+  acc.noise = noise;
+  acc.turn_on_bias = TurnOnBias{Eigen::Vector3d(0.01, -0.02, -0.0), Eigen::Vector3d(0.003, 0.004, 0.005), 7};
+  Calibration calibration;
+  calibration.scale = Eigen::Vector3d(1.001, 0.998, -1.0);
+  calibration.misalignment << 1.0, 1e-3, -2e-3, 0.0, 1.0, 3e-3, 0.0, 0.0, 1.0;
+  calibration.bias = Eigen::Vector3d(0.1, 0.2, 0.3);
+  calibration.residual = CalibrationResidual{0.004, 0.012, 40};
+  acc.calibration = calibration;
+  acc.limits = SensorLimits{156.9, 0.0047, 200.0, 80.0};
+  p.accelerometer = acc;
+  GyroscopeProfile gyro;
+  gyro.noise = NoiseEstimate{};
+  gyro.noise->noise_density = Eigen::Vector3d(1e-4, 2e-4, 3e-4);
+  gyro.limits = SensorLimits{};
+  gyro.limits->rate_hz = 1000.0 / 3.0;
+  Eigen::Matrix3d g;
+  g << 1e-4, 2e-5, 0.0, -3e-5, 1e-4, 1e-5, 0.0, 2e-5, 8e-5;
+  gyro.g_sensitivity = g;
+  p.gyroscope = gyro;
+  MagnetometerProfile mag;
+  mag.hard_iron = Eigen::Vector3d(1e-6, -2e-6, 3e-6);
+  Eigen::Matrix3d soft;
+  soft << 1.02, 0.01, 0.0, 0.01, 0.98, 0.0, 0.0, 0.0, 1.01;
+  mag.soft_iron = soft;
+  Calibration raw;
+  raw.scale = Eigen::Vector3d(4096.0, 4100.0, 4090.0);
+  raw.bias = Eigen::Vector3d(12.0, -7.0, 30.0);
+  raw.raw_counts = true;
+  mag.calibration = raw;
+  p.magnetometer = mag;
+  return p;
+}
+
+// Runs parse_profile and returns the error message, or "" if it parsed.
+std::string parse_error(const std::string& text) {
+  try {
+    parse_profile(text, "profile.json");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string with_schema(const std::string& body) {
+  return std::string("{\"schema\": \"imukit.profile/1\"") + (body.empty() ? "" : ", " + body) + "}";
+}
+
+TEST(Profile, RoundTripIsExact) {
+  const DeviceProfile p = full_profile();
+  const std::string text = format_profile(p);
+  const DeviceProfile back = parse_profile(text, "round-trip");
+  EXPECT_TRUE(back == p) << text;
+  // operator== cannot see these: the last bit, subnormals, the sign of zero.
+  EXPECT_EQ((*back.accelerometer->noise->bias_instability)[1], std::nextafter(3.0e-4, 1.0));
+  EXPECT_EQ((*back.accelerometer->noise->noise_density_sigma)[0], 5e-324);
+  EXPECT_TRUE(std::signbit(back.accelerometer->turn_on_bias->mean[2]));
+  EXPECT_EQ(*back.gyroscope->limits->rate_hz, 1000.0 / 3.0);
+  // Formatting is a fixed point.
+  EXPECT_EQ(format_profile(back), text);
+
+  testing::TempDir dir;
+  const std::string path = (dir / "profile.json").string();
+  write_profile(path, p);
+  EXPECT_TRUE(read_profile(path) == p);
+  EXPECT_FALSE(std::filesystem::exists(path + ".tmp"));
+}
+
+TEST(Profile, EmptyProfileRoundTrips) {
+  const DeviceProfile empty;
+  const std::string text = format_profile(empty);
+  EXPECT_TRUE(parse_profile(text, "empty") == empty);
+  EXPECT_NE(text.find("\"schema\": \"imukit.profile/1\""), std::string::npos);
+  EXPECT_TRUE(parse_profile(R"({"schema": "imukit.profile/1"})", "minimal") == empty);
+}
+
+TEST(Profile, DocumentedExampleParses) {
+  const DeviceProfile p = parse_profile(kDocumentedExample, "formats.md");
+  ASSERT_TRUE(p.accelerometer && p.gyroscope);
+  EXPECT_FALSE(p.magnetometer);
+  EXPECT_EQ(p.device->serial, "03880001");
+  EXPECT_EQ(p.accelerometer->noise->allan->adev[2][4], 0.00044);
+  EXPECT_EQ(p.accelerometer->calibration->misalignment(0, 2), -0.0008);
+  EXPECT_EQ(p.gyroscope->g_sensitivity->coeff(2, 2), 8e-05);
+  EXPECT_EQ(*p.accelerometer->turn_on_bias->runs, 6);
+  EXPECT_EQ(p.accelerometer->calibration->residual->count, 38);
+}
+
+TEST(Profile, SyntaxErrorNamesFileLineAndColumn) {
+  struct Case {
+    std::string text;
+    int64_t line;
+    int64_t column;
+  };
+  const Case cases[] = {
+      // 'x' after the number: line 3, column 17.
+      {"{\n  \"schema\": \"imukit.profile/1\",\n  \"gravity\": 9.8x\n}", 3, 17},
+      // Trailing comma: the ']' at line 2, column 16.
+      {"{\"schema\": \"imukit.profile/1\",\n  \"tau\": [1, 2,]}", 2, 16},
+      // Input ends inside the object: just past the last character.
+      {"{\"schema\": ", 1, 12},
+      // The parser stops at the end of the unexpected string (column 27): columns count
+      // characters, and the two-byte 'é' is one.
+      {"{\"device\": {\"name\": \"\xc3\xa9\" \"x\"}}", 1, 27},
+      // Too deep: the 65th bracket.
+      {std::string(65, '['), 1, 65},
+  };
+  for (const Case& c : cases) {
+    try {
+      parse_profile(c.text, "profile.json");
+      ADD_FAILURE() << "accepted: " << c.text;
+    } catch (const Error& e) {
+      ASSERT_TRUE(e.where().has_value()) << e.what();
+      EXPECT_EQ(e.where()->file, "profile.json");
+      EXPECT_EQ(e.where()->line, c.line) << e.what();
+      EXPECT_EQ(e.where()->column, c.column) << e.what();
+      EXPECT_EQ(std::string(e.what()).rfind(fmt::format("profile.json:{}:{}: ", c.line, c.column), 0), 0u)
+          << e.what();
+      EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
+    }
+  }
+  // A number too large for a double: reported at its line, within the number.
+  try {
+    parse_profile("{\n  \"gravity\": 1e999\n}", "profile.json");
+    ADD_FAILURE() << "accepted 1e999";
+  } catch (const Error& e) {
+    ASSERT_TRUE(e.where().has_value());
+    EXPECT_EQ(e.where()->line, 2) << e.what();
+    EXPECT_GE(*e.where()->column, 14) << e.what();
+    EXPECT_LE(*e.where()->column, 19) << e.what();
+    EXPECT_NE(std::string(e.what()).find("1e999"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Profile, SemanticErrorsNameTheJsonPath) {
+  struct Case {
+    std::string body;
+    std::string message;
+  };
+  const std::string ok_calibration =
+      R"("scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias": [0, 0, 0])";
+  const Case cases[] = {
+      {R"("accelerometer": {"noise": {"noise_density": "0.001"}})",
+       "profile.json: accelerometer.noise.noise_density: expected an array of 3 numbers, got a string"},
+      {R"("accelerometer": {"noise": {"noise_density": [1, -2, 3]}})",
+       "profile.json: accelerometer.noise.noise_density[1]: expected >= 0, got -2"},
+      {R"("gyroscope": {"noise": {"random_walk": [1, 2]}})",
+       "profile.json: gyroscope.noise.random_walk: expected an array of 3 numbers, got an array of 2"},
+      {R"("gyroscope": {"noise": {"bias_instability": [1, null, 3]}})",
+       "profile.json: gyroscope.noise.bias_instability[1]: expected a number, got null"},
+      {R"("gyroscope": {"calibration": {"scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 1]], "bias": [0, 0, 0]}})",
+       "profile.json: gyroscope.calibration.misalignment[2]: expected an array of 3 numbers, got an array of 2"},
+      {R"("gyroscope": {"calibration": {"scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1.1, 0], [0, 0, 1]], "bias": [0, 0, 0]}})",
+       "profile.json: gyroscope.calibration.misalignment[1][1]: the diagonal must be 1"},
+      {R"("gyroscope": {"calibration": {"scale": [1, 0, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias": [0, 0, 0]}})",
+       "profile.json: gyroscope.calibration.scale[1]: expected a non-zero number, got 0"},
+      {R"("accelerometer": {"calibration": {"scale": [1, 1, 1], "bias": [0, 0, 0]}})",
+       "profile.json: accelerometer.calibration.misalignment: missing"},
+      {R"("accelerometer": {"calibration": {)" + ok_calibration + R"(, "residual": {"rms": 1, "max": 2, "count": 1.5}}})",
+       "profile.json: accelerometer.calibration.residual.count: expected an integer, got 1.5"},
+      {R"("accelerometer": {"calibration": {)" + ok_calibration + R"(, "raw_counts": "yes"}})",
+       "profile.json: accelerometer.calibration.raw_counts: expected true or false, got a string"},
+      {R"("accelerometer": {"turn_on_bias": {"mean": [0, 0, 0]}})",
+       "profile.json: accelerometer.turn_on_bias.spread: missing"},
+      {R"("accelerometer": {"turn_on_bias": {"mean": [0, 0, 0], "spread": [0, 0, 0], "runs": 0}})",
+       "profile.json: accelerometer.turn_on_bias.runs: expected an integer >= 1, got 0"},
+      {R"("accelerometer": {"limits": {"rate": 100, "bandwidth": 60}})",
+       "profile.json: accelerometer.limits.bandwidth: 60 Hz is not below half the rate (50 Hz)"},
+      {R"("accelerometer": {"limits": {"rate": 0}})",
+       "profile.json: accelerometer.limits.rate: expected > 0, got 0"},
+      {R"("gravity": -9.8)", "profile.json: gravity: expected > 0, got -9.8"},
+      {R"("gravity": "9.8")", "profile.json: gravity: expected a number, got a string"},
+      {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 2], "adev": [[1, 1, 1], [1, 1, 1], [1, 1, 1]]}}})",
+       "profile.json: gyroscope.noise.allan.tau[2]: tau must increase, got 2 after 2"},
+      {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 3], "adev": [[1, 1, 1], [1, 1], [1, 1, 1]]}}})",
+       "profile.json: gyroscope.noise.allan.adev[1]: expected an array of 3 numbers, got an array of 2"},
+      {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 3]}}})",
+       "profile.json: gyroscope.noise.allan.adev: missing"},
+      {R"("gyroscope": {"noise": {"bias_instability_band": [100, 10]}})",
+       "profile.json: gyroscope.noise.bias_instability_band: expected [tau_min, tau_max]"},
+      {R"("gyroscope": [1, 2])", "profile.json: gyroscope: expected an object, got an array of 2"},
+      {R"("gyroscope": {"g_sensitivity": [[0, 0, 0], [0, 0, 0], [0, true, 0]]})",
+       "profile.json: gyroscope.g_sensitivity[2][1]: expected a number, got true"},
+      {R"("magnetometer": {"hard_iron": {}})",
+       "profile.json: magnetometer.hard_iron: expected an array of 3 numbers, got an object"},
+      {R"("device": {"serial": 12})", "profile.json: device.serial: expected a string, got 12"},
+      {R"("units": {"accelerometer": "g"})",
+       "profile.json: units.accelerometer: expected \"m/s^2\", got \"g\" (imukit.profile/1 is SI only)"},
+      {R"("accelerometer": {"noise": {"noise_density": [1, 2, 1e308], "random_walk": [0, 0, -0.5]}})",
+       "profile.json: accelerometer.noise.random_walk[2]: expected >= 0, got -0.5"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = parse_error(with_schema(c.body));
+    EXPECT_EQ(message.rfind(c.message, 0), 0u) << "body: " << c.body << "\nmessage: " << message;
+  }
+  EXPECT_EQ(parse_error("[]").rfind("profile.json: (top level): expected a JSON object, got an array of 0", 0), 0u);
+}
+
+TEST(Profile, SchemaIsRequiredAndItsVersionChecked) {
+  EXPECT_EQ(parse_error(R"({"gravity": 9.8})").rfind("profile.json: schema: missing", 0), 0u);
+  EXPECT_EQ(parse_error(R"({"schema": 1})"), "profile.json: schema: expected a string, got 1");
+  EXPECT_EQ(parse_error(R"({"schema": "imukit.profile/2"})"),
+            "profile.json: schema: unsupported version \"imukit.profile/2\"; this imukit reads "
+            "\"imukit.profile/1\"");
+  EXPECT_EQ(parse_error(R"({"schema": "imukit.dataset/1"})"),
+            "profile.json: schema: \"imukit.dataset/1\" is not a device profile (expected "
+            "\"imukit.profile/1\")");
+}
+
+TEST(Profile, UnknownKeysAreIgnored) {
+  const std::string plain = with_schema(R"("accelerometer": {"noise": {"noise_density": [1, 2, 3]}})");
+  const std::string extended = with_schema(
+      R"("temperature_model": {"kind": "poly", "c": [1, 2]}, "units": {"temperature": "degC"},
+         "accelerometer": {"noise": {"noise_density": [1, 2, 3], "flicker_corner": 0.1}, "axes": "xyz"})");
+  EXPECT_TRUE(parse_profile(extended, "new.json") == parse_profile(plain, "old.json"));
+}
+
+TEST(Profile, WriterRefusesWhatTheReaderWouldReject) {
+  DeviceProfile p;
+  p.accelerometer.emplace();
+  p.accelerometer->noise.emplace();
+  p.accelerometer->noise->noise_density = Eigen::Vector3d(1e-3, NAN, 1e-3);
+  try {
+    format_profile(p);
+    FAIL() << "wrote a NaN";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("accelerometer.noise.noise_density[1]: expected a finite number"),
+              std::string::npos)
+        << e.what();
+  }
+  p.accelerometer->noise->noise_density = Eigen::Vector3d(1e-3, -1e-3, 1e-3);
+  EXPECT_THROW(format_profile(p), Error);
+}
+
+TEST(Profile, ReadingAMissingFileNamesIt) {
+  try {
+    read_profile("/nonexistent/dir/profile.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/profile.json"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Profile, MergeReplacesOnlyTheSectionsTheUpdateHas) {
+  const DeviceProfile base = full_profile();
+  DeviceProfile update;
+  update.accelerometer.emplace();
+  Calibration calibration;
+  calibration.scale = Eigen::Vector3d(1.5, 1.5, 1.5);
+  update.accelerometer->calibration = calibration;
+  update.gyroscope.emplace();
+  update.gyroscope->turn_on_bias = TurnOnBias{Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(0, 0, 0), {}};
+  update.gravity = 9.8;
+
+  const DeviceProfile merged = merge_profile(base, update);
+  EXPECT_EQ(merged.accelerometer->calibration, calibration);
+  EXPECT_EQ(merged.accelerometer->noise, base.accelerometer->noise);
+  EXPECT_EQ(merged.accelerometer->turn_on_bias, base.accelerometer->turn_on_bias);
+  EXPECT_EQ(merged.accelerometer->limits, base.accelerometer->limits);
+  EXPECT_EQ(merged.gyroscope->turn_on_bias, update.gyroscope->turn_on_bias);
+  EXPECT_EQ(merged.gyroscope->noise, base.gyroscope->noise);
+  EXPECT_EQ(merged.gyroscope->g_sensitivity, base.gyroscope->g_sensitivity);
+  EXPECT_TRUE(merged.magnetometer == base.magnetometer);
+  EXPECT_EQ(merged.device, base.device);
+  EXPECT_EQ(merged.gravity, 9.8);
+  // Into an empty profile, the update is the result.
+  EXPECT_TRUE(merge_profile(DeviceProfile{}, update) == update);
+}
+
+TEST(Profile, UpdateKeepsOtherSectionsAndUnknownKeysInTheFile) {
+  testing::TempDir dir;
+  const std::string path = (dir / "imu.json").string();
+  DeviceProfile characterized;
+  characterized.accelerometer.emplace();
+  characterized.accelerometer->noise = full_profile().accelerometer->noise;
+  update_profile(path, characterized);  // creates the file
+  EXPECT_TRUE(read_profile(path) == characterized);
+
+  // A newer imukit (or a person) added keys this version does not know.
+  nlohmann::ordered_json j;
+  {
+    std::ifstream in(path);
+    in >> j;
+  }
+  j["x_lab_notes"] = {{"operator", "ana"}, {"nested", {1, 2, {{"deep", true}}}}};
+  j["accelerometer"]["temperature_model"] = {{"c1", 0.001}};
+  j["accelerometer"]["noise"]["flicker_corner"] = 0.25;
+  {
+    std::ofstream out(path);
+    out << j.dump(2);
+  }
+
+  DeviceProfile calibrated;
+  calibrated.accelerometer.emplace();
+  calibrated.accelerometer->calibration = full_profile().accelerometer->calibration;
+  calibrated.gyroscope.emplace();
+  calibrated.gyroscope->g_sensitivity = full_profile().gyroscope->g_sensitivity;
+  update_profile(path, calibrated);
+
+  const DeviceProfile result = read_profile(path);
+  EXPECT_EQ(result.accelerometer->noise, characterized.accelerometer->noise);
+  EXPECT_EQ(result.accelerometer->calibration, calibrated.accelerometer->calibration);
+  EXPECT_EQ(result.gyroscope->g_sensitivity, calibrated.gyroscope->g_sensitivity);
+  nlohmann::ordered_json after;
+  {
+    std::ifstream in(path);
+    in >> after;
+  }
+  EXPECT_EQ(after["x_lab_notes"], j["x_lab_notes"]);
+  EXPECT_EQ(after["accelerometer"]["temperature_model"]["c1"], 0.001);
+  EXPECT_EQ(after["accelerometer"]["noise"]["flicker_corner"], 0.25);
+  EXPECT_EQ(after["schema"], "imukit.profile/1");
+
+  // Updating a file that is not a profile fails and leaves it alone.
+  const std::string other = (dir / "scene.json").string();
+  {
+    std::ofstream out(other);
+    out << R"({"schema": "imukit.scene/1"})";
+  }
+  EXPECT_THROW(update_profile(other, calibrated), Error);
+  std::ifstream in(other);
+  std::stringstream content;
+  content << in.rdbuf();
+  EXPECT_EQ(content.str(), R"({"schema": "imukit.scene/1"})");
+}
+
+TEST(Profile, ToHardwareModelMapsTheNumbersExactly) {
+  DeviceProfile p = full_profile();
+  p.magnetometer->calibration.reset();  // raw counts: tested below
+  const HardwareModel m = to_hardware_model(p);
+  const SensorProfile& acc = *p.accelerometer;
+  EXPECT_EQ(m.accelerometer.noise_density, *acc.noise->noise_density);
+  EXPECT_EQ(m.accelerometer.bias_instability, *acc.noise->bias_instability);
+  EXPECT_EQ(m.accelerometer.bias_instability_tau_min_s, 3.3);
+  EXPECT_EQ(m.accelerometer.bias_instability_tau_max_s, 470.0);
+  EXPECT_EQ(m.accelerometer.random_walk, *acc.noise->random_walk);
+  EXPECT_EQ(m.accelerometer.turn_on_bias_mean, acc.turn_on_bias->mean);  // turn_on_bias wins
+  EXPECT_EQ(m.accelerometer.turn_on_bias_spread, acc.turn_on_bias->spread);
+  EXPECT_EQ(m.accelerometer.scale, acc.calibration->scale);
+  EXPECT_EQ(m.accelerometer.misalignment, acc.calibration->misalignment);
+  EXPECT_EQ(m.accelerometer.range, 156.9);
+  EXPECT_EQ(m.accelerometer.resolution, 0.0047);
+  EXPECT_EQ(m.accelerometer.rate_hz, 200.0);
+  EXPECT_EQ(m.accelerometer.bandwidth_hz, 80.0);
+  EXPECT_EQ(m.gyroscope.noise_density, *p.gyroscope->noise->noise_density);
+  EXPECT_EQ(m.gyroscope.random_walk, Eigen::Vector3d::Zero());  // absent: ideal default
+  EXPECT_EQ(m.gyroscope.scale, Eigen::Vector3d::Ones());
+  EXPECT_EQ(m.gyroscope.rate_hz, 1000.0 / 3.0);
+  EXPECT_EQ(m.gyroscope.range, 0.0);
+  EXPECT_EQ(m.gyroscope.g_sensitivity, *p.gyroscope->g_sensitivity);
+  EXPECT_EQ(m.magnetometer.hard_iron, *p.magnetometer->hard_iron);
+  EXPECT_EQ(m.magnetometer.soft_iron, *p.magnetometer->soft_iron);
+  EXPECT_NO_THROW(validate_hardware_model(m, 400.0));
+
+  // Without a turn_on_bias section the calibration's bias is the constant bias.
+  p.accelerometer->turn_on_bias.reset();
+  const HardwareModel from_calibration = to_hardware_model(p);
+  EXPECT_EQ(from_calibration.accelerometer.turn_on_bias_mean, acc.calibration->bias);
+  EXPECT_EQ(from_calibration.accelerometer.turn_on_bias_spread, Eigen::Vector3d::Zero());
+
+  // A calibration of raw counts cannot make an SI model.
+  try {
+    to_hardware_model(full_profile());
+    FAIL() << "mapped raw counts";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("magnetometer.calibration"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace imukit
