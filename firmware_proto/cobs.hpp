@@ -30,10 +30,14 @@ size_t cobs_encode(const uint8_t* in, size_t n, uint8_t* out, size_t out_capacit
 inline constexpr size_t kCobsError = static_cast<size_t>(-1);
 
 // Decodes in[0, n) into out; out may equal in (decoding in place: the output never overtakes the
-// input). out must have room for n bytes (the decoded size is at most n - 1). Returns the decoded
-// size, or kCobsError when the input is not a valid encoding (empty, contains 0x00, or a code byte
-// runs past the end).
+// input) but must not overlap it otherwise. out must have room for n bytes (the decoded size is at
+// most n - 1). Returns the decoded size, or kCobsError when the input is not a valid encoding
+// (empty, contains 0x00, or a code byte runs past the end).
 size_t cobs_decode(const uint8_t* in, size_t n, uint8_t* out);
+
+// cobs_decode for input the caller knows holds no 0x00 (e.g. the bytes between two delimiters
+// found with memchr), skipping that scan. out must equal in or not overlap it at all.
+size_t cobs_decode_zero_free(const uint8_t* in, size_t n, uint8_t* out);
 
 // Incremental encoder: feed bytes one at a time (or in runs) into a caller's buffer that has room
 // for cobs_max_encoded_size(total) + 1 bytes, then finish() writes the last code byte and the

@@ -5,11 +5,18 @@ namespace {
 
 constexpr uint32_t kReflectedPoly = 0x82F63B78u;  // 0x1EDC6F41 with its bits reversed
 
-#ifdef IMUKIT_PROTO_COMPACT_CRC
-constexpr int kSlices = 1;
+// Slicing-by-16 on 64-bit hosts (16 KiB of tables, about 1.5x the speed of slicing-by-8); the
+// one-table loop (1 KiB) on 32-bit targets, i.e. microcontrollers, where flash is scarce and a
+// few hundred bytes per frame at a few hundred frames per second cost well under 1 % of the CPU.
+// IMUKIT_PROTO_COMPACT_CRC / IMUKIT_PROTO_FAST_CRC override the choice.
+#if defined(IMUKIT_PROTO_COMPACT_CRC)
+#define IMUKIT_PROTO_CRC_SLICES 1
+#elif defined(IMUKIT_PROTO_FAST_CRC) || UINTPTR_MAX > 0xFFFFFFFFu
+#define IMUKIT_PROTO_CRC_SLICES 16
 #else
-constexpr int kSlices = 8;
+#define IMUKIT_PROTO_CRC_SLICES 1
 #endif
+constexpr int kSlices = IMUKIT_PROTO_CRC_SLICES;
 
 struct Tables {
   uint32_t t[kSlices][256];
@@ -37,7 +44,7 @@ constexpr Tables make_tables() {
 constexpr Tables kTables = make_tables();
 static_assert(kTables.t[0][1] == 0xF26B8303u, "CRC-32C table entry 1 (reflected 0x82F63B78)");
 
-#ifndef IMUKIT_PROTO_COMPACT_CRC
+#if IMUKIT_PROTO_CRC_SLICES == 16
 // Little-endian 32-bit load; compilers merge the four byte loads into one on little-endian targets.
 inline uint32_t load_le32(const uint8_t* p) {
   return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
@@ -51,14 +58,22 @@ uint32_t crc32c_extend(uint32_t crc, const void* data, size_t n) {
   const auto* p = static_cast<const uint8_t*>(data);
   const auto& t = kTables.t;
   uint32_t r = ~crc;  // undo the final xorout of the previous piece: the register state
-#ifndef IMUKIT_PROTO_COMPACT_CRC
-  while (n >= 8) {
-    const uint32_t lo = load_le32(p) ^ r;
-    const uint32_t hi = load_le32(p + 4);
-    r = t[7][lo & 0xFFu] ^ t[6][(lo >> 8) & 0xFFu] ^ t[5][(lo >> 16) & 0xFFu] ^ t[4][lo >> 24] ^
-        t[3][hi & 0xFFu] ^ t[2][(hi >> 8) & 0xFFu] ^ t[1][(hi >> 16) & 0xFFu] ^ t[0][hi >> 24];
-    p += 8;
-    n -= 8;
+#if IMUKIT_PROTO_CRC_SLICES == 16
+  {
+    // 16 input bytes per step: byte k of the step is looked up in the table that advances it by
+    // the 15 - k bytes that follow it in the step, and the 16 lookups are independent.
+    while (n >= 16) {
+      const uint32_t a = load_le32(p) ^ r;
+      const uint32_t b = load_le32(p + 4);
+      const uint32_t c = load_le32(p + 8);
+      const uint32_t d = load_le32(p + 12);
+      r = t[15][a & 0xFFu] ^ t[14][(a >> 8) & 0xFFu] ^ t[13][(a >> 16) & 0xFFu] ^ t[12][a >> 24] ^
+          t[11][b & 0xFFu] ^ t[10][(b >> 8) & 0xFFu] ^ t[9][(b >> 16) & 0xFFu] ^ t[8][b >> 24] ^
+          t[7][c & 0xFFu] ^ t[6][(c >> 8) & 0xFFu] ^ t[5][(c >> 16) & 0xFFu] ^ t[4][c >> 24] ^
+          t[3][d & 0xFFu] ^ t[2][(d >> 8) & 0xFFu] ^ t[1][(d >> 16) & 0xFFu] ^ t[0][d >> 24];
+      p += 16;
+      n -= 16;
+    }
   }
 #endif
   while (n > 0) {

@@ -12,37 +12,6 @@ inline uint32_t load_le32(const uint8_t* p) {
          static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
 }
 
-// COBS decoding of a zero-free run in[0, n) (the bytes between two delimiters; memchr already
-// proved there is no zero). Returns the decoded size or kCobsError.
-//
-// kInPlace: out == in, blocks move left with memmove. Otherwise out is a separate buffer with at
-// least n + 16 bytes, and short blocks are copied with one fixed 16-byte copy (a single vector
-// load and store) whenever 16 input bytes are available; the extra bytes written past the block
-// are overwritten by the next block or lie beyond the decoded size. This avoids a variable-length
-// memcpy call per block: IMU samples near zero contain many 0x00 bytes, so blocks are short.
-template <bool kInPlace>
-size_t decode_cobs_run(const uint8_t* in, size_t n, uint8_t* out) {
-  size_t r = 0;
-  size_t w = 0;
-  while (r < n) {
-    const size_t code = in[r];
-    const size_t run = code - 1;
-    if (run > n - r - 1) return kCobsError;
-    const uint8_t* src = in + r + 1;
-    if constexpr (kInPlace) {
-      memmove(out + w, src, run);
-    } else if (run <= 16 && n - r - 1 >= 16) {
-      memcpy(out + w, src, 16);
-    } else {
-      memcpy(out + w, src, run);
-    }
-    w += run;
-    r += code;
-    if (code != 0xFF && r < n) out[w++] = 0;
-  }
-  return w;
-}
-
 }  // namespace
 
 size_t encode_frame(uint8_t type, uint16_t sequence, const uint8_t* payload, size_t payload_size,
@@ -89,8 +58,8 @@ bool FrameDecoder::finish(const uint8_t* enc, size_t enc_size, uint64_t total_by
     discard(total_bytes, stats_.oversize_frames);
     return false;
   }
-  const size_t body_size = enc == buf_ ? decode_cobs_run<true>(buf_, enc_size, buf_)
-                                       : decode_cobs_run<false>(enc, enc_size, buf_);
+  // memchr found the delimiter, so enc holds no zero.
+  const size_t body_size = cobs_decode_zero_free(enc, enc_size, buf_);
   if (body_size == kCobsError) {
     discard(total_bytes, stats_.cobs_errors);
     return false;

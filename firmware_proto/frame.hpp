@@ -145,9 +145,8 @@ class FrameDecoder {
     ++counter;
   }
 
-  // Encoded bytes of the frame being received, then its decoded body. 16 bytes of slack let the
-  // COBS decoder copy in fixed 16-byte steps.
-  uint8_t buf_[kMaxEncodedBodySize + 16];
+  // Encoded bytes of the frame being received, then its decoded body.
+  uint8_t buf_[kMaxEncodedBodySize];
   size_t size_ = 0;
   bool skipping_ = false;
   bool has_frame_ = false;

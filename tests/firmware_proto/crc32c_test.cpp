@@ -11,6 +11,12 @@
 #include "proto_test_util.hpp"
 
 namespace imukit::proto {
+
+// The one-table variant that 32-bit targets compile, built on the host under these names
+// (tests/firmware_proto/CMakeLists.txt).
+uint32_t crc32c_compact(const void* data, size_t n);
+uint32_t crc32c_extend_compact(uint32_t crc, const void* data, size_t n);
+
 namespace {
 
 using test::Bytes;
@@ -32,6 +38,8 @@ TEST(Crc32c, MatchesTheCheckValue) {
   EXPECT_EQ(crc32c(check, 9), 0xE3069283u);
   EXPECT_EQ(crc32c(check, 9), kCrc32cCheckValue);
   EXPECT_EQ(crc32c(nullptr, 0), 0u);
+  EXPECT_EQ(crc32c_compact(check, 9), 0xE3069283u);
+  EXPECT_EQ(crc32c_bitwise(reinterpret_cast<const uint8_t*>(check), 9), 0xE3069283u);
 }
 
 // RFC 3720 appendix B.4 (iSCSI), the 32-byte test patterns.
@@ -39,6 +47,7 @@ TEST(Crc32c, MatchesTheIscsiTestPatterns) {
   uint8_t buf[32];
   std::memset(buf, 0x00, 32);
   EXPECT_EQ(crc32c(buf, 32), 0x8A9136AAu);
+  EXPECT_EQ(crc32c_compact(buf, 32), 0x8A9136AAu);
   std::memset(buf, 0xFF, 32);
   EXPECT_EQ(crc32c(buf, 32), 0x62A8AB43u);
   for (int i = 0; i < 32; ++i) buf[i] = static_cast<uint8_t>(i);
@@ -53,8 +62,10 @@ TEST(Crc32c, AgreesWithTheBitwiseDefinitionAtEveryLengthAndAlignment) {
   for (auto& b : data) b = rng.byte();
   for (size_t offset = 0; offset < 8; ++offset) {
     for (size_t n = 0; n + offset <= data.size(); n += (n < 80 ? 1 : 37)) {
-      ASSERT_EQ(crc32c(data.data() + offset, n), crc32c_bitwise(data.data() + offset, n))
+      const uint32_t expected = crc32c_bitwise(data.data() + offset, n);
+      ASSERT_EQ(crc32c(data.data() + offset, n), expected)
           << "offset " << offset << " length " << n;
+      ASSERT_EQ(crc32c_compact(data.data() + offset, n), expected) << offset << " " << n;
     }
   }
 }
@@ -67,6 +78,7 @@ TEST(Crc32c, ExtendEqualsOneShotForEverySplit) {
   for (size_t split = 0; split <= data.size(); ++split) {
     const uint32_t head = crc32c(data.data(), split);
     ASSERT_EQ(crc32c_extend(head, data.data() + split, data.size() - split), whole) << split;
+    ASSERT_EQ(crc32c_extend_compact(head, data.data() + split, data.size() - split), whole);
   }
   EXPECT_EQ(crc32c_extend(0, data.data(), data.size()), whole);
 }
