@@ -66,7 +66,7 @@ InputLocation locate(std::string_view text, std::size_t offset, const std::strin
   for (std::size_t i = line_start; i < offset; ++i) {
     if ((static_cast<unsigned char>(text[i]) & 0xC0) != 0x80) ++column;
   }
-  return InputLocation{source, line, column, static_cast<int64_t>(offset)};
+  return InputLocation{source, line, column, {}};
 }
 
 // Rejects nesting deeper than kMaxDepth before the parser sees it, pointing at the bracket.
