@@ -58,10 +58,17 @@ imukit::HardwareModel model_for(Case c) {
   const imukit::HardwareModel full = full_model();
   imukit::HardwareModel m;
   switch (c) {
-    case kIdeal: break;
-    case kWhite: m.accelerometer.noise_density = full.accelerometer.noise_density; break;
-    case kRandomWalk: m.accelerometer.random_walk = full.accelerometer.random_walk; break;
-    case kBiasInstability: m.accelerometer.bias_instability = full.accelerometer.bias_instability; break;
+    case kIdeal:
+      break;
+    case kWhite:
+      m.accelerometer.noise_density = full.accelerometer.noise_density;
+      break;
+    case kRandomWalk:
+      m.accelerometer.random_walk = full.accelerometer.random_walk;
+      break;
+    case kBiasInstability:
+      m.accelerometer.bias_instability = full.accelerometer.bias_instability;
+      break;
     case kMatrixLowPassQuantise:
       m.accelerometer.scale = full.accelerometer.scale;
       m.accelerometer.misalignment = full.accelerometer.misalignment;
@@ -69,7 +76,9 @@ imukit::HardwareModel model_for(Case c) {
       m.accelerometer.range = full.accelerometer.range;
       m.accelerometer.resolution = full.accelerometer.resolution;
       break;
-    case kFull: m = full; break;
+    case kFull:
+      m = full;
+      break;
   }
   return m;
 }
@@ -88,8 +97,12 @@ void BM_AccelerometerTerm(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   state.SetItemsProcessed(state.iterations() * kBlock);
-  static const char* const names[] = {"ideal", "white noise", "random walk", "bias instability (5 GM)",
-                                      "scale+misalignment+LPF+saturation+quantisation", "full"};
+  static const char* const names[] = {"ideal",
+                                      "white noise",
+                                      "random walk",
+                                      "bias instability (5 GM)",
+                                      "scale+misalignment+LPF+saturation+quantisation",
+                                      "full"};
   state.SetLabel(names[c]);
 }
 BENCHMARK(BM_AccelerometerTerm)->DenseRange(kIdeal, kFull);
@@ -104,8 +117,10 @@ void BM_FullImu(benchmark::State& state) {
   Eigen::Matrix3Xd accel(3, kBlock);
   Eigen::Matrix3Xd gyro(3, kBlock);
   for (auto _ : state) {
-    std::memcpy(accel.data(), accel_in.data(), sizeof(double) * static_cast<std::size_t>(accel.size()));
-    std::memcpy(gyro.data(), gyro_in.data(), sizeof(double) * static_cast<std::size_t>(gyro.size()));
+    std::memcpy(accel.data(), accel_in.data(),
+                sizeof(double) * static_cast<std::size_t>(accel.size()));
+    std::memcpy(gyro.data(), gyro_in.data(),
+                sizeof(double) * static_cast<std::size_t>(gyro.size()));
     generator.apply_gyroscope(gyro, accel);
     generator.apply_accelerometer(accel);
     benchmark::DoNotOptimize(accel.data());

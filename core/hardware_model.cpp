@@ -23,7 +23,12 @@ constexpr double kFlickerAvarFactor = 2.0 * std::numbers::ln2 / std::numbers::pi
 constexpr std::size_t kChunk = 256;
 
 // Child-stream indices (ImuErrorGenerator's comment): 8 per triad, one per term.
-enum Term : uint64_t { kTermTurnOn = 0, kTermWhite = 1, kTermRandomWalk = 2, kTermBiasInstability = 3 };
+enum Term : uint64_t {
+  kTermTurnOn = 0,
+  kTermWhite = 1,
+  kTermRandomWalk = 2,
+  kTermBiasInstability = 3
+};
 
 void fail(const std::string& what) { throw Error("hardware model: " + what); }
 
@@ -31,9 +36,9 @@ void check_finite(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string&
   for (Eigen::Index r = 0; r < m.rows(); ++r) {
     for (Eigen::Index c = 0; c < m.cols(); ++c) {
       if (!std::isfinite(m(r, c))) {
-        fail(m.cols() == 1 ? fmt::format("{}[{}] is {}, expected a finite number", name, r, m(r, c))
-                           : fmt::format("{}[{}][{}] is {}, expected a finite number", name, r, c,
-                                         m(r, c)));
+        fail(m.cols() == 1
+                 ? fmt::format("{}[{}] is {}, expected a finite number", name, r, m(r, c))
+                 : fmt::format("{}[{}][{}] is {}, expected a finite number", name, r, c, m(r, c)));
       }
     }
   }
@@ -47,7 +52,8 @@ void check_non_negative(const Eigen::Vector3d& v, const std::string& name) {
 }
 
 void check_non_negative(double v, const std::string& name) {
-  if (!std::isfinite(v) || v < 0.0) fail(fmt::format("{} is {}, expected a finite number >= 0", name, v));
+  if (!std::isfinite(v) || v < 0.0)
+    fail(fmt::format("{} is {}, expected a finite number >= 0", name, v));
 }
 
 void validate_triad(const TriadModel& t, const std::string& name, double rate_hz) {
@@ -63,34 +69,38 @@ void validate_triad(const TriadModel& t, const std::string& name, double rate_hz
   check_finite(t.misalignment, name + ".misalignment");
   for (int i = 0; i < 3; ++i) {
     if (std::abs(t.misalignment(i, i) - 1.0) > 1e-9) {
-      fail(fmt::format("{}.misalignment[{}][{}] is {}, expected 1 (the diagonal is unit; gains go in "
-                       "scale)",
-                       name, i, i, t.misalignment(i, i)));
+      fail(fmt::format(
+          "{}.misalignment[{}][{}] is {}, expected 1 (the diagonal is unit; gains go in "
+          "scale)",
+          name, i, i, t.misalignment(i, i)));
     }
   }
   const double lo = t.bias_instability_tau_min_s;
   const double hi = t.bias_instability_tau_max_s;
   if (!std::isfinite(lo) || !std::isfinite(hi) || lo <= 0.0 || hi <= lo || hi > 1e6 * lo ||
       hi > 1e9) {
-    fail(fmt::format("{}: bias-instability band [{}, {}] s must satisfy 0 < tau_min < tau_max <= "
-                     "min(1e6 tau_min, 1e9 s)",
-                     name, lo, hi));
+    fail(
+        fmt::format("{}: bias-instability band [{}, {}] s must satisfy 0 < tau_min < tau_max <= "
+                    "min(1e6 tau_min, 1e9 s)",
+                    name, lo, hi));
   }
   // The sampled bank is flat only when the band starts a few samples above the sample period
   // (within 3 % from 5 samples on; at 2 samples the deviation reaches 13 %).
   if (!t.bias_instability.isZero(0.0) && lo * rate_hz < 5.0) {
-    fail(fmt::format("{}: bias-instability band starts at {} s, under 5 samples at {} Hz; raise "
-                     "bias_instability_tau_min_s to at least {} s",
-                     name, lo, rate_hz, 5.0 / rate_hz));
+    fail(
+        fmt::format("{}: bias-instability band starts at {} s, under 5 samples at {} Hz; raise "
+                    "bias_instability_tau_min_s to at least {} s",
+                    name, lo, rate_hz, 5.0 / rate_hz));
   }
   check_non_negative(t.range, name + ".range");
   check_non_negative(t.resolution, name + ".resolution");
   check_non_negative(t.bandwidth_hz, name + ".bandwidth_hz");
   check_non_negative(t.rate_hz, name + ".rate_hz");
   if (t.bandwidth_hz > 0.0 && !(t.bandwidth_hz < 0.5 * rate_hz)) {
-    fail(fmt::format("{}.bandwidth_hz is {} Hz, must be below half the rate the model runs at "
-                     "({} Hz)",
-                     name, t.bandwidth_hz, 0.5 * rate_hz));
+    fail(
+        fmt::format("{}.bandwidth_hz is {} Hz, must be below half the rate the model runs at "
+                    "({} Hz)",
+                    name, t.bandwidth_hz, 0.5 * rate_hz));
   }
 }
 
@@ -158,8 +168,8 @@ double gauss_markov_allan_variance(double variance, double correlation_time_s, d
   return variance * gauss_markov_bracket(x) / (x * x);
 }
 
-double gauss_markov_allan_variance_discrete(double variance, double correlation_time_s,
-                                            double dt_s, int64_t m) {
+double gauss_markov_allan_variance_discrete(double variance, double correlation_time_s, double dt_s,
+                                            int64_t m) {
   assert(correlation_time_s > 0.0 && dt_s > 0.0 && m >= 1);
   // With a = phi = e^{-h}, h = dt/T, and Q(n) = sum_{|d|<n} (n - |d|) a^|d|
   // = (n (1 - a^2) - 2 a (1 - a^n)) / (1 - a)^2 the variance of a sum of n samples (in units of
@@ -195,8 +205,8 @@ double gauss_markov_allan_variance_discrete(double variance, double correlation_
   return variance * std::max(numerator, 0.0) / (md * md * u * u);
 }
 
-GaussMarkovBank GaussMarkovBank::design(double bias_instability, double tau_min_s,
-                                        double tau_max_s, double rate_hz) {
+GaussMarkovBank GaussMarkovBank::design(double bias_instability, double tau_min_s, double tau_max_s,
+                                        double rate_hz) {
   assert(tau_min_s > 0.0 && tau_max_s > tau_min_s && bias_instability >= 0.0 && rate_hz >= 0.0);
   // Correlation times: one per decade, from a decade below the band to half a decade above it
   // (a process's Allan-variance bump rises as tau/T below its peak at 1.89 T and falls as T/tau
@@ -327,8 +337,8 @@ ImuErrorGenerator::Triad::Triad(const TriadModel& model, const Eigen::Matrix3d& 
   constant = hard_iron;
   if (!model.turn_on_bias_spread.isZero(0.0)) {
     Rng turn_on = base.child(8 * triad_index + kTermTurnOn);
-    for (int a = 0; a < 3; ++a) constant[a] += turn_on.normal(model.turn_on_bias_mean[a],
-                                                               model.turn_on_bias_spread[a]);
+    for (int a = 0; a < 3; ++a)
+      constant[a] += turn_on.normal(model.turn_on_bias_mean[a], model.turn_on_bias_spread[a]);
   } else {
     constant += model.turn_on_bias_mean;
   }
@@ -349,8 +359,8 @@ ImuErrorGenerator::Triad::Triad(const TriadModel& model, const Eigen::Matrix3d& 
   if (!model.bias_instability.isZero(0.0)) {
     // A unit bank (B = 1) scaled per axis; the processes start in their stationary distribution
     // so the Allan floor holds from the first sample.
-    const GaussMarkovBank unit = GaussMarkovBank::design(
-        1.0, model.bias_instability_tau_min_s, model.bias_instability_tau_max_s, rate_hz);
+    const GaussMarkovBank unit = GaussMarkovBank::design(1.0, model.bias_instability_tau_min_s,
+                                                         model.bias_instability_tau_max_s, rate_hz);
     bank_size = unit.sigmas().size();
     bank_phi.resize(bank_size);
     bank_innovation.resize(3 * bank_size);
@@ -383,8 +393,11 @@ void ImuErrorGenerator::Triad::apply(double* y, const double* force, std::size_t
     if (use_matrix || use_g) {
       for (std::size_t i = 0; i < count; ++i) {
         Eigen::Map<Eigen::Vector3d> column(block + 3 * i);
-        Eigen::Vector3d signal = use_matrix ? Eigen::Vector3d(matrix * column) : Eigen::Vector3d(column);
-        if (use_g) signal.noalias() += g_sensitivity * Eigen::Map<const Eigen::Vector3d>(block_force + 3 * i);
+        Eigen::Vector3d signal =
+            use_matrix ? Eigen::Vector3d(matrix * column) : Eigen::Vector3d(column);
+        if (use_g)
+          signal.noalias() +=
+              g_sensitivity * Eigen::Map<const Eigen::Vector3d>(block_force + 3 * i);
         column = signal;
       }
     }
@@ -487,8 +500,8 @@ ImuErrorGenerator::ImuErrorGenerator(const HardwareModel& model, const SensorRat
                        model.gyroscope.g_sensitivity, Eigen::Vector3d::Zero(), rates.gyroscope_hz,
                        base, 1);
   triads_.emplace_back(model.magnetometer, model.magnetometer.signal_matrix(),
-                       Eigen::Matrix3d::Zero(), model.magnetometer.hard_iron,
-                       rates.magnetometer_hz, base, 2);
+                       Eigen::Matrix3d::Zero(), model.magnetometer.hard_iron, rates.magnetometer_hz,
+                       base, 2);
 }
 
 ImuErrorGenerator::~ImuErrorGenerator() = default;
@@ -526,8 +539,12 @@ void ImuErrorGenerator::apply(ImuSeries& series) {
   if (series.has_mag()) apply_magnetometer(series.mag);
 }
 
-Eigen::Vector3d ImuErrorGenerator::accelerometer_constant_bias() const { return triads_[0].constant; }
+Eigen::Vector3d ImuErrorGenerator::accelerometer_constant_bias() const {
+  return triads_[0].constant;
+}
 Eigen::Vector3d ImuErrorGenerator::gyroscope_constant_bias() const { return triads_[1].constant; }
-Eigen::Vector3d ImuErrorGenerator::magnetometer_constant_bias() const { return triads_[2].constant; }
+Eigen::Vector3d ImuErrorGenerator::magnetometer_constant_bias() const {
+  return triads_[2].constant;
+}
 
 }  // namespace imukit

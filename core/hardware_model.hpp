@@ -112,17 +112,17 @@ double gauss_markov_allan_variance(double variance, double correlation_time_s, d
 // phi = exp(-dt/T)), overlapping Allan variance of averages of m samples (tau = m dt), from the
 // variance of sums of n samples Q(n) = sum_{|d|<n} (n-|d|) phi^|d|: variance (4 Q(m) - Q(2m)) /
 // (2 m^2) (derivation and the series used for small m dt/T in the source).
-double gauss_markov_allan_variance_discrete(double variance, double correlation_time_s,
-                                            double dt_s, int64_t m);
+double gauss_markov_allan_variance_discrete(double variance, double correlation_time_s, double dt_s,
+                                            int64_t m);
 
 // A sum of independent first-order Gauss-Markov processes with log-spaced correlation times
 // (one per decade, from a decade below the band to half a decade above it) and equal
 // variances: the bumps of their Allan variances (each peaks near tau = 1.89 T) add up to a floor
 // flat within 1.5 % over [tau_min, tau_max] (10 % is promised; 3 % for the sampled processes
 // when tau_min is as short as 5 samples, the least the generator accepts), like the flicker
-// floor of a real sensor. The variances are scaled so that the floor's geometric mid-point (the square root
-// of its highest and lowest value on a 1/20-decade grid over the band) is (2 ln2/pi) B^2, the
-// Allan variance of bias instability B.
+// floor of a real sensor. The variances are scaled so that the floor's geometric mid-point (the
+// square root of its highest and lowest value on a 1/20-decade grid over the band) is (2 ln2/pi)
+// B^2, the Allan variance of bias instability B.
 class GaussMarkovBank {
  public:
   // rate_hz > 0 scales with the Allan variance of the sampled processes at that rate (what the

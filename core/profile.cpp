@@ -196,14 +196,22 @@ Json parse_json(std::string_view text, const std::string& source) {
 
 std::string describe(const Json& j) {
   switch (j.type()) {
-    case Json::value_t::null: return "null";
-    case Json::value_t::boolean: return j.get<bool>() ? "true" : "false";
-    case Json::value_t::string: return "a string";
-    case Json::value_t::object: return "an object";
-    case Json::value_t::array: return fmt::format("an array of {}", j.size());
-    case Json::value_t::binary: return "binary data";
-    case Json::value_t::discarded: return "nothing";
-    default: return fmt::format("{}", j.get<double>());
+    case Json::value_t::null:
+      return "null";
+    case Json::value_t::boolean:
+      return j.get<bool>() ? "true" : "false";
+    case Json::value_t::string:
+      return "a string";
+    case Json::value_t::object:
+      return "an object";
+    case Json::value_t::array:
+      return fmt::format("an array of {}", j.size());
+    case Json::value_t::binary:
+      return "binary data";
+    case Json::value_t::discarded:
+      return "nothing";
+    default:
+      return fmt::format("{}", j.get<double>());
   }
 }
 
@@ -325,14 +333,16 @@ class Reader {
 
 void Reader::schema(const Json& root) const {
   const Json* j = member(root, "schema");
-  if (j == nullptr) fail("schema", fmt::format("missing; a device profile has \"schema\": \"{}\"", kProfileSchema));
+  if (j == nullptr)
+    fail("schema", fmt::format("missing; a device profile has \"schema\": \"{}\"", kProfileSchema));
   const std::string name = string(*j, "schema");
   if (name == kProfileSchema) return;
   if (name.rfind("imukit.profile/", 0) == 0) {
-    fail("schema", fmt::format("unsupported version \"{}\"; this imukit reads \"{}\"", name,
-                               kProfileSchema));
+    fail("schema",
+         fmt::format("unsupported version \"{}\"; this imukit reads \"{}\"", name, kProfileSchema));
   }
-  fail("schema", fmt::format("\"{}\" is not a device profile (expected \"{}\")", name, kProfileSchema));
+  fail("schema",
+       fmt::format("\"{}\" is not a device profile (expected \"{}\")", name, kProfileSchema));
 }
 
 void Reader::units(const Json& root) const {
@@ -345,8 +355,8 @@ void Reader::units(const Json& root) const {
     const std::string path = join("units", key);
     const std::string value = string(*named, path);
     if (value != unit) {
-      fail(path, fmt::format("expected \"{}\", got \"{}\" ({} is SI only)", unit, value,
-                             kProfileSchema));
+      fail(path,
+           fmt::format("expected \"{}\", got \"{}\" ({} is SI only)", unit, value, kProfileSchema));
     }
   }
 }
@@ -414,11 +424,13 @@ Calibration Reader::calibration(const Json& j, const std::string& path) const {
   for (int i = 0; i < 3; ++i) {
     if (std::abs(c.misalignment(i, i) - 1.0) > 1e-9) {
       fail(fmt::format("{}[{}][{}]", m_path, i, i),
-           fmt::format("the diagonal must be 1 (gains belong in scale), got {}", c.misalignment(i, i)));
+           fmt::format("the diagonal must be 1 (gains belong in scale), got {}",
+                       c.misalignment(i, i)));
     }
   }
   c.bias = vec3(required(j, path, "bias"), join(path, "bias"));
-  if (const Json* raw = member(j, "raw_counts")) c.raw_counts = boolean(*raw, join(path, "raw_counts"));
+  if (const Json* raw = member(j, "raw_counts"))
+    c.raw_counts = boolean(*raw, join(path, "raw_counts"));
   if (const Json* r = member(j, "residual")) {
     const std::string r_path = join(path, "residual");
     expect_object(*r, r_path);
@@ -438,7 +450,8 @@ SensorLimits Reader::limits(const Json& j, const std::string& path) const {
   l.resolution = optional_number(j, path, "resolution", Sign::kNonNegative);
   l.rate_hz = optional_number(j, path, "rate", Sign::kPositive);
   l.bandwidth_hz = optional_number(j, path, "bandwidth", Sign::kNonNegative);
-  if (l.rate_hz && l.bandwidth_hz && *l.bandwidth_hz > 0.0 && !(*l.bandwidth_hz < 0.5 * *l.rate_hz)) {
+  if (l.rate_hz && l.bandwidth_hz && *l.bandwidth_hz > 0.0 &&
+      !(*l.bandwidth_hz < 0.5 * *l.rate_hz)) {
     fail(join(path, "bandwidth"), fmt::format("{} Hz is not below half the rate ({} Hz)",
                                               *l.bandwidth_hz, 0.5 * *l.rate_hz));
   }
@@ -448,8 +461,10 @@ SensorLimits Reader::limits(const Json& j, const std::string& path) const {
 void Reader::sensor(const Json& j, const std::string& path, SensorProfile& out) const {
   expect_object(j, path);
   if (const Json* s = member(j, "noise")) out.noise = noise(*s, join(path, "noise"));
-  if (const Json* s = member(j, "turn_on_bias")) out.turn_on_bias = turn_on_bias(*s, join(path, "turn_on_bias"));
-  if (const Json* s = member(j, "calibration")) out.calibration = calibration(*s, join(path, "calibration"));
+  if (const Json* s = member(j, "turn_on_bias"))
+    out.turn_on_bias = turn_on_bias(*s, join(path, "turn_on_bias"));
+  if (const Json* s = member(j, "calibration"))
+    out.calibration = calibration(*s, join(path, "calibration"));
   if (const Json* s = member(j, "limits")) out.limits = limits(*s, join(path, "limits"));
 }
 
@@ -519,13 +534,15 @@ Json sensor_json(const SensorProfile& s) {
     put_optional(j, "bias_instability", n.bias_instability);
     put_optional(j, "bias_instability_sigma", n.bias_instability_sigma);
     if (n.bias_instability_band_s) {
-      j["bias_instability_band"] = Json::array({(*n.bias_instability_band_s)[0], (*n.bias_instability_band_s)[1]});
+      j["bias_instability_band"] =
+          Json::array({(*n.bias_instability_band_s)[0], (*n.bias_instability_band_s)[1]});
     }
     put_optional(j, "random_walk", n.random_walk);
     put_optional(j, "random_walk_sigma", n.random_walk_sigma);
     if (n.allan) {
-      j["allan"] = Json{{"tau", n.allan->tau_s},
-                        {"adev", Json::array({n.allan->adev[0], n.allan->adev[1], n.allan->adev[2]})}};
+      j["allan"] =
+          Json{{"tau", n.allan->tau_s},
+               {"adev", Json::array({n.allan->adev[0], n.allan->adev[1], n.allan->adev[2]})}};
     }
     out["noise"] = std::move(j);
   }
@@ -536,10 +553,13 @@ Json sensor_json(const SensorProfile& s) {
   }
   if (s.calibration) {
     const Calibration& c = *s.calibration;
-    Json j{{"scale", to_json(c.scale)}, {"misalignment", to_json(c.misalignment)}, {"bias", to_json(c.bias)}};
+    Json j{{"scale", to_json(c.scale)},
+           {"misalignment", to_json(c.misalignment)},
+           {"bias", to_json(c.bias)}};
     if (c.raw_counts) j["raw_counts"] = true;
     if (c.residual) {
-      j["residual"] = Json{{"rms", c.residual->rms}, {"max", c.residual->max}, {"count", c.residual->count}};
+      j["residual"] =
+          Json{{"rms", c.residual->rms}, {"max", c.residual->max}, {"count", c.residual->count}};
     }
     out["calibration"] = std::move(j);
   }
@@ -565,8 +585,10 @@ Json profile_json(const DeviceProfile& p) {
   root["schema"] = std::string(kProfileSchema);
   root["units"] = units_json();
   if (p.device) {
-    root["device"] = Json{{"vendor", p.device->vendor}, {"model", p.device->model},
-                          {"serial", p.device->serial}, {"name", p.device->name}};
+    root["device"] = Json{{"vendor", p.device->vendor},
+                          {"model", p.device->model},
+                          {"serial", p.device->serial},
+                          {"name", p.device->name}};
   }
   if (p.gravity) root["gravity"] = *p.gravity;
   if (p.accelerometer) root["accelerometer"] = sensor_json(*p.accelerometer);
@@ -701,9 +723,10 @@ void apply_triad(const SensorProfile& s, const char* name, TriadModel& t) {
   }
   if (s.calibration) {
     if (s.calibration->raw_counts) {
-      throw Error(fmt::format("{}.calibration: a calibration of raw counts (raw_counts: true) "
-                              "cannot make an SI hardware model",
-                              name));
+      throw Error(
+          fmt::format("{}.calibration: a calibration of raw counts (raw_counts: true) "
+                      "cannot make an SI hardware model",
+                      name));
     }
     t.scale = s.calibration->scale;
     t.misalignment = s.calibration->misalignment;
@@ -795,15 +818,19 @@ void update_profile(const std::string& path, const DeviceProfile& update) {
 
 HardwareModel to_hardware_model(const DeviceProfile& profile) {
   HardwareModel model;
-  if (profile.accelerometer) apply_triad(*profile.accelerometer, "accelerometer", model.accelerometer);
+  if (profile.accelerometer)
+    apply_triad(*profile.accelerometer, "accelerometer", model.accelerometer);
   if (profile.gyroscope) {
     apply_triad(*profile.gyroscope, "gyroscope", model.gyroscope);
-    if (profile.gyroscope->g_sensitivity) model.gyroscope.g_sensitivity = *profile.gyroscope->g_sensitivity;
+    if (profile.gyroscope->g_sensitivity)
+      model.gyroscope.g_sensitivity = *profile.gyroscope->g_sensitivity;
   }
   if (profile.magnetometer) {
     apply_triad(*profile.magnetometer, "magnetometer", model.magnetometer);
-    if (profile.magnetometer->hard_iron) model.magnetometer.hard_iron = *profile.magnetometer->hard_iron;
-    if (profile.magnetometer->soft_iron) model.magnetometer.soft_iron = *profile.magnetometer->soft_iron;
+    if (profile.magnetometer->hard_iron)
+      model.magnetometer.hard_iron = *profile.magnetometer->hard_iron;
+    if (profile.magnetometer->soft_iron)
+      model.magnetometer.soft_iron = *profile.magnetometer->soft_iron;
   }
   return model;
 }

@@ -31,21 +31,21 @@ struct DeviceInfo {
 
 // Allan deviation per axis at averaging times tau (s), as characterize measured it.
 struct AllanCurve {
-  std::vector<double> tau_s;                 // increasing, > 0
-  std::array<std::vector<double>, 3> adev;   // per axis, same length as tau_s, unit
+  std::vector<double> tau_s;                // increasing, > 0
+  std::array<std::vector<double>, 3> adev;  // per axis, same length as tau_s, unit
   bool operator==(const AllanCurve&) const = default;
 };
 
 // The noise section: each parameter per axis with its 1-sigma uncertainty. Parameters are
 // optional one by one (a recording too short for random walk has none).
 struct NoiseEstimate {
-  std::optional<Eigen::Vector3d> noise_density;           // N, unit/sqrt(Hz)
+  std::optional<Eigen::Vector3d> noise_density;  // N, unit/sqrt(Hz)
   std::optional<Eigen::Vector3d> noise_density_sigma;
-  std::optional<Eigen::Vector3d> bias_instability;        // B, unit
+  std::optional<Eigen::Vector3d> bias_instability;  // B, unit
   std::optional<Eigen::Vector3d> bias_instability_sigma;
   // The averaging-time band (s) where the bias-instability floor lies: [tau_min, tau_max].
   std::optional<std::array<double, 2>> bias_instability_band_s;
-  std::optional<Eigen::Vector3d> random_walk;             // K, unit/s/sqrt(Hz)
+  std::optional<Eigen::Vector3d> random_walk;  // K, unit/s/sqrt(Hz)
   std::optional<Eigen::Vector3d> random_walk_sigma;
   std::optional<AllanCurve> allan;
   bool operator==(const NoiseEstimate&) const = default;

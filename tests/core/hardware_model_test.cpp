@@ -147,7 +147,8 @@ TEST(HardwareModel, ValidationNamesTheBadField) {
     validate_hardware_model(m, 100.0);
     FAIL() << "accepted a negative noise density";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("gyroscope.noise_density[1]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("gyroscope.noise_density[1]"), std::string::npos)
+        << e.what();
   }
   m = HardwareModel{};
   m.accelerometer.bandwidth_hz = 50.0;  // Nyquist at 100 Hz
@@ -269,7 +270,8 @@ TEST(GaussMarkov, DiscreteAllanVarianceMatchesAutocovarianceSum) {
         }
       }
       const double brute = static_cast<double>(variance * sum / (2.0L * m * m));
-      const double formula = gauss_markov_allan_variance_discrete(variance, correlation_time, dt, m);
+      const double formula =
+          gauss_markov_allan_variance_discrete(variance, correlation_time, dt, m);
       // The brute-force sum itself cancels for T >> m dt: its long double carries 19 digits.
       EXPECT_NEAR(formula, brute, 1e-9 * brute + 1e-15) << "T " << correlation_time << " m " << m;
     }
@@ -293,8 +295,10 @@ TEST(GaussMarkov, ContinuousFormulaIsTheLimitOfTheDiscreteOne) {
   EXPECT_NEAR(below / above, 1.0, 1e-8);
   EXPECT_NEAR(gauss_markov_allan_variance(1.0, 1.0, 1e-7) / (2.0 / 3.0 * 1e-7), 1.0, 1e-6);
   // Peak of one process near tau = 1.89 T.
-  EXPECT_GT(gauss_markov_allan_variance(1.0, 1.0, 1.89), gauss_markov_allan_variance(1.0, 1.0, 1.7));
-  EXPECT_GT(gauss_markov_allan_variance(1.0, 1.0, 1.89), gauss_markov_allan_variance(1.0, 1.0, 2.1));
+  EXPECT_GT(gauss_markov_allan_variance(1.0, 1.0, 1.89),
+            gauss_markov_allan_variance(1.0, 1.0, 1.7));
+  EXPECT_GT(gauss_markov_allan_variance(1.0, 1.0, 1.89),
+            gauss_markov_allan_variance(1.0, 1.0, 2.1));
 }
 
 TEST(GaussMarkovBank, AllanDeviationIsFlatWithinTenPercentOverTheBand) {
@@ -311,10 +315,9 @@ TEST(GaussMarkovBank, AllanDeviationIsFlatWithinTenPercentOverTheBand) {
     const int points = 400;
     for (int i = 0; i <= points; ++i) {
       const double tau = band.lo * std::pow(band.hi / band.lo, static_cast<double>(i) / points);
-      const double avar =
-          band.rate > 0.0
-              ? bank.allan_variance_discrete(1.0 / band.rate, std::llround(tau * band.rate))
-              : bank.allan_variance(tau);
+      const double avar = band.rate > 0.0 ? bank.allan_variance_discrete(
+                                                1.0 / band.rate, std::llround(tau * band.rate))
+                                          : bank.allan_variance(tau);
       worst = std::max(worst, std::abs(std::sqrt(avar) / floor_adev - 1.0));
     }
     EXPECT_LT(worst, 0.10) << "band [" << band.lo << ", " << band.hi << "] rate " << band.rate;
@@ -338,7 +341,8 @@ TEST(GaussMarkovBank, GeneratedSeriesHasTheAnalyticAllanDeviation) {
   generator.apply_gyroscope(y, Eigen::Matrix3Xd());
   const GaussMarkovBank bank = GaussMarkovBank::design(1e-4, 1.0, 100.0, rate);
   std::vector<std::vector<double>> axes = {row(y, 0), row(y, 1), row(y, 2)};
-  for (const std::size_t mm : {std::size_t{10}, std::size_t{32}, std::size_t{100}, std::size_t{316}}) {
+  for (const std::size_t mm :
+       {std::size_t{10}, std::size_t{32}, std::size_t{100}, std::size_t{316}}) {
     double avar = 0.0;
     for (const auto& axis : axes) avar += naive_overlapping_avar(axis, mm) / 3.0;
     const double expected = bank.allan_variance_discrete(1.0 / rate, static_cast<int64_t>(mm));
@@ -351,16 +355,18 @@ TEST(GaussMarkovBank, GeneratedSeriesHasTheAnalyticAllanDeviation) {
     EXPECT_GT(avar / expected, lo) << "m " << mm;
     EXPECT_LT(avar / expected, hi) << "m " << mm;
     // And the floor itself: 0.664 B within 10 %.
-    EXPECT_NEAR(std::sqrt(expected) / (std::sqrt(2.0 * std::numbers::ln2 / std::numbers::pi) * 1e-4), 1.0,
-                0.10);
+    EXPECT_NEAR(
+        std::sqrt(expected) / (std::sqrt(2.0 * std::numbers::ln2 / std::numbers::pi) * 1e-4), 1.0,
+        0.10);
   }
 }
 
 TEST(Generator, AppliesScaleMisalignmentAndGSensitivityExactly) {
   HardwareModel m = full_model();
   // Everything random or nonlinear off: y = M x + G a + b.
-  for (TriadModel* t : {static_cast<TriadModel*>(&m.accelerometer), static_cast<TriadModel*>(&m.gyroscope),
-                        static_cast<TriadModel*>(&m.magnetometer)}) {
+  for (TriadModel* t :
+       {static_cast<TriadModel*>(&m.accelerometer), static_cast<TriadModel*>(&m.gyroscope),
+        static_cast<TriadModel*>(&m.magnetometer)}) {
     t->noise_density.setZero();
     t->bias_instability.setZero();
     t->random_walk.setZero();
@@ -390,9 +396,11 @@ TEST(Generator, AppliesScaleMisalignmentAndGSensitivityExactly) {
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = static_cast<Eigen::Index>(i);
     const Eigen::Vector3d acc = m_acc * accel_true.col(c) + m.accelerometer.turn_on_bias_mean;
-    const Eigen::Vector3d gyro = m_gyro * gyro_true.col(c) + m.gyroscope.g_sensitivity * accel_true.col(c) +
+    const Eigen::Vector3d gyro = m_gyro * gyro_true.col(c) +
+                                 m.gyroscope.g_sensitivity * accel_true.col(c) +
                                  m.gyroscope.turn_on_bias_mean;
-    const Eigen::Vector3d mag = m_mag * mag_true.col(c) + m.magnetometer.hard_iron + m.magnetometer.turn_on_bias_mean;
+    const Eigen::Vector3d mag =
+        m_mag * mag_true.col(c) + m.magnetometer.hard_iron + m.magnetometer.turn_on_bias_mean;
     for (int a = 0; a < 3; ++a) {
       ASSERT_NEAR(series.accel(a, c), acc[a], 1e-12 * std::max(1.0, std::abs(acc[a])));
       ASSERT_NEAR(series.gyro(a, c), gyro[a], 1e-12 * std::max(1.0, std::abs(gyro[a])));
@@ -408,13 +416,13 @@ TEST(Generator, SaturatesThenQuantisesExactly) {
   Rng rng(1);
   ImuErrorGenerator generator(m, 100.0, rng);
   Eigen::Matrix3Xd y(3, 4);
-  y << 3.0, -5.0, 0.13, 0.12,  //
+  y << 3.0, -5.0, 0.13, 0.12,      //
       0.125, -0.125, 1.9, -1.874,  //
       2.1, -2.0, 0.0, 1e-300;
   Eigen::Matrix3Xd expected(3, 4);
   expected << 2.0, -2.0, 0.25, 0.0,  //
-      0.25, -0.25, 2.0, -1.75,  //
-      2.0, -2.0, 0.0, 0.0;  // ties round away from zero
+      0.25, -0.25, 2.0, -1.75,       //
+      2.0, -2.0, 0.0, 0.0;           // ties round away from zero
   generator.apply_accelerometer(y);
   EXPECT_TRUE(bit_equal(y, expected)) << y;
 }
@@ -457,13 +465,15 @@ TEST(LowPass, IsMinus3dBAtTheBandwidthAndPassesDc) {
     const std::size_t n = 4000;  // 4 s; the last 2 s (whole periods of every f) are measured
     Eigen::Matrix3Xd y(3, n);
     for (std::size_t i = 0; i < n; ++i) {
-      y.col(static_cast<Eigen::Index>(i)).setConstant(std::sin(2.0 * std::numbers::pi * f * static_cast<double>(i) / rate));
+      y.col(static_cast<Eigen::Index>(i))
+          .setConstant(std::sin(2.0 * std::numbers::pi * f * static_cast<double>(i) / rate));
     }
     generator.apply_accelerometer(y);
     std::vector<double> tail;
     for (std::size_t i = n / 2; i < n; ++i) tail.push_back(y(1, static_cast<Eigen::Index>(i)));
     const double gain_db = 20.0 * std::log10(fitted_amplitude(tail, f, rate));
-    const double ratio = std::tan(std::numbers::pi * f / rate) / std::tan(std::numbers::pi * cutoff / rate);
+    const double ratio =
+        std::tan(std::numbers::pi * f / rate) / std::tan(std::numbers::pi * cutoff / rate);
     const double expected_db = -10.0 * std::log10(1.0 + std::pow(ratio, 4.0));
     EXPECT_NEAR(gain_db, expected_db, 0.01) << f << " Hz";
     if (f == cutoff) {
@@ -494,7 +504,8 @@ TEST(Generator, StreamingInBlocksGivesTheSameBitsAsOneBlock) {
     const std::size_t sizes[] = {1, 2, 255, 256, 257, 1, 1000, 0, 3};
     std::size_t begin = 0;
     for (std::size_t i = 0; begin < n; ++i) {
-      const std::size_t size = i < std::size(sizes) ? sizes[i] : std::min<std::size_t>(613, n - begin);
+      const std::size_t size =
+          i < std::size(sizes) ? sizes[i] : std::min<std::size_t>(613, n - begin);
       const auto b = static_cast<Eigen::Index>(begin);
       const auto s = static_cast<Eigen::Index>(std::min(size, n - begin));
       generator.apply_gyroscope(gyro_blocks.middleCols(b, s), accel_true.middleCols(b, s));

@@ -2,9 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
 #include <cmath>
 #include <filesystem>
-#include <fmt/format.h>
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
@@ -93,7 +93,8 @@ DeviceProfile full_profile() {
   SensorProfile acc;
   NoiseEstimate noise;
   noise.noise_density = Eigen::Vector3d(0.1, 1.0 / 3.0, 1e-300);
-  noise.noise_density_sigma = Eigen::Vector3d(5e-324, 2.0 / 3.0, std::numeric_limits<double>::max());
+  noise.noise_density_sigma =
+      Eigen::Vector3d(5e-324, 2.0 / 3.0, std::numeric_limits<double>::max());
   noise.bias_instability = Eigen::Vector3d(3.0e-4, std::nextafter(3.0e-4, 1.0), 0.0);
   noise.bias_instability_sigma = Eigen::Vector3d(1e-5, 2e-5, 3e-5);
   noise.bias_instability_band_s = std::array<double, 2>{3.3, 470.0};
@@ -105,7 +106,8 @@ DeviceProfile full_profile() {
                 std::vector<double>{0.9, 0.6, 0.1, 0.04}};
   noise.allan = curve;
   acc.noise = noise;
-  acc.turn_on_bias = TurnOnBias{Eigen::Vector3d(0.01, -0.02, -0.0), Eigen::Vector3d(0.003, 0.004, 0.005), 7};
+  acc.turn_on_bias =
+      TurnOnBias{Eigen::Vector3d(0.01, -0.02, -0.0), Eigen::Vector3d(0.003, 0.004, 0.005), 7};
   Calibration calibration;
   calibration.scale = Eigen::Vector3d(1.001, 0.998, -1.0);
   calibration.misalignment << 1.0, 1e-3, -2e-3, 0.0, 1.0, 3e-3, 0.0, 0.0, 1.0;
@@ -219,7 +221,8 @@ TEST(Profile, SyntaxErrorNamesFileLineAndColumn) {
       EXPECT_EQ(e.where()->file, "profile.json");
       EXPECT_EQ(e.where()->line, c.line) << e.what();
       EXPECT_EQ(e.where()->column, c.column) << e.what();
-      EXPECT_EQ(std::string(e.what()).rfind(fmt::format("profile.json:{}:{}: ", c.line, c.column), 0), 0u)
+      EXPECT_EQ(
+          std::string(e.what()).rfind(fmt::format("profile.json:{}:{}: ", c.line, c.column), 0), 0u)
           << e.what();
       EXPECT_EQ(std::string(e.what()).find("json.exception"), std::string::npos) << e.what();
     }
@@ -246,22 +249,26 @@ TEST(Profile, SemanticErrorsNameTheJsonPath) {
       R"("scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias": [0, 0, 0])";
   const Case cases[] = {
       {R"("accelerometer": {"noise": {"noise_density": "0.001"}})",
-       "profile.json: accelerometer.noise.noise_density: expected an array of 3 numbers, got a string"},
+       "profile.json: accelerometer.noise.noise_density: expected an array of 3 numbers, got a "
+       "string"},
       {R"("accelerometer": {"noise": {"noise_density": [1, -2, 3]}})",
        "profile.json: accelerometer.noise.noise_density[1]: expected >= 0, got -2"},
       {R"("gyroscope": {"noise": {"random_walk": [1, 2]}})",
-       "profile.json: gyroscope.noise.random_walk: expected an array of 3 numbers, got an array of 2"},
+       "profile.json: gyroscope.noise.random_walk: expected an array of 3 numbers, got an array of "
+       "2"},
       {R"("gyroscope": {"noise": {"bias_instability": [1, null, 3]}})",
        "profile.json: gyroscope.noise.bias_instability[1]: expected a number, got null"},
       {R"("gyroscope": {"calibration": {"scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 1]], "bias": [0, 0, 0]}})",
-       "profile.json: gyroscope.calibration.misalignment[2]: expected an array of 3 numbers, got an array of 2"},
+       "profile.json: gyroscope.calibration.misalignment[2]: expected an array of 3 numbers, got "
+       "an array of 2"},
       {R"("gyroscope": {"calibration": {"scale": [1, 1, 1], "misalignment": [[1, 0, 0], [0, 1.1, 0], [0, 0, 1]], "bias": [0, 0, 0]}})",
        "profile.json: gyroscope.calibration.misalignment[1][1]: the diagonal must be 1"},
       {R"("gyroscope": {"calibration": {"scale": [1, 0, 1], "misalignment": [[1, 0, 0], [0, 1, 0], [0, 0, 1]], "bias": [0, 0, 0]}})",
        "profile.json: gyroscope.calibration.scale[1]: expected a non-zero number, got 0"},
       {R"("accelerometer": {"calibration": {"scale": [1, 1, 1], "bias": [0, 0, 0]}})",
        "profile.json: accelerometer.calibration.misalignment: missing"},
-      {R"("accelerometer": {"calibration": {)" + ok_calibration + R"(, "residual": {"rms": 1, "max": 2, "count": 1.5}}})",
+      {R"("accelerometer": {"calibration": {)" + ok_calibration +
+           R"(, "residual": {"rms": 1, "max": 2, "count": 1.5}}})",
        "profile.json: accelerometer.calibration.residual.count: expected an integer, got 1.5"},
       {R"("accelerometer": {"calibration": {)" + ok_calibration + R"(, "raw_counts": "yes"}})",
        "profile.json: accelerometer.calibration.raw_counts: expected true or false, got a string"},
@@ -278,7 +285,8 @@ TEST(Profile, SemanticErrorsNameTheJsonPath) {
       {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 2], "adev": [[1, 1, 1], [1, 1, 1], [1, 1, 1]]}}})",
        "profile.json: gyroscope.noise.allan.tau[2]: tau must increase, got 2 after 2"},
       {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 3], "adev": [[1, 1, 1], [1, 1], [1, 1, 1]]}}})",
-       "profile.json: gyroscope.noise.allan.adev[1]: expected an array of 3 numbers, got an array of 2"},
+       "profile.json: gyroscope.noise.allan.adev[1]: expected an array of 3 numbers, got an array "
+       "of 2"},
       {R"("gyroscope": {"noise": {"allan": {"tau": [1, 2, 3]}}})",
        "profile.json: gyroscope.noise.allan.adev: missing"},
       {R"("gyroscope": {"noise": {"bias_instability_band": [100, 10]}})",
@@ -290,7 +298,8 @@ TEST(Profile, SemanticErrorsNameTheJsonPath) {
        "profile.json: magnetometer.hard_iron: expected an array of 3 numbers, got an object"},
       {R"("device": {"serial": 12})", "profile.json: device.serial: expected a string, got 12"},
       {R"("units": {"accelerometer": "g"})",
-       "profile.json: units.accelerometer: expected \"m/s^2\", got \"g\" (imukit.profile/1 is SI only)"},
+       "profile.json: units.accelerometer: expected \"m/s^2\", got \"g\" (imukit.profile/1 is SI "
+       "only)"},
       {R"("accelerometer": {"noise": {"noise_density": [1, 2, 1e308], "random_walk": [0, 0, -0.5]}})",
        "profile.json: accelerometer.noise.random_walk[2]: expected >= 0, got -0.5"},
   };
@@ -298,7 +307,9 @@ TEST(Profile, SemanticErrorsNameTheJsonPath) {
     const std::string message = parse_error(with_schema(c.body));
     EXPECT_EQ(message.rfind(c.message, 0), 0u) << "body: " << c.body << "\nmessage: " << message;
   }
-  EXPECT_EQ(parse_error("[]").rfind("profile.json: (top level): expected a JSON object, got an array of 0", 0), 0u);
+  EXPECT_EQ(parse_error("[]").rfind(
+                "profile.json: (top level): expected a JSON object, got an array of 0", 0),
+            0u);
 }
 
 TEST(Profile, SchemaIsRequiredAndItsVersionChecked) {
@@ -313,7 +324,8 @@ TEST(Profile, SchemaIsRequiredAndItsVersionChecked) {
 }
 
 TEST(Profile, UnknownKeysAreIgnored) {
-  const std::string plain = with_schema(R"("accelerometer": {"noise": {"noise_density": [1, 2, 3]}})");
+  const std::string plain =
+      with_schema(R"("accelerometer": {"noise": {"noise_density": [1, 2, 3]}})");
   const std::string extended = with_schema(
       R"("temperature_model": {"kind": "poly", "c": [1, 2]}, "units": {"temperature": "degC"},
          "accelerometer": {"noise": {"noise_density": [1, 2, 3], "flicker_corner": 0.1}, "axes": "xyz"})");
@@ -329,7 +341,8 @@ TEST(Profile, WriterRefusesWhatTheReaderWouldReject) {
     format_profile(p);
     FAIL() << "wrote a NaN";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("accelerometer.noise.noise_density[1]: expected a finite number"),
+    EXPECT_NE(std::string(e.what()).find(
+                  "accelerometer.noise.noise_density[1]: expected a finite number"),
               std::string::npos)
         << e.what();
   }
@@ -342,7 +355,8 @@ TEST(Profile, ReadingAMissingFileNamesIt) {
     read_profile("/nonexistent/dir/profile.json");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/profile.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/dir/profile.json"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -354,7 +368,8 @@ TEST(Profile, MergeReplacesOnlyTheSectionsTheUpdateHas) {
   calibration.scale = Eigen::Vector3d(1.5, 1.5, 1.5);
   update.accelerometer->calibration = calibration;
   update.gyroscope.emplace();
-  update.gyroscope->turn_on_bias = TurnOnBias{Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(0, 0, 0), {}};
+  update.gyroscope->turn_on_bias =
+      TurnOnBias{Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(0, 0, 0), {}};
   update.gravity = 9.8;
 
   const DeviceProfile merged = merge_profile(base, update);
@@ -468,7 +483,8 @@ TEST(Profile, ToHardwareModelMapsTheNumbersExactly) {
     to_hardware_model(full_profile());
     FAIL() << "mapped raw counts";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("magnetometer.calibration"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("magnetometer.calibration"), std::string::npos)
+        << e.what();
   }
 }
 
