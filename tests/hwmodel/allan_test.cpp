@@ -1,0 +1,274 @@
+#include "hwmodel/allan.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/rng.hpp"
+
+namespace imukit::hwmodel {
+namespace {
+
+std::vector<TimeNs> uniform_times(int64_t n, double rate_hz) {
+  std::vector<TimeNs> t(static_cast<size_t>(n));
+  for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(1'000'000'000, i, rate_hz);
+  return t;
+}
+
+// Textbook definitions in terms of the rate samples, computed the slow way.
+double naive_avar(const std::vector<double>& y, int64_t m) {
+  const auto n = int64_t(y.size());
+  auto avg = [&](int64_t k) {
+    double s = 0;
+    for (int64_t i = k; i < k + m; ++i) s += y[size_t(i)];
+    return s / double(m);
+  };
+  double sum = 0;
+  const int64_t terms = n - 2 * m + 1;
+  for (int64_t k = 0; k < terms; ++k) {
+    const double d = avg(k + m) - avg(k);
+    sum += d * d;
+  }
+  return sum / (2.0 * double(terms));
+}
+
+double naive_hvar(const std::vector<double>& y, int64_t m) {
+  const auto n = int64_t(y.size());
+  auto avg = [&](int64_t k) {
+    double s = 0;
+    for (int64_t i = k; i < k + m; ++i) s += y[size_t(i)];
+    return s / double(m);
+  };
+  double sum = 0;
+  const int64_t terms = n - 3 * m + 1;
+  for (int64_t k = 0; k < terms; ++k) {
+    const double d = avg(k + 2 * m) - 2.0 * avg(k + m) + avg(k);
+    sum += d * d;
+  }
+  return sum / (6.0 * double(terms));
+}
+
+// Modified Allan variance, NIST SP 1065 eq. (15) written with frequency data:
+// 1/(2 m^4 (n - 3m + 2)) sum_j [ sum_{i=j}^{j+m-1} sum_{k=i}^{i+m-1} (y_{k+m} - y_k) ]^2.
+double naive_mvar(const std::vector<double>& y, int64_t m) {
+  const auto n = int64_t(y.size());
+  const int64_t terms = n - 3 * m + 2;
+  double sum = 0;
+  for (int64_t j = 0; j < terms; ++j) {
+    double outer = 0;
+    for (int64_t i = j; i < j + m; ++i) {
+      for (int64_t k = i; k < i + m; ++k) outer += y[size_t(k + m)] - y[size_t(k)];
+    }
+    sum += outer * outer;
+  }
+  const double md = double(m);
+  return sum / (2.0 * md * md * md * md * double(terms));
+}
+
+TEST(AllanDeviation, EqualsTextbookDefinitionsOnSmallInputs) {
+  const int64_t n = 61;
+  Rng rng(11);
+  Eigen::MatrixXd y(3, n);
+  for (int64_t i = 0; i < n; ++i) {
+    // A large offset and a drift on top of noise: mean removal and exact differences matter.
+    y(0, i) = 1000.0 + rng.normal();
+    y(1, i) = -3.0 + 0.05 * double(i) + 0.1 * rng.normal();
+    y(2, i) = 1e-4 * rng.normal();
+  }
+  AllanOptions opt;
+  for (int64_t m = 1; m <= n / 3; ++m) opt.factors.push_back(m);
+  opt.threads = 2;
+  const AllanResult r = allan_deviation(uniform_times(n, 100.0), y, opt);
+  ASSERT_TRUE(r.allan.computed && r.modified.computed && r.hadamard.computed);
+  for (int a = 0; a < 3; ++a) {
+    std::vector<double> ya(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i) ya[size_t(i)] = y(a, i);
+    for (size_t k = 0; k < opt.factors.size(); ++k) {
+      const int64_t m = opt.factors[k];
+      const auto K = Eigen::Index(k);
+      EXPECT_NEAR(r.allan.deviation(a, K), std::sqrt(naive_avar(ya, m)),
+                  1e-12 * std::sqrt(naive_avar(ya, m)))
+          << "axis " << a << " m " << m;
+      EXPECT_NEAR(r.hadamard.deviation(a, K), std::sqrt(naive_hvar(ya, m)),
+                  1e-12 * std::sqrt(naive_hvar(ya, m)))
+          << "axis " << a << " m " << m;
+      EXPECT_NEAR(r.modified.deviation(a, K), std::sqrt(naive_mvar(ya, m)),
+                  1e-12 * std::sqrt(naive_mvar(ya, m)))
+          << "axis " << a << " m " << m;
+    }
+  }
+}
+
+TEST(AllanDeviation, ResultDoesNotDependOnThreadCountOrAxisGrouping) {
+  const int64_t n = 5000;
+  Rng rng(3);
+  Eigen::MatrixXd y(6, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 6; ++a) y(a, i) = rng.normal();
+  AllanOptions one;
+  one.threads = 1;
+  AllanOptions two;
+  two.threads = 2;
+  const auto t = uniform_times(n, 200.0);
+  const AllanResult r1 = allan_deviation(t, y, one);
+  const AllanResult r2 = allan_deviation(t, y, two);
+  EXPECT_EQ(r1.allan.deviation, r2.allan.deviation);
+  EXPECT_EQ(r1.modified.deviation, r2.modified.deviation);
+  // A 5-axis input takes the generic kernel: same numbers to rounding.
+  const AllanResult r5 = allan_deviation(t, y.topRows(5), one);
+  EXPECT_TRUE(r5.allan.deviation.isApprox(r1.allan.deviation.topRows(5), 1e-13));
+  EXPECT_TRUE(r5.hadamard.deviation.isApprox(r1.hadamard.deviation.topRows(5), 1e-13));
+}
+
+TEST(AllanDeviation, MatchesClosedFormForWhiteNoise) {
+  // White rate noise of density N: per-sample sigma N sqrt(f), ADEV(tau) = N / sqrt(tau), and
+  // HDEV equals ADEV for this noise.
+  const double rate = 100.0, density = 0.004;
+  const int64_t n = 400000;
+  Rng rng(2024);
+  Eigen::MatrixXd y(3, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) y(a, i) = density * std::sqrt(rate) * rng.normal();
+  AllanOptions opt;
+  opt.confidence = 0.95;
+  opt.modified = false;
+  const AllanResult r = allan_deviation(uniform_times(n, rate), y, opt);
+  EXPECT_TRUE(r.uniform);
+  EXPECT_NEAR(r.tau0_s, 0.01, 1e-12);
+  ASSERT_GE(r.factors.size(), 45u);  // >= 10 per decade up to n/4 = 1e5
+  int inside = 0, total = 0, white_fm = 0;
+  for (int a = 0; a < 3; ++a) {
+    for (size_t k = 0; k < r.factors.size(); ++k) {
+      const auto K = Eigen::Index(k);
+      const double truth = density / std::sqrt(r.tau_s[k]);
+      for (const DeviationCurve* c : {&r.allan, &r.hadamard}) {
+        inside += (c->lower(a, K) <= truth && truth <= c->upper(a, K));
+        ++total;
+        white_fm += (c->alpha(a, K) == 0);
+      }
+    }
+    EXPECT_NEAR(r.allan.deviation(a, 0), density / std::sqrt(0.01), 0.01 * density / 0.1);
+  }
+  // 95 % intervals: nearly all contain the truth (neighbouring taus are correlated, so allow
+  // some slack), and the noise is identified as white FM almost everywhere.
+  EXPECT_GE(inside, int(0.88 * total)) << inside << " of " << total;
+  EXPECT_GE(white_fm, int(0.9 * total));
+}
+
+// Fraction of Monte-Carlo runs whose interval contains the true deviation: the test of the
+// equivalent degrees of freedom themselves.
+double coverage(Deviation kind, int alpha, int64_t n, int64_t m, double truth_var, int runs,
+                const std::function<void(Rng&, Eigen::MatrixXd&)>& gen) {
+  AllanOptions opt;
+  opt.factors = {m};
+  opt.confidence = 0.9;
+  opt.alpha = alpha;
+  opt.threads = 1;
+  opt.allan = kind == Deviation::kAllan;
+  opt.hadamard = kind == Deviation::kHadamard;
+  opt.modified = kind == Deviation::kModifiedAllan;
+  const auto t = uniform_times(n, 1.0);
+  int inside = 0;
+  Eigen::MatrixXd y(4, n);
+  Rng rng(77);
+  for (int run = 0; run < runs; run += 4) {
+    gen(rng, y);
+    const AllanResult r = allan_deviation(t, y, opt);
+    const DeviationCurve& c = r.curve(kind);
+    for (int a = 0; a < 4; ++a) {
+      inside += c.lower(a, 0) <= std::sqrt(truth_var) && std::sqrt(truth_var) <= c.upper(a, 0);
+    }
+  }
+  return double(inside) / double(runs);
+}
+
+TEST(AllanDeviation, IntervalsHaveTheirCoverageForWhiteFrequencyNoise) {
+  auto white = [](Rng& rng, Eigen::MatrixXd& y) {
+    for (Eigen::Index i = 0; i < y.cols(); ++i)
+      for (int a = 0; a < 4; ++a) y(a, i) = rng.normal();
+  };
+  // AVAR = HVAR = 1/m for unit white noise, exactly.
+  for (int64_t m : {1, 20, 150}) {
+    const double ca = coverage(Deviation::kAllan, 0, 1500, m, 1.0 / double(m), 800, white);
+    const double ch = coverage(Deviation::kHadamard, 0, 1500, m, 1.0 / double(m), 800, white);
+    EXPECT_NEAR(ca, 0.9, 0.035) << "ADEV m " << m;
+    EXPECT_NEAR(ch, 0.9, 0.035) << "HDEV m " << m;
+  }
+}
+
+TEST(AllanDeviation, IntervalsHaveTheirCoverageForRandomWalkFrequencyNoise) {
+  auto walk = [](Rng& rng, Eigen::MatrixXd& y) {
+    Eigen::Vector4d s = Eigen::Vector4d::Zero();
+    for (Eigen::Index i = 0; i < y.cols(); ++i) {
+      for (int a = 0; a < 4; ++a) s(a) += rng.normal();
+      y.col(i) = s;
+    }
+  };
+  // Discrete random walk with unit steps: AVAR(m) = (2 m^2 + 1) / (6 m).
+  for (int64_t m : {10, 60}) {
+    const double truth = (2.0 * double(m * m) + 1.0) / (6.0 * double(m));
+    const double ca = coverage(Deviation::kAllan, -2, 1500, m, truth, 800, walk);
+    EXPECT_NEAR(ca, 0.9, 0.04) << "ADEV m " << m;
+  }
+}
+
+TEST(AllanDeviation, EquivalentDofAgreesWithSp1065SimpleFormulas) {
+  // NIST SP 1065 Table 5 with N phase points (N = n + 1).
+  const int64_t n = 10000;
+  const double N = double(n + 1);
+  for (int64_t m : {1, 10, 100, 1000}) {
+    const double md = double(m);
+    const double wfm = (3.0 * (N - 1.0) / (2.0 * md) - 2.0 * (N - 2.0) / N) * 4.0 * md * md /
+                       (4.0 * md * md + 5.0);
+    const double rwfm = (N - 2.0) / (md * (N - 3.0) * (N - 3.0)) *
+                        ((N - 1.0) * (N - 1.0) - 3.0 * md * (N - 1.0) + 4.0 * md * md);
+    const double wpm = (N + 1.0) * (N - 2.0 * md) / (2.0 * (N - md));
+    EXPECT_NEAR(equivalent_dof(Deviation::kAllan, n, m, 0), wfm, 0.08 * wfm) << m;
+    EXPECT_NEAR(equivalent_dof(Deviation::kAllan, n, m, -2), rwfm, 0.15 * rwfm) << m;
+    EXPECT_NEAR(equivalent_dof(Deviation::kAllan, n, m, 2), wpm, 0.05 * wpm) << m;
+  }
+}
+
+TEST(AllanDeviation, UsesMeasuredMeanPeriodAndReportsJitter) {
+  // Periods alternating 0.10 s and 0.11 s (like the hfi_static log): nominal 10 Hz, mean 0.105 s.
+  const int64_t n = 1001;
+  std::vector<TimeNs> t(static_cast<size_t>(n));
+  for (int64_t i = 1; i < n; ++i) t[size_t(i)] = t[size_t(i - 1)] + (i % 2 ? 100'000'000 : 110'000'000);
+  Eigen::MatrixXd y = Eigen::MatrixXd::Zero(1, n);
+  Rng rng(5);
+  for (int64_t i = 0; i < n; ++i) y(0, i) = rng.normal();
+  const AllanResult r = allan_deviation(t, y);
+  EXPECT_FALSE(r.uniform);
+  EXPECT_NEAR(r.tau0_s, 0.105, 1e-12);
+  EXPECT_NEAR(r.tau_s.back(), 0.105 * double(r.factors.back()), 1e-12);
+}
+
+TEST(AllanDeviation, LogGridHasRequestedDensity) {
+  const auto f = log_spaced_factors(7'200'000, 10);
+  EXPECT_EQ(f.front(), 1);
+  EXPECT_EQ(f.back(), 1'800'000);
+  // Every decade above m = 10 holds 10 distinct factors.
+  int in_decade = 0;
+  for (int64_t m : f) in_decade += (m >= 1000 && m < 10000);
+  EXPECT_EQ(in_decade, 10);
+  for (size_t i = 1; i < f.size(); ++i) EXPECT_GT(f[i], f[i - 1]);
+}
+
+TEST(AllanDeviation, RejectsBadInput) {
+  Eigen::MatrixXd y = Eigen::MatrixXd::Ones(1, 100);
+  const auto t = uniform_times(100, 10.0);
+  EXPECT_THROW(allan_deviation(std::span(t).first(5), y.leftCols(5)), Error);
+  y(0, 50) = std::nan("");
+  EXPECT_THROW(allan_deviation(t, y), Error);
+  AllanOptions opt;
+  opt.factors = {40};
+  EXPECT_THROW(allan_deviation(t, Eigen::MatrixXd::Ones(1, 100), opt), Error);
+  const std::vector<TimeNs> same(100, 7);
+  EXPECT_THROW(allan_deviation(same, Eigen::MatrixXd::Ones(1, 100)), Error);
+}
+
+}  // namespace
+}  // namespace imukit::hwmodel
