@@ -201,6 +201,7 @@ void DeviceModel::flush_block() {
 
 void DeviceModel::take_sample() {
   const uint32_t tick = next_tick_;
+  ++stats_.samples_taken;
   SensorSample s;
   if (hal_.read_sensors(tick, config_.channels, s)) {
     if (block_.count == 0) {

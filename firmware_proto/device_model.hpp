@@ -58,8 +58,11 @@ class Hal {
 
 enum class DeviceState : uint8_t { kIdle = 0, kStreaming = 1 };
 
+// Sample accounting: samples_taken == samples_sent + samples_dropped + sensor_read_errors +
+// DeviceModel::pending_samples() at all times.
 struct DeviceStats {
-  uint32_t requests = 0;  // valid frames received from the host
+  uint32_t requests = 0;       // valid frames received from the host
+  uint32_t samples_taken = 0;  // sample indices used, all streaming sessions together
   uint32_t nacks_sent = 0;
   uint32_t blocks_sent = 0;
   uint32_t samples_sent = 0;
@@ -94,6 +97,8 @@ class DeviceModel {
   uint32_t next_sample_index() const { return next_index_; }
   // Tick at which that sample is due.
   uint32_t next_sample_tick() const { return next_tick_; }
+  // Samples read but not yet sent (the block being filled).
+  uint32_t pending_samples() const { return block_.count; }
   const DeviceStats& stats() const { return stats_; }
   const DecoderStats& link_stats() const { return rx_.stats(); }
   bool valid_info() const { return info_valid_; }

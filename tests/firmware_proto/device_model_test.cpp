@@ -65,7 +65,7 @@ class FakeHal final : public Hal {
     return true;
   }
   size_t load_calibration(uint8_t* out, size_t capacity) override {
-    if (storage.size() > capacity) return 0;
+    if (storage.empty() || storage.size() > capacity) return 0;
     std::memcpy(out, storage.data(), storage.size());
     return storage.size();
   }
@@ -380,6 +380,11 @@ TEST(DeviceModel, SkipsFailedSensorReadsVisiblyInTheSampleIndex) {
   EXPECT_EQ(blocks, expected);
   EXPECT_EQ(f.device.stats().sensor_read_errors, 2u);
   EXPECT_EQ(f.device.next_sample_index(), 16u);
+  EXPECT_EQ(f.device.pending_samples(), 2u);  // 14 and 15
+  const DeviceStats& s = f.device.stats();
+  EXPECT_EQ(s.samples_taken, 16u);
+  EXPECT_EQ(s.samples_sent + s.samples_dropped + s.sensor_read_errors + f.device.pending_samples(),
+            s.samples_taken);
 }
 
 TEST(DeviceModel, AFrameTheLinkRefusesShowsAsASequenceAndSampleGap) {
@@ -404,6 +409,8 @@ TEST(DeviceModel, AFrameTheLinkRefusesShowsAsASequenceAndSampleGap) {
   EXPECT_EQ(f.device.stats().frames_dropped, 1u);
   EXPECT_EQ(f.device.stats().samples_dropped, 4u);
   EXPECT_EQ(f.device.stats().samples_sent, 8u);
+  EXPECT_EQ(f.device.stats().samples_taken, 12u);
+  EXPECT_EQ(f.device.pending_samples(), 0u);
 }
 
 TEST(DeviceModel, PongCarriesReceiveAndTransmitTicks) {

@@ -244,6 +244,8 @@ TEST(Messages, RoundTripEveryMessageThroughRandomChunks) {
         ASSERT_EQ(parse_message(f, parsed), ParseStatus::kOk);
         if constexpr (requires { same(m, parsed); }) {
           EXPECT_TRUE(same(m, parsed));
+        } else {
+          (void)m;  // messages without fields: parsing is all there is to check
         }
       });
     };
