@@ -72,8 +72,10 @@ class Interpolant {
 
  private:
   Interpolant(std::vector<double> x, Eigen::Index channels, int degree);
-  // Fills the interval cubics from the values and the knot derivatives d (C x n), keeping d.
-  void set_hermite(const Eigen::Ref<const Eigen::MatrixXd>& y, Eigen::MatrixXd d);
+  // Fills the interval cubics from the values, the secants m (C x (n-1)) and the knot
+  // derivatives d (C x n), keeping d.
+  void set_hermite(const Eigen::Ref<const Eigen::MatrixXd>& y, const Eigen::MatrixXd& m,
+                   Eigen::MatrixXd d);
   std::size_t find_interval(double xq, std::size_t hint) const;
   template <int Order>
   void evaluate_impl(std::span<const double> xq, Eigen::Ref<Eigen::MatrixXd> out) const;
