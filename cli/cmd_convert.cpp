@@ -1,7 +1,10 @@
-// imukit convert: rewrite a recording as EuRoC CSV (Kalibr, OpenVINS, pandas) or NumPy arrays.
+// imukit convert: rewrite a recording as MCAP, EuRoC CSV (Kalibr, OpenVINS, pandas) or NumPy
+// arrays, or rescue an MCAP file cut short by a crash.
 #include <filesystem>
 #include <fmt/core.h>
 
+#include "capture/mcap.hpp"
+#include "capture/recording_mcap.hpp"
 #include "cli/command.hpp"
 #include "cli/inputs.hpp"
 #include "core/error.hpp"
@@ -10,6 +13,8 @@
 
 namespace imukit::cli {
 namespace {
+
+namespace fs = std::filesystem;
 
 // OUT.npy gets float64 (N, 6) in the dataset channel order ax ay az gx gy gz (SI units) and
 // OUT_t.npy the int64 time stamps in ns (docs/formats.md).
@@ -28,25 +33,57 @@ void write_npy_pair(const std::string& out, const ImuSeries& s) {
   const std::vector<std::size_t> shape = {s.size(), 6};
   const std::vector<std::size_t> t_shape = {s.size()};
   write_npy(out, std::span<const double>(values), shape);
-  const std::filesystem::path p(out);
+  const fs::path p(out);
   const std::string t_path = (p.parent_path() / (p.stem().string() + "_t.npy")).string();
   write_npy(t_path, std::span<const int64_t>(s.t), t_shape);
   fmt::print("wrote {} ({} x 6 float64: ax ay az gx gy gz) and {} (int64 ns)\n", out, s.size(), t_path);
 }
 
-int run_convert(const std::vector<std::string>& tokens, const std::string& out) {
+const ImuSeries& only_stream(const Recording& r, const std::string& out) {
+  if (r.streams.size() != 1) {
+    throw Error(fmt::format("convert: the input holds {} streams; write them to a folder "
+                            "(-o DIR/) instead of the single file {}",
+                            r.streams.size(), out));
+  }
+  return r.streams.begin()->second;
+}
+
+int run_convert(const std::vector<std::string>& tokens, const std::string& out, bool recover) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
   if (inputs.size() != 1) throw Error("convert: give exactly one input file (and -o OUT)");
-  const ImuSeries s = load_imu_series(inputs.front());
-  s.validate();
-  const std::string ext = std::filesystem::path(out).extension().string();
-  if (ext == ".csv") {
+  if (recover) {
+    if (fs::path(inputs.front().path).extension() != ".mcap" || fs::path(out).extension() != ".mcap") {
+      throw Error("convert --recover: input and output must both be .mcap files");
+    }
+    const capture::McapReadSummary s = capture::recover_mcap(inputs.front().path, out);
+    fmt::print("{}\nwrote {}: {} messages in {} chunks{}\n",
+               s.complete ? inputs.front().path + " was complete" : s.truncation_note, out,
+               s.messages, s.chunks,
+               s.corrupt_chunks ? fmt::format(" ({} corrupt chunks skipped)", s.corrupt_chunks) : "");
+    return 0;
+  }
+  const Recording r = load_recording(inputs.front());
+  for (const auto& [name, series] : r.streams) series.validate();
+  const std::string ext = fs::path(out).extension().string();
+  if (ext == ".mcap") {
+    capture::write_recording_mcap(out, r);
+    fmt::print("wrote {} ({} streams, {} events)\n", out, r.streams.size(), r.events.size());
+  } else if (ext == ".csv") {
+    const ImuSeries& s = only_stream(r, out);
     write_euroc_csv(out, s.view());
     fmt::print("wrote {} ({} samples, EuRoC CSV)\n", out, s.size());
   } else if (ext == ".npy") {
-    write_npy_pair(out, s);
+    write_npy_pair(out, only_stream(r, out));
+  } else if (ext.empty()) {
+    fs::create_directories(out);
+    for (const auto& [name, series] : r.streams) {
+      const std::string path = (fs::path(out) / (name + ".csv")).string();
+      write_euroc_csv(path, series.view());
+      fmt::print("wrote {} ({} samples, EuRoC CSV)\n", path, series.size());
+    }
   } else {
-    throw Error(fmt::format("convert: output '{}' must end in .csv (EuRoC) or .npy", out));
+    throw Error(fmt::format(
+        "convert: output '{}' must be OUT.mcap, OUT.csv (EuRoC), OUT.npy or a folder", out));
   }
   return 0;
 }
@@ -54,16 +91,23 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out) 
 }  // namespace
 
 IMUKIT_REGISTER_COMMAND(convert, CommandSpec{
-    "convert", "Rewrite a recording as EuRoC CSV or NumPy .npy", 20,
+    "convert", "Rewrite a recording as MCAP, EuRoC CSV or NumPy .npy; rescue a cut MCAP file", 20,
     [](CLI::App& sub) -> std::function<int()> {
       auto out = std::make_shared<std::string>();
-      sub.add_option("-o,--output", *out, "output file: OUT.csv (EuRoC) or OUT.npy")->required();
+      auto recover = std::make_shared<bool>(false);
+      sub.add_option("-o,--output", *out,
+                     "OUT.mcap, OUT.csv (EuRoC), OUT.npy, or a folder (one EuRoC CSV per stream)")
+          ->required();
+      sub.add_flag("--recover", *recover,
+                   "rewrite an MCAP file cut short by a crash as a valid file (corrupt chunks skipped)");
       sub.allow_extras();
       sub.footer(input_options_help() +
                  "\n\nExamples:\n"
-                 "  imukit convert imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g -o imu0.csv\n"
+                 "  imukit convert session.mcap -o session/            one EuRoC CSV per device\n"
+                 "  imukit convert --recover crashed.mcap -o fixed.mcap\n"
+                 "  imukit convert imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g -o imu0.mcap\n"
                  "  imukit convert imu0.csv -o imu0.npy\n");
-      return [&sub, out] { return run_convert(sub.remaining(), *out); };
+      return [&sub, out, recover] { return run_convert(sub.remaining(), *out, *recover); };
     }});
 
 }  // namespace imukit::cli

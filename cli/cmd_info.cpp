@@ -1,5 +1,5 @@
-// imukit info: what a recording holds: samples, duration, measured rate and jitter, gaps, and
-// per-axis statistics of each channel.
+// imukit info: what a recording holds: streams, samples, duration, measured rate and jitter,
+// gaps, per-axis statistics of each channel, and events.
 #include <fmt/core.h>
 
 #include "cli/command.hpp"
@@ -14,7 +14,8 @@ void print_triad(const char* name, const char* unit, const Eigen::Matrix3Xd& m) 
   if (m.cols() == 0) return;
   const Eigen::Vector3d mean = m.rowwise().mean();
   const Eigen::Vector3d std_dev =
-      ((m.colwise() - mean).array().square().rowwise().sum() / double(std::max<Eigen::Index>(m.cols() - 1, 1)))
+      ((m.colwise() - mean).array().square().rowwise().sum() /
+       double(std::max<Eigen::Index>(m.cols() - 1, 1)))
           .sqrt();
   fmt::print("  {:<6}{:<8} mean {:>12.6g} {:>12.6g} {:>12.6g}   std {:>10.4g} {:>10.4g} {:>10.4g}\n",
              name, unit, mean.x(), mean.y(), mean.z(), std_dev.x(), std_dev.y(), std_dev.z());
@@ -23,31 +24,42 @@ void print_triad(const char* name, const char* unit, const Eigen::Matrix3Xd& m) 
              m.row(1).maxCoeff(), m.row(2).maxCoeff());
 }
 
+void print_stream(const std::string& title, const ImuSeries& s) {
+  const SamplingStats st = analyze_sampling(s.t);
+  fmt::print("{}: {} samples over {:.3f} s ({:.6f} .. {:.6f} s)\n", title, st.samples,
+             to_seconds(st.duration), s.empty() ? 0.0 : to_seconds(s.t.front()),
+             s.empty() ? 0.0 : to_seconds(s.t.back()));
+  if (st.samples >= 2) {
+    fmt::print("  rate   {:.4f} Hz measured from the time stamps (mean period {:.6f} ms)\n",
+               st.mean_rate_hz, st.mean_period_s * 1e3);
+    fmt::print("  period median {:.6f} ms, min {:.6f} ms, max {:.6f} ms, jitter (std) {:.3f} us\n",
+               st.median_period_s * 1e3, st.min_period_s * 1e3, st.max_period_s * 1e3,
+               st.period_std_s * 1e6);
+    fmt::print("  {}: {} gaps (> 1.5 median periods), {} repeated time stamps\n",
+               st.is_uniform() ? "uniformly sampled" : "NOT uniformly sampled", st.gaps, st.repeated);
+  }
+  print_triad("accel", "[m/s^2]", s.accel);
+  print_triad("gyro", "[rad/s]", s.gyro);
+  print_triad("mag", "[T]", s.mag);
+  if (s.has_temperature()) {
+    fmt::print("  temp   [degC]  mean {:.3f}  min {:.3f}  max {:.3f}\n", s.temperature_c.mean(),
+               s.temperature_c.minCoeff(), s.temperature_c.maxCoeff());
+  }
+}
+
 int run_info(const std::vector<std::string>& tokens) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
   if (inputs.empty()) throw Error("info: name at least one input file");
   for (const InputArg& input : inputs) {
-    const ImuSeries s = load_imu_series(input);
-    const SamplingStats st = analyze_sampling(s.t);
-    fmt::print("{}: {} samples over {:.3f} s ({:.6f} .. {:.6f} s)\n", input.path, st.samples,
-               to_seconds(st.duration), s.empty() ? 0.0 : to_seconds(s.t.front()),
-               s.empty() ? 0.0 : to_seconds(s.t.back()));
-    if (st.samples >= 2) {
-      fmt::print("  rate   {:.4f} Hz measured from the time stamps (mean period {:.6f} ms)\n",
-                 st.mean_rate_hz, st.mean_period_s * 1e3);
-      fmt::print("  period median {:.6f} ms, min {:.6f} ms, max {:.6f} ms, jitter (std) {:.3f} us\n",
-                 st.median_period_s * 1e3, st.min_period_s * 1e3, st.max_period_s * 1e3,
-                 st.period_std_s * 1e6);
-      fmt::print("  {}: {} gaps (> 1.5 median periods), {} repeated time stamps\n",
-                 st.is_uniform() ? "uniformly sampled" : "NOT uniformly sampled", st.gaps,
-                 st.repeated);
+    const Recording r = load_recording(input);
+    for (const auto& [name, series] : r.streams) {
+      print_stream(r.streams.size() == 1 && r.metadata.empty() ? input.path
+                                                                 : input.path + " " + name,
+                   series);
     }
-    print_triad("accel", "[m/s^2]", s.accel);
-    print_triad("gyro", "[rad/s]", s.gyro);
-    print_triad("mag", "[T]", s.mag);
-    if (s.has_temperature()) {
-      fmt::print("  temp   [degC]  mean {:.3f}  min {:.3f}  max {:.3f}\n", s.temperature_c.mean(),
-                 s.temperature_c.minCoeff(), s.temperature_c.maxCoeff());
+    for (const auto& [key, value] : r.metadata) fmt::print("  metadata {} = {}\n", key, value);
+    for (const Event& e : r.events) {
+      fmt::print("  event {:.6f} s {} {}\n", to_seconds(e.t), e.kind, e.label);
     }
   }
   return 0;
@@ -56,11 +68,12 @@ int run_info(const std::vector<std::string>& tokens) {
 }  // namespace
 
 IMUKIT_REGISTER_COMMAND(info, CommandSpec{
-    "info", "Describe recordings: samples, measured rate, jitter, gaps, channel statistics", 30,
+    "info", "Describe recordings: streams, measured rate, jitter, gaps, channel statistics", 30,
     [](CLI::App& sub) -> std::function<int()> {
       sub.allow_extras();
       sub.footer(input_options_help() +
                  "\n\nExamples:\n"
+                 "  imukit info session.mcap\n"
                  "  imukit info imu0.csv\n"
                  "  imukit info imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g\n");
       return [&sub] { return run_info(sub.remaining()); };

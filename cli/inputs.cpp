@@ -3,6 +3,9 @@
 #include <cmath>
 #include <fmt/core.h>
 
+#include <filesystem>
+
+#include "capture/recording_mcap.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 
@@ -71,8 +74,9 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
 }
 
 std::string input_options_help() {
-  return "Inputs: EuRoC CSV files are recognised by their header; any other numeric text needs a\n"
-         "column map. Options after a file apply to that file, before the first file to all:\n"
+  return "Inputs: MCAP recordings and EuRoC CSV files are recognised by their ending (.mcap, .csv);\n"
+         "any other numeric text needs a column map. Options after a file apply to that file,\n"
+         "options before the first file to all files:\n"
          "  --columns MAP      e.g. t,ax,ay,az,gx,gy,gz (names t ax..az gx..gz mx..mz qw..qz\n"
          "                     px..pz temp; _ skips a column, _N skips N, a final _* ignores the rest)\n"
          "  --time-unit U      s (default), ms, us or ns\n"
@@ -83,7 +87,29 @@ std::string input_options_help() {
          "Details: docs/formats.md, section 'Column-mapped text'.";
 }
 
+Recording load_recording(const InputArg& input) {
+  if (input.columns.empty() && ends_with(input.path, ".mcap")) {
+    capture::RecordingRead read = capture::read_recording_mcap(input.path);
+    if (!read.summary.complete) {
+      fmt::print(stderr, "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
+                 read.summary.truncation_note);
+    }
+    return std::move(read.recording);
+  }
+  Recording r;
+  r.streams[std::filesystem::path(input.path).stem().string()] = load_imu_series(input);
+  return r;
+}
+
 ImuSeries load_imu_series(const InputArg& input) {
+  if (input.columns.empty() && ends_with(input.path, ".mcap")) {
+    Recording r = load_recording(input);
+    if (r.streams.size() != 1) {
+      throw Error(fmt::format("{}: holds {} IMU streams; this command reads one", input.path,
+                              r.streams.size()));
+    }
+    return std::move(r.streams.begin()->second);
+  }
   if (input.columns.empty()) {
     if (ends_with(input.path, ".csv")) return read_euroc_csv(input.path);
     throw Error(fmt::format("{}: say what its columns are with --columns, e.g. --columns t,ax,ay,az,gx,gy,gz",

@@ -29,7 +29,12 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens);
 // Help text describing the per-input options, for a subcommand's footer.
 std::string input_options_help();
 
-// Reads one input as an IMU stream in SI units.
+// Reads one input as an IMU stream in SI units (an MCAP file must hold exactly one stream).
 ImuSeries load_imu_series(const InputArg& input);
+
+// Reads one input as a Recording: an MCAP file as recorded (a file cut short is read up to its
+// last complete chunk, with a note on stderr), any other input as one stream named after the
+// file's stem.
+Recording load_recording(const InputArg& input);
 
 }  // namespace imukit::cli

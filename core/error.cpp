@@ -1,14 +1,17 @@
 #include "core/error.hpp"
 
+#include <fmt/core.h>
+
 namespace imukit {
 
 std::string InputLocation::to_string() const {
+  // fmt rather than string concatenation: gcc 12 reports a false -Wrestrict on the latter.
   std::string out = file.empty() ? std::string("<input>") : file;
   if (line) {
-    out += ":" + std::to_string(*line);
-    if (column) out += ":" + std::to_string(*column);
+    out += fmt::format(":{}", *line);
+    if (column) out += fmt::format(":{}", *column);
   }
-  if (byte_offset) out += ": byte " + std::to_string(*byte_offset);
+  if (byte_offset) out += fmt::format(": byte {}", *byte_offset);
   return out;
 }
 

@@ -9,12 +9,15 @@ packages=(
   clang llvm libclang-rt-14-dev clang-format     # fuzzers (libFuzzer), sanitizers, format check
   gcc-arm-none-eabi libnewlib-arm-none-eabi      # firmware_proto cross-compile check (Cortex-M4)
   # libraries
-  libeigen3-dev libceres-dev nlohmann-json3-dev libcli11-dev libfmt-dev libzstd-dev
+  libeigen3-dev libceres-dev nlohmann-json3-dev libcli11-dev libfmt-dev libzstd-dev zlib1g-dev
   libserialport-dev libhidapi-dev libusb-1.0-0-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   python3 python3-numpy                          # independent check that numpy reads our .npy
 )
+# node + npm run the MCAP project's own reader on our files (tests/capture/node); the machine
+# image may already have a newer node than Debian's, which is fine.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then packages+=(nodejs npm); fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -23,14 +26,21 @@ for p in "${packages[@]}"; do
   fi
 done
 if [ ${#missing[@]} -eq 0 ]; then
-  echo "setup: all ${#packages[@]} packages already installed"
-  exit 0
+  echo "setup: all ${#packages[@]} Debian packages already installed"
+else
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -qq
+  $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-sudo=""
-if [ "$(id -u)" -ne 0 ]; then sudo="sudo"; fi
-echo "setup: installing ${missing[*]}"
-export DEBIAN_FRONTEND=noninteractive
-$sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+# npm packages pinned by tests/capture/node/package-lock.json.
+root=$(cd "$(dirname "$0")/.." && pwd)
+node_dir="$root/tests/capture/node"
+if [ ! -d "$node_dir/node_modules/@mcap/core" ]; then
+  echo "setup: npm ci in tests/capture/node"
+  (cd "$node_dir" && npm ci --no-audit --no-fund --loglevel=error >/dev/null)
+fi
 echo "setup: done"

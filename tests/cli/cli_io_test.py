@@ -80,8 +80,34 @@ with tempfile.TemporaryDirectory() as tmp:
 
     r = run("info", bad)
     check(r.returncode == 1 and "--columns" in r.stderr, "a file without a column map says how to give one")
-    r = run("convert", out_csv, "-o", os.path.join(tmp, "x.mcap"))
-    check(r.returncode == 1 and ".csv" in r.stderr, "unknown output format is a one-line error")
+    r = run("convert", out_csv, "-o", os.path.join(tmp, "x.bin"))
+    check(r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and "OUT.mcap" in r.stderr,
+          "unknown output format is a one-line error")
+
+    # MCAP round trip: CSV -> MCAP -> CSV keeps every value bit for bit.
+    out_mcap = os.path.join(tmp, "imu0.mcap")
+    r = run("convert", out_csv, "-o", out_mcap)
+    check(r.returncode == 0, f"convert to MCAP exits 0 ({r.stderr.strip()})")
+    back_dir = os.path.join(tmp, "back")
+    r = run("convert", out_mcap, "-o", back_dir)
+    check(r.returncode == 0, "convert MCAP to a folder exits 0")
+    with open(out_csv) as a, open(os.path.join(back_dir, "imu0.csv")) as b:
+        check(a.read() == b.read(), "CSV -> MCAP -> CSV is byte-identical")
+
+    # A recording cut short: read to its last complete chunk with a note, then recovered.
+    with open(out_mcap, "rb") as f:
+        data = f.read()
+    cut = os.path.join(tmp, "cut.mcap")
+    with open(cut, "wb") as f:
+        f.write(data[: len(data) // 2])
+    r = run("info", cut)
+    check(r.returncode == 0 and "the file ends at byte" in r.stderr and "--recover" in r.stderr,
+          "a cut MCAP file is read with a note, not an error")
+    fixed = os.path.join(tmp, "fixed.mcap")
+    r = run("convert", "--recover", cut, "-o", fixed)
+    check(r.returncode == 0, "convert --recover exits 0")
+    r = run("info", fixed)
+    check(r.returncode == 0 and "the file ends" not in r.stderr, "the recovered file is complete")
 
 print(f"{checks - failures} passed, {failures} failed")
 sys.exit(1 if failures else 0)

@@ -1,0 +1,726 @@
+#include "capture/mcap.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <fmt/core.h>
+#include <sys/stat.h>
+#include <zlib.h>
+#include <zstd.h>
+
+#include "capture/bytes.hpp"
+#include "core/error.hpp"
+
+namespace imukit::capture {
+namespace {
+
+constexpr uint8_t kMagic[8] = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
+
+enum Opcode : uint8_t {
+  kHeader = 0x01, kFooter = 0x02, kSchema = 0x03, kChannel = 0x04, kMessage = 0x05,
+  kChunk = 0x06, kMessageIndex = 0x07, kChunkIndex = 0x08, kStatistics = 0x0B,
+  kMetadata = 0x0C, kMetadataIndex = 0x0D, kSummaryOffset = 0x0E, kDataEnd = 0x0F,
+};
+
+// A single record may not claim more than this: a length field from a corrupt file must not
+// make the reader allocate gigabytes.
+constexpr uint64_t kMaxRecordBytes = uint64_t{1} << 31;
+
+void put_map(ByteWriter& w, const McapMetadataMap& map) {
+  uint32_t bytes = 0;
+  for (const auto& [k, v] : map) bytes += static_cast<uint32_t>(8 + k.size() + v.size());
+  w.u32(bytes);
+  for (const auto& [k, v] : map) {
+    w.string(k);
+    w.string(v);
+  }
+}
+
+McapMetadataMap get_map(ByteReader& r) {
+  const uint32_t bytes = r.u32();
+  ByteReader entries(r.bytes(bytes, "map entries"), r.source(), r.file_offset() - bytes);
+  McapMetadataMap map;
+  while (!entries.done()) {
+    std::string key = entries.string("map key");
+    map[key] = entries.string("map value");
+  }
+  return map;
+}
+
+std::vector<uint8_t> schema_body(const McapSchema& s) {
+  std::vector<uint8_t> b;
+  ByteWriter w(b);
+  w.u16(s.id);
+  w.string(s.name);
+  w.string(s.encoding);
+  w.u32(static_cast<uint32_t>(s.data.size()));
+  w.bytes(s.data);
+  return b;
+}
+
+std::vector<uint8_t> channel_body(const McapChannel& c) {
+  std::vector<uint8_t> b;
+  ByteWriter w(b);
+  w.u16(c.id);
+  w.u16(c.schema_id);
+  w.string(c.topic);
+  w.string(c.message_encoding);
+  put_map(w, c.metadata);
+  return b;
+}
+
+void append_record(std::vector<uint8_t>& out, uint8_t opcode, std::span<const uint8_t> body) {
+  ByteWriter w(out);
+  w.u8(opcode);
+  w.u64(body.size());
+  w.bytes(body);
+}
+
+}  // namespace
+
+uint32_t mcap_crc32(std::span<const uint8_t> data, uint32_t crc) {
+  // zlib's crc32 takes a uInt length; feed large spans in pieces.
+  while (!data.empty()) {
+    const std::size_t n = std::min<std::size_t>(data.size(), 1u << 30);
+    crc = static_cast<uint32_t>(::crc32(crc, data.data(), static_cast<uInt>(n)));
+    data = data.subspan(n);
+  }
+  return crc;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writer
+
+McapWriter::McapWriter(const std::string& path, McapWriterOptions options)
+    : path_(path), options_(std::move(options)) {
+  file_ = std::fopen(path.c_str(), "wb");
+  if (!file_) {
+    throw Error(InputLocation{path, {}, {}, {}},
+                std::string("cannot open for writing: ") + std::strerror(errno));
+  }
+  write_raw(kMagic);
+  std::vector<uint8_t> body;
+  ByteWriter w(body);
+  w.string(options_.profile);
+  w.string(options_.library);
+  write_record(kHeader, body);
+}
+
+McapWriter::~McapWriter() {
+  try {
+    close();
+  } catch (...) {
+    // Everything flushed before the failure stays readable; close() reports errors to callers
+    // that want them.
+    if (file_) std::fclose(file_);
+    file_ = nullptr;
+  }
+}
+
+void McapWriter::write_raw(std::span<const uint8_t> bytes) {
+  if (!file_) throw Error(fmt::format("{}: write after close", path_));
+  if (!bytes.empty() && std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
+    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                std::string("write failed: ") + std::strerror(errno));
+  }
+  data_crc_ = mcap_crc32(bytes, data_crc_);
+  offset_ += bytes.size();
+}
+
+void McapWriter::write_record(uint8_t opcode, std::span<const uint8_t> body) {
+  std::vector<uint8_t> head;
+  ByteWriter w(head);
+  w.u8(opcode);
+  w.u64(body.size());
+  write_raw(head);
+  write_raw(body);
+}
+
+uint16_t McapWriter::add_schema(std::string_view name, std::string_view encoding,
+                                std::string_view data) {
+  McapSchema s;
+  s.id = static_cast<uint16_t>(schemas_.size() + 1);  // 0 means "no schema"
+  s.name = name;
+  s.encoding = encoding;
+  s.data.assign(data.begin(), data.end());
+  write_record(kSchema, schema_body(s));
+  schemas_.push_back(std::move(s));
+  return schemas_.back().id;
+}
+
+uint16_t McapWriter::add_channel(uint16_t schema_id, std::string_view topic,
+                                 std::string_view message_encoding, const McapMetadataMap& metadata) {
+  if (schema_id > schemas_.size()) {
+    throw Error(fmt::format("{}: channel '{}' names unknown schema {}", path_, topic, schema_id));
+  }
+  McapChannel c;
+  c.id = static_cast<uint16_t>(channels_.size());
+  c.schema_id = schema_id;
+  c.topic = topic;
+  c.message_encoding = message_encoding;
+  c.metadata = metadata;
+  write_record(kChannel, channel_body(c));
+  channels_.push_back(std::move(c));
+  next_sequence_.push_back(0);
+  return channels_.back().id;
+}
+
+void McapWriter::write_message(uint16_t channel_id, uint64_t log_time, uint64_t publish_time,
+                               std::span<const uint8_t> data) {
+  if (channel_id >= channels_.size()) {
+    throw Error(fmt::format("{}: message for unknown channel {}", path_, channel_id));
+  }
+  write_message(channel_id, next_sequence_[channel_id], log_time, publish_time, data);
+}
+
+void McapWriter::write_message(uint16_t channel_id, uint32_t sequence, uint64_t log_time,
+                               uint64_t publish_time, std::span<const uint8_t> data) {
+  if (closed_) throw Error(fmt::format("{}: write after close", path_));
+  if (channel_id >= channels_.size()) {
+    throw Error(fmt::format("{}: message for unknown channel {}", path_, channel_id));
+  }
+  next_sequence_[channel_id] = sequence + 1;
+  if (chunk_has_messages_ &&
+      (log_time < chunk_start_time_ ||
+       log_time - chunk_start_time_ >= options_.chunk_duration_ns)) {
+    close_chunk();
+  }
+  chunk_message_index_[channel_id].emplace_back(log_time, chunk_.size());
+  ByteWriter w(chunk_);
+  w.u8(kMessage);
+  w.u64(2 + 4 + 8 + 8 + data.size());
+  w.u16(channel_id);
+  w.u32(sequence);
+  w.u64(log_time);
+  w.u64(publish_time);
+  w.bytes(data);
+  if (!chunk_has_messages_) {
+    chunk_start_time_ = chunk_end_time_ = log_time;
+    chunk_has_messages_ = true;
+  }
+  chunk_start_time_ = std::min(chunk_start_time_, log_time);
+  chunk_end_time_ = std::max(chunk_end_time_, log_time);
+  ++message_count_;
+  ++channel_message_counts_[channel_id];
+  message_start_time_ = std::min(message_start_time_, log_time);
+  message_end_time_ = std::max(message_end_time_, log_time);
+  if (chunk_.size() >= options_.chunk_bytes) close_chunk();
+}
+
+void McapWriter::write_metadata(std::string_view name, const McapMetadataMap& entries) {
+  std::vector<uint8_t> body;
+  ByteWriter w(body);
+  w.string(name);
+  put_map(w, entries);
+  metadata_index_.push_back({std::string(name), {offset_, 1 + 8 + body.size()}});
+  write_record(kMetadata, body);
+}
+
+void McapWriter::close_chunk() {
+  if (!chunk_has_messages_) return;
+  std::vector<uint8_t> compressed;
+  std::string_view compression;
+  std::span<const uint8_t> records = chunk_;
+  if (options_.compression == McapCompression::zstd) {
+    compressed.resize(ZSTD_compressBound(chunk_.size()));
+    const std::size_t n = ZSTD_compress(compressed.data(), compressed.size(), chunk_.data(),
+                                        chunk_.size(), options_.zstd_level);
+    if (ZSTD_isError(n)) throw Error(fmt::format("{}: zstd: {}", path_, ZSTD_getErrorName(n)));
+    compressed.resize(n);
+    compression = "zstd";
+    records = compressed;
+  }
+  std::vector<uint8_t> body;
+  ByteWriter w(body);
+  w.u64(chunk_start_time_);
+  w.u64(chunk_end_time_);
+  w.u64(chunk_.size());
+  w.u32(mcap_crc32(chunk_));
+  w.string(compression);
+  w.u64(records.size());
+  w.bytes(records);
+
+  ChunkIndexEntry entry{};
+  entry.start_time = chunk_start_time_;
+  entry.end_time = chunk_end_time_;
+  entry.offset = offset_;
+  entry.length = 1 + 8 + body.size();
+  entry.compressed_size = records.size();
+  entry.uncompressed_size = chunk_.size();
+  // Chunk and its message indexes go out in one write, then to the OS.
+  std::vector<uint8_t> out;
+  append_record(out, kChunk, body);
+  const uint64_t index_start = offset_ + out.size();
+  for (const auto& [channel, entries] : chunk_message_index_) {
+    entry.message_index_offsets[channel] = offset_ + out.size();
+    std::vector<uint8_t> index;
+    ByteWriter iw(index);
+    iw.u16(channel);
+    iw.u32(static_cast<uint32_t>(entries.size() * 16));
+    for (const auto& [time, at] : entries) {
+      iw.u64(time);
+      iw.u64(at);
+    }
+    append_record(out, kMessageIndex, index);
+  }
+  entry.message_index_length = offset_ + out.size() - index_start;
+  write_raw(out);
+  if (std::fflush(file_) != 0) {
+    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                std::string("write failed: ") + std::strerror(errno));
+  }
+  chunk_index_.push_back(std::move(entry));
+  chunk_.clear();
+  chunk_message_index_.clear();
+  chunk_has_messages_ = false;
+}
+
+void McapWriter::flush() {
+  close_chunk();
+  if (file_ && std::fflush(file_) != 0) {
+    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                std::string("write failed: ") + std::strerror(errno));
+  }
+}
+
+void McapWriter::close() {
+  if (closed_) return;
+  closed_ = true;
+  close_chunk();
+  {
+    std::vector<uint8_t> body;
+    ByteWriter(body).u32(data_crc_);
+    write_record(kDataEnd, body);
+  }
+  // Summary: each group of records, remembered for the Summary Offset section.
+  const uint64_t summary_start = offset_;
+  data_crc_ = 0;  // from here on the running CRC covers the summary, as the footer needs
+  std::vector<std::tuple<uint8_t, uint64_t, uint64_t>> groups;
+  const auto group = [&](uint8_t opcode, const std::vector<std::vector<uint8_t>>& bodies) {
+    if (bodies.empty()) return;
+    const uint64_t start = offset_;
+    for (const auto& b : bodies) write_record(opcode, b);
+    groups.emplace_back(opcode, start, offset_ - start);
+  };
+  std::vector<std::vector<uint8_t>> bodies;
+  for (const auto& s : schemas_) bodies.push_back(schema_body(s));
+  group(kSchema, bodies);
+  bodies.clear();
+  for (const auto& c : channels_) bodies.push_back(channel_body(c));
+  group(kChannel, bodies);
+  bodies.clear();
+  {
+    std::vector<uint8_t> b;
+    ByteWriter w(b);
+    w.u64(message_count_);
+    w.u16(static_cast<uint16_t>(schemas_.size()));
+    w.u32(static_cast<uint32_t>(channels_.size()));
+    w.u32(0);  // attachments
+    w.u32(static_cast<uint32_t>(metadata_index_.size()));
+    w.u32(static_cast<uint32_t>(chunk_index_.size()));
+    w.u64(message_count_ ? message_start_time_ : 0);
+    w.u64(message_count_ ? message_end_time_ : 0);
+    w.u32(static_cast<uint32_t>(channel_message_counts_.size() * 10));
+    for (const auto& [channel, count] : channel_message_counts_) {
+      w.u16(channel);
+      w.u64(count);
+    }
+    bodies.push_back(std::move(b));
+  }
+  group(kStatistics, bodies);
+  bodies.clear();
+  for (const auto& e : chunk_index_) {
+    std::vector<uint8_t> b;
+    ByteWriter w(b);
+    w.u64(e.start_time);
+    w.u64(e.end_time);
+    w.u64(e.offset);
+    w.u64(e.length);
+    w.u32(static_cast<uint32_t>(e.message_index_offsets.size() * 10));
+    for (const auto& [channel, at] : e.message_index_offsets) {
+      w.u16(channel);
+      w.u64(at);
+    }
+    w.u64(e.message_index_length);
+    w.string(options_.compression == McapCompression::zstd ? "zstd" : "");
+    w.u64(e.compressed_size);
+    w.u64(e.uncompressed_size);
+    bodies.push_back(std::move(b));
+  }
+  group(kChunkIndex, bodies);
+  bodies.clear();
+  for (const auto& [name, where] : metadata_index_) {
+    std::vector<uint8_t> b;
+    ByteWriter w(b);
+    w.u64(where.first);
+    w.u64(where.second);
+    w.string(name);
+    bodies.push_back(std::move(b));
+  }
+  group(kMetadataIndex, bodies);
+  const uint64_t summary_offset_start = offset_;
+  for (const auto& [opcode, start, length] : groups) {
+    std::vector<uint8_t> b;
+    ByteWriter w(b);
+    w.u8(opcode);
+    w.u64(start);
+    w.u64(length);
+    write_record(kSummaryOffset, b);
+  }
+  // Footer: the summary CRC covers the summary, the summary offsets and the footer's own
+  // opcode, length and first two fields.
+  std::vector<uint8_t> footer;
+  ByteWriter fw(footer);
+  fw.u8(kFooter);
+  fw.u64(20);
+  fw.u64(summary_start);
+  fw.u64(summary_offset_start);
+  const uint32_t summary_crc = mcap_crc32(footer, data_crc_);
+  fw.u32(summary_crc);
+  write_raw(footer);
+  write_raw(kMagic);
+  const bool flushed = std::fflush(file_) == 0;
+  const int saved = errno;
+  const bool closed = std::fclose(file_) == 0;
+  file_ = nullptr;
+  if (!flushed || !closed) {
+    throw Error(InputLocation{path_, {}, {}, {}},
+                std::string("close failed: ") + std::strerror(flushed ? errno : saved));
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reader
+
+namespace {
+
+// Where the reader gets its bytes: a file read sequentially, or memory (tests, fuzzing).
+class Source {
+ public:
+  virtual ~Source() = default;
+  uint64_t size() const { return size_; }
+  uint64_t position() const { return pos_; }
+  uint64_t remaining() const { return size_ - pos_; }
+  // Reads exactly n <= remaining() bytes into out (resized).
+  virtual void read(uint64_t n, std::vector<uint8_t>& out) = 0;
+
+ protected:
+  uint64_t size_ = 0;
+  uint64_t pos_ = 0;
+};
+
+class FileSource : public Source {
+ public:
+  explicit FileSource(const std::string& path) : path_(path) {
+    file_ = std::fopen(path.c_str(), "rb");
+    if (!file_) {
+      throw Error(InputLocation{path, {}, {}, {}},
+                  std::string("cannot open for reading: ") + std::strerror(errno));
+    }
+    struct stat st {};
+    if (::fstat(fileno(file_), &st) != 0) {
+      std::fclose(file_);
+      throw Error(InputLocation{path, {}, {}, {}}, std::string("cannot stat: ") + std::strerror(errno));
+    }
+    size_ = static_cast<uint64_t>(st.st_size);
+  }
+  ~FileSource() override { std::fclose(file_); }
+  FileSource(const FileSource&) = delete;
+  FileSource& operator=(const FileSource&) = delete;
+
+  void read(uint64_t n, std::vector<uint8_t>& out) override {
+    out.resize(static_cast<std::size_t>(n));
+    if (n > 0 && std::fread(out.data(), 1, out.size(), file_) != out.size()) {
+      throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(pos_)},
+                  std::string("read failed: ") + std::strerror(errno));
+    }
+    pos_ += n;
+  }
+
+ private:
+  std::string path_;
+  std::FILE* file_ = nullptr;
+};
+
+class MemorySource : public Source {
+ public:
+  explicit MemorySource(std::span<const uint8_t> bytes) : bytes_(bytes) { size_ = bytes.size(); }
+  void read(uint64_t n, std::vector<uint8_t>& out) override {
+    const auto part = bytes_.subspan(static_cast<std::size_t>(pos_), static_cast<std::size_t>(n));
+    out.assign(part.begin(), part.end());
+    pos_ += n;
+  }
+
+ private:
+  std::span<const uint8_t> bytes_;
+};
+
+McapSchema parse_schema(ByteReader& r) {
+  McapSchema s;
+  s.id = r.u16();
+  s.name = r.string("schema name");
+  s.encoding = r.string("schema encoding");
+  const uint32_t n = r.u32();
+  const auto data = r.bytes(n, "schema data");
+  s.data.assign(data.begin(), data.end());
+  return s;
+}
+
+McapChannel parse_channel(ByteReader& r) {
+  McapChannel c;
+  c.id = r.u16();
+  c.schema_id = r.u16();
+  c.topic = r.string("channel topic");
+  c.message_encoding = r.string("channel message encoding");
+  c.metadata = get_map(r);
+  return c;
+}
+
+struct Scan {
+  McapReadSummary summary;
+  const McapReadOptions& options;
+  const McapHandlers& handlers;
+  std::map<uint16_t, std::size_t> channel_slot;
+
+  void add_schema(McapSchema s) {
+    for (const auto& have : summary.schemas) {
+      if (have.id == s.id) return;
+    }
+    if (handlers.on_schema) handlers.on_schema(s);
+    summary.schemas.push_back(std::move(s));
+  }
+  void add_channel(McapChannel c) {
+    if (channel_slot.count(c.id)) return;
+    channel_slot[c.id] = summary.channels.size();
+    if (handlers.on_channel) handlers.on_channel(c);
+    summary.channels.push_back(std::move(c));
+  }
+  void message(ByteReader& r) {
+    McapMessageView m;
+    m.channel_id = r.u16();
+    m.sequence = r.u32();
+    m.log_time = r.u64();
+    m.publish_time = r.u64();
+    m.data = r.bytes(r.remaining(), "message data");
+    if (!channel_slot.count(m.channel_id)) {
+      r.fail(fmt::format("message for channel {} before its Channel record", m.channel_id));
+    }
+    ++summary.messages;
+    if (handlers.on_message) handlers.on_message(m);
+  }
+  // Records inside a chunk (uncompressed).
+  void chunk_records(std::span<const uint8_t> records, const std::string& source, uint64_t base) {
+    ByteReader r(records, source, base);
+    while (!r.done()) {
+      const uint8_t op = r.u8();
+      const uint64_t len = r.u64();
+      ByteReader body(r.bytes(len, "record in chunk"), source, r.file_offset() - len);
+      if (op == kSchema) add_schema(parse_schema(body));
+      else if (op == kChannel) add_channel(parse_channel(body));
+      else if (op == kMessage) message(body);
+      // Other records inside chunks are not defined by the spec; skip them.
+    }
+  }
+};
+
+}  // namespace
+
+namespace {
+
+McapReadSummary read_source(Source& file, const std::string& path, const McapHandlers& handlers,
+                            const McapReadOptions& options) {
+  Scan scan{McapReadSummary{}, options, handlers, {}};
+  McapReadSummary& out = scan.summary;
+  std::vector<uint8_t> buf;
+  const auto truncated = [&](const std::string& what) {
+    out.complete = false;
+    out.truncation_note = fmt::format(
+        "{}: the file ends at byte {} {}; kept the {} messages of the {} complete chunks before it",
+        path, file.size(), what, out.messages, out.chunks);
+    return out;
+  };
+
+  if (file.size() < 8) {
+    if (file.size() == 0) return truncated("before the magic (empty file)");
+    file.read(file.size(), buf);
+    if (std::memcmp(buf.data(), kMagic, buf.size()) != 0) {
+      throw Error(InputLocation{path, {}, {}, 0}, "not an MCAP file (bad magic)");
+    }
+    return truncated("inside the magic");
+  }
+  file.read(8, buf);
+  if (std::memcmp(buf.data(), kMagic, 8) != 0) {
+    throw Error(InputLocation{path, {}, {}, 0}, "not an MCAP file (bad magic)");
+  }
+  uint32_t data_crc = mcap_crc32(buf);
+  bool data_ended = false;
+  std::vector<uint8_t> head;
+  std::vector<uint8_t> uncompressed;
+  while (true) {
+    const uint64_t record_start = file.position();
+    if (file.remaining() == 0) {
+      return truncated(data_ended ? "before the footer" : "after a complete record, before Data End");
+    }
+    if (file.remaining() < 9) return truncated(fmt::format("inside a record header at byte {}", record_start));
+    file.read(9, head);
+    ByteReader h(head, path, record_start);
+    const uint8_t op = h.u8();
+    const uint64_t len = h.u64();
+    if (len > kMaxRecordBytes) {
+      throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
+                  fmt::format("record of {} bytes is larger than any imukit writes", len));
+    }
+    if (len > file.remaining()) {
+      return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}", op,
+                                   record_start));
+    }
+    file.read(len, buf);
+    ByteReader r(buf, path, record_start + 9);
+    // The data section CRC covers every byte before the Data End record.
+    const uint32_t crc_before_record = data_crc;
+    if (!data_ended && op != kDataEnd) data_crc = mcap_crc32(buf, mcap_crc32(head, data_crc));
+
+    switch (op) {
+      case kHeader:
+        out.profile = r.string("header profile");
+        out.library = r.string("header library");
+        break;
+      case kSchema:
+        if (!data_ended) scan.add_schema(parse_schema(r));
+        break;
+      case kChannel:
+        if (!data_ended) scan.add_channel(parse_channel(r));
+        break;
+      case kMessage:
+        scan.message(r);
+        break;
+      case kMetadata: {
+        if (data_ended) break;
+        McapMetadata m;
+        m.name = r.string("metadata name");
+        m.entries = get_map(r);
+        out.metadata.push_back(std::move(m));
+        break;
+      }
+      case kChunk: {
+        const uint64_t start_time = r.u64();
+        const uint64_t end_time = r.u64();
+        const uint64_t uncompressed_size = r.u64();
+        const uint32_t uncompressed_crc = r.u32();
+        const std::string compression = r.string("chunk compression");
+        const uint64_t records_len = r.u64();
+        const auto records = r.bytes(records_len, "chunk records");
+        (void)start_time;
+        (void)end_time;
+        std::string problem;
+        std::span<const uint8_t> plain;
+        if (uncompressed_size > kMaxRecordBytes) {
+          problem = fmt::format("declares {} uncompressed bytes", uncompressed_size);
+        } else if (compression.empty()) {
+          if (records.size() != uncompressed_size) problem = "uncompressed size does not match its records";
+          plain = records;
+        } else if (compression == "zstd") {
+          uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
+          const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),
+                                                records.data(), records.size());
+          if (ZSTD_isError(n)) problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
+          else if (n != uncompressed_size) problem = "decompressed size does not match the chunk header";
+          plain = std::span<const uint8_t>(uncompressed.data(), std::min<std::size_t>(n, uncompressed.size()));
+        } else {
+          problem = fmt::format("unsupported compression '{}'", compression);
+        }
+        if (problem.empty() && options.verify_crcs && uncompressed_crc != 0 &&
+            mcap_crc32(plain) != uncompressed_crc) {
+          problem = "CRC-32 of its records does not match";
+        }
+        if (!problem.empty()) {
+          if (options.skip_corrupt_chunks) {
+            ++out.corrupt_chunks;
+            break;
+          }
+          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
+                      "corrupt chunk: " + problem);
+        }
+        scan.chunk_records(plain, path + " (chunk at byte " + std::to_string(record_start) + ")", 0);
+        ++out.chunks;
+        break;
+      }
+      case kDataEnd: {
+        const uint32_t stored = r.u32();
+        if (options.verify_crcs && stored != 0 && stored != crc_before_record &&
+            out.corrupt_chunks == 0) {
+          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
+                      fmt::format("data section CRC-32 0x{:08x} does not match the stored 0x{:08x}",
+                                  crc_before_record, stored));
+        }
+        data_ended = true;
+        break;
+      }
+      case kFooter: {
+        if (file.remaining() < 8) return truncated("inside the closing magic");
+        file.read(8, buf);
+        if (std::memcmp(buf.data(), kMagic, 8) != 0) {
+          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(file.position() - 8)},
+                      "bad closing magic after the footer");
+        }
+        out.complete = true;
+        return out;
+      }
+      default:
+        break;  // message indexes, summary records and unknown opcodes: nothing to read
+    }
+  }
+}
+
+}  // namespace
+
+McapReadSummary read_mcap(const std::string& path, const McapHandlers& handlers,
+                          const McapReadOptions& options) {
+  FileSource file(path);
+  return read_source(file, path, handlers, options);
+}
+
+McapReadSummary read_mcap(const std::string& path,
+                          const std::function<void(const McapMessageView&)>& on_message,
+                          const McapReadOptions& options) {
+  return read_mcap(path, McapHandlers{nullptr, nullptr, on_message}, options);
+}
+
+McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& source_name,
+                          const std::function<void(const McapMessageView&)>& on_message,
+                          const McapReadOptions& options) {
+  MemorySource memory(bytes);
+  return read_source(memory, source_name, McapHandlers{nullptr, nullptr, on_message}, options);
+}
+
+McapReadSummary recover_mcap(const std::string& in, const std::string& out_path) {
+  McapReadOptions options;
+  options.skip_corrupt_chunks = true;
+  // First pass: what the file declares; second pass: copy the messages.
+  McapReadSummary summary = read_mcap(in, nullptr, options);
+  McapWriterOptions wo;
+  wo.profile = summary.profile;
+  wo.library = summary.library.empty() ? "imukit (recovered)" : summary.library + " (recovered by imukit)";
+  McapWriter writer(out_path, wo);
+  std::map<uint16_t, uint16_t> schema_map;
+  std::map<uint16_t, uint16_t> channel_map;
+  for (const auto& s : summary.schemas) {
+    schema_map[s.id] = writer.add_schema(s.name, s.encoding,
+                                         std::string_view(reinterpret_cast<const char*>(s.data.data()), s.data.size()));
+  }
+  for (const auto& c : summary.channels) {
+    const auto schema = schema_map.count(c.schema_id) ? schema_map[c.schema_id] : uint16_t{0};
+    channel_map[c.id] = writer.add_channel(schema, c.topic, c.message_encoding, c.metadata);
+  }
+  for (const auto& m : summary.metadata) writer.write_metadata(m.name, m.entries);
+  read_mcap(in,
+            [&](const McapMessageView& m) {
+              writer.write_message(channel_map.at(m.channel_id), m.sequence, m.log_time,
+                                   m.publish_time, m.data);
+            },
+            options);
+  writer.close();
+  return summary;
+}
+
+}  // namespace imukit::capture

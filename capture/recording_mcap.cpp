@@ -1,0 +1,116 @@
+#include "capture/recording_mcap.hpp"
+
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+#include "capture/ros_messages.hpp"
+#include "core/error.hpp"
+
+namespace imukit::capture {
+namespace {
+
+constexpr std::string_view kEventSchema = R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
+constexpr std::string_view kImuPrefix = "/imu/";
+
+}  // namespace
+
+void write_recording_mcap(const std::string& path, const Recording& recording,
+                          const std::map<std::string, ImuCovariance>& covariance,
+                          const McapWriterOptions& options) {
+  McapWriter writer(path, options);
+  McapMetadataMap meta(recording.metadata.begin(), recording.metadata.end());
+  writer.write_metadata("imukit.recording", meta);
+  const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
+  for (const auto& [name, series] : recording.streams) {
+    if (!series.has_accel() || !series.has_gyro()) {
+      throw Error(fmt::format("{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu",
+                              path, name));
+    }
+    const uint16_t channel = writer.add_channel(imu_schema, std::string(kImuPrefix) + name, "cdr");
+    ImuMessage m;
+    m.frame_id = name;
+    if (const auto it = covariance.find(name); it != covariance.end()) {
+      for (int k = 0; k < 3; ++k) {
+        m.angular_velocity_covariance[4 * k] = it->second.gyro_variance;
+        m.linear_acceleration_covariance[4 * k] = it->second.accel_variance;
+      }
+    }
+    for (std::size_t i = 0; i < series.size(); ++i) {
+      const auto c = static_cast<Eigen::Index>(i);
+      m.stamp = series.t[i];
+      for (int k = 0; k < 3; ++k) {
+        m.angular_velocity[static_cast<std::size_t>(k)] = series.gyro(k, c);
+        m.linear_acceleration[static_cast<std::size_t>(k)] = series.accel(k, c);
+      }
+      const uint64_t t = static_cast<uint64_t>(series.t[i]);
+      writer.write_message(channel, t, t, encode_cdr(m));
+    }
+  }
+  if (!recording.events.empty()) {
+    const uint16_t schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
+    const uint16_t channel = writer.add_channel(schema, "/events", "json");
+    for (const Event& e : recording.events) {
+      const std::string text = nlohmann::json{{"kind", e.kind}, {"label", e.label}}.dump();
+      const uint64_t t = static_cast<uint64_t>(e.t);
+      writer.write_message(channel, t, t,
+                           std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size()));
+    }
+  }
+  writer.close();
+}
+
+RecordingRead read_recording_mcap(const std::string& path) {
+  RecordingRead out;
+  std::map<uint16_t, std::string> schema_names;
+  std::map<uint16_t, std::string> imu_channels;  // channel -> stream name
+  std::map<uint16_t, bool> event_channels;
+  std::map<std::string, std::vector<ImuMessage>> samples;
+  McapHandlers handlers;
+  handlers.on_schema = [&](const McapSchema& s) { schema_names[s.id] = s.name; };
+  handlers.on_channel = [&](const McapChannel& c) {
+    const auto schema = schema_names.find(c.schema_id);
+    const bool imu = schema != schema_names.end() && schema->second == kImuSchemaName;
+    if (imu && c.message_encoding == "cdr") {
+      imu_channels[c.id] = c.topic.rfind(kImuPrefix, 0) == 0 ? c.topic.substr(kImuPrefix.size()) : c.topic;
+    } else if (c.topic == "/events" && c.message_encoding == "json") {
+      event_channels[c.id] = true;
+    }
+  };
+  handlers.on_message = [&](const McapMessageView& m) {
+    if (const auto it = imu_channels.find(m.channel_id); it != imu_channels.end()) {
+      samples[it->second].push_back(
+          decode_imu_cdr(m.data, fmt::format("{}: message {} of {}", path, m.sequence, it->second)));
+    } else if (event_channels.count(m.channel_id)) {
+      const auto json = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
+      if (json.is_discarded() || !json.is_object()) {
+        throw Error(fmt::format("{}: /events message {} is not a JSON object", path, m.sequence));
+      }
+      const auto text = [&](const char* key) {
+        const auto it = json.find(key);
+        return it != json.end() && it->is_string() ? it->get<std::string>() : std::string();
+      };
+      out.recording.events.push_back({static_cast<TimeNs>(m.log_time), text("kind"), text("label")});
+    }
+  };
+  out.summary = read_mcap(path, handlers);
+  for (const auto& md : out.summary.metadata) {
+    if (md.name == "imukit.recording") {
+      out.recording.metadata.insert(md.entries.begin(), md.entries.end());
+    }
+  }
+  for (auto& [name, messages] : samples) {
+    ImuSeries s = ImuSeries::with_channels(messages.size(), true, true);
+    for (std::size_t i = 0; i < messages.size(); ++i) {
+      const auto c = static_cast<Eigen::Index>(i);
+      s.t[i] = messages[i].stamp;
+      for (int k = 0; k < 3; ++k) {
+        s.gyro(k, c) = messages[i].angular_velocity[static_cast<std::size_t>(k)];
+        s.accel(k, c) = messages[i].linear_acceleration[static_cast<std::size_t>(k)];
+      }
+    }
+    out.recording.streams[name] = std::move(s);
+  }
+  return out;
+}
+
+}  // namespace imukit::capture

@@ -1,0 +1,37 @@
+// A core Recording as an MCAP file, in the layout of DESIGN.md, and back:
+// - each stream `name` on topic /imu/<name> as ROS 2 sensor_msgs/msg/Imu (ros2msg + cdr),
+//   log_time = sample time, covariances from the stream's noise where known (else "unknown");
+// - events on /events as JSON messages {"kind": ..., "label": ...} (schema imukit_msgs/Event,
+//   jsonschema), log_time = event time;
+// - recording metadata in one MCAP Metadata record named "imukit.recording".
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "capture/mcap.hpp"
+#include "core/imu_series.hpp"
+
+namespace imukit::capture {
+
+// Per-stream white-noise variances for the ROS covariance fields (rad^2/s^2, m^2/s^4 per sample);
+// streams without an entry get all-zero covariances, which sensor_msgs/Imu defines as unknown.
+struct ImuCovariance {
+  double gyro_variance = 0.0;
+  double accel_variance = 0.0;
+};
+
+void write_recording_mcap(const std::string& path, const Recording& recording,
+                          const std::map<std::string, ImuCovariance>& covariance = {},
+                          const McapWriterOptions& options = {});
+
+struct RecordingRead {
+  Recording recording;
+  McapReadSummary summary;  // complete == false with a note when the file was cut short
+};
+
+// Reads the sensor_msgs/Imu channels (streams named after their topic without "/imu/"), the
+// /events channel and the metadata; other channels are ignored.
+RecordingRead read_recording_mcap(const std::string& path);
+
+}  // namespace imukit::capture

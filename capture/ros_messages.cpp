@@ -1,0 +1,194 @@
+#include "capture/ros_messages.hpp"
+
+#include "capture/bytes.hpp"
+#include "core/error.hpp"
+
+namespace imukit::capture {
+
+const std::string_view kImuSchemaName = "sensor_msgs/msg/Imu";
+const std::string_view kImuSchemaText =
+    "std_msgs/Header header\n"
+    "geometry_msgs/Quaternion orientation\n"
+    "float64[9] orientation_covariance\n"
+    "geometry_msgs/Vector3 angular_velocity\n"
+    "float64[9] angular_velocity_covariance\n"
+    "geometry_msgs/Vector3 linear_acceleration\n"
+    "float64[9] linear_acceleration_covariance\n"
+    "================================================================================\n"
+    "MSG: std_msgs/Header\n"
+    "builtin_interfaces/Time stamp\n"
+    "string frame_id\n"
+    "================================================================================\n"
+    "MSG: builtin_interfaces/Time\n"
+    "int32 sec\n"
+    "uint32 nanosec\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Quaternion\n"
+    "float64 x\n"
+    "float64 y\n"
+    "float64 z\n"
+    "float64 w\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Vector3\n"
+    "float64 x\n"
+    "float64 y\n"
+    "float64 z\n";
+
+const std::string_view kRawImuSchemaName = "imukit_msgs/msg/RawImu";
+const std::string_view kRawImuSchemaText =
+    "builtin_interfaces/Time stamp\n"
+    "int64 host_receive_time_ns\n"
+    "uint64 sample_index\n"
+    "uint64 device_ticks\n"
+    "float64 tick_hz\n"
+    "int32[3] accel\n"
+    "int32[3] gyro\n"
+    "int32[3] mag\n"
+    "int32 temperature\n"
+    "uint8 channels\n"
+    "================================================================================\n"
+    "MSG: builtin_interfaces/Time\n"
+    "int32 sec\n"
+    "uint32 nanosec\n";
+
+namespace {
+
+// CDR aligns each primitive to its own size, counted from the end of the 4-byte encapsulation
+// header.
+constexpr std::size_t kOrigin = 4;
+
+class CdrWriter {
+ public:
+  CdrWriter() : w_(out_) {
+    const uint8_t header[4] = {0x00, 0x01, 0x00, 0x00};  // CDR_LE, no options
+    w_.bytes(header);
+  }
+  void align(std::size_t n) {
+    while ((out_.size() - kOrigin) % n != 0) w_.u8(0);
+  }
+  void time(TimeNs t) {
+    // Floor division, so times before 1970 still give 0 <= nanosec < 1e9.
+    int64_t sec = t / kNsPerSecond;
+    int64_t nsec = t % kNsPerSecond;
+    if (nsec < 0) {
+      nsec += kNsPerSecond;
+      --sec;
+    }
+    i32(static_cast<int32_t>(sec));
+    u32(static_cast<uint32_t>(nsec));
+  }
+  void i32(int32_t v) { align(4); w_.i32(v); }
+  void u32(uint32_t v) { align(4); w_.u32(v); }
+  void u64(uint64_t v) { align(8); w_.u64(v); }
+  void f64(double v) { align(8); w_.f64(v); }
+  void u8(uint8_t v) { w_.u8(v); }
+  void string(const std::string& s) {
+    u32(static_cast<uint32_t>(s.size() + 1));
+    w_.bytes(s);
+    w_.u8(0);
+  }
+  std::vector<uint8_t> take() { return std::move(out_); }
+
+ private:
+  std::vector<uint8_t> out_;
+  ByteWriter w_;
+};
+
+class CdrReader {
+ public:
+  CdrReader(std::span<const uint8_t> data, const std::string& source) : r_(data, source, 0) {
+    const auto header = r_.bytes(4, "CDR encapsulation header");
+    if (header[0] != 0x00 || header[1] != 0x01) {
+      r_.fail("CDR encapsulation is not little-endian plain CDR (00 01)");
+    }
+  }
+  TimeNs time() {
+    const int64_t sec = i32();
+    const int64_t nsec = u32();
+    if (nsec >= kNsPerSecond) r_.fail("nanosec field is 1e9 or more");
+    return sec * kNsPerSecond + nsec;
+  }
+  int32_t i32() { r_.align(4, kOrigin); return r_.i32(); }
+  uint32_t u32() { r_.align(4, kOrigin); return r_.u32(); }
+  uint64_t u64() { r_.align(8, kOrigin); return r_.u64(); }
+  double f64() { r_.align(8, kOrigin); return r_.f64(); }
+  uint8_t u8() { return r_.u8(); }
+  std::string string() {
+    const uint32_t n = u32();
+    if (n == 0) r_.fail("CDR string without its terminating NUL");
+    const auto b = r_.bytes(n, "CDR string");
+    if (b.back() != 0) r_.fail("CDR string is not NUL-terminated");
+    return std::string(b.begin(), b.end() - 1);
+  }
+  void finish() {
+    // Trailing padding to a 4-byte boundary is allowed, nothing else.
+    if (r_.remaining() > 3) r_.fail("trailing bytes after the message");
+  }
+
+ private:
+  ByteReader r_;
+};
+
+}  // namespace
+
+std::vector<uint8_t> encode_cdr(const ImuMessage& m) {
+  CdrWriter w;
+  w.time(m.stamp);
+  w.string(m.frame_id);
+  for (double v : m.orientation_xyzw) w.f64(v);
+  for (double v : m.orientation_covariance) w.f64(v);
+  for (double v : m.angular_velocity) w.f64(v);
+  for (double v : m.angular_velocity_covariance) w.f64(v);
+  for (double v : m.linear_acceleration) w.f64(v);
+  for (double v : m.linear_acceleration_covariance) w.f64(v);
+  return w.take();
+}
+
+std::vector<uint8_t> encode_cdr(const RawImuMessage& m) {
+  CdrWriter w;
+  w.time(m.stamp);
+  w.u64(static_cast<uint64_t>(m.host_receive_time));
+  w.u64(m.sample_index);
+  w.u64(m.device_ticks);
+  w.f64(m.tick_hz);
+  for (int32_t v : m.accel) w.i32(v);
+  for (int32_t v : m.gyro) w.i32(v);
+  for (int32_t v : m.mag) w.i32(v);
+  w.i32(m.temperature);
+  w.u8(m.channels);
+  return w.take();
+}
+
+ImuMessage decode_imu_cdr(std::span<const uint8_t> data, const std::string& source) {
+  CdrReader r(data, source);
+  ImuMessage m;
+  m.stamp = r.time();
+  m.frame_id = r.string();
+  for (double& v : m.orientation_xyzw) v = r.f64();
+  for (double& v : m.orientation_covariance) v = r.f64();
+  for (double& v : m.angular_velocity) v = r.f64();
+  for (double& v : m.angular_velocity_covariance) v = r.f64();
+  for (double& v : m.linear_acceleration) v = r.f64();
+  for (double& v : m.linear_acceleration_covariance) v = r.f64();
+  r.finish();
+  return m;
+}
+
+RawImuMessage decode_raw_imu_cdr(std::span<const uint8_t> data, const std::string& source) {
+  CdrReader r(data, source);
+  RawImuMessage m;
+  m.stamp = r.time();
+  m.host_receive_time = static_cast<TimeNs>(r.u64());
+  m.sample_index = r.u64();
+  m.device_ticks = r.u64();
+  m.tick_hz = r.f64();
+  for (int32_t& v : m.accel) v = r.i32();
+  for (int32_t& v : m.gyro) v = r.i32();
+  for (int32_t& v : m.mag) v = r.i32();
+  m.temperature = r.i32();
+  m.channels = r.u8();
+  r.finish();
+  return m;
+}
+
+}  // namespace imukit::capture

@@ -1,0 +1,106 @@
+#include "capture/ros_messages.hpp"
+
+#include <cstring>
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+
+namespace imukit::capture {
+namespace {
+
+double f64_at(const std::vector<uint8_t>& b, std::size_t at) {
+  double v;
+  std::memcpy(&v, b.data() + at, 8);
+  return v;
+}
+
+TEST(RosMessages, ImuCdrLayoutMatchesTheRos2Definition) {
+  ImuMessage m;
+  m.stamp = 1'700'000'001'250'000'000;
+  m.frame_id = "imu";
+  m.angular_velocity = {0.1, -0.2, 0.3};
+  m.linear_acceleration = {0.0, 0.0, 9.81};
+  m.linear_acceleration_covariance[0] = 1e-4;
+  const std::vector<uint8_t> b = encode_cdr(m);
+  // 4 encapsulation + 8 time + 4 length + "imu\0" = 20 bytes, which is already 8-aligned
+  // counted from the end of the 4-byte header; then 4 + 9 + 3 + 9 + 3 + 9 = 37 float64.
+  ASSERT_EQ(b.size(), 20u + 37u * 8u);
+  EXPECT_EQ(b[0], 0x00);
+  EXPECT_EQ(b[1], 0x01);
+  int32_t sec;
+  uint32_t nsec, len;
+  std::memcpy(&sec, b.data() + 4, 4);
+  std::memcpy(&nsec, b.data() + 8, 4);
+  std::memcpy(&len, b.data() + 12, 4);
+  EXPECT_EQ(sec, 1'700'000'001);
+  EXPECT_EQ(nsec, 250'000'000u);
+  EXPECT_EQ(len, 4u);
+  EXPECT_EQ(std::string(reinterpret_cast<const char*>(b.data() + 16)), "imu");
+  EXPECT_EQ(f64_at(b, 20 + 3 * 8), 1.0);        // orientation w
+  EXPECT_EQ(f64_at(b, 20 + 4 * 8), -1.0);       // orientation not provided
+  EXPECT_EQ(f64_at(b, 20 + 13 * 8 + 1 * 8), -0.2);  // angular_velocity.y
+  EXPECT_EQ(f64_at(b, 20 + 25 * 8 + 2 * 8), 9.81);  // linear_acceleration.z
+  EXPECT_EQ(f64_at(b, 20 + 28 * 8), 1e-4);          // linear_acceleration_covariance[0]
+  const ImuMessage back = decode_imu_cdr(b, "m");
+  EXPECT_EQ(back.stamp, m.stamp);
+  EXPECT_EQ(back.frame_id, "imu");
+  EXPECT_EQ(back.angular_velocity, m.angular_velocity);
+  EXPECT_EQ(back.linear_acceleration_covariance, m.linear_acceleration_covariance);
+}
+
+TEST(RosMessages, NegativeTimesSplitWithNonNegativeNanoseconds) {
+  ImuMessage m;
+  m.stamp = -1;  // 1 ns before the epoch
+  const auto b = encode_cdr(m);
+  int32_t sec;
+  uint32_t nsec;
+  std::memcpy(&sec, b.data() + 4, 4);
+  std::memcpy(&nsec, b.data() + 8, 4);
+  EXPECT_EQ(sec, -1);
+  EXPECT_EQ(nsec, 999'999'999u);
+  EXPECT_EQ(decode_imu_cdr(b, "m").stamp, -1);
+}
+
+TEST(RosMessages, RawImuRoundTrips) {
+  RawImuMessage m;
+  m.stamp = 123'456'789'012;
+  m.host_receive_time = 123'458'000'000;
+  m.sample_index = (uint64_t{1} << 33) + 5;
+  m.device_ticks = (uint64_t{1} << 40) + 7;
+  m.tick_hz = 1e6;
+  m.accel = {1, -2, 8192};
+  m.gyro = {-32768, 32767, 0};
+  m.temperature = 2500;
+  m.channels = 0b1011;
+  const RawImuMessage back = decode_raw_imu_cdr(encode_cdr(m), "m");
+  EXPECT_EQ(back.stamp, m.stamp);
+  EXPECT_EQ(back.host_receive_time, m.host_receive_time);
+  EXPECT_EQ(back.sample_index, m.sample_index);
+  EXPECT_EQ(back.device_ticks, m.device_ticks);
+  EXPECT_EQ(back.tick_hz, m.tick_hz);
+  EXPECT_EQ(back.accel, m.accel);
+  EXPECT_EQ(back.gyro, m.gyro);
+  EXPECT_EQ(back.temperature, 2500);
+  EXPECT_EQ(back.channels, 0b1011);
+}
+
+TEST(RosMessages, MalformedCdrIsRejectedWithTheByte) {
+  ImuMessage m;
+  auto b = encode_cdr(m);
+  EXPECT_THROW(decode_imu_cdr(std::span(b).first(b.size() - 8), "m"), Error);
+  auto bad = b;
+  bad[1] = 0x00;  // big-endian CDR: not what imukit writes
+  EXPECT_THROW(decode_imu_cdr(bad, "m"), Error);
+  auto huge = b;
+  huge[12] = 0xff;  // frame_id length far past the end
+  huge[13] = 0xff;
+  try {
+    decode_imu_cdr(huge, "m.cdr");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("m.cdr: byte 16"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace imukit::capture
