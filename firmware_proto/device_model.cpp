@@ -15,8 +15,17 @@ DeviceModel::DeviceModel(Hal& hal, const DeviceInfo& info) : hal_(hal), info_(in
 template <class M>
 bool DeviceModel::send(const M& m) {
   const size_t n = encode_message(m, tx_sequence_, tx_, sizeof tx_);
-  if (n == 0) return false;  // m invalid: nothing sent, no sequence number used
-  ++tx_sequence_;            // used even if the link refuses, so the host counts the loss
+  return n > 0 && transmit(n);  // n == 0: m invalid, nothing sent, no sequence number used
+}
+
+bool DeviceModel::send_raw(MessageType type, const uint8_t* payload, size_t size) {
+  const size_t n =
+      encode_frame(static_cast<uint8_t>(type), tx_sequence_, payload, size, tx_, sizeof tx_);
+  return n > 0 && transmit(n);
+}
+
+bool DeviceModel::transmit(size_t n) {
+  ++tx_sequence_;  // used even if the link refuses, so the host counts the loss
   if (!hal_.write(tx_, n)) {
     ++stats_.frames_dropped;
     return false;
@@ -163,16 +172,17 @@ void DeviceModel::handle_stop(const Frame& frame) {
 }
 
 void DeviceModel::handle_calibration_write(const Frame& frame) {
-  const ParseStatus status = parse_message(frame, calibration_);
+  // The payload is the serialised blob: checked, then stored byte for byte.
+  const ParseStatus status = check_blob(frame.payload, frame.payload_size);
   if (status == ParseStatus::kBadChecksum || status == ParseStatus::kBadValue) {
     return nack(frame, NackCode::kCalibrationInvalid);
   }
   if (status != ParseStatus::kOk) return nack(frame, NackCode::kMalformed);
   // Writing flash can stall the CPU for milliseconds: not while samples are due.
   if (state_ == DeviceState::kStreaming) return nack(frame, NackCode::kBadState);
-  ByteWriter w(blob_, sizeof blob_);
-  if (!write_blob(w, calibration_.blob)) return nack(frame, NackCode::kCalibrationInvalid);
-  if (!hal_.store_calibration(blob_, w.size())) return nack(frame, NackCode::kStorageError);
+  if (!hal_.store_calibration(frame.payload, frame.payload_size)) {
+    return nack(frame, NackCode::kStorageError);
+  }
   ack(frame);
 }
 
@@ -181,11 +191,11 @@ void DeviceModel::handle_calibration_read(const Frame& frame) {
   if (parse_message(frame, m) != ParseStatus::kOk) return nack(frame, NackCode::kMalformed);
   const size_t n = hal_.load_calibration(blob_, sizeof blob_);
   if (n == 0) return nack(frame, NackCode::kNoCalibration);
-  CalibrationData data;
-  if (n > sizeof blob_ || read_blob(blob_, n, data.blob) != ParseStatus::kOk) {
+  // Storage may have rotted: only a blob that still checks out goes back to the host.
+  if (n > sizeof blob_ || check_blob(blob_, n) != ParseStatus::kOk) {
     return nack(frame, NackCode::kCalibrationInvalid);
   }
-  send(data);
+  send_raw(MessageType::kCalibrationData, blob_, n);
 }
 
 void DeviceModel::flush_block() {

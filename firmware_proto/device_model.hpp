@@ -117,6 +117,8 @@ class DeviceModel {
   void flush_block();
   template <class M>
   bool send(const M& m);
+  bool send_raw(MessageType type, const uint8_t* payload, size_t size);
+  bool transmit(size_t frame_size);  // writes tx_[0, frame_size)
   void ack(const Frame& frame);
   void nack(const Frame& frame, NackCode code);
 
@@ -130,8 +132,7 @@ class DeviceModel {
   FrameDecoder rx_;
   uint16_t tx_sequence_ = 0;
   uint8_t tx_[kMaxFrameSize];
-  uint8_t blob_[kMaxCalibrationBlobSize];
-  CalibrationWrite calibration_;
+  uint8_t blob_[kMaxCalibrationBlobSize];  // the stored calibration on its way to the host
 
   SampleBlock block_;
   uint32_t next_index_ = 0;

@@ -299,6 +299,18 @@ ParseStatus read_payload(const uint8_t* p, size_t n, Pong& m) {
   return finish(r);
 }
 
+ParseStatus check_blob(const uint8_t* p, size_t n) {
+  if (n < 3) return ParseStatus::kBadLength;
+  const size_t size = static_cast<size_t>(p[1] | p[2] << 8);
+  if (size > kMaxCalibrationData) return ParseStatus::kBadValue;
+  if (n != 3 + size + 4) return ParseStatus::kBadLength;
+  if (p[0] == 0) return ParseStatus::kBadValue;
+  const uint32_t stored = static_cast<uint32_t>(p[n - 4]) | static_cast<uint32_t>(p[n - 3]) << 8 |
+                          static_cast<uint32_t>(p[n - 2]) << 16 |
+                          static_cast<uint32_t>(p[n - 1]) << 24;
+  return crc32c(p, n - 4) == stored ? ParseStatus::kOk : ParseStatus::kBadChecksum;
+}
+
 ParseStatus read_blob(const uint8_t* p, size_t n, CalibrationBlob& b) {
   ByteReader r(p, n);
   b.format_version = r.u8();

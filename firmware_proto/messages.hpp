@@ -263,6 +263,9 @@ ParseStatus read_payload(const uint8_t* p, size_t n, Log& out);
 ParseStatus read_payload(const uint8_t* p, size_t n, SampleBlock& out);
 // A serialised blob; kBadChecksum when its CRC does not match, kBadValue for format_version 0.
 ParseStatus read_blob(const uint8_t* p, size_t n, CalibrationBlob& out);
+// The same verdict as read_blob without copying the blob out (what a device needs to store or
+// return the bytes as they are).
+ParseStatus check_blob(const uint8_t* p, size_t n);
 
 // Encodes message m as a complete frame with the given sequence number. Returns the frame's size
 // (delimiter included) or 0 if m is not valid or out_capacity is too small (kMaxFrameSize always

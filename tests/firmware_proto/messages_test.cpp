@@ -473,12 +473,18 @@ TEST(Messages, CalibrationBlobCarriesItsOwnChecksum) {
   w.blob = golden_blob();
   Bytes p = payload_of(w);
   EXPECT_EQ(parse<CalibrationWrite>(p), ParseStatus::kOk);
+  EXPECT_EQ(check_blob(p.data(), p.size()), ParseStatus::kOk);
+  for (size_t n = 0; n < p.size(); ++n) {
+    const Bytes prefix(p.begin(), p.begin() + static_cast<ptrdiff_t>(n));
+    EXPECT_EQ(check_blob(prefix.data(), prefix.size()), parse<CalibrationWrite>(prefix)) << n;
+  }
   for (size_t i = 0; i < p.size(); ++i) {
     for (int bit = 0; bit < 8; ++bit) {
       Bytes q = p;
       q[i] ^= static_cast<uint8_t>(1 << bit);
       const ParseStatus s = parse<CalibrationWrite>(q);
       EXPECT_NE(s, ParseStatus::kOk) << "byte " << i << " bit " << bit;
+      EXPECT_EQ(check_blob(q.data(), q.size()), s) << "byte " << i << " bit " << bit;
     }
   }
   w.blob.format_version = 0;  // reserved: never a valid layout
