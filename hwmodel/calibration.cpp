@@ -1,0 +1,388 @@
+#include "hwmodel/calibration.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "core/error.hpp"
+
+namespace imukit::hwmodel {
+namespace {
+
+// T K (x - b) with T upper unit-triangular from (a0, a1, a2): [[1,-a0,a1],[0,1,-a2],[0,0,1]]
+// (the paper's sign convention), K = diag(s).
+template <typename T>
+void accel_model(const T* mis, const T* s, const T* b, const T* x, T* out) {
+  const T v0 = s[0] * (x[0] - b[0]), v1 = s[1] * (x[1] - b[1]), v2 = s[2] * (x[2] - b[2]);
+  out[0] = v0 - mis[0] * v1 + mis[1] * v2;
+  out[1] = v1 - mis[2] * v2;
+  out[2] = v2;
+}
+
+// Gyroscope: unit diagonal with six off-diagonal terms m (row-major order of the off-diagonals).
+template <typename T>
+void gyro_model(const T* m, const T* s, const T* b, const T* x, T* out) {
+  const T v0 = s[0] * (x[0] - b[0]), v1 = s[1] * (x[1] - b[1]), v2 = s[2] * (x[2] - b[2]);
+  out[0] = v0 + m[0] * v1 + m[1] * v2;
+  out[1] = m[2] * v0 + v1 + m[3] * v2;
+  out[2] = m[4] * v0 + m[5] * v1 + v2;
+}
+
+struct AccelResidual {
+  AccelResidual(const Eigen::Vector3d& mean, double g) : mean_(mean), g2_(g * g) {}
+  template <typename T>
+  bool operator()(const T* mis, const T* s, const T* b, T* r) const {
+    const T x[3] = {T(mean_.x()), T(mean_.y()), T(mean_.z())};
+    T a[3];
+    accel_model(mis, s, b, x, a);
+    // Divided by g so the residual is in m/s^2-like units near the solution.
+    r[0] = (T(g2_) - (a[0] * a[0] + a[1] * a[1] + a[2] * a[2])) / T(std::sqrt(g2_));
+    return true;
+  }
+  Eigen::Vector3d mean_;
+  double g2_;
+};
+
+struct GyroResidual {
+  GyroResidual(const Eigen::Matrix3Xd* gyro, std::vector<double> dt, int64_t begin,
+               const Eigen::Vector3d& u_from, const Eigen::Vector3d& u_to)
+      : gyro_(gyro), dt_(std::move(dt)), begin_(begin), u_from_(u_from), u_to_(u_to) {}
+  template <typename T>
+  bool operator()(const T* m, const T* s, const T* b, T* r) const {
+    // q_from_to: orientation of the sensor at the end relative to the start, integrated
+    // sample by sample with the exact exponential of each (constant) rate step.
+    T q[4] = {T(1), T(0), T(0), T(0)};
+    for (size_t k = 0; k < dt_.size(); ++k) {
+      const auto col = gyro_->col(begin_ + int64_t(k));
+      const T x[3] = {T(col.x()), T(col.y()), T(col.z())};
+      T w[3];
+      gyro_model(m, s, b, x, w);
+      const T aa[3] = {w[0] * dt_[k], w[1] * dt_[k], w[2] * dt_[k]};
+      T dq[4], nq[4];
+      ceres::AngleAxisToQuaternion(aa, dq);
+      ceres::QuaternionProduct(q, dq, nq);
+      for (int i = 0; i < 4; ++i) q[i] = nq[i];
+    }
+    // Gravity direction of the first pose seen from the second: R^T u.
+    const T qc[4] = {q[0], -q[1], -q[2], -q[3]};
+    const T u[3] = {T(u_from_.x()), T(u_from_.y()), T(u_from_.z())};
+    T p[3];
+    ceres::QuaternionRotatePoint(qc, u, p);
+    for (int i = 0; i < 3; ++i) r[i] = p[i] - T(u_to_[i]);
+    return true;
+  }
+  const Eigen::Matrix3Xd* gyro_;
+  std::vector<double> dt_;
+  int64_t begin_;
+  Eigen::Vector3d u_from_, u_to_;
+};
+
+// Rank of a problem's Jacobian at the current parameters. Each column is scaled by the size of
+// a meaningful change of its parameter (`reference`: 1 rad for an angle, the value itself for a
+// scale factor, one SI unit's worth of counts for a bias), so a parameter the data barely
+// touch shows up as a singular value far below the others (threshold 1e-4 of the largest);
+// scaling columns to unit norm instead would hide exactly that.
+int jacobian_rank(ceres::Problem& problem, const std::vector<double>& reference, int* cols_out) {
+  ceres::CRSMatrix crs;
+  problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &crs);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+  for (int r = 0; r < crs.num_rows; ++r)
+    for (int k = crs.rows[size_t(r)]; k < crs.rows[size_t(r) + 1]; ++k)
+      J(r, crs.cols[size_t(k)]) = crs.values[size_t(k)];
+  for (Eigen::Index c = 0; c < J.cols() && size_t(c) < reference.size(); ++c) J.col(c) *= reference[size_t(c)];
+  *cols_out = crs.num_cols;
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(J);
+  const Eigen::VectorXd sv = svd.singularValues();
+  int rank = 0;
+  for (Eigen::Index i = 0; i < sv.size(); ++i) rank += sv(i) > 1e-4 * sv(0);
+  return rank;
+}
+
+}  // namespace
+
+Eigen::Vector3d interval_mean(const Eigen::Matrix3Xd& x, const StaticInterval& iv) {
+  return x.middleCols(iv.begin, iv.end - iv.begin).rowwise().mean();
+}
+
+std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                                                    const StaticDetectorOptions& opt) {
+  const auto n = int64_t(t.size());
+  if (n < 2 || accel.cols() != n) throw Error("static detector: time stamps and samples differ in count");
+  const double period = to_seconds(t.back() - t.front()) / double(n - 1);
+  const int64_t half = std::max<int64_t>(1, int64_t(std::llround(0.5 * opt.window_s / period)));
+  const int64_t init_end = int64_t(std::llround(opt.init_static_s / period));
+  if (init_end + 2 * half >= n) {
+    throw Error("static detector: recording shorter than the initial static period (" +
+                std::to_string(opt.init_static_s) + " s) plus a window");
+  }
+  // Sliding sums of x and x^2 (mean removed first for precision) give each window's variance.
+  const Eigen::Vector3d mu = accel.rowwise().mean();
+  std::vector<double> c1(size_t(3 * (n + 1)), 0.0), c2(size_t(3 * (n + 1)), 0.0);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 3; ++a) {
+      const double v = accel(a, i) - mu(a);
+      c1[size_t(3 * (i + 1) + a)] = c1[size_t(3 * i + a)] + v;
+      c2[size_t(3 * (i + 1) + a)] = c2[size_t(3 * i + a)] + v * v;
+    }
+  std::vector<double> var(size_t(n), 0.0);
+  for (int64_t i = 0; i < n; ++i) {
+    const int64_t lo = std::max<int64_t>(0, i - half), hi = std::min(n, i + half + 1);
+    const double cnt = double(hi - lo);
+    double s = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      const double m1 = (c1[size_t(3 * hi + a)] - c1[size_t(3 * lo + a)]) / cnt;
+      const double m2 = (c2[size_t(3 * hi + a)] - c2[size_t(3 * lo + a)]) / cnt;
+      s += std::max(0.0, m2 - m1 * m1);
+    }
+    var[size_t(i)] = s;
+  }
+  // Reference: the accelerometer's total variance over the initial static period.
+  double ref = 0.0;
+  {
+    const Eigen::Matrix3Xd init = accel.leftCols(init_end);
+    const Eigen::Vector3d m = init.rowwise().mean();
+    ref = (init.colwise() - m).array().square().sum() / double(init_end);
+  }
+  const double threshold = opt.threshold_factor * ref;
+  const int64_t min_len = std::max<int64_t>(2, int64_t(std::llround(opt.min_interval_s / period)));
+  std::vector<StaticInterval> out;
+  int64_t start = -1;
+  for (int64_t i = 0; i <= n; ++i) {
+    const bool still = i < n && var[size_t(i)] < threshold;
+    if (still && start < 0) start = i;
+    if (!still && start >= 0) {
+      if (i - start >= min_len) out.push_back({start, i});
+      start = -1;
+    }
+  }
+  return out;
+}
+
+TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& runs) {
+  TurnOnBiasStats s;
+  s.runs = int(runs.size());
+  if (runs.empty()) return s;
+  for (const auto& r : runs) s.mean += r;
+  s.mean /= double(runs.size());
+  if (runs.size() > 1) {
+    for (const auto& r : runs) s.spread += (r - s.mean).cwiseAbs2();
+    s.spread = (s.spread / double(runs.size() - 1)).cwiseSqrt();
+  }
+  return s;
+}
+
+Eigen::Vector3d gyro_static_bias(const Eigen::Matrix3Xd& gyro) {
+  if (gyro.cols() == 0) throw Error("turn-on bias: empty gyroscope recording");
+  return gyro.rowwise().mean();
+}
+
+Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel, const Eigen::Matrix3d& R_world_sensor,
+                                  double gravity) {
+  if (accel.cols() == 0) throw Error("turn-on bias: empty accelerometer recording");
+  // At rest the specific force is -g_world = (0, 0, +g) in the world, seen in the sensor frame.
+  return accel.rowwise().mean() - R_world_sensor.transpose() * Eigen::Vector3d(0, 0, gravity);
+}
+
+TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& means, double gravity,
+                                   int max_iterations) {
+  if (means.size() < 9) {
+    throw Error("accelerometer calibration: " + std::to_string(means.size()) +
+                " static poses, at least 9 are needed for 9 parameters");
+  }
+  // Initial guess per axis from the extremes over the poses: bias mid-range, scale 2g/range.
+  Eigen::Vector3d lo = means.front(), hi = means.front();
+  for (const auto& m : means) lo = lo.cwiseMin(m), hi = hi.cwiseMax(m);
+  double mis[3] = {0, 0, 0}, s[3], b[3];
+  for (int a = 0; a < 3; ++a) {
+    const double range = hi(a) - lo(a);
+    b[a] = 0.5 * (hi(a) + lo(a));
+    s[a] = range > 0 ? 2.0 * gravity / range : 1.0;
+  }
+  ceres::Problem problem;
+  for (const auto& m : means) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelResidual, 1, 3, 3, 3>(
+                                 new AccelResidual(m, gravity)),
+                             nullptr, mis, s, b);
+  }
+  auto refs = [&] {
+    return std::vector<double>{1, 1, 1, std::abs(s[0]), std::abs(s[1]), std::abs(s[2]),
+                               1 / std::abs(s[0]), 1 / std::abs(s[1]), 1 / std::abs(s[2])};
+  };
+  int cols = 0;
+  const int rank_before = jacobian_rank(problem, refs(), &cols);
+  ceres::Solver::Options so;
+  so.max_num_iterations = max_iterations;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.function_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-14;
+  so.gradient_tolerance = 1e-16;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  const int rank = jacobian_rank(problem, refs(), &cols);
+  if (rank < cols || rank_before < cols) {
+    throw Error("accelerometer calibration: the static poses do not excite all axes (Jacobian rank " +
+                std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
+                "); hold the sensor in more orientations, each axis up and down");
+  }
+  if (summary.termination_type == ceres::FAILURE) {
+    throw Error("accelerometer calibration did not converge: " + summary.BriefReport());
+  }
+  TriadCalibration c;
+  c.T << 1, -mis[0], mis[1], 0, 1, -mis[2], 0, 0, 1;
+  c.scale = Eigen::Vector3d(s[0], s[1], s[2]);
+  c.bias = Eigen::Vector3d(b[0], b[1], b[2]);
+  return c;
+}
+
+namespace {
+
+std::vector<Eigen::Vector3d> pose_means(const Eigen::Matrix3Xd& accel, const std::vector<StaticInterval>& iv) {
+  std::vector<Eigen::Vector3d> m;
+  for (const auto& i : iv) m.push_back(interval_mean(accel, i));
+  return m;
+}
+
+void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& means, double g,
+                 std::vector<double>& err, double& rms, double& mx) {
+  err.clear();
+  double ss = 0.0;
+  mx = 0.0;
+  for (const auto& m : means) {
+    const double e = c.apply(m).norm() - g;
+    err.push_back(e);
+    ss += e * e;
+    mx = std::max(mx, std::abs(e));
+  }
+  rms = means.empty() ? 0.0 : std::sqrt(ss / double(means.size()));
+}
+
+}  // namespace
+
+CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                            const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto n = int64_t(t.size());
+  if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
+    throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
+  }
+  CalibrationResult best;
+  bool have = false;
+  std::string last_error = "no threshold factor gave enough static poses";
+  // Threshold search (the paper's k): keep the factor whose accelerometer fit fits best.
+  for (int k = 1; k <= options.max_threshold_factor; ++k) {
+    StaticDetectorOptions d = options.detector;
+    d.threshold_factor = double(k);
+    const auto iv = detect_static_intervals(t, accel, d);
+    if (int(iv.size()) < options.min_poses) {
+      last_error = "only " + std::to_string(iv.size()) + " static poses found (at least " +
+                   std::to_string(options.min_poses) + " are needed)";
+      continue;
+    }
+    const auto means = pose_means(accel, iv);
+    TriadCalibration c;
+    try {
+      c = fit_accelerometer(means, options.gravity, options.max_iterations);
+    } catch (const Error& e) {
+      last_error = e.what();
+      continue;
+    }
+    CalibrationResult r;
+    r.accel = c;
+    r.poses = iv;
+    r.threshold_factor = double(k);
+    norm_errors(c, means, options.gravity, r.accel_norm_error, r.accel_rms, r.accel_max);
+    if (!have || r.accel_rms < best.accel_rms) best = std::move(r), have = true;
+  }
+  if (!have) throw Error("calibration: " + last_error);
+
+  if (options.calibrate_gyro) {
+    const auto& iv = best.poses;
+    // Bias from the first static pose (the initial static period), then refined with the rest.
+    double m[6] = {0, 0, 0, 0, 0, 0}, s[3] = {1, 1, 1}, b[3];
+    const Eigen::Vector3d b0 = interval_mean(gyro, iv.front());
+    for (int a = 0; a < 3; ++a) b[a] = b0(a);
+    ceres::Problem problem;
+    std::vector<Eigen::Vector3d> dirs;
+    for (const auto& i : iv) dirs.push_back(best.accel.apply(interval_mean(accel, i)).normalized());
+    for (size_t p = 0; p + 1 < iv.size(); ++p) {
+      // From the middle of pose p to the middle of pose p+1: the static parts at both ends carry
+      // the bias into the fit and cost nothing in rotation.
+      const int64_t from = (iv[p].begin + iv[p].end) / 2, to = (iv[p + 1].begin + iv[p + 1].end) / 2;
+      std::vector<double> dt;
+      for (int64_t q = from; q < to; ++q) dt.push_back(to_seconds(t[size_t(q + 1)] - t[size_t(q)]));
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<GyroResidual, 3, 6, 3, 3>(
+              new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1])),
+          nullptr, m, s, b);
+    }
+    // Scale starts at 1 (SI input) or is guessed for raw counts: the rotation angle between
+    // poses from gravity against the integrated raw rate.
+    {
+      double num = 0.0, den = 0.0;
+      for (size_t p = 0; p + 1 < iv.size(); ++p) {
+        const double angle = std::acos(std::clamp(dirs[p].dot(dirs[p + 1]), -1.0, 1.0));
+        Eigen::Vector3d integ = Eigen::Vector3d::Zero();
+        for (int64_t q = iv[p].end; q < iv[p + 1].begin; ++q)
+          integ += (gyro.col(q) - b0) * to_seconds(t[size_t(q + 1)] - t[size_t(q)]);
+        if (angle > 0.3) num += angle, den += integ.norm();
+      }
+      if (den > 0 && num > 0) {
+        for (double& v : s) v = num / den;
+      }
+    }
+    auto refs = [&] {
+      return std::vector<double>{1, 1, 1, 1, 1, 1, std::abs(s[0]), std::abs(s[1]), std::abs(s[2]),
+                                 1 / std::abs(s[0]), 1 / std::abs(s[1]), 1 / std::abs(s[2])};
+    };
+    int cols = 0;
+    const int rank_before = jacobian_rank(problem, refs(), &cols);
+    ceres::Solver::Options so;
+    so.max_num_iterations = options.max_iterations;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.num_threads = 2;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    const int rank = jacobian_rank(problem, refs(), &cols);
+    if (std::min(rank, rank_before) < cols) {
+      throw Error("gyroscope calibration: the rotations between poses do not excite all axes "
+                  "(Jacobian rank " + std::to_string(std::min(rank, rank_before)) + " of " +
+                  std::to_string(cols) + "); rotate about each of the three axes");
+    }
+    if (summary.termination_type == ceres::FAILURE) {
+      throw Error("gyroscope calibration did not converge: " + summary.BriefReport());
+    }
+    best.gyro.T << 1, m[0], m[1], m[2], 1, m[3], m[4], m[5], 1;
+    best.gyro.scale = Eigen::Vector3d(s[0], s[1], s[2]);
+    best.gyro.bias = Eigen::Vector3d(b[0], b[1], b[2]);
+    // Residual angles.
+    double ss = 0.0;
+    best.gyro_max_rad = 0.0;
+    std::vector<double> res(3);
+    for (ceres::ResidualBlockId id : [&] {
+           std::vector<ceres::ResidualBlockId> ids;
+           problem.GetResidualBlocks(&ids);
+           return ids;
+         }()) {
+      double r[3];
+      const ceres::CostFunction* cf = problem.GetCostFunctionForResidualBlock(id);
+      const double* params[3] = {m, s, b};
+      cf->Evaluate(params, r, nullptr);
+      // |p - u| = 2 sin(angle/2) for unit vectors.
+      const double chord = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+      const double ang = 2.0 * std::asin(std::min(1.0, 0.5 * chord));
+      best.gyro_direction_error_rad.push_back(ang);
+      ss += ang * ang;
+      best.gyro_max_rad = std::max(best.gyro_max_rad, ang);
+    }
+    best.gyro_rms_rad = std::sqrt(ss / double(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
+  }
+  best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return best;
+}
+
+}  // namespace imukit::hwmodel

@@ -1,0 +1,112 @@
+// Static intervals, turn-on bias and multi-position calibration of an accelerometer and a
+// gyroscope (Tedaldi, Pretto, Menegatti, "A robust and easy to implement method for IMU
+// calibration without external equipments", ICRA 2014):
+//
+// 1. Static detector: the summed per-axis variance of the accelerometer over a sliding window
+//    is compared with k times its mean over the initial static period; runs below it that last
+//    long enough are static poses. k is searched (1..max_k) and the one whose accelerometer
+//    fit has the smallest residual wins, as in the paper.
+// 2. Accelerometer: a_true = T K (a_raw - b), T upper unit-triangular (3 misalignment angles),
+//    K = diag(scale), b bias; minimise sum_i (g^2 - |a_true(mean of pose i)|^2)^2 (Ceres).
+// 3. Gyroscope: w_true = T_g K_g (w_raw - b_g), T_g unit diagonal with 6 small angles; b_g from
+//    the initial static period, then refined. Between consecutive poses i, i+1 the calibrated
+//    rate is integrated exactly per sample (R <- R exp([w dt]x)), and the gravity direction
+//    of pose i carried into pose i+1 must match the direction measured there.
+// Unexcited directions (poses that do not tilt every axis, rotations about fewer than three
+// axes) make the problem rank deficient: calibrate() throws imukit::Error saying which,
+// instead of returning numbers the data do not determine.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/imu_series.hpp"
+
+namespace imukit::hwmodel {
+
+struct StaticInterval {
+  int64_t begin = 0;  // first sample
+  int64_t end = 0;    // one past the last
+};
+
+struct StaticDetectorOptions {
+  double window_s = 1.0;        // sliding variance window
+  double init_static_s = 50.0;  // initial static period (paper: 50 s)
+  double threshold_factor = 3.0;
+  double min_interval_s = 1.0;  // shorter static runs are ignored
+};
+
+// Static intervals of the accelerometer (3 x n) at times t. Throws imukit::Error when the
+// recording is shorter than the initial static period plus a window.
+std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
+                                                    const Eigen::Matrix3Xd& accel,
+                                                    const StaticDetectorOptions& options);
+
+// Per-axis mean (and standard deviation) of a channel over a sample range.
+Eigen::Vector3d interval_mean(const Eigen::Matrix3Xd& x, const StaticInterval& iv);
+
+// Turn-on bias across recordings (power cycles): each row of per_run_bias is one run's bias.
+struct TurnOnBiasStats {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d spread = Eigen::Vector3d::Zero();  // sample standard deviation (n - 1)
+  int runs = 0;
+};
+TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& per_run_bias);
+
+// Gyro turn-on bias of a static recording: the mean rate. Accelerometer: the mean minus the
+// specific force expected for a known orientation, f = R_world_sensor^T (0, 0, g).
+Eigen::Vector3d gyro_static_bias(const Eigen::Matrix3Xd& gyro);
+Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel, const Eigen::Matrix3d& R_world_sensor,
+                                  double gravity);
+
+// One triad's correction: true = T diag(scale) (raw - bias). T is unit-diagonal (the
+// accelerometer's is upper triangular).
+struct TriadCalibration {
+  Eigen::Matrix3d T = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+  Eigen::Vector3d bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d apply(const Eigen::Vector3d& raw) const { return T * scale.asDiagonal() * (raw - bias); }
+  // The forward model of core/profile.hpp: raw = diag(s) M true + bias, s = 1/scale,
+  // M = T^-1 scaled to unit diagonal (it already has one).
+  Eigen::Vector3d forward_scale() const { return scale.cwiseInverse(); }
+  Eigen::Matrix3d forward_misalignment() const { return T.inverse(); }
+};
+
+struct CalibrationOptions {
+  double gravity = 9.80665;
+  StaticDetectorOptions detector;
+  int max_threshold_factor = 10;  // k searched over 1..max (integers)
+  int min_poses = 9;
+  bool calibrate_gyro = true;
+  int max_iterations = 200;
+};
+
+struct PoseResidual {
+  double norm_error = 0.0;  // |a_calibrated| - g at each pose
+};
+
+struct CalibrationResult {
+  TriadCalibration accel, gyro;
+  std::vector<StaticInterval> poses;
+  double threshold_factor = 0.0;
+  std::vector<double> accel_norm_error;   // |a_cal| - g per pose, m/s^2
+  double accel_rms = 0.0, accel_max = 0.0;
+  std::vector<double> gyro_direction_error_rad;  // angle between carried and measured gravity
+  double gyro_rms_rad = 0.0, gyro_max_rad = 0.0;
+  double seconds = 0.0;  // wall time of the optimisation
+};
+
+// accel and gyro share the time stamps t (raw counts or SI). Throws imukit::Error for too few
+// poses, rank deficiency, or a non-converging fit.
+CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                            const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options);
+
+// Accelerometer fit on given static means only (used by calibrate and the leave-poses-out
+// check). Throws like calibrate.
+TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& static_means, double gravity,
+                                   int max_iterations = 200);
+
+}  // namespace imukit::hwmodel
