@@ -1,5 +1,6 @@
 #include "core/rng.hpp"
 
+#include <bit>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -34,15 +35,33 @@ constexpr uint64_t pair_key(uint64_t seed, uint64_t stream) {
 
 constexpr uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
+// The engine state as four scalars passed by value in the normal sampler's hot loop, so that
+// the compiler keeps them in registers (an array whose address escapes lives on the stack).
+struct Xoshiro256pp {
+  uint64_t s0, s1, s2, s3;
+
+  uint64_t next() {
+    const uint64_t result = rotl(s0 + s3, 23) + s0;
+    const uint64_t t = s1 << 17;
+    s2 ^= s0;
+    s3 ^= s1;
+    s1 ^= s2;
+    s0 ^= s3;
+    s2 ^= t;
+    s3 = rotl(s3, 45);
+    return result;
+  }
+};
+
+inline Xoshiro256pp load(const std::array<uint64_t, 4>& s) { return {s[0], s[1], s[2], s[3]}; }
+inline void store(const Xoshiro256pp& g, std::array<uint64_t, 4>& s) {
+  s = {g.s0, g.s1, g.s2, g.s3};
+}
+
 inline uint64_t xoshiro_next(std::array<uint64_t, 4>& s) {
-  const uint64_t result = rotl(s[0] + s[3], 23) + s[0];
-  const uint64_t t = s[1] << 17;
-  s[2] ^= s[0];
-  s[3] ^= s[1];
-  s[1] ^= s[2];
-  s[0] ^= s[3];
-  s[2] ^= t;
-  s[3] = rotl(s[3], 45);
+  Xoshiro256pp g = load(s);
+  const uint64_t result = g.next();
+  store(g, s);
   return result;
 }
 
@@ -113,34 +132,63 @@ const ZigguratTable& ziggurat_table() {
   return table;
 }
 
+// x with its sign bit flipped when bit 8 of the draw is set: the same value as
+// (bit ? -x : x), without a branch that a random sign would mispredict half the time.
+inline double with_random_sign(double x, uint64_t bits) {
+  return std::bit_cast<double>(std::bit_cast<uint64_t>(x) ^ ((bits & 0x100u) << 55));
+}
+
 // The tail beyond r (Marsaglia 1964): with a = -log(u1) / r and b = -log(u2), accept r + a when
 // 2 b > a^2. u1, u2 in (0, 1].
-double normal_tail(std::array<uint64_t, 4>& s) {
+double normal_tail(Xoshiro256pp& g) {
   for (;;) {
-    const double a = -portable_log(to_unit_open_left(xoshiro_next(s))) / kZigR;
-    const double b = -portable_log(to_unit_open_left(xoshiro_next(s)));
+    const double a = -portable_log(to_unit_open_left(g.next())) / kZigR;
+    const double b = -portable_log(to_unit_open_left(g.next()));
     if (b + b > a * a) return kZigR + a;
   }
 }
 
-// One N(0, 1) draw. Bits of one 64-bit word: 0-7 the layer, 8 the sign, 11-63 the position.
-inline double draw_normal(std::array<uint64_t, 4>& s, const ZigguratTable& t) {
+// Bits of one 64-bit draw: 0-7 the layer, 8 the sign, 11-63 the position x = (bits >> 11) w_i.
+inline double position(uint64_t bits, const ZigguratTable& t) {
+  return static_cast<double>(bits >> 11) * t.w[bits & 0xffu];
+}
+
+struct SlowDraw {
+  Xoshiro256pp g;
+  double value;
+};
+
+// Everything after a draw `bits` missed its layer's inner rectangle (1.5 % of draws): the wedge
+// test, the tail, and on rejection new draws until one is accepted. Takes and returns the engine
+// by value so that the fast path's state never has its address taken.
+SlowDraw normal_slow_path(Xoshiro256pp g, const ZigguratTable& t, uint64_t bits) {
   for (;;) {
-    const uint64_t bits = xoshiro_next(s);
     const unsigned layer = static_cast<unsigned>(bits & 0xffu);
-    const bool negative = (bits >> 8) & 1u;
-    const double x = static_cast<double>(bits >> 11) * t.w[layer];
-    if (x < t.x[layer + 1]) return negative ? -x : x;  // inside the layer's inner rectangle
+    const double x = position(bits, t);
+    if (x < t.x[layer + 1]) return {g, with_random_sign(x, bits)};
     if (layer == 0) {
-      const double tail = normal_tail(s);
-      return negative ? -tail : tail;
+      const double tail = normal_tail(g);
+      return {g, with_random_sign(tail, bits)};
     }
     // Wedge between x_i+1 and x_i: accept if a uniform height in [f(x_i), f(x_i+1)) is below
     // the curve, tested as x^2 < -2 log(y) to need only the portable log.
-    const double y = t.f[layer] + to_unit(xoshiro_next(s)) * (t.f[layer + 1] - t.f[layer]);
-    if (x * x < -2.0 * portable_log(y)) return negative ? -x : x;
+    const double y = t.f[layer] + to_unit(g.next()) * (t.f[layer + 1] - t.f[layer]);
+    if (x * x < -2.0 * portable_log(y)) return {g, with_random_sign(x, bits)};
     // Rejected: start over with a new layer (retrying in the same layer would bias the draw).
+    bits = g.next();
   }
+}
+
+// One N(0, 1) draw; the fast path inline, the rest out of line.
+inline double draw_normal(Xoshiro256pp& g, const ZigguratTable& t) {
+  const uint64_t bits = g.next();
+  const double x = position(bits, t);
+  if (x < t.x[(bits & 0xffu) + 1]) [[likely]] {
+    return with_random_sign(x, bits);
+  }
+  const SlowDraw slow = normal_slow_path(g, t, bits);
+  g = slow.g;
+  return slow.value;
 }
 
 }  // namespace
@@ -213,13 +261,18 @@ uint64_t Rng::uniform_index(uint64_t n) {
   return hi;
 }
 
-double Rng::normal() { return draw_normal(state_, ziggurat_table()); }
+double Rng::normal() {
+  Xoshiro256pp g = load(state_);
+  const double v = draw_normal(g, ziggurat_table());
+  store(g, state_);
+  return v;
+}
 
 void Rng::fill_normal(std::span<double> out) {
   const ZigguratTable& table = ziggurat_table();
-  std::array<uint64_t, 4> s = state_;  // a local copy stays in registers
-  for (double& v : out) v = draw_normal(s, table);
-  state_ = s;
+  Xoshiro256pp g = load(state_);  // a local copy stays in registers
+  for (double& v : out) v = draw_normal(g, table);
+  store(g, state_);
 }
 
 }  // namespace imukit
