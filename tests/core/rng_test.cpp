@@ -227,10 +227,12 @@ TEST(RngNormal, HasUnitMomentsAndNormalTails) {
 }
 
 // Every |x| beyond the ziggurat's base r = 3.6541528853610088 comes from the tail algorithm.
-// Their conditional law must be the normal tail, P(|X| > x | |X| > r) = erfc(x/sqrt2)/erfc(r/sqrt2):
-// KS over 5e7 draws (about 12900 tail samples; critical value 1.95/sqrt(m) at alpha = 0.001,
-// ~0.017). The exponential approximation r + Exp(r) (the tail without its rejection step) is off
-// by 0.037 at x = 4 and fails; the plain 4-sigma count above would miss it (1.2 standard errors).
+// Their conditional law must be the normal tail,
+//   P(|X| > x  given  |X| > r) = erfc(x / sqrt2) / erfc(r / sqrt2):
+// KS over 5e7 draws (about 12900 tail samples; critical value 1.95 / sqrt(m) at alpha = 0.001,
+// about 0.017). The exponential approximation r + Exp(r) (the tail without its rejection step)
+// is off by 0.037 at x = 4 and fails; the plain 4-sigma count above would miss it (1.2 standard
+// errors).
 TEST(RngNormal, TailBeyondTheZigguratBaseFollowsTheNormalTail) {
   const double r = 3.6541528853610088;
   Rng rng(161803);
