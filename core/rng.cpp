@@ -35,35 +35,39 @@ constexpr uint64_t pair_key(uint64_t seed, uint64_t stream) {
 
 constexpr uint64_t rotl(uint64_t x, int k) { return (x << k) | (x >> (64 - k)); }
 
-// The engine state as four scalars passed by value in the normal sampler's hot loop, so that
-// the compiler keeps them in registers (an array whose address escapes lives on the stack).
-struct Xoshiro256pp {
-  uint64_t s0, s1, s2, s3;
-
-  uint64_t next() {
-    const uint64_t result = rotl(s0 + s3, 23) + s0;
-    const uint64_t t = s1 << 17;
-    s2 ^= s0;
-    s3 ^= s1;
-    s1 ^= s2;
-    s0 ^= s3;
-    s2 ^= t;
-    s3 = rotl(s3, 45);
-    return result;
-  }
-};
-
-inline Xoshiro256pp load(const std::array<uint64_t, 4>& s) { return {s[0], s[1], s[2], s[3]}; }
-inline void store(const Xoshiro256pp& g, std::array<uint64_t, 4>& s) {
-  s = {g.s0, g.s1, g.s2, g.s3};
-}
-
-inline uint64_t xoshiro_next(std::array<uint64_t, 4>& s) {
-  Xoshiro256pp g = load(s);
-  const uint64_t result = g.next();
-  store(g, s);
+// One xoshiro256++ step on four words held wherever the caller keeps them.
+inline uint64_t xoshiro_step(uint64_t& s0, uint64_t& s1, uint64_t& s2, uint64_t& s3) {
+  const uint64_t result = rotl(s0 + s3, 23) + s0;
+  const uint64_t t = s1 << 17;
+  s2 ^= s0;
+  s3 ^= s1;
+  s1 ^= s2;
+  s0 ^= s3;
+  s2 ^= t;
+  s3 = rotl(s3, 45);
   return result;
 }
+
+// The engine state as four scalars, passed by value in the normal sampler's slow path and held
+// as a local in fill_normal, so that the compiler keeps it in registers (state whose address
+// escapes lives on the stack).
+struct Xoshiro256pp {
+  uint64_t s0, s1, s2, s3;
+  uint64_t next() { return xoshiro_step(s0, s1, s2, s3); }
+  Xoshiro256pp snapshot() const { return *this; }
+  void assign(const Xoshiro256pp& g) { *this = g; }
+};
+
+// The same engine working in place on Rng's member array (used by single draws, which would
+// otherwise copy the state in and out on every call).
+struct InPlaceXoshiro {
+  std::array<uint64_t, 4>& s;
+  uint64_t next() { return xoshiro_step(s[0], s[1], s[2], s[3]); }
+  Xoshiro256pp snapshot() const { return {s[0], s[1], s[2], s[3]}; }
+  void assign(const Xoshiro256pp& g) { s = {g.s0, g.s1, g.s2, g.s3}; }
+};
+
+inline uint64_t xoshiro_next(std::array<uint64_t, 4>& s) { return InPlaceXoshiro{s}.next(); }
 
 // [0, 1) from the top 53 bits: every multiple of 2^-53 equally likely.
 inline double to_unit(uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
@@ -180,14 +184,15 @@ SlowDraw normal_slow_path(Xoshiro256pp g, const ZigguratTable& t, uint64_t bits)
 }
 
 // One N(0, 1) draw; the fast path inline, the rest out of line.
-inline double draw_normal(Xoshiro256pp& g, const ZigguratTable& t) {
-  const uint64_t bits = g.next();
+template <class Engine>
+inline double draw_normal(Engine& e, const ZigguratTable& t) {
+  const uint64_t bits = e.next();
   const double x = position(bits, t);
   if (x < t.x[(bits & 0xffu) + 1]) [[likely]] {
     return with_random_sign(x, bits);
   }
-  const SlowDraw slow = normal_slow_path(g, t, bits);
-  g = slow.g;
+  const SlowDraw slow = normal_slow_path(e.snapshot(), t, bits);
+  e.assign(slow.g);
   return slow.value;
 }
 
@@ -262,17 +267,15 @@ uint64_t Rng::uniform_index(uint64_t n) {
 }
 
 double Rng::normal() {
-  Xoshiro256pp g = load(state_);
-  const double v = draw_normal(g, ziggurat_table());
-  store(g, state_);
-  return v;
+  InPlaceXoshiro e{state_};
+  return draw_normal(e, ziggurat_table());
 }
 
 void Rng::fill_normal(std::span<double> out) {
   const ZigguratTable& table = ziggurat_table();
-  Xoshiro256pp g = load(state_);  // a local copy stays in registers
+  Xoshiro256pp g{state_[0], state_[1], state_[2], state_[3]};  // a local copy stays in registers
   for (double& v : out) v = draw_normal(g, table);
-  store(g, state_);
+  state_ = {g.s0, g.s1, g.s2, g.s3};
 }
 
 }  // namespace imukit
