@@ -1,0 +1,78 @@
+// Body: the skeleton of the simulation model (seed-summary section 1, "Body B"): a tree of joints,
+// each with the offset (m) from its parent joint expressed in the parent's frame at the neutral
+// pose. Joint j's frame moves with the segment that starts at j (joint "left_elbow" carries the
+// forearm), so a sensor "on the forearm" hangs from joint left_elbow.
+//
+// Canonical names (lower case, left_/right_ prefix) let presets fit any body whose segments are
+// named: the alias table maps both CMU BVH naming schemes (3dsMax release: LeftHip, LeftKnee,
+// Chest, LeftCollar, LeftShoulder, LeftElbow, LeftWrist; MotionBuilder release: LeftUpLeg, LeftLeg,
+// Spine1, LeftShoulder (= clavicle!), LeftArm, LeftForeArm, LeftHand) and a few common others. The
+// two CMU schemes disagree on "LeftShoulder", so the scheme is detected from the whole name set.
+//
+// World frame: Z up; neutral pose x = subject's right, y = forward, z = up (seed-summary 1).
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace imukit::sim {
+
+struct Joint {
+  std::string name;                                            // canonical when known
+  std::string source_name;                                     // as the input spelled it
+  int parent = -1;                                             // -1 for the root
+  Eigen::Vector3d offset_parent_joint = Eigen::Vector3d::Zero();  // m, in the parent's frame
+  // Where the segment ends when no child joint says so (BVH "End Site"), in this joint's frame.
+  std::optional<Eigen::Vector3d> end_offset;
+};
+
+class Body {
+ public:
+  // Appends a joint; parents come before children (asserted), so index order is a valid
+  // evaluation order. Throws imukit::Error for a duplicate name. Returns the new index.
+  int add_joint(std::string name, int parent, const Eigen::Vector3d& offset_parent_joint,
+                std::string source_name = {});
+  std::size_t size() const { return joints_.size(); }
+  const Joint& joint(std::size_t i) const { return joints_[i]; }
+  Joint& joint(std::size_t i) { return joints_[i]; }
+  const std::vector<Joint>& joints() const { return joints_; }
+
+  // Index of a joint by canonical name, source name, segment name ("left_forearm") or alias.
+  std::optional<int> find(std::string_view name) const;
+  // Like find, but throws imukit::Error listing the known names.
+  int index_of(std::string_view name) const;
+  // Joints from the root down to j, root first.
+  std::vector<int> chain(int j) const;
+  std::vector<int> children(int j) const;
+  // The segment's end in joint j's frame: the child joint the segment points to (the child on
+  // the chain to the distal limb end: the one with the longest subtree, ties to the first), else
+  // end_offset, else the continuation of the parent's offset. Zero for a lone root.
+  Eigen::Vector3d segment_end(int j) const;
+  // Neutral-pose joint positions in the world frame (root at the origin).
+  std::vector<Eigen::Vector3d> neutral_positions() const;
+  // Unit forward direction of the body at the neutral pose: up x right, where right points from
+  // the left hip (or shoulder) to the right one; +y when the body has neither pair.
+  Eigen::Vector3d forward_direction() const;
+
+  // A T-pose humanoid (arms along +-x, facing +y, z up) with 21 canonical joints, segment
+  // lengths from anthropometric ratios of the stature (Winter, Biomechanics and Motor Control of
+  // Human Movement, 4th ed., fig. 4.1). The root (pelvis) sits at the origin.
+  static Body default_humanoid(double height_m = 1.75);
+
+ private:
+  std::vector<Joint> joints_;
+};
+
+// Every canonical joint name (the default humanoid has all of them).
+const std::vector<std::string>& canonical_joint_names();
+// The segment a canonical joint carries ("left_elbow" -> "left_forearm"); empty if none.
+std::string segment_name(std::string_view canonical_joint);
+// Canonical names for a set of source joint names (same order): alias table with the CMU scheme
+// detected from the set; unknown names, and second claims on a canonical name, keep the source
+// name unchanged.
+std::vector<std::string> canonicalize_joint_names(const std::vector<std::string>& source_names);
+
+}  // namespace imukit::sim

@@ -1,0 +1,258 @@
+#include "sim/bvh.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/text_parse.hpp"
+
+namespace imukit::sim {
+namespace {
+
+struct Token {
+  std::string_view text;
+  int64_t line = 0;
+  int64_t column = 0;
+};
+
+// Whitespace tokenizer that remembers where each token starts. Braces and ':' are tokens of
+// their own only where BVH needs them ("{", "}", "Frames:", "Time:").
+class Tokenizer {
+ public:
+  Tokenizer(std::string_view text, const std::string& name) : text_(text), name_(name) {}
+
+  bool next(Token& t) {
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      if (c == '\n') {
+        ++line_;
+        col_ = 1;
+        ++pos_;
+      } else if (c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v') {
+        ++col_;
+        ++pos_;
+      } else {
+        break;
+      }
+    }
+    if (pos_ >= text_.size()) return false;
+    const std::size_t start = pos_;
+    t.line = line_;
+    t.column = col_;
+    while (pos_ < text_.size()) {
+      const char c = text_[pos_];
+      if (c == '\n' || c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v') break;
+      ++pos_;
+      ++col_;
+    }
+    t.text = text_.substr(start, pos_ - start);
+    return true;
+  }
+
+  Token expect_any(const char* what) {
+    Token t;
+    if (!next(t)) throw Error(InputLocation{name_, line_, col_, std::nullopt}, std::string("unexpected end of file: expected ") + what);
+    return t;
+  }
+  void expect(std::string_view word) {
+    const Token t = expect_any(std::string(word).c_str());
+    if (t.text != word) fail(t, "expected '" + std::string(word) + "', got '" + std::string(t.text) + "'");
+  }
+  double number(const char* what) {
+    const Token t = expect_any(what);
+    const auto v = parse_double(t.text);
+    if (!v) fail(t, std::string("expected ") + what + ", got '" + std::string(t.text) + "'");
+    if (!std::isfinite(*v)) fail(t, std::string(what) + " is not finite");
+    return *v;
+  }
+  [[noreturn]] void fail(const Token& t, const std::string& what) const {
+    throw Error(InputLocation{name_, t.line, t.column, std::nullopt}, what);
+  }
+  int64_t line() const { return line_; }
+
+ private:
+  std::string_view text_;
+  const std::string& name_;
+  std::size_t pos_ = 0;
+  int64_t line_ = 1;
+  int64_t col_ = 1;
+};
+
+enum class Channel { xpos, ypos, zpos, xrot, yrot, zrot };
+
+struct RawJoint {
+  std::string name;
+  int parent = -1;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  std::optional<Eigen::Vector3d> end;
+  std::vector<Channel> channels;
+};
+
+void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int depth) {
+  if (depth > 1000) {
+    Token t;
+    t.line = tz.line();
+    tz.fail(t, "hierarchy nested deeper than 1000 joints");
+  }
+  const Token name = tz.expect_any("a joint name");
+  if (name.text == "{") tz.fail(name, "joint has no name");
+  RawJoint j;
+  j.name = std::string(name.text);
+  j.parent = parent;
+  for (const RawJoint& other : joints) {
+    if (other.name == j.name) tz.fail(name, "duplicate joint name '" + j.name + "'");
+  }
+  tz.expect("{");
+  tz.expect("OFFSET");
+  for (int i = 0; i < 3; ++i) j.offset(i) = tz.number("an OFFSET value");
+  const Token ch = tz.expect_any("CHANNELS");
+  if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got '" + std::string(ch.text) + "'");
+  const Token nt = tz.expect_any("a channel count");
+  const auto n = parse_double(nt.text);
+  if (!n || *n != std::floor(*n) || *n < 0 || *n > 6) tz.fail(nt, "channel count must be 0..6");
+  for (int i = 0; i < static_cast<int>(*n); ++i) {
+    const Token c = tz.expect_any("a channel name");
+    std::string l(c.text);
+    for (char& x : l) x = static_cast<char>(std::tolower(static_cast<unsigned char>(x)));
+    Channel k;
+    if (l == "xposition") k = Channel::xpos;
+    else if (l == "yposition") k = Channel::ypos;
+    else if (l == "zposition") k = Channel::zpos;
+    else if (l == "xrotation") k = Channel::xrot;
+    else if (l == "yrotation") k = Channel::yrot;
+    else if (l == "zrotation") k = Channel::zrot;
+    else tz.fail(c, "unknown channel '" + std::string(c.text) + "'");
+    for (Channel e : j.channels) {
+      if (e == k) tz.fail(c, "channel '" + std::string(c.text) + "' listed twice");
+    }
+    j.channels.push_back(k);
+  }
+  const int self = static_cast<int>(joints.size());
+  joints.push_back(std::move(j));
+  for (;;) {
+    const Token t = tz.expect_any("JOINT, End Site or '}'");
+    if (t.text == "}") return;
+    if (t.text == "JOINT") {
+      parse_joint(tz, joints, self, depth + 1);
+    } else if (t.text == "End") {
+      tz.expect("Site");
+      tz.expect("{");
+      tz.expect("OFFSET");
+      Eigen::Vector3d e;
+      for (int i = 0; i < 3; ++i) e(i) = tz.number("an OFFSET value");
+      tz.expect("}");
+      joints[static_cast<std::size_t>(self)].end = e;
+    } else {
+      tz.fail(t, "expected JOINT, End Site or '}', got '" + std::string(t.text) + "'");
+    }
+  }
+}
+
+Eigen::Quaterniond axis_rotation(Channel c, double degrees) {
+  const double a = degrees * (std::numbers::pi / 180.0);
+  const Eigen::Vector3d axis = c == Channel::xrot   ? Eigen::Vector3d::UnitX()
+                               : c == Channel::yrot ? Eigen::Vector3d::UnitY()
+                                                    : Eigen::Vector3d::UnitZ();
+  return Eigen::Quaterniond(Eigen::AngleAxisd(a, axis));
+}
+
+}  // namespace
+
+BvhData parse_bvh(std::string_view text, const std::string& source_name, const BvhOptions& options) {
+  if (!(std::isfinite(options.scale) && options.scale > 0.0)) {
+    throw Error(source_name + ": --bvh-scale must be finite and positive");
+  }
+  Tokenizer tz(text, source_name);
+  tz.expect("HIERARCHY");
+  tz.expect("ROOT");
+  std::vector<RawJoint> raw;
+  parse_joint(tz, raw, -1, 0);
+  {
+    const Token t = tz.expect_any("MOTION");
+    if (t.text == "ROOT") tz.fail(t, "more than one ROOT is not supported");
+    if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got '" + std::string(t.text) + "'");
+  }
+  tz.expect("Frames:");
+  const Token ft = tz.expect_any("the frame count");
+  const auto frames_d = parse_double(ft.text);
+  if (!frames_d || *frames_d != std::floor(*frames_d) || *frames_d < 0 || *frames_d > 1e9) {
+    tz.fail(ft, "frame count must be a whole number in [0, 1e9]");
+  }
+  const auto frames = static_cast<int64_t>(*frames_d);
+  tz.expect("Frame");
+  tz.expect("Time:");
+  const Token dtt = tz.expect_any("the frame time");
+  const auto dt = parse_double(dtt.text);
+  if (!dt || !std::isfinite(*dt) || !(*dt > 0.0)) tz.fail(dtt, "frame time must be a positive number");
+
+  BvhData out;
+  out.frame_time_s = *dt;
+  // Up-axis change of basis C and its quaternion.
+  const Eigen::Quaterniond qC = options.up == UpAxis::y
+                                    ? Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2,
+                                                                           Eigen::Vector3d::UnitX()))
+                                    : Eigen::Quaterniond::Identity();
+  // Exact for the y-up case: C maps (x, y, z) to (x, -z, y) with no rounding.
+  const auto map_vec = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d {
+    const Eigen::Vector3d s = v * options.scale;
+    return options.up == UpAxis::y ? Eigen::Vector3d(s.x(), -s.z(), s.y()) : s;
+  };
+  std::vector<std::string> names;
+  for (const RawJoint& j : raw) names.push_back(j.name);
+  const std::vector<std::string> canon = canonicalize_joint_names(names);
+  bool ignored_positions = false;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    out.body.add_joint(canon[i], raw[i].parent, raw[i].parent < 0 ? Eigen::Vector3d::Zero() : map_vec(raw[i].offset),
+                       raw[i].name);
+    if (raw[i].end) out.body.joint(i).end_offset = map_vec(*raw[i].end);
+    if (raw[i].parent >= 0) {
+      for (Channel c : raw[i].channels) {
+        if (c == Channel::xpos || c == Channel::ypos || c == Channel::zpos) ignored_positions = true;
+      }
+    }
+  }
+  if (ignored_positions) {
+    out.warnings.push_back(source_name + ": position channels of non-root joints are ignored "
+                                         "(segment lengths are fixed by the OFFSETs)");
+  }
+  // The root's OFFSET is where the root sits when its position channels read 0.
+  const Eigen::Vector3d root_offset = map_vec(raw.front().offset);
+
+  out.motion = Motion(1.0 / *dt, raw.size(), frames);
+  for (int64_t f = 0; f < frames; ++f) {
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+      Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+      Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+      for (Channel c : raw[i].channels) {
+        const double v = tz.number("a channel value");
+        switch (c) {
+          case Channel::xpos: pos.x() = v; break;
+          case Channel::ypos: pos.y() = v; break;
+          case Channel::zpos: pos.z() = v; break;
+          default: q = q * axis_rotation(c, v); break;  // intrinsic: right-multiply in order
+        }
+      }
+      out.motion.rotation(f, i) = qC * q * qC.conjugate();
+      if (i == 0) out.motion.root_translation(f) = root_offset + map_vec(pos);
+    }
+  }
+  Token extra;
+  if (tz.next(extra)) {
+    tz.fail(extra, "more values than " + std::to_string(frames) + " frames of channels");
+  }
+  std::vector<std::string> w = out.motion.validate_and_normalize(&out.body);
+  out.warnings.insert(out.warnings.end(), w.begin(), w.end());
+  return out;
+}
+
+BvhData read_bvh(const std::string& path, const BvhOptions& options) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_bvh(s.str(), path, options);
+}
+
+}  // namespace imukit::sim

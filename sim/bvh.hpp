@@ -1,0 +1,44 @@
+// BVH import: the HIERARCHY becomes a Body (joint names canonicalised through the alias table,
+// End Sites kept as segment ends), the MOTION a Motion (root translation and per-joint
+// rotations).
+//
+// Euler handling is exact: a joint's rotation channels, in the order listed, are intrinsic
+// rotations, R = R_axis1(a1) R_axis2(a2) R_axis3(a3) (degrees), composed as quaternions, so any
+// channel order works and gimbal-lock poses (middle angle +-90 deg) give the right rotation.
+//
+// Frames: BVH is Y up; imukit's world is Z up. Unless up == z, every vector v of the file maps
+// to C v with C = R_x(+90 deg), (x, y, z) -> (x, -z, y), and every rotation R to C R C^T (the
+// same rotation seen in the new axes). Lengths and root positions are multiplied by `scale`
+// (1 for metres, 0.01 for centimetres, 0.056444 for CMU units).
+//
+// Errors name the file, line and column of the offending token.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sim/body.hpp"
+#include "sim/motion.hpp"
+
+namespace imukit::sim {
+
+enum class UpAxis { y, z };
+
+struct BvhOptions {
+  double scale = 1.0;
+  UpAxis up = UpAxis::y;
+};
+
+struct BvhData {
+  Body body;
+  Motion motion;
+  std::vector<std::string> warnings;
+  double frame_time_s = 0.0;  // as written in the file
+};
+
+BvhData parse_bvh(std::string_view text, const std::string& source_name,
+                  const BvhOptions& options = {});
+BvhData read_bvh(const std::string& path, const BvhOptions& options = {});
+
+}  // namespace imukit::sim

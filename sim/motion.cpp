@@ -1,0 +1,302 @@
+#include "sim/motion.hpp"
+
+#include <cassert>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/rng.hpp"
+#include "core/text_parse.hpp"
+
+namespace imukit::sim {
+
+Motion::Motion(double rate_hz, std::size_t joints, int64_t frames)
+    : rate_hz_(rate_hz),
+      joints_(joints),
+      frames_(frames),
+      translation_(Eigen::Matrix3Xd::Zero(3, frames)),
+      rotations_(static_cast<std::size_t>(frames) * joints, Eigen::Quaterniond::Identity()) {
+  assert(frames >= 0);
+}
+
+void Motion::read(int64_t first, int64_t count, std::span<const int> joints, MotionChunk& out) {
+  assert(first >= 0 && count >= 0 && first + count <= frames_);
+  out.first_frame = first;
+  out.frames = count;
+  out.joints = joints.size();
+  out.root_translation = translation_.middleCols(first, count);
+  out.rotations.resize(static_cast<std::size_t>(count) * joints.size());
+  for (int64_t f = 0; f < count; ++f) {
+    for (std::size_t k = 0; k < joints.size(); ++k) {
+      out.rotations[static_cast<std::size_t>(f) * joints.size() + k] =
+          rotation(first + f, static_cast<std::size_t>(joints[k]));
+    }
+  }
+}
+
+std::vector<std::string> Motion::validate_and_normalize(const Body* body) {
+  const auto joint_name = [&](std::size_t j) {
+    if (body != nullptr && body->size() == joints_) return body->joint(j).name;
+    std::string s = "#";  // appended, not operator+: gcc 12 -Wrestrict false positive
+    s += std::to_string(j);
+    return s;
+  };
+  std::vector<std::string> warnings;
+  int64_t off = 0;
+  double worst = 0.0;
+  int64_t worst_frame = 0;
+  std::size_t worst_joint = 0;
+  for (int64_t f = 0; f < frames_; ++f) {
+    if (!translation_.col(f).allFinite()) {
+      throw Error("motion: frame " + std::to_string(f) + ": root translation is not finite");
+    }
+    for (std::size_t j = 0; j < joints_; ++j) {
+      Eigen::Quaterniond& q = rotation(f, j);
+      if (!q.coeffs().allFinite()) {
+        throw Error("motion: frame " + std::to_string(f) + ", joint " + joint_name(j) +
+                    ": quaternion is not finite");
+      }
+      const double n = q.norm();
+      if (!(n > 1e-12)) {
+        throw Error("motion: frame " + std::to_string(f) + ", joint " + joint_name(j) +
+                    ": quaternion has zero norm");
+      }
+      const double dev = std::abs(n - 1.0);
+      if (dev > kQuaternionNormTolerance) {
+        ++off;
+        if (dev > worst) {
+          worst = dev;
+          worst_frame = f;
+          worst_joint = j;
+        }
+      }
+      q.coeffs() /= n;
+    }
+  }
+  if (off > 0) {
+    std::ostringstream s;
+    s << "motion: " << off << " quaternions had norms further than " << kQuaternionNormTolerance
+      << " from 1 and were renormalised (worst |1 - |q|| = " << worst << " at frame " << worst_frame
+      << ", joint " << joint_name(worst_joint) << ")";
+    warnings.push_back(s.str());
+  }
+  return warnings;
+}
+
+void require_simulatable(const MotionSource& motion, const std::string& what) {
+  if (!(std::isfinite(motion.rate_hz()) && motion.rate_hz() > 0.0)) {
+    throw Error(what + ": the motion's frame rate must be finite and positive");
+  }
+  if (const auto n = motion.frame_count(); n && *n < 2) {
+    throw Error(what + ": the motion has " + std::to_string(*n) +
+                " frame(s); simulation needs at least 2 (velocities and accelerations are "
+                "derivatives over time)");
+  }
+}
+
+// --- ProceduralMotion -------------------------------------------------------------------------
+
+ProceduralMotion::ProceduralMotion(std::size_t joints, const ProceduralMotionOptions& options)
+    : options_(options) {
+  double whole = 0.0;
+  if (!(std::modf(options.rate_hz, &whole) == 0.0 && whole >= 1.0 && whole <= 1e6)) {
+    throw Error("procedural motion: the rate must be a whole number of Hz in [1, 1e6]");
+  }
+  if (options.period_s < 1 || options.harmonics < 0) {
+    throw Error("procedural motion: period_s must be >= 1 and harmonics >= 0");
+  }
+  if (options.frames && *options.frames < 0) throw Error("procedural motion: negative frame count");
+  period_frames_ = static_cast<int64_t>(whole) * options.period_s;
+  Rng rng(options.seed);
+  for (std::size_t j = 0; j < joints; ++j) {
+    Eigen::Vector3d axis(rng.normal(), rng.normal(), rng.normal());
+    axes_.push_back(axis.normalized());
+    std::vector<int64_t> ks;
+    std::vector<double> offs;
+    for (int h = 0; h < options.harmonics; ++h) {
+      // k / period_s Hz: with the defaults 0.2 .. 2 Hz, the band of human movement.
+      ks.push_back(static_cast<int64_t>(rng.uniform_index(
+                       static_cast<uint64_t>(std::max<int64_t>(1, 9 * options.period_s / 5)))) +
+                   options.period_s / 5);
+      offs.push_back(rng.uniform());
+    }
+    harmonic_.push_back(std::move(ks));
+    offset_.push_back(std::move(offs));
+  }
+  for (auto& t : translation_harmonic_) {
+    t.push_back(options.period_s / 5 + static_cast<int64_t>(rng.uniform_index(
+                                           static_cast<uint64_t>(std::max<int64_t>(1, options.period_s)))));
+  }
+}
+
+double ProceduralMotion::phase(int64_t absolute_frame, int64_t k) const {
+  // (frame * k) mod P in integers: exact for any frame, so no drift over hours.
+  const int64_t m = ((absolute_frame % period_frames_) * k) % period_frames_;
+  return 2.0 * std::numbers::pi * static_cast<double>(m) / static_cast<double>(period_frames_);
+}
+
+void ProceduralMotion::read(int64_t first, int64_t count, std::span<const int> joints,
+                            MotionChunk& out) {
+  assert(first >= 0 && count >= 0);
+  assert(!options_.frames || first + count <= *options_.frames);
+  out.first_frame = first;
+  out.frames = count;
+  out.joints = joints.size();
+  out.root_translation.resize(3, count);
+  out.rotations.resize(static_cast<std::size_t>(count) * joints.size());
+  for (int64_t f = 0; f < count; ++f) {
+    const int64_t a = options_.start_frame + first + f;
+    for (int axis = 0; axis < 3; ++axis) {
+      const int64_t k = translation_harmonic_[static_cast<std::size_t>(axis)].front();
+      out.root_translation(axis, f) =
+          options_.translation_amplitude_m * std::sin(phase(a, k) + 0.7 * axis);
+    }
+    for (std::size_t i = 0; i < joints.size(); ++i) {
+      const auto j = static_cast<std::size_t>(joints[i]);
+      double angle = 0.0;
+      for (std::size_t h = 0; h < harmonic_[j].size(); ++h) {
+        angle += options_.amplitude_rad *
+                 std::sin(phase(a, harmonic_[j][h]) + 2.0 * std::numbers::pi * offset_[j][h]);
+      }
+      out.rotations[static_cast<std::size_t>(f) * joints.size() + i] =
+          Eigen::Quaterniond(Eigen::AngleAxisd(angle, axes_[j]));
+    }
+  }
+}
+
+Motion ProceduralMotion::materialize(int64_t frames) {
+  Motion m(options_.rate_hz, axes_.size(), frames);
+  std::vector<int> all(axes_.size());
+  for (std::size_t j = 0; j < all.size(); ++j) all[j] = static_cast<int>(j);
+  MotionChunk c;
+  read(0, frames, all, c);
+  for (int64_t f = 0; f < frames; ++f) {
+    m.root_translation(f) = c.root_translation.col(f);
+    for (std::size_t j = 0; j < all.size(); ++j) m.rotation(f, j) = c.rotation(f, j);
+  }
+  return m;
+}
+
+// --- quaternion CSV ---------------------------------------------------------------------------
+
+Motion parse_quaternion_csv(std::string_view text, const std::string& source_name, const Body& body,
+                            std::optional<double> rate_hz, std::vector<std::string>* warnings) {
+  LineReader reader(text, source_name);
+  std::vector<Field> fields;
+  const auto at = [&](int64_t column) {
+    return InputLocation{source_name, reader.line_number(), column, std::nullopt};
+  };
+  std::optional<std::string_view> line = reader.next();
+  if (!line) throw Error(InputLocation{source_name, 1, 1, std::nullopt}, "empty file: expected a header row");
+  split_fields(*line, fields);
+  // Column roles: -1 skip, 0 time, 1..3 root x..z, 10 + 4 j + c joint j component c (w,x,y,z).
+  std::vector<int> role(fields.size(), -1);
+  bool have_t = false;
+  std::vector<std::array<bool, 4>> have(body.size(), {false, false, false, false});
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    const std::string name(fields[i].text);
+    if (name == "t" || name == "time" || name == "t_s") {
+      role[i] = 0;
+      have_t = true;
+    } else if (name == "root_x" || name == "root_y" || name == "root_z") {
+      role[i] = 1 + (name.back() - 'x');
+    } else if (name.size() > 3 && name[name.size() - 3] == '_' && name[name.size() - 2] == 'q') {
+      const char c = name.back();
+      const int comp = c == 'w' ? 0 : c == 'x' ? 1 : c == 'y' ? 2 : c == 'z' ? 3 : -1;
+      const auto j = body.find(name.substr(0, name.size() - 3));
+      if (comp < 0 || !j) {
+        throw Error(at(fields[i].column), "column '" + name + "' names no joint of the body");
+      }
+      if (have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)]) {
+        throw Error(at(fields[i].column), "column '" + name + "' repeats a joint component");
+      }
+      have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)] = true;
+      role[i] = 10 + 4 * *j + comp;
+    } else {
+      throw Error(at(fields[i].column),
+                  "unknown column '" + name + "' (expected t, root_x..z or <joint>_qw..qz)");
+    }
+  }
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    const auto& h = have[j];
+    if ((h[0] || h[1] || h[2] || h[3]) && !(h[0] && h[1] && h[2] && h[3])) {
+      throw Error(at(1), "joint " + body.joint(j).name + " needs all four columns _qw,_qx,_qy,_qz");
+    }
+  }
+  if (!have_t && !rate_hz) throw Error(at(1), "no t column: give the frame rate");
+  std::vector<double> times;
+  std::vector<double> values;  // row-major, fields.size() per row
+  const std::size_t width = fields.size();
+  while ((line = reader.next())) {
+    if (line->empty()) continue;
+    split_fields(*line, fields);
+    if (fields.size() != width) {
+      throw Error(at(1), "expected " + std::to_string(width) + " fields, got " +
+                             std::to_string(fields.size()));
+    }
+    for (std::size_t i = 0; i < width; ++i) {
+      const auto v = parse_double(fields[i].text);
+      if (!v) throw Error(at(fields[i].column), "not a number: '" + std::string(fields[i].text) + "'");
+      if (!std::isfinite(*v)) {
+        throw Error(at(fields[i].column), "frame " + std::to_string(times.size()) +
+                                               ": value is not finite");
+      }
+      values.push_back(*v);
+      if (role[i] == 0) times.push_back(*v);
+    }
+    if (!have_t) times.push_back(0.0);
+  }
+  const auto frames = static_cast<int64_t>(values.size() / std::max<std::size_t>(width, 1));
+  double rate = rate_hz.value_or(0.0);
+  if (!rate_hz) {
+    if (frames < 2) {
+      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
+                  "motion has " + std::to_string(frames) +
+                      " frame(s): the rate cannot be taken from t (simulation needs >= 2)");
+    }
+    const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
+    if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
+    for (int64_t f = 1; f < frames; ++f) {
+      const double step = times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
+      if (std::abs(step - dt) > 1e-6 * dt) {
+        throw Error(InputLocation{source_name, f + 2, 1, std::nullopt},
+                    "t is not uniform (step " + std::to_string(step) + " s, mean " +
+                        std::to_string(dt) + " s)");
+      }
+    }
+    rate = 1.0 / dt;
+  }
+  Motion m(rate, body.size(), frames);
+  for (int64_t f = 0; f < frames; ++f) {
+    for (std::size_t i = 0; i < width; ++i) {
+      const double v = values[static_cast<std::size_t>(f) * width + i];
+      if (role[i] >= 1 && role[i] <= 3) {
+        m.root_translation(f)(role[i] - 1) = v;
+      } else if (role[i] >= 10) {
+        const auto j = static_cast<std::size_t>((role[i] - 10) / 4);
+        const int c = (role[i] - 10) % 4;
+        Eigen::Quaterniond& q = m.rotation(f, j);
+        if (c == 0) q.w() = v;
+        else if (c == 1) q.x() = v;
+        else if (c == 2) q.y() = v;
+        else q.z() = v;
+      }
+    }
+  }
+  std::vector<std::string> w = m.validate_and_normalize(&body);
+  if (warnings != nullptr) warnings->insert(warnings->end(), w.begin(), w.end());
+  return m;
+}
+
+Motion read_quaternion_csv(const std::string& path, const Body& body, std::optional<double> rate_hz,
+                           std::vector<std::string>* warnings) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_quaternion_csv(s.str(), path, body, rate_hz, warnings);
+}
+
+}  // namespace imukit::sim

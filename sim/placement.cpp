@@ -1,0 +1,143 @@
+#include "sim/placement.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/error.hpp"
+
+namespace imukit::sim {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+PlacementPreset make(std::string name, std::string description, std::string joint, double along,
+                     double anterior, double normal, Eigen::Vector3d x_lan, Eigen::Vector3d z_lan,
+                     Eigen::Vector3d pos_range, Eigen::Vector3d rot_range_deg) {
+  PlacementPreset p;
+  p.name = std::move(name);
+  p.description = std::move(description);
+  p.joint = std::move(joint);
+  p.along = along;
+  p.anterior_m = anterior;
+  p.normal_m = normal;
+  p.sensor_x_lan = x_lan;
+  p.sensor_z_lan = z_lan;
+  p.position_range_m = pos_range;
+  p.rotation_range_rad = rot_range_deg * kDeg;
+  return p;
+}
+
+}  // namespace
+
+const std::vector<PlacementPreset>& placement_presets() {
+  using V = Eigen::Vector3d;
+  const V L(1, 0, 0), A(0, 1, 0), N(0, 0, 1);
+  static const std::vector<PlacementPreset> presets = {
+      // Watches sit on the forearm 92 % of the way to the wrist, 3 cm off the forearm's axis
+      // (its half-thickness), screen (z) facing away from the back of the wrist, x to the hand.
+      make("left_wrist_watch", "watch on the back of the left wrist, screen up (palm down)",
+           "left_elbow", 0.92, 0.0, 0.03, L, N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
+      make("right_wrist_watch", "watch on the back of the right wrist, screen up (palm down)",
+           "right_elbow", 0.92, 0.0, 0.03, L, N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
+      make("left_wrist_watch_inner", "watch worn on the palm side of the left wrist",
+           "left_elbow", 0.92, 0.0, -0.03, L, -N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
+      make("right_wrist_watch_inner", "watch worn on the palm side of the right wrist",
+           "right_elbow", 0.92, 0.0, -0.03, L, -N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
+      // Ring: bodies without fingers carry it on the hand segment near the knuckles (the
+      // proximal phalanx), on the thumb side (anterior in the T-pose) of the hand's axis.
+      make("right_index_ring", "ring on the right index finger (on the hand segment near the knuckles)",
+           "right_wrist", 0.95, 0.02, 0.01, L, N, V(0.015, 0.01, 0.005), V(15, 15, 30)),
+      // Earbuds: at ear height (30 % of the head segment above the head joint), 7.5 cm to the
+      // side; z out of the ear, x up along the head's long axis.
+      make("left_earbud", "earbud in the left ear", "head", 0.3, 0.0, 0.075, L, N,
+           V(0.01, 0.01, 0.005), V(20, 20, 20)),
+      make("right_earbud", "earbud in the right ear", "head", 0.3, 0.0, -0.075, L, -N,
+           V(0.01, 0.01, 0.005), V(20, 20, 20)),
+      // Phone: front trouser pocket, upper quarter of the thigh, screen against the thigh,
+      // top of the phone up (x against L, which points down the thigh).
+      make("right_front_pocket_phone", "phone in the right front trouser pocket, top up",
+           "right_hip", 0.25, 0.08, 0.03, -L, A, V(0.04, 0.01, 0.02), V(15, 15, 180)),
+      make("chest_strap", "heart-rate chest strap on the sternum", "chest", 0.4, 0.11, 0.0, L, A,
+           V(0.02, 0.01, 0.02), V(10, 10, 10)),
+      make("left_upper_arm_band", "sports armband on the outside of the left upper arm",
+           "left_shoulder", 0.45, 0.0, 0.045, L, N, V(0.04, 0.01, 0.01), V(10, 10, 30)),
+      make("right_ankle_clip", "clip on the outside of the right ankle", "right_knee", 0.9, 0.0,
+           0.04, L, N, V(0.02, 0.01, 0.01), V(10, 10, 20)),
+      make("waist_belt", "device on the belt at the front of the waist", "pelvis", 0.1, 0.13, 0.0,
+           L, A, V(0.02, 0.01, 0.05), V(10, 10, 20)),
+  };
+  return presets;
+}
+
+const PlacementPreset& placement_preset(std::string_view name) {
+  std::string known;
+  for (const PlacementPreset& p : placement_presets()) {
+    if (p.name == name) return p;
+    known += (known.empty() ? "" : ", ") + p.name;
+  }
+  throw Error("unknown placement preset '" + std::string(name) + "' (presets: " + known + ")");
+}
+
+Eigen::Matrix3d anatomical_frame(const Body& body, int joint) {
+  Eigen::Vector3d L = body.segment_end(joint);
+  if (L.norm() < 1e-9) L = Eigen::Vector3d::UnitZ();  // a lone root: take the trunk's axis
+  L.normalize();
+  // At the neutral pose every joint frame is parallel to the world frame, so world directions
+  // can be used as joint-frame directions directly.
+  Eigen::Vector3d A = body.forward_direction();
+  A -= A.dot(L) * L;
+  if (A.norm() < 1e-6) {
+    A = Eigen::Vector3d::UnitZ() - L.z() * L;
+    if (A.norm() < 1e-6) A = Eigen::Vector3d::UnitY();
+  }
+  A.normalize();
+  const std::string& name = body.joint(static_cast<std::size_t>(joint)).name;
+  const double s = name.rfind("left_", 0) == 0 ? -1.0 : 1.0;
+  const Eigen::Vector3d N = s * L.cross(A);
+  Eigen::Matrix3d F;
+  F << L, A, N;
+  return F;
+}
+
+Placement resolve_preset(const PlacementPreset& preset, const Body& body) {
+  const auto j = body.find(preset.joint);
+  if (!j) {
+    throw Error("preset " + preset.name + " needs segment '" + preset.joint + "' (" +
+                segment_name(preset.joint) + "), which this body does not have");
+  }
+  const Eigen::Matrix3d F = anatomical_frame(body, *j);
+  Placement p;
+  p.joint = *j;
+  p.p_joint_sensor = preset.along * body.segment_end(*j) + preset.anterior_m * F.col(1) +
+                     preset.normal_m * F.col(2);
+  const Eigen::Vector3d x = (F * preset.sensor_x_lan).normalized();
+  const Eigen::Vector3d z = (F * preset.sensor_z_lan).normalized();
+  Eigen::Matrix3d R;
+  R << x, z.cross(x), z;
+  p.q_joint_sensor = Eigen::Quaterniond(R).normalized();
+  return p;
+}
+
+Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::string_view order,
+                                       bool intrinsic, bool degrees) {
+  if (order.size() != 3) throw Error("Euler order must name three axes, e.g. \"XYZ\"");
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  for (std::size_t i = 0; i < 3; ++i) {
+    const char c = static_cast<char>(std::toupper(static_cast<unsigned char>(order[i])));
+    if (c != 'X' && c != 'Y' && c != 'Z') {
+      throw Error("Euler order '" + std::string(order) + "': axes must be X, Y or Z");
+    }
+    if (i > 0 && c == std::toupper(static_cast<unsigned char>(order[i - 1]))) {
+      throw Error("Euler order '" + std::string(order) + "': consecutive axes must differ");
+    }
+    const Eigen::Vector3d axis = c == 'X' ? Eigen::Vector3d::UnitX()
+                                 : c == 'Y' ? Eigen::Vector3d::UnitY()
+                                            : Eigen::Vector3d::UnitZ();
+    const double a = angles(static_cast<Eigen::Index>(i)) * (degrees ? kDeg : 1.0);
+    const Eigen::Quaterniond r(Eigen::AngleAxisd(a, axis));
+    q = intrinsic ? q * r : r * q;
+  }
+  return q;
+}
+
+}  // namespace imukit::sim

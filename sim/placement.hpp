@@ -1,0 +1,67 @@
+// Placement (seed-summary section 1, "Placement P"): where a sensor sits on the body: the joint
+// whose segment carries it, its position in that joint's frame (m) and its orientation
+// q_joint_sensor (a vector in sensor axes maps to joint axes by R_joint_sensor).
+//
+// Presets describe common wearables in the *anatomical frame* of their segment, so that they
+// fit any body whose segments are named (the default humanoid, a BVH skeleton, the reference
+// body). The anatomical frame of joint j, built from the body's neutral pose:
+//   L  long axis, unit vector from the joint to the segment's end (Body::segment_end),
+//   A  anterior: the body's forward direction with its L component removed (the body's up
+//      when L is parallel to forward, e.g. a foot),
+//   N  = s (L x A), s = -1 on left_ segments and +1 otherwise: for T-pose arms N points up
+//      (the back of the hand, palm down), for legs it points laterally (away from the midline),
+//      for the trunk and head towards the subject's left.
+// A preset gives the position as a fraction along L plus offsets along A and N (m), and the
+// sensor's x and z axes in (L, A, N) coordinates (y = z x x). Each preset also states the range
+// over which the placement plausibly varies (uniform half-widths; used by augmentation).
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "sim/body.hpp"
+
+namespace imukit::sim {
+
+struct Placement {
+  int joint = -1;
+  Eigen::Vector3d p_joint_sensor = Eigen::Vector3d::Zero();                 // m
+  Eigen::Quaterniond q_joint_sensor = Eigen::Quaterniond::Identity();     // unit
+};
+
+struct PlacementPreset {
+  std::string name;
+  std::string description;
+  std::string joint;            // canonical joint whose segment carries the sensor
+  double along = 0.0;           // fraction of the segment from the joint towards its end
+  double anterior_m = 0.0;      // offset along A
+  double normal_m = 0.0;        // offset along N
+  Eigen::Vector3d sensor_x_lan = Eigen::Vector3d::UnitX();  // sensor x in (L, A, N)
+  Eigen::Vector3d sensor_z_lan = Eigen::Vector3d::UnitZ();  // sensor z in (L, A, N)
+  // Plausible variation (uniform half-widths): position along L, A, N (m) and rotation about
+  // the sensor's x, y, z axes (rad).
+  Eigen::Vector3d position_range_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rotation_range_rad = Eigen::Vector3d::Zero();
+};
+
+const std::vector<PlacementPreset>& placement_presets();
+// Throws imukit::Error listing the preset names when `name` is unknown.
+const PlacementPreset& placement_preset(std::string_view name);
+
+// The anatomical frame (columns L, A, N) of joint j, in the joint's frame.
+Eigen::Matrix3d anatomical_frame(const Body& body, int joint);
+
+// The preset on this body. Throws imukit::Error if the body has no such segment.
+Placement resolve_preset(const PlacementPreset& preset, const Body& body);
+
+// Euler angles -> quaternion with the convention spelled out (DESIGN.md): `order` a permutation
+// or repetition of three axes from "XYZ" ("ZYX", "ZXZ", ...), intrinsic (each rotation about the
+// already rotated axes: R = R1(a1) R2(a2) R3(a3)) or extrinsic (fixed axes: R = R3 R2 R1),
+// angles in rad or deg. Throws imukit::Error for a malformed order.
+Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::string_view order,
+                                       bool intrinsic, bool degrees);
+
+}  // namespace imukit::sim

@@ -1,0 +1,600 @@
+#include "sim/simulator.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "core/error.hpp"
+#include "core/so3.hpp"
+
+namespace imukit::sim {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+constexpr int64_t kEndless = std::numeric_limits<int64_t>::max() / 4;
+
+struct FramePosition {
+  int64_t frame = 0;  // floor of the position in frames
+  double frac = 0.0;  // in [0, 1)
+};
+
+// Position of time t (ns) on the frame grid of a motion at rate_hz. Integer arithmetic for a
+// whole-number rate keeps it exact however late t is; otherwise the 64-bit long double mantissa.
+FramePosition frame_position(TimeNs t, double rate_hz) {
+  double whole = 0.0;
+  if (std::modf(rate_hz, &whole) == 0.0 && whole >= 1.0 && whole <= 1e6 && t >= 0 &&
+      t < std::numeric_limits<int64_t>::max() / static_cast<int64_t>(whole)) {
+    const int64_t num = t * static_cast<int64_t>(whole);
+    return {num / kNsPerSecond, static_cast<double>(num % kNsPerSecond) * 1e-9};
+  }
+  const long double u = static_cast<long double>(t) * static_cast<long double>(rate_hz) / 1e9L;
+  const long double fl = std::floor(u);
+  return {static_cast<int64_t>(fl), static_cast<double>(u - fl)};
+}
+
+// exp(psi(t)) and its body-frame angular velocity and acceleration, given psi and its first
+// two time derivatives. With x = psi.psi, exp(psi) = (C(x), S(x) psi), C = cos(sqrt(x)/2),
+// S = sin(sqrt(x)/2)/sqrt(x); w = 2 Im(e* de/dt), dw/dt = 2 Im(e* d2e/dt2) (the real part of
+// de*/dt de/dt has no imaginary part). S and its x-derivatives are entire functions of x: a
+// series for x < 1 avoids the cancellation of the closed forms near 0.
+struct ExpDerivatives {
+  Quaterniond e;
+  Vector3d w_body;
+  Vector3d dw_body;
+};
+
+ExpDerivatives exp_with_derivatives(const Vector3d& psi, const Vector3d& dpsi, const Vector3d& ddpsi) {
+  const double x = psi.squaredNorm();
+  const double dx = 2.0 * psi.dot(dpsi);
+  const double ddx = 2.0 * (dpsi.squaredNorm() + psi.dot(ddpsi));
+  double S, S1, S2, C;
+  if (x < 1.0) {
+    // S(x) = sum_k a_k x^k, a_k = (-1)^k / (2^(2k+1) (2k+1)!); 12 terms reach 1e-30 at x = 1.
+    double a = 0.5;  // a_0
+    double xk = 1.0;
+    S = 0.0;
+    S1 = 0.0;
+    S2 = 0.0;
+    double xk1 = 0.0, xk2 = 0.0;  // x^(k-1), x^(k-2)
+    for (int k = 0; k < 12; ++k) {
+      S += a * xk;
+      if (k >= 1) S1 += k * a * xk1;
+      if (k >= 2) S2 += k * (k - 1) * a * xk2;
+      xk2 = xk1;
+      xk1 = xk;
+      xk *= x;
+      a *= -1.0 / (4.0 * (2 * k + 2) * (2 * k + 3));
+    }
+    C = std::cos(0.5 * std::sqrt(x));
+  } else {
+    const double r = std::sqrt(x);
+    C = std::cos(0.5 * r);
+    S = std::sin(0.5 * r) / r;
+    S1 = (0.5 * C - S) / (2.0 * x);
+    S2 = (-S / 8.0 - 3.0 * S1) / (2.0 * x);
+  }
+  const double C1 = -0.25 * S;
+  const double C2 = -0.25 * S1;
+  const double ew = C;
+  const Vector3d ev = S * psi;
+  const double dew = C1 * dx;
+  const Vector3d dev = S1 * dx * psi + S * dpsi;
+  const double ddew = C2 * dx * dx + C1 * ddx;
+  const Vector3d ddev = (S2 * dx * dx + S1 * ddx) * psi + 2.0 * S1 * dx * dpsi + S * ddpsi;
+  ExpDerivatives out;
+  out.e = Quaterniond(ew, ev.x(), ev.y(), ev.z());
+  out.w_body = 2.0 * (ew * dev - dew * ev - ev.cross(dev));
+  out.dw_body = 2.0 * (ew * ddev - ddew * ev - ev.cross(ddev));
+  return out;
+}
+
+// Lagrange basis on nodes tau (frames relative to the interval start), value, first and second
+// derivative at u.
+struct LagrangeWeights {
+  int n = 0;
+  std::array<double, 4> w{}, dw{}, ddw{};
+};
+
+LagrangeWeights lagrange(const std::array<double, 4>& tau, int n, double u) {
+  LagrangeWeights L;
+  L.n = n;
+  for (int m = 0; m < n; ++m) {
+    // Coefficients of prod_{k != m} (u - tau_k) / (tau_m - tau_k), lowest degree first.
+    std::array<double, 4> c{1.0, 0.0, 0.0, 0.0};
+    double denom = 1.0;
+    int deg = 0;
+    for (int k = 0; k < n; ++k) {
+      if (k == m) continue;
+      denom *= tau[static_cast<std::size_t>(m)] - tau[static_cast<std::size_t>(k)];
+      for (int d = deg + 1; d >= 1; --d) {
+        c[static_cast<std::size_t>(d)] =
+            c[static_cast<std::size_t>(d - 1)] - tau[static_cast<std::size_t>(k)] * c[static_cast<std::size_t>(d)];
+      }
+      c[0] = -tau[static_cast<std::size_t>(k)] * c[0];
+      ++deg;
+    }
+    const double v = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
+    const double d1 = c[1] + u * (2.0 * c[2] + 3.0 * u * c[3]);
+    const double d2 = 2.0 * c[2] + 6.0 * u * c[3];
+    L.w[static_cast<std::size_t>(m)] = v / denom;
+    L.dw[static_cast<std::size_t>(m)] = d1 / denom;
+    L.ddw[static_cast<std::size_t>(m)] = d2 / denom;
+  }
+  return L;
+}
+
+// The rotation vector equivalent to phi (phi + 2 pi k phi/|phi|) nearest to ref. log() returns
+// angles up to pi; chart coordinates of frames two or three steps away from the chart's centre
+// can legitimately exceed pi (fast spins at low frame rates), so they are unwrapped against the
+// linear extrapolation of their nearer neighbours.
+Vector3d unwrap_near(const Vector3d& phi, const Vector3d& ref) {
+  const double th = phi.norm();
+  Vector3d n;
+  if (th > 0.0) {
+    n = phi / th;
+  } else if (ref.norm() > 0.0) {
+    n = ref.normalized();
+  } else {
+    return phi;
+  }
+  Vector3d best = phi;
+  for (const double k : {-2.0, -1.0, 1.0, 2.0}) {
+    const Vector3d c = phi + (2.0 * std::numbers::pi * k) * n;
+    if ((c - ref).squaredNorm() < (best - ref).squaredNorm()) best = c;
+  }
+  return best;
+}
+
+// Intrinsic XYZ Euler angles of a rotation matrix as the reference computes them.
+Vector3d reference_euler_xyz(const Matrix3d& R) {
+  return Vector3d(std::atan2(-R(1, 2), R(2, 2)), std::asin(std::clamp(R(0, 2), -1.0, 1.0)),
+                  std::atan2(-R(0, 1), R(0, 0)));
+}
+
+}  // namespace
+
+std::string_view to_string(DerivativeMethod method) {
+  switch (method) {
+    case DerivativeMethod::fd: return "fd";
+    case DerivativeMethod::spline: return "spline";
+    case DerivativeMethod::reference: return "reference";
+  }
+  return "?";
+}
+
+DerivativeMethod parse_derivative_method(std::string_view name) {
+  if (name == "fd") return DerivativeMethod::fd;
+  if (name == "spline") return DerivativeMethod::spline;
+  if (name == "reference") return DerivativeMethod::reference;
+  throw Error("unknown derivative method '" + std::string(name) + "' (fd, spline or reference)");
+}
+
+SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sensors) {
+  SimulationPlan plan;
+  std::vector<char> used(body.size(), 0);
+  std::vector<char> rate(body.size(), 0);
+  for (const SensorSpec& s : sensors) {
+    const int j = s.placement.joint;
+    if (j < 0 || static_cast<std::size_t>(j) >= body.size()) {
+      throw Error("sensor " + s.name + ": placement joint " + std::to_string(j) +
+                  " is not a joint of the body");
+    }
+    for (int k : body.chain(j)) used[static_cast<std::size_t>(k)] = 1;
+    if (s.outputs.gyroscope) rate[static_cast<std::size_t>(j)] = 1;
+    plan.needs_position |= s.outputs.accelerometer;
+    plan.needs_rotation |= s.outputs.gyroscope || s.outputs.orientation;
+  }
+  std::vector<int> where(body.size(), -1);
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    if (!used[j]) continue;
+    where[j] = static_cast<int>(plan.joints.size());
+    plan.joints.push_back(static_cast<int>(j));
+    const int p = body.joint(j).parent;
+    plan.parent.push_back(p < 0 ? -1 : where[static_cast<std::size_t>(p)]);
+    plan.needs_rate.push_back(rate[j]);
+  }
+  for (const SensorSpec& s : sensors) {
+    plan.sensor_joint.push_back(where[static_cast<std::size_t>(s.placement.joint)]);
+  }
+  return plan;
+}
+
+struct Simulator::Workspace {
+  MotionChunk chunk;
+  std::vector<Quaterniond> q_world;  // loaded frames x plan joints
+  std::vector<Vector3d> p_world;
+  // Grid methods, per plan joint: SO(3) increments d[k] = log(R[k]^T R[k+1]) and whether set.
+  std::vector<std::vector<Vector3d>> increment;
+  std::vector<std::vector<char>> increment_set;
+  // Grid methods, per sensor: derivative values per loaded frame.
+  Eigen::Matrix3Xd grid_f, grid_w, sensor_p;
+  std::vector<Quaterniond> sensor_q;
+  // Spline: per plan joint, the interval whose chart coordinates are cached.
+  std::vector<int64_t> chart_interval;
+  std::vector<std::array<Vector3d, 4>> chart_psi;
+  std::vector<Matrix3d> chart_R;
+  std::vector<Matrix3d> R;
+  std::vector<Vector3d> p, v, a, w, dw;
+};
+
+Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, SimulationOptions options)
+    : plan_(compile_plan(body, sensors)),
+      sensors_(std::move(sensors)),
+      options_(options),
+      ws_(std::make_unique<Workspace>()) {
+  if (options_.rate_hz != 0.0 && !(std::isfinite(options_.rate_hz) && options_.rate_hz > 0.0)) {
+    throw Error("simulation: the sensor rate must be finite and positive");
+  }
+  if (!options_.gravity_world.allFinite()) throw Error("simulation: gravity must be finite");
+  if (options_.chunk_frames < 8) throw Error("simulation: chunk_frames must be >= 8");
+  for (SensorSpec& s : sensors_) {
+    const double n = s.placement.q_joint_sensor.norm();
+    if (!std::isfinite(n) || n < 1e-12 || !s.placement.p_joint_sensor.allFinite()) {
+      throw Error("sensor " + s.name + ": placement is not finite");
+    }
+    s.placement.q_joint_sensor.coeffs() /= n;
+  }
+  for (std::size_t k = 0; k < plan_.joints.size(); ++k) {
+    offsets_.push_back(plan_.parent[k] < 0
+                           ? Vector3d::Zero()
+                           : body.joint(static_cast<std::size_t>(plan_.joints[k])).offset_parent_joint);
+  }
+}
+
+Simulator::~Simulator() = default;
+Simulator::Simulator(Simulator&&) noexcept = default;
+Simulator& Simulator::operator=(Simulator&&) noexcept = default;
+
+int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames) const {
+  if (frames < 1) return 0;
+  const double rate = options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz();
+  int64_t n = static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion.rate_hz() * rate));
+  n = std::max<int64_t>(n - 2, 0);
+  const auto inside = [&](int64_t k) {
+    const FramePosition fp = frame_position(sample_time_ns(motion, k), motion.rate_hz());
+    return fp.frame < frames - 1 || (fp.frame == frames - 1 && fp.frac == 0.0);
+  };
+  while (inside(n + 1)) ++n;
+  while (n > 0 && !inside(n)) --n;
+  return n + 1;
+}
+
+TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
+  return sample_time(0, n, options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz());
+}
+
+void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
+                         std::vector<SensorBlock>& out) {
+  require_simulatable(motion, "simulation");
+  Workspace& ws = *ws_;
+  const std::size_t J = plan_.joints.size();
+  const std::size_t S = sensors_.size();
+  const int64_t N = motion.frame_count().value_or(kEndless);
+  const double rate = motion.rate_hz();
+  out.resize(S);
+  for (std::size_t s = 0; s < S; ++s) {
+    const SensorOutputs& o = sensors_[s].outputs;
+    const auto n = static_cast<Eigen::Index>(times.size());
+    out[s].t.assign(times.begin(), times.end());
+    out[s].specific_force.resize(3, o.accelerometer ? n : 0);
+    out[s].angular_rate.resize(3, o.gyroscope ? n : 0);
+    out[s].q_world_sensor.resize(o.orientation ? times.size() : 0);
+  }
+  if (times.empty() || S == 0) return;
+  std::vector<FramePosition> pos(times.size());
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    pos[i] = frame_position(times[i], rate);
+    if (times[i] < 0 || pos[i].frame > N - 1 || (pos[i].frame == N - 1 && pos[i].frac != 0.0)) {
+      throw Error("simulation: time " + std::to_string(times[i]) + " ns is outside the motion (" +
+                  std::to_string(N) + " frames at " + std::to_string(rate) + " Hz)");
+    }
+    // The last frame is the end of the last interval.
+    if (pos[i].frame == N - 1) pos[i] = {N - 2, 1.0};
+    if (i > 0 && times[i] < times[i - 1]) throw Error("simulation: times must increase");
+  }
+  const int64_t imin = pos.front().frame;
+  const int64_t imax = pos.back().frame;
+  const int64_t lo = std::max<int64_t>(0, imin - 2);
+  const int64_t hi = std::min<int64_t>(N, imax + 4);
+  motion.read(lo, hi - lo, plan_.joints, ws.chunk);
+  const MotionChunk& c = ws.chunk;
+  const int64_t F = c.frames;
+  const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& { return c.rotation(f - lo, k); };
+
+  if (options_.method == DerivativeMethod::spline) {
+    ws.chart_interval.assign(J, -1);
+    ws.chart_psi.resize(J);
+    ws.chart_R.resize(J);
+    ws.R.resize(J);
+    ws.p.resize(J);
+    ws.v.resize(J);
+    ws.a.resize(J);
+    ws.w.resize(J);
+    ws.dw.resize(J);
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      const int64_t fi = pos[i].frame;
+      int64_t s0 = std::max<int64_t>(0, fi - 1);
+      int64_t s1 = std::min<int64_t>(N - 1, fi + 2);
+      if (s1 - s0 < 3 && N >= 4) {
+        if (s0 == 0) s1 = 3;
+        if (s1 == N - 1) s0 = N - 4;
+      }
+      const int n = static_cast<int>(s1 - s0 + 1);
+      std::array<double, 4> tau{};
+      for (int m = 0; m < n; ++m) tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
+      const LagrangeWeights L = lagrange(tau, n, pos[i].frac);
+      for (std::size_t k = 0; k < J; ++k) {
+        if (ws.chart_interval[k] != fi) {
+          const Quaterniond qi_inv = q_local(fi, k).conjugate();
+          auto& psi = ws.chart_psi[k];
+          const auto c0 = static_cast<int>(fi - s0);  // the chart centre's stencil index
+          for (int m = 0; m < n; ++m) {
+            psi[static_cast<std::size_t>(m)] =
+                m == c0 ? Vector3d::Zero() : so3_log(qi_inv * q_local(s0 + m, k));
+          }
+          for (int m = c0 + 2; m < n; ++m) {
+            const auto u = static_cast<std::size_t>(m);
+            psi[u] = unwrap_near(psi[u], 2.0 * psi[u - 1] - psi[u - 2]);
+          }
+          for (int m = c0 - 2; m >= 0; --m) {
+            const auto u = static_cast<std::size_t>(m);
+            psi[u] = unwrap_near(psi[u], 2.0 * psi[u + 1] - psi[u + 2]);
+          }
+          ws.chart_R[k] = q_local(fi, k).normalized().toRotationMatrix();
+          ws.chart_interval[k] = fi;
+        }
+        Vector3d psi = Vector3d::Zero(), dpsi = Vector3d::Zero(), ddpsi = Vector3d::Zero();
+        for (int m = 0; m < n; ++m) {
+          const Vector3d& y = ws.chart_psi[k][static_cast<std::size_t>(m)];
+          psi += L.w[static_cast<std::size_t>(m)] * y;
+          dpsi += L.dw[static_cast<std::size_t>(m)] * y;
+          ddpsi += L.ddw[static_cast<std::size_t>(m)] * y;
+        }
+        const ExpDerivatives E = exp_with_derivatives(psi, dpsi * rate, ddpsi * (rate * rate));
+        const Matrix3d Rl = ws.chart_R[k] * E.e.toRotationMatrix();
+        const int p = plan_.parent[k];
+        if (p < 0) {
+          // Differences from the interval's start frame: the weights of the derivatives sum
+          // to 0 only up to rounding, differences make a still root exactly still.
+          const Vector3d t0 = c.root_translation.col(fi - lo);
+          Vector3d tp = t0, tv = Vector3d::Zero(), ta = Vector3d::Zero();
+          for (int m = 0; m < n; ++m) {
+            const Vector3d y = c.root_translation.col(s0 + m - lo) - t0;
+            tp += L.w[static_cast<std::size_t>(m)] * y;
+            tv += L.dw[static_cast<std::size_t>(m)] * y;
+            ta += L.ddw[static_cast<std::size_t>(m)] * y;
+          }
+          ws.R[k] = Rl;
+          ws.p[k] = tp;
+          ws.v[k] = tv * rate;
+          ws.a[k] = ta * (rate * rate);
+          ws.w[k] = Rl * E.w_body;
+          ws.dw[k] = Rl * E.dw_body;
+        } else {
+          const auto pp = static_cast<std::size_t>(p);
+          const Vector3d o = ws.R[pp] * offsets_[k];
+          ws.R[k] = ws.R[pp] * Rl;
+          const Vector3d wl = ws.R[k] * E.w_body;  // the joint's own rate, world axes
+          ws.w[k] = ws.w[pp] + wl;
+          ws.dw[k] = ws.dw[pp] + ws.w[pp].cross(wl) + ws.R[k] * E.dw_body;
+          ws.p[k] = ws.p[pp] + o;
+          ws.v[k] = ws.v[pp] + ws.w[pp].cross(o);
+          ws.a[k] = ws.a[pp] + ws.dw[pp].cross(o) + ws.w[pp].cross(ws.w[pp].cross(o));
+        }
+      }
+      for (std::size_t s = 0; s < S; ++s) {
+        const auto k = static_cast<std::size_t>(plan_.sensor_joint[s]);
+        const Placement& pl = sensors_[s].placement;
+        const Matrix3d Rs = ws.R[k] * pl.q_joint_sensor.toRotationMatrix();
+        const auto col = static_cast<Eigen::Index>(i);
+        if (sensors_[s].outputs.accelerometer) {
+          const Vector3d r = ws.R[k] * pl.p_joint_sensor;
+          const Vector3d acc = ws.a[k] + ws.dw[k].cross(r) + ws.w[k].cross(ws.w[k].cross(r));
+          out[s].specific_force.col(col) = Rs.transpose() * (acc - options_.gravity_world);
+        }
+        if (sensors_[s].outputs.gyroscope) out[s].angular_rate.col(col) = Rs.transpose() * ws.w[k];
+        if (sensors_[s].outputs.orientation) out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
+      }
+    }
+    return;
+  }
+
+  // Grid methods: forward kinematics on every loaded frame.
+  ws.q_world.resize(static_cast<std::size_t>(F) * J);
+  if (plan_.needs_position) ws.p_world.resize(static_cast<std::size_t>(F) * J);
+  for (int64_t f = 0; f < F; ++f) {
+    const std::size_t base = static_cast<std::size_t>(f) * J;
+    for (std::size_t k = 0; k < J; ++k) {
+      const int p = plan_.parent[k];
+      const Quaterniond& ql = c.rotation(f, k);
+      if (p < 0) {
+        ws.q_world[base + k] = ql;
+        if (plan_.needs_position) ws.p_world[base + k] = c.root_translation.col(f);
+      } else {
+        const Quaterniond& qp = ws.q_world[base + static_cast<std::size_t>(p)];
+        ws.q_world[base + k] = qp * ql;
+        if (plan_.needs_position) {
+          ws.p_world[base + k] = ws.p_world[base + static_cast<std::size_t>(p)] + qp * offsets_[k];
+        }
+      }
+    }
+  }
+  const auto qw = [&](int64_t f, std::size_t k) -> const Quaterniond& {
+    return ws.q_world[static_cast<std::size_t>(f - lo) * J + k];
+  };
+  // Frames whose derivatives the samples need (the interpolation uses frame i and i + 1).
+  const int64_t g0 = imin;
+  const int64_t g1 = std::min<int64_t>(N - 1, imax + 1);
+  const auto G = static_cast<Eigen::Index>(g1 - g0 + 1);
+  ws.increment.resize(J);
+  ws.increment_set.resize(J);
+  for (std::size_t k = 0; k < J; ++k) {
+    ws.increment_set[k].assign(static_cast<std::size_t>(F), 0);
+    ws.increment[k].resize(static_cast<std::size_t>(F));
+  }
+  const auto increment = [&](int64_t f, std::size_t k) -> const Vector3d& {
+    // d[f] = log(R[f]^T R[f+1]), the body-frame rotation from frame f to f + 1.
+    const auto idx = static_cast<std::size_t>(f - lo);
+    if (!ws.increment_set[k][idx]) {
+      ws.increment[k][idx] = so3_log(qw(f, k).conjugate() * qw(f + 1, k));
+      ws.increment_set[k][idx] = 1;
+    }
+    return ws.increment[k][idx];
+  };
+
+  for (std::size_t s = 0; s < S; ++s) {
+    const auto k = static_cast<std::size_t>(plan_.sensor_joint[s]);
+    const Placement& pl = sensors_[s].placement;
+    const SensorOutputs& o = sensors_[s].outputs;
+    ws.grid_f.resize(3, o.accelerometer ? G : 0);
+    ws.grid_w.resize(3, o.gyroscope ? G : 0);
+    // Sensor positions on every loaded frame.
+    if (o.accelerometer) {
+      ws.sensor_p.resize(3, F);
+      for (int64_t f = 0; f < F; ++f) {
+        ws.sensor_p.col(f) = ws.p_world[static_cast<std::size_t>(f) * J + k] +
+                             ws.q_world[static_cast<std::size_t>(f) * J + k] * pl.p_joint_sensor;
+      }
+    }
+    const auto P = [&](int64_t f) { return Vector3d(ws.sensor_p.col(f - lo)); };
+    for (int64_t g = g0; g <= g1; ++g) {
+      const Eigen::Index col = g - g0;
+      const Quaterniond qs = qw(g, k) * pl.q_joint_sensor;
+      if (options_.method == DerivativeMethod::fd) {
+        if (o.accelerometer) {
+          Vector3d acc;
+          if (g > 0 && g < N - 1) {
+            // In differences, so a still point gives exactly 0.
+            acc = ((P(g + 1) - P(g)) - (P(g) - P(g - 1))) * (rate * rate);
+          } else if (N >= 4) {  // one-sided, second order: (2 p0 - 5 p1 + 4 p2 - p3) / h^2
+            const int64_t d = g == 0 ? 1 : -1;
+            acc = (2.0 * (P(g) - P(g + d)) - 3.0 * (P(g + d) - P(g + 2 * d)) +
+                   (P(g + 2 * d) - P(g + 3 * d))) *
+                  (rate * rate);
+          } else if (N == 3) {
+            acc = ((P(2) - P(1)) - (P(1) - P(0))) * (rate * rate);
+          } else {
+            acc = Vector3d::Zero();
+          }
+          ws.grid_f.col(col) = qs.conjugate() * (acc - options_.gravity_world);
+        }
+        if (o.gyroscope) {
+          Vector3d w;
+          if (g > 0 && g < N - 1) {
+            w = (increment(g - 1, k) + increment(g, k)) * (0.5 * rate);
+          } else if (N >= 3) {
+            // Chart at the end frame: psi_1, psi_2 of the two neighbours inwards,
+            // w = (4 psi_1 - psi_2) / (2 h) (one-sided, second order).
+            const int64_t d = g == 0 ? 1 : -1;
+            const Vector3d psi1 = g == 0 ? increment(g, k) : Vector3d(-increment(g - 1, k));
+            const Vector3d psi2 =
+                unwrap_near(so3_log(qw(g, k).conjugate() * qw(g + 2 * d, k)), 2.0 * psi1);
+            w = (4.0 * psi1 - psi2) * (0.5 * rate) * static_cast<double>(d);
+          } else {
+            w = increment(0, k) * rate;
+          }
+          ws.grid_w.col(col) = pl.q_joint_sensor.conjugate() * w;
+        }
+      } else {  // reference
+        if (o.accelerometer) {
+          // v = D1(p)/h and a = D1(v)/h with D1 central inside and one-sided at the ends.
+          const auto vel = [&](int64_t f) -> Vector3d {
+            if (f == 0) return (P(1) - P(0)) * rate;
+            if (f == N - 1) return (P(N - 1) - P(N - 2)) * rate;
+            return (P(f + 1) - P(f - 1)) * (0.5 * rate);
+          };
+          Vector3d acc;
+          if (g == 0) acc = (vel(1) - vel(0)) * rate;
+          else if (g == N - 1) acc = (vel(N - 1) - vel(N - 2)) * rate;
+          else acc = (vel(g + 1) - vel(g - 1)) * (0.5 * rate);
+          ws.grid_f.col(col) = qs.conjugate() * (acc - options_.gravity_world);
+        }
+        if (o.gyroscope) {
+          const auto qsf = [&](int64_t f) { return Quaterniond(qw(f, k) * pl.q_joint_sensor); };
+          Vector3d e;
+          if (g == 0) e = reference_euler_xyz((qsf(1) * qsf(0).conjugate()).toRotationMatrix());
+          else if (g == N - 1) e = reference_euler_xyz((qsf(N - 1) * qsf(N - 2).conjugate()).toRotationMatrix());
+          else e = 0.5 * reference_euler_xyz((qsf(g + 1) * qsf(g - 1).conjugate()).toRotationMatrix());
+          ws.grid_w.col(col) = qs.conjugate() * (e * rate);
+        }
+      }
+    }
+    // Samples: on the grid exactly, between frames linear interpolation of the frame values.
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      const Eigen::Index a = pos[i].frame - g0;
+      const double u = pos[i].frac;
+      const auto col = static_cast<Eigen::Index>(i);
+      const auto lerp = [&](const Eigen::Matrix3Xd& m) -> Vector3d {
+        if (u == 0.0) return m.col(a);
+        if (u == 1.0) return m.col(a + 1);
+        return (1.0 - u) * m.col(a) + u * m.col(a + 1);
+      };
+      if (o.accelerometer) out[s].specific_force.col(col) = lerp(ws.grid_f);
+      if (o.gyroscope) out[s].angular_rate.col(col) = lerp(ws.grid_w);
+      if (o.orientation) {
+        const Quaterniond q0 = qw(pos[i].frame, k) * pl.q_joint_sensor;
+        out[s].q_world_sensor[i] =
+            u == 0.0 ? q0.normalized() : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
+      }
+    }
+  }
+}
+
+void Simulator::run(MotionSource& motion,
+                    const std::function<void(std::size_t sensor, const SensorBlock& block)>& sink,
+                    std::optional<int64_t> frame_limit) {
+  require_simulatable(motion, "simulation");
+  const std::optional<int64_t> count = motion.frame_count();
+  if (!count && !frame_limit) throw Error("simulation: an endless motion source needs a frame limit");
+  int64_t N = count.value_or(frame_limit.value_or(0));
+  if (frame_limit) N = std::min(N, *frame_limit);
+  if (N < 2) throw Error("simulation: at least 2 frames are needed, got " + std::to_string(N));
+  // A bounded view of the source, so evaluate() sees the limit as the motion's end.
+  struct Limited : MotionSource {
+    MotionSource& inner;
+    int64_t frames;
+    Limited(MotionSource& m, int64_t n) : inner(m), frames(n) {}
+    double rate_hz() const override { return inner.rate_hz(); }
+    std::size_t joint_count() const override { return inner.joint_count(); }
+    std::optional<int64_t> frame_count() const override { return frames; }
+    void read(int64_t first, int64_t n, std::span<const int> joints, MotionChunk& out) override {
+      inner.read(first, n, joints, out);
+    }
+  } limited(motion, N);
+  const int64_t total = sample_count(motion, N);
+  std::vector<TimeNs> times;
+  std::vector<SensorBlock> blocks;
+  int64_t n = 0;
+  int64_t chunk_end = options_.chunk_frames;
+  while (n < total) {
+    times.clear();
+    while (n < total) {
+      const TimeNs t = sample_time_ns(motion, n);
+      if (frame_position(t, motion.rate_hz()).frame >= chunk_end && !times.empty()) break;
+      times.push_back(t);
+      ++n;
+    }
+    chunk_end += options_.chunk_frames;
+    evaluate(limited, times, blocks);
+    for (std::size_t s = 0; s < blocks.size(); ++s) sink(s, blocks[s]);
+  }
+}
+
+SimulatedSensorSource::SimulatedSensorSource(const Body& body, const SensorSpec& sensor,
+                                             MotionSource& motion, SimulationOptions options)
+    : simulator_(body, {sensor}, options), motion_(motion) {}
+
+void SimulatedSensorSource::evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* specific_force,
+                                     Eigen::Matrix3Xd* angular_rate) {
+  simulator_.evaluate(motion_, times, blocks_);
+  if (specific_force != nullptr) *specific_force = blocks_.front().specific_force;
+  if (angular_rate != nullptr) *angular_rate = blocks_.front().angular_rate;
+}
+
+}  // namespace imukit::sim

@@ -1,0 +1,152 @@
+// Simulator: body + motion + placements -> the true specific force and angular rate each sensor
+// measures (DESIGN.md "Simulation model"; hardware errors are added afterwards by the scene, with
+// core's ImuErrorGenerator):
+//
+//   p_world_s = p_world_j + R_world_j p_j_s,  R_world_s = R_world_j R_j_s,
+//   f_s = R_world_s^T (d^2 p_world_s / dt^2 - g_world),   w_s = R_world_s^T w_world_j.
+//
+// The scene is compiled into a plan: only joints on some sensor's chain are evaluated, each
+// once however many sensors share it, positions only when an accelerometer is asked for and
+// rotation derivatives (fd) only for joints that carry a gyroscope.
+//
+// Derivative methods (docs/simulation.md has the derivations and error orders):
+//  fd        central differences on the motion's frame grid: acceleration (p[k+1] - 2 p[k] +
+//            p[k-1]) / h^2, angular rate (d[k-1] + d[k]) / (2 h) with d[k] = log(R[k]^T R[k+1])
+//            the SO(3) increment; one-sided second-order stencils at the ends. Error O(h^2).
+//            Sensor times off the grid are linearly interpolated between frames.
+//  spline    per joint, on each frame interval [i, i+1], R(t) = R[i] exp(psi(t)) with psi the
+//            cubic through the log coordinates psi_m = log(R[i]^T R[m]) of frames i-1 .. i+2
+//            (a local cubic in the chart at R[i]); the root translation likewise. Angular
+//            velocity and acceleration of exp(psi(t)) are analytic, then propagated along the
+//            chain (w_c = w_p + R_c w_l, a_c = a_p + w_p x R_c w_l + R_c dw_l, and the rigid-body
+//            point acceleration). Evaluated at any time. Exact for constant-rate rotations and
+//            cubic-in-time translations and fixed-axis rotations; at the frames its acceleration
+//            equals fd's second difference and its rate is third-order; between frames values are
+//            O(h^4), rate O(h^3), acceleration O(h^2).
+//  reference the published reference simulator's discretisation (seed-summary section 1,
+//            defect 1; ../shared/data/reference_sim/README.md): doubled first differences for
+//            acceleration and Euler-angle differences for the rate. First order in the rate.
+//            For comparison with published numbers only; never the default.
+//
+// Times are int64 ns since the motion's frame 0. Frame positions are computed in integers when
+// the motion rate is a whole number of Hz, so a sample 24 h into a scene is evaluated exactly like
+// the same sample of the same motion segment simulated alone.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/signal_source.hpp"
+#include "core/time.hpp"
+#include "sim/body.hpp"
+#include "sim/motion.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::sim {
+
+enum class DerivativeMethod { fd, spline, reference };
+std::string_view to_string(DerivativeMethod method);
+// "fd", "spline" or "reference"; throws imukit::Error otherwise.
+DerivativeMethod parse_derivative_method(std::string_view name);
+
+inline const Eigen::Vector3d kStandardGravity(0.0, 0.0, -9.80665);
+
+struct SensorOutputs {
+  bool accelerometer = true;
+  bool gyroscope = true;
+  bool orientation = false;  // q_world_sensor
+};
+
+struct SensorSpec {
+  std::string name;
+  Placement placement;
+  SensorOutputs outputs;
+};
+
+struct SimulationOptions {
+  DerivativeMethod method = DerivativeMethod::fd;
+  Eigen::Vector3d gravity_world = kStandardGravity;
+  double rate_hz = 0.0;          // sensor sample rate; 0 = the motion's frame rate
+  int64_t chunk_frames = 4096;   // motion frames per streamed chunk
+};
+
+// The samples of one sensor for a block of times. Channels not requested have 0 columns.
+struct SensorBlock {
+  std::vector<TimeNs> t;
+  Eigen::Matrix3Xd specific_force;  // m/s^2, sensor frame
+  Eigen::Matrix3Xd angular_rate;    // rad/s, sensor frame
+  std::vector<Eigen::Quaterniond> q_world_sensor;
+};
+
+// Which joints a scene needs and how they connect.
+struct SimulationPlan {
+  std::vector<int> joints;        // body indices, parents first
+  std::vector<int> parent;        // index into `joints`, -1 for the root
+  std::vector<int> sensor_joint;  // per sensor, index into `joints`
+  std::vector<char> needs_rate;   // per plan joint: carries a gyroscope (fd/reference)
+  bool needs_position = false;    // some sensor has an accelerometer
+  bool needs_rotation = false;    // some sensor has a gyroscope or orientation
+};
+
+SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sensors);
+
+class Simulator {
+ public:
+  Simulator(const Body& body, std::vector<SensorSpec> sensors, SimulationOptions options = {});
+  ~Simulator();
+  Simulator(Simulator&&) noexcept;
+  Simulator& operator=(Simulator&&) noexcept;
+
+  const SimulationPlan& plan() const { return plan_; }
+  const std::vector<SensorSpec>& sensors() const { return sensors_; }
+  const SimulationOptions& options() const { return options_; }
+
+  // Number of sensor samples a motion of `frames` frames gives (times 0 .. (frames-1)/rate).
+  int64_t sample_count(const MotionSource& motion, int64_t frames) const;
+  // Sample n's time.
+  TimeNs sample_time_ns(const MotionSource& motion, int64_t n) const;
+
+  // Values at the given times (ns since frame 0, increasing, inside the motion) for every
+  // sensor: out[s] is resized. Reads only the frames the times need.
+  void evaluate(MotionSource& motion, std::span<const TimeNs> times, std::vector<SensorBlock>& out);
+
+  // Streams the whole motion (or its first `frame_limit` frames; required for an endless
+  // source) in chunks of options().chunk_frames frames: `sink(sensor, block)` is called for each
+  // sensor and chunk in time order. Memory does not grow with the motion's length.
+  void run(MotionSource& motion,
+           const std::function<void(std::size_t sensor, const SensorBlock& block)>& sink,
+           std::optional<int64_t> frame_limit = std::nullopt);
+
+ private:
+  struct Workspace;
+  SimulationPlan plan_;
+  std::vector<SensorSpec> sensors_;
+  SimulationOptions options_;
+  std::vector<Eigen::Vector3d> offsets_;  // per plan joint, offset from its plan parent
+  std::unique_ptr<Workspace> ws_;
+};
+
+// One simulated sensor as a core SignalSource (what mock devices and the hardware model
+// consume): true specific force and angular rate at any times inside the motion.
+class SimulatedSensorSource : public SignalSource {
+ public:
+  // `motion` must outlive this object.
+  SimulatedSensorSource(const Body& body, const SensorSpec& sensor, MotionSource& motion,
+                        SimulationOptions options = {});
+  void evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* specific_force,
+                Eigen::Matrix3Xd* angular_rate) override;
+
+ private:
+  Simulator simulator_;
+  MotionSource& motion_;
+  std::vector<SensorBlock> blocks_;
+};
+
+}  // namespace imukit::sim

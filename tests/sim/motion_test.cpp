@@ -1,0 +1,101 @@
+#include "sim/motion.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.hpp"
+
+namespace imukit::sim {
+namespace {
+
+Body small_body() {
+  Body b;
+  b.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
+  b.add_joint("left_elbow", 0, Eigen::Vector3d(0.3, 0, 0));
+  return b;
+}
+
+TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
+  const std::string text =
+      "t,root_x,root_y,root_z,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n"
+      "0,1,2,3,1,0,0,0\n"
+      "0.02,1,2,3,0,1,0,0\n"
+      "0.04,1,2,3.5,0,0,0,2\n";
+  std::vector<std::string> warnings;
+  const Motion m = parse_quaternion_csv(text, "m.csv", small_body(), std::nullopt, &warnings);
+  EXPECT_NEAR(m.rate_hz(), 50.0, 1e-9);
+  EXPECT_EQ(m.frames(), 3);
+  EXPECT_EQ(m.root_translation(2), Eigen::Vector3d(1, 2, 3.5));
+  EXPECT_EQ(m.rotation(1, 1).coeffs(), Eigen::Quaterniond(0, 1, 0, 0).coeffs());
+  // The non-unit (norm 2) quaternion was renormalised, with a warning naming frame and joint.
+  EXPECT_EQ(m.rotation(2, 1).coeffs(), Eigen::Quaterniond(0, 0, 0, 1).coeffs());
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("frame 2, joint left_elbow"), std::string::npos) << warnings[0];
+  EXPECT_EQ(m.rotation(0, 0).coeffs(), Eigen::Quaterniond::Identity().coeffs());
+}
+
+TEST(Motion, TinyNormErrorsAreRenormalisedSilently) {
+  Motion m(10.0, 1, 2);
+  m.rotation(0, 0) = Eigen::Quaterniond(1.0 + 1e-9, 0, 0, 0);
+  EXPECT_TRUE(m.validate_and_normalize().empty());
+  EXPECT_EQ(m.rotation(0, 0).w(), 1.0);
+}
+
+TEST(Motion, NonFiniteValuesNameFrameAndJoint) {
+  Motion m(10.0, 2, 3);
+  m.rotation(2, 1).x() = NAN;
+  try {
+    m.validate_and_normalize(nullptr);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 2, joint #1"), std::string::npos) << e.what();
+  }
+  Motion z(10.0, 1, 1);
+  z.rotation(0, 0) = Eigen::Quaterniond(0, 0, 0, 0);
+  EXPECT_THROW(z.validate_and_normalize(), Error);
+  const std::string bad = "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n0.1,inf,0,0,0\n";
+  try {
+    parse_quaternion_csv(bad, "bad.csv", small_body());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.where()->line, 3);
+    EXPECT_EQ(e.where()->column, 5);
+  }
+}
+
+TEST(Motion, CsvErrorsAreClear) {
+  EXPECT_THROW(parse_quaternion_csv("", "e.csv", small_body()), Error);
+  EXPECT_THROW(parse_quaternion_csv("t,knee_qw\n", "e.csv", small_body()), Error);
+  EXPECT_THROW(parse_quaternion_csv("t,left_elbow_qw\n0,1\n", "e.csv", small_body()), Error);
+  // One frame: no rate from t, and no simulation anyway.
+  EXPECT_THROW(parse_quaternion_csv("t\n0\n", "e.csv", small_body()), Error);
+  EXPECT_THROW(parse_quaternion_csv("t\n0\n0.1\n0.3\n", "e.csv", small_body()), Error);
+  Motion one(100.0, 1, 1);
+  EXPECT_THROW(require_simulatable(one, "x"), Error);
+}
+
+TEST(Motion, ProceduralFramesDependOnlyOnTheAbsoluteIndex) {
+  ProceduralMotionOptions a;
+  ProceduralMotion from_zero(3, a);
+  ProceduralMotionOptions b = a;
+  b.start_frame = 8'639'000;
+  ProceduralMotion late(3, b);
+  const std::vector<int> joints = {0, 2};
+  MotionChunk ca, cb;
+  from_zero.read(8'639'000, 50, joints, ca);
+  late.read(0, 50, joints, cb);
+  EXPECT_EQ(ca.root_translation, cb.root_translation);
+  for (std::size_t i = 0; i < ca.rotations.size(); ++i) EXPECT_EQ(ca.rotations[i].coeffs(), cb.rotations[i].coeffs());
+  // Smooth and in the stated band: the largest frame-to-frame angle at 100 Hz stays below
+  // 3 sinusoids x 0.6 rad x 2 pi x 2 Hz / 100.
+  for (int64_t f = 1; f < 50; ++f) {
+    EXPECT_LT(ca.rotation(f, 0).angularDistance(ca.rotation(f - 1, 0)), 3 * 0.6 * 2 * M_PI * 2.0 / 100.0);
+  }
+  ProceduralMotionOptions fractional;
+  fractional.rate_hz = 99.5;
+  EXPECT_THROW(ProceduralMotion(1, fractional), Error);
+}
+
+}  // namespace
+}  // namespace imukit::sim

@@ -1,0 +1,542 @@
+// Simulator accuracy: closed forms, convergence orders, the reference simulator's numbers, and
+// numerical stress (sign flips, rotations through pi, extreme rates, degenerate motions).
+#include "sim/simulator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/so3.hpp"
+#include "core/text_parse.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit::sim {
+namespace {
+
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+// Root + one child joint; sensors hang from the child.
+Body two_joint_body(const Vector3d& child_offset = Vector3d(0.3, 0.0, 0.1)) {
+  Body b;
+  b.add_joint("pelvis", -1, Vector3d::Zero());
+  b.add_joint("arm", 0, child_offset);
+  return b;
+}
+
+SensorSpec sensor_on(int joint, const Vector3d& p, const Quaterniond& q = Quaterniond::Identity(),
+                     SensorOutputs outputs = {}) {
+  SensorSpec s;
+  s.name = "s";
+  s.placement.joint = joint;
+  s.placement.p_joint_sensor = p;
+  s.placement.q_joint_sensor = q;
+  s.outputs = outputs;
+  return s;
+}
+
+// A motion given by functions of time.
+template <class Root, class Child, class Trans>
+Motion sampled_motion(double rate, int64_t frames, Root root, Child child, Trans trans) {
+  Motion m(rate, 2, frames);
+  for (int64_t f = 0; f < frames; ++f) {
+    const double t = static_cast<double>(f) / rate;
+    m.rotation(f, 0) = root(t);
+    m.rotation(f, 1) = child(t);
+    m.root_translation(f) = trans(t);
+  }
+  return m;
+}
+
+std::vector<TimeNs> grid_times(const Simulator& sim, const MotionSource& m, int64_t frames) {
+  std::vector<TimeNs> t;
+  for (int64_t n = 0; n < sim.sample_count(m, frames); ++n) t.push_back(sim.sample_time_ns(m, n));
+  return t;
+}
+
+const Vector3d kSpinAxis = Vector3d(0.3, -0.5, 0.8).normalized();
+constexpr double kSpinRate = 2.7;  // rad/s
+
+// Constant spin of the root about kSpinAxis, everything else still.
+Motion constant_spin(double rate, int64_t frames) {
+  return sampled_motion(
+      rate, frames,
+      [](double t) { return Quaterniond(Eigen::AngleAxisd(kSpinRate * t, kSpinAxis)); },
+      [](double) { return Quaterniond::Identity(); }, [](double) { return Vector3d::Zero(); });
+}
+
+TEST(Simulator, ConstantSpinGivesCentripetalPlusGravityAndRateExactlyWithSpline) {
+  const Motion m = constant_spin(50.0, 60);
+  const Vector3d r(0.2, -0.1, 0.05);  // sensor offset on the root
+  for (const DerivativeMethod method : {DerivativeMethod::spline, DerivativeMethod::fd}) {
+    SimulationOptions opt;
+    opt.method = method;
+    opt.rate_hz = method == DerivativeMethod::spline ? 333.0 : 0.0;  // off-grid for spline
+    Simulator sim(two_joint_body(), {sensor_on(0, r)}, opt);
+    Motion mm = m;
+    std::vector<SensorBlock> out;
+    const std::vector<TimeNs> t = grid_times(sim, mm, mm.frames());
+    sim.evaluate(mm, t, out);
+    const Vector3d w_body = kSpinAxis * kSpinRate;  // the spin axis is fixed in the body too
+    // Specific force in the body: w x (w x r) (centripetal, towards the axis) minus gravity.
+    double worst_f = 0.0, worst_w = 0.0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      // fd's one-sided end stencils have a larger constant: the bound below is for the interior.
+      if (method == DerivativeMethod::fd && (i == 0 || i + 1 == t.size())) continue;
+      const Quaterniond q(Eigen::AngleAxisd(kSpinRate * to_seconds(t[i]), kSpinAxis));
+      const Vector3d f = w_body.cross(w_body.cross(r)) - q.conjugate() * kStandardGravity;
+      worst_f = std::max(worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
+      worst_w = std::max(worst_w, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w_body).norm() / kSpinRate);
+    }
+    if (method == DerivativeMethod::spline) {
+      EXPECT_LT(worst_f, 1e-9);
+      EXPECT_LT(worst_w, 1e-9);
+    } else {
+      // fd: the SO(3) log map makes the rate exact for a constant spin; the second difference of
+      // a point on a circle is off by (2 - 2 cos(w h)) / h^2 / w^2 - 1 ~ (w h)^2 / 12.
+      EXPECT_LT(worst_w, 1e-12);
+      const double h = 1.0 / 50.0;
+      EXPECT_LT(worst_f, std::pow(kSpinRate * h, 2) / 12.0 * 1.01 + 1e-12);
+    }
+  }
+}
+
+TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
+  for (const DerivativeMethod method :
+       {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
+    for (int trial = 0; trial < 5; ++trial) {
+      const Quaterniond q0 = Quaterniond(Eigen::AngleAxisd(0.7 * trial + 0.1, Vector3d(1, 2, -0.5 * trial).normalized()));
+      const Quaterniond q1 = Quaterniond(Eigen::AngleAxisd(2.0 - 0.3 * trial, Vector3d(-1, 0.2, 0.4).normalized()));
+      Motion m = sampled_motion(
+          100.0, 20, [&](double) { return q0; }, [&](double) { return q1; },
+          [](double) { return Vector3d(1.0, -2.0, 0.9); });
+      SimulationOptions opt;
+      opt.method = method;
+      Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.02, 0.0))}, opt);
+      std::vector<SensorBlock> out;
+      sim.evaluate(m, grid_times(sim, m, m.frames()), out);
+      for (Eigen::Index i = 0; i < out[0].specific_force.cols(); ++i) {
+        EXPECT_NEAR(out[0].specific_force.col(i).norm(), 9.80665, 1e-12) << to_string(method) << " trial " << trial << " sample " << i;
+        EXPECT_EQ(out[0].angular_rate.col(i).norm(), 0.0) << to_string(method) << " trial " << trial << " sample " << i;
+      }
+    }
+  }
+}
+
+// Sinusoidal joint motion with analytic derivatives: the child rotates about a fixed axis by
+// theta(t) = A sin(W t); the sensor sits at r on the child. Returns the truth at time t.
+struct SineTruth {
+  Vector3d axis = Vector3d(0.2, 0.9, -0.3).normalized();
+  double A = 0.8, W = 2.0 * std::numbers::pi * 1.3;
+  Vector3d offset = Vector3d(0.3, 0.0, 0.1);
+  Vector3d r = Vector3d(0.05, 0.2, -0.03);
+  Quaterniond root = Quaterniond(Eigen::AngleAxisd(0.4, Vector3d::UnitZ()));
+  Quaterniond rotation(double t) const { return Quaterniond(Eigen::AngleAxisd(A * std::sin(W * t), axis)); }
+  void truth(double t, Vector3d& f, Vector3d& w) const {
+    const double th = A * std::sin(W * t), dth = A * W * std::cos(W * t), ddth = -A * W * W * std::sin(W * t);
+    const Quaterniond q = rotation(t);
+    const Vector3d wb = axis * dth, ab = axis * ddth;  // body frame (fixed axis)
+    const Vector3d acc_child = ab.cross(r) + wb.cross(wb.cross(r));  // child frame
+    f = acc_child - (root * q).conjugate() * kStandardGravity;
+    w = wb;
+    (void)th;
+  }
+};
+
+// RMS error of accelerometer and gyroscope (relative to the signal RMS) at `rate`, evaluated at
+// sensor times `sensor_rate` (0 = on the frames).
+std::pair<double, double> sine_errors(DerivativeMethod method, double rate, double sensor_rate = 0.0) {
+  const SineTruth T;
+  const auto frames = static_cast<int64_t>(std::lround(3.0 * rate)) + 1;
+  Motion m = sampled_motion(
+      rate, frames, [&](double) { return T.root; }, [&](double t) { return T.rotation(t); },
+      [](double) { return Vector3d::Zero(); });
+  SimulationOptions opt;
+  opt.method = method;
+  opt.rate_hz = sensor_rate;
+  Simulator sim(two_joint_body(T.offset), {sensor_on(1, T.r)}, opt);
+  std::vector<SensorBlock> out;
+  const std::vector<TimeNs> times = grid_times(sim, m, m.frames());
+  sim.evaluate(m, times, out);
+  double ef = 0, ew = 0, sf = 0, sw = 0;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double t = to_seconds(times[i]);
+    if (t < 0.5 || t > 2.5) continue;  // interior: the end stencils have their own constants
+    Vector3d f, w;
+    T.truth(t, f, w);
+    const Vector3d g = f + (T.root * T.rotation(t)).conjugate() * kStandardGravity;  // motion part
+    ef += (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).squaredNorm();
+    ew += (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w).squaredNorm();
+    sf += g.squaredNorm();
+    sw += w.squaredNorm();
+  }
+  return {std::sqrt(ef / sf), std::sqrt(ew / sw)};
+}
+
+double slope(double e_coarse, double e_fine) { return std::log2(e_coarse / e_fine); }
+
+TEST(Simulator, FdErrorFallsAsDtSquaredOverFourRates) {
+  std::vector<std::pair<double, double>> e;
+  for (double rate : {25.0, 50.0, 100.0, 200.0}) e.push_back(sine_errors(DerivativeMethod::fd, rate));
+  for (std::size_t i = 0; i + 1 < e.size(); ++i) {
+    EXPECT_NEAR(slope(e[i].first, e[i + 1].first), 2.0, 0.15) << "accelerometer, step " << i;
+    EXPECT_NEAR(slope(e[i].second, e[i + 1].second), 2.0, 0.15) << "gyroscope, step " << i;
+  }
+}
+
+TEST(Simulator, ReferenceGyroErrorFallsOnlyLinearly) {
+  const auto e50 = sine_errors(DerivativeMethod::reference, 50.0);
+  const auto e100 = sine_errors(DerivativeMethod::reference, 100.0);
+  const auto e200 = sine_errors(DerivativeMethod::reference, 200.0);
+  EXPECT_NEAR(slope(e50.second, e100.second), 1.0, 0.2);
+  EXPECT_NEAR(slope(e100.second, e200.second), 1.0, 0.2);
+  // fd and spline are at least as accurate everywhere, and several times better for the gyro.
+  for (double rate : {25.0, 50.0, 100.0, 200.0}) {
+    const auto r = sine_errors(DerivativeMethod::reference, rate);
+    const auto f = sine_errors(DerivativeMethod::fd, rate);
+    const auto s = sine_errors(DerivativeMethod::spline, rate);
+    EXPECT_LE(f.first, r.first * 1.0001) << rate;
+    EXPECT_LE(s.first, r.first * 1.0001) << rate;
+    EXPECT_LT(f.second * 3.0, r.second) << rate;
+    EXPECT_LT(s.second * 3.0, r.second) << rate;
+  }
+}
+
+TEST(Simulator, SplineIsNoWorseThanFdAtFramesAndConvergesAtItsOrderBetweenThem) {
+  for (double rate : {25.0, 50.0, 100.0}) {
+    const auto f = sine_errors(DerivativeMethod::fd, rate);
+    const auto s = sine_errors(DerivativeMethod::spline, rate);
+    EXPECT_LE(s.first, f.first * 1.0001) << rate;
+    EXPECT_LE(s.second, f.second) << rate;
+  }
+  // Between frames (sensor at 7/3 of the motion rate, so most samples are off the grid):
+  // acceleration second order, angular rate third order.
+  std::vector<std::pair<double, double>> e;
+  for (double rate : {30.0, 60.0, 120.0, 240.0}) e.push_back(sine_errors(DerivativeMethod::spline, rate, rate * 7.0 / 3.0));
+  for (std::size_t i = 0; i + 1 < e.size(); ++i) {
+    EXPECT_NEAR(slope(e[i].first, e[i + 1].first), 2.0, 0.25) << "accelerometer, step " << i;
+    EXPECT_GT(slope(e[i].second, e[i + 1].second), 2.75) << "gyroscope, step " << i;
+  }
+}
+
+TEST(Simulator, SplineIsExactOnMotionsItRepresents) {
+  // Cubic-in-time translation, a fixed-axis rotation whose angle is cubic in time on the
+  // child, and a constant spin of the root: the local cubic reproduces all three.
+  const Vector3d axis = Vector3d(1, -1, 0.5).normalized();
+  const auto angle = [](double t) { return 0.3 + 0.5 * t - 0.4 * t * t + 0.25 * t * t * t; };
+  const auto dangle = [](double t) { return 0.5 - 0.8 * t + 0.75 * t * t; };
+  const auto ddangle = [](double t) { return -0.8 + 1.5 * t; };
+  const auto trans = [](double t) { return Vector3d(0.1 * t * t * t, -0.2 * t * t + t, 0.05 * t); };
+  const auto ddtrans = [](double t) { return Vector3d(0.6 * t, -0.4, 0.0); };
+  const Vector3d wr = Vector3d(0.1, 0.2, 1.0).normalized() * 1.5;
+  Motion m = sampled_motion(
+      40.0, 81, [&](double t) { return so3_exp(wr * t); },
+      [&](double t) { return Quaterniond(Eigen::AngleAxisd(angle(t), axis)); }, trans);
+  const Vector3d offset(0.3, 0.0, 0.1), r(0.02, 0.05, -0.04);
+  SimulationOptions opt;
+  opt.method = DerivativeMethod::spline;
+  opt.rate_hz = 97.0;
+  Simulator sim(two_joint_body(offset), {sensor_on(1, r)}, opt);
+  std::vector<SensorBlock> out;
+  const auto times = grid_times(sim, m, m.frames());
+  sim.evaluate(m, times, out);
+  double worst_f = 0.0, worst_w = 0.0;
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const double t = to_seconds(times[i]);
+    // Truth by rigid-body kinematics in world axes.
+    const Eigen::Matrix3d R0 = so3_exp(wr * t).toRotationMatrix();
+    const Eigen::Matrix3d Rl = Eigen::AngleAxisd(angle(t), axis).toRotationMatrix();
+    const Eigen::Matrix3d R1 = R0 * Rl;
+    const Vector3d w0 = R0 * wr;  // = wr, the axis is fixed
+    const Vector3d w1 = w0 + R1 * (axis * dangle(t));
+    const Vector3d dw1 = w0.cross(R1 * axis * dangle(t)) + R1 * axis * ddangle(t);
+    const Vector3d o = R0 * offset, rr = R1 * r;
+    const Vector3d a = ddtrans(t) + w0.cross(w0.cross(o)) + dw1.cross(rr) + w1.cross(w1.cross(rr));
+    const Vector3d f = R1.transpose() * (a - kStandardGravity);
+    const Vector3d w = R1.transpose() * w1;
+    worst_f = std::max(worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
+    worst_w = std::max(worst_w, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w).norm() / w.norm());
+  }
+  EXPECT_LT(worst_f, 1e-9);
+  EXPECT_LT(worst_w, 1e-9);
+}
+
+TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
+  const SineTruth T;
+  Motion m = sampled_motion(
+      100.0, 200, [&](double) { return T.root; }, [&](double t) { return T.rotation(t); },
+      [](double t) { return Vector3d(0.1 * std::sin(t), 0, 0); });
+  Motion flipped = m;
+  for (int64_t f = 0; f < flipped.frames(); f += 2) {
+    flipped.rotation(f, 0).coeffs() *= -1.0;
+    flipped.rotation(f, 1).coeffs() *= -1.0;
+  }
+  for (const DerivativeMethod method :
+       {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
+    SimulationOptions opt;
+    opt.method = method;
+    opt.rate_hz = method == DerivativeMethod::spline ? 173.0 : 0.0;
+    Simulator sim(two_joint_body(T.offset), {sensor_on(1, T.r)}, opt);
+    std::vector<SensorBlock> a, b;
+    const auto times = grid_times(sim, m, m.frames());
+    sim.evaluate(m, times, a);
+    sim.evaluate(flipped, times, b);
+    EXPECT_LT((a[0].specific_force - b[0].specific_force).cwiseAbs().maxCoeff(), 1e-12) << to_string(method);
+    EXPECT_LT((a[0].angular_rate - b[0].angular_rate).cwiseAbs().maxCoeff(), 1e-12) << to_string(method);
+  }
+}
+
+TEST(Simulator, RotationsThroughPiAreHandled) {
+  // A spin of 3 rad/s sampled at 1 Hz turns 3 rad per frame, close to pi: the log map still
+  // takes the short way and fd/spline read the rate exactly.
+  for (const double rate_hz : {1.0, 0.9551}) {
+    const double w = 3.0;
+    Motion m = sampled_motion(
+        rate_hz, 12, [&](double t) { return so3_exp(Vector3d::UnitZ() * (w * t)); },
+        [](double) { return Quaterniond::Identity(); }, [](double) { return Vector3d::Zero(); });
+    for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
+      SimulationOptions opt;
+      opt.method = method;
+      Simulator sim(two_joint_body(), {sensor_on(0, Vector3d::Zero())}, opt);
+      std::vector<SensorBlock> out;
+      sim.evaluate(m, grid_times(sim, m, m.frames()), out);
+      for (Eigen::Index i = 0; i < out[0].angular_rate.cols(); ++i) {
+        EXPECT_NEAR(out[0].angular_rate(2, i), w, 1e-9) << to_string(method) << " " << rate_hz;
+        EXPECT_NEAR(out[0].specific_force.col(i).norm(), 9.80665, 1e-9);
+      }
+    }
+  }
+}
+
+TEST(Simulator, RatesFrom5HzTo10kHzStayAccurate) {
+  for (const double rate : {5.0, 10.0, 100.0, 1000.0, 10000.0}) {
+    const auto fd = sine_errors(DerivativeMethod::fd, rate);
+    const auto sp = sine_errors(DerivativeMethod::spline, rate);
+    // Second order down to 5 Hz (W h = 1.6 there), and no rounding blow-up at 10 kHz: the
+    // second difference loses about eps |p| / h^2 = 2e-16 * 0.3 * 1e8 = 6e-9 m/s^2.
+    const double bound = std::max(2.0 * std::pow(2.0 * std::numbers::pi * 1.3 / rate, 2), 1e-7);
+    EXPECT_LT(fd.first, bound) << rate;
+    EXPECT_LT(fd.second, bound) << rate;
+    EXPECT_LT(sp.first, bound) << rate;
+    EXPECT_LT(sp.second, bound) << rate;
+  }
+}
+
+TEST(Simulator, ZeroAndOneFrameMotionsAreClearErrors) {
+  for (int64_t frames : {0, 1}) {
+    Motion m(100.0, 2, frames);
+    Simulator sim(two_joint_body(), {sensor_on(1, Vector3d::Zero())});
+    std::vector<SensorBlock> out;
+    try {
+      sim.run(m, [](std::size_t, const SensorBlock&) {});
+      ADD_FAILURE() << "no error for " << frames << " frames";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("at least 2"), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Simulator, TwoAndThreeFrameMotionsWork) {
+  for (int64_t frames : {2, 3}) {
+    Motion m = constant_spin(10.0, frames);
+    for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
+      SimulationOptions opt;
+      opt.method = method;
+      Simulator sim(two_joint_body(), {sensor_on(0, Vector3d::Zero())}, opt);
+      std::vector<SensorBlock> out;
+      sim.evaluate(m, grid_times(sim, m, frames), out);
+      ASSERT_EQ(out[0].angular_rate.cols(), frames);
+      for (Eigen::Index i = 0; i < frames; ++i) {
+        EXPECT_NEAR((out[0].angular_rate.col(i) - kSpinAxis * kSpinRate).norm(), 0.0, 1e-12);
+      }
+    }
+  }
+}
+
+TEST(Simulator, PlanEvaluatesOnlyTheSensorChainsAndSharesPrefixes) {
+  const Body body = Body::default_humanoid(1.8);
+  const int lw = body.index_of("left_elbow");
+  const int rw = body.index_of("right_elbow");
+  const SimulationPlan one = compile_plan(body, {sensor_on(lw, Vector3d::Zero())});
+  // pelvis, spine, chest, left_clavicle, left_shoulder, left_elbow.
+  EXPECT_EQ(one.joints.size(), 6u);
+  const SimulationPlan two = compile_plan(body, {sensor_on(lw, Vector3d::Zero()), sensor_on(rw, Vector3d::Zero())});
+  EXPECT_EQ(two.joints.size(), 9u);  // the trunk prefix (3 joints) once
+  SensorOutputs acc_only;
+  acc_only.gyroscope = false;
+  const SimulationPlan a = compile_plan(body, {sensor_on(lw, Vector3d::Zero(), Quaterniond::Identity(), acc_only)});
+  EXPECT_TRUE(a.needs_position);
+  EXPECT_FALSE(a.needs_rotation);
+  EXPECT_EQ(std::count(a.needs_rate.begin(), a.needs_rate.end(), 1), 0);
+}
+
+TEST(Simulator, UnrequestedOutputsAreEmptyAndRequestedOnesUnchanged) {
+  const SineTruth T;
+  Motion m = sampled_motion(
+      100.0, 100, [&](double) { return T.root; }, [&](double t) { return T.rotation(t); },
+      [](double) { return Vector3d::Zero(); });
+  SensorOutputs acc_only;
+  acc_only.gyroscope = false;
+  Simulator full(two_joint_body(T.offset), {sensor_on(1, T.r)});
+  Simulator part(two_joint_body(T.offset), {sensor_on(1, T.r, Quaterniond::Identity(), acc_only)});
+  std::vector<SensorBlock> a, b;
+  const auto times = grid_times(full, m, m.frames());
+  full.evaluate(m, times, a);
+  part.evaluate(m, times, b);
+  EXPECT_EQ(b[0].angular_rate.cols(), 0);
+  EXPECT_EQ(a[0].specific_force, b[0].specific_force);
+}
+
+TEST(Simulator, StreamedChunksEqualOneBlock) {
+  ProceduralMotionOptions po;
+  po.frames = 3000;
+  ProceduralMotion motion(2, po);
+  for (const DerivativeMethod method :
+       {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
+    SimulationOptions opt;
+    opt.method = method;
+    opt.chunk_frames = 97;
+    opt.rate_hz = method == DerivativeMethod::reference ? 0.0 : 250.0;
+    Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.2, 0.3))}, opt);
+    Eigen::Matrix3Xd f(3, 0), w(3, 0);
+    std::vector<TimeNs> t;
+    sim.run(motion, [&](std::size_t, const SensorBlock& b) {
+      f.conservativeResize(3, f.cols() + b.specific_force.cols());
+      f.rightCols(b.specific_force.cols()) = b.specific_force;
+      w.conservativeResize(3, w.cols() + b.angular_rate.cols());
+      w.rightCols(b.angular_rate.cols()) = b.angular_rate;
+      t.insert(t.end(), b.t.begin(), b.t.end());
+    });
+    std::vector<SensorBlock> whole;
+    sim.evaluate(motion, grid_times(sim, motion, 3000), whole);
+    EXPECT_EQ(t, whole[0].t);
+    EXPECT_EQ(f, whole[0].specific_force) << to_string(method);
+    EXPECT_EQ(w, whole[0].angular_rate) << to_string(method);
+  }
+}
+
+TEST(Simulator, TwentyFourHourSceneEndsLikeTheSameSegmentAlone) {
+  // 24 h at 100 Hz from the procedural source, streamed; the last 1000 samples must equal
+  // those of a source that starts at that absolute frame (no drift from accumulated time).
+  const int64_t frames = 24LL * 3600 * 100;
+  const int64_t tail = 1000;
+  ProceduralMotionOptions po;
+  ProceduralMotion endless(2, po);
+  SimulationOptions opt;
+  opt.chunk_frames = 100000;
+  Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.0, 0.02))}, opt);
+  Eigen::Matrix3Xd f_end(3, tail), w_end(3, tail);
+  std::vector<TimeNs> t_end(tail);
+  int64_t seen = 0;
+  sim.run(endless, [&](std::size_t, const SensorBlock& b) {
+    for (std::size_t i = 0; i < b.t.size(); ++i, ++seen) {
+      const int64_t k = seen - (frames - tail);
+      if (k >= 0) {
+        f_end.col(k) = b.specific_force.col(static_cast<Eigen::Index>(i));
+        w_end.col(k) = b.angular_rate.col(static_cast<Eigen::Index>(i));
+        t_end[static_cast<std::size_t>(k)] = b.t[i];
+      }
+    }
+  }, frames);
+  ASSERT_EQ(seen, frames);
+  EXPECT_EQ(t_end.back(), (frames - 1) * 10'000'000LL);
+  ProceduralMotionOptions alone_opt = po;
+  alone_opt.start_frame = frames - tail;
+  alone_opt.frames = tail;
+  ProceduralMotion alone(2, alone_opt);
+  std::vector<SensorBlock> b;
+  // The segment alone has its own ends (one-sided stencils at its first and last frame), so
+  // compare its interior: frames 1 .. tail-2.
+  std::vector<TimeNs> times;
+  for (int64_t k = 1; k < tail - 1; ++k) times.push_back(k * 10'000'000LL);
+  sim.evaluate(alone, times, b);
+  for (int64_t k = 1; k < tail - 1; ++k) {
+    EXPECT_EQ(b[0].specific_force.col(k - 1), f_end.col(k)) << k;
+    EXPECT_EQ(b[0].angular_rate.col(k - 1), w_end.col(k)) << k;
+    if (::testing::Test::HasFailure()) break;
+  }
+}
+
+// --- the reference simulator's numbers --------------------------------------------------------
+
+std::vector<std::vector<double>> read_numeric_csv(const std::filesystem::path& path) {
+  LineReader r(path.string());
+  std::vector<Field> fields;
+  std::vector<std::vector<double>> rows;
+  r.next();  // header
+  while (auto line = r.next()) {
+    if (line->empty()) continue;
+    split_fields(*line, fields);
+    std::vector<double> row;
+    for (const Field& f : fields) row.push_back(*parse_double(f.text));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(Simulator, ReferenceMethodMatchesTheReferenceSimulatorTo1e9Relative) {
+  IMUKIT_REQUIRE_DATA(data);
+  const auto dir = data / "reference_sim";
+  std::ifstream pin(dir / "sceneA_params.json");
+  const nlohmann::json P = nlohmann::json::parse(pin);
+  Body body;
+  body.add_joint("BASE", -1, Vector3d::Zero());
+  for (const auto& cp : P["joint_tree_child_parent_in_eval_order"]) {
+    const std::string child = cp[0], parent = cp[1];
+    const auto o = P["B_rp_parent_to_child_m"][parent + "->" + child];
+    body.add_joint(child, body.index_of(parent), Vector3d(o[0], o[1], o[2]));
+  }
+  std::ifstream qin(dir / "sceneA_D_orientation_10s.csv");
+  std::stringstream qs;
+  qs << qin.rdbuf();
+  Motion motion = parse_quaternion_csv(qs.str(), "sceneA_D_orientation_10s.csv", body);
+  ASSERT_NEAR(motion.rate_hz(), 100.0, 1e-9);
+  const auto trans = read_numeric_csv(dir / "sceneA_D_translation_10s.csv");
+  ASSERT_EQ(static_cast<int64_t>(trans.size()), motion.frames());
+  for (int64_t f = 0; f < motion.frames(); ++f) {
+    motion.root_translation(f) = Vector3d(trans[static_cast<std::size_t>(f)][1], trans[static_cast<std::size_t>(f)][2],
+                                          trans[static_cast<std::size_t>(f)][3]);
+  }
+  SimulationOptions opt;
+  opt.method = DerivativeMethod::reference;
+  opt.gravity_world = Vector3d(0, 0, -9.8);
+  // Use the motion's exact rate (the t column gives 100 Hz to rounding).
+  Motion m100(100.0, motion.joint_count(), motion.frames());
+  for (int64_t f = 0; f < motion.frames(); ++f) {
+    m100.root_translation(f) = motion.root_translation(f);
+    for (std::size_t j = 0; j < motion.joint_count(); ++j) m100.rotation(f, j) = motion.rotation(f, j);
+  }
+  for (const std::string name : {"RWR", "LWR"}) {
+    const std::string joint = name == "RWR" ? "R_ELBOW" : "L_ELBOW";
+    const auto pp = P["P_rp_m"][joint + "->" + name];
+    const auto pq = P["P_ro_as_quat_wxyz"][name];
+    SensorSpec s = sensor_on(body.index_of(joint), Vector3d(pp[0], pp[1], pp[2]),
+                             Quaterniond(pq[0], pq[1], pq[2], pq[3]));
+    Simulator sim(body, {s}, opt);
+    std::vector<SensorBlock> out;
+    sim.evaluate(m100, grid_times(sim, m100, m100.frames()), out);
+    const auto ref = read_numeric_csv(dir / ("sceneA_imu_" + name + "_10s.csv"));
+    const auto ab = P["H_acc_bias"][name];
+    const auto gb = P["H_gyro_bias"][name];
+    // The files come from a 180 s run: the last two samples used interior formulas there.
+    double worst = 0.0;
+    for (std::size_t i = 0; i + 2 < ref.size(); ++i) {
+      for (int a = 0; a < 3; ++a) {
+        const double fa = out[0].specific_force(a, static_cast<Eigen::Index>(i)) + double(ab[static_cast<std::size_t>(a)]);
+        const double fg = out[0].angular_rate(a, static_cast<Eigen::Index>(i)) + double(gb[static_cast<std::size_t>(a)]);
+        worst = std::max(worst, std::abs(fa - ref[i][1 + a]) / std::max(1.0, std::abs(ref[i][1 + a])));
+        worst = std::max(worst, std::abs(fg - ref[i][4 + a]) / std::max(1.0, std::abs(ref[i][4 + a])));
+      }
+    }
+    EXPECT_LT(worst, 1e-9) << name;
+    RecordProperty(name + "_worst_relative", std::to_string(worst));
+  }
+}
+
+}  // namespace
+}  // namespace imukit::sim
