@@ -1,0 +1,89 @@
+// ClockMapper: maps a device's clock (ticks) to host time from the times at which its packets
+// arrived, robust to receive jitter, and, where the device answers time-sync pings, corrects
+// for the link latency as well.
+//
+// Model: host_receive = offset + (1 + skew) * device_time + latency + jitter, with jitter >= 0
+// (a packet can be late, never early). The best line under every point is the lower envelope:
+// the line that touches the lower convex hull of the (device_time, receive_time) points and
+// minimises the total distance to them (Moon, Skelly & Towsley, "Estimation and removal of clock
+// skew from network delay measurements", INFOCOM 1999). The hull is kept incrementally as points
+// arrive in device-time order (amortised O(1) per packet), so the same code gives the online
+// estimate during a recording and the offline fit over the whole file.
+//
+// The envelope maps a sample to "when it would have arrived with the smallest latency seen";
+// the constant latency itself is invisible in receive times. A time-sync ping (host send time
+// t1, device receive tick r, device transmit tick s, host receive time t2) measures it: with
+// symmetric paths the device instant (r + s)/2 happened at host time (t1 + t2)/2. The ping with
+// the shortest round trip is the least disturbed one and gives the latency correction.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/time.hpp"
+
+namespace imukit::capture {
+
+struct ClockFit {
+  std::size_t packets = 0;
+  double skew_ppm = 0.0;            // device clock fast (> 0) or slow relative to the host
+  double latency_correction_s = 0.0;  // subtracted from the envelope (0 without pings)
+  bool ping_corrected = false;
+  std::size_t pings = 0;
+  double best_round_trip_s = 0.0;
+  // Receive time minus the envelope over the most recent kJitterWindow packets: the receive
+  // jitter above the fastest delivery (mean, standard deviation, maximum).
+  double jitter_mean_s = 0.0;
+  double jitter_std_s = 0.0;
+  double jitter_max_s = 0.0;
+};
+
+class ClockMapper {
+ public:
+  static constexpr std::size_t kJitterWindow = 100'000;
+
+  explicit ClockMapper(double tick_hz);
+
+  // One packet: the (unwrapped) device tick of a sample it carried and when it reached the host.
+  // Ticks must not decrease.
+  void add_packet(uint64_t device_ticks, TimeNs host_receive);
+  // One time-sync exchange (ticks unwrapped on the same scale as the packets).
+  void add_ping(TimeNs host_send, uint64_t device_receive_ticks, uint64_t device_transmit_ticks,
+                TimeNs host_receive);
+
+  // Host time of a device tick under the current fit; before two packets arrived, the first
+  // packet's offset at the nominal rate.
+  TimeNs map(uint64_t device_ticks) const;
+  bool ready() const { return packets_ >= 2; }
+  // Statistics of the fit (a pass over the kept residual samples: call at the end, or rarely).
+  ClockFit fit() const;
+
+ private:
+  struct Point {
+    double x;  // device seconds since the first packet
+    double y;  // host seconds since the first packet
+  };
+  double device_seconds(uint64_t ticks) const;
+  void refit() const;
+
+  double tick_hz_;
+  bool started_ = false;
+  uint64_t tick0_ = 0;
+  TimeNs host0_ = 0;
+  std::size_t packets_ = 0;
+  double sum_x_ = 0.0;
+  std::vector<Point> hull_;       // lower convex hull, x increasing
+  std::vector<Point> recent_;  // ring of the last kJitterWindow packets, for the statistics
+  std::size_t recent_next_ = 0;
+  // The ping with the shortest round trip so far (device mid-time, host mid-time).
+  std::size_t pings_ = 0;
+  double best_round_trip_s_ = 0.0;
+  double best_ping_x_ = 0.0, best_ping_y_ = 0.0;
+  // Lazily refreshed line y = a + b x and latency correction.
+  mutable bool dirty_ = true;
+  mutable double a_ = 0.0, b_ = 1.0;
+  mutable std::optional<double> latency_s_;
+};
+
+}  // namespace imukit::capture
