@@ -1,0 +1,82 @@
+// Codec: turns what a transport delivers (a byte stream in any chunking, or whole HID reports)
+// into Samples, counting every loss in CodecStats. Codecs do no I/O themselves: commands for the
+// device (configuration, time-sync pings) are queued and taken by the reader with
+// take_outgoing(), and feature reports they need are listed by feature_requests() and handed
+// back through on_feature_report(). So each codec is tested, benchmarked and fuzzed on plain
+// byte buffers.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "drivers/sample.hpp"
+
+namespace imukit::drivers {
+
+struct FeatureRequest {
+  uint8_t report_id = 0;
+  std::size_t size = 0;  // bytes, report ID included
+};
+
+class Codec {
+ public:
+  virtual ~Codec() = default;
+
+  virtual std::string name() const = 0;
+  // True when feed() takes one whole HID report per call; false for byte streams.
+  virtual bool report_based() const { return false; }
+
+  // The transport is open (host clock `now`): queue start-up commands.
+  virtual void start(TimeNs /*now*/) {}
+  // Bytes (or one report) that arrived at host_time; decoded samples are appended to out.
+  virtual void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) = 0;
+  // Called between reads (host clock now): e.g. periodic time-sync requests.
+  virtual void tick(TimeNs /*now*/) {}
+  // End of stream: hand out anything complete that was held back.
+  virtual void finish(std::vector<Sample>& /*out*/) {}
+
+  // Bytes received but not yet decided on (an unfinished frame or line).
+  virtual std::size_t bytes_pending() const { return 0; }
+
+  virtual std::vector<FeatureRequest> feature_requests() const { return {}; }
+  virtual void on_feature_report(uint8_t /*id*/, std::span<const uint8_t> /*report*/) {}
+
+  // Commands queued for the device since the last call.
+  std::vector<uint8_t> take_outgoing() {
+    std::vector<uint8_t> out;
+    out.swap(outgoing_);
+    return out;
+  }
+  const CodecStats& stats() const { return stats_; }
+
+ protected:
+  void queue(std::span<const uint8_t> bytes) {
+    outgoing_.insert(outgoing_.end(), bytes.begin(), bytes.end());
+  }
+  CodecStats stats_;
+  std::vector<uint8_t> outgoing_;
+};
+
+// Codec options as given in a device URI's query (docs/devices.md lists the keys per codec).
+using CodecOptions = std::map<std::string, std::string>;
+
+// The codec called `name` (imukit, xsens, witmotion, dualshock4, dualsense, text) configured
+// from options. Throws imukit::Error for an unknown name or a bad option value, naming both.
+std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& options);
+
+// Names make_codec() knows, for help texts.
+std::vector<std::string> codec_names();
+
+// Option helpers shared by the codecs and the URI parser: parse a number or fail with an error
+// that names the key and the text.
+double option_double(const CodecOptions& options, const std::string& key, double fallback);
+int64_t option_int(const CodecOptions& options, const std::string& key, int64_t fallback);
+bool option_bool(const CodecOptions& options, const std::string& key, bool fallback);
+std::string option_string(const CodecOptions& options, const std::string& key,
+                          const std::string& fallback);
+
+}  // namespace imukit::drivers

@@ -1,0 +1,84 @@
+#include "drivers/hid_transport.hpp"
+
+#include <hidapi/hidapi.h>
+
+#include <cstdio>
+#include <mutex>
+
+namespace imukit::drivers {
+namespace {
+
+void init_once() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    if (hid_init() != 0) throw TransportError("hidapi: hid_init failed");
+  });
+}
+
+std::string narrow(const wchar_t* w) {
+  std::string s;
+  if (!w) return s;
+  for (; *w; ++w) s.push_back(*w < 128 ? static_cast<char>(*w) : '?');
+  return s;
+}
+
+}  // namespace
+
+HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial) {
+  init_once();
+  char id[16];
+  std::snprintf(id, sizeof id, "%04x:%04x", vid, pid);
+  name_ = std::string("hid ") + id;
+  std::wstring wserial(serial.begin(), serial.end());
+  dev_ = hid_open(vid, pid, serial.empty() ? nullptr : wserial.c_str());
+  if (!dev_) throw TransportError(error("cannot open " + name_ + " (attached? permission: see packaging/udev)"));
+}
+
+HidTransport::HidTransport(const std::string& path) : name_("hid " + path) {
+  init_once();
+  dev_ = hid_open_path(path.c_str());
+  if (!dev_) throw TransportError(error("cannot open " + name_ + " (attached? permission: see packaging/udev)"));
+}
+
+HidTransport::~HidTransport() {
+  if (dev_) hid_close(dev_);
+}
+
+std::string HidTransport::error(const std::string& what) const {
+  const std::string msg = narrow(hid_error(dev_));
+  return what + (msg.empty() ? std::string() : ": " + msg);
+}
+
+ReadResult HidTransport::read_report(std::span<uint8_t> buf, int timeout_ms) {
+  ReadResult r;
+  const int n = hid_read_timeout(dev_, buf.data(), buf.size(), timeout_ms);
+  r.host_time = host_now();
+  if (n > 0) {
+    r.size = static_cast<std::size_t>(n);
+  } else if (n < 0) {
+    r.end = true;
+    r.end_reason = error(name_ + ": read failed (device unplugged?)");
+  }
+  return r;
+}
+
+void HidTransport::write_report(std::span<const uint8_t> report) {
+  if (hid_write(dev_, report.data(), report.size()) < 0) throw TransportError(error(name_ + ": write"));
+}
+
+std::vector<uint8_t> HidTransport::get_feature_report(uint8_t id, std::size_t size) {
+  std::vector<uint8_t> buf(size < 2 ? 2 : size);
+  buf[0] = id;
+  const int n = hid_get_feature_report(dev_, buf.data(), buf.size());
+  if (n < 0) throw TransportError(error(name_ + ": get feature report " + std::to_string(id)));
+  buf.resize(static_cast<std::size_t>(n));
+  return buf;
+}
+
+void HidTransport::send_feature_report(std::span<const uint8_t> report) {
+  if (hid_send_feature_report(dev_, report.data(), report.size()) < 0) {
+    throw TransportError(error(name_ + ": send feature report"));
+  }
+}
+
+}  // namespace imukit::drivers

@@ -1,0 +1,219 @@
+#include "drivers/imukit_codec.hpp"
+
+#include <cmath>
+
+namespace imukit::drivers {
+namespace {
+
+// floor(n * k / r) without overflow for r < 2^32: with n = q r + a and k = c r + b,
+// n k / r = q k + a c + a b / r, and a b < r^2 < 2^64.
+uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
+  const uint64_t q = n / r, a = n % r, c = k / r, b = k % r;
+  return q * k + a * c + (a * b) / r;
+}
+
+}  // namespace
+
+ImukitCodec::ImukitCodec(ImukitCodecOptions options) : opt_(options) {}
+
+template <class M>
+void ImukitCodec::send(const M& m) {
+  uint8_t buf[proto::kMaxFrameSize];
+  const std::size_t n = proto::encode_message(m, tx_sequence_++, buf, sizeof buf);
+  if (n > 0) queue(std::span<const uint8_t>(buf, n));
+}
+
+void ImukitCodec::start(TimeNs now) {
+  last_ping_ = now;
+  last_request_ = now;
+  if (opt_.send_commands) send(proto::GetDeviceInfo{});
+}
+
+void ImukitCodec::send_configuration() {
+  if (opt_.rate_hz > 0 && info_) {
+    proto::Configure c;
+    c.rate_mhz = static_cast<uint32_t>(std::llround(opt_.rate_hz * 1000.0));
+    c.channels = opt_.channels != 0 ? static_cast<uint8_t>(opt_.channels & info_->channels())
+                                    : info_->channels();
+    c.samples_per_block = static_cast<uint8_t>(opt_.samples_per_block);
+    rate_mhz_ = c.rate_mhz;
+    send(c);
+  }
+  send(proto::Start{});
+}
+
+void ImukitCodec::tick(TimeNs now) {
+  if (!opt_.send_commands) return;
+  // A request or its answer can be lost on the link (the device drops frames with a bad CRC
+  // without answering): ask again until the device answers.
+  if (now - last_request_ >= opt_.retry_ns) {
+    if (!info_) {
+      send(proto::GetDeviceInfo{});
+      last_request_ = now;
+    } else if (started_ && !got_block_) {
+      send_configuration();  // a repeated Start while streaming is NACKed, which is harmless
+      last_request_ = now;
+    }
+  }
+  if (opt_.ping_interval_ns <= 0 || !started_) return;
+  if (!pinged_ || now - last_ping_ >= opt_.ping_interval_ns) {
+    proto::Ping ping;
+    ping.host_time = static_cast<uint64_t>(now);
+    send(ping);
+    last_ping_ = now;
+    pinged_ = true;
+  }
+}
+
+void ImukitCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+  stats_.bytes_received += data.size();
+  decoder_.feed(data.data(), data.size(),
+                [&](const proto::Frame& f) { on_frame(f, host_time, out); });
+  sync_frame_stats();
+}
+
+void ImukitCodec::sync_frame_stats() {
+  // The frame decoder owns byte accounting; mirror it so the codec's invariant holds.
+  const proto::DecoderStats& d = decoder_.stats();
+  stats_.bytes_accepted = d.bytes_accepted;
+  stats_.bytes_discarded = d.bytes_discarded;
+  stats_.frames_corrupt = d.frames_rejected();
+}
+
+void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<Sample>& out) {
+  ++stats_.frames_ok;
+  using proto::MessageType;
+  switch (static_cast<MessageType>(f.type)) {
+    case MessageType::kSampleBlock: {
+      if (proto::parse_message(f, block_) != proto::ParseStatus::kOk) {
+        // CRC-valid but malformed: the device's bug, not the link's; its samples are unknown.
+        ++stats_.device_errors;
+        ++stats_.frames_other;
+        return;
+      }
+      on_block(block_, host_time, out);
+      return;
+    }
+    case MessageType::kDeviceInfo: {
+      ++stats_.frames_other;
+      proto::DeviceInfo info;
+      if (proto::parse_message(f, info) != proto::ParseStatus::kOk || info.tick_hz == 0) {
+        ++stats_.device_errors;
+        return;
+      }
+      info_ = info;
+      if (rate_mhz_ == 0 && info.rate_count > 0) rate_mhz_ = info.rates_mhz[0];
+      if (opt_.send_commands && !configured_) {
+        configured_ = true;
+        send_configuration();
+        last_request_ = host_time;
+        started_ = true;
+        // A session started by us numbers its samples from 0: a lost first block shows.
+        have_index_ = true;
+        next_index_ = 0;
+        index_.reset();
+        index_.unwrap(0);
+      }
+      return;
+    }
+    case MessageType::kPong: {
+      ++stats_.frames_other;
+      proto::Pong p;
+      if (proto::parse_message(f, p) != proto::ParseStatus::kOk || !info_) return;
+      SyncPoint s;
+      s.host_send = static_cast<TimeNs>(p.host_time);
+      s.host_receive = host_time;
+      s.device_rx = ticks_to_ns(ticks_.unwrap(p.rx_tick), info_->tick_hz);
+      s.device_tx = ticks_to_ns(ticks_.unwrap(p.tx_tick), info_->tick_hz);
+      sync_.push_back(s);
+      return;
+    }
+    case MessageType::kNack: {
+      ++stats_.frames_other;
+      ++stats_.device_errors;
+      proto::Nack n;
+      if (proto::parse_message(f, n) == proto::ParseStatus::kOk) nacks_.push_back(n);
+      return;
+    }
+    case MessageType::kLog: {
+      ++stats_.frames_other;
+      proto::Log l;
+      if (proto::parse_message(f, l) == proto::ParseStatus::kOk) log_.emplace_back(l.text, l.size);
+      return;
+    }
+    default:
+      ++stats_.frames_other;  // Ack, CalibrationData, or a type this host does not know
+      return;
+  }
+}
+
+void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
+                           std::vector<Sample>& out) {
+  got_block_ = true;
+  int64_t first = index_.unwrap(b.sample_index);
+  if (have_index_) {
+    if (first > next_index_) {
+      stats_.samples_dropped += static_cast<uint64_t>(first - next_index_);
+    } else if (first < next_index_) {
+      // A new streaming session (index restarts at 0) or a replayed frame.
+      ++stats_.counter_resets;
+      index_.reset();
+      first = index_.unwrap(b.sample_index);
+      ticks_.reset();
+    }
+  }
+  if (!info_) {
+    // Counts cannot be scaled without the DeviceInfo (a capture that starts mid-stream).
+    stats_.samples_dropped += b.count;
+    next_index_ = first + b.count;
+    have_index_ = true;
+    return;
+  }
+  const proto::DeviceInfo& info = *info_;
+  const int64_t tick0 = ticks_.unwrap(b.first_tick);
+  const uint64_t per_second_mticks = static_cast<uint64_t>(info.tick_hz) * 1000u;
+  auto scale_of = [&](proto::SensorKind kind, float& scale, float& offset) {
+    const proto::SensorInfo* s = info.find(kind);
+    if (!s || s->range_count == 0) return false;
+    // Range index as configured by us (0), or the device default (0).
+    scale = s->ranges[0].scale;
+    offset = s->offset;
+    return true;
+  };
+  float sa = 0, oa = 0, sg = 0, og = 0, sm = 0, om = 0, st = 0, ot = 0;
+  const bool ha = (b.channels & proto::kChannelAccel) && scale_of(proto::SensorKind::kAccelerometer, sa, oa);
+  const bool hg = (b.channels & proto::kChannelGyro) && scale_of(proto::SensorKind::kGyroscope, sg, og);
+  const bool hm = (b.channels & proto::kChannelMag) && scale_of(proto::SensorKind::kMagnetometer, sm, om);
+  const bool ht = (b.channels & proto::kChannelTemperature) &&
+                  scale_of(proto::SensorKind::kTemperature, st, ot);
+  for (int i = 0; i < b.count; ++i) {
+    Sample s;
+    s.host_time = host_time;
+    s.sequence = static_cast<uint64_t>(first + i);
+    if (rate_mhz_ > 0 && first >= 0) {
+      // The device's stepping counts from the session start: sample n is due at
+      // start + floor(n * tick_hz * 1000 / rate_mhz), so within a block the offset from
+      // first_tick is the difference of two such floors (not floor(i * period)).
+      const auto n0 = static_cast<uint64_t>(first);
+      const int64_t offset_ticks = static_cast<int64_t>(
+          floor_mul_div(n0 + static_cast<uint64_t>(i), per_second_mticks, rate_mhz_) -
+          floor_mul_div(n0, per_second_mticks, rate_mhz_));
+      s.device_time = ticks_to_ns(tick0 + offset_ticks, info.tick_hz);
+      s.has_device_time = true;
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (ha) s.accel[k] = static_cast<double>(oa) + static_cast<double>(sa) * b.accel[i][k];
+      if (hg) s.gyro[k] = static_cast<double>(og) + static_cast<double>(sg) * b.gyro[i][k];
+      if (hm) s.mag[k] = static_cast<double>(om) + static_cast<double>(sm) * b.mag[i][k];
+    }
+    if (ht) s.temperature_c = static_cast<double>(ot) + static_cast<double>(st) * b.temperature[i];
+    s.channels = static_cast<uint8_t>((ha ? kHasAccel : 0) | (hg ? kHasGyro : 0) |
+                                      (hm ? kHasMag : 0) | (ht ? kHasTemperature : 0));
+    out.push_back(s);
+  }
+  stats_.samples_decoded += b.count;
+  next_index_ = first + b.count;
+  have_index_ = true;
+}
+
+}  // namespace imukit::drivers

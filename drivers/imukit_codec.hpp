@@ -1,0 +1,95 @@
+// Codec for the imukit wire protocol v1 (firmware_proto, docs/protocol.md): COBS frames with
+// CRC-32C carrying DeviceInfo, SampleBlocks, Pongs, Acks, Nacks and Logs.
+//
+// Start-up (live devices): GetDeviceInfo; when DeviceInfo arrives, Configure (rate, every channel
+// the device has, range index 0, samples per block) when a rate was asked for, then Start.
+// Raw counts are scaled with the DeviceInfo's per-range scale and offset. Sample i of a block is
+// stamped on the device clock at first_tick + floor(i * tick_hz * 1000 / rate_mhz) ticks, the
+// device's own stepping rule, unwrapped to 64 bits (32-bit ticks, half-range rule). Gaps in the
+// 32-bit cumulative sample index are counted as dropped samples; a backwards jump (a new
+// streaming session) as a counter reset.
+//
+// Time sync: every ping_interval a Ping carrying the host send time goes out; each Pong is kept
+// as a SyncPoint (host send, host receive, device rx/tx ticks) for capture/ to fit the clock map.
+#pragma once
+
+#include <optional>
+
+#include "drivers/codec.hpp"
+#include "firmware_proto/frame.hpp"
+#include "firmware_proto/messages.hpp"
+
+namespace imukit::drivers {
+
+struct ImukitCodecOptions {
+  bool send_commands = true;   // false: decode only (replay of a capture)
+  double rate_hz = 0.0;        // 0: keep the device's rate (no Configure)
+  int samples_per_block = 8;
+  uint8_t channels = 0;        // 0: every channel the device has
+  TimeNs ping_interval_ns = kNsPerSecond;  // 0: no pings
+  TimeNs retry_ns = 500'000'000;  // repeat an unanswered GetDeviceInfo / Start after this
+};
+
+struct SyncPoint {
+  TimeNs host_send = 0;     // host clock when the Ping was queued
+  TimeNs host_receive = 0;  // host clock when the Pong arrived
+  TimeNs device_rx = 0;     // device clock (unwrapped, ns) when the Ping arrived
+  TimeNs device_tx = 0;     // device clock when the Pong left
+};
+
+class ImukitCodec : public Codec {
+ public:
+  explicit ImukitCodec(ImukitCodecOptions options = {});
+
+  std::string name() const override { return "imukit"; }
+  void start(TimeNs now) override;
+  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void tick(TimeNs now) override;
+  std::size_t bytes_pending() const override { return decoder_.pending(); }
+
+  const std::optional<proto::DeviceInfo>& device_info() const { return info_; }
+  const std::vector<SyncPoint>& sync_points() const { return sync_; }
+  const std::vector<proto::Nack>& nacks() const { return nacks_; }
+  const proto::DecoderStats& frame_stats() const { return decoder_.stats(); }
+  // Log lines the device sent.
+  const std::vector<std::string>& device_log() const { return log_; }
+  bool streaming() const { return started_; }
+
+ private:
+  template <class M>
+  void send(const M& m);
+  void on_frame(const proto::Frame& f, TimeNs host_time, std::vector<Sample>& out);
+  void on_block(const proto::SampleBlock& b, TimeNs host_time, std::vector<Sample>& out);
+  void sync_frame_stats();
+  void send_configuration();
+
+  ImukitCodecOptions opt_;
+  proto::FrameDecoder decoder_;
+  uint16_t tx_sequence_ = 0;
+  std::optional<proto::DeviceInfo> info_;
+  uint32_t rate_mhz_ = 0;
+  bool started_ = false;
+  bool configured_ = false;
+  bool got_block_ = false;
+  TimeNs last_request_ = 0;
+  CounterUnwrapper index_{32};
+  CounterUnwrapper ticks_{32};
+  int64_t next_index_ = 0;
+  bool have_index_ = false;
+  TimeNs last_ping_ = 0;
+  bool pinged_ = false;
+  std::vector<SyncPoint> sync_;
+  std::vector<proto::Nack> nacks_;
+  std::vector<std::string> log_;
+  proto::SampleBlock block_;  // scratch: large, kept out of the stack
+};
+
+// Encodes a host->device message as a frame (for tests and tools).
+template <class M>
+std::vector<uint8_t> encode_imukit_message(const M& m, uint16_t sequence) {
+  std::vector<uint8_t> out(proto::kMaxFrameSize);
+  out.resize(proto::encode_message(m, sequence, out.data(), out.size()));
+  return out;
+}
+
+}  // namespace imukit::drivers

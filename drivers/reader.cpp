@@ -1,0 +1,151 @@
+#include "drivers/reader.hpp"
+
+#include <chrono>
+#include <exception>
+
+namespace imukit::drivers {
+namespace {
+
+// Feature reports a codec needs (HID calibration), read once before streaming.
+void fetch_features(Transport& transport, Codec& codec) {
+  auto* reports = dynamic_cast<ReportTransport*>(&transport);
+  if (!reports) return;
+  for (const FeatureRequest& f : codec.feature_requests()) {
+    const std::vector<uint8_t> r = reports->get_feature_report(f.report_id, f.size);
+    codec.on_feature_report(f.report_id, r);
+  }
+}
+
+void flush_commands(Transport& transport, Codec& codec) {
+  std::vector<uint8_t> cmd = codec.take_outgoing();
+  if (cmd.empty()) return;
+  if (auto* bytes = dynamic_cast<ByteTransport*>(&transport)) {
+    if (bytes->can_write()) bytes->write(cmd);
+  } else if (auto* reports = dynamic_cast<ReportTransport*>(&transport)) {
+    reports->write_report(cmd);
+  }
+}
+
+}  // namespace
+
+DeviceReader::DeviceReader(std::unique_ptr<Transport> transport, std::unique_ptr<Codec> codec,
+                           ReaderOptions options)
+    : transport_(std::move(transport)), codec_(std::move(codec)), options_(options) {}
+
+DeviceReader::~DeviceReader() { stop(); }
+
+void DeviceReader::start() {
+  if (thread_.joinable()) return;
+  thread_ = std::thread([this] { thread_main(); });
+}
+
+void DeviceReader::stop() {
+  stop_ = true;
+  if (thread_.joinable()) thread_.join();
+}
+
+bool DeviceReader::wait(int timeout_ms) {
+  std::unique_lock lock(mutex_);
+  return ended_cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms), [&] { return ended_.load(); });
+}
+
+std::vector<Sample> DeviceReader::take() {
+  std::lock_guard lock(mutex_);
+  std::vector<Sample> out;
+  out.swap(queue_);
+  return out;
+}
+
+EndReason DeviceReader::end_reason() const {
+  std::lock_guard lock(mutex_);
+  return end_;
+}
+
+CodecStats DeviceReader::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOptions& options,
+                            const std::atomic<bool>& stop, std::vector<Sample>& out) {
+  return run(transport, codec, options, stop, [&](std::vector<Sample>& batch) {
+    out.insert(out.end(), batch.begin(), batch.end());
+  });
+}
+
+EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOptions& options,
+                            const std::atomic<bool>& stop,
+                            const std::function<void(std::vector<Sample>&)>& sink) {
+  EndReason end;
+  uint64_t total = 0;
+  std::vector<Sample> batch;
+  auto deliver = [&] {
+    if (batch.empty()) return;
+    total += batch.size();
+    sink(batch);
+    batch.clear();
+  };
+  try {
+    auto* bytes = dynamic_cast<ByteTransport*>(&transport);
+    auto* reports = dynamic_cast<ReportTransport*>(&transport);
+    fetch_features(transport, codec);
+    codec.start(transport.now());
+    flush_commands(transport, codec);
+    std::vector<uint8_t> buf(codec.report_based() ? std::size_t{1024} : options.read_size);
+    while (!stop.load()) {
+      const ReadResult r = bytes ? bytes->read(buf, options.read_timeout_ms)
+                                 : reports->read_report(buf, options.read_timeout_ms);
+      if (r.size > 0) codec.feed(std::span<const uint8_t>(buf.data(), r.size), r.host_time, batch);
+      deliver();
+      if (r.end) {
+        end = {EndKind::kEndOfStream, r.end_reason};
+        break;
+      }
+      codec.tick(transport.now());
+      flush_commands(transport, codec);
+      if (options.max_samples > 0 && total >= options.max_samples) {
+        end = {EndKind::kStopped, "collected " + std::to_string(total) + " samples"};
+        break;
+      }
+    }
+    if (end.kind == EndKind::kRunning) end = {EndKind::kStopped, "stopped by the host"};
+  } catch (const std::exception& e) {
+    end = {EndKind::kError, e.what()};
+  } catch (...) {
+    end = {EndKind::kError, "unknown error in the reader"};
+  }
+  // Whatever ended the stream, hand out what the codec still holds.
+  try {
+    codec.finish(batch);
+    deliver();
+  } catch (const std::exception& e) {
+    if (end.kind != EndKind::kError) end = {EndKind::kError, e.what()};
+  } catch (...) {
+    if (end.kind != EndKind::kError) end = {EndKind::kError, "unknown error at the end of the stream"};
+  }
+  return end;
+}
+
+void DeviceReader::thread_main() {
+  EndReason end;
+  try {
+    end = run(*transport_, *codec_, options_, stop_, [this](std::vector<Sample>& batch) {
+      std::lock_guard lock(mutex_);
+      queue_.insert(queue_.end(), batch.begin(), batch.end());
+      samples_total_ += batch.size();
+      stats_ = codec_->stats();
+    });
+  } catch (...) {
+    // run() catches everything itself; this guards the sink's allocation.
+    end = {EndKind::kError, "unknown error in the reader"};
+  }
+  {
+    std::lock_guard lock(mutex_);
+    stats_ = codec_->stats();
+    end_ = end;
+    ended_ = true;
+  }
+  ended_cv_.notify_all();
+}
+
+}  // namespace imukit::drivers

@@ -1,0 +1,149 @@
+#include "drivers/text_codec.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <numbers>
+
+#include "core/error.hpp"
+#include "drivers/witmotion_codec.hpp"  // kStandardGravity
+
+namespace imukit::drivers {
+
+TextCodecOptions text_codec_options(const CodecOptions& options) {
+  TextCodecOptions o;
+  const std::string t = option_string(options, "time_unit", "ms");
+  if (t == "s") o.time_scale_ns = 1e9;
+  else if (t == "ms") o.time_scale_ns = 1e6;
+  else if (t == "us") o.time_scale_ns = 1e3;
+  else if (t == "ns") o.time_scale_ns = 1.0;
+  else throw Error("time_unit=" + t + ": expected s, ms, us or ns");
+  const std::string a = option_string(options, "accel_unit", "mps2");
+  if (a == "g") o.accel_scale = kStandardGravity;
+  else if (a == "mps2") o.accel_scale = 1.0;
+  else throw Error("accel_unit=" + a + ": expected g or mps2");
+  const std::string g = option_string(options, "gyro_unit", "rads");
+  if (g == "dps") o.gyro_scale = std::numbers::pi / 180.0;
+  else if (g == "rads") o.gyro_scale = 1.0;
+  else throw Error("gyro_unit=" + g + ": expected dps or rads");
+  return o;
+}
+
+TextCodec::TextCodec(TextCodecOptions options) : opt_(options) {}
+
+void TextCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+  stats_.bytes_received += data.size();
+  for (const uint8_t c : data) {
+    if (c == '\n') {
+      if (overlong_) {
+        stats_.bytes_discarded += overlong_bytes_ + 1;
+        ++stats_.frames_corrupt;
+        ++stats_.samples_dropped;
+        ++lines_;
+        overlong_ = false;
+        overlong_bytes_ = 0;
+      } else {
+        on_line(line_.size() + 1, host_time, out);
+      }
+      line_.clear();
+      continue;
+    }
+    if (overlong_) {
+      ++overlong_bytes_;
+      continue;
+    }
+    line_.push_back(static_cast<char>(c));
+    if (line_.size() > kMaxLine) {
+      overlong_ = true;
+      overlong_bytes_ = line_.size();
+      line_.clear();
+    }
+  }
+}
+
+void TextCodec::finish(std::vector<Sample>& out) {
+  if (overlong_) {
+    stats_.bytes_discarded += overlong_bytes_;
+    ++stats_.frames_corrupt;
+    ++stats_.samples_dropped;
+    overlong_ = false;
+    overlong_bytes_ = 0;
+  } else if (!line_.empty()) {
+    on_line(line_.size(), 0, out);  // a last line without its newline
+  }
+  line_.clear();
+}
+
+void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Sample>& out) {
+  std::string_view line(line_);
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  const bool first = lines_++ == 0;
+  // Blank lines are idle output, neither data nor loss.
+  if (line.find_first_not_of(" \t") == std::string_view::npos) {
+    stats_.bytes_accepted += raw_size;
+    ++stats_.frames_other;
+    return;
+  }
+  double v[7];
+  int n = 0;
+  bool ok = true;
+  std::size_t pos = 0;
+  const bool commas = line.find(',') != std::string_view::npos;
+  while (pos <= line.size() && ok) {
+    if (!commas) {
+      while (pos < line.size() && (line[pos] == ' ' || line[pos] == '\t')) ++pos;
+      if (pos == line.size()) break;
+    }
+    std::size_t end = commas ? line.find(',', pos) : line.find_first_of(" \t", pos);
+    if (end == std::string_view::npos) end = line.size();
+    std::string_view field = line.substr(pos, end - pos);
+    while (!field.empty() && (field.front() == ' ' || field.front() == '\t')) field.remove_prefix(1);
+    while (!field.empty() && (field.back() == ' ' || field.back() == '\t')) field.remove_suffix(1);
+    if (n == 7 || field.empty()) {
+      ok = false;
+      break;
+    }
+    if (field.front() == '+') field.remove_prefix(1);
+    const auto r = std::from_chars(field.data(), field.data() + field.size(), v[n]);
+    if (r.ec != std::errc() || r.ptr != field.data() + field.size() || !std::isfinite(v[n])) {
+      ok = false;
+      break;
+    }
+    ++n;
+    pos = end + 1;
+    if (end == line.size()) break;
+  }
+  if (!ok || n != 7) {
+    if (first) {
+      stats_.bytes_accepted += raw_size;  // a header line
+      ++stats_.frames_other;
+      return;
+    }
+    stats_.bytes_discarded += raw_size;
+    ++stats_.frames_corrupt;
+    ++stats_.samples_dropped;
+    return;
+  }
+  const double t_ns = v[0] * opt_.time_scale_ns;
+  if (!(std::abs(t_ns) < 9e18)) {
+    stats_.bytes_discarded += raw_size;
+    ++stats_.frames_corrupt;
+    ++stats_.samples_dropped;
+    return;
+  }
+  stats_.bytes_accepted += raw_size;
+  ++stats_.frames_ok;
+  Sample s;
+  s.host_time = host_time;
+  s.device_time = std::llround(t_ns);
+  s.has_device_time = true;
+  s.sequence = sequence_++;
+  for (int k = 0; k < 3; ++k) {
+    s.accel[k] = v[1 + k] * opt_.accel_scale;
+    s.gyro[k] = v[4 + k] * opt_.gyro_scale;
+  }
+  s.channels = kHasAccel | kHasGyro;
+  ++stats_.samples_decoded;
+  out.push_back(s);
+}
+
+}  // namespace imukit::drivers

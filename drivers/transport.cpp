@@ -1,0 +1,113 @@
+#include "drivers/transport.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+
+namespace imukit::drivers {
+
+TimeNs host_now() {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+}
+
+std::string os_error(const std::string& what, int err) {
+  return what + ": " + std::strerror(err);
+}
+
+FdTransport::FdTransport(int fd, bool owns, std::string name, bool writable)
+    : fd_(fd), owns_(owns), name_(std::move(name)), writable_(writable) {}
+
+FdTransport::~FdTransport() {
+  if (owns_ && fd_ >= 0) ::close(fd_);
+}
+
+std::unique_ptr<FdTransport> FdTransport::open_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw TransportError(os_error("cannot open " + path, errno));
+  return std::make_unique<FdTransport>(fd, true, "file " + path, false);
+}
+
+ReadResult FdTransport::read(std::span<uint8_t> buf, int timeout_ms) {
+  ReadResult r;
+  pollfd p{fd_, POLLIN, 0};
+  int ready;
+  do {
+    ready = ::poll(&p, 1, timeout_ms);
+  } while (ready < 0 && errno == EINTR);
+  if (ready < 0) throw TransportError(os_error(name_ + ": poll", errno));
+  if (ready == 0) {
+    r.host_time = host_now();
+    return r;
+  }
+  ssize_t n;
+  do {
+    n = ::read(fd_, buf.data(), buf.size());
+  } while (n < 0 && errno == EINTR);
+  r.host_time = host_now();
+  if (n > 0) {
+    r.size = static_cast<std::size_t>(n);
+  } else if (n == 0) {
+    r.end = true;
+    r.end_reason = name_ + ": end of stream";
+  } else if (errno == EAGAIN || errno == EWOULDBLOCK) {
+    // spurious wake-up: nothing to read yet
+  } else {
+    // EIO from a tty whose device vanished: an unplug, reported as the end of the stream.
+    r.end = true;
+    r.end_reason = os_error(name_ + ": read failed (device gone?)", errno);
+  }
+  return r;
+}
+
+void FdTransport::write(std::span<const uint8_t> bytes) {
+  if (!writable_) throw TransportError(name_ + ": opened read-only, cannot send commands");
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EAGAIN) {
+        pollfd p{fd_, POLLOUT, 0};
+        ::poll(&p, 1, 100);
+        continue;
+      }
+      throw TransportError(os_error(name_ + ": write", errno));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+}
+
+MemoryTransport::MemoryTransport(std::vector<uint8_t> data, std::size_t chunk, TimeNs start_time,
+                                 TimeNs step_ns)
+    : data_(std::move(data)), chunk_(chunk), time_(start_time), step_(step_ns) {}
+
+ReadResult MemoryTransport::read(std::span<uint8_t> buf, int) {
+  ReadResult r;
+  if (pos_ >= data_.size()) {
+    r.end = true;
+    r.end_reason = "end of buffer";
+    r.host_time = time_;
+    return r;
+  }
+  std::size_t n = std::min(buf.size(), data_.size() - pos_);
+  if (chunk_ > 0) n = std::min(n, chunk_);
+  std::copy_n(data_.begin() + static_cast<std::ptrdiff_t>(pos_), n, buf.begin());
+  pos_ += n;
+  time_ += step_;
+  r.size = n;
+  r.host_time = time_;
+  return r;
+}
+
+void MemoryTransport::write(std::span<const uint8_t> bytes) {
+  written_.insert(written_.end(), bytes.begin(), bytes.end());
+}
+
+}  // namespace imukit::drivers

@@ -1,0 +1,226 @@
+#include "drivers/uri.hpp"
+
+#include <fcntl.h>
+
+#include <algorithm>
+#include <charconv>
+
+#include "core/error.hpp"
+#include "drivers/devices.hpp"
+#include "drivers/hid_transport.hpp"
+#include "drivers/mock_device.hpp"
+#include "drivers/serial_transport.hpp"
+#include "drivers/usb_transport.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+const std::vector<std::string> kCodecKeys = {
+    "codec", "rate", "commands", "block", "ping_s", "mag_rate", "accel_range_g", "gyro_range_dps",
+    "time_unit", "accel_unit", "gyro_unit"};
+
+const std::vector<std::string> kSchemes = {"serial", "hid", "usb", "file", "fd", "mock"};
+
+[[noreturn]] void fail(const std::string& uri, std::size_t offset, const std::string& what) {
+  InputLocation where;
+  where.file = "device URI '" + uri + "'";
+  where.byte_offset = static_cast<int64_t>(offset);
+  throw Error(where, what);
+}
+
+// "054c:09cc" -> vid, pid; false if not two 1..4-digit hex numbers.
+bool parse_vid_pid(const std::string& s, uint16_t& vid, uint16_t& pid) {
+  const std::size_t colon = s.find(':');
+  if (colon == std::string::npos || colon == 0 || colon > 4 || s.size() - colon - 1 == 0 ||
+      s.size() - colon - 1 > 4) {
+    return false;
+  }
+  unsigned v = 0, p = 0;
+  auto a = std::from_chars(s.data(), s.data() + colon, v, 16);
+  auto b = std::from_chars(s.data() + colon + 1, s.data() + s.size(), p, 16);
+  if (a.ec != std::errc() || a.ptr != s.data() + colon || b.ec != std::errc() ||
+      b.ptr != s.data() + s.size()) {
+    return false;
+  }
+  vid = static_cast<uint16_t>(v);
+  pid = static_cast<uint16_t>(p);
+  return true;
+}
+
+uint8_t parse_endpoint(const std::map<std::string, std::string>& keys, const std::string& key,
+                       uint8_t fallback) {
+  const auto it = keys.find(key);
+  if (it == keys.end()) return fallback;
+  const std::string& t = it->second;
+  unsigned v = 0;
+  const bool hex = t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X');
+  const char* b = t.data() + (hex ? 2 : 0);
+  const auto r = std::from_chars(b, t.data() + t.size(), v, hex ? 16 : 10);
+  if (t.empty() || r.ec != std::errc() || r.ptr != t.data() + t.size() || v > 0xFF) {
+    throw Error(key + "=" + t + ": expected an endpoint address such as 0x81");
+  }
+  return static_cast<uint8_t>(v);
+}
+
+std::string codec_for(const DeviceUri& u, std::optional<KnownDevice> known) {
+  auto it = u.keys.find("codec");
+  if (it != u.keys.end()) return it->second;
+  if (known && *known->codec) return known->codec;
+  std::string names;
+  for (const auto& n : codec_names()) names += (names.empty() ? "" : ", ") + n;
+  throw Error("device URI '" + u.text + "': no codec known for this device; add codec=NAME (" +
+              names + ")");
+}
+
+}  // namespace
+
+std::vector<std::string> uri_keys(const std::string& scheme) {
+  std::vector<std::string> keys = kCodecKeys;
+  if (scheme == "serial") {
+    keys.insert(keys.end(), {"baud", "flow"});
+  } else if (scheme == "hid") {
+    keys.push_back("serial");
+  } else if (scheme == "usb") {
+    keys.insert(keys.end(), {"interface", "ep_in", "ep_out"});
+  } else if (scheme == "mock") {
+    keys.insert(keys.end(), {"seed", "profile", "drop", "flip", "drift_ppm", "latency_us", "jitter_us",
+                             "stall_ms", "stall_at_s", "disconnect_after", "clock", "quat", "hold_s",
+                             "move_s", "gravity"});
+  }
+  return keys;
+}
+
+DeviceUri parse_device_uri(const std::string& text) {
+  DeviceUri u;
+  u.text = text;
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos || colon == 0) {
+    fail(text, 0, "expected SCHEME:ADDRESS, e.g. serial:/dev/ttyUSB0 or mock:static");
+  }
+  u.scheme = text.substr(0, colon);
+  if (std::find(kSchemes.begin(), kSchemes.end(), u.scheme) == kSchemes.end()) {
+    fail(text, 0, "unknown scheme '" + u.scheme + "' (known: serial, hid, usb, file, fd, mock)");
+  }
+  const std::size_t q = text.find('?', colon + 1);
+  u.address = text.substr(colon + 1, (q == std::string::npos ? text.size() : q) - colon - 1);
+  if (u.address.empty()) fail(text, colon + 1, "missing address after '" + u.scheme + ":'");
+  if (q != std::string::npos) {
+    const std::vector<std::string> known = uri_keys(u.scheme);
+    std::size_t pos = q + 1;
+    while (pos <= text.size()) {
+      std::size_t amp = text.find('&', pos);
+      if (amp == std::string::npos) amp = text.size();
+      const std::string pair = text.substr(pos, amp - pos);
+      const std::size_t eq = pair.find('=');
+      if (pair.empty() || eq == std::string::npos || eq == 0) {
+        fail(text, pos, "expected key=value, got '" + pair + "'");
+      }
+      const std::string key = pair.substr(0, eq);
+      if (std::find(known.begin(), known.end(), key) == known.end()) {
+        std::string list;
+        for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
+        fail(text, pos, "unknown key '" + key + "' for " + u.scheme + ": (known: " + list + ")");
+      }
+      if (!u.keys.emplace(key, pair.substr(eq + 1)).second) fail(text, pos, "key '" + key + "' given twice");
+      if (amp == text.size()) break;
+      pos = amp + 1;
+    }
+  }
+  if (u.scheme == "hid" && u.address[0] != '/') {
+    uint16_t v, p;
+    if (!parse_vid_pid(u.address, v, p)) {
+      fail(text, colon + 1, "expected VID:PID in hex (e.g. 054c:09cc) or a /dev/hidraw path");
+    }
+  }
+  if (u.scheme == "usb") {
+    uint16_t v, p;
+    if (!parse_vid_pid(u.address, v, p)) fail(text, colon + 1, "expected VID:PID in hex, e.g. 2639:0013");
+  }
+  return u;
+}
+
+OpenedDevice open_device(const std::string& text) {
+  const DeviceUri u = parse_device_uri(text);
+  OpenedDevice d;
+  auto with_context = [&](auto&& f) {
+    try {
+      return f();
+    } catch (const TransportError&) {
+      throw;
+    } catch (const Error& e) {
+      if (e.where()) throw;
+      throw Error("device URI '" + text + "': " + e.reason());
+    }
+  };
+  with_context([&] {
+    if (u.scheme == "mock") {
+      d.transport = make_mock_device(u.address, u.keys);
+      CodecOptions o = u.keys;
+      if (o.count("codec") && o.at("codec") != "imukit") {
+        throw Error("mock devices speak the imukit protocol: codec must be imukit");
+      }
+      o.erase("codec");
+      if (!o.count("rate")) o["rate"] = "400";
+      d.codec = make_codec("imukit", o);
+    } else if (u.scheme == "file") {
+      CodecOptions o = u.keys;
+      o["commands"] = "false";
+      d.codec = make_codec(codec_for(u, std::nullopt), o);
+      d.transport = FdTransport::open_file(u.address);
+    } else if (u.scheme == "fd") {
+      int fd = -1;
+      const auto r = std::from_chars(u.address.data(), u.address.data() + u.address.size(), fd);
+      if (r.ec != std::errc() || r.ptr != u.address.data() + u.address.size() || fd < 0) {
+        throw Error("fd:" + u.address + ": expected a file descriptor number");
+      }
+      d.codec = make_codec(codec_for(u, std::nullopt), u.keys);
+      const bool writable = (fcntl(fd, F_GETFL) & O_ACCMODE) != O_RDONLY;
+      d.transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, writable);
+    } else if (u.scheme == "serial") {
+      const int64_t baud = option_int(u.keys, "baud", 115200);
+      if (baud <= 0 || baud > 20'000'000) throw Error("baud: expected a positive baud rate");
+      const std::string flow = option_string(u.keys, "flow", "none");
+      if (flow != "none" && flow != "rtscts") throw Error("flow=" + flow + ": expected none or rtscts");
+      std::optional<KnownDevice> known;
+      for (const AttachedDevice& a : list_serial_ports()) {
+        if (a.path == u.address && a.usb) known = find_known_device(a.vid, a.pid, false);
+      }
+      d.codec = make_codec(codec_for(u, known), u.keys);
+      d.transport = std::make_unique<SerialTransport>(u.address, static_cast<int>(baud), flow == "rtscts");
+    } else if (u.scheme == "hid") {
+      std::optional<KnownDevice> known;
+      uint16_t vid = 0, pid = 0;
+      if (u.address[0] == '/') {
+        for (const AttachedDevice& a : list_hid_devices()) {
+          if (a.path == u.address) known = find_known_device(a.vid, a.pid, true);
+        }
+      } else {
+        parse_vid_pid(u.address, vid, pid);
+        known = find_known_device(vid, pid, true);
+      }
+      d.codec = make_codec(codec_for(u, known), u.keys);
+      if (!d.codec->report_based()) throw Error("codec " + d.codec->name() + " reads byte streams, not HID reports");
+      if (u.address[0] == '/') {
+        d.transport = std::make_unique<HidTransport>(u.address);
+      } else {
+        d.transport = std::make_unique<HidTransport>(vid, pid, option_string(u.keys, "serial", ""));
+      }
+    } else {  // usb
+      uint16_t vid = 0, pid = 0;
+      parse_vid_pid(u.address, vid, pid);
+      d.codec = make_codec(codec_for(u, find_known_device(vid, pid, false)), u.keys);
+      const int64_t iface = option_int(u.keys, "interface", 0);
+      if (iface < 0 || iface > 255) throw Error("interface: expected 0..255");
+      d.transport = std::make_unique<UsbBulkTransport>(vid, pid, static_cast<int>(iface),
+                                                       parse_endpoint(u.keys, "ep_in", 0x81),
+                                                       parse_endpoint(u.keys, "ep_out", 0x01));
+    }
+    if (d.codec->report_based() && !dynamic_cast<ReportTransport*>(d.transport.get())) {
+      throw Error("codec " + d.codec->name() + " reads HID reports: use a hid: URI");
+    }
+    return 0;
+  });
+  return d;
+}
+
+}  // namespace imukit::drivers

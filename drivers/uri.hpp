@@ -1,0 +1,45 @@
+// Device URIs: `scheme:address?key=value&key=value` names a transport, its address and the codec
+// with its options (docs/devices.md lists every scheme and key):
+//   serial:/dev/ttyUSB0?baud=921600&codec=witmotion     hid:054c:09cc     hid:/dev/hidraw3
+//   usb:2639:0300?codec=xsens&ep_in=0x81&ep_out=0x01     file:capture.bin?codec=xsens
+//   fd:0?codec=text&time_unit=ms                         mock:static?rate=400&clock=virtual
+// No percent-decoding: addresses cannot contain '?' or '&'.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/codec.hpp"
+#include "drivers/transport.hpp"
+
+namespace imukit::drivers {
+
+struct DeviceUri {
+  std::string text;  // as given
+  std::string scheme;
+  std::string address;
+  std::map<std::string, std::string> keys;
+};
+
+// Parses and checks a URI: known scheme, non-empty address, key=value pairs without repeats,
+// every key known for the scheme. Throws imukit::Error whose location is "device URI" with the
+// byte offset of the problem.
+DeviceUri parse_device_uri(const std::string& text);
+
+// A transport and the codec that reads it, ready for a DeviceReader.
+struct OpenedDevice {
+  std::unique_ptr<Transport> transport;
+  std::unique_ptr<Codec> codec;
+};
+
+// Opens what the URI names. The codec comes from `codec=`, else from the known VID/PID table
+// (devices.hpp), else it is an error that says to name one. Throws imukit::Error (bad URI or
+// option) or TransportError (the OS refused, with its message).
+OpenedDevice open_device(const std::string& uri);
+
+// "a, b, c" of the keys a scheme accepts (for messages and docs).
+std::vector<std::string> uri_keys(const std::string& scheme);
+
+}  // namespace imukit::drivers

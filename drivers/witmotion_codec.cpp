@@ -1,0 +1,181 @@
+#include "drivers/witmotion_codec.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/error.hpp"
+
+namespace imukit::drivers {
+namespace {
+constexpr uint8_t kHeader = 0x55;
+constexpr std::size_t kFrame = 11;
+int16_t le16(const uint8_t* p) { return static_cast<int16_t>(p[0] | (p[1] << 8)); }
+}  // namespace
+
+std::vector<uint8_t> witmotion_command(uint8_t reg, uint16_t value) {
+  return {0xFF, 0xAA, reg, static_cast<uint8_t>(value & 0xFF), static_cast<uint8_t>(value >> 8)};
+}
+
+std::vector<uint8_t> witmotion_rate_commands(double rate_hz) {
+  // RRATE codes of the WT901 manual.
+  struct Code {
+    double hz;
+    uint8_t code;
+  };
+  static constexpr Code kCodes[] = {{0.2, 0x01}, {0.5, 0x02}, {1, 0x03},   {2, 0x04},
+                                    {5, 0x05},   {10, 0x06},  {20, 0x07},  {50, 0x08},
+                                    {100, 0x09}, {200, 0x0B}};
+  for (const Code& c : kCodes) {
+    if (std::abs(c.hz - rate_hz) < 1e-9) {
+      std::vector<uint8_t> out = witmotion_command(0x69, 0xB588);  // unlock: FF AA 69 88 B5
+      const auto rate = witmotion_command(0x03, c.code);
+      out.insert(out.end(), rate.begin(), rate.end());
+      const auto save = witmotion_command(0x00, 0x0000);
+      out.insert(out.end(), save.begin(), save.end());
+      return out;
+    }
+  }
+  throw Error("witmotion: rate " + std::to_string(rate_hz) +
+              " Hz is not one the device offers (0.2, 0.5, 1, 2, 5, 10, 20, 50, 100, 200)");
+}
+
+std::vector<uint8_t> witmotion_frame(uint8_t type, const int16_t v[4]) {
+  std::vector<uint8_t> f{kHeader, type};
+  for (int i = 0; i < 4; ++i) {
+    f.push_back(static_cast<uint8_t>(static_cast<uint16_t>(v[i]) & 0xFF));
+    f.push_back(static_cast<uint8_t>(static_cast<uint16_t>(v[i]) >> 8));
+  }
+  uint8_t sum = 0;
+  for (uint8_t b : f) sum = static_cast<uint8_t>(sum + b);
+  f.push_back(sum);
+  return f;
+}
+
+WitmotionCodec::WitmotionCodec(WitmotionCodecOptions options) : opt_(options) {}
+
+void WitmotionCodec::start(TimeNs) {
+  if (opt_.rate_hz > 0) queue(witmotion_rate_commands(opt_.rate_hz));
+}
+
+void WitmotionCodec::emit(std::vector<Sample>& out) {
+  if (!in_group_) return;
+  in_group_ = false;
+  if (!learned_) {
+    if (group_had_error_) {
+      // Cannot tell what a full group holds yet; what we have is still a sample if it has both
+      // motion triads.
+      if ((group_types_ & 0x3) != 0x3) {
+        ++stats_.samples_dropped;
+        return;
+      }
+    } else {
+      expected_types_ = group_types_;
+      learned_ = true;
+    }
+  }
+  if (learned_ && (group_types_ & expected_types_) != expected_types_) {
+    ++stats_.samples_dropped;  // a frame of this sample was corrupted or lost
+    return;
+  }
+  current_.sequence = sequence_++;
+  ++stats_.samples_decoded;
+  out.push_back(current_);
+}
+
+void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+  stats_.bytes_received += data.size();
+  buf_.insert(buf_.end(), data.begin(), data.end());
+  const double accel_lsb = opt_.accel_range_g * kStandardGravity / 32768.0;
+  const double gyro_lsb = opt_.gyro_range_dps * std::numbers::pi / 180.0 / 32768.0;
+  const double angle_lsb = std::numbers::pi / 32768.0;
+  for (;;) {
+    std::size_t p = head_;
+    while (p < buf_.size() && buf_[p] != kHeader) ++p;
+    if (p != head_) {
+      stats_.bytes_discarded += p - head_;
+      pending_error_ = true;
+    }
+    head_ = p;
+    if (buf_.size() - head_ < kFrame) break;
+    const uint8_t* f = buf_.data() + head_;
+    uint8_t sum = 0;
+    for (std::size_t i = 0; i < 10; ++i) sum = static_cast<uint8_t>(sum + f[i]);
+    const uint8_t type = f[1];
+    if (sum != f[10] || type < 0x50 || type > 0x5F) {
+      ++stats_.frames_corrupt;
+      ++stats_.bytes_discarded;
+      ++head_;
+      pending_error_ = true;
+      continue;
+    }
+    stats_.bytes_accepted += kFrame;
+    ++stats_.frames_ok;
+    head_ += kFrame;
+    const int16_t v[4] = {le16(f + 2), le16(f + 4), le16(f + 6), le16(f + 8)};
+    if (type == 0x51) {
+      emit(out);
+      in_group_ = true;
+      group_types_ = 0;
+      last_type_ = 0;
+      group_had_error_ = false;
+      pending_error_ = false;
+      current_ = Sample{};
+      current_.host_time = host_time;
+    } else if (type > 0x54 || type < 0x51) {
+      ++stats_.frames_other;
+      continue;
+    }
+    if (!in_group_) {
+      // A gyro/angle/mag frame whose accel frame was lost: part of a dropped sample, counted
+      // when the group it belonged to could not be formed.
+      ++stats_.frames_other;
+      continue;
+    }
+    if (type != 0x51 && type <= last_type_) {
+      // Types arrive in increasing order within a group, so this frame belongs to the next
+      // sample, whose acceleration frame was lost: that sample is dropped.
+      emit(out);
+      ++stats_.samples_dropped;
+      ++stats_.frames_other;
+      continue;
+    }
+    last_type_ = type;
+    if (pending_error_) group_had_error_ = true;
+    group_types_ |= static_cast<uint8_t>(1u << (type - 0x51));
+    switch (type) {
+      case 0x51:
+        for (int k = 0; k < 3; ++k) current_.accel[k] = v[k] * accel_lsb;
+        current_.temperature_c = v[3] / 100.0;
+        current_.channels |= kHasAccel | kHasTemperature;
+        break;
+      case 0x52:
+        for (int k = 0; k < 3; ++k) current_.gyro[k] = v[k] * gyro_lsb;
+        current_.channels |= kHasGyro;
+        break;
+      case 0x53:
+        for (int k = 0; k < 3; ++k) current_.angles_rad[k] = v[k] * angle_lsb;
+        current_.channels |= kHasAngles;
+        break;
+      case 0x54:
+        for (int k = 0; k < 3; ++k) current_.mag[k] = v[k];
+        current_.mag_arbitrary_units = true;
+        current_.channels |= kHasMag;
+        break;
+      default:
+        break;
+    }
+  }
+  if (head_ > 4096 && head_ * 2 > buf_.size()) {
+    buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(head_));
+    head_ = 0;
+  }
+}
+
+void WitmotionCodec::finish(std::vector<Sample>& out) {
+  // Bytes of an unfinished frame at the end are lost.
+  stats_.bytes_discarded += buf_.size() - head_;
+  head_ = buf_.size();
+  emit(out);
+}
+
+}  // namespace imukit::drivers

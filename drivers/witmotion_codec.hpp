@@ -1,0 +1,61 @@
+// Codec for WitMotion WT901-family serial IMUs: 11-byte frames `55 TYPE d0..d7 SUM`, SUM the low
+// byte of the sum of the first 10 bytes, four int16 LE values each (seed-summary section 4;
+// WitMotion WT901 manual): 0x51 acceleration raw/32768 * 16 g plus temperature raw/100 degC,
+// 0x52 angular rate raw/32768 * 2000 deg/s, 0x53 angles raw/32768 * 180 deg, 0x54 magnetic field
+// (raw LSB, arbitrary units). Other types (time, pressure, quaternion) are counted and skipped.
+//
+// The device has no sample counter, so samples are stamped with the host time of the bytes that
+// carried their acceleration frame. A sample is the group of frames from one 0x51 to the next;
+// the codec learns which types a group holds from the first complete group, and a later group
+// missing one of them (its frame was corrupted or lost) is counted as a dropped sample instead of
+// being emitted half-filled.
+//
+// Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
+#pragma once
+
+#include "drivers/codec.hpp"
+
+namespace imukit::drivers {
+
+inline constexpr double kStandardGravity = 9.80665;
+
+std::vector<uint8_t> witmotion_command(uint8_t reg, uint16_t value);
+// Unlock (FF AA 69 88 B5), RRATE (register 0x03) for the nearest supported rate, save
+// (FF AA 00 00 00). Throws imukit::Error for a rate the device cannot do.
+std::vector<uint8_t> witmotion_rate_commands(double rate_hz);
+// One frame of `type` with values v (checksum computed), for tests and mocks.
+std::vector<uint8_t> witmotion_frame(uint8_t type, const int16_t v[4]);
+
+struct WitmotionCodecOptions {
+  double rate_hz = 0;  // 0: leave the device's rate alone
+  double accel_range_g = 16.0;
+  double gyro_range_dps = 2000.0;
+};
+
+class WitmotionCodec : public Codec {
+ public:
+  explicit WitmotionCodec(WitmotionCodecOptions options = {});
+  std::string name() const override { return "witmotion"; }
+  void start(TimeNs now) override;
+  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void finish(std::vector<Sample>& out) override;
+  std::size_t bytes_pending() const override { return buf_.size() - head_; }
+
+ private:
+  void emit(std::vector<Sample>& out);
+
+  WitmotionCodecOptions opt_;
+  std::vector<uint8_t> buf_;
+  std::size_t head_ = 0;
+  bool in_group_ = false;
+  uint8_t last_type_ = 0;       // type of the group's latest frame
+  uint8_t group_types_ = 0;     // bit (type - 0x51) for the types seen in this group
+  uint8_t expected_types_ = 0;  // learned from the first complete group
+  bool learned_ = false;
+  bool group_had_error_ = false;
+  bool pending_error_ = false;  // corruption seen since the last accel frame
+  Sample current_;
+  uint64_t sequence_ = 0;
+};
+
+}  // namespace imukit::drivers

@@ -1,0 +1,200 @@
+#include "drivers/imukit_codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "tests/drivers/test_util.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+proto::DeviceInfo test_info() {
+  proto::DeviceInfo info;
+  info.vendor.set("acme");
+  info.model.set("imu");
+  info.serial.set("7");
+  info.tick_hz = 32768;  // a watch crystal: the sample period is not a whole number of ticks
+  info.rate_count = 1;
+  info.rates_mhz[0] = 100'000;
+  info.sensor_count = 2;
+  info.sensors[0].kind = proto::SensorKind::kAccelerometer;
+  info.sensors[0].range_count = 1;
+  info.sensors[0].ranges[0] = {156.9064f, 0.00478840f};
+  info.sensors[1].kind = proto::SensorKind::kGyroscope;
+  info.sensors[1].offset = 0.0f;
+  info.sensors[1].range_count = 1;
+  info.sensors[1].ranges[0] = {34.9f, 0.001065264f};
+  return info;
+}
+
+struct Stream {
+  std::vector<uint8_t> bytes;
+  std::vector<std::size_t> block_start;  // byte offset of each SampleBlock frame
+  int samples = 0;
+};
+
+// DeviceInfo, then `blocks` SampleBlocks of 8 samples; raw accel x = sample index mod 30000.
+Stream make_stream(int blocks, uint32_t first_index = 0, uint32_t first_tick = 0) {
+  Stream s;
+  uint16_t seq = 0;
+  auto add = [&](const auto& m) {
+    uint8_t buf[proto::kMaxFrameSize];
+    const std::size_t n = proto::encode_message(m, seq++, buf, sizeof buf);
+    EXPECT_GT(n, 0u);
+    s.bytes.insert(s.bytes.end(), buf, buf + n);
+  };
+  add(test_info());
+  for (int b = 0; b < blocks; ++b) {
+    proto::SampleBlock blk;
+    blk.sample_index = first_index + 8u * static_cast<uint32_t>(b);
+    // The device's rule: tick of sample i = floor(i * 32768 * 1000 / 100000).
+    blk.first_tick = first_tick + static_cast<uint32_t>(uint64_t{8u * static_cast<uint32_t>(b)} * 32768u / 100u);
+    blk.count = 8;
+    blk.channels = proto::kChannelAccel | proto::kChannelGyro;
+    for (int i = 0; i < 8; ++i) {
+      const uint32_t idx = blk.sample_index + static_cast<uint32_t>(i);
+      blk.accel[i][0] = static_cast<int16_t>(idx % 30000);
+      blk.accel[i][1] = -100;
+      blk.accel[i][2] = 2048;
+      blk.gyro[i][0] = 7;
+      blk.gyro[i][1] = static_cast<int16_t>(-static_cast<int>(idx % 1000));
+      blk.gyro[i][2] = 0;
+    }
+    s.block_start.push_back(s.bytes.size());
+    add(blk);
+    s.samples += 8;
+  }
+  return s;
+}
+
+TEST(ImukitCodec, ScalesCountsAndStampsDeviceTicks) {
+  const Stream st = make_stream(50, 0, 4'294'900'000u);  // ticks wrap inside the stream
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 123, out);
+  ASSERT_EQ(out.size(), 400u);
+  ASSERT_TRUE(codec.device_info().has_value());
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    const Sample& s = out[i];
+    EXPECT_EQ(s.sequence, i);
+    EXPECT_EQ(s.host_time, 123);
+    EXPECT_EQ(s.channels, kHasAccel | kHasGyro);
+    // value = offset + scale * raw with the float32 scale of DeviceInfo.
+    EXPECT_EQ(s.accel[0], static_cast<double>(0.00478840f) * static_cast<double>(i % 30000));
+    EXPECT_EQ(s.accel[2], static_cast<double>(0.00478840f) * 2048.0);
+    EXPECT_EQ(s.gyro[1], static_cast<double>(0.001065264f) * -static_cast<double>(i % 1000));
+    // Unwrapped ticks: first_tick + floor(i * 327.68), at 32768 Hz.
+    const int64_t ticks = 4'294'900'000LL + static_cast<int64_t>(i * 32768 / 100);
+    EXPECT_EQ(s.device_time, ticks_to_ns(ticks, 32768));
+  }
+  EXPECT_EQ(codec.stats().samples_decoded, 400u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+}
+
+TEST(ImukitCodec, SplitAtRandomBoundariesChangesNothing) {
+  const Stream st = make_stream(200);
+  ImukitCodec ref(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> whole;
+  ref.feed(st.bytes, 0, whole);
+  for (uint64_t seed = 1; seed <= 6; ++seed) {
+    Rng rng(seed);
+    ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+    const auto out = testing::feed_split(codec, st.bytes, rng, 3 + 50 * (seed - 1));
+    ASSERT_EQ(out.size(), whole.size());
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      EXPECT_EQ(out[i].sequence, whole[i].sequence);
+      EXPECT_EQ(out[i].accel, whole[i].accel);
+      EXPECT_EQ(out[i].device_time, whole[i].device_time);
+    }
+    testing::expect_byte_accounting(codec);
+  }
+}
+
+TEST(ImukitCodec, CorruptedBlocksAreCountedAsDroppedSamples) {
+  Stream st = make_stream(300);
+  Rng rng(7);
+  std::set<int> hit;
+  // Never the first (nothing before it shows the gap) nor the last (nothing after it).
+  while (hit.size() < 40) hit.insert(1 + static_cast<int>(rng.uniform_index(298)));
+  for (int b : hit) {
+    const std::size_t size = st.block_start[b + 1] - st.block_start[b];
+    // Flip 1..3 bits anywhere in the frame, delimiter included.
+    const int flips = 1 + static_cast<int>(rng.uniform_index(3));
+    for (int k = 0; k < flips; ++k) {
+      st.bytes[st.block_start[b] + rng.uniform_index(size)] ^= static_cast<uint8_t>(1u << rng.uniform_index(8));
+    }
+  }
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  const auto out = testing::feed_split(codec, st.bytes, rng, 97);
+  const CodecStats& s = codec.stats();
+  EXPECT_EQ(out.size(), static_cast<std::size_t>(st.samples) - 8 * hit.size());
+  EXPECT_EQ(s.samples_decoded + s.samples_dropped, static_cast<uint64_t>(st.samples));
+  EXPECT_GE(s.frames_corrupt, 1u);
+  testing::expect_byte_accounting(codec);
+  for (const Sample& x : out) {
+    EXPECT_FALSE(hit.count(static_cast<int>(x.sequence / 8)));
+    EXPECT_EQ(x.accel[0], static_cast<double>(0.00478840f) * static_cast<double>(x.sequence % 30000));
+  }
+}
+
+TEST(ImukitCodec, SendsInfoRequestThenConfigureAndStartAndPings) {
+  ImukitCodec codec(ImukitCodecOptions{true, 100.0, 16, 0, 1'000'000'000, 600'000'000});
+  codec.start(0);
+  proto::FrameDecoder dec;
+  std::vector<uint8_t> types;
+  auto collect = [&] {
+    const auto bytes = codec.take_outgoing();
+    dec.feed(bytes.data(), bytes.size(), [&](const proto::Frame& f) { types.push_back(f.type); });
+  };
+  collect();
+  EXPECT_EQ(types, (std::vector<uint8_t>{0x01}));
+  const Stream st = make_stream(0);
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 0, out);  // the DeviceInfo
+  collect();
+  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x02, 0x03}));
+  codec.tick(10);            // first ping
+  codec.tick(500'000'000);  // within both the ping interval and the retry time: nothing
+  codec.tick(1'000'000'010);
+  collect();
+  // No SampleBlock came within the retry time: Configure and Start again; then the next ping.
+  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x02, 0x03, 0x05, 0x02, 0x03, 0x05}));
+  // A Pong becomes a sync point with unwrapped device times.
+  proto::Pong pong;
+  pong.host_time = 10;
+  pong.rx_tick = 32768;
+  pong.tx_tick = 32769;
+  uint8_t buf[proto::kMaxFrameSize];
+  const std::size_t n = proto::encode_message(pong, 1, buf, sizeof buf);
+  codec.feed(std::span<const uint8_t>(buf, n), 77, out);
+  ASSERT_EQ(codec.sync_points().size(), 1u);
+  EXPECT_EQ(codec.sync_points()[0].host_send, 10);
+  EXPECT_EQ(codec.sync_points()[0].host_receive, 77);
+  EXPECT_EQ(codec.sync_points()[0].device_rx, 1'000'000'000);
+  EXPECT_EQ(codec.sync_points()[0].device_tx, ticks_to_ns(32769, 32768));
+}
+
+TEST(ImukitCodec, RepeatsAnUnansweredInfoRequest) {
+  ImukitCodec codec(ImukitCodecOptions{true, 0, 8, 0, 0, 500'000'000});
+  codec.start(1000);
+  EXPECT_EQ(codec.take_outgoing().size(), encode_imukit_message(proto::GetDeviceInfo{}, 0).size());
+  codec.tick(400'000'000);
+  EXPECT_TRUE(codec.take_outgoing().empty());
+  codec.tick(500'001'000);
+  EXPECT_EQ(codec.take_outgoing(), encode_imukit_message(proto::GetDeviceInfo{}, 1));
+}
+
+TEST(ImukitCodec, BlocksBeforeDeviceInfoAreCountedNotGuessed) {
+  Stream st = make_stream(3);
+  // Drop the DeviceInfo frame: a capture that started mid-stream.
+  std::vector<uint8_t> tail(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.block_start[0]), st.bytes.end());
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(tail, 0, out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(codec.stats().samples_dropped, 24u);
+}
+
+}  // namespace
+}  // namespace imukit::drivers

@@ -1,0 +1,194 @@
+#include "drivers/mock_device.hpp"
+
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "core/profile.hpp"
+#include "core/so3.hpp"
+#include "drivers/imukit_codec.hpp"
+#include "drivers/reader.hpp"
+#include "drivers/sources.hpp"
+#include "drivers/uri.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+struct MockRun {
+  std::vector<Sample> samples;
+  EndReason end;
+  CodecStats stats;
+  MockDevice* mock = nullptr;
+  OpenedDevice dev;
+};
+
+// Opens the URI and reads until the mock disconnects.
+MockRun run(const std::string& uri) {
+  MockRun r;
+  r.dev = open_device(uri);
+  r.mock = dynamic_cast<MockDevice*>(r.dev.transport.get());
+  std::atomic<bool> stop{false};
+  r.end = DeviceReader::run(*r.dev.transport, *r.dev.codec, ReaderOptions{}, stop, r.samples);
+  r.stats = r.dev.codec->stats();
+  return r;
+}
+
+TEST(MockDevice, StaticDeviceReadsGravityInItsOrientation) {
+  // Rolled 90 degrees about x: sensor +y points up... q = (cos 45, sin 45, 0, 0).
+  const double h = std::sqrt(0.5);
+  const MockRun r = run("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=" +
+                    std::to_string(h) + ",0.70710678118654757,0,0");
+  EXPECT_EQ(r.end.kind, EndKind::kEndOfStream);
+  EXPECT_NE(r.end.message.find("disconnect"), std::string::npos);
+  ASSERT_EQ(r.samples.size(), 400u);
+  const double lsb = 16 * 9.80665 / 32768;  // quantisation step of the mock's accelerometer
+  for (const Sample& s : r.samples) {
+    EXPECT_NEAR(s.accel[0], 0.0, lsb);
+    EXPECT_NEAR(s.accel[1], 9.80665, lsb);
+    EXPECT_NEAR(s.accel[2], 0.0, lsb);
+    EXPECT_EQ(s.gyro[0], 0.0);
+    EXPECT_EQ(s.temperature_c, 25.0);
+  }
+  // Device times step by exactly 1/200 s (5000 ticks of the 1 MHz clock).
+  for (std::size_t i = 1; i < r.samples.size(); ++i) {
+    EXPECT_EQ(r.samples[i].device_time - r.samples[i - 1].device_time, 5'000'000);
+    EXPECT_EQ(r.samples[i].sequence, i);
+  }
+  EXPECT_EQ(r.stats.samples_dropped, 0u);
+}
+
+TEST(MockDevice, VirtualTimeIsDeterministic) {
+  const std::string uri = "mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=9";
+  const MockRun a = run(uri);
+  const MockRun b = run(uri);
+  ASSERT_EQ(a.samples.size(), b.samples.size());
+  for (std::size_t i = 0; i < a.samples.size(); ++i) {
+    EXPECT_EQ(a.samples[i].host_time, b.samples[i].host_time);
+    EXPECT_EQ(a.samples[i].sequence, b.samples[i].sequence);
+  }
+  const MockRun c = run("mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=10");
+  EXPECT_NE(a.stats.samples_dropped, c.stats.samples_dropped + 1000);  // runs, different link draws
+}
+
+TEST(MockDevice, DroppedFramesAreExactlyTheDroppedSamples) {
+  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=4000&drop=0.1&seed=3");
+  EXPECT_GT(r.mock->frames_dropped(), 20u);
+  EXPECT_EQ(r.stats.samples_dropped, r.mock->samples_in_dropped_frames());
+  EXPECT_EQ(r.stats.samples_decoded + r.stats.samples_dropped, 4000u);
+}
+
+TEST(MockDevice, BitFlipsAreCaughtAndEveryLostSampleCounted) {
+  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=4000&flip=0.002&seed=5");
+  EXPECT_GT(r.mock->bytes_flipped(), 50u);
+  EXPECT_GT(r.stats.frames_corrupt, 10u);
+  // Unless the very last block was hit (then nothing after it can show the gap).
+  EXPECT_GE(r.stats.samples_decoded + r.stats.samples_dropped, 4000u - 8u);
+  EXPECT_LE(r.stats.samples_decoded + r.stats.samples_dropped, 4000u);
+  const double lsb = 16 * 9.80665 / 32768;
+  for (const Sample& s : r.samples) EXPECT_NEAR(s.accel[2], 9.80665, lsb);  // nothing corrupt got through
+}
+
+TEST(MockDevice, DeviceClockDriftShowsAgainstHostTime) {
+  const MockRun r = run("mock:static?rate=100&clock=virtual&disconnect_after=2000&drift_ppm=250&latency_us=1500");
+  ASSERT_EQ(r.samples.size(), 2000u);
+  // Over the run the device clock gains 250 ppm on the host's: device span = host span * (1 + 2.5e-4).
+  // Host times are block arrival times, so compare the first and last samples of whole blocks.
+  const Sample& a = r.samples[7];
+  const Sample& b = r.samples[1999];
+  const double device = static_cast<double>(b.device_time - a.device_time);
+  const double host = static_cast<double>(b.host_time - a.host_time);
+  EXPECT_NEAR(device / host, 1.0 + 250e-6, 2e-6);
+  // Device times are the device's own: exactly 1/100 s of its ticks apart.
+  EXPECT_EQ(r.samples[1].device_time - r.samples[0].device_time, 10'000'000);
+}
+
+TEST(MockDevice, StallHoldsBytesBackThenDeliversThemAll) {
+  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=1200&stall_ms=300&stall_at_s=1");
+  ASSERT_EQ(r.samples.size(), 1200u);
+  TimeNs max_gap = 0;
+  for (std::size_t i = 1; i < r.samples.size(); ++i) {
+    max_gap = std::max(max_gap, r.samples[i].host_time - r.samples[i - 1].host_time);
+  }
+  EXPECT_GE(max_gap, 280'000'000);
+  EXPECT_EQ(r.stats.samples_dropped, 0u);
+}
+
+TEST(MockDevice, ProfileNoiseReachesTheSamples) {
+  testing::TempDir dir;
+  DeviceProfile p;
+  SensorProfile acc;
+  acc.noise = NoiseEstimate{};
+  acc.noise->noise_density = Eigen::Vector3d(0.002, 0.002, 0.002);  // m/s^2/sqrt(Hz)
+  p.accelerometer = acc;
+  const std::string path = (dir / "p.json").string();
+  write_profile(path, p);
+  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=8000&seed=4&profile=" + path);
+  ASSERT_EQ(r.samples.size(), 8000u);
+  double sum = 0, sum2 = 0;
+  for (const Sample& s : r.samples) {
+    sum += s.accel[0];
+    sum2 += s.accel[0] * s.accel[0];
+  }
+  const double mean = sum / 8000, sd = std::sqrt(sum2 / 8000 - mean * mean);
+  // sigma = N sqrt(rate) = 0.04 m/s^2 (plus quantisation, lsb^2/12: negligible); 8000 samples
+  // give the sample sd within 2.5 % at 3 sigma.
+  EXPECT_NEAR(sd, 0.002 * std::sqrt(400.0), 0.04 * 0.03);
+  EXPECT_NEAR(mean, 0.0, 4 * 0.04 / std::sqrt(8000.0));
+}
+
+TEST(MockDevice, PosesRotateBetweenSixFacesWithConsistentGyro) {
+  PosesSource src(PosesSource::six_faces(), 1.0, 0.5);
+  // Integrate the true gyro over each move: the rotation reached matches the next pose.
+  const int rate = 2000;
+  for (int k = 0; k < 5; ++k) {
+    Eigen::Quaterniond q = PosesSource::six_faces()[k];
+    const double t0 = k * 1.5 + 1.0;
+    for (int i = 0; i < rate / 2; ++i) {
+      const TimeNs t = from_seconds(t0 + (i + 0.5) / rate);
+      Eigen::Matrix3Xd w;
+      src.evaluate(std::span<const TimeNs>(&t, 1), nullptr, &w);
+      q = q * so3_exp(w.col(0) / rate);  // body-frame rate: right multiplication
+    }
+    EXPECT_LT(angular_distance(q, PosesSource::six_faces()[k + 1]), 1e-5) << "move " << k;
+  }
+  // Held poses: the named axis points up.
+  int held = -2;
+  src.orientation(1.5 * 3 + 0.5, &held);
+  EXPECT_EQ(held, 3);
+  const TimeNs t = from_seconds(1.5 * 3 + 0.5);
+  Eigen::Matrix3Xd f;
+  src.evaluate(std::span<const TimeNs>(&t, 1), &f, nullptr);
+  EXPECT_NEAR(f(2, 0), -9.80665, 1e-12);  // pose 3 is -z up
+}
+
+TEST(MockDevice, UriErrorsNameTheKey) {
+  EXPECT_THROW(open_device("mock:static?drop=2"), Error);
+  EXPECT_THROW(open_device("mock:static?quat=1,0,0"), Error);
+  EXPECT_THROW(open_device("mock:spinning"), Error);
+  try {
+    open_device("mock:static?clock=fast");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("clock=fast"), std::string::npos) << e.what();
+  }
+}
+
+TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {
+  OpenedDevice dev = open_device("mock:static?rate=200&clock=real");
+  DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
+  reader.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  reader.stop();
+  EXPECT_EQ(reader.end_reason().kind, EndKind::kStopped);
+  const auto s = reader.take();
+  // 0.6 s at 200 Hz = 120 samples, less the start-up exchange and the last unfinished block.
+  EXPECT_GT(s.size(), 60u);
+  EXPECT_LT(s.size(), 130u);
+}
+
+}  // namespace
+}  // namespace imukit::drivers

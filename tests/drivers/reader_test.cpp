@@ -1,0 +1,90 @@
+#include "drivers/reader.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <stdexcept>
+#include <thread>
+
+#include "drivers/text_codec.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+TEST(DeviceReader, PipeClosedByTheWriterEndsCleanlyWithEverySample) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  auto transport = std::make_unique<FdTransport>(fds[0], true, "pipe");
+  DeviceReader reader(std::move(transport), std::make_unique<TextCodec>(), ReaderOptions{20, 7, 0});
+  reader.start();
+  std::thread writer([w = fds[1]] {
+    for (int i = 0; i < 500; ++i) {
+      const std::string line = std::to_string(i) + ",0,0,9.8,0,0,0\n";
+      ASSERT_EQ(::write(w, line.data(), line.size()), static_cast<ssize_t>(line.size()));
+    }
+    // The last line has no newline: it must still arrive (finish() at the end of the stream).
+    ASSERT_EQ(::write(w, "500,1,1,1,1,1,1", 15), 15);
+    ::close(w);  // the device is "unplugged"
+  });
+  writer.join();
+  ASSERT_TRUE(reader.wait(10'000));
+  const EndReason end = reader.end_reason();
+  EXPECT_EQ(end.kind, EndKind::kEndOfStream);
+  EXPECT_NE(end.message.find("end of stream"), std::string::npos) << end.message;
+  const auto samples = reader.take();
+  ASSERT_EQ(samples.size(), 501u);
+  for (std::size_t i = 0; i < samples.size(); ++i) EXPECT_EQ(samples[i].device_time, static_cast<int64_t>(i) * 1'000'000);
+  EXPECT_EQ(reader.stats().samples_decoded, 501u);
+}
+
+class ThrowingTransport : public ByteTransport {
+ public:
+  ReadResult read(std::span<uint8_t> buf, int) override {
+    if (calls_++ == 0) {
+      const std::string line = "1,2,3,4,5,6,7\n";
+      std::copy(line.begin(), line.end(), buf.begin());
+      return {line.size(), 5, false, {}};
+    }
+    throw std::runtime_error("EIO from the driver");
+  }
+  void write(std::span<const uint8_t>) override {}
+  std::string describe() const override { return "throwing"; }
+
+ private:
+  int calls_ = 0;
+};
+
+TEST(DeviceReader, TransportExceptionEndsTheStreamWithItsMessage) {
+  DeviceReader reader(std::make_unique<ThrowingTransport>(), std::make_unique<TextCodec>());
+  reader.start();
+  ASSERT_TRUE(reader.wait(10'000));
+  EXPECT_EQ(reader.end_reason().kind, EndKind::kError);
+  EXPECT_EQ(reader.end_reason().message, "EIO from the driver");
+  EXPECT_EQ(reader.take().size(), 1u);  // what came before the failure is kept
+}
+
+TEST(DeviceReader, StopEndsAnIdleStream) {
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  DeviceReader reader(std::make_unique<FdTransport>(fds[0], true, "pipe"), std::make_unique<TextCodec>());
+  reader.start();
+  EXPECT_FALSE(reader.wait(100));  // nothing arrives: still running
+  reader.stop();
+  EXPECT_EQ(reader.end_reason().kind, EndKind::kStopped);
+  ::close(fds[1]);
+}
+
+TEST(DeviceReader, RunStopsAfterMaxSamples) {
+  std::string text;
+  for (int i = 0; i < 100; ++i) text += std::to_string(i) + " 0 0 0 0 0 0\n";
+  MemoryTransport t(std::vector<uint8_t>(text.begin(), text.end()), 10);
+  TextCodec codec;
+  std::atomic<bool> stop{false};
+  std::vector<Sample> out;
+  const EndReason end = DeviceReader::run(t, codec, ReaderOptions{10, 4096, 30}, stop, out);
+  EXPECT_EQ(end.kind, EndKind::kStopped);
+  EXPECT_EQ(out.size(), 30u);  // a 10-byte read never holds two line ends
+}
+
+}  // namespace
+}  // namespace imukit::drivers

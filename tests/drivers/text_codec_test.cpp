@@ -1,0 +1,82 @@
+#include "drivers/text_codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+
+#include <numbers>
+#include <set>
+
+#include "tests/drivers/test_util.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+std::vector<uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
+
+TEST(TextCodec, ReadsCsvAndWhitespaceWithStatedUnits) {
+  TextCodec codec(text_codec_options({{"time_unit", "ms"}, {"accel_unit", "g"}, {"gyro_unit", "dps"}}));
+  std::vector<Sample> out;
+  codec.feed(bytes("time,ax,ay,az,gx,gy,gz\r\n10,0,0,1,90,0,-180\r\n  20  0.5 0 1 0 0 0\n"), 7, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].device_time, 10'000'000);
+  EXPECT_EQ(out[1].device_time, 20'000'000);
+  EXPECT_DOUBLE_EQ(out[0].accel[2], 9.80665);
+  EXPECT_DOUBLE_EQ(out[0].gyro[0], std::numbers::pi / 2);
+  EXPECT_DOUBLE_EQ(out[0].gyro[2], -std::numbers::pi);
+  EXPECT_DOUBLE_EQ(out[1].accel[0], 0.5 * 9.80665);
+  EXPECT_EQ(out[1].sequence, 1u);
+  EXPECT_EQ(codec.stats().frames_other, 1u);  // the header
+  EXPECT_EQ(codec.stats().frames_corrupt, 0u);
+  testing::expect_byte_accounting(codec);
+}
+
+TEST(TextCodec, RejectsBadUnitNames) {
+  EXPECT_THROW(text_codec_options({{"time_unit", "min"}}), Error);
+  EXPECT_THROW(text_codec_options({{"accel_unit", "G"}}), Error);
+}
+
+TEST(TextCodec, CountsEveryBrokenLineAndSurvivesSplits) {
+  std::string text;
+  std::set<int> broken;
+  Rng rng(11);
+  const int n = 2000;
+  for (int i = 0; i < n; ++i) {
+    std::string line = std::to_string(i) + ",0.1,0.2,9.8," + std::to_string(i % 17) + ",0,0.5\n";
+    if (i > 0 && rng.uniform() < 0.05) {
+      broken.insert(i);
+      switch (rng.uniform_index(4)) {
+        case 0: line = line.substr(0, line.size() / 2) + "\n"; break;     // cut short
+        case 1: line[1 + rng.uniform_index(line.size() - 2)] = 'x'; break;  // garbage
+        case 2: line.insert(line.size() - 1, ",7"); break;              // extra field
+        default: line = std::string(600, '9') + "\n"; break;            // overlong
+      }
+    }
+    text += line;
+  }
+  TextCodec codec(TextCodecOptions{1e9, 1, 1});
+  const auto out = testing::feed_split(codec, bytes(text), rng, 300);
+  EXPECT_EQ(out.size(), static_cast<std::size_t>(n) - broken.size());
+  EXPECT_EQ(codec.stats().samples_dropped, broken.size());
+  EXPECT_EQ(codec.stats().frames_corrupt, broken.size());
+  testing::expect_byte_accounting(codec);
+  for (const Sample& s : out) {
+    const auto i = static_cast<int>(s.device_time / 1'000'000'000);
+    EXPECT_FALSE(broken.count(i));
+    EXPECT_EQ(s.gyro[0], i % 17);
+  }
+}
+
+TEST(TextCodec, LastLineWithoutNewlineIsKept) {
+  TextCodec codec;
+  std::vector<Sample> out;
+  codec.feed(bytes("1 2 3 4 5 6 7"), 0, out);
+  EXPECT_TRUE(out.empty());
+  codec.finish(out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].gyro[2], 7.0);
+  EXPECT_EQ(out[0].device_time, 1'000'000);  // default unit ms
+}
+
+}  // namespace
+}  // namespace imukit::drivers

@@ -1,0 +1,121 @@
+#include "drivers/witmotion_codec.hpp"
+
+#include <gtest/gtest.h>
+
+#include "core/error.hpp"
+
+#include <numbers>
+#include <set>
+
+#include "tests/drivers/test_util.hpp"
+
+namespace imukit::drivers {
+namespace {
+
+// Groups of 0x51..0x54 frames; sample i has accel x raw = i, gyro z raw = -i, T = 2512 (25.12 C).
+struct Stream {
+  std::vector<uint8_t> bytes;
+  std::vector<std::size_t> frame_start;  // 4 frames per sample
+};
+
+Stream make_stream(int n) {
+  Stream s;
+  for (int i = 0; i < n; ++i) {
+    const int16_t acc[4] = {static_cast<int16_t>(i), -2048, 2048, 2512};
+    const int16_t gyr[4] = {100, 0, static_cast<int16_t>(-i), 0};
+    const int16_t ang[4] = {16384, -8192, 0, 0};
+    const int16_t mag[4] = {300, -200, 100, 0};
+    for (const auto& f : {witmotion_frame(0x51, acc), witmotion_frame(0x52, gyr),
+                          witmotion_frame(0x53, ang), witmotion_frame(0x54, mag)}) {
+      s.frame_start.push_back(s.bytes.size());
+      s.bytes.insert(s.bytes.end(), f.begin(), f.end());
+    }
+  }
+  return s;
+}
+
+TEST(WitmotionCodec, FrameChecksumMatchesTheManual) {
+  // 55 51 | 4 values | SUM = low byte of the sum of the first 10 bytes.
+  const int16_t v[4] = {0x0102, 0x0304, -1, 0};
+  const auto f = witmotion_frame(0x51, v);
+  ASSERT_EQ(f.size(), 11u);
+  EXPECT_EQ(f, (std::vector<uint8_t>{0x55, 0x51, 0x02, 0x01, 0x04, 0x03, 0xFF, 0xFF, 0x00, 0x00,
+                                     static_cast<uint8_t>(0x55 + 0x51 + 0x02 + 0x01 + 0x04 + 0x03 + 0xFF + 0xFF)}));
+}
+
+TEST(WitmotionCodec, ScalesEveryFrameTypeAndStampsHostTime) {
+  const Stream st = make_stream(3);
+  WitmotionCodec codec;
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 5000, out);
+  codec.finish(out);
+  ASSERT_EQ(out.size(), 3u);
+  const double g = 9.80665;
+  for (int i = 0; i < 3; ++i) {
+    const Sample& s = out[i];
+    EXPECT_EQ(s.sequence, static_cast<uint64_t>(i));
+    EXPECT_EQ(s.host_time, 5000);
+    EXPECT_FALSE(s.has_device_time);
+    EXPECT_DOUBLE_EQ(s.accel[0], i / 32768.0 * 16 * g);
+    EXPECT_DOUBLE_EQ(s.accel[1], -g);  // -2048/32768 * 16 g
+    EXPECT_DOUBLE_EQ(s.temperature_c, 25.12);
+    EXPECT_DOUBLE_EQ(s.gyro[0], 100 / 32768.0 * 2000 * std::numbers::pi / 180);
+    EXPECT_DOUBLE_EQ(s.gyro[2], -i / 32768.0 * 2000 * std::numbers::pi / 180);
+    EXPECT_DOUBLE_EQ(s.angles_rad[0], std::numbers::pi / 2);  // 16384/32768 * 180 deg
+    EXPECT_DOUBLE_EQ(s.angles_rad[1], -std::numbers::pi / 4);
+    EXPECT_EQ(s.mag[0], 300.0);
+    EXPECT_EQ(s.channels, kHasAccel | kHasGyro | kHasMag | kHasTemperature | kHasAngles);
+  }
+}
+
+TEST(WitmotionCodec, SplitAtRandomBoundariesChangesNothing) {
+  const Stream st = make_stream(500);
+  for (uint64_t seed = 1; seed <= 5; ++seed) {
+    Rng rng(seed);
+    WitmotionCodec codec;
+    const auto out = testing::feed_split(codec, st.bytes, rng, 1 + 13 * seed);
+    ASSERT_EQ(out.size(), 500u);
+    for (int i = 0; i < 500; ++i) EXPECT_DOUBLE_EQ(out[i].accel[0], i / 32768.0 * 16 * 9.80665);
+    EXPECT_EQ(codec.stats().samples_dropped, 0u);
+    testing::expect_byte_accounting(codec);
+  }
+}
+
+TEST(WitmotionCodec, EveryCorruptedSampleIsCountedAndNoneIsMixedUp) {
+  Stream st = make_stream(1000);
+  Rng rng(3);
+  std::set<int> hit_samples;
+  // One corrupted byte in 120 frames of distinct samples (any of its 4 frames), not the first
+  // sample (whose complete group teaches the codec what a sample holds).
+  while (hit_samples.size() < 120) hit_samples.insert(1 + static_cast<int>(rng.uniform_index(999)));
+  for (int i : hit_samples) {
+    const std::size_t frame = st.frame_start[4 * i + rng.uniform_index(4)];
+    st.bytes[frame + rng.uniform_index(11)] ^= static_cast<uint8_t>(1 + rng.uniform_index(255));
+  }
+  WitmotionCodec codec;
+  const auto out = testing::feed_split(codec, st.bytes, rng, 50);
+  const CodecStats& s = codec.stats();
+  EXPECT_EQ(s.samples_decoded + s.samples_dropped, 1000u);
+  EXPECT_EQ(out.size(), 1000u - hit_samples.size());
+  testing::expect_byte_accounting(codec);
+  // Each surviving sample is one of the originals, whole: accel x and gyro z come from the same i.
+  for (const Sample& x : out) {
+    const long i = std::lround(x.accel[0] / (16 * 9.80665) * 32768.0);
+    EXPECT_FALSE(hit_samples.count(static_cast<int>(i))) << i;
+    EXPECT_NEAR(x.gyro[2], -i / 32768.0 * 2000 * std::numbers::pi / 180, 1e-12);
+  }
+}
+
+TEST(WitmotionCodec, RateCommandsFollowTheRegisterMap) {
+  EXPECT_EQ(witmotion_rate_commands(100),
+            (std::vector<uint8_t>{0xFF, 0xAA, 0x69, 0x88, 0xB5, 0xFF, 0xAA, 0x03, 0x09, 0x00, 0xFF,
+                                  0xAA, 0x00, 0x00, 0x00}));
+  EXPECT_EQ(witmotion_rate_commands(200)[8], 0x0B);
+  EXPECT_THROW(witmotion_rate_commands(150), Error);
+  WitmotionCodec codec(WitmotionCodecOptions{10, 16, 2000});
+  codec.start(0);
+  EXPECT_EQ(codec.take_outgoing()[8], 0x06);
+}
+
+}  // namespace
+}  // namespace imukit::drivers
