@@ -18,6 +18,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/LU>  // Matrix3d::inverse in forward_misalignment
 #include <cstdint>
 #include <span>
 #include <string>
@@ -69,10 +70,14 @@ struct TriadCalibration {
   Eigen::Vector3d scale = Eigen::Vector3d::Ones();
   Eigen::Vector3d bias = Eigen::Vector3d::Zero();
   Eigen::Vector3d apply(const Eigen::Vector3d& raw) const { return T * scale.asDiagonal() * (raw - bias); }
-  // The forward model of core/profile.hpp: raw = diag(s) M true + bias, s = 1/scale,
-  // M = T^-1 scaled to unit diagonal (it already has one).
-  Eigen::Vector3d forward_scale() const { return scale.cwiseInverse(); }
-  Eigen::Matrix3d forward_misalignment() const { return T.inverse(); }
+  // The forward model of core/profile.hpp: raw = diag(s) M true + bias. With T^-1 = diag(d) M
+  // (d its diagonal, M unit-diagonal): s = d / scale. The accelerometer's triangular T has
+  // d = 1; the gyroscope's full T has d within about 1e-4 of 1.
+  Eigen::Vector3d forward_scale() const { return T.inverse().diagonal().cwiseQuotient(scale); }
+  Eigen::Matrix3d forward_misalignment() const {
+    const Eigen::Matrix3d inv = T.inverse();
+    return inv.diagonal().cwiseInverse().asDiagonal() * inv;
+  }
 };
 
 struct CalibrationOptions {

@@ -145,6 +145,18 @@ TEST(Calibration, RejectsTooFewPoses) {
   EXPECT_THROW(calibrate(t, a, w, CalibrationOptions{}), Error);
 }
 
+TEST(Calibration, ForwardModelInvertsTheCorrection) {
+  // profile.hpp's forward model raw = diag(s) M true + bias with unit-diagonal M must undo
+  // apply() for both the triangular (accelerometer) and full (gyroscope) misalignment.
+  for (const TriadCalibration& c : {accel_truth(), gyro_truth()}) {
+    const Eigen::Matrix3d M = c.forward_misalignment();
+    EXPECT_NEAR((M.diagonal() - Eigen::Vector3d::Ones()).cwiseAbs().maxCoeff(), 0.0, 1e-15);
+    const Eigen::Vector3d truth(0.3, -1.2, 9.0);
+    const Eigen::Vector3d raw = c.forward_scale().asDiagonal() * M * truth + c.bias;
+    EXPECT_LT((c.apply(raw) - truth).norm(), 1e-12 * truth.norm());
+  }
+}
+
 TEST(TurnOnBias, MeanAndSpreadAcrossRuns) {
   const TurnOnBiasStats s = turn_on_bias_stats({Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(3, 2, 1),
                                                 Eigen::Vector3d(2, 2, 2)});
