@@ -1,0 +1,382 @@
+#include "sim/scene.hpp"
+
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "core/error.hpp"
+#include "core/profile.hpp"
+#include "core/rng.hpp"
+#include "sim/bvh.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::sim {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail(const std::string& source, const std::string& path, const std::string& what) {
+  throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
+}
+
+const char* type_name(const json& j) { return j.type_name(); }
+
+double number(const json& j, const std::string& source, const std::string& path) {
+  if (!j.is_number()) fail(source, path, std::string("expected a number, got ") + type_name(j));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) fail(source, path, "not finite");
+  return v;
+}
+
+Eigen::Vector3d vec3(const json& j, const std::string& source, const std::string& path) {
+  if (!j.is_array() || j.size() != 3) fail(source, path, "expected an array of 3 numbers");
+  return {number(j[0], source, path + "[0]"), number(j[1], source, path + "[1]"),
+          number(j[2], source, path + "[2]")};
+}
+
+std::string string_of(const json& j, const std::string& source, const std::string& path) {
+  if (!j.is_string()) fail(source, path, std::string("expected a string, got ") + type_name(j));
+  return j.get<std::string>();
+}
+
+void only_keys(const json& j, std::initializer_list<const char*> keys, const std::string& source,
+               const std::string& path) {
+  if (!j.is_object()) fail(source, path, std::string("expected an object, got ") + type_name(j));
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    bool ok = false;
+    for (const char* k : keys) ok |= it.key() == k;
+    if (!ok) fail(source, path, "unknown key '" + it.key() + "'");
+  }
+}
+
+std::string resolve(const std::string& base, const std::string& name) {
+  const std::filesystem::path p(name);
+  return p.is_absolute() || base.empty() ? name : (std::filesystem::path(base) / p).string();
+}
+
+Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const std::string& path) {
+  only_keys(j, {"quaternion_wxyz", "euler", "order", "intrinsic", "unit"}, source, path);
+  if (j.contains("quaternion_wxyz")) {
+    const json& q = j["quaternion_wxyz"];
+    if (!q.is_array() || q.size() != 4) fail(source, path + ".quaternion_wxyz", "expected 4 numbers w, x, y, z");
+    Eigen::Quaterniond r(number(q[0], source, path), number(q[1], source, path), number(q[2], source, path),
+                         number(q[3], source, path));
+    const double n = r.norm();
+    if (std::abs(n - 1.0) > 1e-6) fail(source, path + ".quaternion_wxyz", "not a unit quaternion (norm " + std::to_string(n) + ")");
+    r.coeffs() /= n;
+    return r;
+  }
+  if (j.contains("euler")) {
+    // The convention must be spelled out (DESIGN.md): no default order or unit.
+    for (const char* k : {"order", "intrinsic", "unit"}) {
+      if (!j.contains(k)) fail(source, path, std::string("Euler angles need \"") + k + "\" (e.g. {\"order\": \"XYZ\", \"intrinsic\": true, \"unit\": \"deg\"})");
+    }
+    if (!j["intrinsic"].is_boolean()) fail(source, path + ".intrinsic", "expected true or false");
+    const std::string unit = string_of(j["unit"], source, path + ".unit");
+    if (unit != "deg" && unit != "rad") fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
+    try {
+      return euler_to_quaternion(vec3(j["euler"], source, path + ".euler"),
+                                 string_of(j["order"], source, path + ".order"), j["intrinsic"].get<bool>(),
+                                 unit == "deg");
+    } catch (const Error& e) {
+      fail(source, path + ".order", e.what());
+    }
+  }
+  fail(source, path, "expected quaternion_wxyz or euler");
+}
+
+}  // namespace
+
+Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
+  json root;
+  try {
+    root = json::parse(text.begin(), text.end());
+  } catch (const json::parse_error& e) {
+    // Byte offset -> line and column.
+    const std::size_t off = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
+    int64_t line = 1, col = 1;
+    for (std::size_t i = 0; i < off; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    throw Error(InputLocation{source, line, col, static_cast<int64_t>(off)}, "JSON syntax error");
+  }
+  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"}, source, "$");
+  if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {
+    fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
+  }
+  Scene scene;
+  // Motion (and, for BVH, the body).
+  if (!root.contains("motion")) fail(source, "motion", "missing");
+  const json& m = root["motion"];
+  only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source, "motion");
+  std::shared_ptr<Motion> loaded;
+  bool body_from_motion = false;
+  if (m.contains("bvh")) {
+    BvhOptions o;
+    if (m.contains("scale")) o.scale = number(m["scale"], source, "motion.scale");
+    if (m.contains("up")) {
+      const std::string up = string_of(m["up"], source, "motion.up");
+      if (up != "y" && up != "z") fail(source, "motion.up", "expected \"y\" or \"z\"");
+      o.up = up == "y" ? UpAxis::y : UpAxis::z;
+    }
+    BvhData d = read_bvh(resolve(base_dir, string_of(m["bvh"], source, "motion.bvh")), o);
+    scene.body = std::move(d.body);
+    loaded = std::make_shared<Motion>(std::move(d.motion));
+    scene.warnings = std::move(d.warnings);
+    body_from_motion = true;
+  }
+  // Body.
+  if (root.contains("body")) {
+    if (body_from_motion) fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
+    const json& b = root["body"];
+    only_keys(b, {"default_humanoid"}, source, "body");
+    if (!b.contains("default_humanoid")) fail(source, "body", "expected default_humanoid");
+    const json& h = b["default_humanoid"];
+    only_keys(h, {"height_m"}, source, "body.default_humanoid");
+    try {
+      scene.body = Body::default_humanoid(h.contains("height_m") ? number(h["height_m"], source, "body.default_humanoid.height_m") : 1.75);
+    } catch (const Error& e) {
+      fail(source, "body.default_humanoid.height_m", e.what());
+    }
+  } else if (!body_from_motion) {
+    scene.body = Body::default_humanoid();
+  }
+  if (m.contains("quaternion_csv")) {
+    std::optional<double> rate;
+    if (m.contains("rate_hz")) rate = number(m["rate_hz"], source, "motion.rate_hz");
+    loaded = std::make_shared<Motion>(read_quaternion_csv(resolve(base_dir, string_of(m["quaternion_csv"], source, "motion.quaternion_csv")),
+                                                          scene.body, rate, &scene.warnings));
+  }
+  if (loaded) {
+    scene.motion = loaded;
+  } else if (m.contains("procedural")) {
+    const json& p = m["procedural"];
+    only_keys(p, {"rate_hz", "duration_s", "seed", "amplitude_rad"}, source, "motion.procedural");
+    ProceduralMotionOptions po;
+    if (p.contains("rate_hz")) po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
+    if (p.contains("seed")) po.seed = static_cast<uint64_t>(number(p["seed"], source, "motion.procedural.seed"));
+    if (p.contains("amplitude_rad")) po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
+    if (!p.contains("duration_s")) fail(source, "motion.procedural.duration_s", "missing");
+    const double dur = number(p["duration_s"], source, "motion.procedural.duration_s");
+    if (!(dur > 0.0 && dur < 1e7)) fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
+    try {
+      po.frames = static_cast<int64_t>(std::floor(dur * po.rate_hz)) + 1;
+      scene.motion = std::make_shared<ProceduralMotion>(scene.body.size(), po);
+    } catch (const Error& e) {
+      fail(source, "motion.procedural", e.what());
+    }
+  } else if (!loaded) {
+    fail(source, "motion", "expected bvh, quaternion_csv or procedural");
+  }
+  if (scene.motion->joint_count() != scene.body.size()) {
+    fail(source, "motion", "the motion has " + std::to_string(scene.motion->joint_count()) +
+                               " joints, the body " + std::to_string(scene.body.size()));
+  }
+  scene.frames = scene.motion->frame_count();
+  // Simulation settings.
+  if (root.contains("simulation")) {
+    const json& s = root["simulation"];
+    only_keys(s, {"method", "rate_hz", "gravity", "seed", "chunk_frames"}, source, "simulation");
+    if (s.contains("method")) {
+      try {
+        scene.options.method = parse_derivative_method(string_of(s["method"], source, "simulation.method"));
+      } catch (const Error& e) {
+        fail(source, "simulation.method", e.what());
+      }
+    }
+    if (s.contains("rate_hz")) {
+      scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
+      if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6)) fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
+    }
+    if (s.contains("gravity")) scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+    if (s.contains("seed")) {
+      const double seed = number(s["seed"], source, "simulation.seed");
+      if (seed < 0 || seed != std::floor(seed) || seed > 9e15) fail(source, "simulation.seed", "expected a whole number >= 0");
+      scene.seed = static_cast<uint64_t>(seed);
+    }
+    if (s.contains("chunk_frames")) {
+      const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
+      if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
+      scene.options.chunk_frames = static_cast<int64_t>(c);
+    }
+  }
+  if (root.contains("outputs")) {
+    const json& o = root["outputs"];
+    only_keys(o, {"ground_truth"}, source, "outputs");
+    if (o.contains("ground_truth")) {
+      if (!o["ground_truth"].is_boolean()) fail(source, "outputs.ground_truth", "expected true or false");
+      scene.ground_truth = o["ground_truth"].get<bool>();
+    }
+  }
+  // Sensors.
+  if (!root.contains("sensors") || !root["sensors"].is_array() || root["sensors"].empty()) {
+    fail(source, "sensors", "expected a non-empty array");
+  }
+  for (std::size_t i = 0; i < root["sensors"].size(); ++i) {
+    const json& js = root["sensors"][i];
+    const std::string path = "sensors[" + std::to_string(i) + "]";
+    only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"}, source, path);
+    SceneSensor s;
+    s.spec.name = js.contains("name") ? string_of(js["name"], source, path + ".name")
+                                      : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset") : "sensor" + std::to_string(i));
+    if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
+      fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
+    }
+    for (const SceneSensor& other : scene.sensors) {
+      if (other.spec.name == s.spec.name) fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
+    }
+    if (js.contains("preset")) {
+      if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
+      s.preset = string_of(js["preset"], source, path + ".preset");
+      try {
+        s.spec.placement = resolve_preset(placement_preset(s.preset), scene.body);
+      } catch (const Error& e) {
+        fail(source, path + ".preset", e.what());
+      }
+    } else if (js.contains("segment")) {
+      const std::string seg = string_of(js["segment"], source, path + ".segment");
+      const auto j = scene.body.find(seg);
+      if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
+      s.spec.placement.joint = *j;
+      if (js.contains("position_m")) s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
+      if (js.contains("rotation")) s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
+    } else {
+      fail(source, path, "needs a preset or a segment");
+    }
+    if (js.contains("outputs")) {
+      const json& o = js["outputs"];
+      if (!o.is_array() || o.empty()) fail(source, path + ".outputs", "expected a non-empty array of names");
+      s.spec.outputs = SensorOutputs{false, false, false};
+      for (const json& name : o) {
+        const std::string n = string_of(name, source, path + ".outputs");
+        if (n == "accelerometer") s.spec.outputs.accelerometer = true;
+        else if (n == "gyroscope") s.spec.outputs.gyroscope = true;
+        else if (n == "orientation") s.spec.outputs.orientation = true;
+        else fail(source, path + ".outputs", "unknown output '" + n + "' (accelerometer, gyroscope, orientation)");
+      }
+    }
+    if (js.contains("hardware")) {
+      const json& h = js["hardware"];
+      try {
+        const DeviceProfile profile = h.is_string() ? read_profile(resolve(base_dir, h.get<std::string>()))
+                                                    : parse_profile(h.dump(), source + ":" + path + ".hardware");
+        s.hardware = to_hardware_model(profile);
+        const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+        validate_hardware_model(*s.hardware, rate);
+        if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
+          s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
+        }
+      } catch (const Error& e) {
+        fail(source, path + ".hardware", e.what());
+      }
+    }
+    scene.sensors.push_back(std::move(s));
+  }
+  return scene;
+}
+
+Scene read_scene(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open");
+  std::ostringstream s;
+  s << in.rdbuf();
+  return parse_scene(s.str(), path, std::filesystem::path(path).parent_path().string());
+}
+
+namespace {
+
+// Applies one sensor's hardware model to a block (gyroscope first: it needs the true specific
+// force).
+void apply_hardware(ImuErrorGenerator& gen, SensorBlock& b) {
+  if (b.angular_rate.cols() > 0) gen.apply_gyroscope(b.angular_rate, b.specific_force);
+  if (b.specific_force.cols() > 0) gen.apply_accelerometer(b.specific_force);
+}
+
+}  // namespace
+
+void run_scene(Scene& scene, const SceneSink& sink) {
+  std::vector<SensorSpec> specs;
+  for (const SceneSensor& s : scene.sensors) specs.push_back(s.spec);
+  Simulator sim(scene.body, specs, scene.options);
+  const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+  const Rng base(scene.seed);
+  std::vector<std::unique_ptr<ImuErrorGenerator>> gens(scene.sensors.size());
+  for (std::size_t s = 0; s < scene.sensors.size(); ++s) {
+    if (scene.sensors[s].hardware) {
+      Rng r = base.child(s);
+      gens[s] = std::make_unique<ImuErrorGenerator>(*scene.sensors[s].hardware, rate, r);
+    }
+  }
+  SensorBlock measured;
+  sim.run(*scene.motion, [&](std::size_t s, const SensorBlock& truth) {
+    if (!gens[s]) {
+      sink(s, truth, scene.ground_truth ? &truth : nullptr);
+      return;
+    }
+    measured = truth;
+    apply_hardware(*gens[s], measured);
+    sink(s, measured, scene.ground_truth ? &truth : nullptr);
+  }, scene.frames);
+}
+
+std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body, const std::vector<BatchJob>& jobs,
+                                                   uint64_t seed, unsigned threads) {
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<std::vector<ImuSeries>> result(jobs.size());
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const Rng base(seed);
+  const auto worker = [&] {
+    for (;;) {
+      const std::size_t i = next.fetch_add(1);
+      if (i >= jobs.size()) return;
+      try {
+        const BatchJob& job = jobs[i];
+        std::vector<SensorSpec> specs;
+        for (const SceneSensor& s : job.sensors) specs.push_back(s.spec);
+        Simulator sim(body, specs, job.options);
+        const double rate = job.options.rate_hz > 0.0 ? job.options.rate_hz : job.motion->rate_hz();
+        Rng job_rng = base.child(i);
+        std::vector<SensorBlock> blocks;
+        std::vector<TimeNs> times;
+        const int64_t n = sim.sample_count(*job.motion, job.motion->frames());
+        for (int64_t k = 0; k < n; ++k) times.push_back(sim.sample_time_ns(*job.motion, k));
+        sim.evaluate(*job.motion, times, blocks);
+        std::vector<ImuSeries> out(specs.size());
+        for (std::size_t s = 0; s < specs.size(); ++s) {
+          if (job.sensors[s].hardware) {
+            ImuErrorGenerator gen(*job.sensors[s].hardware, rate, job_rng);
+            apply_hardware(gen, blocks[s]);
+          }
+          out[s].t = std::move(blocks[s].t);
+          out[s].accel = std::move(blocks[s].specific_force);
+          out[s].gyro = std::move(blocks[s].angular_rate);
+        }
+        result[i] = std::move(out);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+  return result;
+}
+
+}  // namespace imukit::sim
