@@ -28,6 +28,7 @@ struct CharacterizeArgs {
   double gravity = 9.80665;
   int points_per_decade = 10;
   bool level = false;
+  double fit_tau_min_s = 0.0;
 };
 
 struct AxisNoise {
@@ -40,7 +41,7 @@ struct TriadNoise {
   std::array<AxisNoise, 3> axes;
 };
 
-TriadNoise characterize_triad(const ImuSeries& s, const Eigen::Matrix3Xd& x, int ppd) {
+TriadNoise characterize_triad(const ImuSeries& s, const Eigen::Matrix3Xd& x, int ppd, double tau_min) {
   TriadNoise out;
   hwmodel::AllanOptions opt;
   opt.points_per_decade = ppd;
@@ -53,8 +54,10 @@ TriadNoise characterize_triad(const ImuSeries& s, const Eigen::Matrix3Xd& x, int
       lo.push_back(a.lower(ax, k));
       hi.push_back(a.upper(ax, k));
     }
+    hwmodel::NoiseFitOptions fo;
+    fo.tau_min_s = tau_min;
     out.axes[size_t(ax)].fit =
-        hwmodel::fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors, int64_t(s.size()));
+        hwmodel::fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors, int64_t(s.size()), fo);
     out.axes[size_t(ax)].slopes = hwmodel::read_slopes(out.allan.tau_s, dev, lo, hi);
   }
   return out;
@@ -152,13 +155,13 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   update.gravity = args.gravity;
   std::optional<TriadNoise> acc, gyr;
   if (s.has_accel()) {
-    acc = characterize_triad(s, s.accel, args.points_per_decade);
+    acc = characterize_triad(s, s.accel, args.points_per_decade, args.fit_tau_min_s);
     print_triad("accelerometer", "m/s^2", *acc);
     update.accelerometer = SensorProfile{};
     update.accelerometer->noise = to_estimate(*acc);
   }
   if (s.has_gyro()) {
-    gyr = characterize_triad(s, s.gyro, args.points_per_decade);
+    gyr = characterize_triad(s, s.gyro, args.points_per_decade, args.fit_tau_min_s);
     print_triad("gyroscope", "rad/s", *gyr);
     update.gyroscope = GyroscopeProfile{};
     update.gyroscope->noise = to_estimate(*gyr);
@@ -237,6 +240,8 @@ IMUKIT_REGISTER_COMMAND(characterize, CommandSpec{
       sub.add_option("--kalibr", args->kalibr, "also write Kalibr's imu.yaml here");
       sub.add_option("--gravity", args->gravity, "local gravity, m/s^2 (recorded in the profile)");
       sub.add_option("--points-per-decade", args->points_per_decade, "tau grid density (default 10)");
+      sub.add_option("--fit-tau-min", args->fit_tau_min_s,
+                     "fit the noise model only where tau >= this (s): leave out a sensor filter's or a vibration's mark");
       sub.add_flag("--level", args->level, "recordings were taken level with z up: also give the accelerometer turn-on bias");
       sub.footer(input_options_help() +
                  "\n\nExamples:\n"

@@ -188,7 +188,9 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
   }
   std::vector<size_t> use;
   for (size_t k = 0; k < tau_s.size(); ++k) {
-    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && edf[k] >= 1.0) use.push_back(k);
+    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && edf[k] >= 1.0 &&
+        tau_s[k] >= options.tau_min_s && tau_s[k] <= options.tau_max_s)
+      use.push_back(k);
   }
   if (use.size() < 2) throw Error("noise fit: fewer than 2 usable points on the Allan curve");
   std::vector<int> terms;
@@ -328,7 +330,9 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   }
   std::vector<size_t> use;
   for (size_t k = 0; k < tau_s.size(); ++k) {
-    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && n + 1 - 2 * factors[k] >= 2) use.push_back(k);
+    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && n + 1 - 2 * factors[k] >= 2 &&
+        tau_s[k] >= options.tau_min_s && tau_s[k] <= options.tau_max_s)
+      use.push_back(k);
   }
   if (use.size() < 2) throw Error("noise fit: fewer than 2 usable points on the Allan curve");
   std::vector<int> terms;

@@ -42,6 +42,10 @@ struct NoiseFitOptions {
   // covariance ignores: the parameter covariance is multiplied by this factor for every grid
   // point per decade beyond one estimate per octave (see docs/hwmodel.md; measured by simulation).
   bool correct_for_correlation = true;
+  // Only points with tau in [tau_min_s, tau_max_s] are fitted: a sensor's own filter, a
+  // vibration or decimation shapes the curve at short tau in ways the model has no term for.
+  double tau_min_s = 0.0;
+  double tau_max_s = 1e300;
 };
 
 struct NoiseFit {
