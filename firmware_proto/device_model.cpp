@@ -174,12 +174,10 @@ void DeviceModel::handle_stop(const Frame& frame) {
 void DeviceModel::handle_calibration_write(const Frame& frame) {
   // The payload is the serialised blob: checked, then stored byte for byte.
   const ParseStatus status = check_blob(frame.payload, frame.payload_size);
-  if (status == ParseStatus::kBadChecksum || status == ParseStatus::kBadValue) {
-    return nack(frame, NackCode::kCalibrationInvalid);
-  }
-  if (status != ParseStatus::kOk) return nack(frame, NackCode::kMalformed);
+  if (status == ParseStatus::kBadLength) return nack(frame, NackCode::kMalformed);
   // Writing flash can stall the CPU for milliseconds: not while samples are due.
   if (state_ == DeviceState::kStreaming) return nack(frame, NackCode::kBadState);
+  if (status != ParseStatus::kOk) return nack(frame, NackCode::kCalibrationInvalid);
   if (!hal_.store_calibration(frame.payload, frame.payload_size)) {
     return nack(frame, NackCode::kStorageError);
   }

@@ -83,6 +83,45 @@ TEST(Crc32c, ExtendEqualsOneShotForEverySplit) {
   EXPECT_EQ(crc32c_extend(0, data.data(), data.size()), whole);
 }
 
+// syndrome[d] for a body of n bytes: the check value change caused by flipping the bit at
+// distance d from the end of the body (transmission order: bytes in order, bits of a byte from the
+// least significant, as the reflected CRC consumes them). check(body) = crc32c(data) ^ stored CRC.
+std::vector<uint32_t> single_bit_syndromes(size_t n) {
+  Bytes body(n, 0);
+  const size_t checked = n - 4;
+  auto check = [&] {
+    const uint32_t stored = static_cast<uint32_t>(body[checked]) |
+                            static_cast<uint32_t>(body[checked + 1]) << 8 |
+                            static_cast<uint32_t>(body[checked + 2]) << 16 |
+                            static_cast<uint32_t>(body[checked + 3]) << 24;
+    return crc32c(body.data(), checked) ^ stored;
+  };
+  const uint32_t base = check();
+  const size_t bits = n * 8;
+  std::vector<uint32_t> syndrome(bits);
+  for (size_t pos = 0; pos < bits; ++pos) {
+    body[pos / 8] ^= static_cast<uint8_t>(1u << (pos % 8));
+    syndrome[bits - 1 - pos] = check() ^ base;
+    body[pos / 8] ^= static_cast<uint8_t>(1u << (pos % 8));
+  }
+  return syndrome;
+}
+
+// Given (syndrome << 32 | largest distance) for all error patterns of one weight w, sorted: the
+// shortest body (in bits) holding two patterns with the same syndrome, i.e. an undetected error of
+// weight 2w (the two patterns are disjoint when no lighter undetected error exists). Within a run
+// of equal syndromes the first two entries have the smallest largest distances.
+size_t shortest_collision_bits(const std::vector<uint64_t>& sorted) {
+  size_t shortest = SIZE_MAX;
+  for (size_t k = 1; k < sorted.size(); ++k) {
+    if ((sorted[k] >> 32) == (sorted[k - 1] >> 32) &&
+        (k < 2 || (sorted[k - 2] >> 32) != (sorted[k] >> 32))) {
+      shortest = std::min<size_t>(shortest, (sorted[k] & 0xFFFFFFFFu) + 1);
+    }
+  }
+  return shortest;
+}
+
 // The guarantee docs/protocol.md states: CRC-32C has Hamming distance 6 for data words up to 5243
 // bits (Koopman, "32-Bit Cyclic Redundancy Codes for Internet Applications", DSN 2002; his CRC
 // Zoo lists HD=6 up to 5243 bits for 0x8f6e37a0, the same polynomial in his notation), so every
@@ -101,24 +140,7 @@ TEST(Crc32c, ExtendEqualsOneShotForEverySplit) {
 TEST(Crc32c, HasHammingDistanceSixUpTo5243DataBitsCoveringTheLargestFrame) {
   constexpr size_t kBodyBytes = 660;  // longer than any v1 body (659) to see where HD=6 ends
   constexpr size_t kBits = kBodyBytes * 8;
-  Bytes body(kBodyBytes, 0);
-  const size_t checked = kBodyBytes - 4;
-  auto check = [&](const Bytes& b) {
-    uint32_t stored;
-    stored = static_cast<uint32_t>(b[checked]) | static_cast<uint32_t>(b[checked + 1]) << 8 |
-             static_cast<uint32_t>(b[checked + 2]) << 16 |
-             static_cast<uint32_t>(b[checked + 3]) << 24;
-    return crc32c(b.data(), checked) ^ stored;
-  };
-  const uint32_t base = check(body);
-  // syndrome[d]: error in the bit at distance d from the end of the body (transmission order:
-  // bytes in order, bits of a byte from least significant, as the reflected CRC processes them).
-  std::vector<uint32_t> syndrome(kBits);
-  for (size_t pos = 0; pos < kBits; ++pos) {
-    body[pos / 8] ^= static_cast<uint8_t>(1u << (pos % 8));
-    syndrome[kBits - 1 - pos] = check(body) ^ base;
-    body[pos / 8] ^= static_cast<uint8_t>(1u << (pos % 8));
-  }
+  const std::vector<uint32_t> syndrome = single_bit_syndromes(kBodyBytes);
   for (size_t d = 0; d < kBits; ++d) {
     ASSERT_NE(syndrome[d], 0u) << d;
     ASSERT_EQ(std::popcount(syndrome[d]) % 2, 1) << "odd-weight errors must be detected, " << d;
@@ -129,7 +151,7 @@ TEST(Crc32c, HasHammingDistanceSixUpTo5243DataBitsCoveringTheLargestFrame) {
       << "two single-bit errors share a syndrome: a 2-bit error would go undetected";
 
   // Pair syndromes tagged with the pair's larger distance from the end (what decides the body
-  // length needed to hold it): (syndrome << 32) | max_distance.
+  // length needed to hold it).
   std::vector<uint64_t> pairs;
   pairs.reserve(kBits * (kBits - 1) / 2);
   for (size_t j = 1; j < kBits; ++j) {
@@ -138,19 +160,32 @@ TEST(Crc32c, HasHammingDistanceSixUpTo5243DataBitsCoveringTheLargestFrame) {
     }
   }
   std::sort(pairs.begin(), pairs.end());
-  // Within a run of equal syndromes (sorted by max distance), the first two pairs give the
-  // shortest undetected 4-bit error with that syndrome (disjoint: sharing a bit would make two
-  // single-bit syndromes equal, excluded above).
-  size_t shortest_bits = SIZE_MAX;
-  for (size_t k = 1; k < pairs.size(); ++k) {
-    if ((pairs[k] >> 32) == (pairs[k - 1] >> 32) &&
-        (k < 2 || (pairs[k - 2] >> 32) != (pairs[k] >> 32))) {
-      shortest_bits = std::min<size_t>(shortest_bits, (pairs[k] & 0xFFFFFFFFu) + 1);
-    }
-  }
+  const size_t shortest_bits = shortest_collision_bits(pairs);
   EXPECT_EQ(shortest_bits, 5243u + 1u + 32u)
       << "the shortest body with an undetected 4-bit error; Koopman: HD=6 up to 5243 data bits";
   EXPECT_GT(shortest_bits, kMaxBodySize * 8) << "a v1 frame body must be shorter than that";
+}
+
+// Short frames get more: HD = 8 up to 177 data bits (22 bytes: header plus a payload of up to 18
+// bytes, i.e. every v1 request, Ack, Nack and Pong), per the same table. Weight-6 errors are two
+// triples with one syndrome (weights 1 to 5 are excluded for these lengths by the test above);
+// the shortest such body must have 177 + 1 data bits.
+TEST(Crc32c, HasHammingDistanceEightUpTo177DataBits) {
+  constexpr size_t kBodyBytes = 27;  // 216 bits: beyond 178 + 32
+  constexpr size_t kBits = kBodyBytes * 8;
+  const std::vector<uint32_t> syndrome = single_bit_syndromes(kBodyBytes);
+  std::vector<uint64_t> triples;
+  triples.reserve(kBits * (kBits - 1) * (kBits - 2) / 6);
+  for (size_t k = 2; k < kBits; ++k) {
+    for (size_t j = 1; j < k; ++j) {
+      for (size_t i = 0; i < j; ++i) {
+        triples.push_back(static_cast<uint64_t>(syndrome[i] ^ syndrome[j] ^ syndrome[k]) << 32 | k);
+      }
+    }
+  }
+  std::sort(triples.begin(), triples.end());
+  EXPECT_EQ(shortest_collision_bits(triples), 177u + 1u + 32u);
+  EXPECT_LE((kHeaderSize + 18) * 8, 177u);
 }
 
 }  // namespace

@@ -466,6 +466,10 @@ TEST(DeviceModel, StoresAndReturnsCalibrationAndRejectsBadBlobs) {
               NackCode::kCalibrationInvalid);
   EXPECT_EQ(f.hal.storage, serialised);
 
+  // A blob cut short is malformed, not merely invalid.
+  seq = f.host.send_raw(static_cast<uint8_t>(MessageType::kCalibrationWrite), {1, 4, 0, 0xDE});
+  expect_nack(f.host.received().at(0), MessageType::kCalibrationWrite, seq, NackCode::kMalformed);
+
   // Storage failure.
   f.hal.storage_fails = true;
   seq = f.host.send(w);
