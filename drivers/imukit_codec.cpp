@@ -97,7 +97,15 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
     case MessageType::kDeviceInfo: {
       ++stats_.frames_other;
       proto::DeviceInfo info;
-      if (proto::parse_message(f, info) != proto::ParseStatus::kOk || info.tick_hz == 0) {
+      const bool parsed = proto::parse_message(f, info) == proto::ParseStatus::kOk;
+      bool finite = true;
+      for (uint8_t i = 0; parsed && i < info.sensor_count; ++i) {
+        const proto::SensorInfo& si = info.sensors[i];
+        finite = finite && std::isfinite(si.offset);
+        for (uint8_t r = 0; r < si.range_count; ++r) finite = finite && std::isfinite(si.ranges[r].scale);
+      }
+      // A DeviceInfo whose scales are not finite numbers would turn every count into NaN.
+      if (!parsed || info.tick_hz == 0 || !finite) {
         ++stats_.device_errors;
         return;
       }

@@ -1,0 +1,13 @@
+// libFuzzer target: the device URI parser (only parsing: nothing is opened).
+#include <string>
+
+#include "core/error.hpp"
+#include "drivers/uri.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  try {
+    (void)imukit::drivers::parse_device_uri(std::string(reinterpret_cast<const char*>(data), size));
+  } catch (const imukit::Error&) {
+  }
+  return 0;
+}
