@@ -1,0 +1,243 @@
+// hwmodel benchmarks (docs/benchmarks.md, section "hwmodel"):
+// - Allan deviation of 6 axes x 7.2 M samples (10 h at 200 Hz), 10 tau per decade up to n/4,
+//   with one and two threads, ADEV only and all three deviations;
+// - the memory bandwidth of this machine for the same access pattern (plain streaming reads),
+//   to say how close the Allan sweep comes to it;
+// - the noise-model fit (GLS) of one axis, and the multi-position calibration of the imu_tk
+//   Xsens recording (skipped when the data folder is missing);
+// then, in the same run, NumPy's overlapping ADEV (bench/allan_numpy.py) on the same data and
+// grid: its time per axis, the ratio, and the largest relative difference of the results.
+// Set IMUKIT_BENCH_NUMPY=0 to skip the NumPy part, IMUKIT_PYTHON to choose the interpreter.
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/column_text.hpp"
+#include "core/npy.hpp"
+#include "core/rng.hpp"
+#include "hwmodel/allan.hpp"
+#include "hwmodel/calibration.hpp"
+#include "hwmodel/noise_fit.hpp"
+
+namespace {
+
+using namespace imukit;
+
+constexpr double kRate = 200.0;
+constexpr int64_t kSamples = 7'200'000;
+
+struct BigData {
+  std::vector<TimeNs> t;
+  Eigen::MatrixXd y;  // 6 x n
+};
+
+const BigData& big_data() {
+  static const BigData d = [] {
+    BigData b;
+    b.t.resize(size_t(kSamples));
+    b.y.resize(6, kSamples);
+    Rng rng(2024);
+    for (int64_t i = 0; i < kSamples; ++i) {
+      b.t[size_t(i)] = sample_time(0, i, kRate);
+      for (int a = 0; a < 6; ++a) b.y(a, i) = 0.01 * rng.normal();
+    }
+    return b;
+  }();
+  return d;
+}
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_maxrss) / 1024.0;
+}
+
+void BM_AllanDeviation6Axes(benchmark::State& state) {
+  const BigData& d = big_data();
+  hwmodel::AllanOptions opt;
+  opt.threads = unsigned(state.range(0));
+  opt.modified = state.range(1) != 0;
+  opt.hadamard = state.range(1) != 0;
+  size_t taus = 0;
+  for (auto _ : state) {
+    const auto r = hwmodel::allan_deviation(d.t, d.y, opt);
+    taus = r.factors.size();
+    benchmark::DoNotOptimize(r.allan.deviation.data());
+  }
+  state.counters["taus"] = double(taus);
+  state.counters["peak_rss_MB"] = peak_rss_mb();
+}
+BENCHMARK(BM_AllanDeviation6Axes)
+    ->ArgNames({"threads", "mdev_hdev"})
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({2, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3)
+    ->UseRealTime();
+
+void BM_AllanDeviationOneAxis(benchmark::State& state) {
+  const BigData& d = big_data();
+  hwmodel::AllanOptions opt;
+  opt.threads = 1;
+  opt.modified = opt.hadamard = false;
+  const Eigen::MatrixXd one = d.y.topRows(1);
+  for (auto _ : state) {
+    const auto r = hwmodel::allan_deviation(d.t, one, opt);
+    benchmark::DoNotOptimize(r.allan.deviation.data());
+  }
+}
+BENCHMARK(BM_AllanDeviationOneAxis)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+// Streaming read of a buffer the size of the Allan sweep's cumulative sums (6 x (n+1) doubles),
+// with one or two threads: the bandwidth the sweep is bound by.
+void BM_MemoryReadBandwidth(benchmark::State& state) {
+  static std::vector<double> buf(size_t(6 * (kSamples + 1)), 1.0);
+  const auto threads = int(state.range(0));
+  for (auto _ : state) {
+    std::vector<double> partial(size_t(threads), 0.0);
+    std::vector<std::thread> pool;
+    const size_t chunk = buf.size() / size_t(threads);
+    for (int k = 0; k < threads; ++k) {
+      pool.emplace_back([&, k] {
+        double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
+        const double* p = buf.data() + size_t(k) * chunk;
+        for (size_t i = 0; i + 4 <= chunk; i += 4) s0 += p[i], s1 += p[i + 1], s2 += p[i + 2], s3 += p[i + 3];
+        partial[size_t(k)] = s0 + s1 + s2 + s3;
+      });
+    }
+    for (auto& th : pool) th.join();
+    benchmark::DoNotOptimize(partial.data());
+  }
+  state.SetBytesProcessed(int64_t(state.iterations()) * int64_t(buf.size() * sizeof(double)));
+}
+BENCHMARK(BM_MemoryReadBandwidth)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_NoiseFitGls(benchmark::State& state) {
+  // One axis of 2 h at 100 Hz of white noise + random walk, fitted with the full covariance.
+  const int64_t n = 720000;
+  std::vector<TimeNs> t(static_cast<size_t>(n));
+  Eigen::MatrixXd y(1, n);
+  Rng rng(5);
+  double walk = 0.0;
+  for (int64_t i = 0; i < n; ++i) {
+    t[size_t(i)] = sample_time(0, i, 100.0);
+    walk += 1e-5 * rng.normal();
+    y(0, i) = 0.01 * rng.normal() + walk;
+  }
+  hwmodel::AllanOptions ao;
+  ao.modified = ao.hadamard = false;
+  const auto r = hwmodel::allan_deviation(t, y, ao);
+  std::vector<double> dev(r.tau_s.size());
+  for (size_t k = 0; k < dev.size(); ++k) dev[k] = r.allan.deviation(0, Eigen::Index(k));
+  for (auto _ : state) {
+    const auto f = hwmodel::fit_noise_model_gls(r.tau_s, dev, r.factors, n);
+    benchmark::DoNotOptimize(f.value.data());
+  }
+}
+BENCHMARK(BM_NoiseFitGls)->Unit(benchmark::kMillisecond);
+
+void BM_CalibrateXsens(benchmark::State& state) {
+  const char* env = std::getenv("IMUKIT_DATA_DIR");
+  const std::filesystem::path dir =
+      std::filesystem::path(env ? env : IMUKIT_BENCH_DATA_DIR) / "imu_tk_xsens";
+  if (!std::filesystem::exists(dir / "xsens_acc.txt")) {
+    state.SkipWithError("imu_tk_xsens data not found (set IMUKIT_DATA_DIR)");
+    return;
+  }
+  const auto acc = to_imu_series(read_column_text((dir / "xsens_acc.txt").string(), ColumnSpec::parse("t,ax,ay,az")));
+  const auto gyr = to_imu_series(read_column_text((dir / "xsens_gyro.txt").string(), ColumnSpec::parse("t,gx,gy,gz")));
+  hwmodel::CalibrationOptions opt;
+  opt.gravity = 9.81744;
+  for (auto _ : state) {
+    const auto r = hwmodel::calibrate(acc.t, acc.accel, gyr.gyro, opt);
+    benchmark::DoNotOptimize(r.accel.scale.data());
+  }
+}
+BENCHMARK(BM_CalibrateXsens)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The NumPy comparison: same data (written as .npy), same grid, same run.
+int compare_with_numpy() {
+  const char* skip = std::getenv("IMUKIT_BENCH_NUMPY");
+  if (skip && std::string(skip) == "0") return 0;
+  const char* py = std::getenv("IMUKIT_PYTHON");
+  const std::string python = py ? py : "/usr/bin/python3";
+  const BigData& d = big_data();
+  const auto ms = hwmodel::log_spaced_factors(kSamples, 10);
+  const auto tmp = std::filesystem::temp_directory_path() / "imukit_allan_bench.npy";
+  {
+    // Row-major (axes, n) for NumPy: Eigen's column-major 6 x n transposed in memory.
+    std::vector<double> rows(size_t(6 * kSamples));
+    for (int a = 0; a < 6; ++a)
+      for (int64_t i = 0; i < kSamples; ++i) rows[size_t(a) * size_t(kSamples) + size_t(i)] = d.y(a, i);
+    const std::size_t shape[2] = {6, size_t(kSamples)};
+    write_npy(tmp.string(), rows, shape);
+  }
+  std::string grid;
+  for (size_t k = 0; k < ms.size(); ++k) {
+    if (k) grid.push_back(',');
+    grid.append(std::to_string(ms[k]));
+  }
+  const std::string cmd = python + " " + IMUKIT_BENCH_SOURCE_DIR "/allan_numpy.py " + tmp.string() + " " +
+                          std::to_string(kRate) + " " + grid;
+  FILE* pipe = popen(cmd.c_str(), "r");
+  if (!pipe) return 1;
+  std::string out;
+  char buf[4096];
+  while (size_t got = fread(buf, 1, sizeof buf, pipe)) out.append(buf, got);
+  const int rc = pclose(pipe);
+  std::filesystem::remove(tmp);
+  if (rc != 0 || out.empty()) {
+    std::fprintf(stderr, "numpy comparison failed (%s)\n", cmd.substr(0, 80).c_str());
+    return 1;
+  }
+  const auto j = nlohmann::json::parse(out);
+  const std::vector<double> np_times = j["seconds_per_axis"];
+  const std::vector<double> np_dev = j["adev_axis0"];
+  double np_mean = 0;
+  for (double s : np_times) np_mean += s / double(np_times.size());
+
+  // imukit on the same grid: one axis, one thread, ADEV only (the same work as NumPy's).
+  hwmodel::AllanOptions opt;
+  opt.threads = 1;
+  opt.modified = opt.hadamard = false;
+  opt.factors = ms;
+  const Eigen::MatrixXd one = d.y.topRows(1);
+  double best = 1e300;
+  hwmodel::AllanResult r;
+  for (int rep = 0; rep < 3; ++rep) {
+    const auto t0 = std::chrono::steady_clock::now();
+    r = hwmodel::allan_deviation(d.t, one, opt);
+    best = std::min(best, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  double max_rel = 0;
+  for (size_t k = 0; k < ms.size(); ++k) {
+    max_rel = std::max(max_rel, std::abs(r.allan.deviation(0, Eigen::Index(k)) - np_dev[k]) / np_dev[k]);
+  }
+  std::printf("\nNumPy comparison (6 axes x %lld samples, %zu taus, same grid):\n", (long long)kSamples, ms.size());
+  std::printf("  numpy  overlapping ADEV: %.3f s per axis (mean of 6), peak RSS %.0f MB\n", np_mean,
+              double(j["peak_rss_mb"]));
+  std::printf("  imukit overlapping ADEV: %.3f s per axis (1 thread, best of 3)\n", best);
+  std::printf("  ratio numpy / imukit: %.1fx per axis; largest relative difference %.2e\n", np_mean / best, max_rel);
+  std::printf("  imukit process peak RSS: %.0f MB\n", peak_rss_mb());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return compare_with_numpy();
+}
