@@ -220,7 +220,20 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name, const B
   // The root's OFFSET is where the root sits when its position channels read 0.
   const Eigen::Vector3d root_offset = map_vec(raw.front().offset);
 
-  out.motion = Motion(1.0 / *dt, raw.size(), frames);
+  // Frame times are printed rounded (CMU: "0.008333" for 120 Hz). When a whole-number rate
+  // reproduces the printed digits, use it: frame positions are then exact integers.
+  double rate = 1.0 / *dt;
+  {
+    const std::string_view txt = dtt.text;
+    const std::size_t dot = txt.find('.');
+    const bool plain = txt.find_first_of("eE") == std::string_view::npos;
+    if (dot != std::string_view::npos && plain) {
+      const double half_ulp = 0.5 * std::pow(10.0, -static_cast<double>(txt.size() - dot - 1));
+      const double whole = std::round(rate);
+      if (whole >= 1.0 && std::abs(1.0 / whole - *dt) <= half_ulp) rate = whole;
+    }
+  }
+  out.motion = Motion(rate, raw.size(), frames);
   for (int64_t f = 0; f < frames; ++f) {
     for (std::size_t i = 0; i < raw.size(); ++i) {
       Eigen::Quaterniond q = Eigen::Quaterniond::Identity();

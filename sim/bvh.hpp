@@ -11,6 +11,9 @@
 // same rotation seen in the new axes). Lengths and root positions are multiplied by `scale`
 // (1 for metres, 0.01 for centimetres, 0.056444 for CMU units).
 //
+// The frame rate is 1 / Frame Time, snapped to the whole number of Hz that reproduces the
+// printed digits (CMU's "0.008333" is 120 Hz, not 120.0048 Hz).
+//
 // Errors name the file, line and column of the offending token.
 #pragma once
 

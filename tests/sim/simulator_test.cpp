@@ -32,7 +32,7 @@ Body two_joint_body(const Vector3d& child_offset = Vector3d(0.3, 0.0, 0.1)) {
 SensorSpec sensor_on(int joint, const Vector3d& p, const Quaterniond& q = Quaterniond::Identity(),
                      SensorOutputs outputs = {}) {
   SensorSpec s;
-  s.name = "s";
+  s.name = std::string(1, 's');  // not a literal: gcc 12 -Wrestrict false positive
   s.placement.joint = joint;
   s.placement.p_joint_sensor = p;
   s.placement.q_joint_sensor = q;
