@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <vector>
 
@@ -134,6 +135,7 @@ TEST(Calibration, ReportsRankDeficiencyWhenPosesTiltOnlyAboutOneAxis) {
     FAIL() << "expected a rank-deficiency error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("do not excite all axes"), std::string::npos) << e.what();
+    std::printf("%s\n", e.what());
   }
 }
 
