@@ -1,6 +1,9 @@
 #include "drivers/serial_transport.hpp"
 
 #include <libserialport.h>
+#include <sys/stat.h>
+
+#include <cerrno>
 
 namespace imukit::drivers {
 namespace {
@@ -26,7 +29,14 @@ void check(sp_return code, const std::string& what) {
 
 SerialTransport::SerialTransport(const std::string& port, int baud, bool rtscts)
     : name_(port), baud_(baud) {
-  check(sp_get_port_by_name(port.c_str(), &port_), "serial " + port);
+  if (const sp_return rc = sp_get_port_by_name(port.c_str(), &port_); rc < 0) {
+    // libserialport says only "invalid argument" for a missing port: ask the OS why.
+    struct stat st {};
+    if (::stat(port.c_str(), &st) != 0) {
+      throw TransportError(os_error("cannot open serial " + port + " (`imukit devices` lists ports)", errno));
+    }
+    throw TransportError(sp_message("serial " + port + " is not a serial port", rc));
+  }
   const sp_return open = sp_open(port_, SP_MODE_READ_WRITE);
   if (open < 0) {
     const std::string msg = sp_message("cannot open serial " + port, open);
