@@ -29,9 +29,26 @@ HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial
   char id[16];
   std::snprintf(id, sizeof id, "%04x:%04x", vid, pid);
   name_ = std::string("hid ") + id;
-  std::wstring wserial(serial.begin(), serial.end());
-  dev_ = hid_open(vid, pid, serial.empty() ? nullptr : wserial.c_str());
-  if (!dev_) throw TransportError(error("cannot open " + name_ + " (attached? permission: see packaging/udev)"));
+  // Enumerate everything and pick by VID/PID (and serial) ourselves, then open by path: the same
+  // as hid_open(), and it also works where hidapi's filtered enumeration finds nothing (umockdev).
+  std::string path;
+  hid_device_info* all = hid_enumerate(0, 0);
+  for (hid_device_info* i = all; i && path.empty(); i = i->next) {
+    if (i->vendor_id == vid && i->product_id == pid && i->path &&
+        (serial.empty() || narrow(i->serial_number) == serial)) {
+      path = i->path;
+    }
+  }
+  hid_free_enumeration(all);
+  if (path.empty()) {
+    throw TransportError("cannot open " + name_ + (serial.empty() ? "" : " serial " + serial) +
+                         ": no such HID device attached (`imukit devices` lists them)");
+  }
+  dev_ = hid_open_path(path.c_str());
+  if (!dev_) {
+    throw TransportError(error("cannot open " + name_ + " at " + path + " (permission? see packaging/udev)"));
+  }
+  name_ += " (" + path + ")";
 }
 
 HidTransport::HidTransport(const std::string& path) : name_("hid " + path) {
