@@ -1,6 +1,7 @@
 #include "drivers/serial_transport.hpp"
 
 #include <libserialport.h>
+#include <poll.h>
 #include <sys/stat.h>
 
 #include <cerrno>
@@ -88,7 +89,18 @@ ReadResult SerialTransport::read(std::span<uint8_t> buf, int timeout_ms) {
   r.host_time = host_now();
   if (n > 0) {
     r.size = static_cast<std::size_t>(n);
-  } else if (n < 0) {
+  } else if (n == 0) {
+    // A tty whose device went away reads as empty forever (libserialport turns EOF into "no
+    // data yet"); the hang-up shows in poll(). That is an unplug: end the stream.
+    int fd = -1;
+    if (sp_get_port_handle(port_, &fd) == SP_OK && fd >= 0) {
+      pollfd p{fd, POLLIN, 0};
+      if (::poll(&p, 1, 0) > 0 && (p.revents & (POLLHUP | POLLERR | POLLNVAL))) {
+        r.end = true;
+        r.end_reason = "serial " + name_ + ": hang-up (device unplugged)";
+      }
+    }
+  } else {
     // A USB-serial adapter pulled out: the read fails (EIO). End of stream, with the reason.
     r.end = true;
     r.end_reason = sp_message("serial " + name_ + ": read failed (device unplugged?)",

@@ -365,5 +365,65 @@ TEST_F(Umockdev, DualShock4IsEnumeratedCalibratedAndRead) {
   EXPECT_NEAR(out[0].accel[0], 8211.0 * 2 / 16844 * 9.80665, 1e-12);
 }
 
+// Pulls the cable: closes the device's end of the pty (and parks /dev/null on the descriptor
+// number, which the test bed closes later).
+void unplug(int dev) {
+  const int null_fd = ::open("/dev/null", O_RDWR);
+  ASSERT_GE(null_fd, 0);
+  ASSERT_EQ(::dup2(null_fd, dev), dev);  // atomically replaces (and so closes) the pty master
+  ::close(null_fd);
+}
+
+TEST_F(Umockdev, SerialUnplugEndsTheStreamWithTheReasonAndKeepsTheSamples) {
+  const int dev = device_end("/dev/ttyUSB0");
+  ASSERT_GE(dev, 0);
+  OpenedDevice d = open_device("serial:/dev/ttyUSB0?baud=115200&codec=witmotion");
+  DeviceReader reader(std::move(d.transport), std::move(d.codec), ReaderOptions{20, 4096, 0});
+  reader.start();
+  std::vector<uint8_t> stream;
+  for (int i = 0; i < 50; ++i) {
+    const int16_t a[4] = {static_cast<int16_t>(i), 0, 0, 0}, g[4] = {0, 0, 0, 0};
+    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g)}) stream.insert(stream.end(), f.begin(), f.end());
+  }
+  write_all(dev, stream);
+  for (int k = 0; k < 200 && reader.samples_total() < 49; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_EQ(reader.samples_total(), 49u);  // the 50th group is still open
+  unplug(dev);
+  ASSERT_TRUE(reader.wait(10'000));
+  const EndReason end = reader.end_reason();
+  EXPECT_EQ(end.kind, EndKind::kEndOfStream) << end.message;
+  EXPECT_NE(end.message.find("/dev/ttyUSB0"), std::string::npos) << end.message;
+  // finish() handed out the last, complete-looking group too: nothing received is lost.
+  EXPECT_EQ(reader.take().size(), 50u);
+}
+
+TEST_F(Umockdev, DualShock4ThroughTheReaderAndUnplug) {
+  OpenedDevice d = open_device("hid:054c:09cc");
+  DeviceReader reader(std::move(d.transport), std::move(d.codec), ReaderOptions{20, 4096, 0});
+  const int before = g_handlers.feature_requests.load();
+  reader.start();  // reads the calibration feature report first
+  const int dev = device_end("/dev/hidraw0");
+  ASSERT_GE(dev, 0);
+  for (int k = 0; k < 10; ++k) {
+    std::vector<uint8_t> r(64, 0);
+    r[0] = 0x01;
+    r[7] = static_cast<uint8_t>(k << 2);
+    put16(&r[19], 8192);
+    write_all(dev, r);
+    // hidraw hands out one report per read; a pty would merge two, so wait for each.
+    for (int w = 0; w < 500 && reader.samples_total() < static_cast<uint64_t>(k + 1); ++w) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    ASSERT_EQ(reader.samples_total(), static_cast<uint64_t>(k + 1));
+  }
+  EXPECT_EQ(g_handlers.feature_requests.load(), before + 1);
+  unplug(dev);
+  ASSERT_TRUE(reader.wait(10'000));
+  EXPECT_EQ(reader.end_reason().kind, EndKind::kEndOfStream) << reader.end_reason().message;
+  const auto s = reader.take();
+  ASSERT_EQ(s.size(), 10u);
+  EXPECT_NEAR(s[9].accel[0], 8211.0 * 2 / 16844 * 9.80665, 1e-12);  // calibrated
+}
+
 }  // namespace
 }  // namespace imukit::drivers
