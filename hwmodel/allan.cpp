@@ -4,7 +4,10 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <cstdint>
+#include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <thread>
 
@@ -18,56 +21,103 @@ namespace {
 // rounding error of an n-term sum grows like (kBlock + n / kBlock) ulp instead of n ulp.
 constexpr int64_t kBlock = 1024;
 
-// S (axes x (n+1), sample-major) for each kind of deviation: the kernels below read it at
-// offsets 0, m, 2m (and 3m) in one sweep. A is the compile-time axis count (0: runtime `axes`).
+// Memory traffic, not arithmetic, bounds these sweeps (a 6-axis, 7.2 M-sample S is 345 MB), so
+// the work is ordered for cache reuse:
+// - factors m <= kSmallFactor are done together, chunk by chunk of kChunk terms: the chunk of S
+//   and its neighbourhood (kChunk + 3 m samples) stays in L2 while every small factor sweeps it,
+//   so all of them cost one pass over S instead of one pass each;
+// - a larger factor visits its chunks in the order j0, j0 + m, j0 + 2m, ...: the chunk read at
+//   offset j + m for one step is the chunk at offset j for the next, so each part of S is read
+//   from memory about once per factor instead of two or three times.
+// Sums run per chunk (at most kChunk terms) and chunks are added in a fixed order, so results
+// do not depend on the number of threads.
+constexpr int64_t kChunk = 2048;
+constexpr int64_t kSmallFactor = 1024;
+
+// Adds sum over j in [j0, j1) of the squared difference of order `Order` (2: S_{j+2m} - 2 S_{j+m}
+// + S_j; 3: S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} - S_j) to acc[0..axes).
+// With Prefetch, also asks for S_{j+(Order+1)m}: the part of S the strided order (below) reads
+// new in its next step, a whole chunk ahead, so the jump between chunks does not stall.
+template <int A, int Order, bool Prefetch = false>
+inline void add_diff_squares(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
+  const int k = A > 0 ? A : axes;
+  double local[16] = {};
+  for (int64_t j = j0; j < j1; ++j) {
+    const double* s0 = S + j * k;
+    const double* s1 = s0 + m * k;
+    const double* s2 = s1 + m * k;
+    if constexpr (Prefetch) {
+      // Integer arithmetic: the address may lie past the end of S near the last chunks, which
+      // a prefetch tolerates but pointer arithmetic would not.
+      const auto ahead = reinterpret_cast<std::uintptr_t>(s2) +
+                         std::uintptr_t((Order - 1) * m * k) * sizeof(double);
+      __builtin_prefetch(reinterpret_cast<const void*>(ahead), 0, 2);
+    }
+    if constexpr (Order == 2) {
+      for (int a = 0; a < k; ++a) {
+        const double d = s2[a] - 2.0 * s1[a] + s0[a];
+        local[a] += d * d;
+      }
+    } else {
+      const double* s3 = s2 + m * k;
+      for (int a = 0; a < k; ++a) {
+        const double d = s3[a] - 3.0 * s2[a] + 3.0 * s1[a] - s0[a];
+        local[a] += d * d;
+      }
+    }
+  }
+  for (int a = 0; a < k; ++a) acc[a] += local[a];
+}
+
+// One large factor: chunks in strided order (see above). out = sum of squared differences.
+template <int A, int Order>
+void strided_sum(const double* S, int64_t n, int64_t m, int axes, double* out) {
+  const int k = A > 0 ? A : axes;
+  const int64_t terms = n + 1 - Order * m;
+  for (int a = 0; a < k; ++a) out[a] = 0.0;
+  for (int64_t base = 0; base < m; base += kChunk) {
+    const int64_t w = std::min(kChunk, m - base);
+    for (int64_t j0 = base; j0 < terms; j0 += m) {
+      double block[16] = {};
+      add_diff_squares<A, Order, true>(S, m, axes, j0, std::min(j0 + w, terms), block);
+      for (int a = 0; a < k; ++a) out[a] += block[a];
+    }
+  }
+}
+
+using SumFn = void (*)(const double*, int64_t, int64_t, int, double*);
+using ChunkFn = void (*)(const double*, int64_t, int, int64_t, int64_t, double*);
+
+template <int A>
+struct DiffKernels {
+  static SumFn strided(int order) { return order == 2 ? &strided_sum<A, 2> : &strided_sum<A, 3>; }
+  static ChunkFn chunk(int order) {
+    return order == 2 ? &add_diff_squares<A, 2> : &add_diff_squares<A, 3>;
+  }
+};
+
+SumFn pick_strided(int order, int axes) {
+  switch (axes) {
+    case 1: return DiffKernels<1>::strided(order);
+    case 3: return DiffKernels<3>::strided(order);
+    case 6: return DiffKernels<6>::strided(order);
+    default: return DiffKernels<0>::strided(order);
+  }
+}
+ChunkFn pick_chunk(int order, int axes) {
+  switch (axes) {
+    case 1: return DiffKernels<1>::chunk(order);
+    case 3: return DiffKernels<3>::chunk(order);
+    case 6: return DiffKernels<6>::chunk(order);
+    default: return DiffKernels<0>::chunk(order);
+  }
+}
+
+// The modified deviation's kernel over S (axes x (n+1), sample-major). A is the compile-time
+// axis count (0: runtime `axes`).
 template <int A>
 struct Kernels {
   static int count(int axes) { return A > 0 ? A : axes; }
-
-  static void allan(const double* S, int64_t n, int64_t m, int axes, double* out) {
-    const int k = count(axes);
-    double total[16] = {}, block[16] = {};
-    const int64_t terms = n + 1 - 2 * m;
-    for (int64_t j0 = 0; j0 < terms; j0 += kBlock) {
-      const int64_t j1 = std::min(terms, j0 + kBlock);
-      for (int a = 0; a < k; ++a) block[a] = 0.0;
-      for (int64_t j = j0; j < j1; ++j) {
-        const double* s0 = S + j * k;
-        const double* s1 = s0 + m * k;
-        const double* s2 = s1 + m * k;
-        for (int a = 0; a < k; ++a) {
-          const double d = s2[a] - 2.0 * s1[a] + s0[a];
-          block[a] += d * d;
-        }
-      }
-      for (int a = 0; a < k; ++a) total[a] += block[a];
-    }
-    const double scale = 1.0 / (2.0 * double(m) * double(m) * double(terms));
-    for (int a = 0; a < k; ++a) out[a] = total[a] * scale;
-  }
-
-  static void hadamard(const double* S, int64_t n, int64_t m, int axes, double* out) {
-    const int k = count(axes);
-    double total[16] = {}, block[16] = {};
-    const int64_t terms = n + 1 - 3 * m;
-    for (int64_t j0 = 0; j0 < terms; j0 += kBlock) {
-      const int64_t j1 = std::min(terms, j0 + kBlock);
-      for (int a = 0; a < k; ++a) block[a] = 0.0;
-      for (int64_t j = j0; j < j1; ++j) {
-        const double* s0 = S + j * k;
-        const double* s1 = s0 + m * k;
-        const double* s2 = s1 + m * k;
-        const double* s3 = s2 + m * k;
-        for (int a = 0; a < k; ++a) {
-          const double d = s3[a] - 3.0 * s2[a] + 3.0 * s1[a] - s0[a];
-          block[a] += d * d;
-        }
-      }
-      for (int a = 0; a < k; ++a) total[a] += block[a];
-    }
-    const double scale = 1.0 / (6.0 * double(m) * double(m) * double(terms));
-    for (int a = 0; a < k; ++a) out[a] = total[a] * scale;
-  }
 
   // The inner sum W_j = sum_{i=j}^{j+m-1} D_i, D_i = S_{i+2m} - 2 S_{i+m} + S_i, slides:
   // W_{j+1} = W_j + D_{j+m} - D_j, kept with Kahan compensation so it does not drift.
@@ -110,21 +160,12 @@ struct Kernels {
 
 using KernelFn = void (*)(const double*, int64_t, int64_t, int, double*);
 
-KernelFn pick(Deviation kind, int axes) {
-  auto choose = [&](auto tag) -> KernelFn {
-    using K = decltype(tag);
-    switch (kind) {
-      case Deviation::kAllan: return &K::allan;
-      case Deviation::kModifiedAllan: return &K::modified;
-      case Deviation::kHadamard: return &K::hadamard;
-    }
-    return nullptr;
-  };
+KernelFn pick_modified(int axes) {
   switch (axes) {
-    case 1: return choose(Kernels<1>{});
-    case 3: return choose(Kernels<3>{});
-    case 6: return choose(Kernels<6>{});
-    default: return choose(Kernels<0>{});
+    case 1: return &Kernels<1>::modified;
+    case 3: return &Kernels<3>::modified;
+    case 6: return &Kernels<6>::modified;
+    default: return &Kernels<0>::modified;
   }
 }
 
@@ -299,7 +340,10 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
 
   // Cumulative sums of the mean-free samples, Kahan-compensated.
   const Eigen::VectorXd mean = samples.rowwise().mean();
-  std::vector<double> S(size_t(n + 1) * size_t(axes));
+  // Not value-initialised: every entry is written below, and zeroing 345 MB first (6 axes of
+  // 7.2 M samples) would cost a full extra pass over memory.
+  const std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
+  double* const S = S_storage.get();
   {
     std::vector<double> sum(size_t(axes), 0.0), comp(size_t(axes), 0.0);
     for (int a = 0; a < axes; ++a) S[size_t(a)] = 0.0;
@@ -322,33 +366,90 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   std::map<Deviation, Eigen::MatrixXd> variance;
   for (Deviation d : kinds) variance[d] = Eigen::MatrixXd::Zero(axes, Eigen::Index(grid));
 
-  // Tasks (kind, factor), largest factors first; threads take the next task from a counter.
-  struct Task {
-    Deviation kind;
-    size_t index;
-  };
-  std::vector<Task> tasks;
+  // Work items: the small factors of ADEV and HDEV together, in fixed groups of chunks; each
+  // larger factor alone; MDEV (whose inner sum slides along j) one task per factor. Threads
+  // take the next item from a counter, the most expensive first.
+  std::vector<size_t> small, large;
+  for (size_t k = 0; k < grid; ++k) (r.factors[k] <= kSmallFactor ? small : large).push_back(k);
+  std::vector<int> orders;  // 2: ADEV, 3: HDEV
+  if (options.allan) orders.push_back(2);
+  if (options.hadamard) orders.push_back(3);
+  const int64_t n_chunks = (n + kChunk - 1) / kChunk;
+  constexpr int64_t kChunksPerGroup = 64;
+  const int64_t groups = (n_chunks + kChunksPerGroup - 1) / kChunksPerGroup;
+  // partial[order slot][chunk][small index * axes + a]
+  std::vector<std::vector<double>> partial(orders.size(),
+                                           std::vector<double>(size_t(n_chunks) * small.size() * size_t(axes), 0.0));
+  std::vector<std::function<void()>> tasks;
   for (size_t k = grid; k-- > 0;) {
-    for (Deviation d : kinds) tasks.push_back({d, k});
+    const int64_t m = r.factors[k];
+    if (options.modified) {
+      tasks.emplace_back([&, k, m] {
+        double out[16];
+        pick_modified(axes)(S, n, m, axes, out);
+        for (int a = 0; a < axes; ++a) variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a];
+      });
+    }
+    if (m <= kSmallFactor) continue;
+    for (size_t o = 0; o < orders.size(); ++o) {
+      tasks.emplace_back([&, k, m, o] {
+        double out[16];
+        const int order = orders[o];
+        pick_strided(order, axes)(S, n, m, axes, out);
+        const int64_t terms = n + 1 - order * m;
+        const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
+        const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
+        for (int a = 0; a < axes; ++a) variance.at(d)(a, Eigen::Index(k)) = out[a] * scale;
+      });
+    }
+  }
+  if (!small.empty() && !orders.empty()) {
+    for (int64_t g = 0; g < groups; ++g) {
+      tasks.emplace_back([&, g] {
+        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup); ++c) {
+          const int64_t j0 = c * kChunk;
+          for (size_t o = 0; o < orders.size(); ++o) {
+            const ChunkFn fn = pick_chunk(orders[o], axes);
+            for (size_t q = 0; q < small.size(); ++q) {
+              const int64_t m = r.factors[small[q]];
+              const int64_t terms = n + 1 - orders[o] * m;
+              const int64_t j1 = std::min(j0 + kChunk, terms);
+              if (j1 <= j0) continue;
+              fn(S, m, axes, j0, j1,
+                 &partial[o][(size_t(c) * small.size() + q) * size_t(axes)]);
+            }
+          }
+        }
+      });
+    }
   }
   std::atomic<size_t> next{0};
   auto worker = [&] {
-    double out[16];
-    for (size_t i = next.fetch_add(1); i < tasks.size(); i = next.fetch_add(1)) {
-      const Task& task = tasks[i];
-      pick(task.kind, axes)(S.data(), n, r.factors[task.index], axes, out);
-      Eigen::MatrixXd& v = variance.at(task.kind);
-      for (int a = 0; a < axes; ++a) v(a, Eigen::Index(task.index)) = out[a];
-    }
+    for (size_t i = next.fetch_add(1); i < tasks.size(); i = next.fetch_add(1)) tasks[i]();
   };
   unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  threads = unsigned(std::min<size_t>(threads, tasks.size()));
+  threads = unsigned(std::max<size_t>(1, std::min<size_t>(threads, tasks.size())));
   if (threads <= 1) {
     worker();
   } else {
     std::vector<std::thread> pool;
     for (unsigned i = 0; i < threads; ++i) pool.emplace_back(worker);
     for (auto& th : pool) th.join();
+  }
+  // Small factors: add the chunks' partial sums in chunk order.
+  for (size_t o = 0; o < orders.size(); ++o) {
+    const int order = orders[o];
+    const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
+    for (size_t q = 0; q < small.size(); ++q) {
+      const int64_t m = r.factors[small[q]];
+      const int64_t terms = n + 1 - order * m;
+      const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
+      for (int a = 0; a < axes; ++a) {
+        double total = 0.0;
+        for (int64_t c = 0; c < n_chunks; ++c) total += partial[o][(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
+        variance.at(d)(a, Eigen::Index(small[q])) = total * scale;
+      }
+    }
   }
 
   // Noise type per (axis, tau) from the local log-log slope of the variance (ADEV's when
