@@ -28,10 +28,10 @@ void Motion::read(int64_t first, int64_t count, std::span<const int> joints, Mot
   out.joints = joints.size();
   out.root_translation = translation_.middleCols(first, count);
   out.rotations.resize(static_cast<std::size_t>(count) * joints.size());
-  for (int64_t f = 0; f < count; ++f) {
-    for (std::size_t k = 0; k < joints.size(); ++k) {
-      out.rotations[static_cast<std::size_t>(f) * joints.size() + k] =
-          rotation(first + f, static_cast<std::size_t>(joints[k]));
+  for (std::size_t k = 0; k < joints.size(); ++k) {
+    const Eigen::Quaterniond* src = &rotation(first, static_cast<std::size_t>(joints[k]));
+    for (int64_t f = 0; f < count; ++f) {
+      out.rotations[static_cast<std::size_t>(f) * joints.size() + k] = src[f];
     }
   }
 }

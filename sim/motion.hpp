@@ -63,11 +63,13 @@ class Motion : public MotionSource {
   int64_t frames() const { return frames_; }
   void read(int64_t first, int64_t count, std::span<const int> joints, MotionChunk& out) override;
 
+  // Stored joint by joint (all frames of joint 0, then joint 1, ...), so reading the few joints
+  // a plan needs touches only their memory, however many joints the body has.
   Eigen::Quaterniond& rotation(int64_t frame, std::size_t joint) {
-    return rotations_[static_cast<std::size_t>(frame) * joints_ + joint];
+    return rotations_[joint * static_cast<std::size_t>(frames_) + static_cast<std::size_t>(frame)];
   }
   const Eigen::Quaterniond& rotation(int64_t frame, std::size_t joint) const {
-    return rotations_[static_cast<std::size_t>(frame) * joints_ + joint];
+    return rotations_[joint * static_cast<std::size_t>(frames_) + static_cast<std::size_t>(frame)];
   }
   Eigen::Ref<Eigen::Vector3d> root_translation(int64_t frame) { return translation_.col(frame); }
   Eigen::Vector3d root_translation(int64_t frame) const { return translation_.col(frame); }
