@@ -1,5 +1,6 @@
 #include "sim/motion.hpp"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 #include <fstream>
@@ -171,10 +172,14 @@ Motion ProceduralMotion::materialize(int64_t frames) {
   std::vector<int> all(axes_.size());
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = static_cast<int>(j);
   MotionChunk c;
-  read(0, frames, all, c);
-  for (int64_t f = 0; f < frames; ++f) {
-    m.root_translation(f) = c.root_translation.col(f);
-    for (std::size_t j = 0; j < all.size(); ++j) m.rotation(f, j) = c.rotation(f, j);
+  // In chunks: the copy never holds more than 4096 frames beside the motion.
+  for (int64_t first = 0; first < frames; first += 4096) {
+    const int64_t n = std::min<int64_t>(4096, frames - first);
+    read(first, n, all, c);
+    for (int64_t f = 0; f < n; ++f) {
+      m.root_translation(first + f) = c.root_translation.col(f);
+      for (std::size_t j = 0; j < all.size(); ++j) m.rotation(first + f, j) = c.rotation(f, j);
+    }
   }
   return m;
 }

@@ -13,6 +13,7 @@
 #include "core/error.hpp"
 #include "core/so3.hpp"
 #include "core/text_parse.hpp"
+#include "sim/bvh.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace imukit::sim {
@@ -535,6 +536,72 @@ TEST(Simulator, ReferenceMethodMatchesTheReferenceSimulatorTo1e9Relative) {
     }
     EXPECT_LT(worst, 1e-9) << name;
     RecordProperty(name + "_worst_relative", std::to_string(worst));
+  }
+}
+
+}  // namespace
+}  // namespace imukit::sim
+
+namespace imukit::sim {
+namespace {
+
+struct WalkStats {
+  double median_acc = 0, gyro_peak = 0, dominant_hz = 0;
+};
+
+// Median |f|, peak |w| and the frequency (0.2-10 Hz, Hann window, 0.005 Hz steps) of the
+// largest spectral peak of |f| - mean.
+WalkStats walk_stats(const SensorBlock& b, double rate) {
+  const auto n = b.specific_force.cols();
+  std::vector<double> a(static_cast<std::size_t>(n));
+  WalkStats s;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    a[static_cast<std::size_t>(i)] = b.specific_force.col(i).norm();
+    s.gyro_peak = std::max(s.gyro_peak, b.angular_rate.col(i).norm());
+  }
+  std::vector<double> sorted = a;
+  std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.end());
+  s.median_acc = sorted[static_cast<std::size_t>(n / 2)];
+  double mean = 0;
+  for (double v : a) mean += v / static_cast<double>(n);
+  double best = -1;
+  for (double f = 0.2; f <= 10.0; f += 0.005) {
+    double re = 0, im = 0;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double w = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(n - 1));
+      const double ph = 2 * std::numbers::pi * f * static_cast<double>(i) / rate;
+      re += w * (a[static_cast<std::size_t>(i)] - mean) * std::cos(ph);
+      im += w * (a[static_cast<std::size_t>(i)] - mean) * std::sin(ph);
+    }
+    if (re * re + im * im > best) {
+      best = re * re + im * im;
+      s.dominant_hz = f;
+    }
+  }
+  return s;
+}
+
+TEST(Simulator, WalkBvhWithLeftWristWatchIsInTheRangesOfRealWatches) {
+  IMUKIT_REQUIRE_DATA(data);
+  BvhData walk = read_bvh((data / "mocap" / "scaled_131_01_walk.bvh").string());
+  for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
+    SensorSpec s;
+    s.name = "left_wrist_watch";
+    s.placement = resolve_preset(placement_preset("left_wrist_watch"), walk.body);
+    SimulationOptions opt;
+    opt.method = method;
+    Simulator sim(walk.body, {s}, opt);
+    std::vector<SensorBlock> out;
+    sim.evaluate(walk.motion, grid_times(sim, walk.motion, walk.motion.frames()), out);
+    const WalkStats st = walk_stats(out[0], walk.motion.rate_hz());
+    // The ranges for a walk (docs/validation.md has the numbers and the comparison with
+    // the qmt forearm and hand sensors).
+    EXPECT_GT(st.median_acc, 8.3) << to_string(method);
+    EXPECT_LT(st.median_acc, 11.3) << to_string(method);
+    EXPECT_GT(st.gyro_peak, 1.0) << to_string(method);
+    EXPECT_LT(st.gyro_peak, 15.0) << to_string(method);
+    EXPECT_GT(st.dominant_hz, 0.7) << to_string(method);
+    EXPECT_LT(st.dominant_hz, 2.5) << to_string(method);
   }
 }
 
