@@ -71,6 +71,7 @@ class Tokenizer {
     throw Error(InputLocation{name_, t.line, t.column, std::nullopt}, what);
   }
   int64_t line() const { return line_; }
+  std::size_t remaining() const { return text_.size() - pos_; }
 
  private:
   std::string_view text_;
@@ -232,6 +233,15 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name, const B
       const double whole = std::round(rate);
       if (whole >= 1.0 && std::abs(1.0 / whole - *dt) <= half_ulp) rate = whole;
     }
+  }
+  // Never allocate for frames the file cannot hold: each value takes at least 2 bytes.
+  std::size_t channels = 0;
+  for (const RawJoint& j : raw) channels += j.channels.size();
+  if (frames > 0 && channels == 0) tz.fail(ft, "frames given but no joint has channels");
+  if (frames > 0 && static_cast<double>(frames) * static_cast<double>(channels) >
+                        static_cast<double>(tz.remaining()) / 2.0 + 1.0) {
+    tz.fail(ft, "the file declares " + std::to_string(frames) + " frames of " +
+                    std::to_string(channels) + " channels but is too short to hold them");
   }
   out.motion = Motion(rate, raw.size(), frames);
   for (int64_t f = 0; f < frames; ++f) {

@@ -81,6 +81,8 @@ TEST(Bvh, ErrorsNameLineAndColumn) {
   std::string wrong = tiny_bvh("Zrotation Wrotation Xrotation", "", 0);
   expect_at(wrong, 5, 54, "unknown channel");
   expect_at("HIERARCHY\nROT x", 2, 1, "ROOT misspelt");
+  // A frame count the file cannot hold is refused before anything is allocated.
+  expect_at(tiny_bvh(ch, "0 0 0 0 0 0 0 0 0\n", 999999999), 17, 9, "frames beyond the file");
 }
 
 TEST(Bvh, ZeroAndOneFrameFilesParseButCannotBeSimulated) {
