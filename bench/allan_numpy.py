@@ -4,7 +4,8 @@ sum, second differences at lag m), timed per axis on the same tau grid as imukit
 Run by bench_hwmodel (same run, same data, same grid), which passes the data as .npy.
 
 usage: allan_numpy.py DATA.npy RATE_HZ M1,M2,...   (DATA shape (axes, n) float64)
-prints one JSON line: seconds per axis, peak RSS, and the deviations of the first axis.
+prints one JSON line: wall and CPU seconds per axis (CPU time is what to compare on a shared
+machine; NumPy runs single-threaded here), peak RSS, and the deviations of the first axis.
 """
 import json
 import resource
@@ -27,17 +28,19 @@ def oadev(y, rate, ms):
 data = np.load(sys.argv[1])
 rate = float(sys.argv[2])
 ms = [int(v) for v in sys.argv[3].split(",")]
-times = []
+times, cpu_times = [], []
 first = None
 for axis in range(data.shape[0]):
     y = np.ascontiguousarray(data[axis])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     dev = oadev(y, rate, ms)
     times.append(time.perf_counter() - t0)
+    cpu_times.append(time.process_time() - c0)
     if first is None:
         first = dev
 print(json.dumps({
     "seconds_per_axis": times,
+    "cpu_seconds_per_axis": cpu_times,
     "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
     "adev_axis0": first.tolist(),
 }))
