@@ -45,6 +45,19 @@ void ClockMapper::add_packet(uint64_t device_ticks, TimeNs host_receive) {
   dirty_ = true;
 }
 
+void ClockMapper::add_sample(uint64_t device_ticks, TimeNs host_receive) {
+  if (pending_ && host_receive != pending_host_) flush();
+  pending_ = true;
+  pending_ticks_ = device_ticks;
+  pending_host_ = host_receive;
+  if (!started_) flush();  // the first packet anchors the map at once
+}
+
+void ClockMapper::flush() {
+  if (pending_) add_packet(pending_ticks_, pending_host_);
+  pending_ = false;
+}
+
 void ClockMapper::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
                            uint64_t device_transmit_ticks, TimeNs host_receive) {
   if (!started_) return;  // the mapping is anchored on the first packet

@@ -48,6 +48,11 @@ class ClockMapper {
   // One packet: the (unwrapped) device tick of a sample it carried and when it reached the host.
   // Ticks must not decrease.
   void add_packet(uint64_t device_ticks, TimeNs host_receive);
+  // One sample of a packet: samples that arrived together (the same host time) form one packet,
+  // and only its last sample, the one least delayed by the device's own buffering, enters the
+  // fit (when the next packet begins, or at flush()).
+  void add_sample(uint64_t device_ticks, TimeNs host_receive);
+  void flush();
   // One time-sync exchange (ticks unwrapped on the same scale as the packets).
   void add_ping(TimeNs host_send, uint64_t device_receive_ticks, uint64_t device_transmit_ticks,
                 TimeNs host_receive);
@@ -76,6 +81,9 @@ class ClockMapper {
   std::vector<Point> hull_;       // lower convex hull, x increasing
   std::vector<Point> recent_;  // ring of the last kJitterWindow packets, for the statistics
   std::size_t recent_next_ = 0;
+  bool pending_ = false;  // add_sample's last sample, not yet in the fit
+  uint64_t pending_ticks_ = 0;
+  TimeNs pending_host_ = 0;
   // The ping with the shortest round trip so far (device mid-time, host mid-time).
   std::size_t pings_ = 0;
   double best_round_trip_s_ = 0.0;

@@ -693,34 +693,43 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
   return read_source(memory, source_name, McapHandlers{nullptr, nullptr, on_message}, options);
 }
 
-McapReadSummary recover_mcap(const std::string& in, const std::string& out_path) {
-  McapReadOptions options;
-  options.skip_corrupt_chunks = true;
-  // First pass: what the file declares; second pass: copy the messages.
+McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
+                             const McapMessageEdit& edit, const McapReadOptions& options) {
+  // First pass: what the file declares (schemas, channels, metadata); second: the messages.
   McapReadSummary summary = read_mcap(in, nullptr, options);
   McapWriterOptions wo;
   wo.profile = summary.profile;
-  wo.library = summary.library.empty() ? "imukit (recovered)" : summary.library + " (recovered by imukit)";
+  wo.library = summary.library.empty() ? "imukit" : summary.library;
   McapWriter writer(out_path, wo);
   std::map<uint16_t, uint16_t> schema_map;
   std::map<uint16_t, uint16_t> channel_map;
+  std::map<uint16_t, const McapChannel*> channels;
   for (const auto& s : summary.schemas) {
-    schema_map[s.id] = writer.add_schema(s.name, s.encoding,
-                                         std::string_view(reinterpret_cast<const char*>(s.data.data()), s.data.size()));
+    schema_map[s.id] = writer.add_schema(
+        s.name, s.encoding, std::string_view(reinterpret_cast<const char*>(s.data.data()), s.data.size()));
   }
   for (const auto& c : summary.channels) {
     const auto schema = schema_map.count(c.schema_id) ? schema_map[c.schema_id] : uint16_t{0};
     channel_map[c.id] = writer.add_channel(schema, c.topic, c.message_encoding, c.metadata);
+    channels[c.id] = &c;
   }
   for (const auto& m : summary.metadata) writer.write_metadata(m.name, m.entries);
   read_mcap(in,
             [&](const McapMessageView& m) {
-              writer.write_message(channel_map.at(m.channel_id), m.sequence, m.log_time,
-                                   m.publish_time, m.data);
+              McapMessageView copy = m;
+              if (edit) edit(*channels.at(m.channel_id), copy);
+              writer.write_message(channel_map.at(m.channel_id), copy.sequence, copy.log_time,
+                                   copy.publish_time, copy.data);
             },
             options);
   writer.close();
   return summary;
+}
+
+McapReadSummary recover_mcap(const std::string& in, const std::string& out_path) {
+  McapReadOptions options;
+  options.skip_corrupt_chunks = true;
+  return rewrite_mcap(in, out_path, nullptr, options);
 }
 
 }  // namespace imukit::capture

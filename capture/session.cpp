@@ -1,0 +1,381 @@
+#include "capture/session.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fmt/core.h>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "capture/ros_messages.hpp"
+#include "capture/spsc_queue.hpp"
+#include "core/error.hpp"
+#include "drivers/imukit_codec.hpp"
+#include "drivers/reader.hpp"
+
+namespace imukit::capture {
+namespace {
+
+constexpr std::string_view kSyncSchema =
+    R"({"type":"object","properties":{"host_send_ns":{"type":"integer"},"host_receive_ns":{"type":"integer"},"device_rx_ns":{"type":"integer"},"device_tx_ns":{"type":"integer"}}})";
+constexpr std::string_view kEventSchema =
+    R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
+// RawImuMessage::channels bit meaning "device_ticks holds the device clock" (bits 0-3 name the
+// raw channels present).
+constexpr uint8_t kRawHasDeviceClock = 1u << 4;
+
+std::span<const uint8_t> bytes_of(const std::string& s) {
+  return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
+}
+
+// Everything the writer knows about one device; the reader thread touches only the queues, the
+// atomics and (under the mutex) the stats snapshot.
+struct Device {
+  SessionDevice spec;
+  SpscQueue<drivers::Sample> samples;
+  SpscQueue<drivers::SyncPoint> syncs{1024};
+  std::atomic<bool> stop{false};
+  std::atomic<bool> ended{false};
+  std::atomic<uint64_t> backpressure{0};
+  std::mutex mutex;
+  drivers::CodecStats stats;
+  std::string end_reason;
+  std::thread thread;
+
+  // Writer side.
+  ClockMapper clock{1e9};  // device times arrive in ns
+  uint64_t last_sequence = 0;
+  uint64_t gaps = 0;  // samples missing between consecutive written samples (sequence gaps)
+  bool full = false;  // reached the duration or sample limit: later samples are outside the recording
+  uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
+  bool sync_channel_made = false;
+  uint64_t written = 0;
+  TimeNs first_host = 0, last_host = 0, first_mapped = 0, last_mapped = 0;
+  ImuMessage imu;
+  RawImuMessage raw;
+
+  Device(SessionDevice s, std::size_t capacity) : spec(std::move(s)), samples(capacity) {}
+};
+
+void reader_thread(Device& d, bool wait_when_full) {
+  drivers::ReaderOptions options;
+  auto* imukit = dynamic_cast<drivers::ImukitCodec*>(d.spec.device.codec.get());
+  std::size_t syncs_forwarded = 0;
+  const drivers::EndReason end = drivers::DeviceReader::run(
+      *d.spec.device.transport, *d.spec.device.codec, options, d.stop,
+      [&](std::vector<drivers::Sample>& batch) {
+        for (drivers::Sample& s : batch) {
+          while (!d.samples.push(std::move(s))) {
+            if (!wait_when_full || d.stop.load()) {
+              d.backpressure.fetch_add(1);
+              break;
+            }
+            std::this_thread::yield();
+          }
+        }
+        batch.clear();
+        if (imukit) {
+          const auto& points = imukit->sync_points();
+          while (syncs_forwarded < points.size() && d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
+            ++syncs_forwarded;
+          }
+        }
+        const std::lock_guard lock(d.mutex);
+        d.stats = d.spec.device.codec->stats();
+      });
+  {
+    const std::lock_guard lock(d.mutex);
+    d.stats = d.spec.device.codec->stats();
+    d.end_reason = end.message.empty() ? std::string("stopped") : end.message;
+  }
+  d.ended.store(true, std::memory_order_release);
+}
+
+DeviceProgress progress_of(Device& d) {
+  DeviceProgress p;
+  p.name = d.spec.name;
+  p.samples = d.written;
+  p.dropped = d.gaps;
+  {
+    const std::lock_guard lock(d.mutex);
+    p.codec_dropped = d.stats.samples_dropped;
+    p.frames_corrupt = d.stats.frames_corrupt;
+    p.end_reason = d.end_reason;
+  }
+  p.backpressure = d.backpressure.load();
+  p.queue_high_water = d.samples.high_water();
+  p.ended = d.ended.load(std::memory_order_acquire);
+  if (d.written > 1 && d.last_mapped > d.first_mapped) {
+    p.rate_hz = static_cast<double>(d.written - 1) / to_seconds(d.last_mapped - d.first_mapped);
+  }
+  p.clock = d.clock.fit();
+  return p;
+}
+
+void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s) {
+  TimeNs t = s.host_time;
+  if (s.has_device_time) {
+    d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
+    t = d.clock.map(static_cast<uint64_t>(s.device_time));
+  }
+  // Raw first: the offline refit maps the raw message and gives its time to the IMU message
+  // that follows it.
+  RawImuMessage& raw = d.raw;
+  raw.stamp = t;
+  raw.host_receive_time = s.host_time;
+  raw.sample_index = s.sequence;
+  raw.device_ticks = s.has_device_time ? static_cast<uint64_t>(s.device_time) : 0;
+  raw.tick_hz = s.has_device_time ? 1e9 : 0.0;
+  raw.channels = s.has_device_time ? kRawHasDeviceClock : 0;
+  const auto raw_bytes = encode_cdr(raw);
+  writer.write_message(d.raw_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), raw_bytes);
+  ImuMessage& m = d.imu;
+  m.stamp = t;
+  m.angular_velocity = s.gyro;
+  m.linear_acceleration = s.accel;
+  const auto imu_bytes = encode_cdr(m);
+  writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), imu_bytes);
+  if (d.written == 0) {
+    d.first_host = s.host_time;
+    d.first_mapped = t;
+  } else if (s.sequence > d.last_sequence + 1) {
+    d.gaps += s.sequence - d.last_sequence - 1;
+  }
+  d.last_sequence = s.sequence;
+  d.last_host = s.host_time;
+  d.last_mapped = t;
+  ++d.written;
+}
+
+void write_sync(McapWriter& writer, Device& d, const drivers::SyncPoint& p, uint16_t schema) {
+  if (!d.sync_channel_made) {
+    d.sync_channel = writer.add_channel(schema, "/imu/" + d.spec.name + "/time_sync", "json");
+    d.sync_channel_made = true;
+  }
+  d.clock.add_ping(p.host_send, static_cast<uint64_t>(p.device_rx), static_cast<uint64_t>(p.device_tx),
+                   p.host_receive);
+  const std::string text = nlohmann::json{{"host_send_ns", p.host_send},
+                                          {"host_receive_ns", p.host_receive},
+                                          {"device_rx_ns", p.device_rx},
+                                          {"device_tx_ns", p.device_tx}}
+                               .dump();
+  writer.write_message(d.sync_channel, static_cast<uint64_t>(p.host_receive),
+                       static_cast<uint64_t>(p.host_receive), bytes_of(text));
+}
+
+}  // namespace
+
+SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
+  if (specs.empty()) throw Error("record: name at least one device");
+  std::vector<std::unique_ptr<Device>> devices;
+  for (auto& s : specs) devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
+
+  // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
+  // crash leaves the temporary file readable up to its last chunk.
+  const std::string live_path = options.finalize ? options.path + ".recording" : options.path;
+  McapWriter writer(live_path, options.mcap);
+  const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
+  const uint16_t raw_schema = writer.add_schema(kRawImuSchemaName, "ros2msg", kRawImuSchemaText);
+  const uint16_t sync_schema = writer.add_schema("imukit_msgs/TimeSync", "jsonschema", kSyncSchema);
+  const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
+  const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
+  for (const Event& e : options.events) {
+    const std::string text = nlohmann::json{{"kind", e.kind}, {"label", e.label}}.dump();
+    writer.write_message(event_channel, static_cast<uint64_t>(e.t), static_cast<uint64_t>(e.t), bytes_of(text));
+  }
+  for (auto& d : devices) {
+    d->imu_channel = writer.add_channel(imu_schema, "/imu/" + d->spec.name, "cdr");
+    d->raw_channel = writer.add_channel(raw_schema, "/imu/" + d->spec.name + "/raw", "cdr");
+    d->imu.frame_id = d->spec.name;
+    if (d->spec.hardware) {
+      // Per-sample white-noise variance: sigma^2 = density^2 * rate (rate from the model).
+      // Needs the model's output rates; without them the covariances stay "unknown".
+      const HardwareModel& h = *d->spec.hardware;
+      for (int k = 0; k < 3; ++k) {
+        const double g = h.gyroscope.noise_density[k];
+        const double a = h.accelerometer.noise_density[k];
+        d->imu.angular_velocity_covariance[static_cast<std::size_t>(4 * k)] = g * g * h.gyroscope.rate_hz;
+        d->imu.linear_acceleration_covariance[static_cast<std::size_t>(4 * k)] = a * a * h.accelerometer.rate_hz;
+      }
+    }
+    writer.write_metadata("imukit.device." + d->spec.name,
+                          {{"uri", d->spec.uri},
+                           {"codec", d->spec.device.codec->name()},
+                           {"transport", d->spec.device.transport->describe()}});
+  }
+  const bool wait_when_full = options.queue_capacity > 0 && std::all_of(devices.begin(), devices.end(), [](const auto& d) {
+                                return d->spec.device.transport->describe().find("virtual") != std::string::npos;
+                              });
+  for (auto& d : devices) {
+    Device* raw = d.get();
+    d->thread = std::thread([raw, wait_when_full] { reader_thread(*raw, wait_when_full); });
+  }
+
+  // Samples past the duration or the sample limit are outside the recording (a virtual-time
+  // mock runs ahead of the writer); they are not written, and not counted as lost either.
+  const auto accept = [&](Device& d, const drivers::Sample& s) {
+    if (d.full) return;
+    if (options.duration_s > 0 && d.written > 0 && to_seconds(s.host_time - d.first_host) > options.duration_s) {
+      d.full = true;
+    } else if (options.max_samples && d.written >= options.max_samples) {
+      d.full = true;
+    } else {
+      write_sample(writer, d, s);
+      return;
+    }
+    d.stop.store(true);
+  };
+  SessionReport report;
+  auto last_progress = std::chrono::steady_clock::now();
+  const auto stop_all = [&] {
+    for (auto& d : devices) d->stop.store(true);
+  };
+  try {
+    drivers::Sample sample;
+    drivers::SyncPoint sync;
+    for (;;) {
+      bool busy = false;
+      for (auto& d : devices) {
+        for (int n = 0; n < 4096 && d->samples.pop(sample); ++n) {
+          busy = true;
+          accept(*d, sample);
+        }
+        while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
+      }
+      if (options.stop && options.stop->load()) {
+        report.stop_reason = "stopped by signal";
+        break;
+      }
+      bool all_done = true;
+      bool all_ended = true;
+      for (auto& d : devices) {
+        const bool ended = d->ended.load(std::memory_order_acquire);
+        all_ended = all_ended && ended;
+        all_done = all_done && (d->full || ended);
+      }
+      if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
+        report.stop_reason = all_done && (options.duration_s > 0 || options.max_samples)
+                                 ? "limit reached"
+                                 : "every device ended";
+        break;
+      }
+      if (all_done) stop_all();
+      const auto now = std::chrono::steady_clock::now();
+      if (options.progress && now - last_progress > std::chrono::milliseconds(250)) {
+        last_progress = now;
+        std::vector<DeviceProgress> p;
+        for (auto& d : devices) p.push_back(progress_of(*d));
+        options.progress(p);
+      }
+      if (!busy) std::this_thread::sleep_for(std::chrono::microseconds(500));
+    }
+  } catch (...) {
+    stop_all();
+    for (auto& d : devices) {
+      if (d->thread.joinable()) d->thread.join();
+    }
+    throw;
+  }
+  stop_all();
+  for (auto& d : devices) {
+    if (d->thread.joinable()) d->thread.join();
+  }
+  // What arrived before the threads ended is written too: nothing received is lost.
+  drivers::Sample sample;
+  drivers::SyncPoint sync;
+  for (auto& d : devices) {
+    while (d->samples.pop(sample)) accept(*d, sample);
+    while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
+    d->clock.flush();
+  }
+  for (auto& d : devices) {
+    const DeviceProgress p = progress_of(*d);
+    writer.write_metadata("imukit.session." + d->spec.name,
+                          {{"samples", std::to_string(p.samples)},
+                           {"samples_dropped", std::to_string(p.dropped)},
+                           {"frames_corrupt", std::to_string(p.frames_corrupt)},
+                           {"backpressure_dropped", std::to_string(p.backpressure)},
+                           {"end_reason", p.end_reason},
+                           {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}});
+  }
+  writer.close();
+
+  std::map<std::string, ClockFit> fits;
+  if (options.finalize) {
+    fits = refit_recording_clocks(live_path, options.path);
+    std::filesystem::remove(live_path);
+  }
+  for (auto& d : devices) {
+    DeviceProgress p = progress_of(*d);
+    if (const auto it = fits.find(d->spec.name); it != fits.end()) p.clock = it->second;
+    report.devices.push_back(std::move(p));
+  }
+  return report;
+}
+
+std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, const std::string& out) {
+  // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
+  std::map<std::string, ClockMapper> clocks;
+  std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
+  const auto name_of = [](const std::string& topic, std::string_view suffix) {
+    std::string name = topic.substr(5);  // after "/imu/"
+    return name.substr(0, name.size() - suffix.size());
+  };
+  McapHandlers handlers;
+  handlers.on_channel = [&](const McapChannel& c) {
+    const auto ends = [&](std::string_view s) {
+      return c.topic.size() > s.size() && c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
+    };
+    if (c.topic.rfind("/imu/", 0) != 0) return;
+    if (ends("/raw")) raw_channels[c.id] = name_of(c.topic, "/raw");
+    else if (ends("/time_sync")) sync_channels[c.id] = name_of(c.topic, "/time_sync");
+    else imu_channels[c.id] = name_of(c.topic, "");
+  };
+  handlers.on_message = [&](const McapMessageView& m) {
+    if (const auto it = raw_channels.find(m.channel_id); it != raw_channels.end()) {
+      const RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
+      if (raw.channels & kRawHasDeviceClock) {
+        clocks.try_emplace(it->second, 1e9).first->second.add_sample(raw.device_ticks, raw.host_receive_time);
+      }
+    } else if (const auto s = sync_channels.find(m.channel_id); s != sync_channels.end()) {
+      const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
+      if (j.is_object() && j.contains("device_rx_ns")) {
+        clocks.try_emplace(s->second, 1e9).first->second.add_ping(
+            j.value("host_send_ns", TimeNs{0}), j.value("device_rx_ns", uint64_t{0}),
+            j.value("device_tx_ns", uint64_t{0}), j.value("host_receive_ns", TimeNs{0}));
+      }
+    }
+  };
+  read_mcap(in, handlers);
+  for (auto& [name, clock] : clocks) clock.flush();
+
+  // Pass 2: re-time every raw message, and the IMU message that follows it.
+  std::map<std::string, TimeNs> last_mapped;
+  std::vector<uint8_t> buffer;
+  rewrite_mcap(in, out, [&](const McapChannel& c, McapMessageView& m) {
+    if (const auto it = raw_channels.find(c.id); it != raw_channels.end()) {
+      RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
+      const auto clock = clocks.find(it->second);
+      if (!(raw.channels & kRawHasDeviceClock) || clock == clocks.end()) return;
+      raw.stamp = clock->second.map(raw.device_ticks);
+      last_mapped[it->second] = raw.stamp;
+      buffer = encode_cdr(raw);
+      m.data = buffer;
+      m.log_time = static_cast<uint64_t>(raw.stamp);
+    } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
+      const auto t = last_mapped.find(imu->second);
+      if (t == last_mapped.end()) return;
+      ImuMessage msg = decode_imu_cdr(m.data, in);
+      msg.stamp = t->second;
+      buffer = encode_cdr(msg);
+      m.data = buffer;
+      m.log_time = static_cast<uint64_t>(t->second);
+    }
+  });
+  std::map<std::string, ClockFit> fits;
+  for (const auto& [name, clock] : clocks) fits[name] = clock.fit();
+  return fits;
+}
+
+}  // namespace imukit::capture

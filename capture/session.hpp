@@ -1,0 +1,80 @@
+// Recording sessions: one or more devices at once, each read on a thread of its own and handed
+// to the writer through a bounded lock-free queue, every loss counted (by the device's own
+// counters, by corrupt frames, and by back-pressure in the recorder), device clocks mapped to
+// host time, everything written to an MCAP file as DESIGN.md lays it out:
+//   /imu/<name>            sensor_msgs/msg/Imu, log_time = mapped sample time
+//   /imu/<name>/raw        imukit_msgs/msg/RawImu: device ticks, host receive time, index, counts
+//   /imu/<name>/time_sync  JSON time-sync exchanges (host send/receive, device rx/tx), if any
+//   /events                JSON events (markers, detected sync taps)
+// While recording, times come from the online clock fit; finish() then refits every device over
+// the whole file (the offline fit, which also uses the time-sync exchanges) and rewrites the
+// times, so both the live file and the final one are valid MCAP at every moment.
+#pragma once
+
+#include <atomic>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "capture/clock_map.hpp"
+#include "capture/mcap.hpp"
+#include "core/hardware_model.hpp"
+#include "core/imu_series.hpp"
+#include "drivers/uri.hpp"
+
+namespace imukit::capture {
+
+struct SessionDevice {
+  std::string name;  // stream name: topics /imu/<name>...
+  std::string uri;   // recorded in the metadata
+  drivers::OpenedDevice device;
+  std::optional<HardwareModel> hardware;  // white-noise covariances in sensor_msgs/Imu when known
+};
+
+struct DeviceProgress {
+  std::string name;
+  uint64_t samples = 0;          // written to the file
+  uint64_t dropped = 0;          // gaps in the device's sample counter within the recording
+  uint64_t codec_dropped = 0;    // every loss the codec saw (also past the end, and for devices
+                                 // without a counter, samples of frames that did not arrive)
+  uint64_t frames_corrupt = 0;   // frames that failed their checksum or format
+  uint64_t backpressure = 0;     // samples the recorder's own queue had to refuse
+  std::size_t queue_high_water = 0;
+  double rate_hz = 0.0;          // measured from the mapped sample times
+  bool ended = false;
+  std::string end_reason;
+  ClockFit clock;
+};
+
+struct SessionOptions {
+  std::string path;  // output .mcap
+  // Stop when every device has delivered this much host time (0: no limit).
+  double duration_s = 0.0;
+  uint64_t max_samples = 0;  // per device (0: no limit)
+  std::size_t queue_capacity = 1 << 15;  // samples per device
+  bool finalize = true;                  // offline clock fit and rewrite at the end
+  const std::atomic<bool>* stop = nullptr;  // e.g. set by SIGINT/SIGTERM
+  // Called about four times a second on the writer thread.
+  std::function<void(const std::vector<DeviceProgress>&)> progress;
+  McapWriterOptions mcap;
+  std::vector<Event> events;  // markers known before the start (written at their times)
+};
+
+struct SessionReport {
+  std::vector<DeviceProgress> devices;
+  std::string stop_reason;
+};
+
+// Records until the duration, the sample limit, `stop`, or the loss of every device. Throws
+// imukit::Error only for problems with the output file; device failures end that device's
+// stream with a reason in the report.
+SessionReport record_session(std::vector<SessionDevice> devices, const SessionOptions& options);
+
+// The offline clock fit of a recording: one fit per device over all its RawImu messages (device
+// ticks against host receive times) and time-sync exchanges, written to `out` with every IMU and
+// raw message re-timed. Returns the fits by device name.
+std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, const std::string& out);
+
+}  // namespace imukit::capture
