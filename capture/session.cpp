@@ -166,6 +166,11 @@ void write_sync(McapWriter& writer, Device& d, const drivers::SyncPoint& p, uint
 
 }  // namespace
 
+std::string partial_path(const std::string& path) {
+  const std::filesystem::path p(path);
+  return (p.parent_path() / (p.stem().string() + ".partial.mcap")).string();
+}
+
 SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
   if (specs.empty()) throw Error("record: name at least one device");
   std::vector<std::unique_ptr<Device>> devices;
@@ -173,7 +178,7 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
 
   // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
   // crash leaves the temporary file readable up to its last chunk.
-  const std::string live_path = options.finalize ? options.path + ".recording" : options.path;
+  const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
   McapWriter writer(live_path, options.mcap);
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
   const uint16_t raw_schema = writer.add_schema(kRawImuSchemaName, "ros2msg", kRawImuSchemaText);

@@ -6,9 +6,9 @@
 //   /imu/<name>/raw        imukit_msgs/msg/RawImu: device ticks, host receive time, index, counts
 //   /imu/<name>/time_sync  JSON time-sync exchanges (host send/receive, device rx/tx), if any
 //   /events                JSON events (markers, detected sync taps)
-// While recording, times come from the online clock fit; finish() then refits every device over
-// the whole file (the offline fit, which also uses the time-sync exchanges) and rewrites the
-// times, so both the live file and the final one are valid MCAP at every moment.
+// While recording, times come from the online clock fit; at the end every device is refitted
+// over the whole file (the offline fit, which also uses the time-sync exchanges) and the times
+// are rewritten, so both the live file and the final one are valid MCAP at every moment.
 #pragma once
 
 #include <atomic>
@@ -66,6 +66,10 @@ struct SessionReport {
   std::vector<DeviceProgress> devices;
   std::string stop_reason;
 };
+
+// Where a session writes while it records (FILE.partial.mcap for FILE.mcap): readable up to its
+// last chunk at any moment, replaced by FILE.mcap when the session ends.
+std::string partial_path(const std::string& path);
 
 // Records until the duration, the sample limit, `stop`, or the loss of every device. Throws
 // imukit::Error only for problems with the output file; device failures end that device's

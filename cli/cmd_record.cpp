@@ -131,9 +131,9 @@ IMUKIT_REGISTER_COMMAND(record, CommandSpec{
                    "keep the online clock fit instead of refitting over the whole file at the end");
       sub.footer(
           "Stops at --duration/--samples, on Ctrl-C or SIGTERM (the file is flushed and closed), or\n"
-          "when every device is gone. While recording, FILE.mcap.recording is readable up to its\n"
-          "last chunk at any moment; at the end the clocks are refitted over the whole recording\n"
-          "and FILE.mcap is written.\n\n"
+          "when every device is gone. While recording, FILE.partial.mcap is readable up to its\n"
+          "last chunk at any moment (after a crash, `imukit convert --recover` completes it); at\n"
+          "the end the clocks are refitted over the whole recording and FILE.mcap replaces it.\n\n"
           "Examples:\n"
           "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
           "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n");

@@ -39,6 +39,17 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// MCAP files are recognised by their magic bytes, whatever their name.
+bool is_mcap(const std::string& path) {
+  if (ends_with(path, ".mcap")) return true;
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return false;
+  char magic[5] = {};
+  const bool yes = std::fread(magic, 1, 5, f) == 5 && std::string_view(magic, 5) == "\x89MCAP";
+  std::fclose(f);
+  return yes;
+}
+
 }  // namespace
 
 std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
@@ -88,7 +99,7 @@ std::string input_options_help() {
 }
 
 Recording load_recording(const InputArg& input) {
-  if (input.columns.empty() && ends_with(input.path, ".mcap")) {
+  if (input.columns.empty() && is_mcap(input.path)) {
     capture::RecordingRead read = capture::read_recording_mcap(input.path);
     if (!read.summary.complete) {
       fmt::print(stderr, "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
@@ -102,7 +113,7 @@ Recording load_recording(const InputArg& input) {
 }
 
 ImuSeries load_imu_series(const InputArg& input) {
-  if (input.columns.empty() && ends_with(input.path, ".mcap")) {
+  if (input.columns.empty() && is_mcap(input.path)) {
     Recording r = load_recording(input);
     if (r.streams.size() != 1) {
       throw Error(fmt::format("{}: holds {} IMU streams; this command reads one", input.path,
