@@ -88,6 +88,21 @@ void strided_sum(const double* S, int64_t n, int64_t m, int axes, double* out) {
 using SumFn = void (*)(const double*, int64_t, int64_t, int, double*);
 using ChunkFn = void (*)(const double*, int64_t, int, int64_t, int64_t, double*);
 
+// The 6-axis small-factor kernel (the usual IMU case; compute-bound, unlike the memory-bound
+// large factors) also in an AVX2 build, picked at load time when the CPU has it (function
+// multi-versioning); the arithmetic and its order are the same, so are the results.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define IMUKIT_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define IMUKIT_AVX2_CLONES
+#endif
+IMUKIT_AVX2_CLONES void chunk6_order2(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
+  add_diff_squares<6, 2>(S, m, axes, j0, j1, acc);
+}
+IMUKIT_AVX2_CLONES void chunk6_order3(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
+  add_diff_squares<6, 3>(S, m, axes, j0, j1, acc);
+}
+
 template <int A>
 struct DiffKernels {
   static SumFn strided(int order) { return order == 2 ? &strided_sum<A, 2> : &strided_sum<A, 3>; }
@@ -108,7 +123,7 @@ ChunkFn pick_chunk(int order, int axes) {
   switch (axes) {
     case 1: return DiffKernels<1>::chunk(order);
     case 3: return DiffKernels<3>::chunk(order);
-    case 6: return DiffKernels<6>::chunk(order);
+    case 6: return order == 2 ? &chunk6_order2 : &chunk6_order3;
     default: return DiffKernels<0>::chunk(order);
   }
 }
@@ -229,6 +244,33 @@ double term_covariance(Deviation kind, int64_t m, double l, int alpha) {
   return c;
 }
 
+// S_0 = 0, S_{i+1} = S_i + (y_i - mean), Kahan-compensated per axis (independent chains, so the
+// axes run side by side). Returns false if a sample is not finite (checked in the same pass).
+template <int A>
+bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen::VectorXd& mean, double* S,
+                  int axes) {
+  const int k = A > 0 ? A : axes;
+  double sum[16] = {}, comp[16] = {}, mu[16] = {};
+  for (int a = 0; a < k; ++a) mu[a] = mean(a), S[a] = 0.0;
+  const auto n = int64_t(samples.cols());
+  const double* base = samples.data();
+  const int64_t stride = samples.outerStride();
+  bool finite = true;
+  for (int64_t i = 0; i < n; ++i) {
+    const double* col = base + i * stride;
+    double* out = S + (i + 1) * k;
+    for (int a = 0; a < k; ++a) {
+      finite = finite && std::isfinite(col[a]);
+      const double y = (col[a] - mu[a]) - comp[a];
+      const double t = sum[a] + y;
+      comp[a] = (t - sum[a]) - y;
+      sum[a] = t;
+      out[a] = t;
+    }
+  }
+  return finite;
+}
+
 }  // namespace
 
 std::vector<int64_t> log_spaced_factors(int64_t n, int points_per_decade, int64_t max_factor) {
@@ -336,7 +378,6 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
     throw Error("Allan deviation: maximum averaging factor above n/3");
   }
   for (int64_t m : r.factors) r.tau_s.push_back(double(m) * r.tau0_s);
-  if (!samples.allFinite()) throw Error("Allan deviation: the samples contain NaN or infinity");
 
   // Cumulative sums of the mean-free samples, Kahan-compensated.
   const Eigen::VectorXd mean = samples.rowwise().mean();
@@ -344,19 +385,14 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   // 7.2 M samples) would cost a full extra pass over memory.
   const std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
   double* const S = S_storage.get();
-  {
-    std::vector<double> sum(size_t(axes), 0.0), comp(size_t(axes), 0.0);
-    for (int a = 0; a < axes; ++a) S[size_t(a)] = 0.0;
-    for (int64_t i = 0; i < n; ++i) {
-      for (int a = 0; a < axes; ++a) {
-        const double y = (samples(a, i) - mean(a)) - comp[size_t(a)];
-        const double tt = sum[size_t(a)] + y;
-        comp[size_t(a)] = (tt - sum[size_t(a)]) - y;
-        sum[size_t(a)] = tt;
-        S[size_t(i + 1) * size_t(axes) + size_t(a)] = tt;
-      }
-    }
+  bool finite = true;
+  switch (axes) {
+    case 1: finite = build_cumsum<1>(samples, mean, S, axes); break;
+    case 3: finite = build_cumsum<3>(samples, mean, S, axes); break;
+    case 6: finite = build_cumsum<6>(samples, mean, S, axes); break;
+    default: finite = build_cumsum<0>(samples, mean, S, axes); break;
   }
+  if (!finite) throw Error("Allan deviation: the samples contain NaN or infinity");
 
   std::vector<Deviation> kinds;
   if (options.allan) kinds.push_back(Deviation::kAllan);
