@@ -117,9 +117,9 @@ ProceduralMotion::ProceduralMotion(std::size_t joints, const ProceduralMotionOpt
     std::vector<int64_t> ks;
     std::vector<double> offs;
     for (int h = 0; h < options.harmonics; ++h) {
-      // k / period_s Hz: with the defaults 0.2 .. 2 Hz, the band of human movement.
+      // k / period_s Hz: 0.2 .. 1.2 Hz, the band of everyday human movement.
       ks.push_back(static_cast<int64_t>(rng.uniform_index(
-                       static_cast<uint64_t>(std::max<int64_t>(1, 9 * options.period_s / 5)))) +
+                       static_cast<uint64_t>(std::max<int64_t>(1, options.period_s)))) +
                    options.period_s / 5);
       offs.push_back(rng.uniform());
     }

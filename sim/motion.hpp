@@ -106,8 +106,8 @@ struct ProceduralMotionOptions {
   int64_t start_frame = 0;          // frame 0 of this source is absolute frame start_frame
   uint64_t seed = 1;
   int harmonics = 3;                // sinusoids per joint
-  int64_t period_s = 60;            // fundamental period; frequencies k / period_s, k in [12, 120]
-  double amplitude_rad = 0.6;       // per sinusoid
+  int64_t period_s = 60;            // fundamental period; frequencies k / period_s, k in [12, 72)
+  double amplitude_rad = 0.1;       // per sinusoid (human-like accelerations at the wrist)
   double translation_amplitude_m = 0.05;
 };
 
