@@ -1,6 +1,9 @@
 #include "drivers/imukit_codec.hpp"
 
 #include <cmath>
+#include <string>
+
+#include "core/error.hpp"
 
 namespace imukit::drivers {
 namespace {
@@ -10,6 +13,25 @@ namespace {
 uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
   const uint64_t q = n / r, a = n % r, c = k / r, b = k % r;
   return q * k + a * c + (a * b) / r;
+}
+
+const char* nack_reason(proto::NackCode code) {
+  using proto::NackCode;
+  switch (code) {
+    case NackCode::kUnknownMessage: return "unknown message";
+    case NackCode::kMalformed: return "malformed request";
+    case NackCode::kBadState: return "not allowed in this state";
+    case NackCode::kUnsupportedRate: return "rate not supported (see DeviceInfo rates)";
+    case NackCode::kUnsupportedSensor: return "a requested sensor is not present";
+    case NackCode::kNoSensorsEnabled: return "no sensor enabled";
+    case NackCode::kUnsupportedRange: return "range not supported";
+    case NackCode::kInvalidBlockSize: return "samples per block must be 1..32";
+    case NackCode::kHardwareError: return "the sensor hardware refused the configuration";
+    case NackCode::kCalibrationInvalid: return "calibration invalid";
+    case NackCode::kNoCalibration: return "no calibration stored";
+    case NackCode::kStorageError: return "storage error";
+  }
+  return "unknown reason";
 }
 
 }  // namespace
@@ -140,7 +162,17 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       ++stats_.frames_other;
       ++stats_.device_errors;
       proto::Nack n;
-      if (proto::parse_message(f, n) == proto::ParseStatus::kOk) nacks_.push_back(n);
+      if (proto::parse_message(f, n) != proto::ParseStatus::kOk) return;
+      nacks_.push_back(n);
+      // A refused configuration will not get better by asking again: end the stream with the
+      // device's reason. (A repeated Start while already streaming is refused as kBadState.)
+      const auto type = static_cast<MessageType>(n.request_type);
+      if (type == MessageType::kConfigure ||
+          (type == MessageType::kStart && n.code != proto::NackCode::kBadState)) {
+        throw Error(std::string("the device refused ") +
+                    (type == MessageType::kConfigure ? "Configure" : "Start") + ": " +
+                    nack_reason(n.code));
+      }
       return;
     }
     case MessageType::kLog: {

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <atomic>
+#include <cassert>
 #include <condition_variable>
 #include <functional>
 #include <memory>
@@ -59,6 +60,12 @@ class DeviceReader {
   EndReason end_reason() const;
   CodecStats stats() const;
   uint64_t samples_total() const { return samples_total_.load(); }
+  // The codec, for what only it knows (ImukitCodec::sync_points(), device_info()). Only after
+  // the stream ended (wait() returned true, or stop()): the reader thread uses it until then.
+  Codec& codec() {
+    assert(!thread_.joinable() || ended_.load());
+    return *codec_;
+  }
 
   // Runs the same loop on the calling thread until the stream ends or `stop` turns true;
   // appends every sample to out. Never throws for transport or codec failures.

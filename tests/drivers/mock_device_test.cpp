@@ -177,6 +177,19 @@ TEST(MockDevice, UriErrorsNameTheKey) {
   }
 }
 
+TEST(MockDevice, RefusedConfigurationEndsTheStreamWithTheDevicesReason) {
+  // The mock accepts the asked rate; the codec is made to ask for another, unsupported one.
+  OpenedDevice dev = open_device("mock:static?rate=400&clock=virtual");
+  ImukitCodec codec(ImukitCodecOptions{true, 123.0, 8, 0, 0});
+  std::atomic<bool> stop{false};
+  std::vector<Sample> out;
+  const EndReason end = DeviceReader::run(*dev.transport, codec, ReaderOptions{}, stop, out);
+  EXPECT_EQ(end.kind, EndKind::kError);
+  EXPECT_NE(end.message.find("refused Configure"), std::string::npos) << end.message;
+  EXPECT_NE(end.message.find("rate not supported"), std::string::npos) << end.message;
+  EXPECT_TRUE(out.empty());
+}
+
 TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {
   OpenedDevice dev = open_device("mock:static?rate=200&clock=real");
   DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
@@ -184,6 +197,13 @@ TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
   reader.stop();
   EXPECT_EQ(reader.end_reason().kind, EndKind::kStopped);
+  // Time sync ran: at least the first ping (sent as soon as streaming started) came back, and
+  // the device's receive tick lies between the host's send and receive times (same origin here:
+  // the mock's device clock has no offset, only its own zero).
+  const auto& sync = dynamic_cast<ImukitCodec&>(reader.codec()).sync_points();
+  ASSERT_GE(sync.size(), 1u);
+  EXPECT_LE(sync[0].host_send, sync[0].host_receive);
+  EXPECT_LE(sync[0].device_rx, sync[0].device_tx);
   const auto s = reader.take();
   // 0.6 s at 200 Hz = 120 samples, less the start-up exchange and the last unfinished block.
   EXPECT_GT(s.size(), 60u);
