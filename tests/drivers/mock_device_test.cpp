@@ -186,6 +186,26 @@ TEST(MockDevice, PosesRotateBetweenSixFacesWithConsistentGyro) {
   EXPECT_NEAR(f(2, 0), -9.80665, 1e-12);  // pose 3 is -z up
 }
 
+TEST(MockDevice, PosesUriHoldsEachFaceUp) {
+  // 6 holds of 0.5 s and 5 moves of 0.25 s: 4.25 s at 200 Hz.
+  const MockRun r = run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
+  ASSERT_EQ(r.samples.size(), 840u);
+  PosesSource src(PosesSource::six_faces(), 0.5, 0.25);
+  const double lsb = 16 * 9.80665 / 32768;
+  int checked = 0;
+  for (const Sample& s : r.samples) {
+    // The device clock counts from the mock's creation, the source's time zero (no drift).
+    int held = -1;
+    const Eigen::Quaterniond q = src.orientation(to_seconds(s.device_time), &held);
+    if (held < 0) continue;
+    const Eigen::Vector3d f = q.conjugate() * Eigen::Vector3d(0, 0, 9.80665);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.accel[k], f[k], lsb);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(s.gyro[k], 0.0);
+    ++checked;
+  }
+  EXPECT_GT(checked, 500);
+}
+
 TEST(MockDevice, UriErrorsNameTheKey) {
   EXPECT_THROW(open_device("mock:static?drop=2"), Error);
   EXPECT_THROW(open_device("mock:static?quat=1,0,0"), Error);

@@ -2,9 +2,13 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <cstdio>
+
 #include "core/error.hpp"
 
 #include "drivers/devices.hpp"
+#include "drivers/reader.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace imukit::drivers {
@@ -63,6 +67,46 @@ TEST(DeviceUri, FileReplayDecodesWithTheNamedCodec) {
   } catch (const TransportError& e) {
     EXPECT_NE(std::string(e.what()).find("No such file"), std::string::npos) << e.what();
   }
+}
+
+TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
+  // Capture what a mock device sends (as a raw byte dump of the serial line would), decoding live.
+  OpenedDevice live = open_device("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=0,1,0,0");
+  struct Tee : ByteTransport {
+    ByteTransport& inner;
+    std::vector<uint8_t> captured;
+    explicit Tee(ByteTransport& t) : inner(t) {}
+    ReadResult read(std::span<uint8_t> buf, int timeout_ms) override {
+      ReadResult r = inner.read(buf, timeout_ms);
+      captured.insert(captured.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(r.size));
+      return r;
+    }
+    void write(std::span<const uint8_t> b) override { inner.write(b); }
+    std::string describe() const override { return "tee"; }
+    TimeNs now() const override { return inner.now(); }
+  } tee(dynamic_cast<ByteTransport&>(*live.transport));
+  std::atomic<bool> stop{false};
+  std::vector<Sample> live_samples;
+  DeviceReader::run(tee, *live.codec, ReaderOptions{}, stop, live_samples);
+  ASSERT_EQ(live_samples.size(), 400u);
+  testing::TempDir dir;
+  const std::string path = (dir / "capture.bin").string();
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    std::fwrite(tee.captured.data(), 1, tee.captured.size(), f);
+    std::fclose(f);
+  }
+  OpenedDevice replay = open_device("file:" + path + "?codec=imukit");
+  std::vector<Sample> replayed;
+  const EndReason end = DeviceReader::run(*replay.transport, *replay.codec, ReaderOptions{}, stop, replayed);
+  EXPECT_EQ(end.kind, EndKind::kEndOfStream);
+  ASSERT_EQ(replayed.size(), live_samples.size());
+  for (std::size_t i = 0; i < replayed.size(); ++i) {
+    EXPECT_EQ(replayed[i].sequence, live_samples[i].sequence);
+    EXPECT_EQ(replayed[i].device_time, live_samples[i].device_time);
+    EXPECT_EQ(replayed[i].accel, live_samples[i].accel);
+  }
+  EXPECT_NEAR(replayed[0].accel[2], -9.80665, 16 * 9.80665 / 32768);  // upside down
 }
 
 TEST(KnownDevices, TableNamesTheCodecs) {
