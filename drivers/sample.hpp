@@ -56,7 +56,7 @@ struct CodecStats {
   // Samples the device made that never arrived: gaps in its sample counter, or (for devices
   // without one) frames whose loss left a sample incomplete.
   uint64_t samples_dropped = 0;
-  uint64_t counter_resets = 0;   // counter jumped backwards (device restarted its stream)
+  uint64_t counter_resets = 0;   // counter repeated or jumped back (device restarted its stream)
   uint64_t device_errors = 0;    // error messages the device itself sent
 };
 

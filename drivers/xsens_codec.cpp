@@ -226,9 +226,12 @@ void XsensCodec::on_message(uint8_t mid, std::span<const uint8_t> data, TimeNs h
   Sample s;
   s.host_time = host_time;
   if (pk.packet_counter) {
+    const bool first = !counter_.started();
     int64_t c = counter_.unwrap(*pk.packet_counter);
     if (counter_.last_step() > 1) stats_.samples_dropped += static_cast<uint64_t>(counter_.last_step() - 1);
-    if (counter_.last_step() < 0) {
+    if (!first && counter_.last_step() <= 0) {
+      // A repeated or earlier counter: the device restarted (or a packet came twice).
+      // Counted, and the counter is followed from here.
       ++stats_.counter_resets;
       counter_.reset();
       c = counter_.unwrap(*pk.packet_counter);

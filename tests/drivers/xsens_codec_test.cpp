@@ -233,6 +233,34 @@ TEST(XsensCodec, CorruptionIsDetectedAndEveryLostPacketCounted) {
   }
 }
 
+TEST(XsensCodec, ExtendedLengthFramesDecode) {
+  // 300-byte MTData2: counter, acceleration, and an item the codec skips (quaternion id 0x2010
+  // repeated as padding), so LEN is 0xFF followed by a 2-byte length.
+  std::vector<uint8_t> p = {0x10, 0x20, 2, 0x12, 0x34, 0x40, 0x20, 12};
+  for (float f : {1.5f, -2.0f, 9.75f}) {
+    uint32_t b;
+    std::memcpy(&b, &f, 4);
+    for (int i = 3; i >= 0; --i) p.push_back(static_cast<uint8_t>(b >> (8 * i)));
+  }
+  while (p.size() + 19 <= 300) {
+    p.insert(p.end(), {0x20, 0x10, 16});
+    p.insert(p.end(), 16, 0x3F);
+  }
+  const auto frame = xsens_frame(xsens::kMidMtData2, p);
+  ASSERT_EQ(frame[3], 0xFF);
+  EXPECT_EQ((frame[4] << 8) | frame[5], static_cast<int>(p.size()));
+  XsensCodec codec;
+  Rng rng(2);
+  std::vector<uint8_t> two = frame;
+  two.insert(two.end(), frame.begin(), frame.end());
+  const auto out = testing::feed_split(codec, two, rng, 7);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].sequence, 0x1234u);
+  EXPECT_EQ(out[0].accel[2], 9.75);
+  EXPECT_EQ(codec.stats().counter_resets, 1u);  // the same counter twice is counted
+  testing::expect_byte_accounting(codec);
+}
+
 TEST(XsensCodec, ReadsFixedPointAndDoublePrecision) {
   // Acceleration as fp1220 (id 0x4021) and rate of turn as float64 (id 0x8023).
   std::vector<uint8_t> p = {0x40, 0x21, 12};
