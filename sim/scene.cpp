@@ -93,7 +93,22 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
 
 }  // namespace
 
+namespace {
+Scene parse_scene_impl(std::string_view text, const std::string& source, const std::string& base_dir);
+}  // namespace
+
 Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
+  try {
+    return parse_scene_impl(text, source, base_dir);
+  } catch (const json::exception& e) {
+    // Numbers out of range, invalid UTF-8 in strings, ...: the JSON library's own checks.
+    throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt},
+                std::string("invalid JSON: ") + e.what());
+  }
+}
+
+namespace {
+Scene parse_scene_impl(std::string_view text, const std::string& source, const std::string& base_dir) {
   json root;
   try {
     root = json::parse(text.begin(), text.end());
@@ -285,6 +300,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::s
   }
   return scene;
 }
+}  // namespace
 
 Scene read_scene(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

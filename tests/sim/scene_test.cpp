@@ -63,6 +63,9 @@ TEST(Scene, ErrorsNameThePathOrLine) {
   bad.replace(bad.find("\"right_forearm\""), 15, "\"tail\"");
   EXPECT_NE(message(bad).find("sensors[1].segment"), std::string::npos);
   EXPECT_NE(message(R"({"schema": "imukit.scene/2"})").find("schema"), std::string::npos);
+  // A number beyond double's range is the JSON library's out_of_range, reported as an Error
+  // (found by fuzz_scene_json).
+  EXPECT_NE(message("[6E666]").find("s.json"), std::string::npos);
 }
 
 TEST(Scene, RunIsDeterministicAndHardwareAddsTheStatedNoise) {
