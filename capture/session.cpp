@@ -1,5 +1,6 @@
 #include "capture/session.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -54,6 +55,8 @@ struct Device {
   TimeNs first_host = 0, last_host = 0, first_mapped = 0, last_mapped = 0;
   ImuMessage imu;
   RawImuMessage raw;
+  TapDetector taps;
+  std::optional<PoseGuide> guide;
 
   Device(SessionDevice s, std::size_t capacity) : spec(std::move(s)), samples(capacity) {}
 };
@@ -113,7 +116,23 @@ DeviceProgress progress_of(Device& d) {
   return p;
 }
 
-void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s) {
+// Events found in a device's samples carry the sample's device time, so the offline refit can
+// re-time them with the samples.
+void write_event(McapWriter& writer, uint16_t channel, const Event& e, const std::string& device = {},
+                 std::optional<TimeNs> device_time = std::nullopt) {
+  nlohmann::json j{{"kind", e.kind}, {"label", e.label}};
+  if (!device.empty()) j["device"] = device;
+  if (device_time) j["device_ns"] = *device_time;
+  const std::string text = j.dump();
+  writer.write_message(channel, static_cast<uint64_t>(e.t), static_cast<uint64_t>(e.t), bytes_of(text));
+}
+
+struct Live {
+  uint16_t event_channel;
+  const SessionOptions& options;
+};
+
+void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const Live& live) {
   TimeNs t = s.host_time;
   if (s.has_device_time) {
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
@@ -143,6 +162,28 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s) {
     d.gaps += s.sequence - d.last_sequence - 1;
   }
   d.last_sequence = s.sequence;
+  if (s.channels & drivers::kHasAccel) {
+    const Eigen::Vector3d a(s.accel[0], s.accel[1], s.accel[2]);
+    const std::optional<TimeNs> device_time = s.has_device_time ? std::optional(s.device_time) : std::nullopt;
+    if (live.options.detect_taps) {
+      if (const auto tap = d.taps.feed(t, a)) {
+        write_event(writer, live.event_channel, {*tap, "tap", "sync tap on " + d.spec.name}, d.spec.name,
+                    device_time ? std::optional(*device_time - (t - *tap)) : std::nullopt);
+      }
+    }
+    if (d.guide) {
+      const Eigen::Vector3d w(s.gyro[0], s.gyro[1], s.gyro[2]);
+      if (const auto e = d.guide->feed(t, a, (s.channels & drivers::kHasGyro) ? &w : nullptr)) {
+        const char* what = e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held"
+                                                                     : "new pose";
+        write_event(writer, live.event_channel,
+                    {t, "pose", fmt::format("{} {}: {} (gravity {:.3f} {:.3f} {:.3f})", d.spec.name, e->count, what,
+                                            e->gravity_dir.x(), e->gravity_dir.y(), e->gravity_dir.z())},
+                    d.spec.name, device_time);
+        if (live.options.on_pose) live.options.on_pose(d.spec.name, *e);
+      }
+    }
+  }
   d.last_host = s.host_time;
   d.last_mapped = t;
   ++d.written;
@@ -185,14 +226,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   const uint16_t sync_schema = writer.add_schema("imukit_msgs/TimeSync", "jsonschema", kSyncSchema);
   const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
   const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
-  for (const Event& e : options.events) {
-    const std::string text = nlohmann::json{{"kind", e.kind}, {"label", e.label}}.dump();
-    writer.write_message(event_channel, static_cast<uint64_t>(e.t), static_cast<uint64_t>(e.t), bytes_of(text));
-  }
+  for (const Event& e : options.events) write_event(writer, event_channel, e);
   for (auto& d : devices) {
     d->imu_channel = writer.add_channel(imu_schema, "/imu/" + d->spec.name, "cdr");
     d->raw_channel = writer.add_channel(raw_schema, "/imu/" + d->spec.name + "/raw", "cdr");
     d->imu.frame_id = d->spec.name;
+    if (options.guide) d->guide.emplace(*options.guide);
     if (d->spec.hardware) {
       // Per-sample white-noise variance: sigma^2 = density^2 * rate (rate from the model).
       // Needs the model's output rates; without them the covariances stay "unknown".
@@ -219,14 +258,17 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
 
   // Samples past the duration or the sample limit are outside the recording (a virtual-time
   // mock runs ahead of the writer); they are not written, and not counted as lost either.
+  const Live live{event_channel, options};
   const auto accept = [&](Device& d, const drivers::Sample& s) {
     if (d.full) return;
-    if (options.duration_s > 0 && d.written > 0 && to_seconds(s.host_time - d.first_host) > options.duration_s) {
+    if (d.guide && d.guide->done()) {
+      d.full = true;
+    } else if (options.duration_s > 0 && d.written > 0 && to_seconds(s.host_time - d.first_host) > options.duration_s) {
       d.full = true;
     } else if (options.max_samples && d.written >= options.max_samples) {
       d.full = true;
     } else {
-      write_sample(writer, d, s);
+      write_sample(writer, d, s, live);
       return;
     }
     d.stop.store(true);
@@ -248,8 +290,19 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
         }
         while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
       }
+      if (options.take_markers) {
+        std::vector<Event> markers;
+        options.take_markers(markers);
+        for (const Event& e : markers) write_event(writer, event_channel, e);
+      }
       if (options.stop && options.stop->load()) {
         report.stop_reason = "stopped by signal";
+        break;
+      }
+      if (options.guide && std::all_of(devices.begin(), devices.end(),
+                                       [](const auto& d) { return d->guide && d->guide->done(); })) {
+        report.stop_reason = fmt::format("{} distinct poses held", options.guide->poses_wanted);
+        for (auto& d : devices) d->full = true;  // what a virtual-time mock made since is not wanted
         break;
       }
       bool all_done = true;
@@ -323,6 +376,7 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
   // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
   std::map<std::string, ClockMapper> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
+  std::optional<uint16_t> event_channel;
   const auto name_of = [](const std::string& topic, std::string_view suffix) {
     std::string name = topic.substr(5);  // after "/imu/"
     return name.substr(0, name.size() - suffix.size());
@@ -332,6 +386,7 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
     const auto ends = [&](std::string_view s) {
       return c.topic.size() > s.size() && c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
     };
+    if (c.topic == "/events") event_channel = c.id;
     if (c.topic.rfind("/imu/", 0) != 0) return;
     if (ends("/raw")) raw_channels[c.id] = name_of(c.topic, "/raw");
     else if (ends("/time_sync")) sync_channels[c.id] = name_of(c.topic, "/time_sync");
@@ -368,6 +423,13 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
       buffer = encode_cdr(raw);
       m.data = buffer;
       m.log_time = static_cast<uint64_t>(raw.stamp);
+    } else if (event_channel && c.id == *event_channel) {
+      const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
+      if (!j.is_object() || !j.contains("device_ns") || !j["device_ns"].is_number_integer()) return;
+      const auto clock = clocks.find(j.value("device", std::string()));
+      if (clock == clocks.end()) return;
+      m.log_time = static_cast<uint64_t>(clock->second.map(j["device_ns"].get<uint64_t>()));
+      m.publish_time = m.log_time;
     } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
       const auto t = last_mapped.find(imu->second);
       if (t == last_mapped.end()) return;

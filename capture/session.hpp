@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "capture/clock_map.hpp"
+#include "capture/live_detectors.hpp"
 #include "capture/mcap.hpp"
 #include "core/hardware_model.hpp"
 #include "core/imu_series.hpp"
@@ -60,6 +61,15 @@ struct SessionOptions {
   std::function<void(const std::vector<DeviceProgress>&)> progress;
   McapWriterOptions mcap;
   std::vector<Event> events;  // markers known before the start (written at their times)
+  // Markers that arrive while recording (typed by the user, sent by an API): called on the
+  // writer thread, it moves new events (host times) into its argument.
+  std::function<void(std::vector<Event>&)> take_markers;
+  bool detect_taps = true;  // sync taps found in each accelerometer become /events "tap"
+  // Guided multi-position capture: poses are counted per device, each becomes an /events
+  // "pose" entry, `on_pose` hears about it (to prompt for the next), and the session stops when
+  // every device has its poses.
+  std::optional<PoseGuideOptions> guide;
+  std::function<void(const std::string& device, const PoseEvent&)> on_pose;
 };
 
 struct SessionReport {

@@ -2,6 +2,9 @@
 // stops (duration, sample count, Ctrl-C / SIGTERM, device loss) and the clock fit at the end.
 #include <atomic>
 #include <csignal>
+#include <iostream>
+#include <mutex>
+#include <thread>
 #include <cstdio>
 #include <filesystem>
 #include <fmt/core.h>
@@ -11,6 +14,7 @@
 #include "capture/session.hpp"
 #include "cli/command.hpp"
 #include "core/error.hpp"
+#include "drivers/transport.hpp"
 #include "drivers/uri.hpp"
 
 namespace imukit::cli {
@@ -26,7 +30,27 @@ struct RecordArgs {
   uint64_t samples = 0;
   double rate_hz = 0.0;
   bool no_refit = false;
+  bool no_taps = false;
+  std::string guide;
+  int poses = 12;
 };
+
+// Lines typed while recording become /events markers ("note", the text typed; an empty line is
+// a "mark"). The reading thread blocks on stdin, so it is detached and shares its queue.
+struct Markers {
+  std::mutex mutex;
+  std::vector<Event> pending;
+};
+
+void start_marker_thread(const std::shared_ptr<Markers>& markers) {
+  std::thread([markers] {
+    std::string line;
+    while (std::getline(std::cin, line)) {
+      const std::lock_guard lock(markers->mutex);
+      markers->pending.push_back({drivers::host_now(), line.empty() ? "mark" : "note", line});
+    }
+  }).detach();
+}
 
 // A stream name from a URI: the mock kind, or the device path's last part; made unique.
 std::string stream_name(const drivers::DeviceUri& uri, std::set<std::string>& used) {
@@ -80,6 +104,34 @@ int run_record(const RecordArgs& args) {
   options.max_samples = args.samples;
   options.finalize = !args.no_refit;
   options.stop = &g_stop;
+  options.detect_taps = !args.no_taps;
+  if (!args.guide.empty()) {
+    if (args.guide != "multipos") throw Error("--guide: the only guide is multipos");
+    capture::PoseGuideOptions guide;
+    guide.poses_wanted = args.poses;
+    options.guide = guide;
+    options.on_pose = [&](const std::string& device, const capture::PoseEvent& e) {
+      if (tty) fmt::print("\n");
+      if (e.kind == capture::PoseEvent::Kind::repeated_pose) {
+        fmt::print("{}: this orientation is already recorded: turn to a new one\n", device);
+      } else if (e.kind == capture::PoseEvent::Kind::done) {
+        fmt::print("{}: pose {} of {} held: done\n", device, e.count, args.poses);
+      } else {
+        fmt::print("{}: pose {} of {} held: rotate to a new orientation and hold it still for 2 s\n",
+                   device, e.count, args.poses);
+      }
+      std::fflush(stdout);
+    };
+  }
+  if (::isatty(STDIN_FILENO)) {
+    auto markers = std::make_shared<Markers>();
+    start_marker_thread(markers);
+    options.take_markers = [markers](std::vector<Event>& out) {
+      const std::lock_guard lock(markers->mutex);
+      out.swap(markers->pending);
+    };
+    fmt::print("type a line and Enter to mark the recording (empty line: a plain mark)\n");
+  }
   options.progress = [&](const std::vector<capture::DeviceProgress>& p) {
     if (tty) {
       fmt::print("\r\033[K{}", progress_line(p));
@@ -92,6 +144,10 @@ int run_record(const RecordArgs& args) {
   };
   fmt::print("recording {} device(s) to {}{}\n", devices.size(), args.output,
              args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s) : " until Ctrl-C");
+  if (options.guide) {
+    fmt::print("guided multi-position capture: hold the device still in {} different orientations, "
+               "2 s each\n", args.poses);
+  }
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
   fmt::print("stopped: {}\n", report.stop_reason);
@@ -127,6 +183,12 @@ IMUKIT_REGISTER_COMMAND(record, CommandSpec{
       sub.add_option("--duration", args->duration_s, "stop after this many seconds of data");
       sub.add_option("--samples", args->samples, "stop each device after this many samples");
       sub.add_option("--rate", args->rate_hz, "output data rate to configure (Hz), for URIs without rate=");
+      sub.add_option("--guide", args->guide,
+                     "multipos: guided multi-position capture for `imukit calibrate`: counts the "
+                     "distinct still poses and stops when there are --poses of them");
+      sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
+          ->check(CLI::Range(1, 200));
+      sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
       sub.add_flag("--no-refit", args->no_refit,
                    "keep the online clock fit instead of refitting over the whole file at the end");
       sub.footer(
@@ -136,7 +198,10 @@ IMUKIT_REGISTER_COMMAND(record, CommandSpec{
           "the end the clocks are refitted over the whole recording and FILE.mcap replaces it.\n\n"
           "Examples:\n"
           "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
-          "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n");
+          "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
+          "  imukit record 'mock:poses?clock=virtual' --guide multipos --poses 6 -o poses.mcap\n\n"
+          "Events (/events): sync taps found in the accelerometer (a sharp jerk), poses of --guide,\n"
+          "and lines typed while recording (host time).\n");
       return [args] { return run_record(*args); };
     }});
 

@@ -102,5 +102,45 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
               d.clock.latency_correction_s * 1e6, d.clock.skew_ppm);
 }
 
+TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
+  testing::TempDir dir;
+  std::vector<SessionDevice> devices;
+  devices.push_back({"watch", "mock:poses", drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2"),
+                     std::nullopt});
+  SessionOptions options;
+  options.path = (dir / "poses.mcap").string();
+  PoseGuideOptions guide;
+  guide.poses_wanted = 6;
+  options.guide = guide;
+  int heard = 0;
+  options.on_pose = [&](const std::string& device, const PoseEvent& e) {
+    EXPECT_EQ(device, "watch");
+    EXPECT_EQ(e.count, ++heard);
+  };
+  const SessionReport report = record_session(std::move(devices), options);
+  EXPECT_EQ(report.stop_reason, "6 distinct poses held");
+  EXPECT_EQ(heard, 6);
+  // The six faces up, in the mock's order +z, +x, +y, -z, -x, -y, as /events "pose" entries.
+  std::vector<std::string> labels;
+  uint16_t events = UINT16_MAX;
+  McapHandlers h;
+  h.on_channel = [&](const McapChannel& c) {
+    if (c.topic == "/events") events = c.id;
+  };
+  h.on_message = [&](const McapMessageView& m) {
+    if (m.channel_id == events) labels.emplace_back(m.data.begin(), m.data.end());
+  };
+  read_mcap(options.path, h);
+  ASSERT_EQ(labels.size(), 6u);
+  const char* faces[] = {"0.000 0.000 1.000", "1.000 0.000 0.000", "0.000 1.000 0.000",
+                         "0.000 0.000 -1.000", "-1.000 0.000 0.000", "0.000 -1.000 0.000"};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_NE(labels[k].find(std::string("(gravity ") + faces[k]), std::string::npos) << labels[k];
+  }
+  // The recording ends at the sixth pose: 6 poses of 4 s and 5 moves of 2 s at most.
+  ASSERT_EQ(report.devices.size(), 1u);
+  EXPECT_LE(report.devices[0].samples, 200u * (6 * 4 + 5 * 2));
+}
+
 }  // namespace
 }  // namespace imukit::capture
