@@ -3,6 +3,7 @@
 #include <fcntl.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
 
 #include "core/error.hpp"
@@ -174,7 +175,9 @@ OpenedDevice open_device(const std::string& text) {
         throw Error("fd:" + u.address + ": expected a file descriptor number");
       }
       d.codec = make_codec(codec_for(u, std::nullopt), u.keys);
-      const bool writable = (fcntl(fd, F_GETFL) & O_ACCMODE) != O_RDONLY;
+      const int flags = fcntl(fd, F_GETFL);
+      if (flags < 0) throw TransportError(os_error("fd " + u.address, errno));
+      const bool writable = (flags & O_ACCMODE) != O_RDONLY;
       d.transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, writable);
     } else if (u.scheme == "serial") {
       const int64_t baud = option_int(u.keys, "baud", 115200);

@@ -109,6 +109,16 @@ TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
   EXPECT_NEAR(replayed[0].accel[2], -9.80665, 16 * 9.80665 / 32768);  // upside down
 }
 
+TEST(DeviceUri, FdMustBeOpen) {
+  try {
+    open_device("fd:987?codec=text");
+    FAIL();
+  } catch (const TransportError& e) {
+    EXPECT_NE(std::string(e.what()).find("Bad file descriptor"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(open_device("fd:x?codec=text"), Error);
+}
+
 TEST(KnownDevices, TableNamesTheCodecs) {
   EXPECT_EQ(std::string(find_known_device(0x054c, 0x09cc, true)->codec), "dualshock4");
   EXPECT_EQ(std::string(find_known_device(0x054c, 0x0ce6, true)->codec), "dualsense");
