@@ -107,7 +107,8 @@ struct ArmChain {
     Motion m(rate, axis.size(), n);
     for (int64_t k = 0; k < n; ++k) {
       for (std::size_t j = 0; j < axis.size(); ++j) {
-        m.rotation(k, j) = Quaterniond(Eigen::AngleAxisd(th(j, static_cast<double>(k) / rate, 0), axis[j]));
+        m.rotation(k, j) =
+            Quaterniond(Eigen::AngleAxisd(th(j, static_cast<double>(k) / rate, 0), axis[j]));
       }
     }
     return m;
@@ -117,10 +118,16 @@ struct ArmChain {
 void print_accuracy_table() {
   const ArmChain arm;
   const Body body = arm.body();
-  std::printf("Run time vs error, 4-joint arm chain with sinusoidal joints (0.35-1.1 Hz), 60 s, 1 sensor\n");
-  std::printf("error = RMSE / RMS of the signal (accelerometer: motion part, gravity excluded), interior samples\n");
-  std::printf("%-10s %7s %12s %12s %14s %16s\n", "method", "rate_Hz", "acc_err_%", "gyro_err_%", "time_ms", "samples_per_s");
-  for (const DerivativeMethod method : {DerivativeMethod::reference, DerivativeMethod::fd, DerivativeMethod::spline}) {
+  std::printf(
+      "Run time vs error, 4-joint arm chain with sinusoidal joints (0.35-1.1 Hz), 60 s, 1 "
+      "sensor\n");
+  std::printf(
+      "error = RMSE / RMS of the signal (accelerometer: motion part, gravity excluded), interior "
+      "samples\n");
+  std::printf("%-10s %7s %12s %12s %14s %16s\n", "method", "rate_Hz", "acc_err_%", "gyro_err_%",
+              "time_ms", "samples_per_s");
+  for (const DerivativeMethod method :
+       {DerivativeMethod::reference, DerivativeMethod::fd, DerivativeMethod::spline}) {
     for (const double rate : {25.0, 50.0, 100.0, 200.0}) {
       Motion m = arm.motion(rate, 60.0);
       SimulationOptions opt;
@@ -132,12 +139,14 @@ void print_accuracy_table() {
       s.placement.p_joint_sensor = arm.r;
       Simulator sim(body, {s}, opt);
       std::vector<TimeNs> t;
-      for (int64_t k = 0; k < sim.sample_count(m, m.frames()); ++k) t.push_back(sim.sample_time_ns(m, k));
+      for (int64_t k = 0; k < sim.sample_count(m, m.frames()); ++k)
+        t.push_back(sim.sample_time_ns(m, k));
       std::vector<SensorBlock> out;
       const int reps = 20;
       const auto t0 = std::chrono::steady_clock::now();
       for (int r = 0; r < reps; ++r) sim.evaluate(m, t, out);
-      const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
+      const double sec =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / reps;
       double ef = 0, ew = 0, sf = 0, sw = 0;
       for (std::size_t i = 0; i < t.size(); ++i) {
         const double ts = imukit::to_seconds(t[i]);
@@ -149,8 +158,9 @@ void print_accuracy_table() {
         sf += f.squaredNorm();
         sw += w.squaredNorm();
       }
-      std::printf("%-10s %7.0f %12.4g %12.4g %14.3f %16.3g\n", std::string(to_string(method)).c_str(), rate,
-                  100 * std::sqrt(ef / sf), 100 * std::sqrt(ew / sw), sec * 1e3, static_cast<double>(t.size()) / sec);
+      std::printf("%-10s %7.0f %12.4g %12.4g %14.3f %16.3g\n",
+                  std::string(to_string(method)).c_str(), rate, 100 * std::sqrt(ef / sf),
+                  100 * std::sqrt(ew / sw), sec * 1e3, static_cast<double>(t.size()) / sec);
     }
   }
   std::printf("\n");
@@ -175,21 +185,29 @@ void run_whole(benchmark::State& state, const Body& body, const std::vector<Sens
     });
   }
   state.SetItemsProcessed(samples);  // sensor-samples
-  state.counters["sensor_samples_per_s"] = benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
+  state.counters["sensor_samples_per_s"] =
+      benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
 }
 
 void BM_Reference12Joints2Wrists100Hz3min(benchmark::State& state) {
   const Body b = reference_body();
-  run_whole(state, b, {sensor("RWR", 4, Vector3d(0.25, 0, 0.03)), sensor("LWR", 7, Vector3d(-0.25, 0, 0.03))},
+  run_whole(state, b,
+            {sensor("RWR", 4, Vector3d(0.25, 0, 0.03)), sensor("LWR", 7, Vector3d(-0.25, 0, 0.03))},
             static_cast<DerivativeMethod>(state.range(0)), 18000);
 }
-BENCHMARK(BM_Reference12Joints2Wrists100Hz3min)->Arg(0)->Arg(1)->Arg(2)->ArgName("method_fd0_spline1_reference2")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Reference12Joints2Wrists100Hz3min)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->ArgName("method_fd0_spline1_reference2")
+    ->Unit(benchmark::kMillisecond);
 
 void BM_FullBody9Sensors100Hz3min(benchmark::State& state) {
   const Body b = Body::default_humanoid();
   std::vector<SensorSpec> s;
-  for (const char* p : {"left_wrist_watch", "right_wrist_watch", "right_index_ring", "left_earbud", "chest_strap",
-                        "right_front_pocket_phone", "left_upper_arm_band", "right_ankle_clip", "waist_belt"}) {
+  for (const char* p :
+       {"left_wrist_watch", "right_wrist_watch", "right_index_ring", "left_earbud", "chest_strap",
+        "right_front_pocket_phone", "left_upper_arm_band", "right_ankle_clip", "waist_belt"}) {
     SensorSpec x;
     x.name = p;
     x.placement = resolve_preset(placement_preset(p), b);
@@ -197,7 +215,12 @@ void BM_FullBody9Sensors100Hz3min(benchmark::State& state) {
   }
   run_whole(state, b, s, static_cast<DerivativeMethod>(state.range(0)), 18000);
 }
-BENCHMARK(BM_FullBody9Sensors100Hz3min)->Arg(0)->Arg(1)->Arg(2)->ArgName("method_fd0_spline1_reference2")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_FullBody9Sensors100Hz3min)
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->ArgName("method_fd0_spline1_reference2")
+    ->Unit(benchmark::kMillisecond);
 
 // --- plan pruning -----------------------------------------------------------------------------
 
@@ -230,9 +253,16 @@ void BM_PlanPruningOneWrist(benchmark::State& state) {
   const bool big = state.range(0) == 25;
   const bool gyro = state.range(1) != 0;
   const Body b = big ? body25() : chain_only();
-  run_whole(state, b, {sensor("w", b.index_of("left_elbow"), Vector3d(-0.24, 0, 0.03), gyro)}, DerivativeMethod::fd, 18000);
+  run_whole(state, b, {sensor("w", b.index_of("left_elbow"), Vector3d(-0.24, 0, 0.03), gyro)},
+            DerivativeMethod::fd, 18000);
 }
-BENCHMARK(BM_PlanPruningOneWrist)->Args({25, 1})->Args({6, 1})->Args({25, 0})->Args({6, 0})->ArgNames({"body_joints", "gyro"})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlanPruningOneWrist)
+    ->Args({25, 1})
+    ->Args({6, 1})
+    ->Args({25, 0})
+    ->Args({6, 0})
+    ->ArgNames({"body_joints", "gyro"})
+    ->Unit(benchmark::kMillisecond);
 
 // --- memory -----------------------------------------------------------------------------------
 
@@ -258,15 +288,17 @@ int memory_run(bool streamed) {
     source = m;
   }
   const long before = peak_rss_kb();
-  Simulator sim(b, {sensor("RWR", 4, Vector3d(0.25, 0, 0.03)), sensor("LWR", 7, Vector3d(-0.25, 0, 0.03))});
+  Simulator sim(
+      b, {sensor("RWR", 4, Vector3d(0.25, 0, 0.03)), sensor("LWR", 7, Vector3d(-0.25, 0, 0.03))});
   std::FILE* f = std::fopen("/tmp/imukit_sim_bench_memory.csv", "wb");
   int64_t n = 0;
   sim.run(*source, [&](std::size_t s, const SensorBlock& blk) {
     for (std::size_t i = 0; i < blk.t.size(); ++i) {
       const auto c = static_cast<Eigen::Index>(i);
-      std::fprintf(f, "%zu,%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", s, static_cast<long long>(blk.t[i]),
-                   blk.angular_rate(0, c), blk.angular_rate(1, c), blk.angular_rate(2, c), blk.specific_force(0, c),
-                   blk.specific_force(1, c), blk.specific_force(2, c));
+      std::fprintf(f, "%zu,%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", s,
+                   static_cast<long long>(blk.t[i]), blk.angular_rate(0, c), blk.angular_rate(1, c),
+                   blk.angular_rate(2, c), blk.specific_force(0, c), blk.specific_force(1, c),
+                   blk.specific_force(2, c));
     }
     n += static_cast<int64_t>(blk.t.size());
   });
@@ -274,9 +306,11 @@ int memory_run(bool streamed) {
   std::remove("/tmp/imukit_sim_bench_memory.csv");
   const long peak = peak_rss_kb();
   std::printf("%s: 60 min at 100 Hz, 12 joints, 2 sensors, %lld sensor-samples written to a file\n",
-              streamed ? "streamed motion source" : "motion loaded whole", static_cast<long long>(n));
-  std::printf("  peak RSS %.1f MB; motion in memory %.1f MB; peak beyond the loaded state %.1f MB\n", peak / 1024.0,
-              static_cast<double>(motion_bytes) / 1048576.0, (peak - before) / 1024.0);
+              streamed ? "streamed motion source" : "motion loaded whole",
+              static_cast<long long>(n));
+  std::printf(
+      "  peak RSS %.1f MB; motion in memory %.1f MB; peak beyond the loaded state %.1f MB\n",
+      peak / 1024.0, static_cast<double>(motion_bytes) / 1048576.0, (peak - before) / 1024.0);
   return 0;
 }
 

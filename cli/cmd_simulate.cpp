@@ -49,7 +49,8 @@ class StreamFile {
   StreamFile(const StreamFile&) = delete;
   StreamFile& operator=(const StreamFile&) = delete;
   void put(const std::string& s) {
-    if (std::fwrite(s.data(), 1, s.size(), f_) != s.size()) throw Error(path_ + ": write failed (disk full?)");
+    if (std::fwrite(s.data(), 1, s.size(), f_) != s.size())
+      throw Error(path_ + ": write failed (disk full?)");
   }
   void close() {
     if (f_ != nullptr && std::fclose(f_) != 0) {
@@ -68,9 +69,9 @@ void write_rows(StreamFile& file, const sim::SensorBlock& b) {
   std::string buf;
   for (std::size_t i = 0; i < b.t.size(); ++i) {
     const auto c = static_cast<Eigen::Index>(i);
-    buf += fmt::format("{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", b.t[i], b.angular_rate(0, c),
-                       b.angular_rate(1, c), b.angular_rate(2, c), b.specific_force(0, c),
-                       b.specific_force(1, c), b.specific_force(2, c));
+    buf += fmt::format("{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", b.t[i],
+                       b.angular_rate(0, c), b.angular_rate(1, c), b.angular_rate(2, c),
+                       b.specific_force(0, c), b.specific_force(1, c), b.specific_force(2, c));
   }
   file.put(buf);
 }
@@ -101,7 +102,8 @@ sim::Scene quick_scene(const SimulateArgs& a) {
   scene.motion = std::make_shared<sim::Motion>(std::move(d.motion));
   scene.frames = scene.motion->frame_count();
   scene.warnings = std::move(d.warnings);
-  if (a.presets.empty()) throw Error("simulate --bvh: name at least one --preset (see --list-presets)");
+  if (a.presets.empty())
+    throw Error("simulate --bvh: name at least one --preset (see --list-presets)");
   for (const std::string& name : a.presets) {
     sim::SceneSensor s;
     s.preset = name;
@@ -118,13 +120,17 @@ int run_simulate(const SimulateArgs& a) {
   if (a.output.empty()) throw Error("simulate: give the output folder with -o DIR");
   const std::filesystem::path out(a.output);
   if (out.extension() == ".mcap") {
-    throw Error("simulate: MCAP output comes with the capture module's recorder; use -o DIR for EuRoC CSV files");
+    throw Error(
+        "simulate: MCAP output comes with the capture module's recorder; use -o DIR for EuRoC CSV "
+        "files");
   }
-  if (a.scene.empty() == a.bvh.empty()) throw Error("simulate: give either SCENE.json or --bvh FILE");
+  if (a.scene.empty() == a.bvh.empty())
+    throw Error("simulate: give either SCENE.json or --bvh FILE");
   sim::Scene scene = a.scene.empty() ? quick_scene(a) : sim::read_scene(a.scene);
   if (!a.method.empty()) scene.options.method = sim::parse_derivative_method(a.method);
   if (a.rate_hz != 0.0) {
-    if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e6)) throw Error("simulate: --rate must be in (0, 1e6] Hz");
+    if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
+      throw Error("simulate: --rate must be in (0, 1e6] Hz");
     scene.options.rate_hz = a.rate_hz;
   }
   if (a.seed >= 0) scene.seed = static_cast<uint64_t>(a.seed);
@@ -133,7 +139,8 @@ int run_simulate(const SimulateArgs& a) {
   const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
   for (sim::SceneSensor& s : scene.sensors) {
     if (!s.spec.outputs.accelerometer || !s.spec.outputs.gyroscope) {
-      throw Error("simulate: sensor " + s.spec.name + ": an EuRoC CSV needs both accelerometer and gyroscope");
+      throw Error("simulate: sensor " + s.spec.name +
+                  ": an EuRoC CSV needs both accelerometer and gyroscope");
     }
     if (s.hardware) validate_hardware_model(*s.hardware, rate);
   }
@@ -143,13 +150,14 @@ int run_simulate(const SimulateArgs& a) {
   std::vector<std::unique_ptr<StreamFile>> files, truth, orient;
   for (const sim::SceneSensor& s : scene.sensors) {
     files.push_back(std::make_unique<StreamFile>((out / (s.spec.name + ".csv")).string(), header));
-    truth.push_back(scene.ground_truth
-                        ? std::make_unique<StreamFile>((out / (s.spec.name + ".truth.csv")).string(), header)
-                        : nullptr);
-    orient.push_back(s.spec.outputs.orientation
-                         ? std::make_unique<StreamFile>((out / (s.spec.name + ".orientation.csv")).string(),
-                                                        "#timestamp [ns],q_WS_w,q_WS_x,q_WS_y,q_WS_z")
-                         : nullptr);
+    truth.push_back(scene.ground_truth ? std::make_unique<StreamFile>(
+                                             (out / (s.spec.name + ".truth.csv")).string(), header)
+                                       : nullptr);
+    orient.push_back(
+        s.spec.outputs.orientation
+            ? std::make_unique<StreamFile>((out / (s.spec.name + ".orientation.csv")).string(),
+                                           "#timestamp [ns],q_WS_w,q_WS_x,q_WS_y,q_WS_z")
+            : nullptr);
   }
   int64_t samples = 0;
   sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
@@ -167,47 +175,62 @@ int run_simulate(const SimulateArgs& a) {
   const Eigen::Vector3d& g = scene.options.gravity_world;
   std::string sensors;
   for (const sim::SceneSensor& s : scene.sensors) {
-    sensors += fmt::format("{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}}}", sensors.empty() ? "" : ", ",
-                           s.spec.name, s.preset, s.hardware ? "true" : "false");
+    sensors += fmt::format("{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}}}",
+                           sensors.empty() ? "" : ", ", s.spec.name, s.preset,
+                           s.hardware ? "true" : "false");
   }
-  StreamFile info((out / "simulation.json").string(),
-                  fmt::format("{{\"schema\": \"imukit.simulation/1\", \"method\": \"{}\", \"rate_hz\": {:.17g}, "
-                              "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
-                              sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), scene.seed, sensors));
+  StreamFile info(
+      (out / "simulation.json").string(),
+      fmt::format(
+          "{{\"schema\": \"imukit.simulation/1\", \"method\": \"{}\", \"rate_hz\": {:.17g}, "
+          "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
+          sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), scene.seed, sensors));
   info.close();
-  fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n", scene.sensors.size(), samples, rate,
-             sim::to_string(scene.options.method), out.string());
+  fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
+             scene.sensors.size(), samples, rate, sim::to_string(scene.options.method),
+             out.string());
   return 0;
 }
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(simulate, CommandSpec{
-    "simulate", "Simulate wearable IMU signals from body motion (BVH, scene JSON)", 60,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto a = std::make_shared<SimulateArgs>();
-      sub.add_option("scene", a->scene, "Scene JSON (imukit.scene/1, docs/formats.md)");
-      sub.add_option("-o,--output", a->output,
-                     "Output folder: one EuRoC CSV per sensor (+ .truth.csv with --ground-truth). "
-                     "MCAP output (-o FILE.mcap) comes with the capture module's recorder");
-      sub.add_option("--method", a->method, "Derivative method: fd (default), spline, or reference (comparison only)");
-      sub.add_option("--rate", a->rate_hz, "Sensor sample rate in Hz (default: the motion's frame rate)");
-      sub.add_option("--seed", a->seed, "Seed of the hardware noise");
-      sub.add_option("--gravity", a->gravity, "Gravity magnitude in m/s^2 (default 9.80665)");
-      sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
-      sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)");
-      sub.add_option("--up", a->up, "Up axis of the BVH file: y (default) or z")->check(CLI::IsMember({"y", "z"}));
-      sub.add_option("--preset", a->presets, "Quick form: a placement preset (repeatable; see --list-presets)");
-      sub.add_option("--hardware", a->hardware, "Quick form: device profile JSON for every sensor");
-      sub.add_flag("--ground-truth", a->ground_truth, "Also write the noiseless signals");
-      sub.add_flag("--list-presets", a->list_presets, "Print the placement presets and exit");
-      sub.footer(
-          "\nExamples:\n"
-          "  imukit simulate scene.json -o out/\n"
-          "  imukit simulate --bvh walk.bvh --preset left_wrist_watch --hardware imu.json -o out/\n"
-          "  imukit simulate --bvh 01_01.bvh --bvh-scale 0.056444 --preset right_wrist_watch -o out/ --method spline --rate 200\n"
-          "  imukit simulate --list-presets\n");
-      return [a] { return run_simulate(*a); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    simulate,
+    CommandSpec{
+        "simulate", "Simulate wearable IMU signals from body motion (BVH, scene JSON)", 60,
+        [](CLI::App& sub) -> std::function<int()> {
+          auto a = std::make_shared<SimulateArgs>();
+          sub.add_option("scene", a->scene, "Scene JSON (imukit.scene/1, docs/formats.md)");
+          sub.add_option(
+              "-o,--output", a->output,
+              "Output folder: one EuRoC CSV per sensor (+ .truth.csv with --ground-truth). "
+              "MCAP output (-o FILE.mcap) comes with the capture module's recorder");
+          sub.add_option("--method", a->method,
+                         "Derivative method: fd (default), spline, or reference (comparison only)");
+          sub.add_option("--rate", a->rate_hz,
+                         "Sensor sample rate in Hz (default: the motion's frame rate)");
+          sub.add_option("--seed", a->seed, "Seed of the hardware noise");
+          sub.add_option("--gravity", a->gravity, "Gravity magnitude in m/s^2 (default 9.80665)");
+          sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
+          sub.add_option("--bvh-scale", a->bvh_scale,
+                         "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)");
+          sub.add_option("--up", a->up, "Up axis of the BVH file: y (default) or z")
+              ->check(CLI::IsMember({"y", "z"}));
+          sub.add_option("--preset", a->presets,
+                         "Quick form: a placement preset (repeatable; see --list-presets)");
+          sub.add_option("--hardware", a->hardware,
+                         "Quick form: device profile JSON for every sensor");
+          sub.add_flag("--ground-truth", a->ground_truth, "Also write the noiseless signals");
+          sub.add_flag("--list-presets", a->list_presets, "Print the placement presets and exit");
+          sub.footer(
+              "\nExamples:\n"
+              "  imukit simulate scene.json -o out/\n"
+              "  imukit simulate --bvh walk.bvh --preset left_wrist_watch --hardware imu.json -o "
+              "out/\n"
+              "  imukit simulate --bvh 01_01.bvh --bvh-scale 0.056444 --preset right_wrist_watch "
+              "-o out/ --method spline --rate 200\n"
+              "  imukit simulate --list-presets\n");
+          return [a] { return run_simulate(*a); };
+        }});
 
 }  // namespace imukit::cli

@@ -30,7 +30,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   s.name = "fuzz";
   s.placement.joint = static_cast<int>(d.body.size()) - 1;
   s.placement.p_joint_sensor = Eigen::Vector3d(0.01, 0.02, 0.03);
-  for (const auto method : {imukit::sim::DerivativeMethod::fd, imukit::sim::DerivativeMethod::spline}) {
+  for (const auto method :
+       {imukit::sim::DerivativeMethod::fd, imukit::sim::DerivativeMethod::spline}) {
     try {
       imukit::sim::SimulationOptions o;
       o.method = method;

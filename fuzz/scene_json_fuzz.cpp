@@ -40,7 +40,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const double rate = scene.options.rate_hz > 0 ? scene.options.rate_hz : scene.motion->rate_hz();
   if (static_cast<double>(*scene.frames) / scene.motion->rate_hz() * rate > 2000) return 0;
   try {
-    imukit::sim::run_scene(scene, [](std::size_t, const imukit::sim::SensorBlock&, const imukit::sim::SensorBlock*) {});
+    imukit::sim::run_scene(scene, [](std::size_t, const imukit::sim::SensorBlock&,
+                                     const imukit::sim::SensorBlock*) {});
   } catch (const imukit::Error&) {
   }
   return 0;

@@ -28,48 +28,81 @@ struct Alias {
 // Names both CMU releases agree on, the canonical names themselves and common other spellings
 // (the reference simulator's L_ELBOW style, "upper arm"/"lower arm" rigs).
 constexpr std::array kCommonAliases = {
-    Alias{"hips", "pelvis"},          Alias{"pelvis", "pelvis"},
-    Alias{"hip", "pelvis"},           Alias{"root", "pelvis"},
-    Alias{"neck", "neck"},            Alias{"head", "head"},
-    Alias{"spine", "spine"},          Alias{"chest", "chest"},
-    Alias{"l_clavicle", "left_clavicle"},   Alias{"r_clavicle", "right_clavicle"},
-    Alias{"l_shoulder", "left_shoulder"},   Alias{"r_shoulder", "right_shoulder"},
-    Alias{"l_elbow", "left_elbow"},         Alias{"r_elbow", "right_elbow"},
-    Alias{"l_wrist", "left_wrist"},         Alias{"r_wrist", "right_wrist"},
-    Alias{"l_hip", "left_hip"},             Alias{"r_hip", "right_hip"},
-    Alias{"l_knee", "left_knee"},           Alias{"r_knee", "right_knee"},
-    Alias{"l_ankle", "left_ankle"},         Alias{"r_ankle", "right_ankle"},
-    Alias{"leftupperarm", "left_shoulder"}, Alias{"rightupperarm", "right_shoulder"},
-    Alias{"leftlowerarm", "left_elbow"},    Alias{"rightlowerarm", "right_elbow"},
-    Alias{"leftupperleg", "left_hip"},      Alias{"rightupperleg", "right_hip"},
-    Alias{"leftlowerleg", "left_knee"},     Alias{"rightlowerleg", "right_knee"},
+    Alias{"hips", "pelvis"},
+    Alias{"pelvis", "pelvis"},
+    Alias{"hip", "pelvis"},
+    Alias{"root", "pelvis"},
+    Alias{"neck", "neck"},
+    Alias{"head", "head"},
+    Alias{"spine", "spine"},
+    Alias{"chest", "chest"},
+    Alias{"l_clavicle", "left_clavicle"},
+    Alias{"r_clavicle", "right_clavicle"},
+    Alias{"l_shoulder", "left_shoulder"},
+    Alias{"r_shoulder", "right_shoulder"},
+    Alias{"l_elbow", "left_elbow"},
+    Alias{"r_elbow", "right_elbow"},
+    Alias{"l_wrist", "left_wrist"},
+    Alias{"r_wrist", "right_wrist"},
+    Alias{"l_hip", "left_hip"},
+    Alias{"r_hip", "right_hip"},
+    Alias{"l_knee", "left_knee"},
+    Alias{"r_knee", "right_knee"},
+    Alias{"l_ankle", "left_ankle"},
+    Alias{"r_ankle", "right_ankle"},
+    Alias{"leftupperarm", "left_shoulder"},
+    Alias{"rightupperarm", "right_shoulder"},
+    Alias{"leftlowerarm", "left_elbow"},
+    Alias{"rightlowerarm", "right_elbow"},
+    Alias{"leftupperleg", "left_hip"},
+    Alias{"rightupperleg", "right_hip"},
+    Alias{"leftlowerleg", "left_knee"},
+    Alias{"rightlowerleg", "right_knee"},
 };
 
 // CMU "3dsMax-friendly" conversion (cmuconvert-max): joints named for the joint.
 constexpr std::array kCmuMaxAliases = {
-    Alias{"lowerback", "spine"},        Alias{"chest", "chest"},
-    Alias{"leftcollar", "left_clavicle"},   Alias{"rightcollar", "right_clavicle"},
-    Alias{"leftshoulder", "left_shoulder"}, Alias{"rightshoulder", "right_shoulder"},
-    Alias{"leftelbow", "left_elbow"},       Alias{"rightelbow", "right_elbow"},
-    Alias{"leftwrist", "left_wrist"},       Alias{"rightwrist", "right_wrist"},
-    Alias{"lefthip", "left_hip"},           Alias{"righthip", "right_hip"},
-    Alias{"leftknee", "left_knee"},         Alias{"rightknee", "right_knee"},
-    Alias{"leftankle", "left_ankle"},       Alias{"rightankle", "right_ankle"},
-    Alias{"lefttoe", "left_toe"},           Alias{"righttoe", "right_toe"},
+    Alias{"lowerback", "spine"},
+    Alias{"chest", "chest"},
+    Alias{"leftcollar", "left_clavicle"},
+    Alias{"rightcollar", "right_clavicle"},
+    Alias{"leftshoulder", "left_shoulder"},
+    Alias{"rightshoulder", "right_shoulder"},
+    Alias{"leftelbow", "left_elbow"},
+    Alias{"rightelbow", "right_elbow"},
+    Alias{"leftwrist", "left_wrist"},
+    Alias{"rightwrist", "right_wrist"},
+    Alias{"lefthip", "left_hip"},
+    Alias{"righthip", "right_hip"},
+    Alias{"leftknee", "left_knee"},
+    Alias{"rightknee", "right_knee"},
+    Alias{"leftankle", "left_ankle"},
+    Alias{"rightankle", "right_ankle"},
+    Alias{"lefttoe", "left_toe"},
+    Alias{"righttoe", "right_toe"},
 };
 
 // CMU "MotionBuilder-friendly" conversion (cmuconvert-mb2): joints named for the segment they
 // carry, and LeftShoulder is the clavicle.
 constexpr std::array kCmuMotionBuilderAliases = {
-    Alias{"lowerback", "spine"},          Alias{"spine1", "chest"},
-    Alias{"leftshoulder", "left_clavicle"},  Alias{"rightshoulder", "right_clavicle"},
-    Alias{"leftarm", "left_shoulder"},       Alias{"rightarm", "right_shoulder"},
-    Alias{"leftforearm", "left_elbow"},      Alias{"rightforearm", "right_elbow"},
-    Alias{"lefthand", "left_wrist"},         Alias{"righthand", "right_wrist"},
-    Alias{"leftupleg", "left_hip"},          Alias{"rightupleg", "right_hip"},
-    Alias{"leftleg", "left_knee"},           Alias{"rightleg", "right_knee"},
-    Alias{"leftfoot", "left_ankle"},         Alias{"rightfoot", "right_ankle"},
-    Alias{"lefttoebase", "left_toe"},        Alias{"righttoebase", "right_toe"},
+    Alias{"lowerback", "spine"},
+    Alias{"spine1", "chest"},
+    Alias{"leftshoulder", "left_clavicle"},
+    Alias{"rightshoulder", "right_clavicle"},
+    Alias{"leftarm", "left_shoulder"},
+    Alias{"rightarm", "right_shoulder"},
+    Alias{"leftforearm", "left_elbow"},
+    Alias{"rightforearm", "right_elbow"},
+    Alias{"lefthand", "left_wrist"},
+    Alias{"righthand", "right_wrist"},
+    Alias{"leftupleg", "left_hip"},
+    Alias{"rightupleg", "right_hip"},
+    Alias{"leftleg", "left_knee"},
+    Alias{"rightleg", "right_knee"},
+    Alias{"leftfoot", "left_ankle"},
+    Alias{"rightfoot", "right_ankle"},
+    Alias{"lefttoebase", "left_toe"},
+    Alias{"righttoebase", "right_toe"},
 };
 
 struct SegmentName {
@@ -77,17 +110,27 @@ struct SegmentName {
   const char* segment;
 };
 constexpr std::array kSegments = {
-    SegmentName{"pelvis", "pelvis"},         SegmentName{"spine", "abdomen"},
-    SegmentName{"chest", "thorax"},          SegmentName{"neck", "neck"},
+    SegmentName{"pelvis", "pelvis"},
+    SegmentName{"spine", "abdomen"},
+    SegmentName{"chest", "thorax"},
+    SegmentName{"neck", "neck"},
     SegmentName{"head", "head"},
-    SegmentName{"left_clavicle", "left_clavicle"},   SegmentName{"right_clavicle", "right_clavicle"},
-    SegmentName{"left_shoulder", "left_upper_arm"},  SegmentName{"right_shoulder", "right_upper_arm"},
-    SegmentName{"left_elbow", "left_forearm"},       SegmentName{"right_elbow", "right_forearm"},
-    SegmentName{"left_wrist", "left_hand"},          SegmentName{"right_wrist", "right_hand"},
-    SegmentName{"left_hip", "left_thigh"},           SegmentName{"right_hip", "right_thigh"},
-    SegmentName{"left_knee", "left_shank"},          SegmentName{"right_knee", "right_shank"},
-    SegmentName{"left_ankle", "left_foot"},          SegmentName{"right_ankle", "right_foot"},
-    SegmentName{"left_toe", "left_toes"},            SegmentName{"right_toe", "right_toes"},
+    SegmentName{"left_clavicle", "left_clavicle"},
+    SegmentName{"right_clavicle", "right_clavicle"},
+    SegmentName{"left_shoulder", "left_upper_arm"},
+    SegmentName{"right_shoulder", "right_upper_arm"},
+    SegmentName{"left_elbow", "left_forearm"},
+    SegmentName{"right_elbow", "right_forearm"},
+    SegmentName{"left_wrist", "left_hand"},
+    SegmentName{"right_wrist", "right_hand"},
+    SegmentName{"left_hip", "left_thigh"},
+    SegmentName{"right_hip", "right_thigh"},
+    SegmentName{"left_knee", "left_shank"},
+    SegmentName{"right_knee", "right_shank"},
+    SegmentName{"left_ankle", "left_foot"},
+    SegmentName{"right_ankle", "right_foot"},
+    SegmentName{"left_toe", "left_toes"},
+    SegmentName{"right_toe", "right_toes"},
 };
 
 template <std::size_t N>
@@ -131,7 +174,8 @@ std::vector<std::string> canonicalize_joint_names(const std::vector<std::string>
   std::set<std::string> taken;
   for (const std::string& n : source_names) {
     const std::string l = lower(n);
-    const char* c = motion_builder ? lookup(kCmuMotionBuilderAliases, l) : lookup(kCmuMaxAliases, l);
+    const char* c =
+        motion_builder ? lookup(kCmuMotionBuilderAliases, l) : lookup(kCmuMaxAliases, l);
     if (c == nullptr) c = lookup(kCommonAliases, l);
     if (c == nullptr) {
       for (const SegmentName& s : kSegments) {
@@ -175,7 +219,8 @@ int Body::add_joint(std::string name, int parent, const Eigen::Vector3d& offset_
 std::optional<int> Body::find(std::string_view name) const {
   const std::string l = lower(name);
   for (std::size_t i = 0; i < joints_.size(); ++i) {
-    if (lower(joints_[i].name) == l || lower(joints_[i].source_name) == l) return static_cast<int>(i);
+    if (lower(joints_[i].name) == l || lower(joints_[i].source_name) == l)
+      return static_cast<int>(i);
   }
   for (const SegmentName& s : kSegments) {
     if (l == s.segment) return find(s.joint);
@@ -254,8 +299,8 @@ std::vector<Eigen::Vector3d> Body::neutral_positions() const {
 Eigen::Vector3d Body::forward_direction() const {
   const std::vector<Eigen::Vector3d> p = neutral_positions();
   const Eigen::Vector3d up(0, 0, 1);
-  for (const auto& [l, r] : {std::pair{"left_hip", "right_hip"},
-                             std::pair{"left_shoulder", "right_shoulder"}}) {
+  for (const auto& [l, r] :
+       {std::pair{"left_hip", "right_hip"}, std::pair{"left_shoulder", "right_shoulder"}}) {
     const auto il = find(l);
     const auto ir = find(r);
     if (!il || !ir) continue;

@@ -21,9 +21,9 @@
 namespace imukit::sim {
 
 struct Joint {
-  std::string name;                                            // canonical when known
-  std::string source_name;                                     // as the input spelled it
-  int parent = -1;                                             // -1 for the root
+  std::string name;                                               // canonical when known
+  std::string source_name;                                        // as the input spelled it
+  int parent = -1;                                                // -1 for the root
   Eigen::Vector3d offset_parent_joint = Eigen::Vector3d::Zero();  // m, in the parent's frame
   // Where the segment ends when no child joint says so (BVH "End Site"), in this joint's frame.
   std::optional<Eigen::Vector3d> end_offset;

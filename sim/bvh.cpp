@@ -53,12 +53,15 @@ class Tokenizer {
 
   Token expect_any(const char* what) {
     Token t;
-    if (!next(t)) throw Error(InputLocation{name_, line_, col_, std::nullopt}, std::string("unexpected end of file: expected ") + what);
+    if (!next(t))
+      throw Error(InputLocation{name_, line_, col_, std::nullopt},
+                  std::string("unexpected end of file: expected ") + what);
     return t;
   }
   void expect(std::string_view word) {
     const Token t = expect_any(std::string(word).c_str());
-    if (t.text != word) fail(t, "expected '" + std::string(word) + "', got '" + std::string(t.text) + "'");
+    if (t.text != word)
+      fail(t, "expected '" + std::string(word) + "', got '" + std::string(t.text) + "'");
   }
   double number(const char* what) {
     const Token t = expect_any(what);
@@ -118,13 +121,20 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
     std::string l(c.text);
     for (char& x : l) x = static_cast<char>(std::tolower(static_cast<unsigned char>(x)));
     Channel k;
-    if (l == "xposition") k = Channel::xpos;
-    else if (l == "yposition") k = Channel::ypos;
-    else if (l == "zposition") k = Channel::zpos;
-    else if (l == "xrotation") k = Channel::xrot;
-    else if (l == "yrotation") k = Channel::yrot;
-    else if (l == "zrotation") k = Channel::zrot;
-    else tz.fail(c, "unknown channel '" + std::string(c.text) + "'");
+    if (l == "xposition")
+      k = Channel::xpos;
+    else if (l == "yposition")
+      k = Channel::ypos;
+    else if (l == "zposition")
+      k = Channel::zpos;
+    else if (l == "xrotation")
+      k = Channel::xrot;
+    else if (l == "yrotation")
+      k = Channel::yrot;
+    else if (l == "zrotation")
+      k = Channel::zrot;
+    else
+      tz.fail(c, "unknown channel '" + std::string(c.text) + "'");
     for (Channel e : j.channels) {
       if (e == k) tz.fail(c, "channel '" + std::string(c.text) + "' listed twice");
     }
@@ -161,7 +171,8 @@ Eigen::Quaterniond axis_rotation(Channel c, double degrees) {
 
 }  // namespace
 
-BvhData parse_bvh(std::string_view text, const std::string& source_name, const BvhOptions& options) {
+BvhData parse_bvh(std::string_view text, const std::string& source_name,
+                  const BvhOptions& options) {
   if (!(std::isfinite(options.scale) && options.scale > 0.0)) {
     throw Error(source_name + ": --bvh-scale must be finite and positive");
   }
@@ -186,15 +197,16 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name, const B
   tz.expect("Time:");
   const Token dtt = tz.expect_any("the frame time");
   const auto dt = parse_double(dtt.text);
-  if (!dt || !std::isfinite(*dt) || !(*dt > 0.0)) tz.fail(dtt, "frame time must be a positive number");
+  if (!dt || !std::isfinite(*dt) || !(*dt > 0.0))
+    tz.fail(dtt, "frame time must be a positive number");
 
   BvhData out;
   out.frame_time_s = *dt;
   // Up-axis change of basis C and its quaternion.
-  const Eigen::Quaterniond qC = options.up == UpAxis::y
-                                    ? Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2,
-                                                                           Eigen::Vector3d::UnitX()))
-                                    : Eigen::Quaterniond::Identity();
+  const Eigen::Quaterniond qC =
+      options.up == UpAxis::y
+          ? Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()))
+          : Eigen::Quaterniond::Identity();
   // Exact for the y-up case: C maps (x, y, z) to (x, -z, y) with no rounding.
   const auto map_vec = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d {
     const Eigen::Vector3d s = v * options.scale;
@@ -205,18 +217,21 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name, const B
   const std::vector<std::string> canon = canonicalize_joint_names(names);
   bool ignored_positions = false;
   for (std::size_t i = 0; i < raw.size(); ++i) {
-    out.body.add_joint(canon[i], raw[i].parent, raw[i].parent < 0 ? Eigen::Vector3d::Zero() : map_vec(raw[i].offset),
+    out.body.add_joint(canon[i], raw[i].parent,
+                       raw[i].parent < 0 ? Eigen::Vector3d::Zero() : map_vec(raw[i].offset),
                        raw[i].name);
     if (raw[i].end) out.body.joint(i).end_offset = map_vec(*raw[i].end);
     if (raw[i].parent >= 0) {
       for (Channel c : raw[i].channels) {
-        if (c == Channel::xpos || c == Channel::ypos || c == Channel::zpos) ignored_positions = true;
+        if (c == Channel::xpos || c == Channel::ypos || c == Channel::zpos)
+          ignored_positions = true;
       }
     }
   }
   if (ignored_positions) {
-    out.warnings.push_back(source_name + ": position channels of non-root joints are ignored "
-                                         "(segment lengths are fixed by the OFFSETs)");
+    out.warnings.push_back(source_name +
+                           ": position channels of non-root joints are ignored "
+                           "(segment lengths are fixed by the OFFSETs)");
   }
   // The root's OFFSET is where the root sits when its position channels read 0.
   const Eigen::Vector3d root_offset = map_vec(raw.front().offset);
@@ -251,10 +266,18 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name, const B
       for (Channel c : raw[i].channels) {
         const double v = tz.number("a channel value");
         switch (c) {
-          case Channel::xpos: pos.x() = v; break;
-          case Channel::ypos: pos.y() = v; break;
-          case Channel::zpos: pos.z() = v; break;
-          default: q = q * axis_rotation(c, v); break;  // intrinsic: right-multiply in order
+          case Channel::xpos:
+            pos.x() = v;
+            break;
+          case Channel::ypos:
+            pos.y() = v;
+            break;
+          case Channel::zpos:
+            pos.z() = v;
+            break;
+          default:
+            q = q * axis_rotation(c, v);
+            break;  // intrinsic: right-multiply in order
         }
       }
       out.motion.rotation(f, i) = qC * q * qC.conjugate();

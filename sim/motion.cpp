@@ -127,8 +127,8 @@ ProceduralMotion::ProceduralMotion(std::size_t joints, const ProceduralMotionOpt
     offset_.push_back(std::move(offs));
   }
   for (auto& t : translation_harmonic_) {
-    t.push_back(options.period_s / 5 + static_cast<int64_t>(rng.uniform_index(
-                                           static_cast<uint64_t>(std::max<int64_t>(1, options.period_s)))));
+    t.push_back(options.period_s / 5 + static_cast<int64_t>(rng.uniform_index(static_cast<uint64_t>(
+                                           std::max<int64_t>(1, options.period_s)))));
   }
 }
 
@@ -194,7 +194,9 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     return InputLocation{source_name, reader.line_number(), column, std::nullopt};
   };
   std::optional<std::string_view> line = reader.next();
-  if (!line) throw Error(InputLocation{source_name, 1, 1, std::nullopt}, "empty file: expected a header row");
+  if (!line)
+    throw Error(InputLocation{source_name, 1, 1, std::nullopt},
+                "empty file: expected a header row");
   split_fields(*line, fields);
   // Column roles: -1 skip, 0 time, 1..3 root x..z, 10 + 4 j + c joint j component c (w,x,y,z).
   std::vector<int> role(fields.size(), -1);
@@ -243,10 +245,11 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     }
     for (std::size_t i = 0; i < width; ++i) {
       const auto v = parse_double(fields[i].text);
-      if (!v) throw Error(at(fields[i].column), "not a number: '" + std::string(fields[i].text) + "'");
+      if (!v)
+        throw Error(at(fields[i].column), "not a number: '" + std::string(fields[i].text) + "'");
       if (!std::isfinite(*v)) {
-        throw Error(at(fields[i].column), "frame " + std::to_string(times.size()) +
-                                               ": value is not finite");
+        throw Error(at(fields[i].column),
+                    "frame " + std::to_string(times.size()) + ": value is not finite");
       }
       values.push_back(*v);
       if (role[i] == 0) times.push_back(*v);
@@ -264,7 +267,8 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
     if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
     for (int64_t f = 1; f < frames; ++f) {
-      const double step = times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
+      const double step =
+          times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
       if (std::abs(step - dt) > 1e-6 * dt) {
         throw Error(InputLocation{source_name, f + 2, 1, std::nullopt},
                     "t is not uniform (step " + std::to_string(step) + " s, mean " +
@@ -283,10 +287,14 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
         const auto j = static_cast<std::size_t>((role[i] - 10) / 4);
         const int c = (role[i] - 10) % 4;
         Eigen::Quaterniond& q = m.rotation(f, j);
-        if (c == 0) q.w() = v;
-        else if (c == 1) q.x() = v;
-        else if (c == 2) q.y() = v;
-        else q.z() = v;
+        if (c == 0)
+          q.w() = v;
+        else if (c == 1)
+          q.x() = v;
+        else if (c == 2)
+          q.y() = v;
+        else
+          q.z() = v;
       }
     }
   }

@@ -33,9 +33,9 @@ inline constexpr double kQuaternionNormTolerance = 1e-6;
 struct MotionChunk {
   int64_t first_frame = 0;
   int64_t frames = 0;
-  Eigen::Matrix3Xd root_translation;           // 3 x frames, m
-  std::vector<Eigen::Quaterniond> rotations;   // frames x joints, index frame * joints + k
-  std::size_t joints = 0;                      // the number of joints asked for
+  Eigen::Matrix3Xd root_translation;          // 3 x frames, m
+  std::vector<Eigen::Quaterniond> rotations;  // frames x joints, index frame * joints + k
+  std::size_t joints = 0;                     // the number of joints asked for
   const Eigen::Quaterniond& rotation(int64_t frame_in_chunk, std::size_t k) const {
     return rotations[static_cast<std::size_t>(frame_in_chunk) * joints + k];
   }
@@ -50,7 +50,8 @@ class MotionSource {
   virtual std::optional<int64_t> frame_count() const = 0;
   // Fills `out` with frames [first, first + count) of the joints listed (indices into the body;
   // in that order). The range must lie inside the source (asserted).
-  virtual void read(int64_t first, int64_t count, std::span<const int> joints, MotionChunk& out) = 0;
+  virtual void read(int64_t first, int64_t count, std::span<const int> joints,
+                    MotionChunk& out) = 0;
 };
 
 class Motion : public MotionSource {
@@ -102,12 +103,12 @@ void require_simulatable(const MotionSource& motion, const std::string& what);
 // (start_frame): no drift from accumulated time. The rate must be an integer number of Hz.
 struct ProceduralMotionOptions {
   double rate_hz = 100.0;
-  std::optional<int64_t> frames;    // nullopt: endless
-  int64_t start_frame = 0;          // frame 0 of this source is absolute frame start_frame
+  std::optional<int64_t> frames;  // nullopt: endless
+  int64_t start_frame = 0;        // frame 0 of this source is absolute frame start_frame
   uint64_t seed = 1;
-  int harmonics = 3;                // sinusoids per joint
-  int64_t period_s = 60;            // fundamental period; frequencies k / period_s, k in [12, 72)
-  double amplitude_rad = 0.1;       // per sinusoid (human-like accelerations at the wrist)
+  int harmonics = 3;           // sinusoids per joint
+  int64_t period_s = 60;       // fundamental period; frequencies k / period_s, k in [12, 72)
+  double amplitude_rad = 0.1;  // per sinusoid (human-like accelerations at the wrist)
   double translation_amplitude_m = 0.05;
 };
 

@@ -39,14 +39,15 @@ const std::vector<PlacementPreset>& placement_presets() {
            "left_elbow", 0.92, 0.0, 0.03, L, N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
       make("right_wrist_watch", "watch on the back of the right wrist, screen up (palm down)",
            "right_elbow", 0.92, 0.0, 0.03, L, N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
-      make("left_wrist_watch_inner", "watch worn on the palm side of the left wrist",
-           "left_elbow", 0.92, 0.0, -0.03, L, -N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
+      make("left_wrist_watch_inner", "watch worn on the palm side of the left wrist", "left_elbow",
+           0.92, 0.0, -0.03, L, -N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
       make("right_wrist_watch_inner", "watch worn on the palm side of the right wrist",
            "right_elbow", 0.92, 0.0, -0.03, L, -N, V(0.02, 0.01, 0.005), V(10, 10, 20)),
       // Ring: bodies without fingers carry it on the hand segment near the knuckles (the
       // proximal phalanx), on the thumb side (anterior in the T-pose) of the hand's axis.
-      make("right_index_ring", "ring on the right index finger (on the hand segment near the knuckles)",
-           "right_wrist", 0.95, 0.02, 0.01, L, N, V(0.015, 0.01, 0.005), V(15, 15, 30)),
+      make("right_index_ring",
+           "ring on the right index finger (on the hand segment near the knuckles)", "right_wrist",
+           0.95, 0.02, 0.01, L, N, V(0.015, 0.01, 0.005), V(15, 15, 30)),
       // Earbuds: at ear height (30 % of the head segment above the head joint), 7.5 cm to the
       // side; z out of the ear, x up along the head's long axis.
       make("left_earbud", "earbud in the left ear", "head", 0.3, 0.0, 0.075, L, N,
@@ -130,7 +131,7 @@ Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::strin
     if (i > 0 && c == std::toupper(static_cast<unsigned char>(order[i - 1]))) {
       throw Error("Euler order '" + std::string(order) + "': consecutive axes must differ");
     }
-    const Eigen::Vector3d axis = c == 'X' ? Eigen::Vector3d::UnitX()
+    const Eigen::Vector3d axis = c == 'X'   ? Eigen::Vector3d::UnitX()
                                  : c == 'Y' ? Eigen::Vector3d::UnitY()
                                             : Eigen::Vector3d::UnitZ();
     const double a = angles(static_cast<Eigen::Index>(i)) * (degrees ? kDeg : 1.0);

@@ -28,17 +28,17 @@ namespace imukit::sim {
 
 struct Placement {
   int joint = -1;
-  Eigen::Vector3d p_joint_sensor = Eigen::Vector3d::Zero();                 // m
-  Eigen::Quaterniond q_joint_sensor = Eigen::Quaterniond::Identity();     // unit
+  Eigen::Vector3d p_joint_sensor = Eigen::Vector3d::Zero();            // m
+  Eigen::Quaterniond q_joint_sensor = Eigen::Quaterniond::Identity();  // unit
 };
 
 struct PlacementPreset {
   std::string name;
   std::string description;
-  std::string joint;            // canonical joint whose segment carries the sensor
-  double along = 0.0;           // fraction of the segment from the joint towards its end
-  double anterior_m = 0.0;      // offset along A
-  double normal_m = 0.0;        // offset along N
+  std::string joint;        // canonical joint whose segment carries the sensor
+  double along = 0.0;       // fraction of the segment from the joint towards its end
+  double anterior_m = 0.0;  // offset along A
+  double normal_m = 0.0;    // offset along N
   Eigen::Vector3d sensor_x_lan = Eigen::Vector3d::UnitX();  // sensor x in (L, A, N)
   Eigen::Vector3d sensor_z_lan = Eigen::Vector3d::UnitZ();  // sensor z in (L, A, N)
   // Plausible variation (uniform half-widths): position along L, A, N (m) and rotation about

@@ -21,7 +21,8 @@ namespace {
 
 using nlohmann::json;
 
-[[noreturn]] void fail(const std::string& source, const std::string& path, const std::string& what) {
+[[noreturn]] void fail(const std::string& source, const std::string& path,
+                       const std::string& what) {
   throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
 }
 
@@ -64,26 +65,32 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
   only_keys(j, {"quaternion_wxyz", "euler", "order", "intrinsic", "unit"}, source, path);
   if (j.contains("quaternion_wxyz")) {
     const json& q = j["quaternion_wxyz"];
-    if (!q.is_array() || q.size() != 4) fail(source, path + ".quaternion_wxyz", "expected 4 numbers w, x, y, z");
-    Eigen::Quaterniond r(number(q[0], source, path), number(q[1], source, path), number(q[2], source, path),
-                         number(q[3], source, path));
+    if (!q.is_array() || q.size() != 4)
+      fail(source, path + ".quaternion_wxyz", "expected 4 numbers w, x, y, z");
+    Eigen::Quaterniond r(number(q[0], source, path), number(q[1], source, path),
+                         number(q[2], source, path), number(q[3], source, path));
     const double n = r.norm();
-    if (std::abs(n - 1.0) > 1e-6) fail(source, path + ".quaternion_wxyz", "not a unit quaternion (norm " + std::to_string(n) + ")");
+    if (std::abs(n - 1.0) > 1e-6)
+      fail(source, path + ".quaternion_wxyz",
+           "not a unit quaternion (norm " + std::to_string(n) + ")");
     r.coeffs() /= n;
     return r;
   }
   if (j.contains("euler")) {
     // The convention must be spelled out (DESIGN.md): no default order or unit.
     for (const char* k : {"order", "intrinsic", "unit"}) {
-      if (!j.contains(k)) fail(source, path, std::string("Euler angles need \"") + k + "\" (e.g. {\"order\": \"XYZ\", \"intrinsic\": true, \"unit\": \"deg\"})");
+      if (!j.contains(k))
+        fail(source, path,
+             std::string("Euler angles need \"") + k +
+                 "\" (e.g. {\"order\": \"XYZ\", \"intrinsic\": true, \"unit\": \"deg\"})");
     }
     if (!j["intrinsic"].is_boolean()) fail(source, path + ".intrinsic", "expected true or false");
     const std::string unit = string_of(j["unit"], source, path + ".unit");
     if (unit != "deg" && unit != "rad") fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
     try {
       return euler_to_quaternion(vec3(j["euler"], source, path + ".euler"),
-                                 string_of(j["order"], source, path + ".order"), j["intrinsic"].get<bool>(),
-                                 unit == "deg");
+                                 string_of(j["order"], source, path + ".order"),
+                                 j["intrinsic"].get<bool>(), unit == "deg");
     } catch (const Error& e) {
       fail(source, path + ".order", e.what());
     }
@@ -94,7 +101,8 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
 }  // namespace
 
 namespace {
-Scene parse_scene_impl(std::string_view text, const std::string& source, const std::string& base_dir);
+Scene parse_scene_impl(std::string_view text, const std::string& source,
+                       const std::string& base_dir);
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
@@ -108,7 +116,8 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::s
 }
 
 namespace {
-Scene parse_scene_impl(std::string_view text, const std::string& source, const std::string& base_dir) {
+Scene parse_scene_impl(std::string_view text, const std::string& source,
+                       const std::string& base_dir) {
   json root;
   try {
     root = json::parse(text.begin(), text.end());
@@ -126,7 +135,8 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
     }
     throw Error(InputLocation{source, line, col, static_cast<int64_t>(off)}, "JSON syntax error");
   }
-  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"}, source, "$");
+  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
+            source, "$");
   if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {
     fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
   }
@@ -153,14 +163,17 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
   }
   // Body.
   if (root.contains("body")) {
-    if (body_from_motion) fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
+    if (body_from_motion)
+      fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
     const json& b = root["body"];
     only_keys(b, {"default_humanoid"}, source, "body");
     if (!b.contains("default_humanoid")) fail(source, "body", "expected default_humanoid");
     const json& h = b["default_humanoid"];
     only_keys(h, {"height_m"}, source, "body.default_humanoid");
     try {
-      scene.body = Body::default_humanoid(h.contains("height_m") ? number(h["height_m"], source, "body.default_humanoid.height_m") : 1.75);
+      scene.body = Body::default_humanoid(
+          h.contains("height_m") ? number(h["height_m"], source, "body.default_humanoid.height_m")
+                                 : 1.75);
     } catch (const Error& e) {
       fail(source, "body.default_humanoid.height_m", e.what());
     }
@@ -170,8 +183,9 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
   if (m.contains("quaternion_csv")) {
     std::optional<double> rate;
     if (m.contains("rate_hz")) rate = number(m["rate_hz"], source, "motion.rate_hz");
-    loaded = std::make_shared<Motion>(read_quaternion_csv(resolve(base_dir, string_of(m["quaternion_csv"], source, "motion.quaternion_csv")),
-                                                          scene.body, rate, &scene.warnings));
+    loaded = std::make_shared<Motion>(read_quaternion_csv(
+        resolve(base_dir, string_of(m["quaternion_csv"], source, "motion.quaternion_csv")),
+        scene.body, rate, &scene.warnings));
   }
   if (loaded) {
     scene.motion = loaded;
@@ -179,12 +193,16 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
     const json& p = m["procedural"];
     only_keys(p, {"rate_hz", "duration_s", "seed", "amplitude_rad"}, source, "motion.procedural");
     ProceduralMotionOptions po;
-    if (p.contains("rate_hz")) po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
-    if (p.contains("seed")) po.seed = static_cast<uint64_t>(number(p["seed"], source, "motion.procedural.seed"));
-    if (p.contains("amplitude_rad")) po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
+    if (p.contains("rate_hz"))
+      po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
+    if (p.contains("seed"))
+      po.seed = static_cast<uint64_t>(number(p["seed"], source, "motion.procedural.seed"));
+    if (p.contains("amplitude_rad"))
+      po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
     if (!p.contains("duration_s")) fail(source, "motion.procedural.duration_s", "missing");
     const double dur = number(p["duration_s"], source, "motion.procedural.duration_s");
-    if (!(dur > 0.0 && dur < 1e7)) fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
+    if (!(dur > 0.0 && dur < 1e7))
+      fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
     try {
       po.frames = static_cast<int64_t>(std::floor(dur * po.rate_hz)) + 1;
       scene.motion = std::make_shared<ProceduralMotion>(scene.body.size(), po);
@@ -195,8 +213,9 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
     fail(source, "motion", "expected bvh, quaternion_csv or procedural");
   }
   if (scene.motion->joint_count() != scene.body.size()) {
-    fail(source, "motion", "the motion has " + std::to_string(scene.motion->joint_count()) +
-                               " joints, the body " + std::to_string(scene.body.size()));
+    fail(source, "motion",
+         "the motion has " + std::to_string(scene.motion->joint_count()) + " joints, the body " +
+             std::to_string(scene.body.size()));
   }
   scene.frames = scene.motion->frame_count();
   // Simulation settings.
@@ -205,19 +224,23 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
     only_keys(s, {"method", "rate_hz", "gravity", "seed", "chunk_frames"}, source, "simulation");
     if (s.contains("method")) {
       try {
-        scene.options.method = parse_derivative_method(string_of(s["method"], source, "simulation.method"));
+        scene.options.method =
+            parse_derivative_method(string_of(s["method"], source, "simulation.method"));
       } catch (const Error& e) {
         fail(source, "simulation.method", e.what());
       }
     }
     if (s.contains("rate_hz")) {
       scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
-      if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6)) fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
+      if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
+        fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
     }
-    if (s.contains("gravity")) scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+    if (s.contains("gravity"))
+      scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
     if (s.contains("seed")) {
       const double seed = number(s["seed"], source, "simulation.seed");
-      if (seed < 0 || seed != std::floor(seed) || seed > 9e15) fail(source, "simulation.seed", "expected a whole number >= 0");
+      if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
+        fail(source, "simulation.seed", "expected a whole number >= 0");
       scene.seed = static_cast<uint64_t>(seed);
     }
     if (s.contains("chunk_frames")) {
@@ -230,7 +253,8 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
     const json& o = root["outputs"];
     only_keys(o, {"ground_truth"}, source, "outputs");
     if (o.contains("ground_truth")) {
-      if (!o["ground_truth"].is_boolean()) fail(source, "outputs.ground_truth", "expected true or false");
+      if (!o["ground_truth"].is_boolean())
+        fail(source, "outputs.ground_truth", "expected true or false");
       scene.ground_truth = o["ground_truth"].get<bool>();
     }
   }
@@ -241,15 +265,19 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
   for (std::size_t i = 0; i < root["sensors"].size(); ++i) {
     const json& js = root["sensors"][i];
     const std::string path = "sensors[" + std::to_string(i) + "]";
-    only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"}, source, path);
+    only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
+              source, path);
     SceneSensor s;
-    s.spec.name = js.contains("name") ? string_of(js["name"], source, path + ".name")
-                                      : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset") : "sensor" + std::to_string(i));
+    s.spec.name = js.contains("name")
+                      ? string_of(js["name"], source, path + ".name")
+                      : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset")
+                                               : "sensor" + std::to_string(i));
     if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
       fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
     }
     for (const SceneSensor& other : scene.sensors) {
-      if (other.spec.name == s.spec.name) fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
+      if (other.spec.name == s.spec.name)
+        fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
     }
     if (js.contains("preset")) {
       if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
@@ -264,30 +292,40 @@ Scene parse_scene_impl(std::string_view text, const std::string& source, const s
       const auto j = scene.body.find(seg);
       if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
       s.spec.placement.joint = *j;
-      if (js.contains("position_m")) s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
-      if (js.contains("rotation")) s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
+      if (js.contains("position_m"))
+        s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
+      if (js.contains("rotation"))
+        s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
     } else {
       fail(source, path, "needs a preset or a segment");
     }
     if (js.contains("outputs")) {
       const json& o = js["outputs"];
-      if (!o.is_array() || o.empty()) fail(source, path + ".outputs", "expected a non-empty array of names");
+      if (!o.is_array() || o.empty())
+        fail(source, path + ".outputs", "expected a non-empty array of names");
       s.spec.outputs = SensorOutputs{false, false, false};
       for (const json& name : o) {
         const std::string n = string_of(name, source, path + ".outputs");
-        if (n == "accelerometer") s.spec.outputs.accelerometer = true;
-        else if (n == "gyroscope") s.spec.outputs.gyroscope = true;
-        else if (n == "orientation") s.spec.outputs.orientation = true;
-        else fail(source, path + ".outputs", "unknown output '" + n + "' (accelerometer, gyroscope, orientation)");
+        if (n == "accelerometer")
+          s.spec.outputs.accelerometer = true;
+        else if (n == "gyroscope")
+          s.spec.outputs.gyroscope = true;
+        else if (n == "orientation")
+          s.spec.outputs.orientation = true;
+        else
+          fail(source, path + ".outputs",
+               "unknown output '" + n + "' (accelerometer, gyroscope, orientation)");
       }
     }
     if (js.contains("hardware")) {
       const json& h = js["hardware"];
       try {
-        const DeviceProfile profile = h.is_string() ? read_profile(resolve(base_dir, h.get<std::string>()))
-                                                    : parse_profile(h.dump(), source + ":" + path + ".hardware");
+        const DeviceProfile profile =
+            h.is_string() ? read_profile(resolve(base_dir, h.get<std::string>()))
+                          : parse_profile(h.dump(), source + ":" + path + ".hardware");
         s.hardware = to_hardware_model(profile);
-        const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+        const double rate =
+            scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
         validate_hardware_model(*s.hardware, rate);
         if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
           s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
@@ -335,19 +373,23 @@ void run_scene(Scene& scene, const SceneSink& sink) {
     }
   }
   SensorBlock measured;
-  sim.run(*scene.motion, [&](std::size_t s, const SensorBlock& truth) {
-    if (!gens[s]) {
-      sink(s, truth, scene.ground_truth ? &truth : nullptr);
-      return;
-    }
-    measured = truth;
-    apply_hardware(*gens[s], measured);
-    sink(s, measured, scene.ground_truth ? &truth : nullptr);
-  }, scene.frames);
+  sim.run(
+      *scene.motion,
+      [&](std::size_t s, const SensorBlock& truth) {
+        if (!gens[s]) {
+          sink(s, truth, scene.ground_truth ? &truth : nullptr);
+          return;
+        }
+        measured = truth;
+        apply_hardware(*gens[s], measured);
+        sink(s, measured, scene.ground_truth ? &truth : nullptr);
+      },
+      scene.frames);
 }
 
-std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body, const std::vector<BatchJob>& jobs,
-                                                   uint64_t seed, unsigned threads) {
+std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
+                                                   const std::vector<BatchJob>& jobs, uint64_t seed,
+                                                   unsigned threads) {
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::vector<ImuSeries>> result(jobs.size());
   std::atomic<std::size_t> next{0};

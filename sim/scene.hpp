@@ -46,14 +46,15 @@ struct Scene {
 // Parses scene JSON. Relative file names inside are resolved against base_dir. Throws
 // imukit::Error: JSON syntax errors name source_name:line:column, semantic errors the JSON path
 // ("sensors[1].preset: unknown placement preset ...").
-Scene parse_scene(std::string_view text, const std::string& source_name, const std::string& base_dir);
+Scene parse_scene(std::string_view text, const std::string& source_name,
+                  const std::string& base_dir);
 Scene read_scene(const std::string& path);
 
 // Streams the scene: for each chunk and sensor, sink(sensor, measured, truth) where truth is
 // the noiseless block (null unless ground_truth) and measured the block after the sensor's
 // hardware model (the truth itself for an ideal sensor). Memory stays constant.
-using SceneSink = std::function<void(std::size_t sensor, const SensorBlock& measured,
-                                     const SensorBlock* truth)>;
+using SceneSink =
+    std::function<void(std::size_t sensor, const SensorBlock& measured, const SensorBlock* truth)>;
 void run_scene(Scene& scene, const SceneSink& sink);
 
 // One variant of a batch: a motion (shared read-only between jobs; Motion::read does not
@@ -67,7 +68,8 @@ struct BatchJob {
 // Simulates every job on `threads` worker threads (0 = hardware concurrency) over `body`. Job i's
 // hardware noise comes from Rng(seed).child(i), so the result is the same for any thread count.
 // result[i][s] is job i's sensor s (accelerometer and gyroscope as requested).
-std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body, const std::vector<BatchJob>& jobs,
-                                                   uint64_t seed, unsigned threads = 0);
+std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
+                                                   const std::vector<BatchJob>& jobs, uint64_t seed,
+                                                   unsigned threads = 0);
 
 }  // namespace imukit::sim

@@ -49,7 +49,8 @@ struct ExpDerivatives {
   Vector3d dw_body;
 };
 
-ExpDerivatives exp_with_derivatives(const Vector3d& psi, const Vector3d& dpsi, const Vector3d& ddpsi) {
+ExpDerivatives exp_with_derivatives(const Vector3d& psi, const Vector3d& dpsi,
+                                    const Vector3d& ddpsi) {
   const double x = psi.squaredNorm();
   const double dx = 2.0 * psi.dot(dpsi);
   const double ddx = 2.0 * (dpsi.squaredNorm() + psi.dot(ddpsi));
@@ -137,7 +138,8 @@ LagrangeWeights lagrange(const std::array<double, 4>& tau, int n, double u) {
       denom *= tau[static_cast<std::size_t>(m)] - tau[static_cast<std::size_t>(k)];
       for (int d = deg + 1; d >= 1; --d) {
         c[static_cast<std::size_t>(d)] =
-            c[static_cast<std::size_t>(d - 1)] - tau[static_cast<std::size_t>(k)] * c[static_cast<std::size_t>(d)];
+            c[static_cast<std::size_t>(d - 1)] -
+            tau[static_cast<std::size_t>(k)] * c[static_cast<std::size_t>(d)];
       }
       c[0] = -tau[static_cast<std::size_t>(k)] * c[0];
       ++deg;
@@ -184,9 +186,12 @@ Vector3d reference_euler_xyz(const Matrix3d& R) {
 
 std::string_view to_string(DerivativeMethod method) {
   switch (method) {
-    case DerivativeMethod::fd: return "fd";
-    case DerivativeMethod::spline: return "spline";
-    case DerivativeMethod::reference: return "reference";
+    case DerivativeMethod::fd:
+      return "fd";
+    case DerivativeMethod::spline:
+      return "spline";
+    case DerivativeMethod::reference:
+      return "reference";
   }
   return "?";
 }
@@ -264,9 +269,10 @@ Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, Simulati
     s.placement.q_joint_sensor.coeffs() /= n;
   }
   for (std::size_t k = 0; k < plan_.joints.size(); ++k) {
-    offsets_.push_back(plan_.parent[k] < 0
-                           ? Vector3d::Zero()
-                           : body.joint(static_cast<std::size_t>(plan_.joints[k])).offset_parent_joint);
+    offsets_.push_back(
+        plan_.parent[k] < 0
+            ? Vector3d::Zero()
+            : body.joint(static_cast<std::size_t>(plan_.joints[k])).offset_parent_joint);
   }
 }
 
@@ -277,7 +283,8 @@ Simulator& Simulator::operator=(Simulator&&) noexcept = default;
 int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames) const {
   if (frames < 1) return 0;
   const double rate = options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz();
-  int64_t n = static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion.rate_hz() * rate));
+  int64_t n =
+      static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion.rate_hz() * rate));
   n = std::max<int64_t>(n - 2, 0);
   const auto inside = [&](int64_t k) {
     const FramePosition fp = frame_position(sample_time_ns(motion, k), motion.rate_hz());
@@ -328,7 +335,9 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   motion.read(lo, hi - lo, plan_.joints, ws.chunk);
   const MotionChunk& c = ws.chunk;
   const int64_t F = c.frames;
-  const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& { return c.rotation(f - lo, k); };
+  const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& {
+    return c.rotation(f - lo, k);
+  };
 
   if (options_.method == DerivativeMethod::spline) {
     ws.chart_interval.assign(J, -1);
@@ -350,7 +359,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       }
       const int n = static_cast<int>(s1 - s0 + 1);
       std::array<double, 4> tau{};
-      for (int m = 0; m < n; ++m) tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
+      for (int m = 0; m < n; ++m)
+        tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
       const LagrangeWeights L = lagrange(tau, n, pos[i].frac);
       for (std::size_t k = 0; k < J; ++k) {
         if (ws.chart_interval[k] != fi) {
@@ -422,7 +432,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
           out[s].specific_force.col(col) = Rs.transpose() * (acc - options_.gravity_world);
         }
         if (sensors_[s].outputs.gyroscope) out[s].angular_rate.col(col) = Rs.transpose() * ws.w[k];
-        if (sensors_[s].outputs.orientation) out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
+        if (sensors_[s].outputs.orientation)
+          out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
       }
     }
     return;
@@ -443,7 +454,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
         const Quaterniond& qp = ws.q_world[base + static_cast<std::size_t>(p)];
         ws.q_world[base + k] = multiply(qp, ql);
         if (plan_.needs_position) {
-          ws.p_world[base + k] = ws.p_world[base + static_cast<std::size_t>(p)] + rotate(qp, offsets_[k]);
+          ws.p_world[base + k] =
+              ws.p_world[base + static_cast<std::size_t>(p)] + rotate(qp, offsets_[k]);
         }
       }
     }
@@ -481,8 +493,9 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     if (o.accelerometer) {
       ws.sensor_p.resize(3, F);
       for (int64_t f = 0; f < F; ++f) {
-        ws.sensor_p.col(f) = ws.p_world[static_cast<std::size_t>(f) * J + k] +
-                             rotate(ws.q_world[static_cast<std::size_t>(f) * J + k], pl.p_joint_sensor);
+        ws.sensor_p.col(f) =
+            ws.p_world[static_cast<std::size_t>(f) * J + k] +
+            rotate(ws.q_world[static_cast<std::size_t>(f) * J + k], pl.p_joint_sensor);
       }
     }
     const auto P = [&](int64_t f) { return Vector3d(ws.sensor_p.col(f - lo)); };
@@ -505,7 +518,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
           } else {
             acc = Vector3d::Zero();
           }
-          ws.grid_f.col(col) = R_sensor_joint * rotate_inverse(qw(g, k), acc - options_.gravity_world);
+          ws.grid_f.col(col) =
+              R_sensor_joint * rotate_inverse(qw(g, k), acc - options_.gravity_world);
         }
         if (o.gyroscope) {
           Vector3d w;
@@ -534,17 +548,25 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
             return (P(f + 1) - P(f - 1)) * (0.5 * rate);
           };
           Vector3d acc;
-          if (g == 0) acc = (vel(1) - vel(0)) * rate;
-          else if (g == N - 1) acc = (vel(N - 1) - vel(N - 2)) * rate;
-          else acc = (vel(g + 1) - vel(g - 1)) * (0.5 * rate);
+          if (g == 0)
+            acc = (vel(1) - vel(0)) * rate;
+          else if (g == N - 1)
+            acc = (vel(N - 1) - vel(N - 2)) * rate;
+          else
+            acc = (vel(g + 1) - vel(g - 1)) * (0.5 * rate);
           ws.grid_f.col(col) = qs.conjugate() * (acc - options_.gravity_world);
         }
         if (o.gyroscope) {
           const auto qsf = [&](int64_t f) { return multiply(qw(f, k), pl.q_joint_sensor); };
           Vector3d e;
-          if (g == 0) e = reference_euler_xyz(multiply(qsf(1), qsf(0).conjugate()).toRotationMatrix());
-          else if (g == N - 1) e = reference_euler_xyz(multiply(qsf(N - 1), qsf(N - 2).conjugate()).toRotationMatrix());
-          else e = 0.5 * reference_euler_xyz(multiply(qsf(g + 1), qsf(g - 1).conjugate()).toRotationMatrix());
+          if (g == 0)
+            e = reference_euler_xyz(multiply(qsf(1), qsf(0).conjugate()).toRotationMatrix());
+          else if (g == N - 1)
+            e = reference_euler_xyz(
+                multiply(qsf(N - 1), qsf(N - 2).conjugate()).toRotationMatrix());
+          else
+            e = 0.5 * reference_euler_xyz(
+                          multiply(qsf(g + 1), qsf(g - 1).conjugate()).toRotationMatrix());
           ws.grid_w.col(col) = qs.conjugate() * (e * rate);
         }
       }
@@ -564,7 +586,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       if (o.orientation) {
         const Quaterniond q0 = qw(pos[i].frame, k) * pl.q_joint_sensor;
         out[s].q_world_sensor[i] =
-            u == 0.0 ? q0.normalized() : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
+            u == 0.0 ? q0.normalized()
+                     : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
       }
     }
   }
@@ -575,7 +598,8 @@ void Simulator::run(MotionSource& motion,
                     std::optional<int64_t> frame_limit) {
   require_simulatable(motion, "simulation");
   const std::optional<int64_t> count = motion.frame_count();
-  if (!count && !frame_limit) throw Error("simulation: an endless motion source needs a frame limit");
+  if (!count && !frame_limit)
+    throw Error("simulation: an endless motion source needs a frame limit");
   int64_t N = count.value_or(frame_limit.value_or(0));
   if (frame_limit) N = std::min(N, *frame_limit);
   if (N < 2) throw Error("simulation: at least 2 frames are needed, got " + std::to_string(N));
@@ -614,7 +638,8 @@ SimulatedSensorSource::SimulatedSensorSource(const Body& body, const SensorSpec&
                                              MotionSource& motion, SimulationOptions options)
     : simulator_(body, {sensor}, options), motion_(motion) {}
 
-void SimulatedSensorSource::evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* specific_force,
+void SimulatedSensorSource::evaluate(std::span<const TimeNs> times,
+                                     Eigen::Matrix3Xd* specific_force,
                                      Eigen::Matrix3Xd* angular_rate) {
   simulator_.evaluate(motion_, times, blocks_);
   if (specific_force != nullptr) *specific_force = blocks_.front().specific_force;

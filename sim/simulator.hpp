@@ -73,8 +73,8 @@ struct SensorSpec {
 struct SimulationOptions {
   DerivativeMethod method = DerivativeMethod::fd;
   Eigen::Vector3d gravity_world = kStandardGravity;
-  double rate_hz = 0.0;          // sensor sample rate; 0 = the motion's frame rate
-  int64_t chunk_frames = 4096;   // motion frames per streamed chunk
+  double rate_hz = 0.0;         // sensor sample rate; 0 = the motion's frame rate
+  int64_t chunk_frames = 4096;  // motion frames per streamed chunk
 };
 
 // The samples of one sensor for a block of times. Channels not requested have 0 columns.

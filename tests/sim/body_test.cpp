@@ -13,12 +13,16 @@ TEST(Body, DefaultHumanoidHasTheCanonicalJointsScaledByHeight) {
   for (const std::string& n : canonical_joint_names()) EXPECT_TRUE(b.find(n).has_value()) << n;
   const Body tall = Body::default_humanoid(2.0);
   for (std::size_t j = 0; j < b.size(); ++j) {
-    EXPECT_NEAR((tall.joint(j).offset_parent_joint - b.joint(j).offset_parent_joint * (2.0 / 1.75)).norm(), 0.0, 1e-15);
+    EXPECT_NEAR(
+        (tall.joint(j).offset_parent_joint - b.joint(j).offset_parent_joint * (2.0 / 1.75)).norm(),
+        0.0, 1e-15);
   }
   // Shoulder at 0.818 H above the ground: 0.818 H - 0.56 H above the pelvis root.
   const auto p = b.neutral_positions();
-  EXPECT_NEAR(p[static_cast<std::size_t>(b.index_of("left_shoulder"))].z(), (0.818 - 0.56) * 1.75, 1e-12);
-  EXPECT_NEAR(p[static_cast<std::size_t>(b.index_of("left_ankle"))].z(), (0.039 - 0.56) * 1.75, 1e-12);
+  EXPECT_NEAR(p[static_cast<std::size_t>(b.index_of("left_shoulder"))].z(), (0.818 - 0.56) * 1.75,
+              1e-12);
+  EXPECT_NEAR(p[static_cast<std::size_t>(b.index_of("left_ankle"))].z(), (0.039 - 0.56) * 1.75,
+              1e-12);
   // Facing +y, left on -x.
   EXPECT_NEAR((b.forward_direction() - Eigen::Vector3d::UnitY()).norm(), 0.0, 1e-15);
   EXPECT_LT(p[static_cast<std::size_t>(b.index_of("left_wrist"))].x(), -0.5);
@@ -36,17 +40,18 @@ TEST(Body, FindsJointsBySegmentNameAndAlias) {
 }
 
 TEST(Body, AliasTableMapsBothCmuSchemes) {
-  const std::vector<std::string> max = {"Hips", "LHipJoint", "LeftHip", "LeftKnee", "LeftAnkle",
-                                        "lowerback", "Chest", "Chest2", "LeftCollar",
-                                        "LeftShoulder", "LeftElbow", "LeftWrist", "Neck", "Head"};
+  const std::vector<std::string> max = {
+      "Hips",   "LHipJoint",  "LeftHip",      "LeftKnee",  "LeftAnkle", "lowerback", "Chest",
+      "Chest2", "LeftCollar", "LeftShoulder", "LeftElbow", "LeftWrist", "Neck",      "Head"};
   const std::vector<std::string> max_c = canonicalize_joint_names(max);
-  EXPECT_EQ(max_c, (std::vector<std::string>{"pelvis", "LHipJoint", "left_hip", "left_knee",
-                                             "left_ankle", "spine", "chest", "Chest2",
-                                             "left_clavicle", "left_shoulder", "left_elbow",
-                                             "left_wrist", "neck", "head"}));
-  const std::vector<std::string> mb = {"Hips", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase",
-                                       "LowerBack", "Spine", "Spine1", "LeftShoulder", "LeftArm",
-                                       "LeftForeArm", "LeftHand", "Neck", "Neck1", "Head"};
+  EXPECT_EQ(max_c,
+            (std::vector<std::string>{"pelvis", "LHipJoint", "left_hip", "left_knee", "left_ankle",
+                                      "spine", "chest", "Chest2", "left_clavicle", "left_shoulder",
+                                      "left_elbow", "left_wrist", "neck", "head"}));
+  const std::vector<std::string> mb = {"Hips",         "LeftUpLeg", "LeftLeg",     "LeftFoot",
+                                       "LeftToeBase",  "LowerBack", "Spine",       "Spine1",
+                                       "LeftShoulder", "LeftArm",   "LeftForeArm", "LeftHand",
+                                       "Neck",         "Neck1",     "Head"};
   EXPECT_EQ(canonicalize_joint_names(mb),
             (std::vector<std::string>{"pelvis", "left_hip", "left_knee", "left_ankle", "left_toe",
                                       "spine", "Spine", "chest", "left_clavicle", "left_shoulder",

@@ -15,14 +15,15 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 std::string tiny_bvh(const std::string& channels, const std::string& frames_text, int frames) {
   return "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition " +
-         channels +
-         "\n  JOINT LeftElbow\n  {\n    OFFSET 1 2 3\n    CHANNELS 3 " + channels +
+         channels + "\n  JOINT LeftElbow\n  {\n    OFFSET 1 2 3\n    CHANNELS 3 " + channels +
          "\n    End Site\n    {\n      OFFSET 0 -1 0\n    }\n  }\n}\nMOTION\nFrames: " +
          std::to_string(frames) + "\nFrame Time: .01\n" + frames_text;
 }
 
 Eigen::Matrix3d axis_matrix(char axis, double deg) {
-  const Eigen::Vector3d a = axis == 'X' ? Eigen::Vector3d::UnitX() : axis == 'Y' ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d a = axis == 'X'   ? Eigen::Vector3d::UnitX()
+                            : axis == 'Y' ? Eigen::Vector3d::UnitY()
+                                          : Eigen::Vector3d::UnitZ();
   return Eigen::AngleAxisd(deg * kDeg, a).toRotationMatrix();
 }
 
@@ -33,20 +34,27 @@ TEST(Bvh, AnyChannelOrderIsIntrinsicInListedOrderIncludingGimbalLock) {
     // Middle angle 90 deg: gimbal lock for Euler angles, no problem for the exact product.
     const std::string frame = "0.5 1 2 30 90 -40 10 90 20\n0.5 1 2 0 0 0 0 0 0\n";
     const BvhData d = parse_bvh(tiny_bvh(ch, frame, 2), "t.bvh", {.scale = 1.0, .up = UpAxis::z});
-    const Eigen::Matrix3d expect = axis_matrix(order[0], 10) * axis_matrix(order[1], 90) * axis_matrix(order[2], 20);
-    EXPECT_LT((d.motion.rotation(0, 1).toRotationMatrix() - expect).cwiseAbs().maxCoeff(), 1e-15) << order;
-    const Eigen::Matrix3d root = axis_matrix(order[0], 30) * axis_matrix(order[1], 90) * axis_matrix(order[2], -40);
-    EXPECT_LT((d.motion.rotation(0, 0).toRotationMatrix() - root).cwiseAbs().maxCoeff(), 1e-15) << order;
+    const Eigen::Matrix3d expect =
+        axis_matrix(order[0], 10) * axis_matrix(order[1], 90) * axis_matrix(order[2], 20);
+    EXPECT_LT((d.motion.rotation(0, 1).toRotationMatrix() - expect).cwiseAbs().maxCoeff(), 1e-15)
+        << order;
+    const Eigen::Matrix3d root =
+        axis_matrix(order[0], 30) * axis_matrix(order[1], 90) * axis_matrix(order[2], -40);
+    EXPECT_LT((d.motion.rotation(0, 0).toRotationMatrix() - root).cwiseAbs().maxCoeff(), 1e-15)
+        << order;
     EXPECT_EQ(d.motion.root_translation(0), Eigen::Vector3d(0.5, 1, 2));
   }
 }
 
 TEST(Bvh, YUpMapsToZUpAndScales) {
   const std::string frame = "0.5 1 2 0 0 30 0 0 0\n0 0 0 0 0 0 0 0 0\n";
-  const BvhData d = parse_bvh(tiny_bvh("Zrotation Yrotation Xrotation", frame, 2), "t.bvh", {.scale = 0.01});
+  const BvhData d =
+      parse_bvh(tiny_bvh("Zrotation Yrotation Xrotation", frame, 2), "t.bvh", {.scale = 0.01});
   // (x, y, z) -> (x, -z, y), times the scale.
-  EXPECT_NEAR((d.body.joint(1).offset_parent_joint - Eigen::Vector3d(0.01, -0.03, 0.02)).norm(), 0.0, 1e-17);
-  EXPECT_NEAR((d.motion.root_translation(0) - Eigen::Vector3d(0.005, -0.02, 0.01)).norm(), 0.0, 1e-17);
+  EXPECT_NEAR((d.body.joint(1).offset_parent_joint - Eigen::Vector3d(0.01, -0.03, 0.02)).norm(),
+              0.0, 1e-17);
+  EXPECT_NEAR((d.motion.root_translation(0) - Eigen::Vector3d(0.005, -0.02, 0.01)).norm(), 0.0,
+              1e-17);
   EXPECT_NEAR((*d.body.joint(1).end_offset - Eigen::Vector3d(0, 0, -0.01)).norm(), 0.0, 1e-17);
   // A BVH rotation of 30 deg about its x axis stays a rotation about x (x is kept).
   const Eigen::AngleAxisd aa(d.motion.rotation(0, 0));
@@ -56,13 +64,15 @@ TEST(Bvh, YUpMapsToZUpAndScales) {
   const Eigen::Vector3d o_bvh(1, 2, 3);
   const Eigen::Vector3d r_bvh = axis_matrix('X', 30) * o_bvh * 0.01;
   const Eigen::Vector3d mapped(r_bvh.x(), -r_bvh.z(), r_bvh.y());
-  EXPECT_NEAR((d.motion.rotation(0, 0) * d.body.joint(1).offset_parent_joint - mapped).norm(), 0.0, 1e-15);
+  EXPECT_NEAR((d.motion.rotation(0, 0) * d.body.joint(1).offset_parent_joint - mapped).norm(), 0.0,
+              1e-15);
   EXPECT_EQ(d.body.joint(1).name, "left_elbow");
   EXPECT_EQ(d.body.joint(1).source_name, "LeftElbow");
 }
 
 TEST(Bvh, ErrorsNameLineAndColumn) {
-  const auto expect_at = [](const std::string& text, int64_t line, int64_t column, const char* what) {
+  const auto expect_at = [](const std::string& text, int64_t line, int64_t column,
+                            const char* what) {
     try {
       parse_bvh(text, "bad.bvh");
       ADD_FAILURE() << "no error: " << what;
@@ -107,10 +117,15 @@ TEST(Bvh, ReadsBothCmuReleases) {
   // Metres, z up: the pelvis is about 1 m above the floor.
   EXPECT_GT(walk.motion.root_translation(0).z(), 0.8);
   EXPECT_LT(walk.motion.root_translation(0).z(), 1.2);
-  const BvhData jumps = read_bvh((data / "mocap" / "01_01_forward_jumps.bvh").string(), {.scale = 0.056444});
+  const BvhData jumps =
+      read_bvh((data / "mocap" / "01_01_forward_jumps.bvh").string(), {.scale = 0.056444});
   EXPECT_EQ(jumps.motion.frames(), 2752);
-  EXPECT_EQ(jumps.body.joint(static_cast<std::size_t>(jumps.body.index_of("left_clavicle"))).source_name, "LeftShoulder");
-  EXPECT_EQ(jumps.body.joint(static_cast<std::size_t>(jumps.body.index_of("left_elbow"))).source_name, "LeftForeArm");
+  EXPECT_EQ(
+      jumps.body.joint(static_cast<std::size_t>(jumps.body.index_of("left_clavicle"))).source_name,
+      "LeftShoulder");
+  EXPECT_EQ(
+      jumps.body.joint(static_cast<std::size_t>(jumps.body.index_of("left_elbow"))).source_name,
+      "LeftForeArm");
   EXPECT_NEAR(jumps.motion.root_translation(0).z(), 17.9 * 0.056444, 0.1);
   // The forearm is about 25 cm in both skeletons.
   const double fa = jumps.body.segment_end(jumps.body.index_of("left_elbow")).norm();

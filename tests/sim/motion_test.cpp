@@ -54,7 +54,8 @@ TEST(Motion, NonFiniteValuesNameFrameAndJoint) {
   Motion z(10.0, 1, 1);
   z.rotation(0, 0) = Eigen::Quaterniond(0, 0, 0, 0);
   EXPECT_THROW(z.validate_and_normalize(), Error);
-  const std::string bad = "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n0.1,inf,0,0,0\n";
+  const std::string bad =
+      "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n0.1,inf,0,0,0\n";
   try {
     parse_quaternion_csv(bad, "bad.csv", small_body());
     FAIL();
@@ -86,11 +87,13 @@ TEST(Motion, ProceduralFramesDependOnlyOnTheAbsoluteIndex) {
   from_zero.read(8'639'000, 50, joints, ca);
   late.read(0, 50, joints, cb);
   EXPECT_EQ(ca.root_translation, cb.root_translation);
-  for (std::size_t i = 0; i < ca.rotations.size(); ++i) EXPECT_EQ(ca.rotations[i].coeffs(), cb.rotations[i].coeffs());
+  for (std::size_t i = 0; i < ca.rotations.size(); ++i)
+    EXPECT_EQ(ca.rotations[i].coeffs(), cb.rotations[i].coeffs());
   // Smooth and in the stated band: the largest frame-to-frame angle at 100 Hz stays below
   // 3 sinusoids x 0.1 rad x 2 pi x 1.2 Hz / 100.
   for (int64_t f = 1; f < 50; ++f) {
-    EXPECT_LT(ca.rotation(f, 0).angularDistance(ca.rotation(f - 1, 0)), 3 * 0.1 * 2 * M_PI * 1.2 / 100.0);
+    EXPECT_LT(ca.rotation(f, 0).angularDistance(ca.rotation(f - 1, 0)),
+              3 * 0.1 * 2 * M_PI * 1.2 / 100.0);
   }
   ProceduralMotionOptions fractional;
   fractional.rate_hz = 99.5;

@@ -40,9 +40,11 @@ TEST(Placement, WatchesSitAboveTheWristScreenUpInTPose) {
   // Earbuds: the left one on the subject's left (-x), pointing out of the ear.
   const Placement le = resolve_preset(placement_preset("left_earbud"), b);
   EXPECT_NEAR(le.p_joint_sensor.x(), -0.075, 1e-12);
-  EXPECT_NEAR((le.q_joint_sensor.toRotationMatrix().col(2) + Eigen::Vector3d::UnitX()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((le.q_joint_sensor.toRotationMatrix().col(2) + Eigen::Vector3d::UnitX()).norm(), 0.0,
+              1e-12);
   // The ankle clip is on the outside of the right shank (+x).
-  EXPECT_NEAR(resolve_preset(placement_preset("right_ankle_clip"), b).p_joint_sensor.x(), 0.04, 1e-12);
+  EXPECT_NEAR(resolve_preset(placement_preset("right_ankle_clip"), b).p_joint_sensor.x(), 0.04,
+              1e-12);
 }
 
 TEST(Placement, PresetsNeedTheirSegment) {
@@ -57,12 +59,18 @@ TEST(Placement, EulerConventionsAreExplicit) {
   const Eigen::Matrix3d X = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();
   const Eigen::Matrix3d Y = Eigen::AngleAxisd(-0.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
   const Eigen::Matrix3d Z = Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  EXPECT_LT((euler_to_quaternion(a, "XYZ", true, false).toRotationMatrix() - X * Y * Z).norm(), 1e-15);
-  EXPECT_LT((euler_to_quaternion(a, "XYZ", false, false).toRotationMatrix() - Z * Y * X).norm(), 1e-15);
-  EXPECT_LT((euler_to_quaternion(a * 180 / std::numbers::pi, "xyz", true, true).toRotationMatrix() - X * Y * Z).norm(), 1e-14);
+  EXPECT_LT((euler_to_quaternion(a, "XYZ", true, false).toRotationMatrix() - X * Y * Z).norm(),
+            1e-15);
+  EXPECT_LT((euler_to_quaternion(a, "XYZ", false, false).toRotationMatrix() - Z * Y * X).norm(),
+            1e-15);
+  EXPECT_LT((euler_to_quaternion(a * 180 / std::numbers::pi, "xyz", true, true).toRotationMatrix() -
+             X * Y * Z)
+                .norm(),
+            1e-14);
   // The reference simulator's placement (pytorch3d "XYZ") is intrinsic XYZ: its sceneA numbers.
   const Eigen::Quaterniond q = euler_to_quaternion(
-      Eigen::Vector3d(0.17453292519943295, -0.3490658503988659, 0.5235987755982988), "XYZ", true, false);
+      Eigen::Vector3d(0.17453292519943295, -0.3490658503988659, 0.5235987755982988), "XYZ", true,
+      false);
   EXPECT_NEAR(q.w(), 0.9515485246437886, 1e-15);
   EXPECT_NEAR(q.y(), -0.18930785741199999, 1e-15);
   EXPECT_THROW(euler_to_quaternion(a, "XXY", true, false), Error);

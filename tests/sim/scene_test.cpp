@@ -49,7 +49,8 @@ TEST(Scene, ErrorsNameThePathOrLine) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(message("{\n  \"schema\": ,\n}").find("s.json:2:13"), std::string::npos) << message("{\n  \"schema\": ,\n}");
+  EXPECT_NE(message("{\n  \"schema\": ,\n}").find("s.json:2:13"), std::string::npos)
+      << message("{\n  \"schema\": ,\n}");
   std::string bad = kScene;
   bad.replace(bad.find("left_wrist_watch"), 16, "left_sock");
   EXPECT_NE(message(bad).find("sensors[0].preset"), std::string::npos) << message(bad);
@@ -75,27 +76,29 @@ TEST(Scene, RunIsDeterministicAndHardwareAddsTheStatedNoise) {
   double sum_sq = 0;
   int64_t n = 0;
   const auto collect = [&](std::vector<double>& out, bool stats) {
-    return [&out, stats, &sum_sq, &n](std::size_t s, const SensorBlock& m, const SensorBlock* truth) {
-      ASSERT_NE(truth, nullptr);
-      if (s != 0) {
-        EXPECT_EQ(m.q_world_sensor.size(), m.t.size());
-        return;
-      }
-      for (Eigen::Index i = 0; i < m.specific_force.cols(); ++i) {
-        out.push_back(m.specific_force(0, i));
-        if (stats) {
-          sum_sq += (m.specific_force.col(i) - truth->specific_force.col(i)).squaredNorm();
-          n += 3;
-        }
-      }
-    };
+    return
+        [&out, stats, &sum_sq, &n](std::size_t s, const SensorBlock& m, const SensorBlock* truth) {
+          ASSERT_NE(truth, nullptr);
+          if (s != 0) {
+            EXPECT_EQ(m.q_world_sensor.size(), m.t.size());
+            return;
+          }
+          for (Eigen::Index i = 0; i < m.specific_force.cols(); ++i) {
+            out.push_back(m.specific_force(0, i));
+            if (stats) {
+              sum_sq += (m.specific_force.col(i) - truth->specific_force.col(i)).squaredNorm();
+              n += 3;
+            }
+          }
+        };
   };
   run_scene(a, collect(da, true));
   run_scene(b, collect(db, false));
   EXPECT_EQ(da, db);
   EXPECT_EQ(static_cast<int64_t>(da.size()), 4001);
   // White noise sigma = density sqrt(rate) = 0.001 sqrt(200); 12003 draws: +-3 % at 2.3 sigma.
-  EXPECT_NEAR(std::sqrt(sum_sq / static_cast<double>(n)), 0.001 * std::sqrt(200.0), 0.03 * 0.001 * std::sqrt(200.0));
+  EXPECT_NEAR(std::sqrt(sum_sq / static_cast<double>(n)), 0.001 * std::sqrt(200.0),
+              0.03 * 0.001 * std::sqrt(200.0));
 }
 
 TEST(Scene, BatchIsTheSameForAnyThreadCount) {
@@ -113,7 +116,8 @@ TEST(Scene, BatchIsTheSameForAnyThreadCount) {
     j.motion = motion;
     SceneSensor s;
     s.spec.name = "w";
-    s.spec.placement = resolve_preset(placement_preset(i % 2 ? "left_wrist_watch" : "chest_strap"), body);
+    s.spec.placement =
+        resolve_preset(placement_preset(i % 2 ? "left_wrist_watch" : "chest_strap"), body);
     s.hardware = hw;
     j.sensors = {s};
     j.options.method = i % 3 == 0 ? DerivativeMethod::spline : DerivativeMethod::fd;

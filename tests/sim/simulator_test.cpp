@@ -91,8 +91,11 @@ TEST(Simulator, ConstantSpinGivesCentripetalPlusGravityAndRateExactlyWithSpline)
       if (method == DerivativeMethod::fd && (i == 0 || i + 1 == t.size())) continue;
       const Quaterniond q(Eigen::AngleAxisd(kSpinRate * to_seconds(t[i]), kSpinAxis));
       const Vector3d f = w_body.cross(w_body.cross(r)) - q.conjugate() * kStandardGravity;
-      worst_f = std::max(worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
-      worst_w = std::max(worst_w, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w_body).norm() / kSpinRate);
+      worst_f = std::max(
+          worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
+      worst_w = std::max(
+          worst_w,
+          (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w_body).norm() / kSpinRate);
     }
     if (method == DerivativeMethod::spline) {
       EXPECT_LT(worst_f, 1e-9);
@@ -111,8 +114,10 @@ TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
   for (const DerivativeMethod method :
        {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
     for (int trial = 0; trial < 5; ++trial) {
-      const Quaterniond q0 = Quaterniond(Eigen::AngleAxisd(0.7 * trial + 0.1, Vector3d(1, 2, -0.5 * trial).normalized()));
-      const Quaterniond q1 = Quaterniond(Eigen::AngleAxisd(2.0 - 0.3 * trial, Vector3d(-1, 0.2, 0.4).normalized()));
+      const Quaterniond q0 = Quaterniond(
+          Eigen::AngleAxisd(0.7 * trial + 0.1, Vector3d(1, 2, -0.5 * trial).normalized()));
+      const Quaterniond q1 =
+          Quaterniond(Eigen::AngleAxisd(2.0 - 0.3 * trial, Vector3d(-1, 0.2, 0.4).normalized()));
       Motion m = sampled_motion(
           100.0, 20, [&](double) { return q0; }, [&](double) { return q1; },
           [](double) { return Vector3d(1.0, -2.0, 0.9); });
@@ -122,8 +127,10 @@ TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
       std::vector<SensorBlock> out;
       sim.evaluate(m, grid_times(sim, m, m.frames()), out);
       for (Eigen::Index i = 0; i < out[0].specific_force.cols(); ++i) {
-        EXPECT_NEAR(out[0].specific_force.col(i).norm(), 9.80665, 1e-12) << to_string(method) << " trial " << trial << " sample " << i;
-        EXPECT_EQ(out[0].angular_rate.col(i).norm(), 0.0) << to_string(method) << " trial " << trial << " sample " << i;
+        EXPECT_NEAR(out[0].specific_force.col(i).norm(), 9.80665, 1e-12)
+            << to_string(method) << " trial " << trial << " sample " << i;
+        EXPECT_EQ(out[0].angular_rate.col(i).norm(), 0.0)
+            << to_string(method) << " trial " << trial << " sample " << i;
       }
     }
   }
@@ -137,11 +144,14 @@ struct SineTruth {
   Vector3d offset = Vector3d(0.3, 0.0, 0.1);
   Vector3d r = Vector3d(0.05, 0.2, -0.03);
   Quaterniond root = Quaterniond(Eigen::AngleAxisd(0.4, Vector3d::UnitZ()));
-  Quaterniond rotation(double t) const { return Quaterniond(Eigen::AngleAxisd(A * std::sin(W * t), axis)); }
+  Quaterniond rotation(double t) const {
+    return Quaterniond(Eigen::AngleAxisd(A * std::sin(W * t), axis));
+  }
   void truth(double t, Vector3d& f, Vector3d& w) const {
-    const double th = A * std::sin(W * t), dth = A * W * std::cos(W * t), ddth = -A * W * W * std::sin(W * t);
+    const double th = A * std::sin(W * t), dth = A * W * std::cos(W * t),
+                 ddth = -A * W * W * std::sin(W * t);
     const Quaterniond q = rotation(t);
-    const Vector3d wb = axis * dth, ab = axis * ddth;  // body frame (fixed axis)
+    const Vector3d wb = axis * dth, ab = axis * ddth;                // body frame (fixed axis)
     const Vector3d acc_child = ab.cross(r) + wb.cross(wb.cross(r));  // child frame
     f = acc_child - (root * q).conjugate() * kStandardGravity;
     w = wb;
@@ -151,7 +161,8 @@ struct SineTruth {
 
 // RMS error of accelerometer and gyroscope (relative to the signal RMS) at `rate`, evaluated at
 // sensor times `sensor_rate` (0 = on the frames).
-std::pair<double, double> sine_errors(DerivativeMethod method, double rate, double sensor_rate = 0.0) {
+std::pair<double, double> sine_errors(DerivativeMethod method, double rate,
+                                      double sensor_rate = 0.0) {
   const SineTruth T;
   const auto frames = static_cast<int64_t>(std::lround(3.0 * rate)) + 1;
   Motion m = sampled_motion(
@@ -183,7 +194,8 @@ double slope(double e_coarse, double e_fine) { return std::log2(e_coarse / e_fin
 
 TEST(Simulator, FdErrorFallsAsDtSquaredOverFourRates) {
   std::vector<std::pair<double, double>> e;
-  for (double rate : {25.0, 50.0, 100.0, 200.0}) e.push_back(sine_errors(DerivativeMethod::fd, rate));
+  for (double rate : {25.0, 50.0, 100.0, 200.0})
+    e.push_back(sine_errors(DerivativeMethod::fd, rate));
   for (std::size_t i = 0; i + 1 < e.size(); ++i) {
     EXPECT_NEAR(slope(e[i].first, e[i + 1].first), 2.0, 0.15) << "accelerometer, step " << i;
     EXPECT_NEAR(slope(e[i].second, e[i + 1].second), 2.0, 0.15) << "gyroscope, step " << i;
@@ -218,7 +230,8 @@ TEST(Simulator, SplineIsNoWorseThanFdAtFramesAndConvergesAtItsOrderBetweenThem) 
   // Between frames (sensor at 7/3 of the motion rate, so most samples are off the grid):
   // acceleration second order, angular rate third order.
   std::vector<std::pair<double, double>> e;
-  for (double rate : {30.0, 60.0, 120.0, 240.0}) e.push_back(sine_errors(DerivativeMethod::spline, rate, rate * 7.0 / 3.0));
+  for (double rate : {30.0, 60.0, 120.0, 240.0})
+    e.push_back(sine_errors(DerivativeMethod::spline, rate, rate * 7.0 / 3.0));
   for (std::size_t i = 0; i + 1 < e.size(); ++i) {
     EXPECT_NEAR(slope(e[i].first, e[i + 1].first), 2.0, 0.25) << "accelerometer, step " << i;
     EXPECT_GT(slope(e[i].second, e[i + 1].second), 2.75) << "gyroscope, step " << i;
@@ -260,8 +273,10 @@ TEST(Simulator, SplineIsExactOnMotionsItRepresents) {
     const Vector3d a = ddtrans(t) + w0.cross(w0.cross(o)) + dw1.cross(rr) + w1.cross(w1.cross(rr));
     const Vector3d f = R1.transpose() * (a - kStandardGravity);
     const Vector3d w = R1.transpose() * w1;
-    worst_f = std::max(worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
-    worst_w = std::max(worst_w, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w).norm() / w.norm());
+    worst_f = std::max(
+        worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
+    worst_w = std::max(
+        worst_w, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w).norm() / w.norm());
   }
   EXPECT_LT(worst_f, 1e-9);
   EXPECT_LT(worst_w, 1e-9);
@@ -287,8 +302,10 @@ TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
     const auto times = grid_times(sim, m, m.frames());
     sim.evaluate(m, times, a);
     sim.evaluate(flipped, times, b);
-    EXPECT_LT((a[0].specific_force - b[0].specific_force).cwiseAbs().maxCoeff(), 1e-12) << to_string(method);
-    EXPECT_LT((a[0].angular_rate - b[0].angular_rate).cwiseAbs().maxCoeff(), 1e-12) << to_string(method);
+    EXPECT_LT((a[0].specific_force - b[0].specific_force).cwiseAbs().maxCoeff(), 1e-12)
+        << to_string(method);
+    EXPECT_LT((a[0].angular_rate - b[0].angular_rate).cwiseAbs().maxCoeff(), 1e-12)
+        << to_string(method);
   }
 }
 
@@ -366,11 +383,13 @@ TEST(Simulator, PlanEvaluatesOnlyTheSensorChainsAndSharesPrefixes) {
   const SimulationPlan one = compile_plan(body, {sensor_on(lw, Vector3d::Zero())});
   // pelvis, spine, chest, left_clavicle, left_shoulder, left_elbow.
   EXPECT_EQ(one.joints.size(), 6u);
-  const SimulationPlan two = compile_plan(body, {sensor_on(lw, Vector3d::Zero()), sensor_on(rw, Vector3d::Zero())});
+  const SimulationPlan two =
+      compile_plan(body, {sensor_on(lw, Vector3d::Zero()), sensor_on(rw, Vector3d::Zero())});
   EXPECT_EQ(two.joints.size(), 9u);  // the trunk prefix (3 joints) once
   SensorOutputs acc_only;
   acc_only.gyroscope = false;
-  const SimulationPlan a = compile_plan(body, {sensor_on(lw, Vector3d::Zero(), Quaterniond::Identity(), acc_only)});
+  const SimulationPlan a =
+      compile_plan(body, {sensor_on(lw, Vector3d::Zero(), Quaterniond::Identity(), acc_only)});
   EXPECT_TRUE(a.needs_position);
   EXPECT_FALSE(a.needs_rotation);
   EXPECT_EQ(std::count(a.needs_rate.begin(), a.needs_rate.end(), 1), 0);
@@ -434,16 +453,19 @@ TEST(Simulator, TwentyFourHourSceneEndsLikeTheSameSegmentAlone) {
   Eigen::Matrix3Xd f_end(3, tail), w_end(3, tail);
   std::vector<TimeNs> t_end(tail);
   int64_t seen = 0;
-  sim.run(endless, [&](std::size_t, const SensorBlock& b) {
-    for (std::size_t i = 0; i < b.t.size(); ++i, ++seen) {
-      const int64_t k = seen - (frames - tail);
-      if (k >= 0) {
-        f_end.col(k) = b.specific_force.col(static_cast<Eigen::Index>(i));
-        w_end.col(k) = b.angular_rate.col(static_cast<Eigen::Index>(i));
-        t_end[static_cast<std::size_t>(k)] = b.t[i];
-      }
-    }
-  }, frames);
+  sim.run(
+      endless,
+      [&](std::size_t, const SensorBlock& b) {
+        for (std::size_t i = 0; i < b.t.size(); ++i, ++seen) {
+          const int64_t k = seen - (frames - tail);
+          if (k >= 0) {
+            f_end.col(k) = b.specific_force.col(static_cast<Eigen::Index>(i));
+            w_end.col(k) = b.angular_rate.col(static_cast<Eigen::Index>(i));
+            t_end[static_cast<std::size_t>(k)] = b.t[i];
+          }
+        }
+      },
+      frames);
   ASSERT_EQ(seen, frames);
   EXPECT_EQ(t_end.back(), (frames - 1) * 10'000'000LL);
   ProceduralMotionOptions alone_opt = po;
@@ -500,8 +522,9 @@ TEST(Simulator, ReferenceMethodMatchesTheReferenceSimulatorTo1e9Relative) {
   const auto trans = read_numeric_csv(dir / "sceneA_D_translation_10s.csv");
   ASSERT_EQ(static_cast<int64_t>(trans.size()), motion.frames());
   for (int64_t f = 0; f < motion.frames(); ++f) {
-    motion.root_translation(f) = Vector3d(trans[static_cast<std::size_t>(f)][1], trans[static_cast<std::size_t>(f)][2],
-                                          trans[static_cast<std::size_t>(f)][3]);
+    motion.root_translation(f) =
+        Vector3d(trans[static_cast<std::size_t>(f)][1], trans[static_cast<std::size_t>(f)][2],
+                 trans[static_cast<std::size_t>(f)][3]);
   }
   SimulationOptions opt;
   opt.method = DerivativeMethod::reference;
@@ -510,7 +533,8 @@ TEST(Simulator, ReferenceMethodMatchesTheReferenceSimulatorTo1e9Relative) {
   Motion m100(100.0, motion.joint_count(), motion.frames());
   for (int64_t f = 0; f < motion.frames(); ++f) {
     m100.root_translation(f) = motion.root_translation(f);
-    for (std::size_t j = 0; j < motion.joint_count(); ++j) m100.rotation(f, j) = motion.rotation(f, j);
+    for (std::size_t j = 0; j < motion.joint_count(); ++j)
+      m100.rotation(f, j) = motion.rotation(f, j);
   }
   for (const std::string name : {"RWR", "LWR"}) {
     const std::string joint = name == "RWR" ? "R_ELBOW" : "L_ELBOW";
@@ -528,10 +552,14 @@ TEST(Simulator, ReferenceMethodMatchesTheReferenceSimulatorTo1e9Relative) {
     double worst = 0.0;
     for (std::size_t i = 0; i + 2 < ref.size(); ++i) {
       for (int a = 0; a < 3; ++a) {
-        const double fa = out[0].specific_force(a, static_cast<Eigen::Index>(i)) + double(ab[static_cast<std::size_t>(a)]);
-        const double fg = out[0].angular_rate(a, static_cast<Eigen::Index>(i)) + double(gb[static_cast<std::size_t>(a)]);
-        worst = std::max(worst, std::abs(fa - ref[i][1 + a]) / std::max(1.0, std::abs(ref[i][1 + a])));
-        worst = std::max(worst, std::abs(fg - ref[i][4 + a]) / std::max(1.0, std::abs(ref[i][4 + a])));
+        const double fa = out[0].specific_force(a, static_cast<Eigen::Index>(i)) +
+                          double(ab[static_cast<std::size_t>(a)]);
+        const double fg = out[0].angular_rate(a, static_cast<Eigen::Index>(i)) +
+                          double(gb[static_cast<std::size_t>(a)]);
+        worst =
+            std::max(worst, std::abs(fa - ref[i][1 + a]) / std::max(1.0, std::abs(ref[i][1 + a])));
+        worst =
+            std::max(worst, std::abs(fg - ref[i][4 + a]) / std::max(1.0, std::abs(ref[i][4 + a])));
       }
     }
     EXPECT_LT(worst, 1e-9) << name;
@@ -568,7 +596,8 @@ WalkStats walk_stats(const SensorBlock& b, double rate) {
   for (double f = 0.2; f <= 10.0; f += 0.005) {
     double re = 0, im = 0;
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double w = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) / static_cast<double>(n - 1));
+      const double w = 0.5 - 0.5 * std::cos(2 * std::numbers::pi * static_cast<double>(i) /
+                                            static_cast<double>(n - 1));
       const double ph = 2 * std::numbers::pi * f * static_cast<double>(i) / rate;
       re += w * (a[static_cast<std::size_t>(i)] - mean) * std::cos(ph);
       im += w * (a[static_cast<std::size_t>(i)] - mean) * std::sin(ph);
