@@ -636,3 +636,39 @@ TEST(Simulator, WalkBvhWithLeftWristWatchIsInTheRangesOfRealWatches) {
 
 }  // namespace
 }  // namespace imukit::sim
+
+namespace imukit::sim {
+namespace {
+
+TEST(Simulator, IsUsableAsACoreSignalSource) {
+  ProceduralMotionOptions po;
+  po.frames = 500;
+  ProceduralMotion motion(2, po);
+  SensorSpec s;
+  s.name = "s";
+  s.placement.joint = 1;
+  s.placement.p_joint_sensor = Vector3d(0.1, 0.0, 0.02);
+  SimulationOptions opt;
+  opt.method = DerivativeMethod::spline;
+  SimulatedSensorSource source(two_joint_body(), s, motion, opt);
+  SignalSource& as_core = source;
+  // Arbitrary increasing times (a drifting device clock: 1.0003 x the nominal 5 ms period).
+  std::vector<TimeNs> t;
+  for (int k = 0; k < 900; ++k) t.push_back(static_cast<TimeNs>(k * 5'001'500LL));
+  Eigen::Matrix3Xd f, w;
+  as_core.evaluate(t, &f, &w);
+  Simulator direct(two_joint_body(), {s}, opt);
+  std::vector<SensorBlock> out;
+  direct.evaluate(motion, t, out);
+  EXPECT_EQ(f, out[0].specific_force);
+  EXPECT_EQ(w, out[0].angular_rate);
+  Eigen::Matrix3Xd only_w;
+  as_core.evaluate(t, nullptr, &only_w);
+  EXPECT_EQ(only_w, w);
+  // Outside the motion: a clear error, not a silent extrapolation.
+  const std::vector<TimeNs> late = {10'000'000'000LL};
+  EXPECT_THROW(as_core.evaluate(late, &f, &w), Error);
+}
+
+}  // namespace
+}  // namespace imukit::sim
