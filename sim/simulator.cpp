@@ -114,6 +114,21 @@ inline Quaterniond multiply(const Quaterniond& a, const Quaterniond& b) {
                      (a.w() * b.y() + a.y() * b.w()) + (a.z() * b.x() - a.x() * b.z()),
                      (a.w() * b.z() + a.z() * b.w()) + (a.x() * b.y() - a.y() * b.x()));
 }
+// The SO(3) log of a frame-to-frame increment. Increments are small (|angle| < 0.2 rad, i.e.
+// x = |v|/w < 0.1): there log q = v (2/w) atan(x)/x with atan(x)/x = sum (-x^2)^k / (2k+1),
+// 9 terms for an error below 1e-18, no atan2 and no square root. Larger rotations go through
+// so3_log. Like so3_log it depends only on the rotation (sign and scale of q).
+inline Vector3d increment_log(const Quaterniond& q) {
+  const double w = q.w() < 0.0 ? -q.w() : q.w();
+  const Vector3d v = q.w() < 0.0 ? Vector3d(-q.vec()) : Vector3d(q.vec());
+  const double s2 = v.squaredNorm();
+  if (!(s2 < 0.01 * w * w)) return so3_log(q);
+  const double x2 = s2 / (w * w);
+  double r = 1.0 / 17.0;
+  for (int k = 7; k >= 0; --k) r = 1.0 / (2 * k + 1) - x2 * r;
+  return v * (2.0 * r / w);
+}
+
 inline Vector3d rotate_inverse(const Quaterniond& q, const Vector3d& v) {
   return rotate(Quaterniond(q.w(), -q.x(), -q.y(), -q.z()), v);
 }
@@ -477,7 +492,7 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     // d[f] = log(R[f]^T R[f+1]), the body-frame rotation from frame f to f + 1.
     const auto idx = static_cast<std::size_t>(f - lo);
     if (!ws.increment_set[k][idx]) {
-      ws.increment[k][idx] = so3_log(multiply(qw(f, k).conjugate(), qw(f + 1, k)));
+      ws.increment[k][idx] = increment_log(multiply(qw(f, k).conjugate(), qw(f + 1, k)));
       ws.increment_set[k][idx] = 1;
     }
     return ws.increment[k][idx];
