@@ -22,7 +22,8 @@ MockDevice::MockDevice(std::shared_ptr<SignalSource> source, MockOptions options
     : source_(std::move(source)),
       opt_(std::move(options)),
       link_rng_(opt_.seed, 1),
-      sensor_rng_(opt_.seed, 2) {
+      sensor_rng_(opt_.seed, 2),
+      uplink_rng_(opt_.seed, 3) {
   info_.vendor.set("imukit");
   info_.model.set("mock");
   info_.serial.set(("mock-" + std::to_string(opt_.seed)).c_str());
@@ -174,6 +175,13 @@ std::size_t MockDevice::load_calibration(uint8_t* out, std::size_t capacity) {
 }
 
 void MockDevice::advance_to(TimeNs t) {
+  // Host bytes arrive at their own due times, between the samples that fall before and after.
+  while (!inbound_.empty() && inbound_.front().due <= t) {
+    t_ = std::max(t_, inbound_.front().due);
+    model_->poll();
+    if (!gone_) model_->on_bytes(inbound_.front().bytes.data(), inbound_.front().bytes.size());
+    inbound_.pop_front();
+  }
   t_ = std::max(t_, t);
   model_->poll();
 }
@@ -234,7 +242,14 @@ ReadResult MockDevice::read(std::span<uint8_t> buf, int timeout_ms) {
 
 void MockDevice::write(std::span<const uint8_t> bytes) {
   if (gone_) return;  // the cable is out: commands go nowhere, read() reports the end
-  model_->on_bytes(bytes.data(), bytes.size());
+  if (opt_.latency_us <= 0 && opt_.jitter_us <= 0) {
+    model_->on_bytes(bytes.data(), bytes.size());
+    return;
+  }
+  TimeNs due = t_ + static_cast<TimeNs>(std::llround(opt_.latency_us * 1e3));
+  if (opt_.jitter_us > 0) due += static_cast<TimeNs>(std::llround(uplink_rng_.uniform() * opt_.jitter_us * 1e3));
+  if (!inbound_.empty()) due = std::max(due, inbound_.back().due);  // in order
+  inbound_.push_back({due, std::vector<uint8_t>(bytes.begin(), bytes.end())});
 }
 
 std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,

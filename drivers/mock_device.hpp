@@ -13,6 +13,8 @@
 // Link: every frame the device writes is dropped whole with probability `drop`; each byte that
 // survives has one random bit flipped with probability `flip`; it reaches the host at
 // send time + latency + U(0, jitter) (never before the previous frame: a serial link keeps order).
+// Bytes the host writes reach the device after the same latency and jitter (a symmetric link,
+// which is what a time-sync ping assumes when it halves the round trip).
 // A stall holds everything sent in [stall_at, stall_at + stall) back until the stall ends. After
 // disconnect_after samples the device is gone: read() reports the end of the stream.
 #pragma once
@@ -95,7 +97,9 @@ class MockDevice : public ByteTransport, private proto::Hal {
     TimeNs due;  // true time the bytes reach the host
     std::vector<uint8_t> bytes;
   };
-  std::deque<Pending> pending_;
+  std::deque<Pending> pending_;   // device -> host
+  std::deque<Pending> inbound_;   // host -> device
+  Rng uplink_rng_;
   TimeNs last_due_ = 0;
   uint64_t frames_dropped_ = 0;
   uint64_t samples_in_dropped_ = 0;
