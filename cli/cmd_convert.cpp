@@ -1,5 +1,6 @@
 // imukit convert: rewrite a recording as MCAP, EuRoC CSV (Kalibr, OpenVINS, pandas) or NumPy
 // arrays, or rescue an MCAP file cut short by a crash.
+#include <algorithm>
 #include <filesystem>
 #include <fmt/core.h>
 
@@ -77,7 +78,10 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
   } else if (ext.empty()) {
     fs::create_directories(out);
     for (const auto& [name, series] : r.streams) {
-      const std::string path = (fs::path(out) / (name + ".csv")).string();
+      // A topic below a device (/imu/belt/truth) becomes belt.truth.csv.
+      std::string file = name;
+      std::replace(file.begin(), file.end(), '/', '.');
+      const std::string path = (fs::path(out) / (file + ".csv")).string();
       write_euroc_csv(path, series.view());
       fmt::print("wrote {} ({} samples, EuRoC CSV)\n", path, series.size());
     }

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <memory>
 
+#include "capture/mcap.hpp"
+#include "capture/ros_messages.hpp"
 #include "cli/command.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
@@ -115,15 +117,51 @@ sim::Scene quick_scene(const SimulateArgs& a) {
   return scene;
 }
 
+// The simulation as a recording: /imu/<sensor> (and /imu/<sensor>/truth for the noiseless
+// signals) as sensor_msgs/msg/Imu, times in ns since the start of the motion, streamed in
+// constant memory; the description goes into an "imukit.simulation" metadata record.
+int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path, const std::string& description) {
+  capture::McapWriter writer(path);
+  writer.write_metadata("imukit.simulation", {{"description", description}});
+  const uint16_t schema = writer.add_schema(capture::kImuSchemaName, "ros2msg", capture::kImuSchemaText);
+  std::vector<uint16_t> channels, truth_channels;
+  std::vector<capture::ImuMessage> messages(scene.sensors.size());
+  for (std::size_t k = 0; k < scene.sensors.size(); ++k) {
+    const std::string& name = scene.sensors[k].spec.name;
+    channels.push_back(writer.add_channel(schema, "/imu/" + name, "cdr"));
+    truth_channels.push_back(scene.ground_truth ? writer.add_channel(schema, "/imu/" + name + "/truth", "cdr")
+                                                : uint16_t{0});
+    messages[k].frame_id = name;
+  }
+  int64_t samples = 0;
+  const auto put = [&](uint16_t channel, capture::ImuMessage& m, const sim::SensorBlock& b, std::size_t i) {
+    const auto c = static_cast<Eigen::Index>(i);
+    m.stamp = b.t[i];
+    m.angular_velocity = {b.angular_rate(0, c), b.angular_rate(1, c), b.angular_rate(2, c)};
+    m.linear_acceleration = {b.specific_force(0, c), b.specific_force(1, c), b.specific_force(2, c)};
+    if (i < b.q_world_sensor.size()) {
+      const Eigen::Quaterniond& q = b.q_world_sensor[i];
+      m.orientation_xyzw = {q.x(), q.y(), q.z(), q.w()};
+      m.orientation_covariance[0] = 0.0;  // provided (exact), covariance not stated
+    }
+    const auto t = static_cast<uint64_t>(b.t[i]);
+    writer.write_message(channel, t, t, capture::encode_cdr(m));
+  };
+  sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
+    for (std::size_t i = 0; i < m.t.size(); ++i) {
+      put(channels[s], messages[s], m, i);
+      if (t != nullptr && scene.ground_truth) put(truth_channels[s], messages[s], *t, i);
+    }
+    samples += static_cast<int64_t>(m.t.size());
+  });
+  writer.close();
+  return samples;
+}
+
 int run_simulate(const SimulateArgs& a) {
   if (a.list_presets) return list_presets();
   if (a.output.empty()) throw Error("simulate: give the output folder with -o DIR");
   const std::filesystem::path out(a.output);
-  if (out.extension() == ".mcap") {
-    throw Error(
-        "simulate: MCAP output comes with the capture module's recorder; use -o DIR for EuRoC CSV "
-        "files");
-  }
   if (a.scene.empty() == a.bvh.empty())
     throw Error("simulate: give either SCENE.json or --bvh FILE");
   sim::Scene scene = a.scene.empty() ? quick_scene(a) : sim::read_scene(a.scene);
@@ -145,6 +183,24 @@ int run_simulate(const SimulateArgs& a) {
     if (s.hardware) validate_hardware_model(*s.hardware, rate);
   }
   for (const std::string& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
+  // What was simulated, so the outputs can be traced (gravity included, as DESIGN.md asks).
+  const Eigen::Vector3d& g = scene.options.gravity_world;
+  std::string sensors;
+  for (const sim::SceneSensor& s : scene.sensors) {
+    sensors += fmt::format("{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}}}",
+                           sensors.empty() ? "" : ", ", s.spec.name, s.preset,
+                           s.hardware ? "true" : "false");
+  }
+  const std::string description = fmt::format(
+      "{{\"schema\": \"imukit.simulation/1\", \"method\": \"{}\", \"rate_hz\": {:.17g}, "
+      "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
+      sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), scene.seed, sensors);
+  if (out.extension() == ".mcap") {
+    const int64_t samples = simulate_to_mcap(scene, out.string(), description);
+    fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
+               scene.sensors.size(), samples, rate, sim::to_string(scene.options.method), out.string());
+    return 0;
+  }
   std::filesystem::create_directories(out);
   const std::string header(kEurocHeader);
   std::vector<std::unique_ptr<StreamFile>> files, truth, orient;
@@ -171,20 +227,7 @@ int run_simulate(const SimulateArgs& a) {
       if (f) f->close();
     }
   }
-  // What was simulated, so the outputs can be traced (gravity included, as DESIGN.md asks).
-  const Eigen::Vector3d& g = scene.options.gravity_world;
-  std::string sensors;
-  for (const sim::SceneSensor& s : scene.sensors) {
-    sensors += fmt::format("{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}}}",
-                           sensors.empty() ? "" : ", ", s.spec.name, s.preset,
-                           s.hardware ? "true" : "false");
-  }
-  StreamFile info(
-      (out / "simulation.json").string(),
-      fmt::format(
-          "{{\"schema\": \"imukit.simulation/1\", \"method\": \"{}\", \"rate_hz\": {:.17g}, "
-          "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
-          sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), scene.seed, sensors));
+  StreamFile info((out / "simulation.json").string(), description);
   info.close();
   fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
              scene.sensors.size(), samples, rate, sim::to_string(scene.options.method),
@@ -204,7 +247,7 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option(
               "-o,--output", a->output,
               "Output folder: one EuRoC CSV per sensor (+ .truth.csv with --ground-truth). "
-              "MCAP output (-o FILE.mcap) comes with the capture module's recorder");
+              "-o FILE.mcap writes one sensor_msgs/Imu topic per sensor instead");
           sub.add_option("--method", a->method,
                          "Derivative method: fd (default), spline, or reference (comparison only)");
           sub.add_option("--rate", a->rate_hz,

@@ -102,9 +102,19 @@ with tempfile.TemporaryDirectory() as tmp:
         check(r.returncode == 0 and len(t) == 50 and np.max(np.abs(np.linalg.norm(a, axis=1) - 9.80665)) < 1e-12
               and np.all(g == 0.0), f"still body ({method}): |acc| = g, gyro = 0")
 
-    r = run("simulate", path, "-o", os.path.join(tmp, "x.mcap"))
-    check(r.returncode != 0 and "MCAP" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
-          "-o FILE.mcap is a one-line error")
+    # -o FILE.mcap: the same samples as the CSV folder, read back through `imukit convert`.
+    mcap = os.path.join(tmp, "x.mcap")
+    r = run("simulate", path, "-o", mcap)
+    back = os.path.join(tmp, "from_mcap")
+    r2 = run("convert", mcap, "-o", back)
+    ok = r.returncode == 0 and r2.returncode == 0
+    if ok:
+        for name in os.listdir(out):
+            if name.endswith(".csv") and not name.endswith(".truth.csv") and ".orientation" not in name:
+                _, t1, g1, a1 = euroc(os.path.join(out, name))
+                _, t2, g2, a2 = euroc(os.path.join(back, name))
+                ok = ok and np.array_equal(t1, t2) and np.array_equal(g1, g2) and np.array_equal(a1, a2)
+    check(ok, "-o FILE.mcap holds exactly the samples of the CSV output")
     bad = dict(scene, sensors=[{"preset": "left_sock"}])
     json.dump(bad, open(path, "w"))
     r = run("simulate", path, "-o", out)
