@@ -25,6 +25,9 @@ enum Opcode : uint8_t {
 // A single record may not claim more than this: a length field from a corrupt file must not
 // make the reader allocate gigabytes.
 constexpr uint64_t kMaxRecordBytes = uint64_t{1} << 31;
+// A chunk may not decompress to more than this (imukit writes 1 MiB chunks; other writers use a
+// few MiB): a corrupt or hostile size field must not become a huge allocation.
+constexpr uint64_t kMaxChunkBytes = uint64_t{1} << 28;
 
 void put_map(ByteWriter& w, const McapMetadataMap& map) {
   uint32_t bytes = 0;
@@ -614,11 +617,17 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
         (void)end_time;
         std::string problem;
         std::span<const uint8_t> plain;
-        if (uncompressed_size > kMaxRecordBytes) {
-          problem = fmt::format("declares {} uncompressed bytes", uncompressed_size);
+        if (uncompressed_size > kMaxChunkBytes) {
+          problem = fmt::format("declares {} uncompressed bytes (more than {})", uncompressed_size,
+                                kMaxChunkBytes);
         } else if (compression.empty()) {
           if (records.size() != uncompressed_size) problem = "uncompressed size does not match its records";
           plain = records;
+        } else if (compression == "zstd" &&
+                   ZSTD_getFrameContentSize(records.data(), records.size()) != uncompressed_size) {
+          // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
+          // checking first means a lying header never decides how much memory is allocated.
+          problem = "uncompressed size does not match its zstd frame";
         } else if (compression == "zstd") {
           uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
           const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),

@@ -218,6 +218,37 @@ TEST(Mcap, CorruptChunkIsAnErrorNamingItsOffsetAndRecoverySkipsIt) {
   EXPECT_EQ(got.size(), written.size() - 2 * 50);  // one chunk of 50 time steps x 2 channels
 }
 
+// Found by the fuzzer: a chunk header claiming 1.7 GB of uncompressed records made the reader
+// allocate them. A claimed size must agree with the zstd frame's own before any allocation.
+TEST(Mcap, ChunkSizeFieldsCannotForceHugeAllocations) {
+  testing::TempDir dir;
+  const std::string path = (dir / "s.mcap").string();
+  write_file(path, 100, 100.0);
+  const std::vector<uint8_t> good = slurp(path);
+  std::size_t chunk = 8;
+  while (good[chunk] != 0x06) {
+    uint64_t len = 0;
+    std::memcpy(&len, &good[chunk + 1], 8);
+    chunk += 9 + len;
+  }
+  const std::pair<uint64_t, const char*> cases[] = {
+      {1'700'000'000, "more than"},  // above any chunk imukit accepts
+      {200'000'000, "does not match its zstd frame"},  // plausible, but not what the frame says
+      {12345, "does not match its zstd frame"}};
+  for (const auto& [claimed, why] : cases) {
+    std::vector<uint8_t> bad = good;
+    std::memcpy(&bad[chunk + 9 + 16], &claimed, 8);  // uncompressed_size
+    try {
+      read_mcap(std::span<const uint8_t>(bad), "bad.mcap", nullptr);
+      ADD_FAILURE() << "accepted a chunk claiming " << claimed << " bytes";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("corrupt chunk"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(chunk)), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Mcap, NotAnMcapFileIsRejectedAtByteZero) {
   testing::TempDir dir;
   const std::string path = (dir / "x.mcap").string();
