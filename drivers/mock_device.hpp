@@ -60,6 +60,7 @@ class MockDevice : public ByteTransport, private proto::Hal {
   void write(std::span<const uint8_t> bytes) override;
   std::string describe() const override;
   TimeNs now() const override;
+  bool virtual_time() const override { return opt_.virtual_time; }
 
   const proto::DeviceModel& model() const { return *model_; }
   const proto::DeviceInfo& info() const { return info_; }

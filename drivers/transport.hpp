@@ -46,6 +46,10 @@ class Transport {
   virtual std::string describe() const = 0;
   // The host clock this transport stamps reads with (a mock in virtual time has its own).
   virtual TimeNs now() const { return host_now(); }
+  // True when now() is a simulated clock that only moves as the transport is read (a mock in
+  // virtual time): a consumer may then wait instead of dropping data, since nothing is lost
+  // in an OS buffer meanwhile.
+  virtual bool virtual_time() const { return false; }
 };
 
 class ByteTransport : public Transport {

@@ -19,6 +19,7 @@ class Borrowed : public drivers::ByteTransport {
   void write(std::span<const uint8_t> bytes) override { mock_.write(bytes); }
   std::string describe() const override { return mock_.describe(); }
   TimeNs now() const override { return mock_.now(); }
+  bool virtual_time() const override { return mock_.virtual_time(); }
 
  private:
   drivers::MockDevice& mock_;
