@@ -92,8 +92,8 @@ void BM_SessionEightDevices(benchmark::State& state) {
   fs::remove(path);
 }
 BENCHMARK(BM_SessionEightDevices)
-    ->Args({4000, 10, 1})
-    ->Args({4000, 5, 0})
+    ->Args({8000, 10, 1})
+    ->Args({8000, 10, 0})
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1)
     ->UseRealTime();

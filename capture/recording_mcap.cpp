@@ -93,9 +93,11 @@ RecordingRead read_recording_mcap(const std::string& path) {
     }
   };
   out.summary = read_mcap(path, handlers);
+  // The recording's own metadata as is; other records (device info, session statistics) with
+  // their record's name in front of each key.
   for (const auto& md : out.summary.metadata) {
-    if (md.name == "imukit.recording") {
-      out.recording.metadata.insert(md.entries.begin(), md.entries.end());
+    for (const auto& [key, value] : md.entries) {
+      out.recording.metadata[md.name == "imukit.recording" ? key : md.name + "." + key] = value;
     }
   }
   for (auto& [name, messages] : samples) {

@@ -31,7 +31,9 @@ struct RecordingRead {
 };
 
 // Reads the sensor_msgs/Imu channels (streams named after their topic without "/imu/"), the
-// /events channel and the metadata; other channels are ignored.
+// /events channel and the metadata (keys of records other than "imukit.recording" are prefixed
+// with the record's name, e.g. "imukit.session.mock.samples_dropped"); other channels are
+// ignored.
 RecordingRead read_recording_mcap(const std::string& path);
 
 }  // namespace imukit::capture

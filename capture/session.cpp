@@ -14,6 +14,7 @@
 #include "core/error.hpp"
 #include "drivers/imukit_codec.hpp"
 #include "drivers/reader.hpp"
+#include "drivers/sample.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -144,9 +145,15 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   raw.stamp = t;
   raw.host_receive_time = s.host_time;
   raw.sample_index = s.sequence;
-  raw.device_ticks = s.has_device_time ? static_cast<uint64_t>(s.device_time) : 0;
-  raw.tick_hz = s.has_device_time ? 1e9 : 0.0;
-  raw.channels = s.has_device_time ? kRawHasDeviceClock : 0;
+  // The device clock in its own ticks where the codec knows them, else in ns.
+  const bool ticks = s.has_device_time && s.tick_hz > 0;
+  raw.device_ticks = ticks ? s.device_ticks : s.has_device_time ? static_cast<uint64_t>(s.device_time) : 0;
+  raw.tick_hz = ticks ? s.tick_hz : s.has_device_time ? 1e9 : 0.0;
+  raw.channels = static_cast<uint8_t>((s.raw_channels & 0x0F) | (s.has_device_time ? kRawHasDeviceClock : 0));
+  raw.accel = s.raw_accel;
+  raw.gyro = s.raw_gyro;
+  raw.mag = s.raw_mag;
+  raw.temperature = s.raw_temperature;
   const auto raw_bytes = encode_cdr(raw);
   writer.write_message(d.raw_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), raw_bytes);
   ImuMessage& m = d.imu;
@@ -373,6 +380,14 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   return report;
 }
 
+namespace {
+// The device clock of a RawImu message in ns (the clock fits work in ns, like the pings).
+uint64_t device_ns(const RawImuMessage& raw) {
+  return static_cast<uint64_t>(drivers::ticks_to_ns(static_cast<int64_t>(raw.device_ticks),
+                                                    static_cast<uint64_t>(std::llround(raw.tick_hz))));
+}
+}  // namespace
+
 std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, const std::string& out) {
   // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
   std::map<std::string, ClockMapper> clocks;
@@ -397,7 +412,7 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
     if (const auto it = raw_channels.find(m.channel_id); it != raw_channels.end()) {
       const RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
       if (raw.channels & kRawHasDeviceClock) {
-        clocks.try_emplace(it->second, 1e9).first->second.add_sample(raw.device_ticks, raw.host_receive_time);
+        clocks.try_emplace(it->second, 1e9).first->second.add_sample(device_ns(raw), raw.host_receive_time);
       }
     } else if (const auto s = sync_channels.find(m.channel_id); s != sync_channels.end()) {
       const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
@@ -419,7 +434,7 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
       RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
       const auto clock = clocks.find(it->second);
       if (!(raw.channels & kRawHasDeviceClock) || clock == clocks.end()) return;
-      raw.stamp = clock->second.map(raw.device_ticks);
+      raw.stamp = clock->second.map(device_ns(raw));
       last_mapped[it->second] = raw.stamp;
       buffer = encode_cdr(raw);
       m.data = buffer;

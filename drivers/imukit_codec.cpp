@@ -240,6 +240,8 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
           floor_mul_div(n0, per_second_mticks, rate_mhz_));
       s.device_time = ticks_to_ns(tick0 + offset_ticks, info.tick_hz);
       s.has_device_time = true;
+      s.device_ticks = static_cast<uint64_t>(tick0 + offset_ticks);
+      s.tick_hz = static_cast<double>(info.tick_hz);
     }
     for (int k = 0; k < 3; ++k) {
       if (ha) s.accel[k] = static_cast<double>(oa) + static_cast<double>(sa) * b.accel[i][k];
@@ -247,8 +249,18 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
       if (hm) s.mag[k] = static_cast<double>(om) + static_cast<double>(sm) * b.mag[i][k];
     }
     if (ht) s.temperature_c = static_cast<double>(ot) + static_cast<double>(st) * b.temperature[i];
+    for (int k = 0; k < 3; ++k) {
+      s.raw_accel[k] = b.accel[i][k];
+      s.raw_gyro[k] = b.gyro[i][k];
+      s.raw_mag[k] = b.mag[i][k];
+    }
+    s.raw_temperature = b.temperature[i];
     s.channels = static_cast<uint8_t>((ha ? kHasAccel : 0) | (hg ? kHasGyro : 0) |
                                       (hm ? kHasMag : 0) | (ht ? kHasTemperature : 0));
+    s.raw_channels = static_cast<uint8_t>(((b.channels & proto::kChannelAccel) ? kHasAccel : 0) |
+                                          ((b.channels & proto::kChannelGyro) ? kHasGyro : 0) |
+                                          ((b.channels & proto::kChannelMag) ? kHasMag : 0) |
+                                          ((b.channels & proto::kChannelTemperature) ? kHasTemperature : 0));
     out.push_back(s);
   }
   stats_.samples_decoded += b.count;

@@ -256,7 +256,7 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
                                              const std::map<std::string, std::string>& keys) {
   MockOptions o;
   o.rate_hz = option_double(keys, "rate", 400.0);
-  if (!(o.rate_hz > 0 && o.rate_hz <= 4000)) throw Error("rate: expected 0 < rate <= 4000 Hz");
+  if (!(o.rate_hz > 0 && o.rate_hz <= 16000)) throw Error("rate: expected 0 < rate <= 16000 Hz");
   o.seed = static_cast<uint64_t>(option_int(keys, "seed", 1));
   o.drop = option_double(keys, "drop", 0.0);
   o.flip = option_double(keys, "flip", 0.0);

@@ -41,6 +41,16 @@ struct Sample {
   double temperature_c = 0.0;          // degrees Celsius
   std::array<double, 3> angles_rad{};  // device-computed Euler angles (roll, pitch, yaw), rad
   uint32_t status = 0;                 // device status word where the device sends one
+  // What the device sent before scaling, where it sends counts (kHas* bits in raw_channels):
+  // kept so a recording can be recalibrated later.
+  uint8_t raw_channels = 0;
+  std::array<int32_t, 3> raw_accel{};
+  std::array<int32_t, 3> raw_gyro{};
+  std::array<int32_t, 3> raw_mag{};
+  int32_t raw_temperature = 0;
+  // The device clock in its own ticks (unwrapped) and their rate, where it has one.
+  uint64_t device_ticks = 0;
+  double tick_hz = 0.0;
 };
 
 // Every loss a codec can see. Invariant (checked by the tests): bytes_received ==

@@ -30,6 +30,7 @@ struct RawRow {
   uint64_t device_ns;
   TimeNs stamp;
   uint64_t log_time;
+  int32_t accel_z_counts;
 };
 
 std::vector<RawRow> raw_rows(const std::string& path, const std::string& device) {
@@ -42,7 +43,9 @@ std::vector<RawRow> raw_rows(const std::string& path, const std::string& device)
   h.on_message = [&](const McapMessageView& m) {
     if (m.channel_id != raw_channel) return;
     const RawImuMessage r = decode_raw_imu_cdr(m.data, path);
-    rows.push_back({r.sample_index, r.device_ticks, r.stamp, m.log_time});
+    EXPECT_EQ(r.tick_hz, 1e6);  // the mock's clock, in its own ticks
+    EXPECT_EQ(r.channels & 0x03, 0x03);  // raw accelerometer and gyroscope counts present
+    rows.push_back({r.sample_index, r.device_ticks * 1000, r.stamp, m.log_time, r.accel[2]});
   };
   const McapReadSummary s = read_mcap(path, h);
   EXPECT_TRUE(s.complete) << s.truncation_note;
@@ -74,6 +77,9 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   const auto rows = raw_rows(options.path, "mock");
   ASSERT_EQ(rows.size(), d.samples);
   ASSERT_GT(rows.size(), 59'000u);
+  // A still, ideal mock reads +1 g on z: the raw counts are the device's own (2048 LSB/g at its
+  // default 16 g range).
+  EXPECT_NEAR(rows.front().accel_z_counts, 2048, 1);
   // Every index up to the last one received is either in the file or counted as dropped.
   for (std::size_t i = 1; i < rows.size(); ++i) ASSERT_GT(rows[i].index, rows[i - 1].index);
   const uint64_t span = rows.back().index - rows.front().index + 1;
