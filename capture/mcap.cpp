@@ -703,7 +703,8 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
 }
 
 McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
-                             const McapMessageEdit& edit, const McapReadOptions& options) {
+                             const McapMessageEdit& edit, const McapReadOptions& options,
+                             const std::vector<McapMetadata>& extra_metadata) {
   // First pass: what the file declares (schemas, channels, metadata); second: the messages.
   McapReadSummary summary = read_mcap(in, nullptr, options);
   McapWriterOptions wo;
@@ -723,6 +724,7 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
     channels[c.id] = &c;
   }
   for (const auto& m : summary.metadata) writer.write_metadata(m.name, m.entries);
+  for (const auto& m : extra_metadata) writer.write_metadata(m.name, m.entries);
   read_mcap(in,
             [&](const McapMessageView& m) {
               McapMessageView copy = m;

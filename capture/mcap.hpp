@@ -169,10 +169,12 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
 
 // Copies `in` to `out` message by message, letting `edit` change a message's times and data
 // (it may point m.data at its own storage, which must outlive the call). Schemas, channels and
-// metadata are copied as they are. Reads as `options` say (e.g. skipping corrupt chunks).
+// metadata are copied as they are (plus `extra_metadata`). Reads as `options` say (e.g.
+// skipping corrupt chunks).
 using McapMessageEdit = std::function<void(const McapChannel& channel, McapMessageView& m)>;
 McapReadSummary rewrite_mcap(const std::string& in, const std::string& out, const McapMessageEdit& edit,
-                             const McapReadOptions& options = {});
+                             const McapReadOptions& options = {},
+                             const std::vector<McapMetadata>& extra_metadata = {});
 
 // Rewrites whatever `in` holds (up to where it was cut, skipping corrupt chunks) as a complete
 // file at `out`. Returns the summary of what was read.

@@ -426,6 +426,21 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
   read_mcap(in, handlers);
   for (auto& [name, clock] : clocks) clock.flush();
 
+  // The fits go into the file too, so `imukit info` can show them.
+  std::vector<McapMetadata> fit_records;
+  for (const auto& [name, clock] : clocks) {
+    const ClockFit f = clock.fit();
+    fit_records.push_back(
+        {"imukit.clock." + name,
+         {{"skew_ppm", fmt::format("{:.4f}", f.skew_ppm)},
+          {"packets", std::to_string(f.packets)},
+          {"jitter_mean_us", fmt::format("{:.1f}", f.jitter_mean_s * 1e6)},
+          {"jitter_std_us", fmt::format("{:.1f}", f.jitter_std_s * 1e6)},
+          {"jitter_max_us", fmt::format("{:.1f}", f.jitter_max_s * 1e6)},
+          {"latency_us", f.ping_corrected ? fmt::format("{:.1f}", f.latency_correction_s * 1e6)
+                                          : std::string("unknown (no time-sync pings)")},
+          {"pings", std::to_string(f.pings)}}});
+  }
   // Pass 2: re-time every raw message, and the IMU message that follows it.
   std::map<std::string, TimeNs> last_mapped;
   std::vector<uint8_t> buffer;
@@ -455,7 +470,7 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
       m.data = buffer;
       m.log_time = static_cast<uint64_t>(t->second);
     }
-  });
+  }, McapReadOptions{}, fit_records);
   std::map<std::string, ClockFit> fits;
   for (const auto& [name, clock] : clocks) fits[name] = clock.fit();
   return fits;
