@@ -44,7 +44,7 @@ struct RawImuMessage {
   std::array<int32_t, 3> gyro = {};
   std::array<int32_t, 3> mag = {};
   int32_t temperature = 0;
-  uint8_t channels = 0;           // bit 0 accel, 1 gyro, 2 mag, 3 temperature
+  uint8_t channels = 0;           // raw counts: bit 0 accel, 1 gyro, 2 mag, 3 temperature; bit 4 device clock
 };
 
 std::vector<uint8_t> encode_cdr(const ImuMessage& m);
