@@ -50,7 +50,13 @@ void ClockMapper::add_sample(uint64_t device_ticks, TimeNs host_receive) {
   pending_ = true;
   pending_ticks_ = device_ticks;
   pending_host_ = host_receive;
-  if (!started_) flush();  // the first packet anchors the map at once
+  if (!started_) {
+    // The first sample anchors map() until the first packet is complete; it does not enter the
+    // fit itself (it may be the earliest sample of a buffered block).
+    started_ = true;
+    tick0_ = device_ticks;
+    host0_ = host_receive;
+  }
 }
 
 void ClockMapper::flush() {

@@ -106,6 +106,23 @@ TEST(ClockMapper, OnePacketUsesTheNominalRate) {
   EXPECT_EQ(mapper.map(1000), 4'000'000'000);
 }
 
+// Blocks of 8 samples arriving together: only each block's last sample enters the fit, so the
+// jitter statistics describe the link, not the device's buffering.
+TEST(ClockMapper, SamplesOfAPacketCountOnceAsItsLastSample) {
+  const Link link;
+  Rng rng(6);
+  ClockMapper mapper(link.tick_hz);
+  for (int64_t first = 0; first < 8000; first += 8) {
+    const TimeNs received = link.host_at(link.true_time(first + 7) + link.latency_s + link.jitter(rng));
+    for (int64_t i = first; i < first + 8; ++i) mapper.add_sample(link.ticks_at(link.true_time(i)), received);
+  }
+  mapper.flush();
+  const ClockFit fit = mapper.fit();
+  EXPECT_EQ(fit.packets, 1000u);
+  EXPECT_LE(fit.jitter_max_s, 1e-3 + 20e-6);  // the link's jitter, not the 7 ms of buffering
+  EXPECT_NEAR(fit.jitter_mean_s, 0.25e-3, 0.05e-3);
+}
+
 TEST(ClockMapper, ADayAt100HzStaysExact) {
   Link link;
   link.rate_hz = 100.0;
