@@ -53,7 +53,9 @@ struct Device {
   uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
   bool sync_channel_made = false;
   uint64_t written = 0;
-  TimeNs first_host = 0, last_host = 0, first_mapped = 0, last_mapped = 0;
+  TimeNs first_host = 0, last_host = 0;
+  // Device times of the first and last sample written (when the device has a clock).
+  std::optional<TimeNs> first_device, last_device;
   ImuMessage imu;
   RawImuMessage raw;
   TapDetector taps;
@@ -96,6 +98,18 @@ void reader_thread(Device& d, bool wait_when_full) {
   d.ended.store(true, std::memory_order_release);
 }
 
+// The sample rate on the host clock: from the device clock span and the fitted skew where the
+// device has a clock (receive times would fold the link's jitter into it), else from receive times.
+void set_rate(const Device& d, DeviceProgress& p) {
+  p.rate_hz = 0.0;
+  if (d.written < 2) return;
+  double host_span = to_seconds(d.last_host - d.first_host);
+  if (d.first_device && d.last_device) {
+    host_span = to_seconds(*d.last_device - *d.first_device) / (1.0 + p.clock.skew_ppm * 1e-6);
+  }
+  if (host_span > 0) p.rate_hz = static_cast<double>(d.written - 1) / host_span;
+}
+
 DeviceProgress progress_of(Device& d) {
   DeviceProgress p;
   p.name = d.spec.name;
@@ -110,10 +124,8 @@ DeviceProgress progress_of(Device& d) {
   p.backpressure = d.backpressure.load();
   p.queue_high_water = d.samples.high_water();
   p.ended = d.ended.load(std::memory_order_acquire);
-  if (d.written > 1 && d.last_mapped > d.first_mapped) {
-    p.rate_hz = static_cast<double>(d.written - 1) / to_seconds(d.last_mapped - d.first_mapped);
-  }
   p.clock = d.clock.fit();
+  set_rate(d, p);
   return p;
 }
 
@@ -164,7 +176,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), imu_bytes);
   if (d.written == 0) {
     d.first_host = s.host_time;
-    d.first_mapped = t;
+    if (s.has_device_time) d.first_device = s.device_time;
   } else if (s.sequence > d.last_sequence + 1) {
     d.gaps += s.sequence - d.last_sequence - 1;
   }
@@ -192,7 +204,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
     }
   }
   d.last_host = s.host_time;
-  d.last_mapped = t;
+  if (s.has_device_time) d.last_device = s.device_time;
   ++d.written;
 }
 
@@ -321,9 +333,8 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
         all_done = all_done && (d->full || ended);
       }
       if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
-        report.stop_reason = all_done && (options.duration_s > 0 || options.max_samples)
-                                 ? "limit reached"
-                                 : "every device ended";
+        const bool limited = std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
+        report.stop_reason = limited ? "limit reached" : "every device ended";
         break;
       }
       if (all_done) stop_all();
@@ -374,7 +385,10 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   }
   for (auto& d : devices) {
     DeviceProgress p = progress_of(*d);
-    if (const auto it = fits.find(d->spec.name); it != fits.end()) p.clock = it->second;
+    if (const auto it = fits.find(d->spec.name); it != fits.end()) {
+      p.clock = it->second;
+      set_rate(*d, p);
+    }
     report.devices.push_back(std::move(p));
   }
   return report;

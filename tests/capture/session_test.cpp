@@ -103,6 +103,8 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   }
   EXPECT_LT(hi - lo, 50e-6) << "spread " << (hi - lo) * 1e6 << " us";
   EXPECT_NEAR(d.clock.skew_ppm, 200.0, 2.0);
+  // 1 kHz of a clock 200 ppm fast is 1000.2 Hz on the host's clock.
+  EXPECT_NEAR(d.rate_hz, 1000.2, 0.005);
   // The constant 2 ms latency is invisible in receive times; the time-sync pings measure it, so
   // mapped times land on the true sample times (the best ping's own jitter is what remains).
   EXPECT_TRUE(d.clock.ping_corrected);
