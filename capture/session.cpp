@@ -47,7 +47,7 @@ struct Device {
 
   // Writer side.
   ClockMapper clock{1e9};  // device times arrive in ns
-  uint64_t last_sequence = 0;
+  uint64_t first_sequence = 0, last_sequence = 0;
   uint64_t gaps = 0;  // samples missing between consecutive written samples (sequence gaps)
   bool full = false;  // reached the duration or sample limit: later samples are outside the recording
   uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
@@ -107,7 +107,8 @@ void set_rate(const Device& d, DeviceProgress& p) {
   if (d.first_device && d.last_device) {
     host_span = to_seconds(*d.last_device - *d.first_device) / (1.0 + p.clock.skew_ppm * 1e-6);
   }
-  if (host_span > 0) p.rate_hz = static_cast<double>(d.written - 1) / host_span;
+  // Sample numbers, not samples written: dropped samples were made at the device's rate too.
+  if (host_span > 0) p.rate_hz = static_cast<double>(d.last_sequence - d.first_sequence) / host_span;
 }
 
 DeviceProgress progress_of(Device& d) {
@@ -176,6 +177,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), imu_bytes);
   if (d.written == 0) {
     d.first_host = s.host_time;
+    d.first_sequence = s.sequence;
     if (s.has_device_time) d.first_device = s.device_time;
   } else if (s.sequence > d.last_sequence + 1) {
     d.gaps += s.sequence - d.last_sequence - 1;

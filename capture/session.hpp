@@ -43,7 +43,8 @@ struct DeviceProgress {
   uint64_t frames_corrupt = 0;   // frames that failed their checksum or format
   uint64_t backpressure = 0;     // samples the recorder's own queue had to refuse
   std::size_t queue_high_water = 0;
-  double rate_hz = 0.0;          // on the host clock (device clock span and fitted skew)
+  double rate_hz = 0.0;          // the device's sample rate on the host clock (sample numbers over
+                                 // the device clock span, corrected by the fitted skew)
   bool ended = false;
   std::string end_reason;
   ClockFit clock;
