@@ -108,6 +108,38 @@ struct Whitener {
   }
 };
 
+// Covariance of the fitted squares: the inverse normal matrix of the active (non-zero) terms of
+// the weighted design Aw, scaled by `inflation`; inactive terms get zero rows and columns.
+Eigen::MatrixXd active_covariance(const Eigen::MatrixXd& Aw, const std::vector<Eigen::Index>& act,
+                                  double inflation) {
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(Aw.cols(), Aw.cols());
+  if (act.empty()) return cov;
+  Eigen::MatrixXd Aa(Aw.rows(), Eigen::Index(act.size()));
+  for (size_t k = 0; k < act.size(); ++k) Aa.col(Eigen::Index(k)) = Aw.col(act[k]);
+  const Eigen::MatrixXd info = Aa.transpose() * Aa;
+  const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  for (size_t i = 0; i < act.size(); ++i)
+    for (size_t j = 0; j < act.size(); ++j) cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
+  return cov * inflation;
+}
+
+// Each term's value, 1-sigma and interval from its fitted square x2 and the covariance. The
+// interval is formed on the square (where the estimate is close to normal) and mapped back, so
+// it never goes negative.
+void set_terms(NoiseFit& fit, const std::vector<int>& terms, const Eigen::VectorXd& x2,
+               const Eigen::MatrixXd& cov, double z) {
+  for (Eigen::Index c = 0; c < x2.size(); ++c) {
+    const auto t = size_t(terms[size_t(c)]);
+    const double sq = std::max(0.0, x2(c));
+    const double sd_sq = std::sqrt(std::max(0.0, cov(c, c)));
+    fit.value[t] = std::sqrt(sq);
+    fit.active[t] = sq > 0.0;
+    fit.sigma[t] = sq > 0.0 ? sd_sq / (2.0 * std::sqrt(sq)) : 0.0;
+    fit.lower[t] = std::sqrt(std::max(0.0, sq - z * sd_sq));
+    fit.upper[t] = std::sqrt(sq + z * sd_sq);
+  }
+}
+
 }  // namespace
 
 double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, double tau0, int64_t n,
@@ -250,29 +282,9 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
   const double corr = options.correct_for_correlation ? std::max(1.0, ppd / octave_ppd) : 1.0;
   fit.covariance_inflation = corr * std::max(1.0, fit.chi2_per_dof);
 
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(cols, cols);
-  if (!act.empty()) {
-    Eigen::MatrixXd Aa(rows, Eigen::Index(act.size()));
-    for (size_t k = 0; k < act.size(); ++k) Aa.col(Eigen::Index(k)) = Aw.col(act[k]);
-    const Eigen::MatrixXd info = Aa.transpose() * Aa;
-    const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
-    for (size_t i = 0; i < act.size(); ++i)
-      for (size_t j = 0; j < act.size(); ++j) cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
-    cov *= fit.covariance_inflation;
-  }
+  const Eigen::MatrixXd cov = active_covariance(Aw, act, fit.covariance_inflation);
   const double z = normal_quantile(0.5 + 0.5 * options.confidence);
-  for (Eigen::Index c = 0; c < cols; ++c) {
-    const auto t = size_t(terms[size_t(c)]);
-    const double sq = std::max(0.0, x2(c));
-    const double sd_sq = std::sqrt(std::max(0.0, cov(c, c)));
-    fit.value[t] = std::sqrt(sq);
-    fit.active[t] = sq > 0.0;
-    fit.sigma[t] = sq > 0.0 ? sd_sq / (2.0 * std::sqrt(sq)) : 0.0;
-    // The interval is formed on the square (where the estimate is close to normal) and mapped
-    // back, so it never goes negative.
-    fit.lower[t] = std::sqrt(std::max(0.0, sq - z * sd_sq));
-    fit.upper[t] = std::sqrt(sq + z * sd_sq);
-  }
+  set_terms(fit, terms, x2, cov, z);
   return fit;
 }
 
@@ -397,32 +409,14 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   fit.points = int(rows);
   fit.chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
   fit.covariance_inflation = std::max(1.0, fit.chi2_per_dof);
-  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(cols, cols);
-  if (!act.empty()) {
-    Eigen::MatrixXd Aa(rows, Eigen::Index(act.size()));
-    for (size_t k = 0; k < act.size(); ++k) Aa.col(Eigen::Index(k)) = Aw.col(act[k]);
-    const Eigen::MatrixXd info = Aa.transpose() * Aa;
-    const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
-    for (size_t i = 0; i < act.size(); ++i)
-      for (size_t j = 0; j < act.size(); ++j) cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
-    cov *= fit.covariance_inflation;
-  }
+  const Eigen::MatrixXd cov = active_covariance(Aw, act, fit.covariance_inflation);
   const double z = normal_quantile(0.5 + 0.5 * options.confidence);
   fit.value.fill(0.0);
   fit.sigma.fill(0.0);
   fit.lower.fill(0.0);
   fit.upper.fill(0.0);
   fit.active.fill(false);
-  for (Eigen::Index c = 0; c < cols; ++c) {
-    const auto t = size_t(terms[size_t(c)]);
-    const double sq = std::max(0.0, x2(c));
-    const double sd_sq = std::sqrt(std::max(0.0, cov(c, c)));
-    fit.value[t] = std::sqrt(sq);
-    fit.active[t] = sq > 0.0;
-    fit.sigma[t] = sq > 0.0 ? sd_sq / (2.0 * std::sqrt(sq)) : 0.0;
-    fit.lower[t] = std::sqrt(std::max(0.0, sq - z * sd_sq));
-    fit.upper[t] = std::sqrt(sq + z * sd_sq);
-  }
+  set_terms(fit, terms, x2, cov, z);
   return fit;
 }
 }  // namespace
