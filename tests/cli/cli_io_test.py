@@ -11,19 +11,10 @@ import tempfile
 
 import numpy as np
 
+from checks import Checks
+
 IMUKIT = sys.argv[1]
-failures = 0
-checks = 0
-
-
-def check(condition, what):
-    global failures, checks
-    checks += 1
-    if not condition:
-        failures += 1
-        print(f"FAIL: {what}")
-    else:
-        print(f"ok:   {what}")
+check = Checks()
 
 
 def run(*args):
@@ -109,5 +100,4 @@ with tempfile.TemporaryDirectory() as tmp:
     r = run("info", fixed)
     check(r.returncode == 0 and "the file ends" not in r.stderr, "the recovered file is complete")
 
-print(f"{checks - failures} passed, {failures} failed")
-sys.exit(1 if failures else 0)
+check.finish()

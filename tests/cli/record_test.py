@@ -13,17 +13,10 @@ import sys
 import tempfile
 import time
 
+from checks import Checks
+
 IMUKIT = sys.argv[1]
-failures = 0
-checks = 0
-
-
-def check(condition, what):
-    global failures, checks
-    checks += 1
-    if not condition:
-        failures += 1
-    print(f"{'ok:  ' if condition else 'FAIL:'} {what}")
+check = Checks()
 
 
 def samples_in(info_stdout):
@@ -85,5 +78,4 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1 and "rat" in r.stderr,
           f"an unknown URI key is a one-line error ({r.stderr.strip()})")
 
-print(f"{checks - failures} passed, {failures} failed")
-sys.exit(1 if failures else 0)
+check.finish()
