@@ -14,6 +14,7 @@ packages=(
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   python3 python3-numpy                          # independent check that numpy reads our .npy
+  pybind11-dev python3-dev                       # the Python module (python/, docs/python.md)
   gnuplot-nox                                    # characterize/calibrate --plot (SVG)
 )
 # node + npm run the MCAP project's own reader on our files (tests/capture/node); the machine
