@@ -1,0 +1,108 @@
+// Windowing, labels and the dataset writer (DESIGN.md "Datasets from augment"): X.npy float32
+// (N windows, T samples, C channels, per sensor ax ay az gx gy gz), y.npy int64 (N), and
+// dataset.json ("schema": "imukit.dataset/1": sensors, channels, rate, window, stride, units,
+// policy, seeds, source). generate_dataset() is the one entry point the CLI (`imukit augment`),
+// the demo and the Python bindings share: from a simulated scene (PPDA) or a recording (the STDA
+// counterparts of the same policy), count windows, one sub-policy per batch, bit-identical for
+// the same seed whatever the thread count.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "augment/policy.hpp"
+#include "augment/ppda.hpp"
+#include "augment/stda.hpp"
+#include "core/imu_series.hpp"
+#include "sim/scene.hpp"
+
+namespace imukit::augment {
+
+inline constexpr std::string_view kDatasetSchema = "imukit.dataset/1";
+inline constexpr int64_t kNoLabel = -1;
+
+// A labelled time span [start_s, end_s) in seconds from the first sample.
+struct LabelSegment {
+  double start_s = 0.0;
+  double end_s = 0.0;
+  int64_t label = 0;
+};
+
+// Per-sample labels (kNoLabel where no segment covers a sample; later segments win overlaps).
+std::vector<int64_t> labels_from_segments(std::span<const LabelSegment> segments,
+                                          std::size_t samples, double rate_hz);
+// Reads labels: a CSV with a header row and either one column `label` (one row per sample) or
+// three columns `start_s,end_s,label` (segments). Errors name file:line.
+std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, double rate_hz);
+
+// Window starts 0, stride, 2 stride, ... while start + window <= samples.
+std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride);
+// The majority label of each window (ties to the smaller label; kNoLabel loses every tie and
+// wins only when the whole window is unlabelled). Empty labels: every window kNoLabel.
+std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<const int64_t> starts,
+                                   std::size_t window);
+
+// Recorded streams as an (N, T, C) batch: streams in order, ax ay az gx gy gz each, windows at
+// `starts`. All streams must have accelerometer and gyroscope and the same sample count.
+std::vector<float> extract_windows(const std::vector<const ImuSeries*>& streams,
+                                   std::span<const int64_t> starts, std::size_t window);
+
+struct DatasetInfo {
+  std::vector<std::string> sensors;
+  double rate_hz = 0.0;
+  std::size_t window = 0;
+  std::size_t stride = 0;
+  std::string mode;    // "ppda" or "stda"
+  std::string source;  // the scene or recording path
+  std::string policy_name;
+  std::string policy_json;  // format_policy() text, embedded verbatim
+  uint64_t seed = 0;
+  std::size_t batch_size = 0;
+  bool normalized = false;
+  std::vector<double> channel_mean, channel_std;  // when normalized
+};
+
+// Writes X.npy, y.npy, sub_policy.npy (int64, the sub-policy index per window, -1 = none) and
+// dataset.json into dir (created). Throws imukit::Error on I/O failure.
+void write_dataset(const std::string& dir, std::span<const float> X, const BatchShape& shape,
+                   std::span<const int64_t> y, std::span<const int64_t> sub_policy,
+                   const DatasetInfo& info);
+
+struct DatasetOptions {
+  std::size_t window = 100;
+  std::size_t stride = 25;
+  std::size_t count = 0;         // windows to write; 0 = one pass over the base windows
+  std::size_t batch_size = 256;  // one sub-policy per batch
+  uint64_t seed = 0;
+  unsigned threads = 1;    // 0 = hardware concurrency; the output does not depend on it
+  bool normalize = false;  // z-score every channel (statistics stored in dataset.json)
+  // Fraction of batches left unaugmented (the paper's one-at-a-time comparison uses 0.5).
+  double identity_fraction = 0.0;
+  sim::DerivativeMethod method = sim::DerivativeMethod::spline;
+};
+
+struct Dataset {
+  std::vector<float> X;
+  BatchShape shape;
+  std::vector<int64_t> y;
+  std::vector<int64_t> sub_policy;
+  DatasetInfo info;
+};
+
+// Base windows every `stride` samples; output window i uses base window i mod (base count) (so a
+// count above the base count repeats the windows under fresh draws), batch b of `batch_size`
+// windows uses sub-policy sample_sub_policy(policy, Rng(seed).child(b)) (or identity for the
+// identity_fraction of batches decided by the same stream) and draws its windows from
+// Rng(seed).child(b) as PpdaAugmenter::apply does.
+// labels: per sample (at the sensor rate), may be empty.
+Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
+                         std::span<const int64_t> labels, const DatasetOptions& options);
+// The STDA counterparts of the policy applied to recorded windows.
+Dataset generate_dataset(const std::vector<std::string>& stream_names,
+                         const std::vector<const ImuSeries*>& streams, const Policy& policy,
+                         std::span<const int64_t> labels, const DatasetOptions& options);
+
+}  // namespace imukit::augment

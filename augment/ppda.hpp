@@ -1,0 +1,85 @@
+// PPDA: physically plausible augmentation (seed-summary section 2). A sub-policy changes the
+// simulation's parameters -- the motion's joint rotation angles (amplitude), its timing (speed),
+// the sensors' placement, their hardware errors -- and the window is simulated again, so the
+// augmented signals obey the same physics as real ones (a faster motion has larger rates and
+// accelerations; a rotated sensor sees gravity along other axes).
+//
+// How a batch is made fast: the augmenter compiles one simulator plan per scene (only the joints
+// on the sensors' chains) and reuses it for every window; each window simulates only its own
+// frames plus a stencil margin. Placement changes need no new plan: the simulator evaluates, per
+// sensor-carrying joint, the specific force at the joint origin and at unit offsets along its
+// axes, and since a rigid segment's acceleration field is affine in the position, any sensor
+// position and orientation on that segment follows exactly by a linear combination and a rotation.
+//
+// Randomness: apply() takes one 64-bit draw from the caller's Rng as the batch's base seed and
+// window k draws from Rng(base).child(k), so the output is the same for any thread count.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "augment/policy.hpp"
+#include "augment/stda.hpp"
+#include "core/rng.hpp"
+#include "sim/scene.hpp"
+
+namespace imukit::augment {
+
+struct PpdaOptions {
+  std::size_t window = 100;  // samples per window, at the scene's sensor rate
+  // Derivative method for the re-simulation (spline: analytic derivatives of the re-timed motion).
+  sim::DerivativeMethod method = sim::DerivativeMethod::spline;
+};
+
+// What was drawn for one window (for logs and tests).
+struct PpdaWindowLog {
+  int64_t start = 0;              // first sample of the base window
+  double speed_scale = 1.0;       // b (scaling)
+  std::vector<double> speed_u;    // warping uniforms
+  std::vector<double> amplitude;  // per chosen joint: a, or its K+2 knot values, joint after joint
+  std::vector<sim::Placement> placements;              // per sensor, as simulated
+  std::vector<Eigen::Vector3d> accel_bias, gyro_bias;  // per sensor (ranges hardware)
+};
+
+class PpdaAugmenter {
+ public:
+  // Takes the scene's body, motion, sensors (accelerometer and gyroscope are both output; the
+  // hardware models of the scene are ignored: the sub-policy's hardware group decides) and
+  // sample rate. Throws imukit::Error if the motion has no frame count or is shorter than a
+  // window.
+  PpdaAugmenter(const sim::Scene& scene, PpdaOptions options = {});
+  ~PpdaAugmenter();
+  PpdaAugmenter(PpdaAugmenter&&) noexcept;
+  PpdaAugmenter& operator=(PpdaAugmenter&&) noexcept;
+
+  std::size_t window() const;
+  std::size_t channels() const;  // 6 per sensor: ax ay az gx gy gz
+  ChannelLayout layout() const;
+  std::vector<std::string> sensor_names() const;
+  double rate_hz() const;        // sensor sample rate
+  int64_t sample_count() const;  // sensor samples in the whole motion
+
+  // Base window starts (sample indices) every `stride` samples: 0, stride, ... while a window fits.
+  std::vector<int64_t> window_starts(std::size_t stride) const;
+
+  // Simulates window k starting at sample starts[k] under `sub` into out (starts.size() x
+  // window x channels floats, C order). threads: 0 = hardware concurrency. A speed-scaled window
+  // covers b times the base span around the base window's centre, moved inside the motion when
+  // it would leave it.
+  void apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng, std::span<float> out,
+             unsigned threads = 1, std::vector<PpdaWindowLog>* log = nullptr);
+  void apply(const Policy& policy, std::size_t sub_policy, std::span<const int64_t> starts,
+             Rng& rng, std::span<float> out, unsigned threads = 1);
+  // The same, double precision, single window, no threads (tests).
+  void apply_window(const SubPolicy& sub, int64_t start, Rng& rng, std::span<double> out,
+                    PpdaWindowLog* log = nullptr);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace imukit::augment
