@@ -12,18 +12,10 @@ import sys
 import tempfile
 
 import numpy as np
+from checks import Checks
 
 IMUKIT = sys.argv[1]
-failures = 0
-
-
-def check(condition, what):
-    global failures
-    if not condition:
-        failures += 1
-        print(f"FAIL: {what}")
-    else:
-        print(f"ok:   {what}")
+check = Checks()
 
 
 def run(*args):
@@ -86,5 +78,4 @@ with tempfile.TemporaryDirectory() as tmp:
     else:
         print(f"skip: {xs} not found (set IMUKIT_DATA_DIR)")
 
-print(f"{failures} failure(s)")
-sys.exit(1 if failures else 0)
+check.finish()

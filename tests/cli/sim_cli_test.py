@@ -12,19 +12,11 @@ import sys
 import tempfile
 
 import numpy as np
+from checks import Checks
 
 IMUKIT = sys.argv[1]
 DATA = os.environ.get("IMUKIT_DATA_DIR", os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data"))
-failures = 0
-
-
-def check(condition, what):
-    global failures
-    if not condition:
-        failures += 1
-        print(f"FAIL: {what}")
-    else:
-        print(f"ok:   {what}")
+check = Checks()
 
 
 def run(*args):
@@ -133,5 +125,4 @@ with tempfile.TemporaryDirectory() as tmp:
     else:
         print("skip: shared data folder missing (set IMUKIT_DATA_DIR)")
 
-print(f"{failures} failure(s)")
-sys.exit(1 if failures else 0)
+check.finish()
