@@ -1,36 +1,354 @@
+// Windowing, labels, the dataset writer and generate_dataset (augment/dataset.hpp).
 #include "augment/dataset.hpp"
 
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+
 #include "core/error.hpp"
+#include "core/npy.hpp"
+#include "core/text_parse.hpp"
 
 namespace imukit::augment {
+
+using json = nlohmann::json;
+
+std::vector<int64_t> labels_from_segments(std::span<const LabelSegment> segments,
+                                          std::size_t samples, double rate_hz) {
+  if (!(rate_hz > 0.0 && std::isfinite(rate_hz))) throw Error("labels: the rate must be positive");
+  std::vector<int64_t> labels(samples, kNoLabel);
+  for (const LabelSegment& seg : segments) {
+    if (!(std::isfinite(seg.start_s) && std::isfinite(seg.end_s) && seg.end_s >= seg.start_s))
+      throw Error(fmt::format("labels: segment [{}, {}) is not a finite, ordered span", seg.start_s,
+                              seg.end_s));
+    // Sample n (time n / rate) is inside [start, end).
+    const double a = std::ceil(seg.start_s * rate_hz - 1e-9);
+    const double b = std::ceil(seg.end_s * rate_hz - 1e-9);
+    const auto lo = static_cast<std::size_t>(std::clamp(a, 0.0, static_cast<double>(samples)));
+    const auto hi = static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(samples)));
+    for (std::size_t n = lo; n < hi; ++n) labels[n] = seg.label;
+  }
+  return labels;
+}
+
+std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, double rate_hz) {
+  LineReader reader(path);
+  std::vector<Field> fields;
+  const auto header = reader.next();
+  if (!header) throw Error(InputLocation{path, 1, 1, std::nullopt}, "empty label file");
+  split_fields(*header, fields);
+  const bool per_sample = fields.size() == 1 && fields[0].text == "label";
+  const bool segments = fields.size() == 3 && fields[0].text == "start_s" &&
+                        fields[1].text == "end_s" && fields[2].text == "label";
+  if (!per_sample && !segments) {
+    throw Error(InputLocation{path, 1, 1, std::nullopt},
+                "expected the header 'label' (one row per sample) or 'start_s,end_s,label'");
+  }
+  std::vector<int64_t> labels;
+  std::vector<LabelSegment> segs;
+  while (const auto line = reader.next()) {
+    if (line->empty()) continue;
+    split_fields(*line, fields);
+    const std::size_t want = per_sample ? 1 : 3;
+    if (fields.size() != want) {
+      throw Error(InputLocation{path, reader.line_number(), 1, std::nullopt},
+                  fmt::format("expected {} field(s), got {}", want, fields.size()));
+    }
+    const auto num = [&](const Field& f) {
+      const std::optional<double> v = parse_double(f.text);
+      if (!v || !std::isfinite(*v))
+        throw Error(InputLocation{path, reader.line_number(), f.column, std::nullopt},
+                    "expected a number, got '" + std::string(f.text) + "'");
+      return *v;
+    };
+    const auto label = [&](const Field& f) {
+      const double v = num(f);
+      if (v != std::floor(v) || std::abs(v) > 9e15)
+        throw Error(InputLocation{path, reader.line_number(), f.column, std::nullopt},
+                    "a label must be an integer");
+      return static_cast<int64_t>(v);
+    };
+    if (per_sample) {
+      labels.push_back(label(fields[0]));
+    } else {
+      segs.push_back({num(fields[0]), num(fields[1]), label(fields[2])});
+      if (segs.back().end_s < segs.back().start_s)
+        throw Error(InputLocation{path, reader.line_number(), fields[1].column, std::nullopt},
+                    "end_s before start_s");
+    }
+  }
+  if (per_sample) {
+    if (labels.size() != samples) {
+      throw Error(InputLocation{path, std::nullopt, std::nullopt, std::nullopt},
+                  fmt::format("{} labels for {} samples", labels.size(), samples));
+    }
+    return labels;
+  }
+  return labels_from_segments(segs, samples, rate_hz);
+}
+
+std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride) {
+  if (window == 0 || stride == 0) throw Error("windowing: window and stride must be >= 1");
+  std::vector<int64_t> starts;
+  for (std::size_t s = 0; s + window <= samples; s += stride)
+    starts.push_back(static_cast<int64_t>(s));
+  return starts;
+}
+
+std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<const int64_t> starts,
+                                   std::size_t window) {
+  std::vector<int64_t> out(starts.size(), kNoLabel);
+  if (labels.empty()) return out;
+  std::map<int64_t, std::size_t> counts;
+  for (std::size_t w = 0; w < starts.size(); ++w) {
+    const auto s = static_cast<std::size_t>(starts[w]);
+    if (s + window > labels.size()) throw Error("windowing: a window reaches past the labels");
+    counts.clear();
+    for (std::size_t i = s; i < s + window; ++i)
+      if (labels[i] != kNoLabel) ++counts[labels[i]];
+    std::size_t best = 0;
+    for (const auto& [label, n] : counts) {
+      if (n > best) {  // map order: ties keep the smaller label
+        best = n;
+        out[w] = label;
+      }
+    }
+  }
+  return out;
+}
+
+std::vector<float> extract_windows(const std::vector<const ImuSeries*>& streams,
+                                   std::span<const int64_t> starts, std::size_t window) {
+  const std::size_t S = streams.size(), C = 6 * S;
+  if (S == 0) throw Error("windowing: no streams");
+  const std::size_t n = streams[0]->size();
+  for (std::size_t s = 0; s < S; ++s) {
+    if (!streams[s]->has_accel() || !streams[s]->has_gyro())
+      throw Error(fmt::format("windowing: stream {} needs accelerometer and gyroscope", s));
+    if (streams[s]->size() != n)
+      throw Error(fmt::format("windowing: stream {} has {} samples, stream 0 has {}", s,
+                              streams[s]->size(), n));
+  }
+  std::vector<float> X(starts.size() * window * C);
+  for (std::size_t w = 0; w < starts.size(); ++w) {
+    const auto s0 = static_cast<std::size_t>(starts[w]);
+    if (starts[w] < 0 || s0 + window > n)
+      throw Error("windowing: a window lies outside the streams");
+    for (std::size_t i = 0; i < window; ++i) {
+      float* o = X.data() + (w * window + i) * C;
+      for (std::size_t s = 0; s < S; ++s) {
+        const auto c = static_cast<Eigen::Index>(s0 + i);
+        for (int k = 0; k < 3; ++k) {
+          o[6 * s + static_cast<std::size_t>(k)] = static_cast<float>(streams[s]->accel(k, c));
+          o[6 * s + 3 + static_cast<std::size_t>(k)] = static_cast<float>(streams[s]->gyro(k, c));
+        }
+      }
+    }
+  }
+  return X;
+}
+
+void write_dataset(const std::string& dir, std::span<const float> X, const BatchShape& shape,
+                   std::span<const int64_t> y, std::span<const int64_t> sub_policy,
+                   const DatasetInfo& info) {
+  if (X.size() != shape.size() || y.size() != shape.windows || sub_policy.size() != shape.windows)
+    throw Error("write_dataset: X, y and sub_policy do not match the shape");
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir + ": cannot create the folder: " + ec.message());
+  const std::filesystem::path d(dir);
+  const std::size_t xs[3] = {shape.windows, shape.samples, shape.channels};
+  const std::size_t ys[1] = {shape.windows};
+  write_npy((d / "X.npy").string(), X, xs);
+  write_npy((d / "y.npy").string(), y, ys);
+  write_npy((d / "sub_policy.npy").string(), sub_policy, ys);
+  json j;
+  j["schema"] = std::string(kDatasetSchema);
+  j["mode"] = info.mode;
+  j["source"] = info.source;
+  j["sensors"] = info.sensors;
+  json channels = json::array();
+  for (const std::string& s : info.sensors)
+    for (const char* c : {"ax", "ay", "az", "gx", "gy", "gz"}) channels.push_back(s + "." + c);
+  j["channels"] = channels;
+  j["shape"] = {shape.windows, shape.samples, shape.channels};
+  j["rate_hz"] = info.rate_hz;
+  j["window"] = info.window;
+  j["stride"] = info.stride;
+  j["units"] = info.normalized ? json{{"accelerometer", "z-score"}, {"gyroscope", "z-score"}}
+                               : json{{"accelerometer", "m/s^2"}, {"gyroscope", "rad/s"}};
+  if (info.normalized)
+    j["normalization"] = {{"mean", info.channel_mean}, {"std", info.channel_std}};
+  j["labels"] = {{"file", "y.npy"}, {"unlabelled", kNoLabel}};
+  j["seeds"] = {{"seed", info.seed},
+                {"batch_size", info.batch_size},
+                {"streams",
+                 "batch b: Rng(seed).child(b); window k of a batch: "
+                 "Rng(Rng(seed).child(b) first draw).child(k)"}};
+  j["policy"] = info.policy_json.empty() ? json() : json::parse(info.policy_json);
+  j["sub_policy_file"] = "sub_policy.npy";
+  const std::string path = (d / "dataset.json").string();
+  std::ofstream out(path, std::ios::binary);
+  out << j.dump(2) << "\n";
+  if (!out.good()) throw Error(path + ": write failed");
+}
+
 namespace {
-[[noreturn]] void todo(const char* what) {
-  throw Error(std::string("augment: ") + what + " is not implemented yet");
+
+// Per-channel z-scoring over every window and sample (std 0 -> 1).
+void normalize(std::vector<float>& X, std::size_t C, DatasetInfo& info) {
+  std::vector<double> sum(C, 0.0), sq(C, 0.0);
+  const std::size_t rows = C == 0 ? 0 : X.size() / C;
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < C; ++c) sum[c] += X[r * C + c];
+  info.channel_mean.assign(C, 0.0);
+  info.channel_std.assign(C, 1.0);
+  for (std::size_t c = 0; c < C; ++c)
+    info.channel_mean[c] = rows ? sum[c] / static_cast<double>(rows) : 0.0;
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < C; ++c) {
+      const double d = X[r * C + c] - info.channel_mean[c];
+      sq[c] += d * d;
+    }
+  for (std::size_t c = 0; c < C; ++c) {
+    const double sd = rows > 1 ? std::sqrt(sq[c] / static_cast<double>(rows)) : 0.0;
+    info.channel_std[c] = sd > 0.0 ? sd : 1.0;
+  }
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < C; ++c)
+      X[r * C + c] =
+          static_cast<float>((X[r * C + c] - info.channel_mean[c]) / info.channel_std[c]);
+  info.normalized = true;
 }
+
+void check_options(const DatasetOptions& o, const Policy& policy) {
+  if (o.window < 2) throw Error("augment: --window must be at least 2 samples");
+  if (o.stride < 1) throw Error("augment: --stride must be at least 1 sample");
+  if (o.batch_size < 1) throw Error("augment: the batch size must be at least 1");
+  if (!(o.identity_fraction >= 0.0 && o.identity_fraction <= 1.0))
+    throw Error("augment: the identity fraction must be in [0, 1]");
+  policy.validate();
+}
+
+// Sub-policy of batch b (-1: identity), drawn from the batch's stream.
+int64_t batch_sub_policy(const Policy& policy, double identity_fraction, Rng& batch_rng) {
+  if (identity_fraction > 0.0 && batch_rng.uniform() < identity_fraction) return -1;
+  return static_cast<int64_t>(sample_sub_policy(policy, batch_rng));
+}
+
+DatasetInfo base_info(const Policy& policy, const DatasetOptions& o) {
+  DatasetInfo info;
+  info.window = o.window;
+  info.stride = o.stride;
+  info.policy_name = policy.name;
+  info.policy_json = format_policy(policy);
+  info.seed = o.seed;
+  info.batch_size = o.batch_size;
+  return info;
+}
+
 }  // namespace
-std::vector<int64_t> labels_from_segments(std::span<const LabelSegment>, std::size_t, double) {
-  todo("labels_from_segments");
+
+Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
+                         std::span<const int64_t> labels, const DatasetOptions& options) {
+  check_options(options, policy);
+  PpdaOptions po;
+  po.window = options.window;
+  po.method = options.method;
+  PpdaAugmenter aug(scene, po);
+  const std::vector<int64_t> base = aug.window_starts(options.stride);
+  if (!labels.empty() && labels.size() < static_cast<std::size_t>(aug.sample_count()))
+    throw Error(
+        fmt::format("augment: {} labels for {} samples", labels.size(), aug.sample_count()));
+  const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
+  const std::size_t N = options.count > 0 ? options.count : base.size();
+  const std::size_t T = options.window, C = aug.channels();
+  Dataset d;
+  d.shape = {N, T, C};
+  d.X.resize(d.shape.size());
+  d.y.resize(N);
+  d.sub_policy.resize(N);
+  const Rng root(options.seed);
+  const SubPolicy identity;
+  for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
+    const std::size_t n = std::min(options.batch_size, N - b0);
+    Rng br = root.child(batch);
+    const int64_t idx = batch_sub_policy(policy, options.identity_fraction, br);
+    std::vector<int64_t> starts(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      starts[k] = base[(b0 + k) % base.size()];
+      d.y[b0 + k] = base_labels[(b0 + k) % base.size()];
+      d.sub_policy[b0 + k] = idx;
+    }
+    const SubPolicy& sub = idx < 0 ? identity : policy.sub_policies[static_cast<std::size_t>(idx)];
+    aug.apply(sub, starts, br, std::span<float>(d.X.data() + b0 * T * C, n * T * C),
+              options.threads);
+  }
+  d.info = base_info(policy, options);
+  d.info.mode = "ppda";
+  d.info.sensors = aug.sensor_names();
+  d.info.rate_hz = aug.rate_hz();
+  if (options.normalize) normalize(d.X, C, d.info);
+  return d;
 }
-std::vector<int64_t> read_labels(const std::string&, std::size_t, double) { todo("read_labels"); }
-std::vector<int64_t> window_starts(std::size_t, std::size_t, std::size_t) { todo("window_starts"); }
-std::vector<int64_t> window_labels(std::span<const int64_t>, std::span<const int64_t>,
-                                   std::size_t) {
-  todo("window_labels");
+
+Dataset generate_dataset(const std::vector<std::string>& stream_names,
+                         const std::vector<const ImuSeries*>& streams, const Policy& policy,
+                         std::span<const int64_t> labels, const DatasetOptions& options) {
+  check_options(options, policy);
+  if (streams.empty() || stream_names.size() != streams.size())
+    throw Error("augment: give one name per stream");
+  const std::size_t n = streams[0]->size();
+  if (n < 2) throw Error("augment: the recording has fewer than 2 samples");
+  const double span_s = static_cast<double>(streams[0]->t.back() - streams[0]->t.front()) * 1e-9;
+  if (!(span_s > 0.0)) throw Error("augment: the recording's times do not advance");
+  const double rate = static_cast<double>(n - 1) / span_s;
+  const std::vector<int64_t> base = window_starts(n, options.window, options.stride);
+  if (base.empty())
+    throw Error(fmt::format("augment: the recording ({} samples) is shorter than a window of {}", n,
+                            options.window));
+  if (!labels.empty() && labels.size() != n)
+    throw Error(fmt::format("augment: {} labels for {} samples", labels.size(), n));
+  const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
+  std::vector<float> windows = extract_windows(streams, base, options.window);
+  const std::size_t N = options.count > 0 ? options.count : base.size();
+  const std::size_t T = options.window, C = 6 * streams.size();
+  Dataset d;
+  d.info = base_info(policy, options);
+  d.info.mode = "stda";
+  d.info.sensors = stream_names;
+  d.info.rate_hz = rate;
+  // z-scoring comes first here: jitter sigmas are then standard deviations (the paper's setting).
+  if (options.normalize) normalize(windows, C, d.info);
+  const ChannelLayout layout = ChannelLayout::imu(stream_names);
+  d.shape = {N, T, C};
+  d.X.resize(d.shape.size());
+  d.y.resize(N);
+  d.sub_policy.resize(N);
+  const Rng root(options.seed);
+  for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
+    const std::size_t nb = std::min(options.batch_size, N - b0);
+    Rng br = root.child(batch);
+    const int64_t idx = batch_sub_policy(policy, options.identity_fraction, br);
+    for (std::size_t k = 0; k < nb; ++k) {
+      const std::size_t src = (b0 + k) % base.size();
+      std::copy_n(windows.data() + src * T * C, T * C, d.X.data() + (b0 + k) * T * C);
+      d.y[b0 + k] = base_labels[src];
+      d.sub_policy[b0 + k] = idx;
+    }
+    if (idx < 0) continue;
+    const std::span<float> batch_x(d.X.data() + b0 * T * C, nb * T * C);
+    const BatchShape shape{nb, T, C};
+    for (const StdaSpec& spec : stda_counterparts(
+             policy.sub_policies[static_cast<std::size_t>(idx)], policy, options.normalize))
+      apply_stda(spec, layout, batch_x, shape, br);
+  }
+  return d;
 }
-std::vector<float> extract_windows(const std::vector<const ImuSeries*>&, std::span<const int64_t>,
-                                   std::size_t) {
-  todo("extract_windows");
-}
-void write_dataset(const std::string&, std::span<const float>, const BatchShape&,
-                   std::span<const int64_t>, std::span<const int64_t>, const DatasetInfo&) {
-  todo("write_dataset");
-}
-Dataset generate_dataset(const sim::Scene&, const Policy&, std::span<const int64_t>,
-                         const DatasetOptions&) {
-  todo("generate_dataset");
-}
-Dataset generate_dataset(const std::vector<std::string>&, const std::vector<const ImuSeries*>&,
-                         const Policy&, std::span<const int64_t>, const DatasetOptions&) {
-  todo("generate_dataset");
-}
+
 }  // namespace imukit::augment

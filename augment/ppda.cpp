@@ -1,35 +1,515 @@
+// PPDA: sub-policies applied to the simulation's parameters, then simulated (augment/ppda.hpp).
 #include "augment/ppda.hpp"
 
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <set>
+#include <thread>
+
 #include "core/error.hpp"
+#include "core/hardware_model.hpp"
+#include "core/so3.hpp"
+#include "core/time.hpp"
 
 namespace imukit::augment {
+
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
 namespace {
-[[noreturn]] void todo(const char* what) {
-  throw Error(std::string("augment: ") + what + " is not implemented yet");
+
+// Frames of margin on each side of a window's motion: the spline simulator's stencil reaches
+// one frame back and two ahead of an interval, and the source interpolation one more.
+constexpr int64_t kMargin = 3;
+
+// Which joints carry a sensor in one apply() call, and the virtual sensors simulated for them:
+// per carrier joint, the origin (accelerometer + gyroscope, identity orientation) and the unit
+// points along the joint's x, y, z axes (accelerometer only).
+struct Carriers {
+  std::vector<int> joints;           // body indices
+  std::map<int, std::size_t> index;  // body index -> carrier
+  std::vector<sim::SensorSpec> specs;
+};
+
+Carriers make_carriers(const std::set<int>& joints) {
+  Carriers c;
+  for (int j : joints) {
+    c.index[j] = c.joints.size();
+    c.joints.push_back(j);
+    for (int k = 0; k < 4; ++k) {
+      sim::SensorSpec s;
+      s.name = fmt::format("carrier{}.{}", j, k);
+      s.placement.joint = j;
+      if (k > 0) s.placement.p_joint_sensor[k - 1] = 1.0;
+      s.outputs.accelerometer = true;
+      s.outputs.gyroscope = k == 0;
+      c.specs.push_back(s);
+    }
+  }
+  return c;
 }
+
+// 4-point Lagrange weights at x for the nodes s0 .. s0 + 3.
+std::array<double, 4> lagrange4(double x, int64_t s0) {
+  std::array<double, 4> w{};
+  for (int m = 0; m < 4; ++m) {
+    double v = 1.0;
+    for (int l = 0; l < 4; ++l) {
+      if (l != m) v *= (x - static_cast<double>(s0 + l)) / static_cast<double>(m - l);
+    }
+    w[static_cast<std::size_t>(m)] = v;
+  }
+  return w;
+}
+
 }  // namespace
-struct PpdaAugmenter::Impl {};
-PpdaAugmenter::PpdaAugmenter(const sim::Scene&, PpdaOptions) { todo("PpdaAugmenter"); }
+
+struct PpdaAugmenter::Impl {
+  sim::Body body;
+  std::shared_ptr<sim::MotionSource> motion;
+  int64_t frames = 0;
+  double motion_rate = 0.0;
+  double rate = 0.0;
+  int64_t samples = 0;
+  std::vector<sim::SceneSensor> sensors;
+  std::vector<std::string> names;
+  PpdaOptions options;
+  sim::SimulationOptions sim_options;
+  std::vector<int> plan_joints_all;  // joints on the chains of every joint a sensor may use
+
+  // Per-thread state.
+  struct Worker {
+    std::unique_ptr<sim::Simulator> simulator;
+    std::unique_ptr<sim::Motion> window_motion;
+    sim::MotionChunk chunk;
+    std::vector<sim::SensorBlock> blocks;
+    std::vector<TimeNs> times;
+    std::vector<double> u, x;  // per window frame: output position, source frame position
+    std::vector<double> scale;
+  };
+
+  int64_t window_frames() const {
+    const double span = static_cast<double>(options.window - 1) / rate * motion_rate;
+    return static_cast<int64_t>(std::ceil(span - 1e-9)) + 1 + 2 * kMargin;
+  }
+
+  void simulate_window(const SubPolicy& sub, const Carriers& carriers, int64_t start, Rng& rng,
+                       Worker& wk, double* out_d, float* out_f, PpdaWindowLog* log) const;
+};
+
+PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  if (!scene.motion) throw Error("augment: the scene has no motion");
+  m.body = scene.body;
+  m.motion = scene.motion;
+  m.options = options;
+  if (options.window < 2) throw Error("augment: a window needs at least 2 samples");
+  const std::optional<int64_t> n = scene.frames ? scene.frames : scene.motion->frame_count();
+  if (!n) throw Error("augment: an endless motion needs the scene's frame count");
+  m.frames = std::min<int64_t>(*n, scene.motion->frame_count().value_or(*n));
+  sim::require_simulatable(*scene.motion, "augment");
+  m.motion_rate = scene.motion->rate_hz();
+  m.sim_options = scene.options;
+  m.sim_options.method = options.method;
+  m.rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : m.motion_rate;
+  m.sensors = scene.sensors;
+  if (m.sensors.empty()) throw Error("augment: the scene has no sensors");
+  std::vector<sim::SensorSpec> specs;
+  for (const sim::SceneSensor& s : m.sensors) {
+    m.names.push_back(s.spec.name);
+    specs.push_back(s.spec);
+  }
+  const sim::Simulator probe(m.body, specs, m.sim_options);
+  m.samples = probe.sample_count(*m.motion, m.frames);
+  if (m.samples < static_cast<int64_t>(options.window)) {
+    throw Error(
+        fmt::format("augment: the motion has {} samples at {:g} Hz, fewer than a window of {}",
+                    m.samples, m.rate, options.window));
+  }
+  if (m.frames < m.window_frames() + 4) {
+    throw Error(
+        fmt::format("augment: the motion ({} frames) is too short for a window of {} "
+                    "samples with its margins",
+                    m.frames, options.window));
+  }
+}
+
 PpdaAugmenter::~PpdaAugmenter() = default;
 PpdaAugmenter::PpdaAugmenter(PpdaAugmenter&&) noexcept = default;
 PpdaAugmenter& PpdaAugmenter::operator=(PpdaAugmenter&&) noexcept = default;
-std::size_t PpdaAugmenter::window() const { todo("window"); }
-std::size_t PpdaAugmenter::channels() const { todo("channels"); }
-ChannelLayout PpdaAugmenter::layout() const { todo("layout"); }
-std::vector<std::string> PpdaAugmenter::sensor_names() const { todo("sensor_names"); }
-double PpdaAugmenter::rate_hz() const { todo("rate_hz"); }
-int64_t PpdaAugmenter::sample_count() const { todo("sample_count"); }
-std::vector<int64_t> PpdaAugmenter::window_starts(std::size_t) const { todo("window_starts"); }
-void PpdaAugmenter::apply(const SubPolicy&, std::span<const int64_t>, Rng&, std::span<float>,
-                          unsigned, std::vector<PpdaWindowLog>*) {
-  todo("apply");
+
+std::size_t PpdaAugmenter::window() const { return impl_->options.window; }
+std::size_t PpdaAugmenter::channels() const { return 6 * impl_->sensors.size(); }
+ChannelLayout PpdaAugmenter::layout() const { return ChannelLayout::imu(impl_->names); }
+std::vector<std::string> PpdaAugmenter::sensor_names() const { return impl_->names; }
+double PpdaAugmenter::rate_hz() const { return impl_->rate; }
+int64_t PpdaAugmenter::sample_count() const { return impl_->samples; }
+
+std::vector<int64_t> PpdaAugmenter::window_starts(std::size_t stride) const {
+  if (stride == 0) throw Error("augment: the stride must be at least 1 sample");
+  std::vector<int64_t> starts;
+  const auto w = static_cast<int64_t>(impl_->options.window);
+  for (int64_t s = 0; s + w <= impl_->samples; s += static_cast<int64_t>(stride))
+    starts.push_back(s);
+  return starts;
 }
-void PpdaAugmenter::apply(const Policy&, std::size_t, std::span<const int64_t>, Rng&,
-                          std::span<float>, unsigned) {
-  todo("apply");
+
+void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& carriers,
+                                          int64_t start, Rng& rng, Worker& wk, double* out_d,
+                                          float* out_f, PpdaWindowLog* log) const {
+  const std::size_t T = options.window;
+  const double dt = 1.0 / rate;
+  const double h = 1.0 / motion_rate;
+  const int64_t F = window_frames();
+  const sim::SimulationPlan& plan = wk.simulator->plan();
+  const std::size_t J = plan.joints.size();
+  if (log != nullptr) *log = PpdaWindowLog{};
+  if (log != nullptr) log->start = start;
+
+  // 1. Speed: the source time (s) of each window frame. u = output position in samples.
+  wk.u.resize(static_cast<std::size_t>(F));
+  wk.x.resize(static_cast<std::size_t>(F));
+  for (int64_t j = 0; j < F; ++j)
+    wk.u[static_cast<std::size_t>(j)] = static_cast<double>(j - kMargin) * h / dt;
+  const double t_start = static_cast<double>(sample_time(0, start, rate)) * 1e-9;
+  switch (sub.speed.method) {
+    case WarpMethod::identity:
+      for (int64_t j = 0; j < F; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        wk.x[k] = (t_start + wk.u[k] * dt) * motion_rate;
+      }
+      break;
+    case WarpMethod::scaling: {
+      const double b = rng.uniform(sub.speed.lo, sub.speed.hi);
+      if (log != nullptr) log->speed_scale = b;
+      const double c = 0.5 * static_cast<double>(T - 1);
+      for (int64_t j = 0; j < F; ++j) {
+        const auto k = static_cast<std::size_t>(j);
+        wk.x[k] = (t_start + (c + b * (wk.u[k] - c)) * dt) * motion_rate;
+      }
+      break;
+    }
+    case WarpMethod::warping: {
+      std::vector<double> uu(static_cast<std::size_t>(sub.speed.knots + 1));
+      for (double& v : uu) v = rng.uniform();
+      if (log != nullptr) log->speed_u = uu;
+      const Interpolant warp = time_warp_interpolant(uu, sub.speed.ratio, T);
+      Eigen::Map<Eigen::RowVectorXd> xm(wk.x.data(), F);
+      warp.evaluate(wk.u, xm);
+      for (double& v : wk.x) v = (t_start + v * dt) * motion_rate;
+      break;
+    }
+  }
+  // Keep the re-timed span inside the motion (a window near an end slides inwards).
+  const double last = static_cast<double>(frames - 1);
+  const double x0 = wk.x.front(), x1 = wk.x.back();
+  if (x1 - x0 > last) {
+    throw Error(
+        fmt::format("augment: a window of {} samples at this speed needs {:.0f} frames; "
+                    "the motion has {}",
+                    T, x1 - x0 + 1, frames));
+  }
+  double shift = 0.0;
+  if (x0 < 0.0) shift = -x0;
+  if (x1 > last) shift = last - x1;
+  if (shift != 0.0)
+    for (double& v : wk.x) v = std::clamp(v + shift, 0.0, last);
+
+  // 2. The window's motion: plan joints at the source positions, 4-point Lagrange interpolation
+  // of sign-aligned quaternion components, renormalised (O(h^4) from the geodesic cubic at
+  // motion rates) -- exact copies where a position falls on a frame.
+  const auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
+  const auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
+  motion->read(lo, hi - lo, plan.joints, wk.chunk);
+  const sim::MotionChunk& c = wk.chunk;
+  sim::Motion& wm = *wk.window_motion;
+  for (int64_t j = 0; j < F; ++j) {
+    const double x = wk.x[static_cast<std::size_t>(j)];
+    const double fl = std::floor(x);
+    const auto i = static_cast<int64_t>(fl);
+    if (x == fl) {
+      for (std::size_t k = 0; k < J; ++k)
+        wm.rotation(j, static_cast<std::size_t>(plan.joints[k])) = c.rotation(i - lo, k);
+      wm.root_translation(j) = c.root_translation.col(i - lo);
+      continue;
+    }
+    const int64_t s0 = std::clamp<int64_t>(i - 1, lo, std::max<int64_t>(lo, hi - 4));
+    const std::array<double, 4> w = lagrange4(x, s0);
+    const int64_t n = std::min<int64_t>(4, hi - s0);
+    Vector3d p = Vector3d::Zero();
+    for (int64_t m = 0; m < n; ++m)
+      p += w[static_cast<std::size_t>(m)] * c.root_translation.col(s0 + m - lo);
+    wm.root_translation(j) = p;
+    for (std::size_t k = 0; k < J; ++k) {
+      const Quaterniond& ref = c.rotation(i - lo, k);
+      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
+      for (int64_t m = 0; m < n; ++m) {
+        const Quaterniond& q = c.rotation(s0 + m - lo, k);
+        const double sgn = q.coeffs().dot(ref.coeffs()) < 0.0 ? -1.0 : 1.0;
+        acc += (sgn * w[static_cast<std::size_t>(m)]) * q.coeffs();
+      }
+      Quaterniond q;
+      q.coeffs() = acc / acc.norm();
+      wm.rotation(j, static_cast<std::size_t>(plan.joints[k])) = q;
+    }
+  }
+
+  // 3. Amplitude: q' = exp(s log q) for the chosen joints' relative rotations.
+  if (sub.amplitude.method != WarpMethod::identity) {
+    std::vector<int> chosen;
+    if (sub.amplitude.joints.empty()) {
+      for (std::size_t k = 0; k < J; ++k)
+        if (body.joint(static_cast<std::size_t>(plan.joints[k])).parent >= 0)
+          chosen.push_back(plan.joints[k]);
+    } else {
+      for (const std::string& name : sub.amplitude.joints) {
+        const int b = body.index_of(name);
+        if (std::find(plan.joints.begin(), plan.joints.end(), b) != plan.joints.end())
+          chosen.push_back(b);
+      }
+    }
+    wk.scale.resize(static_cast<std::size_t>(F));
+    for (int joint : chosen) {
+      if (sub.amplitude.method == WarpMethod::scaling) {
+        const double a = rng.normal(1.0, sub.amplitude.sigma);
+        if (log != nullptr) log->amplitude.push_back(a);
+        std::fill(wk.scale.begin(), wk.scale.end(), a);
+      } else {
+        std::vector<double> kv(static_cast<std::size_t>(sub.amplitude.knots + 2));
+        for (double& v : kv) v = rng.normal(1.0, sub.amplitude.sigma);
+        if (log != nullptr) log->amplitude.insert(log->amplitude.end(), kv.begin(), kv.end());
+        const Interpolant curve = warp_curve_interpolant(kv, T);
+        Eigen::Map<Eigen::RowVectorXd> sm(wk.scale.data(), F);
+        curve.evaluate(wk.u, sm);
+      }
+      for (int64_t j = 0; j < F; ++j) {
+        Quaterniond& q = wm.rotation(j, static_cast<std::size_t>(joint));
+        q = scale_rotation(q, wk.scale[static_cast<std::size_t>(j)]);
+      }
+    }
+  }
+
+  // 4. Simulate the carriers at the output sample times.
+  wk.times.resize(T);
+  for (std::size_t i = 0; i < T; ++i) {
+    wk.times[i] = static_cast<TimeNs>(
+        std::llround((static_cast<double>(i) * dt + static_cast<double>(kMargin) * h) * 1e9));
+  }
+  wk.simulator->evaluate(wm, wk.times, wk.blocks);
+
+  // 5. Placement per sensor, then hardware, then the output (ax ay az gx gy gz per sensor).
+  const std::size_t S = sensors.size();
+  const std::size_t C = 6 * S;
+  const double kPi = M_PI;
+  for (std::size_t s = 0; s < S; ++s) {
+    sim::Placement pl = sensors[s].spec.placement;
+    std::string preset = sensors[s].preset;
+    const PlacementOp& op = sub.placement;
+    if (op.enabled) {
+      if (!op.swap_presets.empty() && std::find(op.swap_presets.begin(), op.swap_presets.end(),
+                                                preset) != op.swap_presets.end()) {
+        preset = op.swap_presets[rng.uniform_index(op.swap_presets.size())];
+        pl = sim::resolve_preset(sim::placement_preset(preset), body);
+      }
+      if (op.shift && !preset.empty()) {
+        const sim::PlacementPreset& pp = sim::placement_preset(preset);
+        const Matrix3d lan = sim::anatomical_frame(body, pl.joint);
+        Vector3d d;
+        for (int k = 0; k < 3; ++k)
+          d[k] = rng.uniform(-pp.position_range_m[k], pp.position_range_m[k]);
+        pl.p_joint_sensor += lan * d;
+      }
+      if (op.long_axis_range_rad > 0.0) {
+        const Vector3d L = sim::anatomical_frame(body, pl.joint).col(0);
+        const Quaterniond r =
+            so3_exp(L * rng.uniform(-op.long_axis_range_rad, op.long_axis_range_rad));
+        pl.q_joint_sensor = r * pl.q_joint_sensor;
+        pl.p_joint_sensor = r * pl.p_joint_sensor;
+      }
+      if (op.flip && rng.uniform() < 0.5)
+        pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, kPi));
+      Quaterniond off = Quaterniond::Identity();
+      for (int k = 0; k < 3; ++k) {
+        const double a = rng.uniform(-op.rotation_range_rad[k], op.rotation_range_rad[k]);
+        off = off * so3_exp(Vector3d::Unit(k) * a);
+      }
+      pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
+    }
+    if (log != nullptr) log->placements.push_back(pl);
+    const std::size_t cidx = carriers.index.at(pl.joint);
+    const sim::SensorBlock& b0 = wk.blocks[4 * cidx];
+    const Matrix3d R_sensor_joint = pl.q_joint_sensor.normalized().toRotationMatrix().transpose();
+    // Specific force at p: f0 + sum_k p_k (f_k - f0) (affine in the position), in joint axes.
+    Eigen::Matrix3Xd f(3, static_cast<Eigen::Index>(T)), w(3, static_cast<Eigen::Index>(T));
+    for (int k = 0; k < 3; ++k) {
+      const double pk = pl.p_joint_sensor[k];
+      if (k == 0) f = b0.specific_force;
+      if (pk != 0.0)
+        f += pk * (wk.blocks[4 * cidx + 1 + static_cast<std::size_t>(k)].specific_force -
+                   b0.specific_force);
+    }
+    f = R_sensor_joint * f;
+    w = R_sensor_joint * b0.angular_rate;
+
+    const HardwareOp& hw = sub.hardware;
+    if (hw.kind == HardwareOp::Kind::ranges) {
+      Vector3d ba, bg;
+      for (int k = 0; k < 3; ++k) ba[k] = rng.uniform(-hw.accel_bias, hw.accel_bias);
+      for (int k = 0; k < 3; ++k) bg[k] = rng.uniform(-hw.gyro_bias, hw.gyro_bias);
+      if (log != nullptr) {
+        log->accel_bias.push_back(ba);
+        log->gyro_bias.push_back(bg);
+      }
+      std::vector<double> nz(6 * T);
+      rng.fill_normal(nz);
+      for (std::size_t i = 0; i < T; ++i) {
+        const auto ii = static_cast<Eigen::Index>(i);
+        for (int k = 0; k < 3; ++k) {
+          f(k, ii) += ba[k] + hw.accel_noise * nz[6 * i + static_cast<std::size_t>(k)];
+          w(k, ii) += bg[k] + hw.gyro_noise * nz[6 * i + 3 + static_cast<std::size_t>(k)];
+        }
+      }
+    } else if (hw.kind == HardwareOp::Kind::profile) {
+      HardwareModel model = to_hardware_model(*hw.profile);
+      const auto perturb = [&](TriadModel& t, const std::optional<SensorProfile>& sp) {
+        // Noise parameters drawn from their stated 1-sigma uncertainties (kept >= 0).
+        if (sp && sp->noise) {
+          const NoiseEstimate& ne = *sp->noise;
+          const auto draw = [&](Vector3d& v, const std::optional<Vector3d>& sig) {
+            if (!sig) return;
+            for (int k = 0; k < 3; ++k) v[k] = std::max(0.0, v[k] + (*sig)[k] * rng.normal());
+          };
+          draw(t.noise_density, ne.noise_density_sigma);
+          draw(t.bias_instability, ne.bias_instability_sigma);
+          draw(t.random_walk, ne.random_walk_sigma);
+        }
+        for (int k = 0; k < 3; ++k) t.scale[k] *= 1.0 + hw.scale_spread * rng.normal();
+        for (int r = 0; r < 3; ++r)
+          for (int k = 0; k < 3; ++k)
+            if (r != k) t.misalignment(r, k) += hw.misalignment_spread_rad * rng.normal();
+        // A low-pass at or beyond the dataset's Nyquist frequency changes nothing at this rate.
+        if (t.bandwidth_hz >= 0.5 * rate) t.bandwidth_hz = 0.0;
+        t.rate_hz = 0.0;
+      };
+      perturb(model.accelerometer, hw.profile->accelerometer);
+      std::optional<SensorProfile> gp;
+      if (hw.profile->gyroscope) gp = static_cast<const SensorProfile&>(*hw.profile->gyroscope);
+      perturb(model.gyroscope, gp);
+      ImuErrorGenerator gen(model, rate, rng);
+      const Eigen::Matrix3Xd truth = f;
+      gen.apply_gyroscope(w, truth);
+      gen.apply_accelerometer(f);
+    }
+    for (std::size_t i = 0; i < T; ++i) {
+      const auto ii = static_cast<Eigen::Index>(i);
+      const std::size_t o = i * C + 6 * s;
+      for (int k = 0; k < 3; ++k) {
+        if (out_d != nullptr) {
+          out_d[o + static_cast<std::size_t>(k)] = f(k, ii);
+          out_d[o + 3 + static_cast<std::size_t>(k)] = w(k, ii);
+        } else {
+          out_f[o + static_cast<std::size_t>(k)] = static_cast<float>(f(k, ii));
+          out_f[o + 3 + static_cast<std::size_t>(k)] = static_cast<float>(w(k, ii));
+        }
+      }
+    }
+  }
 }
-void PpdaAugmenter::apply_window(const SubPolicy&, int64_t, Rng&, std::span<double>,
-                                 PpdaWindowLog*) {
-  todo("apply_window");
+
+namespace {
+
+// The joints a sub-policy may put a sensor on.
+std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::SceneSensor>& sensors,
+                             const SubPolicy& sub) {
+  std::set<int> joints;
+  for (const sim::SceneSensor& s : sensors) joints.insert(s.spec.placement.joint);
+  if (sub.placement.enabled) {
+    for (const std::string& p : sub.placement.swap_presets)
+      joints.insert(sim::resolve_preset(sim::placement_preset(p), body).joint);
+  }
+  return joints;
 }
+
+}  // namespace
+
+void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng,
+                          std::span<float> out, unsigned threads, std::vector<PpdaWindowLog>* log) {
+  Impl& m = *impl_;
+  const std::size_t T = m.options.window, C = channels();
+  if (out.size() != starts.size() * T * C) {
+    throw Error(fmt::format("augment: output of {} floats for {} windows x {} x {}", out.size(),
+                            starts.size(), T, C));
+  }
+  for (int64_t s : starts) {
+    if (s < 0 || s + static_cast<int64_t>(T) > m.samples)
+      throw Error(fmt::format("augment: window start {} outside 0 .. {}", s,
+                              m.samples - static_cast<int64_t>(T)));
+  }
+  const Carriers carriers = make_carriers(carrier_joints(m.body, m.sensors, sub));
+  const Rng root(rng.next_u64());
+  if (log != nullptr) log->assign(starts.size(), PpdaWindowLog{});
+  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
+  threads = static_cast<unsigned>(
+      std::min<std::size_t>(threads, std::max<std::size_t>(1, starts.size())));
+  std::atomic<std::size_t> next{0};
+  std::vector<std::exception_ptr> errors(threads);
+  const auto work = [&](unsigned t) {
+    try {
+      Impl::Worker wk;
+      wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
+      wk.window_motion =
+          std::make_unique<sim::Motion>(m.motion_rate, m.body.size(), m.window_frames());
+      for (std::size_t k = next++; k < starts.size(); k = next++) {
+        Rng r = root.child(k);
+        m.simulate_window(sub, carriers, starts[k], r, wk, nullptr, out.data() + k * T * C,
+                          log != nullptr ? &(*log)[k] : nullptr);
+      }
+    } catch (...) {
+      errors[t] = std::current_exception();
+      next = starts.size();
+    }
+  };
+  if (threads == 1) {
+    work(0);
+  } else {
+    std::vector<std::thread> pool;
+    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work, t);
+    for (std::thread& th : pool) th.join();
+  }
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+}
+
+void PpdaAugmenter::apply(const Policy& policy, std::size_t sub_policy,
+                          std::span<const int64_t> starts, Rng& rng, std::span<float> out,
+                          unsigned threads) {
+  if (sub_policy >= policy.sub_policies.size()) {
+    throw Error(fmt::format("augment: sub-policy {} of a policy with {}", sub_policy,
+                            policy.sub_policies.size()));
+  }
+  apply(policy.sub_policies[sub_policy], starts, rng, out, threads);
+}
+
+void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
+                                 std::span<double> out, PpdaWindowLog* log) {
+  Impl& m = *impl_;
+  const std::size_t T = m.options.window, C = channels();
+  if (out.size() != T * C)
+    throw Error(fmt::format("augment: output of {} values for {} x {}", out.size(), T, C));
+  if (start < 0 || start + static_cast<int64_t>(T) > m.samples)
+    throw Error(fmt::format("augment: window start {} outside 0 .. {}", start,
+                            m.samples - static_cast<int64_t>(T)));
+  const Carriers carriers = make_carriers(carrier_joints(m.body, m.sensors, sub));
+  Impl::Worker wk;
+  wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
+  wk.window_motion = std::make_unique<sim::Motion>(m.motion_rate, m.body.size(), m.window_frames());
+  m.simulate_window(sub, carriers, start, rng, wk, out.data(), nullptr, log);
+}
+
 }  // namespace imukit::augment

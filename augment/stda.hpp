@@ -19,6 +19,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/interpolation.hpp"
 #include "core/rng.hpp"
 
 namespace imukit::augment {
@@ -114,8 +115,12 @@ std::vector<double> time_warp_positions(std::span<const double> u, double ratio,
                                         std::size_t samples);
 // The K+1 segment speeds v (max v / min v = ratio exactly when the u are not all equal).
 std::vector<double> time_warp_speeds(std::span<const double> u, double ratio);
+// The same warp as an interpolant over output positions (PCHIP, extrapolating beyond [0, T-1]).
+Interpolant time_warp_interpolant(std::span<const double> u, double ratio, std::size_t samples);
 // The smooth factor curve through K+2 equally spaced knot values over [0, T-1], evaluated at
 // 0 .. T-1 (not-a-knot cubic spline).
 std::vector<double> warp_curve(std::span<const double> knot_values, std::size_t samples);
+// The same curve as an interpolant (for evaluation between samples).
+Interpolant warp_curve_interpolant(std::span<const double> knot_values, std::size_t samples);
 
 }  // namespace imukit::augment
