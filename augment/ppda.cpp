@@ -67,6 +67,12 @@ std::array<double, 4> lagrange4(double x, int64_t s0) {
   return w;
 }
 
+// U[lo, hi) that accepts lo == hi (returns lo) and always takes one draw.
+double uniform_in(Rng& rng, double lo, double hi) {
+  const double u = rng.uniform();
+  return lo == hi ? lo : lo + (hi - lo) * u;
+}
+
 }  // namespace
 
 struct PpdaAugmenter::Impl {
@@ -186,7 +192,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       }
       break;
     case WarpMethod::scaling: {
-      const double b = rng.uniform(sub.speed.lo, sub.speed.hi);
+      const double b = uniform_in(rng, sub.speed.lo, sub.speed.hi);
       if (log != nullptr) log->speed_scale = b;
       const double c = 0.5 * static_cast<double>(T - 1);
       for (int64_t j = 0; j < F; ++j) {
@@ -322,13 +328,13 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         const Matrix3d lan = sim::anatomical_frame(body, pl.joint);
         Vector3d d;
         for (int k = 0; k < 3; ++k)
-          d[k] = rng.uniform(-pp.position_range_m[k], pp.position_range_m[k]);
+          d[k] = uniform_in(rng, -pp.position_range_m[k], pp.position_range_m[k]);
         pl.p_joint_sensor += lan * d;
       }
       if (op.long_axis_range_rad > 0.0) {
         const Vector3d L = sim::anatomical_frame(body, pl.joint).col(0);
         const Quaterniond r =
-            so3_exp(L * rng.uniform(-op.long_axis_range_rad, op.long_axis_range_rad));
+            so3_exp(L * uniform_in(rng, -op.long_axis_range_rad, op.long_axis_range_rad));
         pl.q_joint_sensor = r * pl.q_joint_sensor;
         pl.p_joint_sensor = r * pl.p_joint_sensor;
       }
@@ -336,7 +342,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, kPi));
       Quaterniond off = Quaterniond::Identity();
       for (int k = 0; k < 3; ++k) {
-        const double a = rng.uniform(-op.rotation_range_rad[k], op.rotation_range_rad[k]);
+        const double a = uniform_in(rng, -op.rotation_range_rad[k], op.rotation_range_rad[k]);
         off = off * so3_exp(Vector3d::Unit(k) * a);
       }
       pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
@@ -360,8 +366,8 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     const HardwareOp& hw = sub.hardware;
     if (hw.kind == HardwareOp::Kind::ranges) {
       Vector3d ba, bg;
-      for (int k = 0; k < 3; ++k) ba[k] = rng.uniform(-hw.accel_bias, hw.accel_bias);
-      for (int k = 0; k < 3; ++k) bg[k] = rng.uniform(-hw.gyro_bias, hw.gyro_bias);
+      for (int k = 0; k < 3; ++k) ba[k] = uniform_in(rng, -hw.accel_bias, hw.accel_bias);
+      for (int k = 0; k < 3; ++k) bg[k] = uniform_in(rng, -hw.gyro_bias, hw.gyro_bias);
       if (log != nullptr) {
         log->accel_bias.push_back(ba);
         log->gyro_bias.push_back(bg);

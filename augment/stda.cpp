@@ -52,11 +52,17 @@ class DrawSource {
  public:
   DrawSource(Rng* rng, StdaDraws* log, const StdaDraws* replay)
       : rng_(rng), log_(log), replay_(replay) {}
-  double normal() {
-    return take([this] { return rng_->normal(); });
+  // N(mean, sigma^2): the logged value is the drawn parameter itself.
+  double normal(double mean, double sigma) {
+    return take([&] { return mean + sigma * rng_->normal(); });
   }
   double uniform(double lo, double hi) {
-    return take([&] { return rng_->uniform(lo, hi); });
+    // Rng::uniform needs lo < hi; an empty range still takes its draw, so the number of draws
+    // does not depend on the parameters.
+    return take([&] {
+      const double u = rng_->uniform();
+      return lo == hi ? lo : lo + (hi - lo) * u;
+    });
   }
   // n standard normals at once (fill_normal is faster than n calls).
   void normals(std::span<double> out) {
@@ -142,12 +148,12 @@ void run(const StdaSpec& spec, const ChannelLayout& layout, std::span<T> batch,
       case StdaMethod::magnitude_scaling: {
         if (spec.per_channel) {
           buf.resize(C);
-          for (double& a : buf) a = 1.0 + spec.sigma * src.normal();
+          for (double& a : buf) a = src.normal(1.0, spec.sigma);
           for (std::size_t i = 0; i < T_; ++i)
             for (std::size_t c = 0; c < C; ++c)
               x[i * C + c] = static_cast<T>(x[i * C + c] * buf[c]);
         } else {
-          const double a = 1.0 + spec.sigma * src.normal();
+          const double a = src.normal(1.0, spec.sigma);
           for (std::size_t i = 0; i < T_ * C; ++i) x[i] = static_cast<T>(x[i] * a);
         }
         break;
@@ -158,7 +164,7 @@ void run(const StdaSpec& spec, const ChannelLayout& layout, std::span<T> batch,
         std::vector<std::vector<double>> a(curves);
         std::vector<double> knots(n);
         for (std::size_t k = 0; k < curves; ++k) {
-          for (double& v : knots) v = 1.0 + spec.sigma * src.normal();
+          for (double& v : knots) v = src.normal(1.0, spec.sigma);
           a[k] = warp_curve(knots, T_);
         }
         for (std::size_t i = 0; i < T_; ++i) {
