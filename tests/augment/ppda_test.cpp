@@ -1,0 +1,311 @@
+// PPDA: closed forms for speed and amplitude on a sinusoidal joint, placement through the
+// carriers' affine field against a direct simulation, hardware ranges, every grid sub-policy,
+// and thread-count independence.
+#include "augment/ppda.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/error.hpp"
+#include "core/so3.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::augment {
+namespace {
+
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+constexpr double kPi = std::numbers::pi;
+constexpr double kA = 0.5, kF = 0.5, kL = 0.3;  // rad, Hz, m
+
+double theta(double t) { return kA * std::sin(2 * kPi * kF * t); }
+double theta_d(double t) { return kA * 2 * kPi * kF * std::cos(2 * kPi * kF * t); }
+double theta_dd(double t) { return -kA * std::pow(2 * kPi * kF, 2) * std::sin(2 * kPi * kF * t); }
+
+// A still root and one joint turning about the vertical by theta(t); the sensor sits kL from
+// the axis, so it sees w_z = theta', tangential f_y = L theta'', centripetal f_x = -L theta'^2
+// and gravity on z.
+sim::Scene sinusoid_scene(int64_t frames = 3000, double rate = 100.0) {
+  sim::Scene scene;
+  scene.body.add_joint("pelvis", -1, Vector3d::Zero());
+  scene.body.add_joint("arm", 0, Vector3d(0.0, 0.0, 0.2));
+  auto m = std::make_shared<sim::Motion>(rate, 2, frames);
+  for (int64_t f = 0; f < frames; ++f)
+    m->rotation(f, 1) = so3_exp(Vector3d(0, 0, theta(static_cast<double>(f) / rate)));
+  scene.motion = m;
+  scene.frames = frames;
+  sim::SceneSensor s;
+  s.spec.name = "arm";
+  s.spec.placement.joint = 1;
+  s.spec.placement.p_joint_sensor = Vector3d(kL, 0, 0);
+  scene.sensors.push_back(s);
+  return scene;
+}
+
+sim::Scene humanoid_scene(const std::vector<std::string>& presets, int64_t frames = 1200) {
+  sim::Scene scene;
+  scene.body = sim::Body::default_humanoid();
+  sim::ProceduralMotionOptions po;
+  po.rate_hz = 100.0;
+  po.frames = frames;
+  po.seed = 5;
+  po.amplitude_rad = 0.2;
+  sim::ProceduralMotion pm(scene.body.size(), po);
+  scene.motion = std::make_shared<sim::Motion>(pm.materialize(frames));
+  scene.frames = frames;
+  for (const std::string& p : presets) {
+    sim::SceneSensor s;
+    s.spec.name = p;
+    s.preset = p;
+    s.spec.placement = sim::resolve_preset(sim::placement_preset(p), scene.body);
+    scene.sensors.push_back(s);
+  }
+  return scene;
+}
+
+// out[i * 6 + k]: ax ay az gx gy gz of the single sensor.
+std::vector<double> run_window(PpdaAugmenter& aug, const SubPolicy& sub, int64_t start,
+                               uint64_t seed, PpdaWindowLog* log = nullptr) {
+  std::vector<double> out(aug.window() * aug.channels());
+  Rng rng(seed);
+  aug.apply_window(sub, start, rng, out, log);
+  return out;
+}
+
+TEST(Ppda, DoublingTheSpeedDoublesTheRateQuadruplesTheTangentialAccelerationKeepsGravity) {
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  ASSERT_EQ(aug.channels(), 6u);
+  const int64_t n0 = 1000;
+  const double dt = 0.01, c = 49.5;
+  double max_w[2] = {0, 0}, max_fy[2] = {0, 0};
+  for (double b : {1.0, 2.0}) {
+    SubPolicy sub;
+    sub.speed.method = WarpMethod::scaling;
+    sub.speed.lo = sub.speed.hi = b;
+    PpdaWindowLog log;
+    const std::vector<double> y = run_window(aug, sub, n0, 1, &log);
+    EXPECT_EQ(log.speed_scale, b);
+    for (std::size_t i = 0; i < 100; ++i) {
+      // Source time of output sample i (re-timed around the window's centre).
+      const double tau = static_cast<double>(n0) * dt + (c + b * (static_cast<double>(i) - c)) * dt;
+      const double w = b * theta_d(tau), alpha = b * b * theta_dd(tau);
+      EXPECT_NEAR(y[i * 6 + 5], w, 2e-4 * kA * 2 * kPi * kF * b) << "b " << b << " i " << i;
+      EXPECT_NEAR(y[i * 6 + 1], kL * alpha, 2e-3 * kL * b * b * std::pow(2 * kPi * kF, 2) * kA)
+          << "b " << b << " i " << i;
+      EXPECT_NEAR(y[i * 6 + 0], -kL * w * w, 2e-3 * kL * b * b * std::pow(2 * kPi * kF * kA, 2));
+      EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);  // gravity is not sped up
+      EXPECT_NEAR(y[i * 6 + 3], 0.0, 1e-9);
+      EXPECT_NEAR(y[i * 6 + 4], 0.0, 1e-9);
+      const int k = b == 1.0 ? 0 : 1;
+      max_w[k] = std::max(max_w[k], std::abs(y[i * 6 + 5]));
+      max_fy[k] = std::max(max_fy[k], std::abs(y[i * 6 + 1]));
+    }
+  }
+  // The window spans 1 s at b = 1 and 2 s at b = 2 of a 2 s period, so both reach the peaks
+  // (within the sampling of the peak).
+  EXPECT_NEAR(max_w[1] / max_w[0], 2.0, 0.02);
+  EXPECT_NEAR(max_fy[1] / max_fy[0], 4.0, 0.08);
+}
+
+TEST(Ppda, AmplitudeScalingMultipliesTheJointAngleExactly) {
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  const std::vector<double> id = run_window(aug, SubPolicy{}, 500, 1);
+  SubPolicy sub;
+  sub.amplitude.method = WarpMethod::scaling;
+  sub.amplitude.sigma = 0.3;
+  for (uint64_t seed : {1u, 2u, 3u}) {
+    PpdaWindowLog log;
+    const std::vector<double> y = run_window(aug, sub, 500, seed, &log);
+    ASSERT_EQ(log.amplitude.size(), 1u);  // the arm; the root is left alone
+    const double a = log.amplitude[0];
+    for (std::size_t i = 0; i < 100; ++i) {
+      EXPECT_NEAR(y[i * 6 + 5], a * id[i * 6 + 5], 1e-9);
+      EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);
+    }
+  }
+}
+
+TEST(Ppda, AmplitudeKeepsAStillJointStill) {
+  sim::Scene scene = sinusoid_scene();
+  auto m = std::static_pointer_cast<sim::Motion>(scene.motion);
+  for (int64_t f = 0; f < m->frames(); ++f) m->rotation(f, 1) = Quaterniond::Identity();
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.amplitude.method = WarpMethod::warping;
+  sub.amplitude.sigma = 0.6;
+  sub.amplitude.knots = 4;
+  const std::vector<double> y = run_window(aug, sub, 700, 4);
+  for (std::size_t i = 0; i < 100; ++i) {
+    EXPECT_EQ(y[i * 6 + 0], 0.0);
+    EXPECT_EQ(y[i * 6 + 1], 0.0);
+    EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-12);
+    for (int k = 3; k < 6; ++k) EXPECT_EQ(y[i * 6 + static_cast<std::size_t>(k)], 0.0);
+  }
+}
+
+TEST(Ppda, PlacementMatchesADirectSimulationOfTheDrawnPlacement) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_ankle_clip"});
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.placement.enabled = true;
+  sub.placement.rotation_range_rad.setConstant(25.0 * kPi / 180);
+  sub.placement.long_axis_range_rad = kPi / 2;
+  sub.placement.flip = true;
+  sub.placement.shift = true;
+  const int64_t n0 = 400;
+  for (uint64_t seed : {1u, 2u, 3u, 4u}) {
+    PpdaWindowLog log;
+    std::vector<double> y(100 * 12);
+    Rng rng(seed);
+    aug.apply_window(sub, n0, rng, y, &log);
+    ASSERT_EQ(log.placements.size(), 2u);
+    std::vector<sim::SensorSpec> specs;
+    for (std::size_t s = 0; s < 2; ++s) {
+      sim::SensorSpec spec = scene.sensors[s].spec;
+      spec.placement = log.placements[s];
+      specs.push_back(spec);
+      // The drawn placement stays on the segment and is a proper rotation away from the preset.
+      EXPECT_EQ(log.placements[s].joint, scene.sensors[s].spec.placement.joint);
+      EXPECT_NEAR(log.placements[s].q_joint_sensor.norm(), 1.0, 1e-12);
+    }
+    sim::SimulationOptions o;
+    o.method = sim::DerivativeMethod::spline;
+    sim::Simulator direct(scene.body, specs, o);
+    std::vector<TimeNs> times;
+    for (int64_t i = 0; i < 100; ++i) times.push_back(sample_time(0, n0 + i, 100.0));
+    std::vector<sim::SensorBlock> blocks;
+    direct.evaluate(*scene.motion, times, blocks);
+    for (std::size_t s = 0; s < 2; ++s) {
+      for (Eigen::Index i = 0; i < 100; ++i) {
+        for (int k = 0; k < 3; ++k) {
+          const std::size_t o6 = static_cast<std::size_t>(i) * 12 + 6 * s;
+          EXPECT_NEAR(y[o6 + static_cast<std::size_t>(k)], blocks[s].specific_force(k, i), 1e-9);
+          EXPECT_NEAR(y[o6 + 3 + static_cast<std::size_t>(k)], blocks[s].angular_rate(k, i), 1e-11);
+        }
+      }
+    }
+  }
+}
+
+TEST(Ppda, SwappingMovesASensorToAnotherPresetOfTheList) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch"});
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.placement.enabled = true;
+  sub.placement.swap_presets = {"left_wrist_watch", "right_wrist_watch"};
+  const int right = scene.body.index_of("right_elbow");
+  const int left = scene.body.index_of("left_elbow");
+  int seen[2] = {0, 0};
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    PpdaWindowLog log;
+    run_window(aug, sub, 300, seed, &log);
+    const int j = log.placements[0].joint;
+    ASSERT_TRUE(j == left || j == right);
+    ++seen[j == right ? 1 : 0];
+  }
+  EXPECT_GT(seen[0], 5);
+  EXPECT_GT(seen[1], 5);
+}
+
+TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  const std::vector<double> id = run_window(aug, SubPolicy{}, 900, 1);
+  SubPolicy sub;
+  sub.hardware.kind = HardwareOp::Kind::ranges;
+  sub.hardware.accel_bias = 0.3;
+  sub.hardware.gyro_bias = 0.02;
+  PpdaWindowLog log;
+  const std::vector<double> y = run_window(aug, sub, 900, 7, &log);
+  ASSERT_EQ(log.accel_bias.size(), 1u);
+  for (std::size_t i = 0; i < 100; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      EXPECT_NEAR(y[i * 6 + kk] - id[i * 6 + kk], log.accel_bias[0][k], 1e-12);
+      EXPECT_NEAR(y[i * 6 + 3 + kk] - id[i * 6 + 3 + kk], log.gyro_bias[0][k], 1e-12);
+    }
+  }
+  EXPECT_LE(log.accel_bias[0].cwiseAbs().maxCoeff(), 0.3);
+  EXPECT_LE(log.gyro_bias[0].cwiseAbs().maxCoeff(), 0.02);
+  // White noise only: the differences' standard deviation is the stated sigma (2 % over 6000).
+  sub.hardware.accel_bias = sub.hardware.gyro_bias = 0.0;
+  sub.hardware.accel_noise = 0.1;
+  sub.hardware.gyro_noise = 0.01;
+  double sa = 0, sg = 0;
+  int n = 0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    const std::vector<double> z = run_window(aug, sub, 900, seed);
+    for (std::size_t i = 0; i < 100; ++i)
+      for (std::size_t k = 0; k < 3; ++k) {
+        sa += std::pow(z[i * 6 + k] - id[i * 6 + k], 2);
+        sg += std::pow(z[i * 6 + 3 + k] - id[i * 6 + 3 + k], 2);
+        ++n;
+      }
+  }
+  EXPECT_NEAR(std::sqrt(sa / n), 0.1, 0.1 * 0.03);
+  EXPECT_NEAR(std::sqrt(sg / n), 0.01, 0.01 * 0.03);
+}
+
+TEST(Ppda, EverySubPolicyOfThePaperGridGivesFiniteWindows) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_front_pocket_phone"}, 800);
+  PpdaAugmenter aug(scene);
+  const Policy policy = builtin_policy("paper");
+  ASSERT_EQ(policy.sub_policies.size(), 810u);
+  std::vector<float> out(aug.window() * aug.channels());
+  const int64_t start[1] = {350};
+  Rng rng(3);
+  for (std::size_t k = 0; k < policy.sub_policies.size(); ++k) {
+    aug.apply(policy, k, start, rng, out);
+    for (float v : out) ASSERT_TRUE(std::isfinite(v)) << policy.sub_policies[k].describe();
+  }
+  EXPECT_THROW(aug.apply(policy, 810, start, rng, out), Error);
+}
+
+TEST(Ppda, SameSeedSameBatchForAnyThreadCountAndCallsVary) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_ankle_clip", "waist_belt"});
+  PpdaAugmenter aug(scene);
+  const Policy policy = builtin_policy("imukit");
+  const SubPolicy& sub = policy.sub_policies.back();  // warping, warping, rotation, noise
+  const std::vector<int64_t> starts = aug.window_starts(50);
+  ASSERT_GE(starts.size(), 10u);
+  const std::size_t n = starts.size() * aug.window() * aug.channels();
+  std::vector<float> a(n), b(n), c(n);
+  Rng r1(42), r2(42);
+  aug.apply(sub, starts, r1, a, 1);
+  aug.apply(sub, starts, r2, b, 2);
+  EXPECT_EQ(a, b);
+  aug.apply(sub, starts, r1, c, 2);  // r1 advanced: a fresh batch
+  EXPECT_NE(a, c);
+}
+
+TEST(Ppda, BadInputIsRejected) {
+  const sim::Scene scene = sinusoid_scene(300);
+  PpdaAugmenter aug(scene);
+  std::vector<float> out(aug.window() * aug.channels());
+  Rng rng(1);
+  const int64_t bad[1] = {250};
+  EXPECT_THROW(aug.apply(SubPolicy{}, bad, rng, out), Error);
+  std::vector<float> small(10);
+  const int64_t ok[1] = {0};
+  EXPECT_THROW(aug.apply(SubPolicy{}, ok, rng, small), Error);
+  // A speed that needs more motion than there is.
+  SubPolicy fast;
+  fast.speed.method = WarpMethod::scaling;
+  fast.speed.lo = fast.speed.hi = 4.0;
+  EXPECT_THROW(aug.apply(fast, ok, rng, out), Error);
+  PpdaOptions o;
+  o.window = 400;
+  EXPECT_THROW((PpdaAugmenter{scene, o}), Error);
+  sim::Scene endless = scene;
+  sim::ProceduralMotionOptions po;
+  endless.motion = std::make_shared<sim::ProceduralMotion>(2, po);
+  endless.frames.reset();
+  EXPECT_THROW(PpdaAugmenter{endless}, Error);
+}
+
+}  // namespace
+}  // namespace imukit::augment
