@@ -81,7 +81,7 @@ struct DatasetOptions {
   bool normalize = false;  // z-score every channel (statistics stored in dataset.json)
   // Fraction of batches left unaugmented (the paper's one-at-a-time comparison uses 0.5).
   double identity_fraction = 0.0;
-  sim::DerivativeMethod method = sim::DerivativeMethod::spline;
+  sim::DerivativeMethod method = sim::DerivativeMethod::spline;  // see PpdaOptions
 };
 
 struct Dataset {

@@ -73,6 +73,22 @@ double uniform_in(Rng& rng, double lo, double hi) {
   return lo == hi ? lo : lo + (hi - lo) * u;
 }
 
+// exp(s log q) for a unit q, the same rotation axis with s times the (shortest-arc) angle:
+// with w >= 0, half-angle h = atan2(|v|, w), q' = (cos(s h), v sin(s h) / |v|). No series is
+// needed near the identity: sin(s h) / |v| -> s / w stays accurate as |v| -> 0, and |v| = 0 is
+// the identity itself. (core's scale_rotation does the same through so3_log and so3_exp; this is
+// the hot loop of amplitude augmentation.)
+Quaterniond scale_angle(const Quaterniond& q_in, double s) {
+  const double sign = q_in.w() < 0.0 ? -1.0 : 1.0;
+  const double w = sign * q_in.w();
+  const Vector3d v = sign * q_in.vec();
+  const double n = v.norm();
+  if (n == 0.0) return Quaterniond::Identity();
+  const double h = s * std::atan2(n, w);
+  const double k = std::sin(h) / n;
+  return Quaterniond(std::cos(h), k * v.x(), k * v.y(), k * v.z());
+}
+
 }  // namespace
 
 struct PpdaAugmenter::Impl {
@@ -97,6 +113,10 @@ struct PpdaAugmenter::Impl {
     std::vector<TimeNs> times;
     std::vector<double> u, x;  // per window frame: output position, source frame position
     std::vector<double> scale;
+    // The amplitude spline is linear in its knot values: column m holds the curve through the
+    // unit knot vector e_m at the window frames, so a joint's curve is one matrix-vector product.
+    int basis_knots = -1;
+    Eigen::MatrixXd basis;  // frames x (K + 2)
   };
 
   int64_t window_frames() const {
@@ -287,16 +307,28 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         if (log != nullptr) log->amplitude.push_back(a);
         std::fill(wk.scale.begin(), wk.scale.end(), a);
       } else {
-        std::vector<double> kv(static_cast<std::size_t>(sub.amplitude.knots + 2));
-        for (double& v : kv) v = rng.normal(1.0, sub.amplitude.sigma);
+        const int nk = sub.amplitude.knots + 2;
+        if (wk.basis_knots != sub.amplitude.knots) {
+          wk.basis.resize(F, nk);
+          std::vector<double> e(static_cast<std::size_t>(nk));
+          for (int m = 0; m < nk; ++m) {
+            std::fill(e.begin(), e.end(), 0.0);
+            e[static_cast<std::size_t>(m)] = 1.0;
+            const Interpolant curve = warp_curve_interpolant(e, T);
+            Eigen::RowVectorXd col(F);
+            curve.evaluate(wk.u, col);
+            wk.basis.col(m) = col.transpose();
+          }
+          wk.basis_knots = sub.amplitude.knots;
+        }
+        Eigen::VectorXd kv(nk);
+        for (int m = 0; m < nk; ++m) kv[m] = rng.normal(1.0, sub.amplitude.sigma);
         if (log != nullptr) log->amplitude.insert(log->amplitude.end(), kv.begin(), kv.end());
-        const Interpolant curve = warp_curve_interpolant(kv, T);
-        Eigen::Map<Eigen::RowVectorXd> sm(wk.scale.data(), F);
-        curve.evaluate(wk.u, sm);
+        Eigen::Map<Eigen::VectorXd>(wk.scale.data(), F) = wk.basis * kv;
       }
       for (int64_t j = 0; j < F; ++j) {
         Quaterniond& q = wm.rotation(j, static_cast<std::size_t>(joint));
-        q = scale_rotation(q, wk.scale[static_cast<std::size_t>(j)]);
+        q = scale_angle(q, wk.scale[static_cast<std::size_t>(j)]);
       }
     }
   }

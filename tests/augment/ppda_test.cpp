@@ -76,38 +76,46 @@ std::vector<double> run_window(PpdaAugmenter& aug, const SubPolicy& sub, int64_t
 
 TEST(Ppda, DoublingTheSpeedDoublesTheRateQuadruplesTheTangentialAccelerationKeepsGravity) {
   const sim::Scene scene = sinusoid_scene();
-  PpdaAugmenter aug(scene);
-  ASSERT_EQ(aug.channels(), 6u);
-  const int64_t n0 = 1000;
-  const double dt = 0.01, c = 49.5;
-  double max_w[2] = {0, 0}, max_fy[2] = {0, 0};
-  for (double b : {1.0, 2.0}) {
-    SubPolicy sub;
-    sub.speed.method = WarpMethod::scaling;
-    sub.speed.lo = sub.speed.hi = b;
-    PpdaWindowLog log;
-    const std::vector<double> y = run_window(aug, sub, n0, 1, &log);
-    EXPECT_EQ(log.speed_scale, b);
-    for (std::size_t i = 0; i < 100; ++i) {
-      // Source time of output sample i (re-timed around the window's centre).
-      const double tau = static_cast<double>(n0) * dt + (c + b * (static_cast<double>(i) - c)) * dt;
-      const double w = b * theta_d(tau), alpha = b * b * theta_dd(tau);
-      EXPECT_NEAR(y[i * 6 + 5], w, 2e-4 * kA * 2 * kPi * kF * b) << "b " << b << " i " << i;
-      EXPECT_NEAR(y[i * 6 + 1], kL * alpha, 2e-3 * kL * b * b * std::pow(2 * kPi * kF, 2) * kA)
-          << "b " << b << " i " << i;
-      EXPECT_NEAR(y[i * 6 + 0], -kL * w * w, 2e-3 * kL * b * b * std::pow(2 * kPi * kF * kA, 2));
-      EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);  // gravity is not sped up
-      EXPECT_NEAR(y[i * 6 + 3], 0.0, 1e-9);
-      EXPECT_NEAR(y[i * 6 + 4], 0.0, 1e-9);
-      const int k = b == 1.0 ? 0 : 1;
-      max_w[k] = std::max(max_w[k], std::abs(y[i * 6 + 5]));
-      max_fy[k] = std::max(max_fy[k], std::abs(y[i * 6 + 1]));
+  for (sim::DerivativeMethod method : {sim::DerivativeMethod::fd, sim::DerivativeMethod::spline}) {
+    PpdaOptions po;
+    po.method = method;
+    PpdaAugmenter aug(scene, po);
+    ASSERT_EQ(aug.channels(), 6u);
+    const int64_t n0 = 1000;
+    const double dt = 0.01, c = 49.5;
+    double max_w[2] = {0, 0}, max_fy[2] = {0, 0};
+    for (double b : {1.0, 2.0}) {
+      SubPolicy sub;
+      sub.speed.method = WarpMethod::scaling;
+      sub.speed.lo = sub.speed.hi = b;
+      PpdaWindowLog log;
+      const std::vector<double> y = run_window(aug, sub, n0, 1, &log);
+      EXPECT_EQ(log.speed_scale, b);
+      for (std::size_t i = 0; i < 100; ++i) {
+        // Source time of output sample i (re-timed around the window's centre).
+        const double tau =
+            static_cast<double>(n0) * dt + (c + b * (static_cast<double>(i) - c)) * dt;
+        const double w = b * theta_d(tau), alpha = b * b * theta_dd(tau);
+        // fd's rate is second order: (w h)^2 / 6 = 7e-4 relative at b = 2; the spline's third.
+        const double rate_tol = method == sim::DerivativeMethod::fd ? 1.5e-3 : 2e-4;
+        EXPECT_NEAR(y[i * 6 + 5], w, rate_tol * kA * 2 * kPi * kF * b)
+            << "b " << b << " i " << i << " " << sim::to_string(method);
+        EXPECT_NEAR(y[i * 6 + 1], kL * alpha, 2e-3 * kL * b * b * std::pow(2 * kPi * kF, 2) * kA)
+            << "b " << b << " i " << i;
+        EXPECT_NEAR(y[i * 6 + 0], -kL * w * w, 2e-3 * kL * b * b * std::pow(2 * kPi * kF * kA, 2));
+        EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);  // gravity is not sped up
+        EXPECT_NEAR(y[i * 6 + 3], 0.0, 1e-9);
+        EXPECT_NEAR(y[i * 6 + 4], 0.0, 1e-9);
+        const int k = b == 1.0 ? 0 : 1;
+        max_w[k] = std::max(max_w[k], std::abs(y[i * 6 + 5]));
+        max_fy[k] = std::max(max_fy[k], std::abs(y[i * 6 + 1]));
+      }
     }
+    // The window spans 1 s at b = 1 and 2 s at b = 2 of a 2 s period, so both reach the peaks
+    // (within the sampling of the peak).
+    EXPECT_NEAR(max_w[1] / max_w[0], 2.0, 0.02);
+    EXPECT_NEAR(max_fy[1] / max_fy[0], 4.0, 0.08);
   }
-  // The window spans 1 s at b = 1 and 2 s at b = 2 of a 2 s period, so both reach the peaks
-  // (within the sampling of the peak).
-  EXPECT_NEAR(max_w[1] / max_w[0], 2.0, 0.02);
-  EXPECT_NEAR(max_fy[1] / max_fy[0], 4.0, 0.08);
 }
 
 TEST(Ppda, AmplitudeScalingMultipliesTheJointAngleExactly) {
