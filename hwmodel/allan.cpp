@@ -35,12 +35,14 @@ constexpr int64_t kChunk = 2048;
 constexpr int64_t kSmallFactor = 1024;
 
 // Adds sum over j in [j0, j1) of the squared difference of order `Order` (2: S_{j+2m} - 2 S_{j+m}
-// + S_j; 3: S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} - S_j) to acc[0..axes).
+// + S_j; 3: S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} - S_j) to acc[0..axes). The generic kernel, for
+// axis counts the lane kernels below do not serve.
 // With Prefetch, also asks for S_{j+(Order+1)m}: the part of S the strided order (below) reads
 // new in its next step, a whole chunk ahead, so the jump between chunks does not stall.
-template <int A, int Order, bool Prefetch = false>
-inline void add_diff_squares(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
-  const int k = A > 0 ? A : axes;
+template <int Order, bool Prefetch = false>
+inline void add_diff_squares(const double* S, int64_t m, int axes, int64_t j0, int64_t j1,
+                             double* acc) {
+  const int k = axes;
   double local[16] = {};
   for (int64_t j = j0; j < j1; ++j) {
     const double* s0 = S + j * k;
@@ -70,62 +72,138 @@ inline void add_diff_squares(const double* S, int64_t m, int axes, int64_t j0, i
 }
 
 // One large factor: chunks in strided order (see above). out = sum of squared differences.
-template <int A, int Order>
+template <int Order>
 void strided_sum(const double* S, int64_t n, int64_t m, int axes, double* out) {
-  const int k = A > 0 ? A : axes;
   const int64_t terms = n + 1 - Order * m;
-  for (int a = 0; a < k; ++a) out[a] = 0.0;
+  for (int a = 0; a < axes; ++a) out[a] = 0.0;
   for (int64_t base = 0; base < m; base += kChunk) {
     const int64_t w = std::min(kChunk, m - base);
     for (int64_t j0 = base; j0 < terms; j0 += m) {
       double block[16] = {};
-      add_diff_squares<A, Order, true>(S, m, axes, j0, std::min(j0 + w, terms), block);
-      for (int a = 0; a < k; ++a) out[a] += block[a];
+      add_diff_squares<Order, true>(S, m, axes, j0, std::min(j0 + w, terms), block);
+      for (int a = 0; a < axes; ++a) out[a] += block[a];
     }
   }
+}
+
+// The lane kernels. With the axes interleaved (S sample-major), the terms of all axes over
+// j in [j0, j1) are one contiguous run of flat indices f in [j0 k, j1 k), each reading
+// S[f], S[f + m k], S[f + 2 m k] (and S[f + 3 m k]). The run is cut into blocks of kLanes
+// entries, each lane with its own accumulator: independent chains the compiler turns into
+// whole vector registers (SSE2, AVX2 or AVX-512, see the clones below) without reordering any
+// sum, so every build computes the same numbers. kLanes is a multiple of every axis count it
+// serves (1, 2, 3, 4, 6, 8, 12), so lane l always holds axis l mod k, and folding the lanes into
+// the axes is a fixed sequence of additions.
+constexpr int kLanes = 24;
+
+bool lane_kernels_serve(int axes) { return kLanes % axes == 0; }
+
+template <int Order, bool Prefetch>
+[[gnu::always_inline]] inline void lane_diff_squares(const double* __restrict S, int64_t lag,
+                                                     int64_t f0, int64_t f1,
+                                                     double* __restrict lanes) {
+  double local[kLanes] = {};
+  int64_t f = f0;
+  for (; f + kLanes <= f1; f += kLanes) {
+    const double* s0 = S + f;
+    const double* s1 = s0 + lag;
+    const double* s2 = s1 + lag;
+    if constexpr (Prefetch) {
+      // The next strided step's new data (integer arithmetic: see add_diff_squares); one block
+      // is three cache lines.
+      const auto ahead =
+          reinterpret_cast<std::uintptr_t>(s2) + std::uintptr_t((Order - 1) * lag) * sizeof(double);
+      __builtin_prefetch(reinterpret_cast<const void*>(ahead), 0, 2);
+      __builtin_prefetch(reinterpret_cast<const void*>(ahead + 64), 0, 2);
+      __builtin_prefetch(reinterpret_cast<const void*>(ahead + 128), 0, 2);
+    }
+    if constexpr (Order == 2) {
+      for (int l = 0; l < kLanes; ++l) {
+        const double d = s2[l] - 2.0 * s1[l] + s0[l];
+        local[l] += d * d;
+      }
+    } else {
+      const double* s3 = s2 + lag;
+      for (int l = 0; l < kLanes; ++l) {
+        const double d = s3[l] - 3.0 * s2[l] + 3.0 * s1[l] - s0[l];
+        local[l] += d * d;
+      }
+    }
+  }
+  for (int l = 0; f < f1; ++f, ++l) {
+    const double* s0 = S + f;
+    const double d = Order == 2 ? s0[2 * lag] - 2.0 * s0[lag] + s0[0]
+                                : s0[3 * lag] - 3.0 * s0[2 * lag] + 3.0 * s0[lag] - s0[0];
+    local[l] += d * d;
+  }
+  for (int l = 0; l < kLanes; ++l) lanes[l] += local[l];
+}
+
+[[gnu::always_inline]] inline void fold_lanes(const double* lanes, int axes, double* acc) {
+  for (int l = 0; l < kLanes; ++l) acc[l % axes] += lanes[l];
+}
+
+// The small factors' kernel (one chunk) and a large factor's strided sweep (see above), built
+// for AVX-512, AVX2 and the baseline, the variant picked at load time from the CPU (function
+// multi-versioning; no -march in the build). The arithmetic and its order are the same in each,
+// so are the results. The kernels are forced inline into each variant, which compiles them
+// for its own instruction set.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define IMUKIT_SIMD_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
+#else
+#define IMUKIT_SIMD_CLONES
+#endif
+
+template <int Order>
+[[gnu::always_inline]] inline void lane_chunk(const double* S, int64_t m, int axes, int64_t j0,
+                                              int64_t j1, double* acc) {
+  double lanes[kLanes] = {};
+  lane_diff_squares<Order, false>(S, m * axes, j0 * axes, j1 * axes, lanes);
+  fold_lanes(lanes, axes, acc);
+}
+
+template <int Order>
+[[gnu::always_inline]] inline void lane_strided(const double* S, int64_t n, int64_t m, int axes,
+                                                double* out) {
+  const int64_t terms = n + 1 - Order * m;
+  double lanes[kLanes] = {};
+  for (int64_t base = 0; base < m; base += kChunk) {
+    const int64_t w = std::min(kChunk, m - base);
+    for (int64_t j0 = base; j0 < terms; j0 += m) {
+      lane_diff_squares<Order, true>(S, m * axes, j0 * axes, std::min(j0 + w, terms) * axes, lanes);
+    }
+  }
+  for (int a = 0; a < axes; ++a) out[a] = 0.0;
+  fold_lanes(lanes, axes, out);
+}
+
+IMUKIT_SIMD_CLONES void chunk_order2(const double* S, int64_t m, int axes, int64_t j0, int64_t j1,
+                                     double* acc) {
+  lane_chunk<2>(S, m, axes, j0, j1, acc);
+}
+IMUKIT_SIMD_CLONES void chunk_order3(const double* S, int64_t m, int axes, int64_t j0, int64_t j1,
+                                     double* acc) {
+  lane_chunk<3>(S, m, axes, j0, j1, acc);
+}
+IMUKIT_SIMD_CLONES void strided_order2(const double* S, int64_t n, int64_t m, int axes,
+                                       double* out) {
+  lane_strided<2>(S, n, m, axes, out);
+}
+IMUKIT_SIMD_CLONES void strided_order3(const double* S, int64_t n, int64_t m, int axes,
+                                       double* out) {
+  lane_strided<3>(S, n, m, axes, out);
 }
 
 using SumFn = void (*)(const double*, int64_t, int64_t, int, double*);
 using ChunkFn = void (*)(const double*, int64_t, int, int64_t, int64_t, double*);
 
-// The 6-axis small-factor kernel (the usual IMU case; compute-bound, unlike the memory-bound
-// large factors) also in an AVX2 build, picked at load time when the CPU has it (function
-// multi-versioning); the arithmetic and its order are the same, so are the results.
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define IMUKIT_AVX2_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define IMUKIT_AVX2_CLONES
-#endif
-IMUKIT_AVX2_CLONES void chunk6_order2(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
-  add_diff_squares<6, 2>(S, m, axes, j0, j1, acc);
-}
-IMUKIT_AVX2_CLONES void chunk6_order3(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc) {
-  add_diff_squares<6, 3>(S, m, axes, j0, j1, acc);
-}
-
-template <int A>
-struct DiffKernels {
-  static SumFn strided(int order) { return order == 2 ? &strided_sum<A, 2> : &strided_sum<A, 3>; }
-  static ChunkFn chunk(int order) {
-    return order == 2 ? &add_diff_squares<A, 2> : &add_diff_squares<A, 3>;
-  }
-};
-
 SumFn pick_strided(int order, int axes) {
-  switch (axes) {
-    case 1: return DiffKernels<1>::strided(order);
-    case 3: return DiffKernels<3>::strided(order);
-    case 6: return DiffKernels<6>::strided(order);
-    default: return DiffKernels<0>::strided(order);
-  }
+  if (lane_kernels_serve(axes)) return order == 2 ? &strided_order2 : &strided_order3;
+  return order == 2 ? &strided_sum<2> : &strided_sum<3>;
 }
 ChunkFn pick_chunk(int order, int axes) {
-  switch (axes) {
-    case 1: return DiffKernels<1>::chunk(order);
-    case 3: return DiffKernels<3>::chunk(order);
-    case 6: return order == 2 ? &chunk6_order2 : &chunk6_order3;
-    default: return DiffKernels<0>::chunk(order);
-  }
+  if (lane_kernels_serve(axes)) return order == 2 ? &chunk_order2 : &chunk_order3;
+  return order == 2 ? &add_diff_squares<2> : &add_diff_squares<3>;
 }
 
 // The modified deviation's kernel over S (axes x (n+1), sample-major). A is the compile-time
@@ -177,18 +255,25 @@ using KernelFn = void (*)(const double*, int64_t, int64_t, int, double*);
 
 KernelFn pick_modified(int axes) {
   switch (axes) {
-    case 1: return &Kernels<1>::modified;
-    case 3: return &Kernels<3>::modified;
-    case 6: return &Kernels<6>::modified;
-    default: return &Kernels<0>::modified;
+    case 1:
+      return &Kernels<1>::modified;
+    case 3:
+      return &Kernels<3>::modified;
+    case 6:
+      return &Kernels<6>::modified;
+    default:
+      return &Kernels<0>::modified;
   }
 }
 
 int64_t estimator_terms(Deviation kind, int64_t n, int64_t m) {
   switch (kind) {
-    case Deviation::kAllan: return n + 1 - 2 * m;
-    case Deviation::kModifiedAllan: return n + 2 - 3 * m;
-    case Deviation::kHadamard: return n + 1 - 3 * m;
+    case Deviation::kAllan:
+      return n + 1 - 2 * m;
+    case Deviation::kModifiedAllan:
+      return n + 2 - 3 * m;
+    case Deviation::kHadamard:
+      return n + 1 - 3 * m;
   }
   return 0;
 }
@@ -198,10 +283,14 @@ int64_t estimator_terms(Deviation kind, int64_t n, int64_t m) {
 double phase_gacv(double t, int alpha) {
   const double at = std::abs(t);
   switch (alpha) {
-    case 0: return -at;
-    case -1: return at == 0.0 ? 0.0 : t * t * std::log(at);
-    case -2: return at * at * at;
-    default: return at < 0.5 ? 1.0 : 0.0;  // white PM: an impulse at lag 0
+    case 0:
+      return -at;
+    case -1:
+      return at == 0.0 ? 0.0 : t * t * std::log(at);
+    case -2:
+      return at * at * at;
+    default:
+      return at < 0.5 ? 1.0 : 0.0;  // white PM: an impulse at lag 0
   }
 }
 
@@ -247,8 +336,8 @@ double term_covariance(Deviation kind, int64_t m, double l, int alpha) {
 // S_0 = 0, S_{i+1} = S_i + (y_i - mean), Kahan-compensated per axis (independent chains, so the
 // axes run side by side). Returns false if a sample is not finite (checked in the same pass).
 template <int A>
-bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen::VectorXd& mean, double* S,
-                  int axes) {
+bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen::VectorXd& mean,
+                  double* S, int axes) {
   const int k = A > 0 ? A : axes;
   double sum[16] = {}, comp[16] = {}, mu[16] = {};
   for (int a = 0; a < k; ++a) mu[a] = mean(a), S[a] = 0.0;
@@ -322,7 +411,8 @@ double equivalent_dof(Deviation kind, int64_t n, int64_t m, int alpha) {
       l = next;
     }
     while (l < M - 1) {
-      const int64_t next = std::min<int64_t>(M - 1, std::max<int64_t>(l + 1, int64_t(double(l) * 1.05)));
+      const int64_t next =
+          std::min<int64_t>(M - 1, std::max<int64_t>(l + 1, int64_t(double(l) * 1.05)));
       const double cur = f(double(next));
       sum += 0.5 * (prev + cur) * double(next - l) + 0.5 * (cur - prev);
       prev = cur;
@@ -349,7 +439,8 @@ int alpha_from_avar_slope(double mu) {
   return int(std::clamp(a, -2.0, 0.0));
 }
 
-AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Eigen::MatrixXd>& samples,
+AllanResult allan_deviation(std::span<const TimeNs> t,
+                            const Eigen::Ref<const Eigen::MatrixXd>& samples,
                             const AllanOptions& options) {
   const auto n = int64_t(samples.cols());
   const int axes = int(samples.rows());
@@ -358,7 +449,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
     throw Error("Allan deviation: " + std::to_string(t.size()) + " time stamps for " +
                 std::to_string(n) + " samples");
   }
-  if (n < 8) throw Error("Allan deviation: at least 8 samples are needed, got " + std::to_string(n));
+  if (n < 8)
+    throw Error("Allan deviation: at least 8 samples are needed, got " + std::to_string(n));
   AllanResult r;
   r.sampling = analyze_sampling(t);
   if (!(r.sampling.duration > 0)) throw Error("Allan deviation: the time stamps span no time");
@@ -387,10 +479,18 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   double* const S = S_storage.get();
   bool finite = true;
   switch (axes) {
-    case 1: finite = build_cumsum<1>(samples, mean, S, axes); break;
-    case 3: finite = build_cumsum<3>(samples, mean, S, axes); break;
-    case 6: finite = build_cumsum<6>(samples, mean, S, axes); break;
-    default: finite = build_cumsum<0>(samples, mean, S, axes); break;
+    case 1:
+      finite = build_cumsum<1>(samples, mean, S, axes);
+      break;
+    case 3:
+      finite = build_cumsum<3>(samples, mean, S, axes);
+      break;
+    case 6:
+      finite = build_cumsum<6>(samples, mean, S, axes);
+      break;
+    default:
+      finite = build_cumsum<0>(samples, mean, S, axes);
+      break;
   }
   if (!finite) throw Error("Allan deviation: the samples contain NaN or infinity");
 
@@ -414,8 +514,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   constexpr int64_t kChunksPerGroup = 64;
   const int64_t groups = (n_chunks + kChunksPerGroup - 1) / kChunksPerGroup;
   // partial[order slot][chunk][small index * axes + a]
-  std::vector<std::vector<double>> partial(orders.size(),
-                                           std::vector<double>(size_t(n_chunks) * small.size() * size_t(axes), 0.0));
+  std::vector<std::vector<double>> partial(
+      orders.size(), std::vector<double>(size_t(n_chunks) * small.size() * size_t(axes), 0.0));
   std::vector<std::function<void()>> tasks;
   for (size_t k = grid; k-- > 0;) {
     const int64_t m = r.factors[k];
@@ -423,7 +523,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
       tasks.emplace_back([&, k, m] {
         double out[16];
         pick_modified(axes)(S, n, m, axes, out);
-        for (int a = 0; a < axes; ++a) variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a];
+        for (int a = 0; a < axes; ++a)
+          variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a];
       });
     }
     if (m <= kSmallFactor) continue;
@@ -433,7 +534,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
         const int order = orders[o];
         pick_strided(order, axes)(S, n, m, axes, out);
         const int64_t terms = n + 1 - order * m;
-        const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
+        const double scale =
+            1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
         const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
         for (int a = 0; a < axes; ++a) variance.at(d)(a, Eigen::Index(k)) = out[a] * scale;
       });
@@ -442,7 +544,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   if (!small.empty() && !orders.empty()) {
     for (int64_t g = 0; g < groups; ++g) {
       tasks.emplace_back([&, g] {
-        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup); ++c) {
+        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup);
+             ++c) {
           const int64_t j0 = c * kChunk;
           for (size_t o = 0; o < orders.size(); ++o) {
             const ChunkFn fn = pick_chunk(orders[o], axes);
@@ -451,8 +554,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
               const int64_t terms = n + 1 - orders[o] * m;
               const int64_t j1 = std::min(j0 + kChunk, terms);
               if (j1 <= j0) continue;
-              fn(S, m, axes, j0, j1,
-                 &partial[o][(size_t(c) * small.size() + q) * size_t(axes)]);
+              fn(S, m, axes, j0, j1, &partial[o][(size_t(c) * small.size() + q) * size_t(axes)]);
             }
           }
         }
@@ -463,7 +565,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
   auto worker = [&] {
     for (size_t i = next.fetch_add(1); i < tasks.size(); i = next.fetch_add(1)) tasks[i]();
   };
-  unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  unsigned threads =
+      options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
   threads = unsigned(std::max<size_t>(1, std::min<size_t>(threads, tasks.size())));
   if (threads <= 1) {
     worker();
@@ -482,7 +585,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
       const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
       for (int a = 0; a < axes; ++a) {
         double total = 0.0;
-        for (int64_t c = 0; c < n_chunks; ++c) total += partial[o][(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
+        for (int64_t c = 0; c < n_chunks; ++c)
+          total += partial[o][(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
         variance.at(d)(a, Eigen::Index(small[q])) = total * scale;
       }
     }
@@ -539,7 +643,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Ei
           it = edf_cache.emplace(al, equivalent_dof(d, n, r.factors[k], al)).first;
         }
         const double nu = it->second;
-        const auto [lo, hi] = deviation_interval(c.deviation(a, Eigen::Index(k)), nu, options.confidence);
+        const auto [lo, hi] =
+            deviation_interval(c.deviation(a, Eigen::Index(k)), nu, options.confidence);
         c.edf(a, Eigen::Index(k)) = nu;
         c.lower(a, Eigen::Index(k)) = lo;
         c.upper(a, Eigen::Index(k)) = hi;

@@ -18,37 +18,33 @@ std::vector<TimeNs> uniform_times(int64_t n, double rate_hz) {
   return t;
 }
 
-// Textbook definitions in terms of the rate samples, computed the slow way.
-double naive_avar(const std::vector<double>& y, int64_t m) {
+// Textbook definitions in terms of the rate samples, computed the slow way: the mean of the
+// squared weighted combinations of consecutive m-sample averages, over their sum of squared
+// weights. Allan: weights (-1, 1), normalised by 2; Hadamard: (1, -2, 1), by 6.
+double naive_difference_var(const std::vector<double>& y, int64_t m,
+                            const std::vector<double>& weights) {
   const auto n = int64_t(y.size());
   auto avg = [&](int64_t k) {
     double s = 0;
     for (int64_t i = k; i < k + m; ++i) s += y[size_t(i)];
     return s / double(m);
   };
+  double norm = 0;
+  for (double w : weights) norm += w * w;
   double sum = 0;
-  const int64_t terms = n - 2 * m + 1;
+  const int64_t terms = n - int64_t(weights.size()) * m + 1;
   for (int64_t k = 0; k < terms; ++k) {
-    const double d = avg(k + m) - avg(k);
+    double d = 0;
+    for (size_t i = 0; i < weights.size(); ++i) d += weights[i] * avg(k + int64_t(i) * m);
     sum += d * d;
   }
-  return sum / (2.0 * double(terms));
+  return sum / (norm * double(terms));
 }
-
+double naive_avar(const std::vector<double>& y, int64_t m) {
+  return naive_difference_var(y, m, {-1.0, 1.0});
+}
 double naive_hvar(const std::vector<double>& y, int64_t m) {
-  const auto n = int64_t(y.size());
-  auto avg = [&](int64_t k) {
-    double s = 0;
-    for (int64_t i = k; i < k + m; ++i) s += y[size_t(i)];
-    return s / double(m);
-  };
-  double sum = 0;
-  const int64_t terms = n - 3 * m + 1;
-  for (int64_t k = 0; k < terms; ++k) {
-    const double d = avg(k + 2 * m) - 2.0 * avg(k + m) + avg(k);
-    sum += d * d;
-  }
-  return sum / (6.0 * double(terms));
+  return naive_difference_var(y, m, {1.0, -2.0, 1.0});
 }
 
 // Modified Allan variance, NIST SP 1065 eq. (15) written with frequency data:
@@ -68,6 +64,36 @@ double naive_mvar(const std::vector<double>& y, int64_t m) {
   return sum / (2.0 * md * md * md * md * double(terms));
 }
 
+// Checks ADEV and HDEV (and MDEV if `modified`) of every axis of y against the textbook
+// definitions, to 1e-12 relative.
+void expect_textbook_values(const Eigen::MatrixXd& y, const std::vector<int64_t>& factors,
+                            bool modified) {
+  const auto n = int64_t(y.cols());
+  AllanOptions opt;
+  opt.factors = factors;
+  opt.modified = modified;
+  opt.threads = 2;
+  const AllanResult r = allan_deviation(uniform_times(n, 100.0), y, opt);
+  ASSERT_TRUE(r.allan.computed && r.hadamard.computed && r.modified.computed == modified);
+  for (Eigen::Index a = 0; a < y.rows(); ++a) {
+    std::vector<double> ya(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i) ya[size_t(i)] = y(a, i);
+    for (size_t k = 0; k < factors.size(); ++k) {
+      const int64_t m = factors[k];
+      const auto K = Eigen::Index(k);
+      const double adev = std::sqrt(naive_avar(ya, m)), hdev = std::sqrt(naive_hvar(ya, m));
+      EXPECT_NEAR(r.allan.deviation(a, K), adev, 1e-12 * adev)
+          << y.rows() << " axes, axis " << a << " m " << m;
+      EXPECT_NEAR(r.hadamard.deviation(a, K), hdev, 1e-12 * hdev)
+          << y.rows() << " axes, axis " << a << " m " << m;
+      if (modified) {
+        const double mdev = std::sqrt(naive_mvar(ya, m));
+        EXPECT_NEAR(r.modified.deviation(a, K), mdev, 1e-12 * mdev) << "axis " << a << " m " << m;
+      }
+    }
+  }
+}
+
 TEST(AllanDeviation, EqualsTextbookDefinitionsOnSmallInputs) {
   const int64_t n = 61;
   Rng rng(11);
@@ -78,28 +104,23 @@ TEST(AllanDeviation, EqualsTextbookDefinitionsOnSmallInputs) {
     y(1, i) = -3.0 + 0.05 * double(i) + 0.1 * rng.normal();
     y(2, i) = 1e-4 * rng.normal();
   }
-  AllanOptions opt;
-  for (int64_t m = 1; m <= n / 3; ++m) opt.factors.push_back(m);
-  opt.threads = 2;
-  const AllanResult r = allan_deviation(uniform_times(n, 100.0), y, opt);
-  ASSERT_TRUE(r.allan.computed && r.modified.computed && r.hadamard.computed);
-  for (int a = 0; a < 3; ++a) {
-    std::vector<double> ya(static_cast<size_t>(n));
-    for (int64_t i = 0; i < n; ++i) ya[size_t(i)] = y(a, i);
-    for (size_t k = 0; k < opt.factors.size(); ++k) {
-      const int64_t m = opt.factors[k];
-      const auto K = Eigen::Index(k);
-      EXPECT_NEAR(r.allan.deviation(a, K), std::sqrt(naive_avar(ya, m)),
-                  1e-12 * std::sqrt(naive_avar(ya, m)))
-          << "axis " << a << " m " << m;
-      EXPECT_NEAR(r.hadamard.deviation(a, K), std::sqrt(naive_hvar(ya, m)),
-                  1e-12 * std::sqrt(naive_hvar(ya, m)))
-          << "axis " << a << " m " << m;
-      EXPECT_NEAR(r.modified.deviation(a, K), std::sqrt(naive_mvar(ya, m)),
-                  1e-12 * std::sqrt(naive_mvar(ya, m)))
-          << "axis " << a << " m " << m;
-    }
-  }
+  std::vector<int64_t> factors;
+  for (int64_t m = 1; m <= n / 3; ++m) factors.push_back(m);
+  expect_textbook_values(y, factors, true);
+}
+
+TEST(AllanDeviation, EqualsTextbookDefinitionsForLargeFactorsAndAxisCounts) {
+  // Factors above 1024 take the strided sweep; 6 and 2 axes the vector lane kernels, 5 the
+  // generic one.
+  const int64_t n = 3400;
+  Rng rng(12);
+  Eigen::MatrixXd y(6, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 6; ++a) y(a, i) = double(a) - 2.0 + 1e-3 * double(i) + rng.normal();
+  const std::vector<int64_t> factors = {1, 7, 1024, 1025, 1100};
+  expect_textbook_values(y, factors, false);
+  expect_textbook_values(y.topRows(2), factors, false);
+  expect_textbook_values(y.topRows(5), factors, false);
 }
 
 TEST(AllanDeviation, ResultDoesNotDependOnThreadCountOrAxisGrouping) {
@@ -236,7 +257,8 @@ TEST(AllanDeviation, UsesMeasuredMeanPeriodAndReportsJitter) {
   // Periods alternating 0.10 s and 0.11 s (like the hfi_static log): nominal 10 Hz, mean 0.105 s.
   const int64_t n = 1001;
   std::vector<TimeNs> t(static_cast<size_t>(n));
-  for (int64_t i = 1; i < n; ++i) t[size_t(i)] = t[size_t(i - 1)] + (i % 2 ? 100'000'000 : 110'000'000);
+  for (int64_t i = 1; i < n; ++i)
+    t[size_t(i)] = t[size_t(i - 1)] + (i % 2 ? 100'000'000 : 110'000'000);
   Eigen::MatrixXd y = Eigen::MatrixXd::Zero(1, n);
   Rng rng(5);
   for (int64_t i = 0; i < n; ++i) y(0, i) = rng.normal();
