@@ -1,0 +1,149 @@
+// Parameter identification (docs/identification.md): from body motion (a skeleton's motion or a
+// rigid body's pose track) and a real IMU recording of a sensor worn on one joint's segment,
+// estimate with Ceres what the simulator needs to reproduce that sensor:
+//   - the placement (R_joint_sensor, p_joint_sensor),
+//   - accelerometer and gyroscope bias (optionally a per-axis scale error),
+//   - the time offset between the IMU and motion clocks (optionally a clock-rate difference),
+//   - optionally the lengths of chosen segments on the sensor's chain, with Gaussian priors.
+//
+// Model, for IMU sample i stamped t_i on the IMU clock:
+//   tau_i   = (t_i - motion_start) + time_offset + clock_rate * (t_i - t_ref)   (motion clock)
+//   gyro_i  = (1 + s_g) . (R_joint_sensor^T w_J(tau_i)) + b_g
+//   accel_i = (1 + s_a) . (R_joint_sensor^T (f_J(tau_i) + dw_J x p + w_J x (w_J x p))) + b_a
+// with w_J, dw_J and f_J = R_world_J^T (a_J - g) the joint's angular rate, angular acceleration
+// and specific force in the joint frame from the spline simulator (smooth in tau). Coarse to
+// fine: the time offset first by cross-correlating angular-rate magnitudes (independent of the
+// placement), the rotation by Wahba's problem on gyro (and gravity) vectors, then all
+// parameters jointly by robust (Huber) least squares. Parameters the motion does not excite are
+// reported as unobservable (value NaN) instead of being guessed.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/imu_series.hpp"
+#include "core/time.hpp"
+#include "sim/body.hpp"
+#include "sim/motion.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::sim {
+
+struct IdentifyOptions {
+  int joint = -1;  // body index of the joint carrying the sensor (required)
+  Placement init;  // initial placement (init.joint is ignored); identity/zero by default
+  bool init_rotation_from_data = true;  // Wahba on gyro/gravity vectors instead of init's rotation
+
+  // What to estimate (the others stay at their initial value: init placement, zero bias/scale,
+  // the given time offset, no clock-rate difference, nominal segment lengths).
+  bool rotation = true;
+  bool position = true;
+  bool accel_bias = true;
+  bool gyro_bias = true;
+  bool accel_scale = false;
+  bool gyro_scale = false;
+  bool time_offset = true;
+  bool clock_rate = false;
+  // Joints on the sensor's chain whose offset from their parent (the parent segment's length)
+  // is estimated, each with a Gaussian prior of relative width segment_prior (at most 6).
+  std::vector<int> segments;
+  double segment_prior = 0.05;
+
+  // Clocks: motion frame 0 is at motion_start_ns on the IMU clock.
+  TimeNs motion_start_ns = 0;
+  bool coarse_time_offset = true;   // cross-correlation of |w| first
+  double max_time_offset_s = 1.0;   // search range of the coarse step
+  double time_offset_init_s = 0.0;  // used when coarse_time_offset is false
+  // Motion-time intervals [begin, end] (ns since frame 0) that are not real motion (filled gaps
+  // of a pose track): IMU samples that would read them are left out.
+  std::vector<std::pair<TimeNs, TimeNs>> invalid_motion;
+
+  Eigen::Vector3d gravity_world = Eigen::Vector3d(0.0, 0.0, -9.80665);
+  double huber_sigmas = 3.0;  // Huber threshold, in residual standard deviations
+  int max_iterations = 100;
+  int threads = 1;
+  // Singular values of the column-scaled Jacobian below this fraction of the largest mark
+  // directions the data do not determine.
+  double observability_threshold = 1e-6;
+};
+
+// One estimated scalar with its standard error (from the covariance of the final fit).
+struct ParameterEstimate {
+  std::string name;  // e.g. "position.x", "rotation.y", "accel_bias.z", "time_offset"
+  std::string unit;
+  double value = 0.0;
+  double std_error = 0.0;
+  bool estimated = false;  // false: held at its initial value
+  bool observable = true;  // false: value and std_error are NaN
+};
+
+struct TriadRms {
+  double accel = 0.0;  // m/s^2, RMS over the samples and axes
+  double gyro = 0.0;   // rad/s
+};
+
+struct IdentifyResult {
+  Placement placement;  // joint = options.joint
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_scale = Eigen::Vector3d::Zero();  // s_a: measured = (1 + s_a) true
+  Eigen::Vector3d gyro_scale = Eigen::Vector3d::Zero();
+  double time_offset_s = 0.0;                           // see the model above
+  double coarse_time_offset_s = 0.0;                    // from the cross-correlation
+  double clock_rate = 0.0;                              // dimensionless (1e-6 = 1 ppm)
+  TimeNs t_ref_ns = 0;                                  // IMU time the clock rate is referred to
+  std::vector<std::pair<int, double>> segment_lengths;  // (joint, identified length m)
+
+  std::vector<ParameterEstimate> parameters;
+  std::vector<std::string> unobservable;  // names of parameters the data do not determine
+
+  // Residual RMS of the model against the measurement over the samples used: before = the
+  // initial placement, zero bias/scale, time offset 0 (motion_start only); after = identified.
+  TriadRms rms_before, rms_after;
+  double sigma_accel = 0.0, sigma_gyro = 0.0;  // robust residual std used to weight the fit
+  int64_t samples_used = 0;
+  int64_t samples_excluded = 0;  // outside the motion or in invalid_motion
+  int iterations = 0;
+  bool converged = false;
+  double seconds = 0.0;
+  std::string solver_summary;
+
+  // Per used sample: IMU time, measurement, and the simulated measurement before and after.
+  std::vector<TimeNs> t;
+  Eigen::Matrix3Xd accel, gyro;
+  Eigen::Matrix3Xd accel_before, gyro_before, accel_after, gyro_after;
+};
+
+// Runs the identification. The IMU series needs both accelerometer and gyroscope. Throws
+// imukit::Error for unusable input (no overlap with the motion, too few samples, ...).
+IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries& imu,
+                        const IdentifyOptions& options);
+
+// The identification as JSON ("imukit.placement/1", docs/formats.md): the sensor entry in the
+// scene layout plus hardware bias/scale, timing, uncertainties and fit statistics.
+std::string placement_json(const IdentifyResult& result, const Body& body);
+
+// A rigid body's pose track (optical motion capture): world orientation and position per row,
+// NaN where the tracker lost the body.
+struct PoseTrack {
+  std::vector<TimeNs> t;  // uniform
+  std::vector<Eigen::Quaterniond> q_world_body;
+  Eigen::Matrix3Xd p_world_body;
+};
+
+// A pose track as a one-joint Body ("pose") and Motion: leading and trailing missing rows are
+// dropped, inner gaps filled (slerp, linear) and listed so identification can skip them.
+struct PoseMotion {
+  Body body;
+  Motion motion;
+  TimeNs start_ns = 0;                          // time of frame 0 on the track's clock
+  std::vector<std::pair<TimeNs, TimeNs>> gaps;  // filled frames, motion time [first, last]
+  int64_t missing_rows = 0;                     // filled inner rows
+};
+PoseMotion pose_track_motion(const PoseTrack& track, const std::string& source);
+
+}  // namespace imukit::sim
