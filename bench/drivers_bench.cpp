@@ -14,6 +14,7 @@
 #include "drivers/witmotion_codec.hpp"
 #include "drivers/xsens_codec.hpp"
 #include "firmware_proto/messages.hpp"
+#include "tests/support/example_models.hpp"
 
 namespace {
 
@@ -25,17 +26,8 @@ constexpr int kSamples = 100'000;
 std::vector<uint8_t> imukit_stream() {
   std::vector<uint8_t> s;
   uint8_t buf[proto::kMaxFrameSize];
-  proto::DeviceInfo info;
-  info.tick_hz = 1'000'000;
-  info.rate_count = 1;
-  info.rates_mhz[0] = 1'000'000;
-  info.sensor_count = 2;
-  info.sensors[0].kind = proto::SensorKind::kAccelerometer;
-  info.sensors[0].range_count = 1;
-  info.sensors[0].ranges[0] = {156.9f, 0.0047884f};
-  info.sensors[1].kind = proto::SensorKind::kGyroscope;
-  info.sensors[1].range_count = 1;
-  info.sensors[1].ranges[0] = {34.9f, 0.00106526f};
+  // A 1 MHz device clock at 1 kHz output.
+  const proto::DeviceInfo info = imukit::testing::example_device_info(1'000'000, 1'000'000);
   std::size_t n = proto::encode_message(info, 0, buf, sizeof buf);
   s.insert(s.end(), buf, buf + n);
   for (int b = 0; b < kSamples / 8; ++b) {
@@ -59,8 +51,9 @@ std::vector<uint8_t> imukit_stream() {
 std::vector<uint8_t> xsens_stream() {
   std::vector<uint8_t> s;
   for (int i = 0; i < kSamples; ++i) {
-    std::vector<uint8_t> p = {0x10, 0x20, 2, static_cast<uint8_t>(i >> 8), static_cast<uint8_t>(i),
-                              0x10, 0x60, 4, 0, 0, static_cast<uint8_t>(i >> 8), static_cast<uint8_t>(i)};
+    std::vector<uint8_t> p = {
+        0x10, 0x20, 2, static_cast<uint8_t>(i >> 8), static_cast<uint8_t>(i), 0x10, 0x60,
+        4,    0,    0, static_cast<uint8_t>(i >> 8), static_cast<uint8_t>(i)};
     for (uint16_t id : {uint16_t{0x4020}, uint16_t{0x8020}, uint16_t{0xC020}}) {
       p.insert(p.end(), {static_cast<uint8_t>(id >> 8), static_cast<uint8_t>(id), 12});
       for (int k = 0; k < 3; ++k) {
@@ -81,8 +74,8 @@ std::vector<uint8_t> witmotion_stream() {
   for (int i = 0; i < kSamples; ++i) {
     const int16_t a[4] = {static_cast<int16_t>(i), 1, 2048, 2500}, g[4] = {3, 4, 5, 0},
                   an[4] = {6, 7, 8, 0}, m[4] = {9, 10, 11, 0};
-    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g), witmotion_frame(0x53, an),
-                          witmotion_frame(0x54, m)}) {
+    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g),
+                          witmotion_frame(0x53, an), witmotion_frame(0x54, m)}) {
       s.insert(s.end(), f.begin(), f.end());
     }
   }
@@ -92,7 +85,8 @@ std::vector<uint8_t> witmotion_stream() {
 std::vector<uint8_t> text_stream() {
   std::string t;
   for (int i = 0; i < kSamples; ++i) {
-    t += std::to_string(i * 10) + ",0.0123,-0.0456,9.8066," + std::to_string(i % 100) + ".5,-0.25,0.125\n";
+    t += std::to_string(i * 10) + ",0.0123,-0.0456,9.8066," + std::to_string(i % 100) +
+         ".5,-0.25,0.125\n";
   }
   return {t.begin(), t.end()};
 }
@@ -113,13 +107,17 @@ void run_bytes(benchmark::State& state, const std::vector<uint8_t>& stream,
     samples += out.size();
     benchmark::DoNotOptimize(out.data());
   }
-  state.counters["samples_per_s"] = benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
-  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) * static_cast<int64_t>(stream.size()));
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) *
+                          static_cast<int64_t>(stream.size()));
 }
 
 void BM_Imukit(benchmark::State& state) {
   static const auto s = imukit_stream();
-  run_bytes(state, s, [] { return std::make_unique<ImukitCodec>(ImukitCodecOptions{false, 0, 8, 0, 0}); });
+  run_bytes(state, s, [] {
+    return std::make_unique<ImukitCodec>(ImukitCodecOptions{false, 0, 8, 0, 0});
+  });
 }
 void BM_Xsens(benchmark::State& state) {
   static const auto s = xsens_stream();
@@ -153,7 +151,8 @@ void BM_DualShock4(benchmark::State& state) {
     samples += out.size();
     benchmark::DoNotOptimize(out.data());
   }
-  state.counters["samples_per_s"] = benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
+  state.counters["samples_per_s"] =
+      benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
 }
 
 BENCHMARK(BM_Imukit)->Unit(benchmark::kMillisecond);

@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "core/imu_series.hpp"
 #include "core/rng.hpp"
+#include "tests/support/example_models.hpp"
 
 namespace imukit {
 namespace {
@@ -77,39 +78,7 @@ bool bit_equal(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
          std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
 }
 
-// Every term on, with values of a consumer-grade MEMS IMU.
-HardwareModel full_model() {
-  HardwareModel m;
-  auto& acc = m.accelerometer;
-  acc.noise_density = {1.5e-3, 1.6e-3, 2.0e-3};
-  acc.bias_instability = {4e-4, 5e-4, 6e-4};
-  acc.random_walk = {3e-5, 3e-5, 4e-5};
-  acc.turn_on_bias_mean = {0.02, -0.03, 0.05};
-  acc.turn_on_bias_spread = {0.01, 0.01, 0.02};
-  acc.scale = {1.01, 0.99, 1.002};
-  acc.misalignment << 1.0, 0.002, -0.001, 0.003, 1.0, 0.004, -0.002, 0.001, 1.0;
-  acc.range = 16 * 9.80665;
-  acc.resolution = 16 * 9.80665 / 32768.0;
-  acc.bandwidth_hz = 40.0;
-  auto& gyro = m.gyroscope;
-  gyro.noise_density = {1.2e-4, 1.3e-4, 1.1e-4};
-  gyro.bias_instability = {2e-5, 3e-5, 2.5e-5};
-  gyro.random_walk = {2e-6, 3e-6, 2e-6};
-  gyro.turn_on_bias_mean = {0.001, -0.002, 0.0005};
-  gyro.turn_on_bias_spread = {0.002, 0.002, 0.002};
-  gyro.scale = {0.995, 1.004, 1.0};
-  gyro.misalignment << 1.0, -0.003, 0.002, 0.001, 1.0, -0.002, 0.004, 0.001, 1.0;
-  gyro.g_sensitivity << 1e-4, 2e-5, 0.0, -3e-5, 1e-4, 1e-5, 0.0, 2e-5, 8e-5;
-  gyro.range = 2000.0 * std::numbers::pi / 180.0;
-  gyro.resolution = gyro.range / 32768.0;
-  gyro.bandwidth_hz = 30.0;
-  auto& mag = m.magnetometer;
-  mag.noise_density = {1e-8, 1e-8, 1.5e-8};
-  mag.hard_iron = {2e-6, -1e-6, 5e-6};
-  mag.soft_iron << 1.02, 0.01, 0.0, 0.01, 0.98, 0.0, 0.0, 0.0, 1.01;
-  mag.resolution = 1.5e-7;
-  return m;
-}
+HardwareModel full_model() { return imukit::testing::consumer_mems_model(); }
 
 TEST(HardwareModel, IdealModelIsIdentityAndDrawsOnceFromCallersRng) {
   const HardwareModel ideal;

@@ -5,28 +5,12 @@
 #include <set>
 
 #include "tests/drivers/test_util.hpp"
+#include "tests/support/example_models.hpp"
 
 namespace imukit::drivers {
 namespace {
 
-proto::DeviceInfo test_info() {
-  proto::DeviceInfo info;
-  info.vendor.set("acme");
-  info.model.set("imu");
-  info.serial.set("7");
-  info.tick_hz = 32768;  // a watch crystal: the sample period is not a whole number of ticks
-  info.rate_count = 1;
-  info.rates_mhz[0] = 100'000;
-  info.sensor_count = 2;
-  info.sensors[0].kind = proto::SensorKind::kAccelerometer;
-  info.sensors[0].range_count = 1;
-  info.sensors[0].ranges[0] = {156.9064f, 0.00478840f};
-  info.sensors[1].kind = proto::SensorKind::kGyroscope;
-  info.sensors[1].offset = 0.0f;
-  info.sensors[1].range_count = 1;
-  info.sensors[1].ranges[0] = {34.9f, 0.001065264f};
-  return info;
-}
+proto::DeviceInfo test_info() { return imukit::testing::example_device_info(); }
 
 struct Stream {
   std::vector<uint8_t> bytes;
@@ -49,7 +33,8 @@ Stream make_stream(int blocks, uint32_t first_index = 0, uint32_t first_tick = 0
     proto::SampleBlock blk;
     blk.sample_index = first_index + 8u * static_cast<uint32_t>(b);
     // The device's rule: tick of sample i = floor(i * 32768 * 1000 / 100000).
-    blk.first_tick = first_tick + static_cast<uint32_t>(uint64_t{8u * static_cast<uint32_t>(b)} * 32768u / 100u);
+    blk.first_tick =
+        first_tick + static_cast<uint32_t>(uint64_t{8u * static_cast<uint32_t>(b)} * 32768u / 100u);
     blk.count = 8;
     blk.channels = proto::kChannelAccel | proto::kChannelGyro;
     for (int i = 0; i < 8; ++i) {
@@ -122,7 +107,8 @@ TEST(ImukitCodec, CorruptedBlocksAreCountedAsDroppedSamples) {
     // Flip 1..3 bits anywhere in the frame, delimiter included.
     const int flips = 1 + static_cast<int>(rng.uniform_index(3));
     for (int k = 0; k < flips; ++k) {
-      st.bytes[st.block_start[b] + rng.uniform_index(size)] ^= static_cast<uint8_t>(1u << rng.uniform_index(8));
+      st.bytes[st.block_start[b] + rng.uniform_index(size)] ^=
+          static_cast<uint8_t>(1u << rng.uniform_index(8));
     }
   }
   ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
@@ -134,7 +120,8 @@ TEST(ImukitCodec, CorruptedBlocksAreCountedAsDroppedSamples) {
   testing::expect_byte_accounting(codec);
   for (const Sample& x : out) {
     EXPECT_FALSE(hit.count(static_cast<int>(x.sequence / 8)));
-    EXPECT_EQ(x.accel[0], static_cast<double>(0.00478840f) * static_cast<double>(x.sequence % 30000));
+    EXPECT_EQ(x.accel[0],
+              static_cast<double>(0.00478840f) * static_cast<double>(x.sequence % 30000));
   }
 }
 
@@ -154,7 +141,7 @@ TEST(ImukitCodec, SendsInfoRequestThenConfigureAndStartAndPings) {
   codec.feed(st.bytes, 0, out);  // the DeviceInfo
   collect();
   EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x02, 0x03}));
-  codec.tick(10);            // first ping
+  codec.tick(10);           // first ping
   codec.tick(500'000'000);  // within both the ping interval and the retry time: nothing
   codec.tick(1'000'000'010);
   collect();
@@ -188,7 +175,8 @@ TEST(ImukitCodec, RepeatsAnUnansweredInfoRequest) {
 TEST(ImukitCodec, BlocksBeforeDeviceInfoAreCountedNotGuessed) {
   Stream st = make_stream(3);
   // Drop the DeviceInfo frame: a capture that started mid-stream.
-  std::vector<uint8_t> tail(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.block_start[0]), st.bytes.end());
+  std::vector<uint8_t> tail(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.block_start[0]),
+                            st.bytes.end());
   ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
   std::vector<Sample> out;
   codec.feed(tail, 0, out);
