@@ -1,0 +1,359 @@
+// imukit identify: fit the sensor's placement, biases and clock offset on its joint so that the
+// simulator reproduces a real IMU recording (sim/identify.hpp, docs/identification.md). The
+// motion is a skeleton's (BVH or joint-quaternion CSV, with --joint) or a rigid body's pose track
+// from optical motion capture (--pose, read with the column grammar: t, qw..qz, px..pz).
+//
+// --imu and --pose take per-input options after them (--columns, --gaps, --time-unit, ...), as
+// the other commands' input files do.
+#include <fmt/core.h>
+#include <fmt/os.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+
+#include "cli/command.hpp"
+#include "cli/hwmodel_common.hpp"
+#include "cli/inputs.hpp"
+#include "core/column_text.hpp"
+#include "core/error.hpp"
+#include "core/so3.hpp"
+#include "sim/bvh.hpp"
+#include "sim/identify.hpp"
+#include "sim/motion.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::cli {
+namespace {
+
+struct IdentifyArgs {
+  std::string output;
+  std::string motion;
+  std::string joint;
+  std::string init;
+  std::string plot_dir;
+  double bvh_scale = 1.0;
+  std::string up = "y";
+  double height = 1.75;
+  std::vector<std::string> fix;
+  std::vector<std::string> estimate;
+  std::vector<std::string> segments;
+  double segment_prior = 0.05;
+  std::optional<double> time_offset;
+  std::optional<double> motion_start;
+  double max_time_offset = 1.0;
+  double gravity = 9.80665;
+  int threads = 1;
+};
+
+// --imu FILE [options] and --pose FILE [options], from the tokens CLI11 left over.
+struct RoleInputs {
+  std::optional<InputArg> imu, pose;
+};
+
+RoleInputs split_inputs(const std::vector<std::string>& tokens) {
+  RoleInputs r;
+  std::vector<std::string> group;
+  std::string role;
+  auto flush = [&] {
+    if (role.empty()) return;
+    const auto parsed = parse_input_args(group);
+    if (parsed.size() != 1) throw Error(fmt::format("identify: {} takes exactly one file", role));
+    (role == "--imu" ? r.imu : r.pose) = parsed.front();
+  };
+  for (std::size_t i = 0; i < tokens.size(); ++i) {
+    if (tokens[i] == "--imu" || tokens[i] == "--pose") {
+      flush();
+      role = tokens[i];
+      if (i + 1 >= tokens.size()) throw Error(fmt::format("identify: {} needs a file", role));
+      if ((role == "--imu" ? r.imu : r.pose).has_value())
+        throw Error(fmt::format("identify: {} given twice", role));
+      group = {tokens[++i]};
+      continue;
+    }
+    if (role.empty()) throw Error(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
+    group.push_back(tokens[i]);
+  }
+  flush();
+  return r;
+}
+
+sim::PoseTrack load_pose_track(const InputArg& in) {
+  if (in.columns.empty()) {
+    throw Error(fmt::format(
+        "{}: say where the pose is with --columns, e.g. --columns t,qw,qx,qy,qz,px,py,pz",
+        in.path));
+  }
+  const ColumnSpec spec = ColumnSpec::parse(in.columns, in.gaps, parse_time_unit(in.time_unit));
+  for (Column c : {Column::t, Column::qw, Column::qx, Column::qy, Column::qz, Column::px,
+                   Column::py, Column::pz}) {
+    if (!spec.has(c)) {
+      throw Error(
+          fmt::format("{}: a pose track needs columns t, qw, qx, qy, qz, px, py, pz (missing {})",
+                      in.path, column_name(c)));
+    }
+  }
+  const ColumnTable table = read_column_text(in.path, spec);
+  sim::PoseTrack track;
+  track.t = table.t;
+  track.p_world_body.resize(3, static_cast<Eigen::Index>(table.rows));
+  for (std::size_t i = 0; i < table.rows; ++i) {
+    track.q_world_body.emplace_back(table[Column::qw][i], table[Column::qx][i],
+                                    table[Column::qy][i], table[Column::qz][i]);
+    track.p_world_body.col(static_cast<Eigen::Index>(i)) =
+        Eigen::Vector3d(table[Column::px][i], table[Column::py][i], table[Column::pz][i]);
+  }
+  return track;
+}
+
+void apply_names(const std::vector<std::string>& names, bool value, sim::IdentifyOptions& o,
+                 const char* option) {
+  for (const std::string& n : names) {
+    if (n == "rotation")
+      o.rotation = value;
+    else if (n == "position")
+      o.position = value;
+    else if (n == "accel_bias")
+      o.accel_bias = value;
+    else if (n == "gyro_bias")
+      o.gyro_bias = value;
+    else if (n == "accel_scale")
+      o.accel_scale = value;
+    else if (n == "gyro_scale")
+      o.gyro_scale = value;
+    else if (n == "time_offset")
+      o.time_offset = value;
+    else if (n == "clock_rate")
+      o.clock_rate = value;
+    else {
+      throw Error(
+          fmt::format("identify: {} '{}' is not one of rotation, position, accel_bias, gyro_bias, "
+                      "accel_scale, gyro_scale, time_offset, clock_rate",
+                      option, n));
+    }
+  }
+}
+
+void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
+  std::filesystem::create_directories(dir);
+  const auto dat = (std::filesystem::path(dir) / "identify_signals.dat").string();
+  {
+    auto out = fmt::output_file(dat);
+    out.print(
+        "# t_s  measured ax ay az gx gy gz  simulated-before ax ay az gx gy gz  simulated-after ax "
+        "ay az gx gy gz\n");
+    const double t0 = static_cast<double>(r.t.front());
+    for (std::size_t i = 0; i < r.t.size(); ++i) {
+      const auto c = static_cast<Eigen::Index>(i);
+      out.print("{:.6f}", (static_cast<double>(r.t[i]) - t0) * 1e-9);
+      for (const Eigen::Matrix3Xd* m :
+           {&r.accel, &r.gyro, &r.accel_before, &r.gyro_before, &r.accel_after, &r.gyro_after})
+        out.print(" {:.7g} {:.7g} {:.7g}", (*m)(0, c), (*m)(1, c), (*m)(2, c));
+      out.print("\n");
+    }
+  }
+  std::string script = fmt::format(
+      "set multiplot layout 3,2 title 'measured vs simulated (identified placement, bias, time "
+      "offset)'\n"
+      "set grid\nset key top right font ',9'\n");
+  const char* axis = "xyz";
+  for (int k = 0; k < 3; ++k) {
+    for (int s = 0; s < 2; ++s) {  // accelerometer column 2+k, gyroscope 5+k
+      const int col = 2 + 3 * s + k;
+      script += fmt::format(
+          "set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
+          "1:{} w l lc 1 t "
+          "'simulated, identified', '' u 1:{} w l lc 2 dt 2 t 'simulated, before'\n",
+          s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
+          k == 2 ? "set xlabel 't [s]'\n" : "", dat, col, col + 12, col + 6);
+    }
+  }
+  script += "unset multiplot\n";
+  run_gnuplot(dir, "identify_signals", script);
+}
+
+int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
+  const RoleInputs in = split_inputs(tokens);
+  if (!in.imu) throw Error("identify: give the IMU recording with --imu FILE");
+  if (in.pose.has_value() == !a.motion.empty())
+    throw Error(
+        "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
+  ImuSeries imu = load_imu_series(*in.imu);
+  imu.validate();
+
+  sim::IdentifyOptions o;
+  o.threads = a.threads;
+  o.max_time_offset_s = a.max_time_offset;
+  o.segment_prior = a.segment_prior;
+  o.gravity_world = Eigen::Vector3d(0, 0, -std::abs(a.gravity));
+  apply_names(a.fix, false, o, "--fix");
+  apply_names(a.estimate, true, o, "--estimate");
+  if (a.time_offset) {
+    o.coarse_time_offset = false;
+    o.time_offset_init_s = *a.time_offset;
+  }
+
+  sim::Body body;
+  std::shared_ptr<sim::Motion> motion;
+  std::vector<std::string> warnings;
+  if (in.pose) {
+    if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
+      throw Error(
+          "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
+          "apply");
+    sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(*in.pose), in.pose->path);
+    body = std::move(pm.body);
+    motion = std::make_shared<sim::Motion>(std::move(pm.motion));
+    o.joint = 0;
+    o.motion_start_ns = pm.start_ns;
+    o.invalid_motion = pm.gaps;
+    // The tracked orientation is the sensor frame's or close to it: start from identity.
+    o.init_rotation_from_data = false;
+    if (pm.missing_rows > 0) {
+      fmt::print("pose track: {} missing rows in {} gap(s) filled and left out of the fit\n",
+                 pm.missing_rows, pm.gaps.size());
+    }
+  } else {
+    const std::filesystem::path mp(a.motion);
+    if (mp.extension() == ".bvh") {
+      sim::BvhOptions bo;
+      bo.scale = a.bvh_scale;
+      bo.up = a.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
+      sim::BvhData d = sim::read_bvh(a.motion, bo);
+      body = std::move(d.body);
+      motion = std::make_shared<sim::Motion>(std::move(d.motion));
+      warnings = std::move(d.warnings);
+    } else {
+      body = sim::Body::default_humanoid(a.height);
+      motion = std::make_shared<sim::Motion>(
+          sim::read_quaternion_csv(a.motion, body, std::nullopt, &warnings));
+    }
+    if (!a.init.empty()) {
+      o.init = sim::resolve_preset(sim::placement_preset(a.init), body);
+      o.joint = o.init.joint;
+    }
+    if (!a.joint.empty()) {
+      const int j = body.index_of(a.joint);
+      if (!a.init.empty() && j != o.joint) {
+        throw Error(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'", a.init,
+                                body.joint(static_cast<std::size_t>(o.joint)).name, a.joint));
+      }
+      o.joint = j;
+    }
+    if (o.joint < 0)
+      throw Error("identify --motion: name the sensor's joint with --joint (or --init PRESET)");
+    for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
+    o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
+  }
+  for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
+
+  const sim::IdentifyResult r = sim::identify(body, *motion, imu, o);
+
+  fmt::print(
+      "{} IMU samples used ({} left out: outside the motion or in gaps), fit in {:.2f} s, {} "
+      "iterations{}\n",
+      r.samples_used, r.samples_excluded, r.seconds, r.iterations,
+      r.converged ? "" : " (not converged)");
+  fmt::print("coarse time offset (|w| cross-correlation): {:.4f} s\n", r.coarse_time_offset_s);
+  fmt::print("{:<22} {:>14} {:>12}\n", "parameter", "value", "std error");
+  for (const sim::ParameterEstimate& e : r.parameters) {
+    if (!e.estimated) continue;
+    const bool deg = e.name.rfind("rotation.", 0) == 0;
+    const bool ms = e.name == "time_offset";
+    const double f = deg ? 180.0 / std::numbers::pi : ms ? 1e3 : e.name == "clock_rate" ? 1e6 : 1.0;
+    const std::string unit = deg ? "deg" : ms ? "ms" : e.name == "clock_rate" ? "ppm" : e.unit;
+    if (!e.observable) {
+      fmt::print("{:<22} {:>14} {:>12}  {}\n", e.name, "unobservable", "-", unit);
+      continue;
+    }
+    fmt::print("{:<22} {:>14.6g} {:>12.3g}  {}\n", e.name, e.value * f, e.std_error * f, unit);
+  }
+  fmt::print(
+      "residual RMS  accelerometer {:.4f} -> {:.4f} m/s^2, gyroscope {:.5f} -> {:.5f} rad/s "
+      "(before -> after)\n",
+      r.rms_before.accel, r.rms_after.accel, r.rms_before.gyro, r.rms_after.gyro);
+  {
+    std::ofstream f(a.output);
+    if (!f) throw Error(a.output + ": cannot open for writing");
+    f << sim::placement_json(r, body);
+    if (!f.flush()) throw Error(a.output + ": write failed");
+  }
+  fmt::print("wrote {}\n", a.output);
+  if (!a.plot_dir.empty()) {
+    write_plot(a.plot_dir, r);
+    fmt::print("plots in {}\n", a.plot_dir);
+  }
+  if (!r.unobservable.empty()) {
+    std::string names;
+    for (const std::string& n : r.unobservable) names += (names.empty() ? "" : ", ") + n;
+    fmt::print(stderr,
+               "imukit: identify: not identifiable from this motion: {} (written as null); record "
+               "motion that "
+               "turns about more axes, or hold them with --fix\n",
+               names);
+    return 2;
+  }
+  return 0;
+}
+
+}  // namespace
+
+IMUKIT_REGISTER_COMMAND(
+    identify,
+    CommandSpec{
+        "identify", "Fit placement, biases and clock offset so the simulator reproduces a real IMU",
+        62, [](CLI::App& sub) -> std::function<int()> {
+          auto a = std::make_shared<IdentifyArgs>();
+          sub.allow_extras();
+          sub.add_option("-o,--output", a->output, "placement JSON to write (imukit.placement/1)")
+              ->required();
+          sub.add_option("--motion", a->motion,
+                         "body motion: BVH (.bvh) or joint-quaternion CSV (default humanoid)");
+          sub.add_option("--joint", a->joint, "the joint (or segment) carrying the sensor");
+          sub.add_option("--init", a->init,
+                         "placement preset to start from (see imukit simulate --list-presets)");
+          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres");
+          sub.add_option("--up", a->up, "up axis of the BVH file: y (default) or z")
+              ->check(CLI::IsMember({"y", "z"}));
+          sub.add_option("--height", a->height,
+                         "stature of the default humanoid for a quaternion CSV, m");
+          sub.add_option("--fix", a->fix,
+                         "hold at the initial value (comma list): rotation, position, accel_bias, "
+                         "gyro_bias, time_offset")
+              ->delimiter(',');
+          sub.add_option("--estimate", a->estimate,
+                         "also estimate (comma list): accel_scale, gyro_scale, clock_rate")
+              ->delimiter(',');
+          sub.add_option("--segments", a->segments,
+                         "joints on the sensor's chain whose offset from the parent (segment "
+                         "length) to fit")
+              ->delimiter(',');
+          sub.add_option("--segment-prior", a->segment_prior,
+                         "relative width of the segment-length prior (default 0.05)");
+          sub.add_option("--time-offset", a->time_offset,
+                         "initial time offset, s (skips the cross-correlation)");
+          sub.add_option("--max-time-offset", a->max_time_offset,
+                         "search range of the cross-correlation, s (default 1)");
+          sub.add_option("--motion-start", a->motion_start,
+                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)");
+          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2");
+          sub.add_option("--threads", a->threads, "threads for the Jacobian (default 1)")
+              ->check(CLI::Range(1, 64));
+          sub.add_option("--plot", a->plot_dir,
+                         "folder for an SVG of measured against simulated signals (gnuplot)");
+          sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +
+                     input_options_help() +
+                     "\n\nExamples:\n"
+                     "  imukit identify --imu watch.csv --motion walk.bvh --bvh-scale 0.056444 "
+                     "--init left_wrist_watch \\\n"
+                     "      -o placement.json --plot plots\n"
+                     "  imukit identify --imu 02_undisturbed_slow_rotation_B.csv --columns "
+                     "t,ax,ay,az,gx,gy,gz,_*\n"
+                     "      --pose 02_undisturbed_slow_rotation_B.csv --columns "
+                     "t,_9,qw,qx,qy,qz,px,py,pz,_ \\\n"
+                     "      --gaps qw,qx,qy,qz,px,py,pz -o placement.json\n");
+          return [&sub, a] { return run_identify(*a, sub.remaining()); };
+        }});
+
+}  // namespace imukit::cli
