@@ -14,11 +14,16 @@ namespace {
 // Basis of the model in the squared coefficients (Q^2, N^2, B^2, K^2, R^2).
 double basis(int term, double tau) {
   switch (term) {
-    case kQuantization: return 3.0 / (tau * tau);
-    case kWhite: return 1.0 / tau;
-    case kBiasInstability: return 2.0 * std::numbers::ln2 / std::numbers::pi;
-    case kRandomWalk: return tau / 3.0;
-    default: return tau * tau / 2.0;
+    case kQuantization:
+      return 3.0 / (tau * tau);
+    case kWhite:
+      return 1.0 / tau;
+    case kBiasInstability:
+      return 2.0 * std::numbers::ln2 / std::numbers::pi;
+    case kRandomWalk:
+      return tau / 3.0;
+    default:
+      return tau * tau / 2.0;
   }
 }
 
@@ -75,10 +80,14 @@ Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
 double term_gacv(int term, double t) {
   const double at = std::abs(t);
   switch (term) {
-    case kQuantization: return at < 0.5 ? 1.0 : 0.0;
-    case kWhite: return -at;
-    case kBiasInstability: return at == 0.0 ? 0.0 : t * t * std::log(at);
-    default: return at * at * at;
+    case kQuantization:
+      return at < 0.5 ? 1.0 : 0.0;
+    case kWhite:
+      return -at;
+    case kBiasInstability:
+      return at == 0.0 ? 0.0 : t * t * std::log(at);
+    default:
+      return at * at * at;
   }
 }
 
@@ -117,9 +126,11 @@ Eigen::MatrixXd active_covariance(const Eigen::MatrixXd& Aw, const std::vector<E
   Eigen::MatrixXd Aa(Aw.rows(), Eigen::Index(act.size()));
   for (size_t k = 0; k < act.size(); ++k) Aa.col(Eigen::Index(k)) = Aw.col(act[k]);
   const Eigen::MatrixXd info = Aa.transpose() * Aa;
-  const Eigen::MatrixXd inv = info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  const Eigen::MatrixXd inv =
+      info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   for (size_t i = 0; i < act.size(); ++i)
-    for (size_t j = 0; j < act.size(); ++j) cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
+    for (size_t j = 0; j < act.size(); ++j)
+      cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
   return cov * inflation;
 }
 
@@ -189,7 +200,8 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, doubl
     const double mid_end = std::min(end, std::max(exact_end, 6.0 * mmax));
     const double step = std::max(1.0, std::floor(mmax / 16.0));
     while (l < end) {
-      const double next = l < mid_end ? std::min(mid_end, l + step) : std::min(end, std::max(l + 1.0, std::floor(l * 1.1)));
+      const double next = l < mid_end ? std::min(mid_end, l + step)
+                                      : std::min(end, std::max(l + 1.0, std::floor(l * 1.1)));
       const double cur = f(sign * next);
       sum += 0.5 * (prev + cur) * (next - l) + 0.5 * (cur - prev);
       prev = cur;
@@ -213,22 +225,42 @@ double model_allan_variance(const std::array<double, kNoiseTerms>& c, double tau
   return v;
 }
 
+namespace {
+
+// The points of the Allan curve a fit uses: positive tau and finite positive deviation inside
+// the options' tau window, and what `usable` (the caller's own condition) accepts. At least 2.
+template <class Usable>
+std::vector<size_t> usable_points(const std::vector<double>& tau_s, const std::vector<double>& adev,
+                                  const NoiseFitOptions& options, Usable usable) {
+  std::vector<size_t> use;
+  for (size_t k = 0; k < tau_s.size(); ++k) {
+    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && usable(k) &&
+        tau_s[k] >= options.tau_min_s && tau_s[k] <= options.tau_max_s)
+      use.push_back(k);
+  }
+  if (use.size() < 2) throw Error("noise fit: fewer than 2 usable points on the Allan curve");
+  return use;
+}
+
+// The noise terms the options select (indices into Q, N, B, K, R). At least one.
+std::vector<int> selected_terms(const NoiseFitOptions& options) {
+  std::vector<int> terms;
+  for (int i = 0; i < kNoiseTerms; ++i)
+    if (options.terms[size_t(i)]) terms.push_back(i);
+  if (terms.empty()) throw Error("noise fit: no term selected");
+  return terms;
+}
+
+}  // namespace
+
 NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<double>& adev,
                          const std::vector<double>& edf, const NoiseFitOptions& options) {
   if (tau_s.size() != adev.size() || tau_s.size() != edf.size()) {
     throw Error("noise fit: tau, deviation and edf lists differ in length");
   }
-  std::vector<size_t> use;
-  for (size_t k = 0; k < tau_s.size(); ++k) {
-    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && edf[k] >= 1.0 &&
-        tau_s[k] >= options.tau_min_s && tau_s[k] <= options.tau_max_s)
-      use.push_back(k);
-  }
-  if (use.size() < 2) throw Error("noise fit: fewer than 2 usable points on the Allan curve");
-  std::vector<int> terms;
-  for (int i = 0; i < kNoiseTerms; ++i)
-    if (options.terms[size_t(i)]) terms.push_back(i);
-  if (terms.empty()) throw Error("noise fit: no term selected");
+  const std::vector<size_t> use =
+      usable_points(tau_s, adev, options, [&](size_t k) { return edf[k] >= 1.0; });
+  const std::vector<int> terms = selected_terms(options);
 
   const auto rows = Eigen::Index(use.size());
   const auto cols = Eigen::Index(terms.size());
@@ -340,17 +372,9 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   if (tau_s.size() != adev.size() || tau_s.size() != factors.size()) {
     throw Error("noise fit: tau, deviation and factor lists differ in length");
   }
-  std::vector<size_t> use;
-  for (size_t k = 0; k < tau_s.size(); ++k) {
-    if (tau_s[k] > 0.0 && adev[k] > 0.0 && std::isfinite(adev[k]) && n + 1 - 2 * factors[k] >= 2 &&
-        tau_s[k] >= options.tau_min_s && tau_s[k] <= options.tau_max_s)
-      use.push_back(k);
-  }
-  if (use.size() < 2) throw Error("noise fit: fewer than 2 usable points on the Allan curve");
-  std::vector<int> terms;
-  for (int i = 0; i < kNoiseTerms; ++i)
-    if (options.terms[size_t(i)]) terms.push_back(i);
-  if (terms.empty()) throw Error("noise fit: no term selected");
+  const std::vector<size_t> use =
+      usable_points(tau_s, adev, options, [&](size_t k) { return n + 1 - 2 * factors[k] >= 2; });
+  const std::vector<int> terms = selected_terms(options);
   const double tau0 = tau_s[use.front()] / double(factors[use.front()]);
 
   // Start from the independent-points fit (edf of white FM is enough for a first model).
@@ -369,7 +393,8 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   Eigen::MatrixXd basis_m(rows, cols);
   Eigen::VectorXd avar(rows);
   for (Eigen::Index r = 0; r < rows; ++r) {
-    for (Eigen::Index c = 0; c < cols; ++c) basis_m(r, c) = basis(terms[size_t(c)], tau_s[use[size_t(r)]]);
+    for (Eigen::Index c = 0; c < cols; ++c)
+      basis_m(r, c) = basis(terms[size_t(c)], tau_s[use[size_t(r)]]);
     avar(r) = adev[use[size_t(r)]] * adev[use[size_t(r)]];
   }
   Eigen::VectorXd x2(cols);
@@ -379,12 +404,13 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
     // The covariance needs some noise in the model; a floor of white noise at 1e-6 of the
     // first point's level keeps it positive definite when the fit zeroed every noise term.
     std::array<double, kNoiseTerms> model = fit.value;
-    model[kWhite] = std::max(model[kWhite], 1e-6 * adev[use.front()] * std::sqrt(tau_s[use.front()]));
+    model[kWhite] =
+        std::max(model[kWhite], 1e-6 * adev[use.front()] * std::sqrt(tau_s[use.front()]));
     Eigen::MatrixXd sigma(rows, rows);
     for (Eigen::Index i = 0; i < rows; ++i)
       for (Eigen::Index j = 0; j <= i; ++j)
-        sigma(i, j) = sigma(j, i) =
-            allan_variance_covariance(model, tau0, n, factors[use[size_t(i)]], factors[use[size_t(j)]]);
+        sigma(i, j) = sigma(j, i) = allan_variance_covariance(
+            model, tau0, n, factors[use[size_t(i)]], factors[use[size_t(j)]]);
     const Whitener whiten(sigma);
     Aw = whiten(basis_m);
     const Eigen::VectorXd bw = whiten(avar);
@@ -399,7 +425,8 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
     for (Eigen::Index c = 0; c < cols; ++c) {
       if (scale(c) > 0) Aw.col(c) *= scale(c);
     }
-    for (Eigen::Index c = 0; c < cols; ++c) fit.value[size_t(terms[size_t(c)])] = std::sqrt(std::max(0.0, x2(c)));
+    for (Eigen::Index c = 0; c < cols; ++c)
+      fit.value[size_t(terms[size_t(c)])] = std::sqrt(std::max(0.0, x2(c)));
   }
 
   std::vector<Eigen::Index> act;
@@ -439,7 +466,8 @@ NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector
     for (int t = 0; t < kNoiseTerms; ++t) selected += opt.terms[size_t(t)];
     for (int t = 0; t < kNoiseTerms; ++t) {
       if (!opt.terms[size_t(t)] || !fit.active[size_t(t)] || fit.lower[size_t(t)] > 0.0) continue;
-      const double score = fit.sigma[size_t(t)] > 0 ? fit.value[size_t(t)] / fit.sigma[size_t(t)] : 0.0;
+      const double score =
+          fit.sigma[size_t(t)] > 0 ? fit.value[size_t(t)] / fit.sigma[size_t(t)] : 0.0;
       if (score < weakest_score) weakest_score = score, weakest = t;
     }
     if (weakest < 0 || selected <= 1) break;
