@@ -12,13 +12,6 @@
 namespace imukit {
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 TEST(EurocCsv, RoundTripIsBitExact) {
   // Values chosen to need all 17 digits: random doubles over many magnitudes, subnormals,
   // negative zero and extremes.
@@ -56,7 +49,7 @@ TEST(EurocCsv, WritesTheKalibrHeaderAndColumnOrder) {
   testing::TempDir dir;
   const std::string path = (dir / "imu0.csv").string();
   write_euroc_csv(path, s.view());
-  EXPECT_EQ(slurp(path),
+  EXPECT_EQ(testing::read_file(path),
             "#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
             "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
             "1403636579758555392,0.5,-0.25,0.125,9.5,0,-1\n");

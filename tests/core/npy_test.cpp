@@ -11,20 +11,13 @@
 namespace imukit {
 namespace {
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 TEST(Npy, HeaderIsNumpyVersion1AlignedTo64Bytes) {
   testing::TempDir dir;
   const std::string path = (dir / "x.npy").string();
   const std::vector<float> data = {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f};
   const std::vector<std::size_t> shape = {2, 3};
   write_npy(path, std::span<const float>(data), shape);
-  const std::string file = slurp(path);
+  const std::string file = testing::read_file(path);
   ASSERT_EQ(file.size(), 128u + 24u);  // 10 + 60 + 1 bytes of header round up to 128
   EXPECT_EQ(file.substr(0, 8), std::string("\x93NUMPY\x01\x00", 8));
   EXPECT_EQ(static_cast<unsigned char>(file[8]) + 256 * static_cast<unsigned char>(file[9]), 118);
@@ -47,7 +40,7 @@ TEST(Npy, RoundTripsEachDtypeAndShape) {
   EXPECT_EQ(a.dtype, NpyDtype::float64);
   EXPECT_EQ(a.shape, shape_d);
   EXPECT_EQ(a.to_double(), d);
-  EXPECT_NE(slurp((dir / "d.npy").string()).find("'shape': (4,)"), std::string::npos);
+  EXPECT_NE(testing::read_file((dir / "d.npy").string()).find("'shape': (4,)"), std::string::npos);
   const NpyArray b = read_npy((dir / "i.npy").string());
   EXPECT_EQ(b.dtype, NpyDtype::int64);
   EXPECT_EQ(b.shape, shape_i);
@@ -72,7 +65,7 @@ TEST(Npy, MalformedFilesNameTheByteOffset) {
   const std::vector<double> d = {1, 2, 3};
   const std::vector<std::size_t> shape = {3};
   write_npy((dir / "ok.npy").string(), std::span<const double>(d), shape);
-  const std::string good = slurp((dir / "ok.npy").string());
+  const std::string good = testing::read_file((dir / "ok.npy").string());
   const auto parse = [](const std::string& bytes) {
     return parse_npy(std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()),
                                                  bytes.size()),

@@ -29,10 +29,7 @@ struct GoldenPacket {
 };
 
 std::vector<GoldenPacket> read_golden(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  const std::string text = ss.str();
+  const std::string text = imukit::testing::read_file(file);
   std::vector<GoldenPacket> out;
   std::size_t pos = 0;
   for (;;) {

@@ -1,9 +1,11 @@
 #include "tests/support/test_data.hpp"
 
+#include <unistd.h>
 #include <atomic>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string_view>
-#include <unistd.h>
 
 namespace imukit::testing {
 
@@ -18,6 +20,13 @@ std::optional<std::filesystem::path> data_dir() {
 bool running_in_ci() {
   const char* ci = std::getenv("CI");
   return ci && (std::string_view(ci) == "true" || std::string_view(ci) == "1");
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 TempDir::TempDir() {

@@ -14,6 +14,9 @@ std::optional<std::filesystem::path> data_dir();
 // True when running under CI (CI=true), where missing data is an error, not a skip.
 bool running_in_ci();
 
+// The whole content of a file, bytes as they are (empty if it cannot be read).
+std::string read_file(const std::filesystem::path& path);
+
 // A fresh empty folder under the system's temp dir, removed by the destructor.
 class TempDir {
  public:
@@ -32,12 +35,12 @@ class TempDir {
 
 // Declares `const std::filesystem::path var` as the data folder, or ends the test: skipped with a
 // visible message locally, failed under CI.
-#define IMUKIT_REQUIRE_DATA(var)                                                        \
-  const auto var##_opt = ::imukit::testing::data_dir();                                 \
-  if (!var##_opt) {                                                                     \
-    if (::imukit::testing::running_in_ci()) {                                           \
-      FAIL() << "test data folder missing (set IMUKIT_DATA_DIR); required under CI";    \
-    }                                                                                   \
-    GTEST_SKIP() << "test data folder missing: set IMUKIT_DATA_DIR to shared/data";     \
-  }                                                                                     \
+#define IMUKIT_REQUIRE_DATA(var)                                                     \
+  const auto var##_opt = ::imukit::testing::data_dir();                              \
+  if (!var##_opt) {                                                                  \
+    if (::imukit::testing::running_in_ci()) {                                        \
+      FAIL() << "test data folder missing (set IMUKIT_DATA_DIR); required under CI"; \
+    }                                                                                \
+    GTEST_SKIP() << "test data folder missing: set IMUKIT_DATA_DIR to shared/data";  \
+  }                                                                                  \
   const std::filesystem::path var = *var##_opt
