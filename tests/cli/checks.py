@@ -1,5 +1,7 @@
 """Shared by the CLI test scripts: named checks that print one line each and a closing
-'N passed, N failed' line, and an exit code that fails the ctest entry on any failed check."""
+'N passed, N failed' line, and an exit code that fails the ctest entry on any failed check;
+and a runner for the imukit binary under test."""
+import subprocess
 import sys
 
 
@@ -18,3 +20,14 @@ class Checks:
     def finish(self):
         print(f"{self.passed} passed, {self.failed} failed")
         sys.exit(1 if self.failed else 0)
+
+
+def imukit_runner(binary):
+    """run(*args): `binary args...` with stdout and stderr captured as text; prints both when the
+    command fails, so the log of a failed check shows why."""
+    def run(*args):
+        r = subprocess.run([binary, *args], capture_output=True, text=True)
+        if r.returncode != 0:
+            print(r.stdout, r.stderr)
+        return r
+    return run

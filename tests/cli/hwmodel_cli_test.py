@@ -7,23 +7,15 @@ usage: hwmodel_cli_test.py IMUKIT_BINARY
 """
 import json
 import os
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
-from checks import Checks
+from checks import Checks, imukit_runner
 
 IMUKIT = sys.argv[1]
 check = Checks()
-
-
-def run(*args):
-    r = subprocess.run([IMUKIT, *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        print(r.stdout, r.stderr)
-    return r
-
+run = imukit_runner(IMUKIT)
 
 with tempfile.TemporaryDirectory() as tmp:
     # 2 h of white noise at 100 Hz (time stamps from NumPy): gyro density 3e-4 rad/s/sqrt(Hz),
