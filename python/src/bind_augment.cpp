@@ -1,0 +1,641 @@
+// augment/: STDA on (N, T, C) arrays in place, policies and sub-policies, PPDA batches of a
+// scene's windows over the C++ thread pool, windowing and datasets; and the seeded Rng.
+#include <chrono>
+#include <cstring>
+#include <memory>
+#include <mutex>
+
+#include "augment/dataset.hpp"
+#include "augment/policy.hpp"
+#include "augment/ppda.hpp"
+#include "augment/stda.hpp"
+#include "core/error.hpp"
+#include "core/rng.hpp"
+#include "python/src/common.hpp"
+#include "sim/scene.hpp"
+
+namespace imukit::python {
+
+// bind_sim.cpp's scene handle, shared here through its accessor.
+const sim::Scene& scene_of(py::handle scene);
+
+namespace {
+
+using augment::BatchShape;
+using augment::ChannelLayout;
+using augment::Policy;
+using augment::StdaSpec;
+using augment::SubPolicy;
+
+// An int seed makes a fresh Rng(seed); an imukit.Rng is used (and advanced) in place.
+Rng& rng_argument(py::handle obj, std::optional<Rng>& storage) {
+  if (py::isinstance<Rng>(obj)) return obj.cast<Rng&>();
+  if (py::isinstance<py::int_>(obj)) {
+    const auto v = obj.cast<py::int_>();
+    if (v < py::int_(0)) throw py::value_error("seed: must be a non-negative integer");
+    storage.emplace(obj.cast<uint64_t>());
+    return *storage;
+  }
+  throw py::type_error("rng: expected an int seed or an imukit.Rng");
+}
+
+ChannelLayout layout_argument(py::handle obj, std::size_t channels) {
+  if (obj.is_none()) {
+    if (channels % 6 == 0) {
+      std::vector<std::string> names;
+      for (std::size_t s = 0; s < channels / 6; ++s) names.push_back("sensor" + std::to_string(s));
+      return ChannelLayout::imu(names);
+    }
+    ChannelLayout other;
+    other.kinds.assign(channels, augment::ChannelKind::other);
+    return other;
+  }
+  if (py::isinstance<ChannelLayout>(obj)) return obj.cast<ChannelLayout>();
+  return ChannelLayout::imu(obj.cast<std::vector<std::string>>());
+}
+
+// dst[...] = src by numpy.copyto (any strides), without casting.
+void copy_into(const py::array& dst, const py::array& src) {
+  py::module_::import("numpy").attr("copyto")(dst, src, py::arg("casting") = "no");
+}
+
+// A writable C-contiguous float32/float64 (N, T, C) array.
+BatchShape batch_shape(const py::array& a, const char* what) {
+  if (a.ndim() != 3) {
+    throw py::value_error(std::string(what) +
+                          ": expected shape (windows, samples, channels), got " + shape_string(a));
+  }
+  return {static_cast<std::size_t>(a.shape(0)), static_cast<std::size_t>(a.shape(1)),
+          static_cast<std::size_t>(a.shape(2))};
+}
+
+void require_writable_batch(const py::array& a, const char* what) {
+  if (!is_c_contiguous(a)) throw py::value_error(std::string(what) + ": must be C-contiguous");
+  if (!a.writeable()) throw py::value_error(std::string(what) + ": is read-only");
+}
+
+// The target of an in-place method: `out` itself when given (x is copied into it unless it is
+// x), else a new array of x's dtype and shape holding a copy of x. The C++ code then works on
+// the target's memory directly.
+py::array target_for(const py::array& x, py::handle out_obj, const char* what) {
+  if (!is_f32(x) && !is_f64(x)) {
+    throw py::type_error(std::string(what) + ": expected float32 or float64, got " + dtype_name(x));
+  }
+  batch_shape(x, what);
+  if (out_obj.is_none()) {
+    py::array out(x.dtype(), std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));
+    copy_into(out, x);
+    return out;
+  }
+  py::array out = as_array(out_obj, "out");
+  if (!out.dtype().is(x.dtype())) {
+    throw py::type_error("out: dtype " + dtype_name(out) + " differs from the input's " +
+                         dtype_name(x));
+  }
+  if (shape_string(out) != shape_string(x)) {
+    throw py::value_error("out: shape " + shape_string(out) + " differs from the input's " +
+                          shape_string(x));
+  }
+  require_writable_batch(out, "out");
+  if (out.data() != x.data()) {
+    copy_into(out, x);
+  }
+  return out;
+}
+
+StdaSpec spec_from(py::handle obj, const py::kwargs& params) {
+  StdaSpec s;
+  if (py::isinstance<StdaSpec>(obj)) {
+    if (params.size() != 0)
+      throw py::type_error("stda: parameters go into the StdaSpec, not beside it");
+    return obj.cast<StdaSpec>();
+  }
+  s.method = augment::parse_stda_method(obj.cast<std::string>());
+  for (auto [key_obj, value] : params) {
+    const auto key = key_obj.cast<std::string>();
+    if (key == "sigma")
+      s.sigma = value.cast<double>();
+    else if (key == "knots")
+      s.knots = value.cast<int>();
+    else if (key == "per_channel")
+      s.per_channel = value.cast<bool>();
+    else if (key == "lo")
+      s.lo = value.cast<double>();
+    else if (key == "hi")
+      s.hi = value.cast<double>();
+    else if (key == "ratio")
+      s.ratio = value.cast<double>();
+    else if (key == "max_angle_rad") {
+      const auto a = value.cast<std::array<double, 3>>();
+      std::copy(a.begin(), a.end(), s.max_angle_rad);
+    } else if (key == "jitter_sigma") {
+      const auto j = value.cast<std::array<double, 4>>();
+      std::copy(j.begin(), j.end(), s.jitter_sigma);
+    } else {
+      throw py::type_error(
+          "stda: unknown parameter '" + key +
+          "' (sigma, knots, per_channel, lo, hi, ratio, max_angle_rad, jitter_sigma)");
+    }
+  }
+  return s;
+}
+
+template <class T>
+void run_stda(const StdaSpec& spec, const ChannelLayout& layout, py::array& target,
+              const BatchShape& shape, Rng& rng, augment::StdaDraws* draws) {
+  const std::span<T> data(static_cast<T*>(target.mutable_data()), shape.size());
+  py::gil_scoped_release release;
+  augment::apply_stda(spec, layout, data, shape, rng, draws);
+}
+
+py::object stda(py::handle x_obj, py::handle spec_obj, py::handle rng_obj, py::handle layout_obj,
+                py::handle out_obj, bool return_draws, const py::kwargs& params) {
+  const py::array x = as_array(x_obj, "x");
+  const StdaSpec spec = spec_from(spec_obj, params);
+  py::array target = target_for(x, out_obj, "x");
+  const BatchShape shape = batch_shape(target, "x");
+  const ChannelLayout layout = layout_argument(layout_obj, shape.channels);
+  std::optional<Rng> storage;
+  Rng& rng = rng_argument(rng_obj, storage);
+  augment::StdaDraws draws;
+  augment::StdaDraws* log = return_draws ? &draws : nullptr;
+  if (is_f32(target)) {
+    run_stda<float>(spec, layout, target, shape, rng, log);
+  } else {
+    run_stda<double>(spec, layout, target, shape, rng, log);
+  }
+  if (!return_draws) return target;
+  py::array_t<double> values(
+      {static_cast<py::ssize_t>(shape.windows), static_cast<py::ssize_t>(draws.per_window)});
+  if (!draws.values.empty())
+    std::memcpy(values.mutable_data(), draws.values.data(), draws.values.size() * sizeof(double));
+  return py::make_tuple(target, values);
+}
+
+py::array replay(py::handle x_obj, const StdaSpec& spec, py::handle draws_obj,
+                 py::handle layout_obj, py::handle out_obj) {
+  const py::array x = as_array(x_obj, "x");
+  py::array target = target_for(x, out_obj, "x");
+  const BatchShape shape = batch_shape(target, "x");
+  const ChannelLayout layout = layout_argument(layout_obj, shape.channels);
+  const auto values = read_f64(draws_obj, "draws");
+  augment::StdaDraws draws;
+  draws.method = spec.method;
+  draws.per_window = values.ndim() == 2 ? static_cast<std::size_t>(values.shape(1)) : 0;
+  draws.values.assign(values.data(), values.data() + values.size());
+  if (is_f32(target)) {
+    const std::span<float> data(static_cast<float*>(target.mutable_data()), shape.size());
+    py::gil_scoped_release release;
+    augment::replay_stda(spec, layout, data, shape, draws);
+  } else {
+    const std::span<double> data(static_cast<double*>(target.mutable_data()), shape.size());
+    py::gil_scoped_release release;
+    augment::replay_stda(spec, layout, data, shape, draws);
+  }
+  return target;
+}
+
+// A sub-policy in the policy file's layout ({"amplitude": {...}, "speed": ...}).
+SubPolicy sub_policy_from_dict(const py::dict& d, const std::string& base_dir) {
+  py::dict root;
+  root["schema"] = std::string(augment::kPolicySchema);
+  root["name"] = "python";
+  py::list subs;
+  subs.append(d);
+  root["sub_policies"] = subs;
+  const std::string text = py::module_::import("json").attr("dumps")(root).cast<std::string>();
+  return augment::parse_policy(text, "<sub-policy dict>", base_dir).sub_policies.front();
+}
+
+// The augmenter with the scene it was built from, and a lock: apply() reuses per-augmenter
+// workspaces, and the GIL is released while it runs.
+struct AugmenterHandle {
+  py::object scene;  // kept alive: the augmenter was built from it
+  std::unique_ptr<augment::PpdaAugmenter> augmenter;
+  std::mutex mutex;
+};
+
+// sub: a SubPolicy, a dict in the policy layout, an index into `policy`, or a description
+// string equal to one of `policy`'s sub-policies' describe().
+py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, py::handle rng_obj,
+                     const Policy* policy, py::handle out_obj, unsigned threads) {
+  augment::PpdaAugmenter& a = *h.augmenter;
+  const auto starts_arr = read_times(starts_obj, "starts");
+  const std::span<const int64_t> starts(starts_arr.data(),
+                                        static_cast<std::size_t>(starts_arr.size()));
+  const auto n = static_cast<py::ssize_t>(starts.size());
+  const auto window = static_cast<py::ssize_t>(a.window());
+  const auto channels = static_cast<py::ssize_t>(a.channels());
+  py::array out;
+  if (out_obj.is_none()) {
+    out = py::array_t<float>({n, window, channels});
+  } else {
+    out = as_array(out_obj, "out");
+    if (!is_f32(out)) throw py::type_error("out: PPDA writes float32, got " + dtype_name(out));
+    if (out.ndim() != 3 || out.shape(0) != n || out.shape(1) != window ||
+        out.shape(2) != channels) {
+      throw py::value_error("out: expected shape (" + std::to_string(n) + ", " +
+                            std::to_string(window) + ", " + std::to_string(channels) + "), got " +
+                            shape_string(out));
+    }
+    require_writable_batch(out, "out");
+  }
+  const std::span<float> data(static_cast<float*>(out.mutable_data()),
+                              static_cast<std::size_t>(n * window * channels));
+  std::optional<Rng> storage;
+  Rng& rng = rng_argument(rng_obj, storage);
+  std::optional<SubPolicy> chosen;
+  std::optional<std::size_t> index;
+  if (py::isinstance<SubPolicy>(sub)) {
+    chosen = sub.cast<SubPolicy>();
+  } else if (py::isinstance<py::dict>(sub)) {
+    chosen = sub_policy_from_dict(sub.cast<py::dict>(), ".");
+  } else if (py::isinstance<py::int_>(sub) || py::isinstance<py::str>(sub)) {
+    if (policy == nullptr)
+      throw py::value_error("Augmenter.apply: a sub-policy index or description needs policy=");
+    if (py::isinstance<py::int_>(sub)) {
+      const auto i = sub.cast<int64_t>();
+      if (i < 0 || static_cast<std::size_t>(i) >= policy->sub_policies.size()) {
+        throw py::index_error("Augmenter.apply: sub-policy " + std::to_string(i) + " of " +
+                              std::to_string(policy->sub_policies.size()));
+      }
+      index = static_cast<std::size_t>(i);
+    } else {
+      const auto d = sub.cast<std::string>();
+      for (std::size_t i = 0; i < policy->sub_policies.size() && !index; ++i) {
+        if (policy->sub_policies[i].describe() == d) index = i;
+      }
+      if (!index)
+        throw Error("Augmenter.apply: no sub-policy of policy '" + policy->name +
+                    "' is described as '" + d + "'");
+    }
+  } else {
+    throw py::type_error(
+        "Augmenter.apply: sub must be a SubPolicy, a dict, an index or a description");
+  }
+  {
+    py::gil_scoped_release release;
+    const std::lock_guard<std::mutex> lock(h.mutex);
+    if (index) {
+      a.apply(*policy, *index, starts, rng, data, threads);
+    } else {
+      a.apply(*chosen, starts, rng, data, threads);
+    }
+  }
+  return out;
+}
+
+augment::DatasetOptions dataset_options(std::size_t window, std::size_t stride, std::size_t count,
+                                        std::size_t batch_size, uint64_t seed, unsigned threads,
+                                        bool normalize, double identity_fraction,
+                                        const std::string& method) {
+  augment::DatasetOptions o;
+  o.window = window;
+  o.stride = stride;
+  o.count = count;
+  o.batch_size = batch_size;
+  o.seed = seed;
+  o.threads = threads;
+  o.normalize = normalize;
+  o.identity_fraction = identity_fraction;
+  o.method = sim::parse_derivative_method(method);
+  return o;
+}
+
+// Seconds per call of `call`, `repeats` times, measured inside C++ (python/bench/overhead.py
+// compares them with the same call made from Python).
+template <class Call>
+std::vector<double> time_calls(int repeats, Call&& call) {
+  std::vector<double> seconds;
+  py::gil_scoped_release release;
+  for (int r = 0; r < repeats; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    call();
+    seconds.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  return seconds;
+}
+
+std::vector<int64_t> labels_argument(py::handle obj) {
+  if (obj.is_none()) return {};
+  const auto a = read_times(obj, "labels");
+  return {a.data(), a.data() + a.size()};
+}
+
+}  // namespace
+
+void bind_augment(py::module_& m) {
+  py::class_<Rng>(m, "Rng", R"doc(
+imukit's portable seeded generator (xoshiro256++): the same seed gives the same draws on every
+platform. Rng(seed, stream=0); child(i) is an independent generator for index i.)doc")
+      .def(py::init<uint64_t, uint64_t>(), py::arg("seed"), py::arg("stream") = 0)
+      .def("child", &Rng::child, py::arg("index"))
+      .def("next_u64", &Rng::next_u64)
+      .def("uniform", py::overload_cast<>(&Rng::uniform))
+      .def("normal", py::overload_cast<>(&Rng::normal))
+      .def_property_readonly("seed", &Rng::seed)
+      .def_property_readonly("stream", &Rng::stream);
+
+  py::class_<ChannelLayout>(m, "ChannelLayout", R"doc(
+Channel kinds and the sensors' 3-axis blocks of an (N, T, C) batch. ChannelLayout.imu(names):
+per sensor ax ay az gx gy gz (the dataset layout).)doc")
+      .def_static("imu", &ChannelLayout::imu, py::arg("sensor_names"))
+      .def_property_readonly("channels", [](const ChannelLayout& l) { return l.kinds.size(); })
+      .def_property_readonly("sensors", [](const ChannelLayout& l) {
+        std::vector<std::string> out;
+        for (const auto& s : l.sensors) out.push_back(s.name);
+        return out;
+      });
+
+  py::class_<StdaSpec>(m, "StdaSpec", R"doc(
+One STDA method with its parameters: StdaSpec(method, sigma=0, knots=2, per_channel=False,
+lo=1, hi=1, ratio=1, max_angle_rad=(pi, pi, pi), jitter_sigma=(accel, gyro, mag, other)).
+Methods: identity, magnitude_scaling, magnitude_warping, time_scaling, time_warping, rotation,
+jittering.)doc")
+      .def(py::init([](const std::string& method, const py::kwargs& params) {
+             StdaSpec s = spec_from(py::str(method), params);
+             s.validate();
+             return s;
+           }),
+           py::arg("method"))
+      .def_property_readonly(
+          "method", [](const StdaSpec& s) { return std::string(augment::to_string(s.method)); })
+      .def_readonly("sigma", &StdaSpec::sigma)
+      .def_readonly("knots", &StdaSpec::knots)
+      .def_readonly("per_channel", &StdaSpec::per_channel)
+      .def_readonly("lo", &StdaSpec::lo)
+      .def_readonly("hi", &StdaSpec::hi)
+      .def_readonly("ratio", &StdaSpec::ratio)
+      .def("describe", &StdaSpec::describe)
+      .def("__repr__", [](const StdaSpec& s) { return "<imukit.StdaSpec " + s.describe() + ">"; });
+
+  m.def("stda", &stda, py::arg("x"), py::arg("spec"), py::arg("rng"), py::kw_only(),
+        py::arg("layout") = py::none(), py::arg("out") = py::none(),
+        py::arg("return_draws") = false, R"doc(
+Applies an STDA method to every window of x, an (N, T, C) float32 or float64 batch.
+spec: a StdaSpec, or a method name with its parameters as keywords (stda(x, "jittering",
+seed, jitter_sigma=(0.05, 0.01, 0, 0))). rng: an int seed or an imukit.Rng (advanced in place).
+layout: sensor names or a ChannelLayout (default: sensors of 6 channels when C % 6 == 0).
+The C++ code works directly on the output's memory: out=None returns a new array (a copy of x,
+augmented), out=x augments x in place, out=other (same dtype and shape, C-contiguous) fills it.
+return_draws=True also returns the drawn parameters ((N, per_window) float64) for replay_stda.)doc");
+  m.def("replay_stda", &replay, py::arg("x"), py::arg("spec"), py::arg("draws"), py::kw_only(),
+        py::arg("layout") = py::none(), py::arg("out") = py::none(),
+        "Applies spec with the parameters drawn before (stda(..., return_draws=True)): "
+        "bit-identical.");
+
+  py::class_<SubPolicy>(m, "SubPolicy", R"doc(
+One PPDA sub-policy: an option for each of movement amplitude, movement speed, sensor
+placement and hardware. SubPolicy.from_dict(d) reads the policy file's layout.)doc")
+      .def_static("from_dict", &sub_policy_from_dict, py::arg("d"), py::arg("base_dir") = ".")
+      .def("describe", &SubPolicy::describe)
+      .def_property_readonly("is_identity", &SubPolicy::is_identity)
+      .def("__eq__", [](const SubPolicy& a, const SubPolicy& b) { return a == b; })
+      .def("__repr__",
+           [](const SubPolicy& s) { return "<imukit.SubPolicy " + s.describe() + ">"; });
+
+  py::class_<Policy>(m, "Policy", R"doc(
+A list of sub-policies with sampling probabilities: read_policy("imukit" | "paper" | FILE).
+len(policy), policy[i] (SubPolicy), describe() (one string per sub-policy), probabilities,
+sample(rng) (an index drawn with the probabilities), stda_counterparts(i, normalized=False).)doc")
+      .def_readonly("name", &Policy::name)
+      .def("__len__", [](const Policy& p) { return p.sub_policies.size(); })
+      .def("__getitem__",
+           [](const Policy& p, int64_t i) {
+             const auto n = static_cast<int64_t>(p.sub_policies.size());
+             if (i < 0) i += n;
+             if (i < 0 || i >= n) throw py::index_error("sub-policy index out of range");
+             return p.sub_policies[static_cast<std::size_t>(i)];
+           })
+      .def_property_readonly("sub_policies", [](const Policy& p) { return p.sub_policies; })
+      .def_property_readonly(
+          "probabilities",
+          [](const Policy& p) { return adopt(std::vector<double>(p.probabilities)); })
+      .def("describe",
+           [](const Policy& p) {
+             std::vector<std::string> out;
+             for (const SubPolicy& s : p.sub_policies) out.push_back(s.describe());
+             return out;
+           })
+      .def(
+          "index",
+          [](const Policy& p, const std::string& description) {
+            for (std::size_t i = 0; i < p.sub_policies.size(); ++i) {
+              if (p.sub_policies[i].describe() == description) return i;
+            }
+            throw Error("policy '" + p.name + "': no sub-policy is described as '" + description +
+                        "'");
+          },
+          py::arg("description"))
+      .def(
+          "sample",
+          [](const Policy& p, py::handle rng_obj) {
+            std::optional<Rng> storage;
+            return augment::sample_sub_policy(p, rng_argument(rng_obj, storage));
+          },
+          py::arg("rng"))
+      .def(
+          "stda_counterparts",
+          [](const Policy& p, std::size_t i, bool normalized) {
+            if (i >= p.sub_policies.size()) throw py::index_error("sub-policy index out of range");
+            return augment::stda_counterparts(p.sub_policies[i], p, normalized);
+          },
+          py::arg("index"), py::arg("normalized") = false)
+      .def("to_json", &augment::format_policy);
+  m.def("read_policy", &augment::read_policy, py::arg("name_or_path"),
+        "A built-in policy (\"imukit\", \"paper\") or a policy JSON file.");
+  m.def("parse_policy", &augment::parse_policy, py::arg("text"),
+        py::arg("source_name") = "<string>", py::arg("base_dir") = ".");
+  m.def("builtin_policy_names", &augment::builtin_policy_names);
+
+  py::class_<AugmenterHandle, std::shared_ptr<AugmenterHandle>>(m, "Augmenter", R"doc(
+PPDA on a scene: Augmenter(scene, window=100, method="spline") compiles the scene once; then
+apply(sub, starts, rng, policy=None, out=None, threads=0) simulates the windows starting at
+`starts` (sample indices, e.g. window_starts(stride)) under one sub-policy and returns an
+(N, window, 6 x sensors) float32 array (channels ax ay az gx gy gz per sensor). sub: a
+SubPolicy, a dict in the policy layout, or an index / description of a sub-policy of `policy`.
+The windows are spread over `threads` C++ threads (0: all cores) with the GIL released; the
+result does not depend on the thread count.)doc")
+      .def(py::init([](py::handle scene, std::size_t window, const std::string& method) {
+             augment::PpdaOptions o;
+             o.window = window;
+             o.method = sim::parse_derivative_method(method);
+             auto h = std::make_shared<AugmenterHandle>();
+             const sim::Scene& s = scene_of(scene);
+             h->scene = py::reinterpret_borrow<py::object>(scene);
+             py::gil_scoped_release release;
+             h->augmenter = std::make_unique<augment::PpdaAugmenter>(s, o);
+             return h;
+           }),
+           py::arg("scene"), py::arg("window") = 100, py::arg("method") = "spline")
+      .def_property_readonly("window",
+                             [](const AugmenterHandle& h) { return h.augmenter->window(); })
+      .def_property_readonly("channels",
+                             [](const AugmenterHandle& h) { return h.augmenter->channels(); })
+      .def_property_readonly("layout",
+                             [](const AugmenterHandle& h) { return h.augmenter->layout(); })
+      .def_property_readonly("sensor_names",
+                             [](const AugmenterHandle& h) { return h.augmenter->sensor_names(); })
+      .def_property_readonly("rate_hz",
+                             [](const AugmenterHandle& h) { return h.augmenter->rate_hz(); })
+      .def_property_readonly("sample_count",
+                             [](const AugmenterHandle& h) { return h.augmenter->sample_count(); })
+      .def(
+          "window_starts",
+          [](const AugmenterHandle& h, std::size_t stride) {
+            if (stride == 0) throw Error("window_starts: stride must be positive");
+            return adopt(h.augmenter->window_starts(stride));
+          },
+          py::arg("stride"))
+      .def(
+          "apply",
+          [](AugmenterHandle& h, py::handle sub, py::handle starts, py::handle rng,
+             const Policy* policy, py::handle out,
+             unsigned threads) { return ppda_apply(h, sub, starts, rng, policy, out, threads); },
+          py::arg("sub"), py::arg("starts"), py::arg("rng"), py::kw_only(),
+          py::arg("policy") = nullptr, py::arg("out") = py::none(), py::arg("threads") = 0);
+
+  m.def(
+      "window_starts",
+      [](std::size_t samples, std::size_t window, std::size_t stride) {
+        if (window == 0 || stride == 0)
+          throw Error("window_starts: window and stride must be positive");
+        return adopt(augment::window_starts(samples, window, stride));
+      },
+      py::arg("samples"), py::arg("window"), py::arg("stride"),
+      "Window starts 0, stride, ... while a window fits.");
+  m.def(
+      "window_labels",
+      [](py::handle labels, py::handle starts, std::size_t window) {
+        const auto l = read_times(labels, "labels");
+        const auto s = read_times(starts, "starts");
+        return adopt(augment::window_labels({l.data(), static_cast<std::size_t>(l.size())},
+                                            {s.data(), static_cast<std::size_t>(s.size())},
+                                            window));
+      },
+      py::arg("labels"), py::arg("starts"), py::arg("window"),
+      "The majority label of each window (int64).");
+  m.def(
+      "extract_windows",
+      [](const std::vector<std::shared_ptr<ImuSeries>>& streams, py::handle starts_obj,
+         std::size_t window) {
+        const auto s = read_times(starts_obj, "starts");
+        std::vector<const ImuSeries*> ptrs;
+        for (const auto& p : streams) ptrs.push_back(p.get());
+        std::vector<float> x;
+        {
+          py::gil_scoped_release release;
+          x = augment::extract_windows(ptrs, {s.data(), static_cast<std::size_t>(s.size())},
+                                       window);
+        }
+        const auto n = static_cast<py::ssize_t>(s.size());
+        const auto c = static_cast<py::ssize_t>(6 * streams.size());
+        return adopt(std::move(x))
+            .attr("reshape")(py::make_tuple(n, static_cast<py::ssize_t>(window), c));
+      },
+      py::arg("streams"), py::arg("starts"), py::arg("window"),
+      "Recorded Series (each with accel and gyro, same length) as an (N, window, 6 x streams) "
+      "float32 batch.");
+
+  py::class_<augment::Dataset, std::shared_ptr<augment::Dataset>>(m, "Dataset", R"doc(
+What `imukit augment` writes: X (N, T, C) float32, y (N,) int64 labels (-1 = none), sub_policy
+(N,) int64 (-1 = none), info (dict). Arrays are views of the dataset's memory.
+write(dir) writes X.npy, y.npy, sub_policy.npy and dataset.json.)doc")
+      .def_property_readonly("X",
+                             [](py::object self) {
+                               const auto& d = self.cast<const augment::Dataset&>();
+                               const auto T = static_cast<py::ssize_t>(d.shape.samples),
+                                          C = static_cast<py::ssize_t>(d.shape.channels);
+                               return view_of(
+                                   d.X.data(), {static_cast<py::ssize_t>(d.shape.windows), T, C},
+                                   {static_cast<py::ssize_t>(sizeof(float)) * T * C,
+                                    static_cast<py::ssize_t>(sizeof(float)) * C, sizeof(float)},
+                                   self);
+                             })
+      .def_property_readonly(
+          "y",
+          [](py::object self) { return vector_view(self.cast<const augment::Dataset&>().y, self); })
+      .def_property_readonly("sub_policy",
+                             [](py::object self) {
+                               return vector_view(self.cast<const augment::Dataset&>().sub_policy,
+                                                  self);
+                             })
+      .def_property_readonly("info",
+                             [](const augment::Dataset& d) {
+                               py::dict i;
+                               i["sensors"] = d.info.sensors;
+                               i["rate_hz"] = d.info.rate_hz;
+                               i["window"] = d.info.window;
+                               i["stride"] = d.info.stride;
+                               i["mode"] = d.info.mode;
+                               i["policy"] = d.info.policy_name;
+                               i["seed"] = d.info.seed;
+                               i["batch_size"] = d.info.batch_size;
+                               i["normalized"] = d.info.normalized;
+                               i["channel_mean"] = d.info.channel_mean;
+                               i["channel_std"] = d.info.channel_std;
+                               return i;
+                             })
+      .def(
+          "write",
+          [](const augment::Dataset& d, const std::string& dir) {
+            py::gil_scoped_release release;
+            augment::write_dataset(dir, d.X, d.shape, d.y, d.sub_policy, d.info);
+          },
+          py::arg("dir"));
+
+  m.def(
+      "generate_dataset",
+      [](py::handle source, const Policy& policy, py::handle labels, std::size_t window,
+         std::size_t stride, std::size_t count, std::size_t batch_size, uint64_t seed,
+         unsigned threads, bool normalize, double identity_fraction, const std::string& method,
+         std::optional<std::vector<std::string>> stream_names) {
+        const auto o = dataset_options(window, stride, count, batch_size, seed, threads, normalize,
+                                       identity_fraction, method);
+        const std::vector<int64_t> l = labels_argument(labels);
+        if (py::isinstance<py::dict>(source)) {
+          std::vector<std::string> names;
+          std::vector<std::shared_ptr<ImuSeries>> keep;
+          std::vector<const ImuSeries*> streams;
+          for (auto [k, v] : source.cast<py::dict>()) {
+            names.push_back(k.cast<std::string>());
+            keep.push_back(v.cast<std::shared_ptr<ImuSeries>>());
+            streams.push_back(keep.back().get());
+          }
+          if (stream_names)
+            throw py::value_error("generate_dataset: stream_names go with a list of Series");
+          py::gil_scoped_release release;
+          return std::make_shared<augment::Dataset>(
+              augment::generate_dataset(names, streams, policy, l, o));
+        }
+        if (py::isinstance<py::list>(source) || py::isinstance<py::tuple>(source)) {
+          const auto keep = source.cast<std::vector<std::shared_ptr<ImuSeries>>>();
+          std::vector<const ImuSeries*> streams;
+          for (const auto& p : keep) streams.push_back(p.get());
+          std::vector<std::string> names = stream_names.value_or(std::vector<std::string>{});
+          if (names.empty()) {
+            for (std::size_t i = 0; i < keep.size(); ++i)
+              names.push_back("stream" + std::to_string(i));
+          }
+          if (names.size() != keep.size())
+            throw py::value_error("generate_dataset: one name per stream");
+          py::gil_scoped_release release;
+          return std::make_shared<augment::Dataset>(
+              augment::generate_dataset(names, streams, policy, l, o));
+        }
+        const sim::Scene& scene = scene_of(source);
+        py::gil_scoped_release release;
+        return std::make_shared<augment::Dataset>(augment::generate_dataset(scene, policy, l, o));
+      },
+      py::arg("source"), py::arg("policy"), py::kw_only(), py::arg("labels") = py::none(),
+      py::arg("window") = 100, py::arg("stride") = 25, py::arg("count") = 0,
+      py::arg("batch_size") = 256, py::arg("seed") = 0, py::arg("threads") = 0,
+      py::arg("normalize") = false, py::arg("identity_fraction") = 0.0,
+      py::arg("method") = "spline", py::arg("stream_names") = py::none(), R"doc(
+The dataset `imukit augment` writes, in memory: from a Scene (PPDA: one sub-policy per batch of
+batch_size windows) or from recorded Series (a dict name -> Series, or a list with
+stream_names; the policy's STDA counterparts). labels: int64 per sample (or None). The same
+seed gives the same arrays as the command, whatever the thread count.)doc");
+}
+
+}  // namespace imukit::python

@@ -1,0 +1,243 @@
+// Series, recordings (MCAP, EuRoC CSV) and device profiles.
+#include <memory>
+
+#include "capture/recording_mcap.hpp"
+#include "core/error.hpp"
+#include "core/euroc_csv.hpp"
+#include "core/profile.hpp"
+#include "python/src/common.hpp"
+
+namespace imukit::python {
+namespace {
+
+using SeriesPtr = std::shared_ptr<ImuSeries>;
+
+// Copies a (n, 3) float array into a 3 x n channel (the Series owns its samples).
+void set_triad(Eigen::Matrix3Xd& channel, py::handle obj, py::ssize_t n, const char* what) {
+  if (obj.is_none()) {
+    channel.resize(3, 0);
+    return;
+  }
+  channel = map_triad(read_f64(obj, what), n, what);
+}
+
+SeriesPtr make_series(py::handle t, py::handle accel, py::handle gyro, py::handle mag,
+                      py::handle temperature) {
+  auto s = std::make_shared<ImuSeries>();
+  const auto times = read_times(t, "t");
+  s->t.assign(times.data(), times.data() + times.size());
+  const py::ssize_t n = times.size();
+  set_triad(s->accel, accel, n, "accel");
+  set_triad(s->gyro, gyro, n, "gyro");
+  set_triad(s->mag, mag, n, "mag");
+  if (!temperature.is_none()) {
+    const auto temp = read_f64(temperature, "temperature");
+    if (temp.ndim() != 1 || temp.shape(0) != n) {
+      throw py::value_error("temperature: expected shape (" + std::to_string(n) + ",), got " +
+                            shape_string(temp));
+    }
+    s->temperature_c = Eigen::Map<const Eigen::VectorXd>(temp.data(), n);
+  }
+  s->validate();
+  return s;
+}
+
+// accel and gyro as one (n, 6) array, channels ax ay az gx gy gz (the dataset order of
+// DESIGN.md), in the dtype asked for: a new array, since the channels are stored apart.
+py::array stacked(const ImuSeries& s, py::handle dtype_obj) {
+  const py::dtype dtype = py::dtype::from_args(py::reinterpret_borrow<py::object>(dtype_obj));
+  if (!s.has_accel() || !s.has_gyro()) {
+    throw Error("Series.channels: needs both accelerometer and gyroscope");
+  }
+  const auto n = static_cast<py::ssize_t>(s.size());
+  auto fill = [&](auto* out) {
+    for (py::ssize_t i = 0; i < n; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        out[6 * i + k] = static_cast<std::remove_pointer_t<decltype(out)>>(s.accel(k, i));
+        out[6 * i + 3 + k] = static_cast<std::remove_pointer_t<decltype(out)>>(s.gyro(k, i));
+      }
+    }
+  };
+  if (dtype.is(py::dtype::of<float>())) {
+    py::array_t<float> out({n, py::ssize_t{6}});
+    fill(out.mutable_data());
+    return out;
+  }
+  if (dtype.is(py::dtype::of<double>())) {
+    py::array_t<double> out({n, py::ssize_t{6}});
+    fill(out.mutable_data());
+    return out;
+  }
+  throw py::type_error("Series.channels: dtype must be float32 or float64, got " +
+                       py::str(py::handle(dtype)).cast<std::string>());
+}
+
+struct RecordingHandle {
+  capture::RecordingRead read;
+};
+
+py::dict streams_of(const std::shared_ptr<RecordingHandle>& h) {
+  py::dict out;
+  for (auto& [name, series] : h->read.recording.streams) {
+    // Aliasing shared_ptr: the Series keeps the whole recording alive, nothing is copied.
+    out[py::str(name)] = SeriesPtr(h, &series);
+  }
+  return out;
+}
+
+DeviceProfile profile_from(py::handle obj) {
+  if (py::isinstance<DeviceProfile>(obj)) return obj.cast<DeviceProfile>();
+  if (py::isinstance<py::dict>(obj)) {
+    const std::string text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
+    return parse_profile(text, "<dict>");
+  }
+  if (py::isinstance<py::str>(obj)) return read_profile(obj.cast<std::string>());
+  throw py::type_error("expected an imukit.Profile, a profile dict or a file name");
+}
+
+}  // namespace
+
+// Used by bind_sim for sensors' hardware (Profile, dict or file name).
+DeviceProfile profile_argument(py::handle obj) { return profile_from(obj); }
+
+void bind_io(py::module_& m) {
+  py::class_<ImuSeries, SeriesPtr>(m, "Series", R"doc(
+One IMU stream in SI units: t (int64 ns), accel (m/s^2), gyro (rad/s), mag (T), each (n, 3)
+float64, temperature (n,) degrees C; absent channels are None. The arrays are views of the
+Series' own memory (no copy); they keep it alive.
+
+Series(t, accel=None, gyro=None, mag=None, temperature=None) copies the given arrays.)doc")
+      .def(py::init(&make_series), py::arg("t"), py::arg("accel") = py::none(),
+           py::arg("gyro") = py::none(), py::arg("mag") = py::none(),
+           py::arg("temperature") = py::none())
+      .def("__len__", &ImuSeries::size)
+      .def_property_readonly(
+          "t", [](py::object self) { return vector_view(self.cast<const ImuSeries&>().t, self); })
+      .def_property_readonly(
+          "accel",
+          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().accel, self); })
+      .def_property_readonly(
+          "gyro",
+          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().gyro, self); })
+      .def_property_readonly(
+          "mag",
+          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().mag, self); })
+      .def_property_readonly("temperature",
+                             [](py::object self) -> py::object {
+                               const ImuSeries& s = self.cast<const ImuSeries&>();
+                               if (!s.has_temperature()) return py::none();
+                               return view_of(s.temperature_c.data(), {s.temperature_c.size()},
+                                              {sizeof(double)}, self);
+                             })
+      .def("channels", &stacked, py::arg("dtype") = py::dtype::of<float>(),
+           "accel and gyro as a new (n, 6) array, channels ax ay az gx gy gz (float32 by default)")
+      .def("__repr__", [](const ImuSeries& s) {
+        std::string channels;
+        for (auto [has, name] : {std::pair{s.has_accel(), "accel"},
+                                 {s.has_gyro(), "gyro"},
+                                 {s.has_mag(), "mag"},
+                                 {s.has_temperature(), "temperature"}}) {
+          if (has) channels += std::string(channels.empty() ? "" : ", ") + name;
+        }
+        return "<imukit.Series " + std::to_string(s.size()) + " samples: " + channels + ">";
+      });
+
+  m.def(
+      "read_euroc_csv",
+      [](const std::string& path) {
+        py::gil_scoped_release release;
+        return std::make_shared<ImuSeries>(read_euroc_csv(path));
+      },
+      py::arg("path"), "Reads a EuRoC / Kalibr IMU CSV into a Series.");
+  m.def(
+      "parse_euroc_csv",
+      [](const std::string& text, const std::string& source_name) {
+        py::gil_scoped_release release;
+        return std::make_shared<ImuSeries>(parse_euroc_csv(text, source_name));
+      },
+      py::arg("text"), py::arg("source_name") = "<string>");
+  m.def(
+      "write_euroc_csv",
+      [](const std::string& path, py::handle t_obj, py::handle accel_obj, py::handle gyro_obj) {
+        // The arrays are read in place (float64, C-contiguous) through a core series view.
+        const auto t = read_times(t_obj, "t");
+        const auto accel = read_f64(accel_obj, "accel");
+        const auto gyro = read_f64(gyro_obj, "gyro");
+        const py::ssize_t n = t.size();
+        const ImuSeriesView view(std::span<const TimeNs>(t.data(), static_cast<std::size_t>(n)),
+                                 map_triad(accel, n, "accel"), map_triad(gyro, n, "gyro"),
+                                 ImuSeriesView::Map3X(nullptr, 3, 0),
+                                 ImuSeriesView::MapX(nullptr, 0));
+        py::gil_scoped_release release;
+        write_euroc_csv(path, view);
+      },
+      py::arg("path"), py::arg("t"), py::arg("accel"), py::arg("gyro"),
+      "Writes t (int64 ns), accel and gyro ((n, 3) float64) as a EuRoC CSV.");
+
+  py::class_<RecordingHandle, std::shared_ptr<RecordingHandle>>(m, "Recording", R"doc(
+An MCAP recording read by read_mcap: streams (dict name -> Series, views of the recording's
+memory), metadata (dict), events (list of (t_ns, kind, label)), complete (False when the file
+was cut short; truncation_note says where).)doc")
+      .def_property_readonly("streams", &streams_of)
+      .def_property_readonly("metadata",
+                             [](const RecordingHandle& h) { return h.read.recording.metadata; })
+      .def_property_readonly("events",
+                             [](const RecordingHandle& h) {
+                               py::list out;
+                               for (const Event& e : h.read.recording.events)
+                                 out.append(py::make_tuple(e.t, e.kind, e.label));
+                               return out;
+                             })
+      .def_property_readonly("complete",
+                             [](const RecordingHandle& h) { return h.read.summary.complete; })
+      .def_property_readonly(
+          "truncation_note",
+          [](const RecordingHandle& h) { return h.read.summary.truncation_note; })
+      .def("__repr__", [](const RecordingHandle& h) {
+        return "<imukit.Recording " + std::to_string(h.read.recording.streams.size()) + " streams>";
+      });
+  m.def(
+      "read_mcap",
+      [](const std::string& path) {
+        auto h = std::make_shared<RecordingHandle>();
+        {
+          py::gil_scoped_release release;
+          h->read = capture::read_recording_mcap(path);
+        }
+        return h;
+      },
+      py::arg("path"),
+      "Reads an imukit MCAP recording (sensor_msgs/Imu topics, events, metadata).");
+
+  py::class_<DeviceProfile>(m, "Profile", R"doc(
+A device profile (imukit.profile/1): noise, turn-on bias, calibration and limits per sensor.
+read_profile(path) / parse_profile(text); to_json() gives the file's text, to_dict() the parsed
+JSON.)doc")
+      .def("to_json", &format_profile)
+      .def("to_dict",
+           [](const DeviceProfile& p) {
+             return py::module_::import("json").attr("loads")(format_profile(p));
+           })
+      .def(
+          "write", [](const DeviceProfile& p, const std::string& path) { write_profile(path, p); },
+          py::arg("path"))
+      .def_property_readonly("name",
+                             [](const DeviceProfile& p) -> py::object {
+                               if (!p.device) return py::none();
+                               return py::str(p.device->name);
+                             })
+      .def("__eq__", [](const DeviceProfile& a, const DeviceProfile& b) { return a == b; })
+      .def("__repr__", [](const DeviceProfile& p) {
+        std::string parts;
+        if (p.accelerometer) parts += " accelerometer";
+        if (p.gyroscope) parts += " gyroscope";
+        if (p.magnetometer) parts += " magnetometer";
+        return "<imukit.Profile" + parts + ">";
+      });
+  m.def("read_profile", &read_profile, py::arg("path"));
+  m.def("parse_profile", &parse_profile, py::arg("text"), py::arg("source_name") = "<string>");
+  m.def("profile", &profile_from, py::arg("profile"),
+        "A Profile from a Profile, a dict in the imukit.profile/1 layout or a file name.");
+}
+
+}  // namespace imukit::python

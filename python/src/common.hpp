@@ -1,0 +1,127 @@
+// Shared by the translation units of the Python module: NumPy array checks that never copy
+// silently where the docs promise a view, views of C++-owned memory that keep their owner alive,
+// and the registration functions each unit provides.
+#pragma once
+
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/time.hpp"
+
+namespace imukit::python {
+
+namespace py = pybind11;
+
+void bind_io(py::module_& m);
+void bind_sim(py::module_& m);
+void bind_hwmodel(py::module_& m);
+void bind_augment(py::module_& m);
+
+// "float32", "int64", ... for messages.
+inline std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+inline bool is_f32(const py::array& a) { return a.dtype().is(py::dtype::of<float>()); }
+inline bool is_f64(const py::array& a) { return a.dtype().is(py::dtype::of<double>()); }
+inline bool is_c_contiguous(const py::array& a) { return (a.flags() & py::array::c_style) != 0; }
+
+// The argument as an array without conversion; anything that is not a NumPy array is a
+// TypeError (lists would be copied, which the zero-copy paths must not do behind the caller's
+// back).
+inline py::array as_array(py::handle obj, const char* what) {
+  if (!py::isinstance<py::array>(obj)) {
+    throw py::type_error(std::string(what) + ": expected a numpy.ndarray, got " +
+                         py::str(py::type::of(obj).attr("__name__")).cast<std::string>());
+  }
+  return py::reinterpret_borrow<py::array>(obj);
+}
+
+// Float input that is only read: float64 C-contiguous arrays are used in place; float32 (or a
+// non-contiguous float64 view) is converted to a contiguous float64 copy, which the docs state
+// for these functions. Integer or object arrays are a TypeError.
+inline py::array_t<double, py::array::c_style> read_f64(py::handle obj, const char* what) {
+  const py::array a = as_array(obj, what);
+  if (!is_f32(a) && !is_f64(a)) {
+    throw py::type_error(std::string(what) + ": expected float32 or float64, got " + dtype_name(a));
+  }
+  if (is_f64(a) && is_c_contiguous(a)) return py::reinterpret_borrow<py::array_t<double>>(a);
+  return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+}
+
+// Sample times: int64 nanoseconds, one-dimensional, used in place when C-contiguous.
+inline py::array_t<int64_t, py::array::c_style> read_times(py::handle obj, const char* what) {
+  const py::array a = as_array(obj, what);
+  if (!a.dtype().is(py::dtype::of<int64_t>())) {
+    throw py::type_error(std::string(what) + ": expected int64 nanoseconds, got " + dtype_name(a));
+  }
+  if (a.ndim() != 1) {
+    throw py::value_error(std::string(what) + ": expected a 1-d array, got " +
+                          std::to_string(a.ndim()) + " dimensions");
+  }
+  return py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+}
+
+// A shape as "(256, 200, 6)" for messages.
+inline std::string shape_string(const py::array& a) {
+  std::string s = "(";
+  for (py::ssize_t d = 0; d < a.ndim(); ++d) {
+    s += (d ? ", " : "") + std::to_string(a.shape(d));
+  }
+  return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// (n, 3) C-contiguous float64 memory is an Eigen 3 x n column-major matrix, sample after sample:
+// the layout of ImuSeries' channels, so it maps without copying.
+inline Eigen::Map<const Eigen::Matrix3Xd> map_triad(
+    const py::array_t<double, py::array::c_style>& a, py::ssize_t n, const char* what) {
+  if (a.ndim() != 2 || a.shape(1) != 3 || a.shape(0) != n) {
+    throw py::value_error(std::string(what) + ": expected shape (" + std::to_string(n) +
+                          ", 3), got " + shape_string(a));
+  }
+  return {a.data(), 3, static_cast<Eigen::Index>(n)};
+}
+
+// A view of memory owned by `owner` (a Python object that keeps it alive): NumPy holds a
+// reference to owner as the array's base.
+template <class T>
+py::array view_of(const T* data, std::vector<py::ssize_t> shape, std::vector<py::ssize_t> strides,
+                  py::handle owner) {
+  return py::array_t<T>(std::move(shape), std::move(strides), data, owner);
+}
+
+// Eigen 3 x n column-major as a (n, 3) view.
+inline py::object triad_view(const Eigen::Matrix3Xd& m, py::handle owner) {
+  if (m.cols() == 0) return py::none();
+  return view_of(m.data(), {m.cols(), 3}, {3 * sizeof(double), sizeof(double)}, owner);
+}
+
+// Eigen column-major rows x cols as a (rows, cols) view (Fortran order).
+template <class Scalar>
+py::array matrix_view(const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& m,
+                      py::handle owner) {
+  return view_of(m.data(), {m.rows(), m.cols()},
+                 {static_cast<py::ssize_t>(sizeof(Scalar)),
+                  static_cast<py::ssize_t>(sizeof(Scalar)) * m.rows()},
+                 owner);
+}
+
+template <class T>
+py::array vector_view(const std::vector<T>& v, py::handle owner) {
+  return view_of(v.data(), {static_cast<py::ssize_t>(v.size())}, {sizeof(T)}, owner);
+}
+
+// A C++ vector moved into a new NumPy array's ownership (no copy of the elements).
+template <class T>
+py::array_t<T> adopt(std::vector<T>&& v) {
+  auto* heap = new std::vector<T>(std::move(v));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>({static_cast<py::ssize_t>(heap->size())}, {sizeof(T)}, heap->data(), owner);
+}
+
+}  // namespace imukit::python

@@ -1,0 +1,143 @@
+#!/usr/bin/env python3
+"""imukit Python package: Allan deviation and noise fit on NumPy arrays, equal to what
+`imukit characterize` writes for the same recording; closed forms; views; bad input.
+
+usage: hwmodel_test.py IMUKIT_BINARY
+"""
+import json
+import math
+import os
+import tempfile
+import unittest
+
+import numpy as np
+
+import imukit
+from support import main, run_cli
+
+RATE = 100.0
+GYRO_N = 3e-4   # rad/s/sqrt(Hz)
+ACCEL_N = 2e-3  # m/s^2/sqrt(Hz)
+
+
+def white_recording(n=60000, seed=3):
+    r = np.random.default_rng(seed)
+    t = np.arange(n, dtype=np.int64) * 10_000_000
+    gyro = r.normal(0.0, GYRO_N * math.sqrt(RATE), (n, 3)) + [1e-3, -2e-3, 5e-4]
+    accel = r.normal(0.0, ACCEL_N * math.sqrt(RATE), (n, 3)) + [0.0, 0.0, 9.80665]
+    return t, accel, gyro
+
+
+class AllanOnArrays(unittest.TestCase):
+    def test_white_noise_matches_closed_form(self):
+        t, _, gyro = white_recording()
+        res = imukit.allan_deviation(gyro, t)
+        self.assertAlmostEqual(res.tau0_s, 0.01, places=12)
+        self.assertTrue(res.uniform)
+        self.assertEqual(res.n, len(t))
+        tau = res.tau_s
+        np.testing.assert_allclose(tau, res.factors * 0.01, rtol=1e-12)
+        adev = res.allan.deviation
+        self.assertEqual(adev.shape, (3, len(tau)))
+        # White rate noise: ADEV(tau) = N / sqrt(tau); the estimate's relative spread is
+        # ~1/sqrt(edf), where the edf assumed white FM (alpha 0; at the longest taus the noisy local
+        # slope may suggest another type, whose edf does not apply).
+        expected = GYRO_N / np.sqrt(tau)
+        white = res.allan.alpha == 0
+        self.assertGreater(np.count_nonzero(white[0]), 30)
+        rel = np.abs(adev / expected - 1) * np.sqrt(res.allan.edf)
+        self.assertLess(np.max(rel[white]), 4.0)
+        self.assertTrue(np.all(res.allan.lower <= adev) and np.all(adev <= res.allan.upper))
+        self.assertTrue(np.all(res.allan.alpha[:, :10] == 0))  # white FM read from the slope
+        fit = res.fit(0)
+        self.assertLess(abs(fit["N"] / GYRO_N - 1), 0.03)
+        self.assertEqual(fit.value["B"], 0.0)
+        self.assertFalse(fit.active["B"])
+        # Same curve with uniform times from the rate; float32 input converted.
+        same = imukit.allan_deviation(gyro, rate_hz=RATE)
+        np.testing.assert_array_equal(same.allan.deviation, adev)
+        f32 = imukit.allan_deviation(gyro.astype(np.float32), t)
+        np.testing.assert_allclose(f32.allan.deviation, adev, rtol=1e-5)
+        one = imukit.allan_deviation(np.ascontiguousarray(gyro[:, 1]), t, hadamard=False)
+        # One axis alone: the same sums up to the order of floating-point operations.
+        np.testing.assert_allclose(one.allan.deviation[0], adev[1], rtol=1e-14)
+        self.assertIsNone(one.hadamard)
+
+    def test_results_are_views_that_keep_the_result_alive(self):
+        t, _, gyro = white_recording(n=5000)
+        res = imukit.allan_deviation(gyro, t)
+        a, b = res.allan.deviation, res.allan.deviation
+        self.assertTrue(np.shares_memory(a, b))
+        self.assertEqual(a.__array_interface__["data"][0], b.__array_interface__["data"][0])
+        self.assertTrue(a.flags.f_contiguous)  # Eigen's column-major rows x taus, not copied
+        self.assertTrue(np.shares_memory(res.tau_s, res.tau_s))
+        dev = imukit.allan_deviation(gyro, t).modified.deviation
+        np.testing.assert_array_equal(dev, res.modified.deviation)
+
+    def test_noise_fit_recovers_model_coefficients(self):
+        coeffs = [0.0, 0.01, 0.0, 1e-4, 0.0]  # N and K
+        tau = np.logspace(-2, 3, 40)
+        adev = [math.sqrt(imukit.model_allan_variance(coeffs, x)) for x in tau]
+        self.assertAlmostEqual(adev[0], math.sqrt(0.01**2 / 0.01 + 1e-8 * 0.01 / 3), places=15)
+        fit = imukit.fit_noise_model(list(tau), adev, [1000.0] * len(tau), terms=["N", "K"])
+        self.assertLess(abs(fit["N"] / 0.01 - 1), 1e-6)
+        self.assertLess(abs(fit["K"] / 1e-4 - 1), 1e-6)
+        self.assertEqual(fit["Q"], 0.0)
+        with self.assertRaisesRegex(imukit.Error, "unknown term 'X'"):
+            imukit.fit_noise_model(list(tau), adev, [1000.0] * len(tau), terms=["X"])
+
+
+class EqualToCharacterize(unittest.TestCase):
+    def test_profile_numbers_equal_python_fit(self):
+        t, accel, gyro = white_recording(n=60000, seed=9)
+        with tempfile.TemporaryDirectory() as tmp:
+            src = os.path.join(tmp, "static.csv")
+            imukit.write_euroc_csv(src, t, accel, gyro)
+            profile = os.path.join(tmp, "profile.json")
+            r = run_cli("characterize", src, "-o", profile)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            p = json.load(open(profile))
+            s = imukit.read_euroc_csv(src)
+        for sensor, data in (("gyroscope", s.gyro), ("accelerometer", s.accel)):
+            res = imukit.allan_deviation(data, s.t)
+            noise = p[sensor]["noise"]
+            np.testing.assert_allclose(noise["allan"]["tau"], res.tau_s, rtol=1e-15)
+            for axis in range(3):
+                np.testing.assert_allclose(noise["allan"]["adev"][axis], res.allan.deviation[axis], rtol=1e-15)
+                fit = res.fit(axis)
+                for key, term in (("noise_density", "N"), ("bias_instability", "B"), ("random_walk", "K")):
+                    self.assertAlmostEqual(noise[key][axis], fit[term], delta=1e-12 * abs(fit[term]) + 1e-300,
+                                           msg=f"{sensor} {key}[{axis}]")
+                    self.assertAlmostEqual(noise[key + "_sigma"][axis], fit.sigma[term],
+                                           delta=1e-12 * abs(fit.sigma[term]) + 1e-300)
+
+
+class BadInput(unittest.TestCase):
+    def test_errors(self):
+        t, _, gyro = white_recording(n=100)
+        with self.assertRaisesRegex(TypeError, "float32 or float64, got int64"):
+            imukit.allan_deviation(gyro.astype(np.int64), t)
+        with self.assertRaisesRegex(TypeError, "int64 nanoseconds"):
+            imukit.allan_deviation(gyro, t * 1e-9)
+        with self.assertRaisesRegex(ValueError, "99 times for 100 samples"):
+            imukit.allan_deviation(gyro, t[1:])
+        with self.assertRaisesRegex(ValueError, r"\(n,\) or \(n, axes\)"):
+            imukit.allan_deviation(gyro.reshape(10, 10, 3), t)
+        with self.assertRaisesRegex(ValueError, "rate_hz"):
+            imukit.allan_deviation(gyro)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.allan_deviation(gyro[:5], t[:5])
+        self.assertIn("8 samples", str(e.exception))
+        bad = gyro.copy()
+        bad[40, 1] = np.nan
+        with self.assertRaisesRegex(imukit.Error, "NaN or infinity"):
+            imukit.allan_deviation(bad, t)
+        res = imukit.allan_deviation(gyro, t, allan=False)
+        with self.assertRaisesRegex(imukit.Error, "allan=False"):
+            res.fit(0)
+        with self.assertRaises(IndexError):
+            imukit.allan_deviation(gyro, t).fit(3)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,169 @@
+#!/usr/bin/env python3
+"""imukit Python package: Series views, EuRoC CSV, device profiles, error translation.
+
+usage: io_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+"""
+import gc
+import json
+import os
+import tempfile
+import unittest
+
+import numpy as np
+
+import imukit
+from support import cli_error, euroc, main, run_cli
+
+
+def sample_series(n=50, seed=1):
+    r = np.random.default_rng(seed)
+    t = np.arange(n, dtype=np.int64) * 10_000_000 + 1_700_000_000_000_000_000
+    return t, r.normal(size=(n, 3)) + [0, 0, 9.81], r.normal(size=(n, 3)) * 0.1
+
+
+class SeriesViews(unittest.TestCase):
+    def test_channels_are_views_of_the_series_memory(self):
+        t, a, g = sample_series()
+        s = imukit.Series(t, accel=a, gyro=g)
+        self.assertEqual(len(s), 50)
+        v1, v2 = s.accel, s.accel
+        # Two reads of the property are the same buffer (no copy per access) ...
+        self.assertEqual(v1.__array_interface__["data"][0], v2.__array_interface__["data"][0])
+        self.assertTrue(np.shares_memory(v1, v2))
+        self.assertFalse(v1.flags.owndata)
+        # ... and that buffer is the Series' own: a write through one view is seen by the next.
+        v1[3, 2] = -123.5
+        self.assertEqual(s.accel[3, 2], -123.5)
+        # The constructor copied its inputs (documented), so the caller's array is unchanged.
+        self.assertFalse(np.shares_memory(s.accel, a))
+        self.assertNotEqual(a[3, 2], -123.5)
+        np.testing.assert_array_equal(s.t, t)
+        np.testing.assert_array_equal(s.gyro, g)
+        self.assertIsNone(s.mag)
+        self.assertIsNone(s.temperature)
+        self.assertEqual(s.accel.shape, (50, 3))
+        self.assertEqual(s.t.dtype, np.int64)
+
+    def test_views_keep_the_series_alive(self):
+        t, a, g = sample_series(n=1000)
+        accel = imukit.Series(t, accel=a, gyro=g).accel
+        gc.collect()
+        # The Series object is gone from Python's namespace; its memory lives on through the view.
+        garbage = [np.ones(3000) for _ in range(50)]
+        del garbage
+        np.testing.assert_array_equal(accel, a)
+
+    def test_channels_stack_in_dataset_order(self):
+        t, a, g = sample_series()
+        s = imukit.Series(t, accel=a, gyro=g)
+        c = s.channels()
+        self.assertEqual(c.dtype, np.float32)
+        np.testing.assert_array_equal(c, np.hstack([a, g]).astype(np.float32))
+        np.testing.assert_array_equal(s.channels(np.float64), np.hstack([a, g]))
+        with self.assertRaises(TypeError):
+            s.channels(np.int32)
+
+    def test_bad_arrays(self):
+        t, a, g = sample_series()
+        with self.assertRaisesRegex(TypeError, "int64 nanoseconds"):
+            imukit.Series(t.astype(np.float64), accel=a)
+        with self.assertRaisesRegex(TypeError, "float32 or float64"):
+            imukit.Series(t, accel=a.astype(np.int32))
+        with self.assertRaisesRegex(TypeError, "numpy.ndarray"):
+            imukit.Series(t, accel=a.tolist())
+        with self.assertRaisesRegex(ValueError, r"expected shape \(50, 3\), got \(50, 2\)"):
+            imukit.Series(t, accel=a[:, :2])
+        with self.assertRaises(imukit.Error) as e:
+            imukit.Series(t[::-1].copy(), accel=a)
+        self.assertIn("time goes backwards at sample 1", str(e.exception))
+
+
+class EurocCsv(unittest.TestCase):
+    def test_round_trip_is_bit_exact_and_numpy_reads_it(self):
+        t, a, g = sample_series()
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "imu.csv")
+            imukit.write_euroc_csv(path, t, a, g)
+            s = imukit.read_euroc_csv(path)
+            np.testing.assert_array_equal(s.t, t)
+            np.testing.assert_array_equal(s.accel, a)
+            np.testing.assert_array_equal(s.gyro, g)
+            t2, g2, a2 = euroc(path)
+            np.testing.assert_array_equal(t2, t)
+            np.testing.assert_array_equal(a2, a)
+            # float32 input is converted (documented): the values are the float32 ones.
+            imukit.write_euroc_csv(path, t, a.astype(np.float32), g)
+            np.testing.assert_array_equal(imukit.read_euroc_csv(path).accel, a.astype(np.float32).astype(np.float64))
+
+    def test_errors_name_file_line_and_column_like_the_cli(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "bad.csv")
+            with open(path, "w") as f:
+                f.write("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1],"
+                        "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n"
+                        "1000,0,0,0,0,0,9.8\n2000,0,0,x,0,0,9.8\n")
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_euroc_csv(path)
+            self.assertIsInstance(e.exception, ValueError)
+            self.assertEqual(e.exception.file, path)
+            self.assertEqual(e.exception.line, 3)
+            self.assertIsNotNone(e.exception.column)
+            self.assertTrue(str(e.exception).startswith(f"{path}:3:"))
+            self.assertTrue(str(e.exception).endswith(e.exception.reason))
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_euroc_csv(os.path.join(tmp, "missing.csv"))
+            self.assertIn("missing.csv", str(e.exception))
+
+    def test_length_mismatch(self):
+        t, a, g = sample_series()
+        with self.assertRaisesRegex(ValueError, r"gyro: expected shape \(50, 3\), got \(49, 3\)"):
+            imukit.write_euroc_csv("/nonexistent/x.csv", t, a, g[1:])
+
+
+class Profiles(unittest.TestCase):
+    PROFILE = {"schema": "imukit.profile/1",
+               "accelerometer": {"noise": {"noise_density": [0.002, 0.002, 0.003]}},
+               "gyroscope": {"noise": {"noise_density": [1e-4, 1e-4, 1e-4]}}}
+
+    def test_parse_write_read(self):
+        p = imukit.parse_profile(json.dumps(self.PROFILE))
+        self.assertEqual(p.to_dict()["accelerometer"]["noise"]["noise_density"], [0.002, 0.002, 0.003])
+        self.assertEqual(imukit.profile(self.PROFILE), p)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "p.json")
+            p.write(path)
+            self.assertEqual(imukit.read_profile(path), p)
+            self.assertEqual(imukit.profile(path), p)
+
+    def test_bad_profile_message_equals_the_cli_message(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "bad.json")
+            bad = dict(self.PROFILE, accelerometer={"noise": {"noise_density": "loud"}})
+            with open(path, "w") as f:
+                json.dump(bad, f)
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_profile(path)
+            self.assertIn("accelerometer.noise.noise_density", str(e.exception))
+            # The command reads the same profile for --hardware: the same line after its prefix.
+            bvh = os.path.join(tmp, "tiny.bvh")
+            with open(bvh, "w") as f:
+                f.write("HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition"
+                        " Zrotation Xrotation Yrotation\n End Site\n {\n  OFFSET 0 1 0\n }\n}\n"
+                        "MOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0\n0 0 0 0 0 0\n")
+            msg = cli_error("simulate", "--bvh", bvh, "--preset", "waist_belt", "--hardware", path,
+                            "-o", os.path.join(tmp, "out"))
+            if "preset" in msg:
+                self.skipTest(f"the tiny BVH has no pelvis segment: {msg}")
+            self.assertEqual(msg, str(e.exception))
+
+    def test_syntax_error_location(self):
+        with self.assertRaises(imukit.Error) as e:
+            imukit.parse_profile('{"schema": "imukit.profile/1",\n  "gyroscope": [}', "p.json")
+        self.assertEqual(e.exception.file, "p.json")
+        self.assertEqual(e.exception.line, 2)
+        with self.assertRaises(TypeError):
+            imukit.profile(42)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,247 @@
+#!/usr/bin/env python3
+"""imukit Python package: scenes built in Python or read from JSON simulate to the same arrays as
+`imukit simulate` for the same seed (CSV and MCAP outputs), physics checks, the GIL released
+while simulating, errors with the command's messages.
+
+usage: sim_test.py IMUKIT_BINARY
+"""
+import json
+import math
+import os
+import tempfile
+import threading
+import time
+import unittest
+
+import numpy as np
+
+import imukit
+from support import cli_error, data_file, euroc, main, run_cli
+
+DENSITY = 0.002
+HARDWARE = {"schema": "imukit.profile/1",
+            "accelerometer": {"noise": {"noise_density": [DENSITY] * 3}},
+            "gyroscope": {"noise": {"noise_density": [3e-4] * 3}}}
+SCENE = {
+    "schema": "imukit.scene/1",
+    "body": {"default_humanoid": {"height_m": 1.8}},
+    "motion": {"procedural": {"rate_hz": 100, "duration_s": 8, "seed": 5}},
+    "simulation": {"method": "spline", "rate_hz": 200, "seed": 11},
+    "outputs": {"ground_truth": True},
+    "sensors": [{"name": "watch", "preset": "left_wrist_watch", "hardware": HARDWARE},
+                {"name": "belt", "preset": "waist_belt"}],
+}
+
+
+def python_scene(seed=11):
+    """The scene above, built through the Python API instead of JSON."""
+    body = imukit.Body.default_humanoid(1.8)
+    motion = imukit.ProceduralMotion(len(body), rate_hz=100, frames=math.floor(8 * 100) + 1, seed=5)
+    scene = imukit.Scene(body, motion, method="spline", rate_hz=200, seed=seed, ground_truth=True)
+    scene.add_sensor("watch", preset="left_wrist_watch", hardware=HARDWARE)
+    scene.add_sensor("belt", preset="waist_belt")
+    return scene
+
+
+class SimulateLikeTheCli(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.scene_path = os.path.join(cls.tmp.name, "scene.json")
+        with open(cls.scene_path, "w") as f:
+            json.dump(SCENE, f)
+        cls.out = os.path.join(cls.tmp.name, "out")
+        r = run_cli("simulate", cls.scene_path, "-o", cls.out, "--seed", 42)
+        assert r.returncode == 0, r.stderr
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def check_equal_to_cli(self, result):
+        self.assertEqual(sorted(result), ["belt", "belt.truth", "watch", "watch.truth"])
+        for name, series in result.items():
+            t, gyro, accel = euroc(os.path.join(self.out, name + ".csv"))
+            self.assertEqual(len(series), 1601)
+            np.testing.assert_array_equal(series.t, t, err_msg=name)
+            np.testing.assert_array_equal(series.accel, accel, err_msg=name)
+            np.testing.assert_array_equal(series.gyro, gyro, err_msg=name)
+
+    def test_scene_file_with_seed_equals_cli_bit_for_bit(self):
+        scene = imukit.read_scene(self.scene_path)
+        self.assertEqual(scene.seed, 11)
+        self.check_equal_to_cli(scene.simulate(seed=42))
+        self.assertEqual(scene.seed, 42)
+
+    def test_scene_built_in_python_equals_cli(self):
+        self.check_equal_to_cli(python_scene(seed=42).simulate())
+
+    def test_other_seed_other_noise_same_truth(self):
+        a = python_scene(seed=42).simulate()
+        b = python_scene(seed=43).simulate()
+        np.testing.assert_array_equal(a["watch.truth"].accel, b["watch.truth"].accel)
+        diff = a["watch"].accel - b["watch"].accel
+        # Two independent noise draws: the difference has sigma sqrt(2) * density * sqrt(rate).
+        expected = math.sqrt(2) * DENSITY * math.sqrt(200)
+        self.assertLess(abs(np.std(diff) / expected - 1), 0.05)
+        np.testing.assert_array_equal(a["belt"].accel, b["belt"].accel)  # ideal sensor
+
+    def test_mcap_output_reads_back_to_the_same_arrays(self):
+        path = os.path.join(self.tmp.name, "sim.mcap")
+        r = run_cli("simulate", self.scene_path, "-o", path, "--seed", 42)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        rec = imukit.read_mcap(path)
+        self.assertTrue(rec.complete)
+        sim = imukit.read_scene(self.scene_path).simulate(seed=42)
+        for name in ("watch", "belt"):
+            s = rec.streams[name]
+            np.testing.assert_array_equal(s.t, sim[name].t)
+            np.testing.assert_array_equal(s.accel, sim[name].accel)
+            np.testing.assert_array_equal(s.gyro, sim[name].gyro)
+        streams = rec.streams
+        self.assertTrue(np.shares_memory(streams["watch"].accel, streams["watch"].accel))
+
+
+class Physics(unittest.TestCase):
+    def test_still_body_reads_gravity_in_any_orientation(self):
+        body = imukit.Body.default_humanoid()
+        q = np.array([0.8, 0.2, -0.4, 0.4]) / np.linalg.norm([0.8, 0.2, -0.4, 0.4])
+        rot = np.zeros((40, len(body), 4))
+        rot[..., 0] = 1.0
+        rot[:, 0] = q
+        motion = imukit.Motion.from_arrays(rot, np.tile([0.1, 0.2, 1.0], (40, 1)), rate_hz=50.0, body=body)
+        np.testing.assert_allclose(motion.rotations_wxyz()[:, 0], np.tile(q, (40, 1)), rtol=0, atol=1e-15)
+        for method in ("fd", "spline", "reference"):
+            scene = imukit.Scene(body, motion, method=method, gravity=9.81)
+            scene.add_sensor("custom", joint="pelvis", position_m=[0.1, 0.0, 0.05],
+                             q_joint_sensor=[math.cos(0.3), 0, math.sin(0.3), 0])
+            s = scene.simulate()["custom"]
+            np.testing.assert_allclose(np.linalg.norm(s.accel, axis=1), 9.81, rtol=0, atol=1e-12)
+            np.testing.assert_array_equal(s.gyro, 0.0)
+            self.assertEqual(scene.gravity_world, (0.0, 0.0, -9.81))
+
+    def test_walk_bvh_quick_form_equals_cli(self):
+        walk = data_file("mocap", "scaled_131_01_walk.bvh")
+        with tempfile.TemporaryDirectory() as tmp:
+            prof = os.path.join(tmp, "hw.json")
+            with open(prof, "w") as f:
+                json.dump(HARDWARE, f)
+            r = run_cli("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--hardware", prof,
+                        "--seed", 7, "-o", tmp)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            t, gyro, accel = euroc(os.path.join(tmp, "left_wrist_watch.csv"))
+            profile = imukit.read_profile(prof)
+        body, motion, warnings = imukit.read_bvh(walk)
+        scene = imukit.Scene(body, motion, seed=7)
+        scene.add_sensor(preset="left_wrist_watch", hardware=profile)
+        s = scene.simulate()["left_wrist_watch"]
+        self.assertEqual(len(s), 995)
+        np.testing.assert_array_equal(s.t, t)
+        np.testing.assert_array_equal(s.accel, accel)
+        np.testing.assert_array_equal(s.gyro, gyro)
+
+
+class Concurrency(unittest.TestCase):
+    def test_gil_is_released_while_simulating(self):
+        scene = python_scene()
+        scene.simulate()  # warm up
+
+        def spin(seconds):
+            n, end = 0, time.perf_counter() + seconds
+            while time.perf_counter() < end:
+                n += 1
+            return n
+
+        rate = spin(0.2) / 0.2  # loop iterations per second with the GIL to ourselves
+        started, done = threading.Event(), threading.Event()
+        elapsed = []
+
+        def work():
+            started.set()
+            t0 = time.perf_counter()
+            for _ in range(3):
+                scene.simulate()
+            elapsed.append(time.perf_counter() - t0)
+            done.set()
+
+        worker = threading.Thread(target=work)
+        worker.start()
+        started.wait()
+        n = 0
+        while not done.is_set():
+            n += 1
+        worker.join()
+        # With the GIL held by the C++ work this thread could not run at all while it lasts; released,
+        # it keeps a good part of its own speed (2 cores, shared: a generous bound).
+        share = n / (rate * elapsed[0])
+        self.assertGreater(share, 0.15, f"main thread ran at {share:.2f} of its speed during simulate()")
+
+    def test_threads_give_the_same_arrays(self):
+        results = [None] * 3
+
+        def work(i):
+            results[i] = python_scene(seed=42).simulate()["watch"].accel.copy()
+
+        threads = [threading.Thread(target=work, args=(i,)) for i in range(3)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+        for r in results[1:]:
+            np.testing.assert_array_equal(r, results[0])
+
+
+class Errors(unittest.TestCase):
+    def test_scene_errors_have_the_cli_message(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "bad.json")
+            with open(path, "w") as f:
+                json.dump(dict(SCENE, sensors=[{"preset": "left_sock"}]), f)
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_scene(path)
+            self.assertIn("sensors[0].preset", str(e.exception))
+            self.assertEqual(str(e.exception), cli_error("simulate", path, "-o", os.path.join(tmp, "o")))
+            with open(path, "w") as f:
+                f.write('{"schema": "imukit.scene/1",\n "motion": }')
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_scene(path)
+            self.assertEqual(e.exception.line, 2)
+            self.assertEqual(str(e.exception), cli_error("simulate", path, "-o", os.path.join(tmp, "o")))
+
+    def test_api_misuse(self):
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), frames=50)
+        scene = imukit.Scene(body, motion)
+        with self.assertRaisesRegex(imukit.Error, "no sensors"):
+            scene.simulate()
+        with self.assertRaisesRegex(imukit.Error, "unknown placement preset 'left_sock'"):
+            scene.add_sensor(preset="left_sock")
+        with self.assertRaisesRegex(imukit.Error, "either preset= or joint="):
+            scene.add_sensor("x")
+        with self.assertRaisesRegex(imukit.Error, "not a unit quaternion"):
+            scene.add_sensor("x", joint="pelvis", q_joint_sensor=[1, 1, 0, 0])
+        scene.add_sensor(preset="chest_strap")
+        with self.assertRaisesRegex(imukit.Error, "duplicate sensor name"):
+            scene.add_sensor(preset="chest_strap")
+        with self.assertRaisesRegex(imukit.Error, "joints"):
+            imukit.Scene(body, imukit.ProceduralMotion(3, frames=50))
+        with self.assertRaisesRegex(imukit.Error, "fd"):
+            imukit.Scene(body, motion, method="euler")
+        endless = imukit.Scene(body, imukit.ProceduralMotion(len(body)))
+        endless.add_sensor(preset="chest_strap")
+        with self.assertRaisesRegex(imukit.Error, "endless"):
+            endless.simulate()
+        with self.assertRaisesRegex(ValueError, r"\(frames, joints, 4\)"):
+            imukit.Motion.from_arrays(np.zeros((10, 4)), None, rate_hz=100)
+        rot = np.zeros((10, len(body), 4))
+        rot[..., 0] = 1.0
+        rot[3, 2] = np.nan
+        with self.assertRaisesRegex(imukit.Error, "frame 3"):
+            imukit.Motion.from_arrays(rot, None, rate_hz=100, body=body)
+        names = [p["name"] for p in imukit.placement_presets()]
+        self.assertEqual(len(names), 12)
+        self.assertIn("left_wrist_watch", names)
+
+
+if __name__ == "__main__":
+    main()
