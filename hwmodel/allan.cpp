@@ -208,48 +208,88 @@ ChunkFn pick_chunk(int order, int axes) {
 
 // The modified deviation's kernel over S (axes x (n+1), sample-major). A is the compile-time
 // axis count (0: runtime `axes`).
+// The inner sum W_j = sum_{i=j}^{j+m-1} D_i, D_i = S_{i+2m} - 2 S_{i+m} + S_i, slides:
+// W_{j+1} = W_j + D_{j+m} - D_j, kept with Kahan compensation (w, wc per axis) so it does not
+// drift. It must run in j order, so it is cut into spans that each start from a directly summed
+// W: a whole factor (large m), or a group of chunks that all small factors sweep together.
 template <int A>
 struct Kernels {
   static int count(int axes) { return A > 0 ? A : axes; }
 
-  // The inner sum W_j = sum_{i=j}^{j+m-1} D_i, D_i = S_{i+2m} - 2 S_{i+m} + S_i, slides:
-  // W_{j+1} = W_j + D_{j+m} - D_j, kept with Kahan compensation so it does not drift.
-  static void modified(const double* S, int64_t n, int64_t m, int axes, double* out) {
+  static double D(const double* S, int64_t m, int k, int64_t i, int a) {
+    return S[(i + 2 * m) * k + a] - 2.0 * S[(i + m) * k + a] + S[i * k + a];
+  }
+
+  // w, wc = W_j summed directly (Kahan): D_j + ... + D_{j+m-1}.
+  static void start(const double* S, int64_t m, int axes, int64_t j, double* w, double* wc) {
     const int k = count(axes);
-    auto D = [&](int64_t i, int a) {
-      return S[(i + 2 * m) * k + a] - 2.0 * S[(i + m) * k + a] + S[i * k + a];
-    };
-    double w[16] = {}, wc[16] = {}, total[16] = {}, block[16] = {};
-    for (int64_t i = 0; i < m; ++i) {
+    for (int a = 0; a < k; ++a) w[a] = wc[a] = 0.0;
+    for (int64_t i = j; i < j + m; ++i) {
       for (int a = 0; a < k; ++a) {
-        const double y = D(i, a) - wc[a];
+        const double y = D(S, m, k, i, a) - wc[a];
         const double t = w[a] + y;
         wc[a] = (t - w[a]) - y;
         w[a] = t;
       }
     }
-    const int64_t terms = n + 2 - 3 * m;
-    for (int64_t j0 = 0; j0 < terms; j0 += kBlock) {
-      const int64_t j1 = std::min(terms, j0 + kBlock);
-      for (int a = 0; a < k; ++a) block[a] = 0.0;
-      for (int64_t j = j0; j < j1; ++j) {
-        for (int a = 0; a < k; ++a) block[a] += w[a] * w[a];
-        if (j + 1 < terms) {
-          for (int a = 0; a < k; ++a) {
-            const double y = (D(j + m, a) - D(j, a)) - wc[a];
-            const double t = w[a] + y;
-            wc[a] = (t - w[a]) - y;
-            w[a] = t;
-          }
+  }
+
+  // Adds W_j^2 for j in [j0, j1) to acc, with w, wc holding W_{j0} on entry and W_{j1} on exit
+  // (no slide past the last of the `terms` terms, whose successor would read past S).
+  static void run(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, int64_t terms,
+                  double* w, double* wc, double* acc) {
+    const int k = count(axes);
+    double block[16] = {};
+    for (int64_t j = j0; j < j1; ++j) {
+      for (int a = 0; a < k; ++a) block[a] += w[a] * w[a];
+      if (j + 1 < terms) {
+        for (int a = 0; a < k; ++a) {
+          const double y = (D(S, m, k, j + m, a) - D(S, m, k, j, a)) - wc[a];
+          const double t = w[a] + y;
+          wc[a] = (t - w[a]) - y;
+          w[a] = t;
         }
       }
+    }
+    for (int a = 0; a < k; ++a) acc[a] += block[a];
+  }
+
+  // One factor over all terms: sum of W_j^2 added block by block (kBlock terms each).
+  static void modified(const double* S, int64_t n, int64_t m, int axes, double* out) {
+    const int k = count(axes);
+    double w[16], wc[16], total[16] = {};
+    start(S, m, axes, 0, w, wc);
+    const int64_t terms = n + 2 - 3 * m;
+    for (int64_t j0 = 0; j0 < terms; j0 += kBlock) {
+      double block[16] = {};
+      run(S, m, axes, j0, std::min(terms, j0 + kBlock), terms, w, wc, block);
       for (int a = 0; a < k; ++a) total[a] += block[a];
     }
-    const double md = double(m);
-    const double scale = 1.0 / (2.0 * md * md * md * md * double(terms));
-    for (int a = 0; a < k; ++a) out[a] = total[a] * scale;
+    for (int a = 0; a < k; ++a) out[a] = total[a];
   }
 };
+
+using StartFn = void (*)(const double*, int64_t, int, int64_t, double*, double*);
+using RunFn = void (*)(const double*, int64_t, int, int64_t, int64_t, int64_t, double*, double*,
+                       double*);
+
+template <int A>
+std::pair<StartFn, RunFn> modified_span_kernels() {
+  return {&Kernels<A>::start, &Kernels<A>::run};
+}
+
+std::pair<StartFn, RunFn> pick_modified_span(int axes) {
+  switch (axes) {
+    case 1:
+      return modified_span_kernels<1>();
+    case 3:
+      return modified_span_kernels<3>();
+    case 6:
+      return modified_span_kernels<6>();
+    default:
+      return modified_span_kernels<0>();
+  }
+}
 
 using KernelFn = void (*)(const double*, int64_t, int64_t, int, double*);
 
@@ -502,9 +542,9 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   std::map<Deviation, Eigen::MatrixXd> variance;
   for (Deviation d : kinds) variance[d] = Eigen::MatrixXd::Zero(axes, Eigen::Index(grid));
 
-  // Work items: the small factors of ADEV and HDEV together, in fixed groups of chunks; each
-  // larger factor alone; MDEV (whose inner sum slides along j) one task per factor. Threads
-  // take the next item from a counter, the most expensive first.
+  // Work items: the small factors of ADEV and HDEV together, in fixed groups of chunks, and
+  // those of MDEV likewise; each larger factor alone. Threads take the next item from a
+  // counter, the most expensive first.
   std::vector<size_t> small, large;
   for (size_t k = 0; k < grid; ++k) (r.factors[k] <= kSmallFactor ? small : large).push_back(k);
   std::vector<int> orders;  // 2: ADEV, 3: HDEV
@@ -519,15 +559,17 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   std::vector<std::function<void()>> tasks;
   for (size_t k = grid; k-- > 0;) {
     const int64_t m = r.factors[k];
+    if (m <= kSmallFactor) continue;
     if (options.modified) {
       tasks.emplace_back([&, k, m] {
         double out[16];
         pick_modified(axes)(S, n, m, axes, out);
+        const double md = double(m);
+        const double scale = 1.0 / (2.0 * md * md * md * md * double(n + 2 - 3 * m));
         for (int a = 0; a < axes; ++a)
-          variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a];
+          variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a] * scale;
       });
     }
-    if (m <= kSmallFactor) continue;
     for (size_t o = 0; o < orders.size(); ++o) {
       tasks.emplace_back([&, k, m, o] {
         double out[16];
@@ -538,6 +580,36 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
             1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
         const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
         for (int a = 0; a < axes; ++a) variance.at(d)(a, Eigen::Index(k)) = out[a] * scale;
+      });
+    }
+  }
+  // MDEV's small factors: per group, W of each factor summed directly at the group's first j,
+  // then slid chunk by chunk, every small factor on one chunk before the next (as above).
+  std::vector<double> partial_modified(
+      options.modified ? size_t(n_chunks) * small.size() * size_t(axes) : 0, 0.0);
+  if (!small.empty() && options.modified) {
+    for (int64_t g = 0; g < groups; ++g) {
+      tasks.emplace_back([&, g] {
+        const auto [start, run] = pick_modified_span(axes);
+        std::vector<double> w(small.size() * size_t(axes)), wc(small.size() * size_t(axes));
+        const int64_t g0 = g * kChunksPerGroup * kChunk;
+        for (size_t q = 0; q < small.size(); ++q) {
+          const int64_t m = r.factors[small[q]];
+          if (g0 < n + 2 - 3 * m)
+            start(S, m, axes, g0, &w[q * size_t(axes)], &wc[q * size_t(axes)]);
+        }
+        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup);
+             ++c) {
+          const int64_t j0 = c * kChunk;
+          for (size_t q = 0; q < small.size(); ++q) {
+            const int64_t m = r.factors[small[q]];
+            const int64_t terms = n + 2 - 3 * m;
+            const int64_t j1 = std::min(j0 + kChunk, terms);
+            if (j1 <= j0) continue;
+            run(S, m, axes, j0, j1, terms, &w[q * size_t(axes)], &wc[q * size_t(axes)],
+                &partial_modified[(size_t(c) * small.size() + q) * size_t(axes)]);
+          }
+        }
       });
     }
   }
@@ -576,6 +648,19 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
     for (auto& th : pool) th.join();
   }
   // Small factors: add the chunks' partial sums in chunk order.
+  if (options.modified) {
+    for (size_t q = 0; q < small.size(); ++q) {
+      const double md = double(r.factors[small[q]]);
+      const double scale =
+          1.0 / (2.0 * md * md * md * md * double(n + 2 - 3 * r.factors[small[q]]));
+      for (int a = 0; a < axes; ++a) {
+        double total = 0.0;
+        for (int64_t c = 0; c < n_chunks; ++c)
+          total += partial_modified[(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
+        variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(small[q])) = total * scale;
+      }
+    }
+  }
   for (size_t o = 0; o < orders.size(); ++o) {
     const int order = orders[o];
     const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;

@@ -123,6 +123,17 @@ TEST(AllanDeviation, EqualsTextbookDefinitionsForLargeFactorsAndAxisCounts) {
   expect_textbook_values(y.topRows(5), factors, false);
 }
 
+TEST(AllanDeviation, EqualsTextbookDefinitionsAcrossWorkGroups) {
+  // 140,000 samples span two of the fixed groups of chunks the small factors are swept in (MDEV
+  // restarts its sliding inner sum at each group's first term).
+  const int64_t n = 140000;
+  Rng rng(13);
+  Eigen::MatrixXd y(6, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 6; ++a) y(a, i) = 0.5 * double(a) + rng.normal();
+  expect_textbook_values(y, {1, 2, 5}, true);
+}
+
 TEST(AllanDeviation, ResultDoesNotDependOnThreadCountOrAxisGrouping) {
   const int64_t n = 5000;
   Rng rng(3);
