@@ -336,10 +336,13 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
       policy.probabilities.push_back(
           non_negative(p[i], source, fmt::format("probabilities[{}]", i)));
   }
-  double sum = 0.0;
-  for (double q : policy.probabilities) sum += q;
-  if (!(sum > 0.0) || !std::isfinite(sum)) fail(source, "probabilities", "must not all be 0");
-  for (double& q : policy.probabilities) q /= sum;
+  // Given probabilities are normalised to sum 1; the uniform default stays exactly 1/n.
+  if (per_sub_probability || root.contains("probabilities")) {
+    double sum = 0.0;
+    for (double q : policy.probabilities) sum += q;
+    if (!(sum > 0.0) || !std::isfinite(sum)) fail(source, "probabilities", "must not all be 0");
+    for (double& q : policy.probabilities) q /= sum;
+  }
   if (root.contains("stda_rotation_deg")) {
     const double r = non_negative(root["stda_rotation_deg"], source, "stda_rotation_deg");
     if (r > 180.0) fail(source, "stda_rotation_deg", "half-width above 180 degrees");

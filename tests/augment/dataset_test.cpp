@@ -1,0 +1,171 @@
+// Windowing, labels, the dataset writer read back, and generate_dataset's determinism.
+#include "augment/dataset.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "core/error.hpp"
+#include "core/npy.hpp"
+#include "sim/placement.hpp"
+
+namespace imukit::augment {
+namespace {
+
+TEST(Dataset, WindowStartsAndMajorityLabels) {
+  EXPECT_EQ(window_starts(10, 4, 3), (std::vector<int64_t>{0, 3, 6}));
+  EXPECT_EQ(window_starts(3, 4, 1), (std::vector<int64_t>{}));
+  EXPECT_THROW(window_starts(10, 0, 1), Error);
+  const std::vector<int64_t> labels = {1, 1, 2, 2, 2, kNoLabel, kNoLabel, kNoLabel, 7, 7};
+  const std::vector<int64_t> starts = {0, 1, 4, 5, 6};
+  // [1 1 2 2] tie -> 1; [1 2 2 2] -> 2; [2 - - -] -> 2; [- - - 7] -> 7; [- - 7 7] -> 7.
+  EXPECT_EQ(window_labels(labels, starts, 4), (std::vector<int64_t>{1, 2, 2, 7, 7}));
+  const std::vector<int64_t> none = {kNoLabel, kNoLabel, kNoLabel};
+  const std::vector<int64_t> s0 = {0};
+  EXPECT_EQ(window_labels(none, s0, 3), (std::vector<int64_t>{kNoLabel}));
+  EXPECT_EQ(window_labels({}, starts, 4), std::vector<int64_t>(5, kNoLabel));
+}
+
+TEST(Dataset, SegmentsBecomePerSampleLabels) {
+  const std::vector<LabelSegment> segs = {{0.0, 0.5, 4}, {0.5, 1.0, 9}, {0.25, 0.35, 1}};
+  const std::vector<int64_t> l = labels_from_segments(segs, 12, 10.0);
+  // Samples at 0.0 .. 1.1 s: [0, 0.5) -> 4, [0.5, 1.0) -> 9, then 0.3 s in [0.25, 0.35) -> 1.
+  EXPECT_EQ(l, (std::vector<int64_t>{4, 4, 4, 1, 4, 9, 9, 9, 9, 9, kNoLabel, kNoLabel}));
+  const std::string dir = testing::TempDir();
+  std::ofstream(dir + "/seg.csv") << "start_s,end_s,label\n0,0.5,4\n0.5,1.0,9\n";
+  EXPECT_EQ(read_labels(dir + "/seg.csv", 12, 10.0)[7], 9);
+  std::ofstream(dir + "/per.csv") << "label\n1\n2\n3\n";
+  EXPECT_EQ(read_labels(dir + "/per.csv", 3, 10.0), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_THROW(read_labels(dir + "/per.csv", 4, 10.0), Error);
+  std::ofstream(dir + "/bad.csv") << "label\n1\nx\n";
+  try {
+    read_labels(dir + "/bad.csv", 2, 10.0);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.csv:3:1"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Dataset, WriterOutputReadsBack) {
+  const std::string dir = testing::TempDir() + "/ds_writer";
+  const BatchShape shape{2, 3, 6};
+  std::vector<float> X(shape.size());
+  for (std::size_t k = 0; k < X.size(); ++k) X[k] = static_cast<float>(k) * 0.5f;
+  const std::vector<int64_t> y = {3, kNoLabel}, sp = {12, -1};
+  DatasetInfo info;
+  info.sensors = {"watch"};
+  info.rate_hz = 50;
+  info.window = 3;
+  info.stride = 1;
+  info.mode = "ppda";
+  info.policy_json = format_policy(builtin_policy("paper"));
+  write_dataset(dir, X, shape, y, sp, info);
+  const NpyArray xa = read_npy(dir + "/X.npy");
+  EXPECT_EQ(xa.dtype, NpyDtype::float32);
+  EXPECT_EQ(xa.shape, (std::vector<std::size_t>{2, 3, 6}));
+  EXPECT_EQ(xa.to_double()[7], 3.5);
+  const NpyArray ya = read_npy(dir + "/y.npy");
+  EXPECT_EQ(ya.dtype, NpyDtype::int64);
+  EXPECT_EQ(ya.to_double(), (std::vector<double>{3, -1}));
+  std::ifstream in(dir + "/dataset.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["schema"], "imukit.dataset/1");
+  EXPECT_EQ(j["channels"][4], "watch.gy");
+  EXPECT_EQ(j["policy"]["builtin"], "paper");
+  EXPECT_EQ(j["units"]["gyroscope"], "rad/s");
+  EXPECT_THROW(write_dataset(dir, X, {3, 3, 6}, y, sp, info), Error);
+}
+
+sim::Scene small_scene() {
+  sim::Scene scene;
+  scene.body = sim::Body::default_humanoid();
+  sim::ProceduralMotionOptions po;
+  po.rate_hz = 50;
+  po.frames = 700;
+  sim::ProceduralMotion pm(scene.body.size(), po);
+  scene.motion = std::make_shared<sim::Motion>(pm.materialize(700));
+  scene.frames = 700;
+  sim::SceneSensor s;
+  s.spec.name = "watch";
+  s.preset = "left_wrist_watch";
+  s.spec.placement = sim::resolve_preset(sim::placement_preset(s.preset), scene.body);
+  scene.sensors.push_back(s);
+  return scene;
+}
+
+TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
+  const sim::Scene scene = small_scene();
+  const Policy policy = builtin_policy("imukit");
+  DatasetOptions o;
+  o.window = 50;
+  o.stride = 50;
+  o.count = 30;  // more than the base windows: they repeat under fresh draws
+  o.batch_size = 8;
+  o.seed = 77;
+  std::vector<int64_t> labels(700);
+  for (std::size_t k = 0; k < labels.size(); ++k) labels[k] = static_cast<int64_t>(k / 100);
+  o.threads = 1;
+  const Dataset a = generate_dataset(scene, policy, labels, o);
+  o.threads = 2;
+  const Dataset b = generate_dataset(scene, policy, labels, o);
+  EXPECT_EQ(a.X, b.X);
+  EXPECT_EQ(a.sub_policy, b.sub_policy);
+  EXPECT_EQ(a.shape, (BatchShape{30, 50, 6}));
+  PpdaOptions po;
+  po.window = 50;
+  const std::size_t nbase = PpdaAugmenter(scene, po).window_starts(50).size();
+  ASSERT_EQ(nbase, 14u);  // 700 samples
+  for (std::size_t k = 0; k < 30; ++k) {
+    const std::size_t base = k % nbase;
+    EXPECT_EQ(a.y[k], static_cast<int64_t>(base * 50 / 100)) << k;
+    EXPECT_EQ(a.sub_policy[k], a.sub_policy[k - k % 8]);  // one per batch
+  }
+  o.seed = 78;
+  const Dataset c = generate_dataset(scene, policy, labels, o);
+  EXPECT_NE(a.X, c.X);
+  // Normalized: every channel has mean 0 and standard deviation 1.
+  o.normalize = true;
+  const Dataset n = generate_dataset(scene, policy, labels, o);
+  ASSERT_TRUE(n.info.normalized);
+  for (std::size_t ch = 0; ch < 6; ++ch) {
+    double s = 0, s2 = 0;
+    for (std::size_t r = 0; r < 30 * 50; ++r) {
+      s += n.X[r * 6 + ch];
+      s2 += double(n.X[r * 6 + ch]) * n.X[r * 6 + ch];
+    }
+    EXPECT_NEAR(s / 1500, 0.0, 1e-5);
+    EXPECT_NEAR(std::sqrt(s2 / 1500), 1.0, 1e-5);
+  }
+}
+
+TEST(Dataset, StdaFromRecordedStreams) {
+  ImuSeries s = ImuSeries::with_channels(400, true, true);
+  for (std::size_t i = 0; i < 400; ++i) {
+    s.t[i] = static_cast<TimeNs>(i) * 20'000'000;  // 50 Hz
+    s.accel.col(static_cast<Eigen::Index>(i)) = Eigen::Vector3d(0.1 * i, 0, 9.81);
+    s.gyro.col(static_cast<Eigen::Index>(i)) = Eigen::Vector3d(0, 0.01 * i, 0);
+  }
+  DatasetOptions o;
+  o.window = 40;
+  o.stride = 20;
+  o.batch_size = 4;
+  o.identity_fraction = 1.0;  // unaugmented: the windows as recorded
+  const Policy policy = builtin_policy("paper");
+  const Dataset d = generate_dataset({"imu"}, {&s}, policy, {}, o);
+  EXPECT_EQ(d.shape, (BatchShape{19, 40, 6}));
+  EXPECT_NEAR(d.info.rate_hz, 50.0, 1e-9);
+  EXPECT_FLOAT_EQ(d.X[(3 * 40 + 5) * 6 + 0], static_cast<float>(0.1 * (60 + 5)));
+  EXPECT_FLOAT_EQ(d.X[(3 * 40 + 5) * 6 + 4], static_cast<float>(0.01 * (60 + 5)));
+  o.identity_fraction = 0.0;
+  o.threads = 2;
+  const Dataset e = generate_dataset({"imu"}, {&s}, policy, {}, o);
+  o.threads = 1;
+  const Dataset f = generate_dataset({"imu"}, {&s}, policy, {}, o);
+  EXPECT_EQ(e.X, f.X);
+  EXPECT_NE(e.X, d.X);
+}
+
+}  // namespace
+}  // namespace imukit::augment
