@@ -598,7 +598,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
                            o.segment_prior * ell0[static_cast<std::size_t>(s)]});
       cf->AddParameterBlock(S);
       cf->SetNumResiduals(1);
-      problem.AddResidualBlock(cf, nullptr, {p.ell.data()});
+      problem.AddResidualBlock(cf, nullptr, std::vector<double*>{p.ell.data()});
     }
   }
   std::vector<bool> is_free = free;
