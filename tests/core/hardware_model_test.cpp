@@ -10,6 +10,7 @@
 #include "core/error.hpp"
 #include "core/imu_series.hpp"
 #include "core/rng.hpp"
+#include "tests/support/allan_reference.hpp"
 #include "tests/support/example_models.hpp"
 
 namespace imukit {
@@ -43,25 +44,6 @@ std::vector<double> row(const Eigen::Matrix3Xd& m, int axis) {
   std::vector<double> out(static_cast<std::size_t>(m.cols()));
   for (Eigen::Index i = 0; i < m.cols(); ++i) out[static_cast<std::size_t>(i)] = m(axis, i);
   return out;
-}
-
-// Overlapping Allan variance straight from its definition: averages of m samples, each
-// computed on its own (O(N m)), half the mean squared difference of averages m apart.
-double naive_overlapping_avar(const std::vector<double>& y, std::size_t m) {
-  const std::size_t n = y.size();
-  std::vector<double> mean(n - m + 1);
-  for (std::size_t k = 0; k + m <= n; ++k) {
-    double s = 0.0;
-    for (std::size_t i = 0; i < m; ++i) s += y[k + i];
-    mean[k] = s / static_cast<double>(m);
-  }
-  double sum = 0.0;
-  const std::size_t terms = n - 2 * m + 1;
-  for (std::size_t k = 0; k < terms; ++k) {
-    const double d = mean[k + m] - mean[k];
-    sum += d * d;
-  }
-  return sum / (2.0 * static_cast<double>(terms));
 }
 
 Eigen::Matrix3Xd random_signal(std::size_t n, uint64_t seed, double amplitude) {
@@ -313,7 +295,7 @@ TEST(GaussMarkovBank, GeneratedSeriesHasTheAnalyticAllanDeviation) {
   for (const std::size_t mm :
        {std::size_t{10}, std::size_t{32}, std::size_t{100}, std::size_t{316}}) {
     double avar = 0.0;
-    for (const auto& axis : axes) avar += naive_overlapping_avar(axis, mm) / 3.0;
+    for (const auto& axis : axes) avar += testing::naive_avar(axis, int64_t(mm)) / 3.0;
     const double expected = bank.allan_variance_discrete(1.0 / rate, static_cast<int64_t>(mm));
     // Equivalent degrees of freedom of the overlapping estimator for flicker FM, m >= 2
     // (NIST SP 1065, Table 5): 5 N^2 / (4 m (N + 3 m)); three independent axes triple it.

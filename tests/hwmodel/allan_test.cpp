@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "core/rng.hpp"
+#include "tests/support/allan_reference.hpp"
 
 namespace imukit::hwmodel {
 namespace {
@@ -18,34 +19,8 @@ std::vector<TimeNs> uniform_times(int64_t n, double rate_hz) {
   return t;
 }
 
-// Textbook definitions in terms of the rate samples, computed the slow way: the mean of the
-// squared weighted combinations of consecutive m-sample averages, over their sum of squared
-// weights. Allan: weights (-1, 1), normalised by 2; Hadamard: (1, -2, 1), by 6.
-double naive_difference_var(const std::vector<double>& y, int64_t m,
-                            const std::vector<double>& weights) {
-  const auto n = int64_t(y.size());
-  auto avg = [&](int64_t k) {
-    double s = 0;
-    for (int64_t i = k; i < k + m; ++i) s += y[size_t(i)];
-    return s / double(m);
-  };
-  double norm = 0;
-  for (double w : weights) norm += w * w;
-  double sum = 0;
-  const int64_t terms = n - int64_t(weights.size()) * m + 1;
-  for (int64_t k = 0; k < terms; ++k) {
-    double d = 0;
-    for (size_t i = 0; i < weights.size(); ++i) d += weights[i] * avg(k + int64_t(i) * m);
-    sum += d * d;
-  }
-  return sum / (norm * double(terms));
-}
-double naive_avar(const std::vector<double>& y, int64_t m) {
-  return naive_difference_var(y, m, {-1.0, 1.0});
-}
-double naive_hvar(const std::vector<double>& y, int64_t m) {
-  return naive_difference_var(y, m, {1.0, -2.0, 1.0});
-}
+using testing::naive_avar;
+using testing::naive_hvar;
 
 // Modified Allan variance, NIST SP 1065 eq. (15) written with frequency data:
 // 1/(2 m^4 (n - 3m + 2)) sum_j [ sum_{i=j}^{j+m-1} sum_{k=i}^{i+m-1} (y_{k+m} - y_k) ]^2.
