@@ -495,6 +495,35 @@ result does not depend on the thread count.)doc")
           py::arg("sub"), py::arg("starts"), py::arg("rng"), py::kw_only(),
           py::arg("policy") = nullptr, py::arg("out") = py::none(), py::arg("threads") = 0);
 
+  // The same work as Augmenter.apply / stda(out=x), looped and timed in C++ (no Python between
+  // calls): the baseline of the call-overhead benchmark.
+  py::module_ bench =
+      m.def_submodule("_bench", "C++-side timing loops for python/bench/overhead.py");
+  bench.def(
+      "ppda_seconds", [](AugmenterHandle& h, const Policy& policy, std::size_t k,
+                         py::handle starts_obj, uint64_t seed, unsigned threads, int repeats) {
+        const auto starts_arr = read_times(starts_obj, "starts");
+        const std::span<const int64_t> starts(starts_arr.data(),
+                                              static_cast<std::size_t>(starts_arr.size()));
+        std::vector<float> out(starts.size() * h.augmenter->window() * h.augmenter->channels());
+        return time_calls(repeats, [&] {
+          Rng rng(seed);
+          const std::lock_guard<std::mutex> lock(h.mutex);
+          h.augmenter->apply(policy, k, starts, rng, out, threads);
+        });
+      });
+  bench.def("stda_seconds", [](py::array x, const StdaSpec& spec, uint64_t seed, int repeats) {
+    require_writable_batch(x, "x");
+    if (!is_f32(x)) throw py::type_error("x: float32 expected");
+    const BatchShape shape = batch_shape(x, "x");
+    const ChannelLayout layout = layout_argument(py::none(), shape.channels);
+    const std::span<float> data(static_cast<float*>(x.mutable_data()), shape.size());
+    return time_calls(repeats, [&] {
+      Rng rng(seed);
+      augment::apply_stda(spec, layout, data, shape, rng);
+    });
+  });
+
   m.def(
       "window_starts",
       [](std::size_t samples, std::size_t window, std::size_t stride) {
