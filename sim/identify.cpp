@@ -86,7 +86,23 @@ class KinematicsEvaluator {
     raw(t0, value);
     raw(tm, km);
     raw(tp, kp);
-    rate = (kp - km) / (2e-9 * static_cast<double>(kTimeStepNs));
+    const double h = 1e-9 * static_cast<double>(kTimeStepNs);
+    rate = (kp - km) / (2.0 * h);
+    // Each frame interval has its own cubic: the rate-level terms (w, and the velocity behind
+    // f) jump by O(h_frame^3) at a frame. A central difference straddling a frame would turn
+    // that jump into a spike, so within h of a frame the difference is one-sided, inside the
+    // sample's own interval (exact for the translation's jerk there too).
+    const double mrate = motion_.rate_hz();
+    for (std::size_t i = 0; i < n; ++i) {
+      const double x = static_cast<double>(t0[i]) * 1e-9 * mrate;
+      const double into = (x - std::floor(x)) / mrate;  // s since the frame before
+      const auto c = static_cast<Eigen::Index>(i);
+      if (into < h) {
+        rate.col(c) = (kp.col(c) - value.col(c)) / h;
+      } else if (1.0 / mrate - into < h) {
+        rate.col(c) = (value.col(c) - km.col(c)) / h;
+      }
+    }
     // The sub-nanosecond remainder, to first order, so the kinematics are smooth in tau.
     for (std::size_t i = 0; i < n; ++i) {
       const double frac = tau_s[i] - static_cast<double>(t0[i]) * 1e-9;
