@@ -9,7 +9,8 @@
 namespace imukit::capture {
 namespace {
 
-constexpr std::string_view kEventSchema = R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
+constexpr std::string_view kEventSchema =
+    R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
 constexpr std::string_view kImuPrefix = "/imu/";
 
 }  // namespace
@@ -21,10 +22,11 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
   McapMetadataMap meta(recording.metadata.begin(), recording.metadata.end());
   writer.write_metadata("imukit.recording", meta);
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
+  uint16_t mag_schema = 0;  // added with the first stream that has a magnetometer
   for (const auto& [name, series] : recording.streams) {
     if (!series.has_accel() || !series.has_gyro()) {
-      throw Error(fmt::format("{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu",
-                              path, name));
+      throw Error(fmt::format(
+          "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
     }
     const uint16_t channel = writer.add_channel(imu_schema, std::string(kImuPrefix) + name, "cdr");
     ImuMessage m;
@@ -44,6 +46,24 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
       }
       const uint64_t t = static_cast<uint64_t>(series.t[i]);
       writer.write_message(channel, t, t, encode_cdr(m));
+    }
+    if (series.has_mag()) {
+      // The magnetometer beside it, /imu/<name>/mag, one message per sample.
+      if (mag_schema == 0)
+        mag_schema =
+            writer.add_schema(kMagneticFieldSchemaName, "ros2msg", kMagneticFieldSchemaText);
+      const uint16_t mag_channel =
+          writer.add_channel(mag_schema, std::string(kImuPrefix) + name + "/mag", "cdr");
+      MagneticFieldMessage f;
+      f.frame_id = name;
+      for (std::size_t i = 0; i < series.size(); ++i) {
+        const auto c = static_cast<Eigen::Index>(i);
+        f.stamp = series.t[i];
+        for (int k = 0; k < 3; ++k)
+          f.magnetic_field[static_cast<std::size_t>(k)] = series.mag(k, c);
+        const uint64_t t = static_cast<uint64_t>(series.t[i]);
+        writer.write_message(mag_channel, t, t, encode_cdr(f));
+      }
     }
   }
   if (!recording.events.empty()) {
@@ -65,21 +85,34 @@ RecordingRead read_recording_mcap(const std::string& path) {
   std::map<uint16_t, std::string> imu_channels;  // channel -> stream name
   std::map<uint16_t, bool> event_channels;
   std::map<std::string, std::vector<ImuMessage>> samples;
+  std::map<uint16_t, std::string> mag_channels;  // channel -> stream name
+  std::map<std::string, std::vector<MagneticFieldMessage>> mag_samples;
   McapHandlers handlers;
   handlers.on_schema = [&](const McapSchema& s) { schema_names[s.id] = s.name; };
   handlers.on_channel = [&](const McapChannel& c) {
     const auto schema = schema_names.find(c.schema_id);
     const bool imu = schema != schema_names.end() && schema->second == kImuSchemaName;
     if (imu && c.message_encoding == "cdr") {
-      imu_channels[c.id] = c.topic.rfind(kImuPrefix, 0) == 0 ? c.topic.substr(kImuPrefix.size()) : c.topic;
+      imu_channels[c.id] =
+          c.topic.rfind(kImuPrefix, 0) == 0 ? c.topic.substr(kImuPrefix.size()) : c.topic;
     } else if (c.topic == "/events" && c.message_encoding == "json") {
       event_channels[c.id] = true;
+    } else if (schema != schema_names.end() && schema->second == kMagneticFieldSchemaName &&
+               c.message_encoding == "cdr" && c.topic.rfind(kImuPrefix, 0) == 0 &&
+               c.topic.size() > kImuPrefix.size() + 4 &&
+               c.topic.compare(c.topic.size() - 4, 4, "/mag") == 0) {
+      // /imu/<name>/mag: the magnetometer of stream <name>.
+      mag_channels[c.id] =
+          c.topic.substr(kImuPrefix.size(), c.topic.size() - kImuPrefix.size() - 4);
     }
   };
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = imu_channels.find(m.channel_id); it != imu_channels.end()) {
-      samples[it->second].push_back(
-          decode_imu_cdr(m.data, fmt::format("{}: message {} of {}", path, m.sequence, it->second)));
+      samples[it->second].push_back(decode_imu_cdr(
+          m.data, fmt::format("{}: message {} of {}", path, m.sequence, it->second)));
+    } else if (const auto mt = mag_channels.find(m.channel_id); mt != mag_channels.end()) {
+      mag_samples[mt->second].push_back(decode_magnetic_field_cdr(
+          m.data, fmt::format("{}: message {} of {}/mag", path, m.sequence, mt->second)));
     } else if (event_channels.count(m.channel_id)) {
       const auto json = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
       if (json.is_discarded() || !json.is_object()) {
@@ -89,7 +122,8 @@ RecordingRead read_recording_mcap(const std::string& path) {
         const auto it = json.find(key);
         return it != json.end() && it->is_string() ? it->get<std::string>() : std::string();
       };
-      out.recording.events.push_back({static_cast<TimeNs>(m.log_time), text("kind"), text("label")});
+      out.recording.events.push_back(
+          {static_cast<TimeNs>(m.log_time), text("kind"), text("label")});
     }
   };
   out.summary = read_mcap(path, handlers);
@@ -101,7 +135,25 @@ RecordingRead read_recording_mcap(const std::string& path) {
     }
   }
   for (auto& [name, messages] : samples) {
-    ImuSeries s = ImuSeries::with_channels(messages.size(), true, true);
+    const auto mag = mag_samples.find(name);
+    ImuSeries s = ImuSeries::with_channels(messages.size(), true, true, mag != mag_samples.end());
+    if (mag != mag_samples.end()) {
+      // One field per Imu sample, at the same stamps (how write_recording_mcap and simulate
+      // write them); anything else cannot be one series.
+      const std::vector<MagneticFieldMessage>& f = mag->second;
+      bool same = f.size() == messages.size();
+      for (std::size_t i = 0; same && i < f.size(); ++i) same = f[i].stamp == messages[i].stamp;
+      if (!same) {
+        throw Error(
+            fmt::format("{}: /imu/{}/mag does not have one message per /imu/{} sample at "
+                        "the same stamps",
+                        path, name, name));
+      }
+      for (std::size_t i = 0; i < f.size(); ++i) {
+        for (int k = 0; k < 3; ++k)
+          s.mag(k, static_cast<Eigen::Index>(i)) = f[i].magnetic_field[static_cast<std::size_t>(k)];
+      }
+    }
     for (std::size_t i = 0; i < messages.size(); ++i) {
       const auto c = static_cast<Eigen::Index>(i);
       s.t[i] = messages[i].stamp;

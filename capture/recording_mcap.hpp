@@ -1,6 +1,8 @@
 // A core Recording as an MCAP file, in the layout of DESIGN.md, and back:
 // - each stream `name` on topic /imu/<name> as ROS 2 sensor_msgs/msg/Imu (ros2msg + cdr),
 //   log_time = sample time, covariances from the stream's noise where known (else "unknown");
+//   a stream with a magnetometer also on /imu/<name>/mag as sensor_msgs/msg/MagneticField (T),
+//   one message per sample at the same stamps;
 // - events on /events as JSON messages {"kind": ..., "label": ...} (schema imukit_msgs/Event,
 //   jsonschema), log_time = event time;
 // - recording metadata in one MCAP Metadata record named "imukit.recording".
@@ -30,7 +32,9 @@ struct RecordingRead {
   McapReadSummary summary;  // complete == false with a note when the file was cut short
 };
 
-// Reads the sensor_msgs/Imu channels (streams named after their topic without "/imu/"), the
+// Reads the sensor_msgs/Imu channels (streams named after their topic without "/imu/"), their
+// /imu/<name>/mag MagneticField channels into the streams' mag (an error unless one message per
+// sample at the same stamps), the
 // /events channel and the metadata (keys of records other than "imukit.recording" are prefixed
 // with the record's name, e.g. "imukit.session.mock.samples_dropped"); other channels are
 // ignored.

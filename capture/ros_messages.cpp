@@ -51,6 +51,25 @@ const std::string_view kRawImuSchemaText =
     "int32 sec\n"
     "uint32 nanosec\n";
 
+const std::string_view kMagneticFieldSchemaName = "sensor_msgs/msg/MagneticField";
+const std::string_view kMagneticFieldSchemaText =
+    "std_msgs/Header header\n"
+    "geometry_msgs/Vector3 magnetic_field\n"
+    "float64[9] magnetic_field_covariance\n"
+    "================================================================================\n"
+    "MSG: std_msgs/Header\n"
+    "builtin_interfaces/Time stamp\n"
+    "string frame_id\n"
+    "================================================================================\n"
+    "MSG: builtin_interfaces/Time\n"
+    "int32 sec\n"
+    "uint32 nanosec\n"
+    "================================================================================\n"
+    "MSG: geometry_msgs/Vector3\n"
+    "float64 x\n"
+    "float64 y\n"
+    "float64 z\n";
+
 namespace {
 
 // CDR aligns each primitive to its own size, counted from the end of the 4-byte encapsulation
@@ -59,10 +78,9 @@ constexpr std::size_t kOrigin = 4;
 
 class CdrWriter {
  public:
-  CdrWriter() : w_(out_) {
-    const uint8_t header[4] = {0x00, 0x01, 0x00, 0x00};  // CDR_LE, no options
-    w_.bytes(header);
-  }
+  // The encapsulation header (CDR_LE, no options) as the vector's initial contents: appending it
+  // to an empty vector tripped gcc 12's -Wstringop-overflow (a false positive).
+  CdrWriter() : out_{0x00, 0x01, 0x00, 0x00}, w_(out_) {}
   void align(std::size_t n) {
     while ((out_.size() - kOrigin) % n != 0) w_.u8(0);
   }
@@ -77,10 +95,22 @@ class CdrWriter {
     i32(static_cast<int32_t>(sec));
     u32(static_cast<uint32_t>(nsec));
   }
-  void i32(int32_t v) { align(4); w_.i32(v); }
-  void u32(uint32_t v) { align(4); w_.u32(v); }
-  void u64(uint64_t v) { align(8); w_.u64(v); }
-  void f64(double v) { align(8); w_.f64(v); }
+  void i32(int32_t v) {
+    align(4);
+    w_.i32(v);
+  }
+  void u32(uint32_t v) {
+    align(4);
+    w_.u32(v);
+  }
+  void u64(uint64_t v) {
+    align(8);
+    w_.u64(v);
+  }
+  void f64(double v) {
+    align(8);
+    w_.f64(v);
+  }
   void u8(uint8_t v) { w_.u8(v); }
   void string(const std::string& s) {
     u32(static_cast<uint32_t>(s.size() + 1));
@@ -108,10 +138,22 @@ class CdrReader {
     if (nsec >= kNsPerSecond) r_.fail("nanosec field is 1e9 or more");
     return sec * kNsPerSecond + nsec;
   }
-  int32_t i32() { r_.align(4, kOrigin); return r_.i32(); }
-  uint32_t u32() { r_.align(4, kOrigin); return r_.u32(); }
-  uint64_t u64() { r_.align(8, kOrigin); return r_.u64(); }
-  double f64() { r_.align(8, kOrigin); return r_.f64(); }
+  int32_t i32() {
+    r_.align(4, kOrigin);
+    return r_.i32();
+  }
+  uint32_t u32() {
+    r_.align(4, kOrigin);
+    return r_.u32();
+  }
+  uint64_t u64() {
+    r_.align(8, kOrigin);
+    return r_.u64();
+  }
+  double f64() {
+    r_.align(8, kOrigin);
+    return r_.f64();
+  }
   uint8_t u8() { return r_.u8(); }
   std::string string() {
     const uint32_t n = u32();
@@ -159,6 +201,15 @@ std::vector<uint8_t> encode_cdr(const RawImuMessage& m) {
   return w.take();
 }
 
+std::vector<uint8_t> encode_cdr(const MagneticFieldMessage& m) {
+  CdrWriter w;
+  w.time(m.stamp);
+  w.string(m.frame_id);
+  for (double v : m.magnetic_field) w.f64(v);
+  for (double v : m.magnetic_field_covariance) w.f64(v);
+  return w.take();
+}
+
 ImuMessage decode_imu_cdr(std::span<const uint8_t> data, const std::string& source) {
   CdrReader r(data, source);
   ImuMessage m;
@@ -187,6 +238,18 @@ RawImuMessage decode_raw_imu_cdr(std::span<const uint8_t> data, const std::strin
   for (int32_t& v : m.mag) v = r.i32();
   m.temperature = r.i32();
   m.channels = r.u8();
+  r.finish();
+  return m;
+}
+
+MagneticFieldMessage decode_magnetic_field_cdr(std::span<const uint8_t> data,
+                                               const std::string& source) {
+  CdrReader r(data, source);
+  MagneticFieldMessage m;
+  m.stamp = r.time();
+  m.frame_id = r.string();
+  for (double& v : m.magnetic_field) v = r.f64();
+  for (double& v : m.magnetic_field_covariance) v = r.f64();
   r.finish();
   return m;
 }

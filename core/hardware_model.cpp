@@ -143,6 +143,20 @@ void validate_hardware_model(const HardwareModel& model, const SensorRates& rate
   validate_triad(model.magnetometer, "magnetometer", rates.magnetometer_hz);
   check_finite(model.magnetometer.hard_iron, "magnetometer.hard_iron");
   check_finite(model.magnetometer.soft_iron, "magnetometer.soft_iron");
+  // The clock: a crystal is off by tens of ppm; 1 % is a broken device, not a clock error. Jitter
+  // above a tenth of the period would reorder samples (the simulator clips draws at 0.45 periods).
+  if (!(std::abs(model.clock.error_ppm) <= 1e4))
+    fail(fmt::format("clock.error_ppm is {}, expected a finite number within +-1e4 ppm",
+                     model.clock.error_ppm));
+  const double fastest =
+      std::max({rates.accelerometer_hz, rates.gyroscope_hz, rates.magnetometer_hz});
+  if (!(model.clock.jitter_s >= 0.0 && std::isfinite(model.clock.jitter_s)) ||
+      (fastest > 0.0 && model.clock.jitter_s > 0.1 / fastest)) {
+    fail(
+        fmt::format("clock.jitter_s is {} s, expected >= 0 and at most a tenth of the sample "
+                    "period",
+                    model.clock.jitter_s));
+  }
 }
 
 bool is_ideal(const TriadModel& t) {

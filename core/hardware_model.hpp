@@ -65,10 +65,22 @@ struct MagnetometerModel : TriadModel {
   Eigen::Matrix3d signal_matrix() const { return TriadModel::signal_matrix() * soft_iron; }
 };
 
+// The device's sample clock (used by the simulator, which decides when samples are taken;
+// ImuErrorGenerator ignores it): the device believes it samples at the nominal rate f, but its
+// clock runs (1 + error_ppm 1e-6) times as fast as true time, so sample k is taken at true time
+// k / (f (1 + error_ppm 1e-6)) plus a white timing jitter of 1-sigma jitter_s, while the device
+// stamps it k / f.
+struct ClockModel {
+  double error_ppm = 0.0;  // frequency error of the device clock, ppm (+ = runs fast)
+  double jitter_s = 0.0;   // 1-sigma jitter of each sample instant, s
+  bool ideal() const { return error_ppm == 0.0 && jitter_s == 0.0; }
+};
+
 struct HardwareModel {
   TriadModel accelerometer;        // m/s^2
   GyroscopeModel gyroscope;        // rad/s
   MagnetometerModel magnetometer;  // T
+  ClockModel clock;
 };
 
 // Which rate each triad's generator runs at (Hz). The gyroscope's g-sensitivity needs the true
@@ -80,7 +92,8 @@ struct SensorRates {
 };
 
 // Throws imukit::Error naming the offending field (e.g. "gyroscope.noise_density[2]") for
-// non-finite or negative parameters, a misalignment without unit diagonal, a bias-instability
+// non-finite or negative parameters (a clock error beyond +-1e4 ppm or a jitter above a tenth of
+// the fastest rate's period included), a misalignment without unit diagonal, a bias-instability
 // band that is empty, wider than 6 decades, reaching past 1e9 s or (with B > 0) starting under
 // 5 samples, or a bandwidth at or above the Nyquist frequency of the rate the generator will
 // run at.

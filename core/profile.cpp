@@ -483,6 +483,13 @@ DeviceProfile Reader::profile(const Json& root) const {
     p.device = std::move(info);
   }
   p.gravity = optional_number(root, "", "gravity", Sign::kPositive);
+  if (const Json* c = member(root, "clock")) {
+    expect_object(*c, "clock");
+    ClockProfile clock;
+    clock.error_ppm = optional_number(*c, "clock", "error_ppm", Sign::kAny);
+    clock.jitter_s = optional_number(*c, "clock", "jitter_s", Sign::kNonNegative);
+    p.clock = clock;
+  }
   if (const Json* s = member(root, "accelerometer")) {
     p.accelerometer.emplace();
     sensor(*s, "accelerometer", *p.accelerometer);
@@ -591,6 +598,12 @@ Json profile_json(const DeviceProfile& p) {
                           {"name", p.device->name}};
   }
   if (p.gravity) root["gravity"] = *p.gravity;
+  if (p.clock) {
+    Json c = Json::object();
+    if (p.clock->error_ppm) c["error_ppm"] = *p.clock->error_ppm;
+    if (p.clock->jitter_s) c["jitter_s"] = *p.clock->jitter_s;
+    root["clock"] = std::move(c);
+  }
   if (p.accelerometer) root["accelerometer"] = sensor_json(*p.accelerometer);
   if (p.gyroscope) {
     Json j = sensor_json(*p.gyroscope);
@@ -766,6 +779,7 @@ void write_profile(const std::string& path, const DeviceProfile& profile) {
 DeviceProfile merge_profile(DeviceProfile base, const DeviceProfile& update) {
   take(base.device, update.device);
   take(base.gravity, update.gravity);
+  take(base.clock, update.clock);
   if (update.accelerometer) {
     if (!base.accelerometer) base.accelerometer.emplace();
     merge_sensor(*base.accelerometer, *update.accelerometer);
@@ -794,7 +808,7 @@ std::string merge_profile_text(std::string_view existing_text, const std::string
   // Our unit names replace theirs (the reader has checked they agree); unknown ones stay.
   Json& units = root["units"];
   for (const auto& [key, unit] : patch.at("units").items()) units[key] = unit;
-  for (const char* key : {"device", "gravity"}) {
+  for (const char* key : {"device", "gravity", "clock"}) {
     if (patch.contains(key)) root[key] = patch.at(key);
   }
   for (const char* sensor : kSensorNames) {
@@ -831,6 +845,10 @@ HardwareModel to_hardware_model(const DeviceProfile& profile) {
       model.magnetometer.hard_iron = *profile.magnetometer->hard_iron;
     if (profile.magnetometer->soft_iron)
       model.magnetometer.soft_iron = *profile.magnetometer->soft_iron;
+  }
+  if (profile.clock) {
+    model.clock.error_ppm = profile.clock->error_ppm.value_or(0.0);
+    model.clock.jitter_s = profile.clock->jitter_s.value_or(0.0);
   }
   return model;
 }

@@ -104,9 +104,17 @@ struct MagnetometerProfile : SensorProfile {
   bool operator==(const MagnetometerProfile&) const = default;
 };
 
+// The device's sample clock (HardwareModel's ClockModel): "clock": {"error_ppm": e, "jitter_s": j}.
+struct ClockProfile {
+  std::optional<double> error_ppm;  // frequency error, ppm (+ = the device clock runs fast)
+  std::optional<double> jitter_s;   // 1-sigma sample-time jitter, s
+  bool operator==(const ClockProfile&) const = default;
+};
+
 struct DeviceProfile {
   std::optional<DeviceInfo> device;
   std::optional<double> gravity;  // m/s^2, the value the measurements assumed
+  std::optional<ClockProfile> clock;
   std::optional<SensorProfile> accelerometer;
   std::optional<GyroscopeProfile> gyroscope;
   std::optional<MagnetometerProfile> magnetometer;
@@ -126,7 +134,7 @@ std::string format_profile(const DeviceProfile& profile);
 void write_profile(const std::string& path, const DeviceProfile& profile);
 
 // The sections present in `update` replace those of `base`; the others stay. Sections are:
-// device, gravity, and per sensor noise, turn_on_bias, calibration, limits, g_sensitivity
+// device, gravity, clock, and per sensor noise, turn_on_bias, calibration, limits, g_sensitivity
 // (gyroscope), hard_iron and soft_iron (magnetometer).
 DeviceProfile merge_profile(DeviceProfile base, const DeviceProfile& update);
 // The same on text: keeps everything of `existing_text` that `update` does not replace, keys
@@ -139,7 +147,8 @@ void update_profile(const std::string& path, const DeviceProfile& update);
 // The HardwareModel a profile describes. Per sensor: noise densities, bias instability (and its
 // band when given), random walk; turn-on bias mean and spread, or, without a turn_on_bias
 // section, the calibration's bias with spread 0; calibration scale and misalignment; range,
-// resolution, bandwidth and rate from limits; g-sensitivity, hard and soft iron. Absent fields
+// resolution, bandwidth and rate from limits; g-sensitivity, hard and soft iron; the clock's
+// error and jitter. Absent fields
 // keep the ideal defaults. Throws imukit::Error for a calibration of raw counts (an SI model
 // cannot reproduce counts).
 HardwareModel to_hardware_model(const DeviceProfile& profile);

@@ -72,6 +72,12 @@ class Motion : public MotionSource {
   const Eigen::Quaterniond& rotation(int64_t frame, std::size_t joint) const {
     return rotations_[joint * static_cast<std::size_t>(frames_) + static_cast<std::size_t>(frame)];
   }
+  // The samples in place (joint's rotations for frames 0.., translations x, y, z per frame), for
+  // readers that need no copy (the simulator's grid methods).
+  const Eigen::Quaterniond* rotation_data(std::size_t joint) const {
+    return rotations_.data() + joint * static_cast<std::size_t>(frames_);
+  }
+  const double* translation_data() const { return translation_.data(); }
   Eigen::Ref<Eigen::Vector3d> root_translation(int64_t frame) { return translation_.col(frame); }
   Eigen::Vector3d root_translation(int64_t frame) const { return translation_.col(frame); }
 

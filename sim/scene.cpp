@@ -1,5 +1,6 @@
 #include "sim/scene.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <exception>
@@ -221,7 +222,8 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
   // Simulation settings.
   if (root.contains("simulation")) {
     const json& s = root["simulation"];
-    only_keys(s, {"method", "rate_hz", "gravity", "seed", "chunk_frames"}, source, "simulation");
+    only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"}, source,
+              "simulation");
     if (s.contains("method")) {
       try {
         scene.options.method =
@@ -237,6 +239,15 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     }
     if (s.contains("gravity"))
       scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+    if (s.contains("magnetic_field")) {
+      scene.options.magnetic_field_world =
+          vec3(s["magnetic_field"], source, "simulation.magnetic_field");
+      // Tesla, not microtesla or gauss: the Earth's field is 25-65 uT; 1e-2 T is a strong magnet.
+      if (!(scene.options.magnetic_field_world.norm() <= 1e-2))
+        fail(source, "simulation.magnetic_field",
+             "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
+                 std::to_string(scene.options.magnetic_field_world.norm()) + " T");
+    }
     if (s.contains("seed")) {
       const double seed = number(s["seed"], source, "simulation.seed");
       if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
@@ -312,9 +323,11 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
           s.spec.outputs.gyroscope = true;
         else if (n == "orientation")
           s.spec.outputs.orientation = true;
+        else if (n == "magnetometer")
+          s.spec.outputs.magnetometer = true;
         else
           fail(source, path + ".outputs",
-               "unknown output '" + n + "' (accelerometer, gyroscope, orientation)");
+               "unknown output '" + n + "' (accelerometer, gyroscope, orientation, magnetometer)");
       }
     }
     if (js.contains("hardware")) {
@@ -355,23 +368,147 @@ namespace {
 void apply_hardware(ImuErrorGenerator& gen, SensorBlock& b) {
   if (b.angular_rate.cols() > 0) gen.apply_gyroscope(b.angular_rate, b.specific_force);
   if (b.specific_force.cols() > 0) gen.apply_accelerometer(b.specific_force);
+  if (b.magnetic_field.cols() > 0) gen.apply_magnetometer(b.magnetic_field);
+}
+
+// The first `frames` frames of a source, so the simulator sees the limit as the motion's end.
+struct LimitedMotion : MotionSource {
+  MotionSource& inner;
+  int64_t frames;
+  LimitedMotion(MotionSource& m, int64_t n) : inner(m), frames(n) {}
+  double rate_hz() const override { return inner.rate_hz(); }
+  std::size_t joint_count() const override { return inner.joint_count(); }
+  std::optional<int64_t> frame_count() const override { return frames; }
+  void read(int64_t first, int64_t n, std::span<const int> joints, MotionChunk& out) override {
+    inner.read(first, n, joints, out);
+  }
+};
+
+// The child stream (of the sensor's Rng(seed).child(s)) its clock's jitter draws from; the
+// hardware generator takes its one draw from the sensor's stream itself, so jitter leaves the
+// noise unchanged.
+constexpr uint64_t kJitterStream = 1;
+
+// Sensors sampled at the same instants: every sensor with an ideal clock, or one sensor with its
+// own clock. Sample k is taken at true time k / (rate (1 + ppm 1e-6)) + jitter_k (clipped to
+// +-0.45 periods so samples stay in order, and to the motion) and stamped k / rate.
+struct TimingGroup {
+  std::vector<std::size_t> sensors;  // scene indices
+  std::unique_ptr<Simulator> sim;
+  ClockModel clock;
+  double true_rate = 0.0;  // rate (1 + ppm 1e-6)
+  int64_t total = 0;       // samples inside the motion
+  int64_t next = 0;
+  std::optional<Rng> jitter;
+  std::optional<TimeNs> pending;  // true time of sample `next`, drawn but not yet used
+  TimeNs t_last = 0;              // true time of the last unjittered sample (clip bound)
+  TimeNs take_time() {
+    if (pending) return *pending;
+    TimeNs t = sample_time(0, next, true_rate);
+    if (jitter) {
+      const double limit = 0.45 / true_rate;
+      const double j = std::clamp(clock.jitter_s * jitter->normal(), -limit, limit);
+      t = std::clamp<TimeNs>(t + from_seconds(j), 0, t_last);
+    }
+    pending = t;
+    return t;
+  }
+};
+
+// Scenes where some sensor has a clock error or jitter: one simulator per timing group, stepped
+// through the motion chunk by chunk, so sinks still see every sensor's blocks in time order.
+void run_scene_clocked(Scene& scene, const SceneSink& sink, double rate, int64_t frames,
+                       std::vector<std::unique_ptr<ImuErrorGenerator>>& gens) {
+  const Rng base(scene.seed);
+  std::vector<TimingGroup> groups;
+  TimingGroup ideal;
+  for (std::size_t s = 0; s < scene.sensors.size(); ++s) {
+    const SceneSensor& ss = scene.sensors[s];
+    if (!ss.hardware || ss.hardware->clock.ideal()) {
+      ideal.sensors.push_back(s);
+      continue;
+    }
+    TimingGroup g;
+    g.sensors.push_back(s);
+    g.clock = ss.hardware->clock;
+    if (g.clock.jitter_s > 0.0) g.jitter = base.child(s).child(kJitterStream);
+    groups.push_back(std::move(g));
+  }
+  if (!ideal.sensors.empty()) groups.insert(groups.begin(), std::move(ideal));
+  LimitedMotion motion(*scene.motion, frames);
+  for (TimingGroup& g : groups) {
+    std::vector<SensorSpec> specs;
+    for (std::size_t s : g.sensors) specs.push_back(scene.sensors[s].spec);
+    g.sim = std::make_unique<Simulator>(scene.body, specs, scene.options);
+    g.true_rate = rate * (1.0 + g.clock.error_ppm * 1e-6);
+    g.total = g.sim->sample_count(motion, frames, g.true_rate);
+    g.t_last = sample_time(0, g.total - 1, g.true_rate);
+  }
+  const double motion_rate = motion.rate_hz();
+  std::vector<TimeNs> times;
+  std::vector<SensorBlock> blocks;
+  SensorBlock measured;
+  for (int64_t chunk_end = scene.options.chunk_frames;; chunk_end += scene.options.chunk_frames) {
+    bool more = false;
+    for (TimingGroup& g : groups) {
+      times.clear();
+      while (g.next < g.total) {
+        const TimeNs t = g.take_time();
+        if (Simulator::frame_at(t, motion_rate) >= chunk_end) break;
+        times.push_back(t);
+        g.pending.reset();
+        ++g.next;
+      }
+      more |= g.next < g.total;
+      if (times.empty()) continue;
+      g.sim->evaluate(motion, times, blocks);
+      const int64_t first = g.next - static_cast<int64_t>(times.size());
+      for (std::size_t b = 0; b < g.sensors.size(); ++b) {
+        const std::size_t s = g.sensors[b];
+        const SensorBlock& truth = blocks[b];
+        measured = truth;
+        // What the device reports: its own clock's reading at the sample, k / rate.
+        if (!g.clock.ideal()) {
+          for (std::size_t i = 0; i < measured.t.size(); ++i)
+            measured.t[i] = sample_time(0, first + static_cast<int64_t>(i), rate);
+        }
+        if (gens[s]) apply_hardware(*gens[s], measured);
+        sink(s, measured, scene.ground_truth ? &truth : nullptr);
+      }
+    }
+    if (!more) break;
+  }
 }
 
 }  // namespace
 
 void run_scene(Scene& scene, const SceneSink& sink) {
-  std::vector<SensorSpec> specs;
-  for (const SceneSensor& s : scene.sensors) specs.push_back(s.spec);
-  Simulator sim(scene.body, specs, scene.options);
   const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
   const Rng base(scene.seed);
   std::vector<std::unique_ptr<ImuErrorGenerator>> gens(scene.sensors.size());
+  bool clocked = false;
   for (std::size_t s = 0; s < scene.sensors.size(); ++s) {
     if (scene.sensors[s].hardware) {
       Rng r = base.child(s);
       gens[s] = std::make_unique<ImuErrorGenerator>(*scene.sensors[s].hardware, rate, r);
+      clocked |= !scene.sensors[s].hardware->clock.ideal();
     }
   }
+  if (clocked) {
+    require_simulatable(*scene.motion, "simulation");
+    const std::optional<int64_t> count = scene.motion->frame_count();
+    if (!count && !scene.frames)
+      throw Error("simulation: an endless motion source needs a frame limit");
+    int64_t frames = count.value_or(*scene.frames);
+    if (scene.frames) frames = std::min(frames, *scene.frames);
+    if (frames < 2)
+      throw Error("simulation: at least 2 frames are needed, got " + std::to_string(frames));
+    run_scene_clocked(scene, sink, rate, frames, gens);
+    return;
+  }
+  std::vector<SensorSpec> specs;
+  for (const SceneSensor& s : scene.sensors) specs.push_back(s.spec);
+  Simulator sim(scene.body, specs, scene.options);
   SensorBlock measured;
   sim.run(
       *scene.motion,
@@ -421,6 +558,7 @@ std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
           out[s].t = std::move(blocks[s].t);
           out[s].accel = std::move(blocks[s].specific_force);
           out[s].gyro = std::move(blocks[s].angular_rate);
+          out[s].mag = std::move(blocks[s].magnetic_field);
         }
         result[i] = std::move(out);
       } catch (...) {

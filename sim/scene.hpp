@@ -4,8 +4,8 @@
 // model, or simulate many variants over a thread pool.
 //
 // Randomness: sensor s's hardware errors draw from Rng(seed).child(s), so adding a sensor does
-// not change the others' noise; batch job i draws from Rng(seed).child(i) whatever the number of
-// threads.
+// not change the others' noise, and its clock jitter from Rng(seed).child(s).child(1); batch job
+// i draws from Rng(seed).child(i) whatever the number of threads.
 #pragma once
 
 #include <cstdint>
@@ -52,7 +52,10 @@ Scene read_scene(const std::string& path);
 
 // Streams the scene: for each chunk and sensor, sink(sensor, measured, truth) where truth is
 // the noiseless block (null unless ground_truth) and measured the block after the sensor's
-// hardware model (the truth itself for an ideal sensor). Memory stays constant.
+// hardware model (the truth itself for an ideal sensor). Memory stays constant. A sensor whose
+// hardware has a clock error or jitter (HardwareModel::clock) is sampled at its own true instants
+// k / (rate (1 + ppm 1e-6)) + jitter: `measured.t` holds what its device stamps (k / rate),
+// `truth->t` the true instants (docs/simulation.md, "Device clock and sample jitter").
 using SceneSink =
     std::function<void(std::size_t sensor, const SensorBlock& measured, const SensorBlock* truth)>;
 void run_scene(Scene& scene, const SceneSink& sink);
@@ -67,7 +70,8 @@ struct BatchJob {
 
 // Simulates every job on `threads` worker threads (0 = hardware concurrency) over `body`. Job i's
 // hardware noise comes from Rng(seed).child(i), so the result is the same for any thread count.
-// result[i][s] is job i's sensor s (accelerometer and gyroscope as requested).
+// result[i][s] is job i's sensor s (accelerometer, gyroscope and magnetometer as requested;
+// job clocks are ideal: batch jobs sample at the nominal rate).
 std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
                                                    const std::vector<BatchJob>& jobs, uint64_t seed,
                                                    unsigned threads = 0);

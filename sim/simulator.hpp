@@ -57,11 +57,16 @@ std::string_view to_string(DerivativeMethod method);
 DerivativeMethod parse_derivative_method(std::string_view name);
 
 inline const Eigen::Vector3d kStandardGravity(0.0, 0.0, -9.80665);
+// The default Earth magnetic field in the world frame (T): a mid-latitude northern-hemisphere
+// field, 20 uT horizontal along world +y (the subject faces magnetic north in the neutral pose)
+// and 44 uT down (|B| = 48.3 uT, inclination 65.6 deg). Scenes may set their own.
+inline const Eigen::Vector3d kDefaultEarthMagneticField(0.0, 20e-6, -44e-6);
 
 struct SensorOutputs {
   bool accelerometer = true;
   bool gyroscope = true;
-  bool orientation = false;  // q_world_sensor
+  bool orientation = false;   // q_world_sensor
+  bool magnetometer = false;  // R_world_sensor^T B_world
 };
 
 struct SensorSpec {
@@ -73,6 +78,7 @@ struct SensorSpec {
 struct SimulationOptions {
   DerivativeMethod method = DerivativeMethod::fd;
   Eigen::Vector3d gravity_world = kStandardGravity;
+  Eigen::Vector3d magnetic_field_world = kDefaultEarthMagneticField;  // T
   double rate_hz = 0.0;         // sensor sample rate; 0 = the motion's frame rate
   int64_t chunk_frames = 4096;  // motion frames per streamed chunk
 };
@@ -82,6 +88,7 @@ struct SensorBlock {
   std::vector<TimeNs> t;
   Eigen::Matrix3Xd specific_force;  // m/s^2, sensor frame
   Eigen::Matrix3Xd angular_rate;    // rad/s, sensor frame
+  Eigen::Matrix3Xd magnetic_field;  // T, sensor frame
   std::vector<Eigen::Quaterniond> q_world_sensor;
 };
 
@@ -92,7 +99,7 @@ struct SimulationPlan {
   std::vector<int> sensor_joint;  // per sensor, index into `joints`
   std::vector<char> needs_rate;   // per plan joint: carries a gyroscope (fd/reference)
   bool needs_position = false;    // some sensor has an accelerometer
-  bool needs_rotation = false;    // some sensor has a gyroscope or orientation
+  bool needs_rotation = false;    // some sensor has a gyroscope, orientation or magnetometer
 };
 
 SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sensors);
@@ -110,8 +117,12 @@ class Simulator {
 
   // Number of sensor samples a motion of `frames` frames gives (times 0 .. (frames-1)/rate).
   int64_t sample_count(const MotionSource& motion, int64_t frames) const;
+  // The same for samples k / rate_hz at any rate (a device clock's true sampling rate, say).
+  int64_t sample_count(const MotionSource& motion, int64_t frames, double rate_hz) const;
   // Sample n's time.
   TimeNs sample_time_ns(const MotionSource& motion, int64_t n) const;
+  // The motion frame at or before time t (ns since frame 0).
+  static int64_t frame_at(TimeNs t, double motion_rate_hz);
 
   // Values at the given times (ns since frame 0, increasing, inside the motion) for every
   // sensor: out[s] is resized. Reads only the frames the times need.

@@ -1,9 +1,11 @@
 #include "capture/ros_messages.hpp"
 
-#include <cstring>
 #include <gtest/gtest.h>
+#include <cstring>
 
+#include "capture/recording_mcap.hpp"
 #include "core/error.hpp"
+#include "tests/support/test_data.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -36,8 +38,8 @@ TEST(RosMessages, ImuCdrLayoutMatchesTheRos2Definition) {
   EXPECT_EQ(nsec, 250'000'000u);
   EXPECT_EQ(len, 4u);
   EXPECT_EQ(std::string(reinterpret_cast<const char*>(b.data() + 16)), "imu");
-  EXPECT_EQ(f64_at(b, 20 + 3 * 8), 1.0);        // orientation w
-  EXPECT_EQ(f64_at(b, 20 + 4 * 8), -1.0);       // orientation not provided
+  EXPECT_EQ(f64_at(b, 20 + 3 * 8), 1.0);            // orientation w
+  EXPECT_EQ(f64_at(b, 20 + 4 * 8), -1.0);           // orientation not provided
   EXPECT_EQ(f64_at(b, 20 + 13 * 8 + 1 * 8), -0.2);  // angular_velocity.y
   EXPECT_EQ(f64_at(b, 20 + 25 * 8 + 2 * 8), 9.81);  // linear_acceleration.z
   EXPECT_EQ(f64_at(b, 20 + 28 * 8), 1e-4);          // linear_acceleration_covariance[0]
@@ -82,6 +84,61 @@ TEST(RosMessages, RawImuRoundTrips) {
   EXPECT_EQ(back.gyro, m.gyro);
   EXPECT_EQ(back.temperature, 2500);
   EXPECT_EQ(back.channels, 0b1011);
+}
+
+TEST(RosMessages, MagneticFieldCdrLayoutMatchesTheRos2Definition) {
+  MagneticFieldMessage m;
+  m.stamp = 12'000'000'007;
+  m.frame_id = "mag";
+  m.magnetic_field = {2.1e-5, -3.5e-6, -4.4e-5};
+  m.magnetic_field_covariance[8] = 1e-14;
+  const std::vector<uint8_t> b = encode_cdr(m);
+  // 4 encapsulation + 8 time + 4 length + "mag\0" = 20 bytes (8-aligned after the header),
+  // then 3 + 9 float64.
+  ASSERT_EQ(b.size(), 20u + 12u * 8u);
+  EXPECT_EQ(f64_at(b, 20), 2.1e-5);
+  EXPECT_EQ(f64_at(b, 20 + 2 * 8), -4.4e-5);
+  EXPECT_EQ(f64_at(b, 20 + 11 * 8), 1e-14);
+  const MagneticFieldMessage back = decode_magnetic_field_cdr(b, "m");
+  EXPECT_EQ(back.stamp, m.stamp);
+  EXPECT_EQ(back.frame_id, "mag");
+  EXPECT_EQ(back.magnetic_field, m.magnetic_field);
+  EXPECT_EQ(back.magnetic_field_covariance, m.magnetic_field_covariance);
+  EXPECT_THROW(decode_magnetic_field_cdr(std::span(b).first(b.size() - 8), "m"), Error);
+}
+
+TEST(RosMessages, RecordingWithAMagnetometerRoundTripsThroughMcap) {
+  testing::TempDir dir;
+  const std::string path = (dir / "mag.mcap").string();
+  Recording rec;
+  ImuSeries s = ImuSeries::with_channels(50, true, true, true);
+  for (Eigen::Index i = 0; i < 50; ++i) {
+    s.t[static_cast<std::size_t>(i)] = 1'000'000'000 + i * 10'000'000;
+    s.accel.col(i) = Eigen::Vector3d(0.1 * static_cast<double>(i), 0.0, 9.81);
+    s.gyro.col(i) = Eigen::Vector3d(0.0, 0.01, -0.02 * static_cast<double>(i));
+    s.mag.col(i) = Eigen::Vector3d(2e-5 + 1e-9 * static_cast<double>(i), -1e-6, -4.4e-5);
+  }
+  rec.streams["watch"] = s;
+  rec.streams["plain"] = ImuSeries::with_channels(3, true, true);  // no magnetometer
+  for (std::size_t i = 0; i < 3; ++i) rec.streams["plain"].t[i] = static_cast<TimeNs>(i);
+  write_recording_mcap(path, rec);
+  const RecordingRead back = read_recording_mcap(path);
+  ASSERT_EQ(back.recording.streams.size(), 2u);  // /imu/watch/mag is not a stream of its own
+  const ImuSeries& w = back.recording.streams.at("watch");
+  ASSERT_TRUE(w.has_mag());
+  EXPECT_EQ(w.t, s.t);
+  EXPECT_EQ(w.mag, s.mag);
+  EXPECT_EQ(w.accel, s.accel);
+  EXPECT_FALSE(back.recording.streams.at("plain").has_mag());
+  int mag_channels = 0;
+  for (const McapChannel& c : back.summary.channels) {
+    if (c.topic == "/imu/watch/mag") ++mag_channels;
+  }
+  EXPECT_EQ(mag_channels, 1);
+  bool schema = false;
+  for (const McapSchema& sc : back.summary.schemas)
+    schema |= sc.name == "sensor_msgs/msg/MagneticField";
+  EXPECT_TRUE(schema);
 }
 
 TEST(RosMessages, MalformedCdrIsRejectedWithTheByte) {

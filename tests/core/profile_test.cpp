@@ -488,5 +488,49 @@ TEST(Profile, ToHardwareModelMapsTheNumbersExactly) {
   }
 }
 
+TEST(Profile, ClockSectionRoundTripsMergesAndReachesTheHardwareModel) {
+  const DeviceProfile p =
+      parse_profile(with_schema(R"("clock": {"error_ppm": -23.5, "jitter_s": 2e-6},
+                     "accelerometer": {"limits": {"rate": 100}})"),
+                    "clock.json");
+  ASSERT_TRUE(p.clock);
+  EXPECT_EQ(*p.clock->error_ppm, -23.5);
+  EXPECT_EQ(*p.clock->jitter_s, 2e-6);
+  EXPECT_TRUE(parse_profile(format_profile(p), "again") == p);
+  const HardwareModel m = to_hardware_model(p);
+  EXPECT_EQ(m.clock.error_ppm, -23.5);
+  EXPECT_EQ(m.clock.jitter_s, 2e-6);
+  EXPECT_FALSE(m.clock.ideal());
+  EXPECT_TRUE(to_hardware_model(DeviceProfile{}).clock.ideal());  // absent: a perfect clock
+  // The section is replaced as a whole by an update that has one, kept otherwise.
+  DeviceProfile update;
+  update.clock = ClockProfile{std::nullopt, 1e-5};
+  const DeviceProfile merged = merge_profile(p, update);
+  EXPECT_FALSE(merged.clock->error_ppm);
+  EXPECT_EQ(*merged.clock->jitter_s, 1e-5);
+  EXPECT_TRUE(merge_profile(p, DeviceProfile{}).clock == p.clock);
+  const std::string text = merge_profile_text(
+      R"({"schema": "imukit.profile/1", "clock": {"error_ppm": 5, "x_note": 1}})", "old.json",
+      update);
+  EXPECT_TRUE(parse_profile(text, "merged").clock == update.clock) << text;
+  // A negative jitter is an error naming the path; out-of-range values fail validation.
+  try {
+    parse_profile(with_schema(R"("clock": {"jitter_s": -1})"), "bad.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("clock.jitter_s"), std::string::npos) << e.what();
+  }
+  HardwareModel bad;
+  bad.clock.error_ppm = 2e4;
+  EXPECT_THROW(validate_hardware_model(bad, 100.0), Error);
+  bad.clock.error_ppm = std::nan("");
+  EXPECT_THROW(validate_hardware_model(bad, 100.0), Error);
+  bad.clock.error_ppm = 50.0;
+  bad.clock.jitter_s = 1.1e-3;  // above a tenth of the 10 ms period
+  EXPECT_THROW(validate_hardware_model(bad, 100.0), Error);
+  bad.clock.jitter_s = 0.9e-3;
+  EXPECT_NO_THROW(validate_hardware_model(bad, 100.0));
+}
+
 }  // namespace
 }  // namespace imukit

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.hpp"
@@ -132,6 +133,261 @@ TEST(Scene, BatchIsTheSameForAnyThreadCount) {
   }
   // Different jobs draw different noise (child streams), even with the same motion and placement.
   EXPECT_NE(one[1][0].accel, one[3][0].accel);
+}
+
+// --- device clock error and jitter ------------------------------------------------------------
+
+// One left-wrist sensor on the default humanoid over `seconds` of procedural motion at 100 Hz,
+// noiseless truth kept.
+Scene one_sensor_scene(double seconds, const HardwareModel& hw, SensorOutputs outputs,
+                       DerivativeMethod method = DerivativeMethod::fd) {
+  Scene s;
+  s.body = Body::default_humanoid();
+  ProceduralMotionOptions po;
+  po.frames = static_cast<int64_t>(std::lround(seconds * 100.0)) + 1;
+  po.seed = 5;
+  s.motion = std::make_shared<ProceduralMotion>(s.body.size(), po);
+  s.frames = po.frames;
+  s.options.method = method;
+  s.ground_truth = true;
+  s.seed = 11;
+  SceneSensor ss;
+  ss.spec.name = "w";
+  ss.spec.placement = resolve_preset(placement_preset("left_wrist_watch"), s.body);
+  ss.spec.outputs = outputs;
+  ss.hardware = hw;
+  s.sensors.push_back(ss);
+  return s;
+}
+
+// Everything a scene run handed to its sink, per sensor.
+struct Collected {
+  std::vector<TimeNs> t, t_true;
+  std::vector<Eigen::Vector3d> f, f_true, w, m, m_true;
+};
+
+std::vector<Collected> collect(Scene& scene) {
+  std::vector<Collected> out(scene.sensors.size());
+  run_scene(scene, [&](std::size_t s, const SensorBlock& b, const SensorBlock* truth) {
+    Collected& c = out[s];
+    EXPECT_EQ(truth != nullptr, scene.ground_truth);
+    for (std::size_t i = 0; i < b.t.size(); ++i) {
+      const auto k = static_cast<Eigen::Index>(i);
+      c.t.push_back(b.t[i]);
+      if (b.specific_force.cols() > 0) c.f.push_back(b.specific_force.col(k));
+      if (b.angular_rate.cols() > 0) c.w.push_back(b.angular_rate.col(k));
+      if (b.magnetic_field.cols() > 0) c.m.push_back(b.magnetic_field.col(k));
+      if (truth != nullptr) {
+        c.t_true.push_back(truth->t[i]);
+        if (truth->specific_force.cols() > 0) c.f_true.push_back(truth->specific_force.col(k));
+        if (truth->magnetic_field.cols() > 0) c.m_true.push_back(truth->magnetic_field.col(k));
+      }
+    }
+  });
+  return out;
+}
+
+TEST(SceneClock, ClockErrorGivesExactlyTheSampleCountAndTimesOfTheFormula) {
+  // +100 ppm over 1000 s at 100 Hz: the device clock runs fast, so it takes samples every
+  // 1 / (100 * 1.0001) s of true time: floor(1000 * 100 * 1.0001) + 1 = 100011 samples inside
+  // the motion instead of 100001, stamped k / 100 s by the device (the last one 1000.1 s).
+  // -100 ppm: floor(99990) + 1 = 99991.
+  for (const double ppm : {100.0, -100.0}) {
+    HardwareModel hw;
+    hw.clock.error_ppm = ppm;
+    Scene scene = one_sensor_scene(1000.0, hw, SensorOutputs{true, false, false, false});
+    const std::vector<Collected> c = collect(scene);
+    const double true_rate = 100.0 * (1.0 + ppm * 1e-6);
+    const auto expected = static_cast<std::size_t>(std::floor(1000.0 * true_rate + 1e-9)) + 1;
+    EXPECT_EQ(expected, ppm > 0 ? 100011u : 99991u);
+    ASSERT_EQ(c[0].t.size(), expected) << ppm;
+    ASSERT_EQ(c[0].t_true.size(), expected);
+    bool device_ok = true, true_ok = true;
+    for (std::size_t k = 0; k < expected; ++k) {
+      device_ok &= c[0].t[k] == static_cast<TimeNs>(k) * 10'000'000;
+      true_ok &= c[0].t_true[k] == sample_time(0, static_cast<int64_t>(k), true_rate);
+    }
+    EXPECT_TRUE(device_ok) << "device stamps are k / rate";
+    EXPECT_TRUE(true_ok) << "true times are k / (rate (1 + ppm 1e-6))";
+    EXPECT_LE(c[0].t_true.back(), 1000 * kNsPerSecond);
+    EXPECT_GT(sample_time(0, static_cast<int64_t>(expected), true_rate), 1000 * kNsPerSecond);
+    // After 1000 s the device's clock is ahead (behind) by 100 ppm: 0.1 s.
+    EXPECT_NEAR(to_seconds(c[0].t.back() - c[0].t_true.back()),
+                to_seconds(c[0].t_true.back()) * ppm * 1e-6, 1e-6);
+  }
+}
+
+TEST(SceneClock, JitterHasTheStatedSpreadKeepsOrderAndLeavesTheNoiseStreamAlone) {
+  HardwareModel hw;
+  hw.accelerometer.noise_density = Eigen::Vector3d::Constant(0.002);
+  hw.clock.jitter_s = 1e-4;  // 1 % of the 10 ms period
+  Scene jittered = one_sensor_scene(200.0, hw, SensorOutputs{true, false, false, false});
+  hw.clock.jitter_s = 0.0;
+  Scene plain = one_sensor_scene(200.0, hw, SensorOutputs{true, false, false, false});
+  const Collected j = collect(jittered)[0];
+  const Collected p = collect(plain)[0];
+  ASSERT_EQ(j.t.size(), 20001u);
+  ASSERT_EQ(p.t.size(), 20001u);
+  EXPECT_EQ(j.t, p.t);  // the device stamps its schedule, not the instant it really sampled
+  double sum = 0, sum_sq = 0;
+  bool increasing = true, bounded = true;
+  for (std::size_t k = 0; k < j.t.size(); ++k) {
+    const double r = static_cast<double>(j.t_true[k] - p.t_true[k]) * 1e-9;
+    sum += r;
+    sum_sq += r * r;
+    bounded &= std::abs(r) <= 0.45 / 100.0 + 1e-9;
+    if (k > 0) increasing &= j.t_true[k] > j.t_true[k - 1];
+  }
+  const double n = static_cast<double>(j.t.size());
+  const double mean = sum / n;
+  const double sd = std::sqrt(sum_sq / n - mean * mean);
+  // 20001 draws: the sample std is within 0.5 % (1 sigma) of 1e-4 s; 3 % is 6 sigma. The mean
+  // is within 1e-4 / sqrt(n) = 7e-7 s (1 sigma); 4e-6 s is 5.7 sigma.
+  EXPECT_NEAR(sd, 1e-4, 0.03e-4);
+  EXPECT_NEAR(mean, 0.0, 4e-6);
+  EXPECT_TRUE(increasing);
+  EXPECT_TRUE(bounded);
+  // The accelerometer noise is the same sequence with or without jitter (its own stream).
+  double worst = 0;
+  for (std::size_t k = 0; k < j.f.size(); ++k) {
+    worst =
+        std::max(worst, ((j.f[k] - j.f_true[k]) - (p.f[k] - p.f_true[k])).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-12);
+}
+
+TEST(SceneClock, JitteredSamplesAreTheMotionAtThoseInstants) {
+  HardwareModel hw;
+  hw.clock.jitter_s = 1e-3;  // the largest allowed at 100 Hz
+  hw.clock.error_ppm = 37.0;
+  Scene scene =
+      one_sensor_scene(5.0, hw, SensorOutputs{true, true, false, true}, DerivativeMethod::spline);
+  const Collected c = collect(scene)[0];
+  ASSERT_EQ(c.t_true.size(), 501u);
+  std::vector<SensorSpec> specs{scene.sensors[0].spec};
+  Simulator sim(scene.body, specs, scene.options);
+  std::vector<SensorBlock> direct;
+  sim.evaluate(*scene.motion, c.t_true, direct);
+  bool same = true;
+  for (std::size_t k = 0; k < c.t_true.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    same &= direct[0].specific_force.col(i) == c.f_true[k] &&
+            direct[0].magnetic_field.col(i) == c.m_true[k];
+  }
+  EXPECT_TRUE(same);
+}
+
+TEST(SceneClock, ZeroErrorAndJitterAreBitIdenticalAndOtherSensorsKeepTheirOutput) {
+  // A profile that spells out a perfect clock gives the output of one that does not mention it.
+  std::string with_clock = kScene;
+  const std::string key = "\"schema\": \"imukit.profile/1\",";
+  with_clock.replace(with_clock.find(key), key.size(),
+                     key + " \"clock\": {\"error_ppm\": 0, \"jitter_s\": 0},");
+  Scene a = parse_scene(kScene, "scene.json", "");
+  Scene b = parse_scene(with_clock, "scene.json", "");
+  ASSERT_TRUE(b.sensors[0].hardware->clock.ideal());
+  const auto ca = collect(a);
+  const auto cb = collect(b);
+  for (std::size_t s = 0; s < 2; ++s) {
+    EXPECT_EQ(ca[s].t, cb[s].t);
+    EXPECT_EQ(ca[s].f, cb[s].f);
+    EXPECT_EQ(ca[s].w, cb[s].w);
+  }
+  // A second sensor with a drifting clock leaves the first one's samples (noise included)
+  // bit for bit as they were.
+  Scene c = parse_scene(kScene, "scene.json", "");
+  HardwareModel drifting;
+  drifting.clock.error_ppm = 40.0;
+  drifting.clock.jitter_s = 2e-5;
+  c.sensors[1].hardware = drifting;
+  const auto cc = collect(c);
+  EXPECT_EQ(cc[0].t, ca[0].t);
+  EXPECT_EQ(cc[0].f, ca[0].f);
+  EXPECT_EQ(cc[0].w, ca[0].w);
+  EXPECT_EQ(cc[0].t_true, ca[0].t_true);
+  EXPECT_NE(cc[1].t_true, ca[1].t_true);
+  EXPECT_EQ(cc[1].t, ca[1].t);  // 20 s at 200 Hz * (1 + 40e-6): still 4001 samples
+}
+
+TEST(SceneClock, BadClockParametersAreErrorsNamingTheField) {
+  const auto message = [](const std::string& clock) {
+    std::string text = kScene;
+    const std::string key = "\"schema\": \"imukit.profile/1\",";
+    text.replace(text.find(key), key.size(), key + " \"clock\": " + clock + ",");
+    try {
+      parse_scene(text, "s.json", "");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message(R"({"jitter_s": -1e-6})").find("clock.jitter_s"), std::string::npos);
+  // 200 Hz: a tenth of the period is 5e-4 s.
+  EXPECT_NE(message(R"({"jitter_s": 6e-4})").find("clock.jitter_s"), std::string::npos)
+      << message(R"({"jitter_s": 6e-4})");
+  EXPECT_NE(message(R"({"error_ppm": 2e4})").find("clock.error_ppm"), std::string::npos);
+  EXPECT_EQ(message(R"({"error_ppm": -50, "jitter_s": 4e-4})"), "no error");
+}
+
+// --- magnetometer hardware ---------------------------------------------------------------------
+
+TEST(SceneMagnetometer, HardIronAddsItsOffsetSoftIronItsMatrixNoiseItsDensity) {
+  const SensorOutputs mag_only{false, false, false, true};
+  HardwareModel hard;
+  hard.magnetometer.hard_iron = Eigen::Vector3d(3e-6, -1.5e-5, 4e-7);
+  Scene a = one_sensor_scene(20.0, hard, mag_only);
+  const Collected ca = collect(a)[0];
+  ASSERT_EQ(ca.m.size(), 2001u);
+  bool exact = true;
+  for (std::size_t k = 0; k < ca.m.size(); ++k)
+    exact &= ca.m[k] == ca.m_true[k] + hard.magnetometer.hard_iron;
+  EXPECT_TRUE(exact);
+  // The truth is the default Earth field in the sensor frame: its norm, whatever the pose.
+  for (std::size_t k = 0; k < ca.m.size(); k += 97)
+    EXPECT_NEAR(ca.m_true[k].norm(), kDefaultEarthMagneticField.norm(), 1e-12 * 4.83e-5);
+
+  HardwareModel soft;
+  soft.magnetometer.soft_iron << 1.05, 0.02, 0.0, 0.02, 0.97, 0.01, 0.0, 0.01, 1.01;
+  Scene b = one_sensor_scene(20.0, soft, mag_only);
+  const Collected cb = collect(b)[0];
+  double worst = 0;
+  for (std::size_t k = 0; k < cb.m.size(); ++k)
+    worst = std::max(worst, (cb.m[k] - soft.magnetometer.soft_iron * cb.m_true[k]).norm());
+  EXPECT_LT(worst, 1e-15 * 5e-5);
+
+  HardwareModel noisy;
+  noisy.magnetometer.noise_density = Eigen::Vector3d::Constant(2e-7);  // T/sqrt(Hz)
+  Scene c = one_sensor_scene(60.0, noisy, mag_only);
+  const Collected cc = collect(c)[0];
+  double sum_sq = 0;
+  for (std::size_t k = 0; k < cc.m.size(); ++k) sum_sq += (cc.m[k] - cc.m_true[k]).squaredNorm();
+  const double sd = std::sqrt(sum_sq / (3.0 * static_cast<double>(cc.m.size())));
+  // sigma = density sqrt(rate) = 2e-6 T; 18003 draws: 0.53 % (1 sigma), 3 % is 5.7 sigma.
+  EXPECT_NEAR(sd, 2e-7 * std::sqrt(100.0), 0.03 * 2e-6);
+}
+
+TEST(SceneMagnetometer, SceneJsonSetsTheFieldAndTheOutput) {
+  std::string text = kScene;
+  text.replace(text.find("\"seed\": 42,"), 11,
+               "\"seed\": 42, \"magnetic_field\": [1e-5, 2e-5, -3e-5],");
+  text.replace(text.find("\"orientation\"]"), 14, "\"orientation\", \"magnetometer\"]");
+  Scene s = parse_scene(text, "scene.json", "");
+  EXPECT_EQ(s.options.magnetic_field_world, Eigen::Vector3d(1e-5, 2e-5, -3e-5));
+  EXPECT_TRUE(s.sensors[1].spec.outputs.magnetometer);
+  EXPECT_FALSE(s.sensors[0].spec.outputs.magnetometer);
+  const auto c = collect(s);
+  ASSERT_EQ(c[1].m.size(), c[1].t.size());
+  EXPECT_NEAR(c[1].m[100].norm(), std::sqrt(14.0) * 1e-5, 1e-12 * 1e-5);
+  EXPECT_TRUE(c[0].m.empty());
+  // Gauss or microtesla by mistake is an error naming the key.
+  std::string bad = text;
+  bad.replace(bad.find("[1e-5, 2e-5, -3e-5]"), 19, "[0, 20, -44]");
+  try {
+    parse_scene(bad, "s.json", "");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("simulation.magnetic_field"), std::string::npos);
+  }
 }
 
 }  // namespace

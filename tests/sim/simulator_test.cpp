@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -19,6 +20,7 @@
 namespace imukit::sim {
 namespace {
 
+using Eigen::Matrix3d;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
@@ -133,6 +135,78 @@ TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
             << to_string(method) << " trial " << trial << " sample " << i;
       }
     }
+  }
+}
+
+TEST(Simulator, MagnetometerReadsTheEarthFieldInTheSensorFrame) {
+  // At rest in any orientation (through pi included) and at any sensor rate (37 Hz: times
+  // between frames), every method reads m = R_world_sensor^T B, so |m| = |B|.
+  const Vector3d B = kDefaultEarthMagneticField;
+  for (const DerivativeMethod method :
+       {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
+    for (int trial = 0; trial < 6; ++trial) {
+      const Quaterniond q0 =
+          trial == 5 ? Quaterniond(0.0, 1.0, 0.0, 0.0)  // pi about x: upside down
+                     : Quaterniond(Eigen::AngleAxisd(0.9 * trial + 0.2,
+                                                     Vector3d(1, -2, 0.3 * trial).normalized()));
+      const Quaterniond q1 =
+          Quaterniond(Eigen::AngleAxisd(3.1 - 0.4 * trial, Vector3d(0.2, 1, -0.4).normalized()));
+      const Quaterniond q_js =
+          Quaterniond(Eigen::AngleAxisd(0.3 + trial, Vector3d(-1, 0.5, 2).normalized()));
+      Motion m = sampled_motion(
+          100.0, 30, [&](double) { return q0; }, [&](double) { return q1; },
+          [](double) { return Vector3d(0.5, 1.0, 0.9); });
+      SimulationOptions opt;
+      opt.method = method;
+      opt.rate_hz = 37.0;
+      Simulator sim(
+          two_joint_body(),
+          {sensor_on(1, Vector3d(0.1, 0.0, 0.02), q_js, SensorOutputs{false, false, false, true})},
+          opt);
+      std::vector<SensorBlock> out;
+      sim.evaluate(m, grid_times(sim, m, m.frames()), out);
+      const Matrix3d R_world_sensor = (q0 * q1 * q_js).normalized().toRotationMatrix();
+      const Vector3d expected = R_world_sensor.transpose() * B;
+      ASSERT_EQ(out[0].magnetic_field.cols(), 11);
+      EXPECT_EQ(out[0].specific_force.cols(), 0);
+      for (Eigen::Index i = 0; i < out[0].magnetic_field.cols(); ++i) {
+        EXPECT_LT((out[0].magnetic_field.col(i) - expected).norm(), 1e-14 * B.norm())
+            << to_string(method) << " trial " << trial << " sample " << i;
+        EXPECT_NEAR(out[0].magnetic_field.col(i).norm(), B.norm(), 1e-14 * B.norm());
+      }
+    }
+  }
+}
+
+TEST(Simulator, MagnetometerFollowsTheSensorOrientationWhileMoving) {
+  // m = R_world_sensor^T B at every sample of a moving sensor, with R_world_sensor the
+  // orientation output of the same method (fd slerps between frames, spline is analytic).
+  const Body body = Body::default_humanoid();
+  ProceduralMotionOptions po;
+  po.frames = 400;
+  ProceduralMotion proc(body.size(), po);
+  Motion m = proc.materialize(400);
+  SensorSpec s;
+  s.name = "w";
+  s.placement = resolve_preset(placement_preset("right_wrist_watch"), body);
+  s.outputs = SensorOutputs{true, true, true, true};
+  for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
+    SimulationOptions opt;
+    opt.method = method;
+    opt.rate_hz = 130.0;
+    opt.magnetic_field_world = Vector3d(1.5e-5, -2e-5, -3.5e-5);
+    Simulator sim(body, {s}, opt);
+    std::vector<SensorBlock> out;
+    sim.evaluate(m, grid_times(sim, m, m.frames()), out);
+    ASSERT_GT(out[0].t.size(), 500u);
+    double worst = 0;
+    for (std::size_t i = 0; i < out[0].t.size(); ++i) {
+      const Vector3d expected =
+          out[0].q_world_sensor[i].toRotationMatrix().transpose() * opt.magnetic_field_world;
+      worst = std::max(worst,
+                       (out[0].magnetic_field.col(static_cast<Eigen::Index>(i)) - expected).norm());
+    }
+    EXPECT_LT(worst, 1e-14 * opt.magnetic_field_world.norm()) << to_string(method);
   }
 }
 
