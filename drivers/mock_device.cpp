@@ -85,12 +85,19 @@ bool MockDevice::apply_configuration(const proto::Configure& config) {
   const double rate = config.rate_mhz / 1000.0;
   try {
     validate_hardware_model(opt_.hardware, rate);
-    errors_.emplace(opt_.hardware, rate, sensor_rng_);
+    draw_errors(rate);
   } catch (const Error&) {
     return false;  // NACK kHardwareError: the profile cannot run at this rate
   }
   configured_rate_hz_ = rate;
   return true;
+}
+
+void MockDevice::draw_errors(double rate_hz) {
+  errors_.emplace(opt_.hardware, rate_hz, sensor_rng_);
+  truth_->drawn = true;
+  truth_->accelerometer_bias = errors_->accelerometer_constant_bias();
+  truth_->gyroscope_bias = errors_->gyroscope_constant_bias();
 }
 
 bool MockDevice::read_sensors(uint32_t tick, uint8_t channels, proto::SensorSample& out) {
@@ -99,8 +106,7 @@ bool MockDevice::read_sensors(uint32_t tick, uint8_t channels, proto::SensorSamp
     return false;
   }
   if (!errors_) {
-    const double rate = configured_rate_hz_ > 0 ? configured_rate_hz_ : opt_.rate_hz;
-    errors_.emplace(opt_.hardware, rate, sensor_rng_);
+    draw_errors(configured_rate_hz_ > 0 ? configured_rate_hz_ : opt_.rate_hz);
   }
   // The sample's device tick, unwrapped against the clock now, back to true time.
   const TimeNs now_ticks = device_ticks_at(t_);
@@ -305,7 +311,16 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
     const double hold = option_double(keys, "hold_s", 5.0);
     const double move = option_double(keys, "move_s", 2.0);
     if (!(hold >= 0) || !(move > 0)) throw Error("hold_s must be >= 0 and move_s > 0");
-    source = std::make_shared<PosesSource>(PosesSource::six_faces(), hold, move, gravity);
+    const int64_t count = option_int(keys, "poses", 6);
+    if (count < 1 || count > 26) throw Error("poses: expected 1 to 26 poses (6: the six faces; more: a tilt tour)");
+    // Six or fewer: the faces (what the existing recordings and tests use); more: the tilt tour.
+    auto poses = PosesSource::six_faces();
+    if (count > 6) {
+      poses = PosesSource::tilt_tour(static_cast<int>(count));
+    } else {
+      poses.resize(static_cast<std::size_t>(count));
+    }
+    source = std::make_shared<PosesSource>(std::move(poses), hold, move, gravity);
   } else {
     throw Error("mock:" + kind + ": unknown mock (known: static, poses)");
   }

@@ -51,6 +51,15 @@ struct MockOptions {
   double gyro_range_dps = 2000.0;
 };
 
+// What a mock drew for the errors that stay fixed over a run (its "power-on" state): the
+// constant bias of each triad (turn-on bias, plus hard iron for a magnetometer). Lets a test or
+// `imukit demo` compare what characterize and calibrate estimate with the truth.
+struct MockTruth {
+  bool drawn = false;  // false until the device was configured (or produced its first sample)
+  Eigen::Vector3d accelerometer_bias = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gyroscope_bias = Eigen::Vector3d::Zero();
+};
+
 class MockDevice : public ByteTransport, private proto::Hal {
  public:
   MockDevice(std::shared_ptr<SignalSource> source, MockOptions options);
@@ -71,6 +80,10 @@ class MockDevice : public ByteTransport, private proto::Hal {
   uint64_t samples_made() const { return samples_made_; }
   // True time (ns since the mock started).
   TimeNs true_time() const { return t_; }
+  const MockOptions& options() const { return opt_; }
+  // Updated each time the device draws its errors (at every configuration); the handle stays
+  // valid after the device is gone, so a caller can keep it while a session owns the device.
+  std::shared_ptr<const MockTruth> truth() const { return truth_; }
 
  private:
   // proto::Hal
@@ -82,6 +95,7 @@ class MockDevice : public ByteTransport, private proto::Hal {
   std::size_t load_calibration(uint8_t* out, std::size_t capacity) override;
 
   void advance_to(TimeNs t);
+  void draw_errors(double rate_hz);
   TimeNs device_ticks_at(TimeNs t) const;
 
   std::shared_ptr<SignalSource> source_;
@@ -91,6 +105,7 @@ class MockDevice : public ByteTransport, private proto::Hal {
   proto::DeviceInfo info_;
   std::unique_ptr<proto::DeviceModel> model_;
   std::optional<ImuErrorGenerator> errors_;
+  std::shared_ptr<MockTruth> truth_ = std::make_shared<MockTruth>();
   double configured_rate_hz_ = 0;
   TimeNs t_ = 0;             // true time now
   TimeNs real_start_ = 0;    // host clock at t = 0 (real time)
@@ -114,8 +129,8 @@ class MockDevice : public ByteTransport, private proto::Hal {
 
 // Mock URIs: `mock:static` and `mock:poses` with the keys of docs/devices.md (rate, seed,
 // profile, drop, flip, drift_ppm, latency_us, jitter_us, stall_ms, stall_at_s,
-// disconnect_after, clock=virtual|real, quat=w,x,y,z for static, hold_s/move_s for poses,
-// gravity). Throws imukit::Error naming the key for a bad value.
+// disconnect_after, clock=virtual|real, quat=w,x,y,z for static, hold_s/move_s/poses for
+// poses, gravity). Throws imukit::Error naming the key for a bad value.
 std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
                                              const std::map<std::string, std::string>& keys);
 

@@ -1,5 +1,6 @@
 #include "drivers/sources.hpp"
 
+#include <algorithm>
 #include <cassert>
 #include <cmath>
 
@@ -38,6 +39,42 @@ std::vector<Eigen::Quaterniond> PosesSource::six_faces() {
           Eigen::Quaterniond(AngleAxisd(pi, Vector3d::UnitX())),
           Eigen::Quaterniond(AngleAxisd(pi / 2, Vector3d::UnitY())),
           Eigen::Quaterniond(AngleAxisd(-pi / 2, Vector3d::UnitX()))};
+}
+
+std::vector<Eigen::Quaterniond> PosesSource::tilt_tour(int count) {
+  assert(count >= 1 && count <= 26);
+  // The candidate up directions (sensor frame): faces, then edges, then corners; ties in the
+  // nearest-neighbour search go to the earlier one, so the tour is fixed.
+  std::vector<Eigen::Vector3d> dirs;
+  for (int x = -1; x <= 1; ++x) {
+    for (int y = -1; y <= 1; ++y) {
+      for (int z = -1; z <= 1; ++z) {
+        if (x != 0 || y != 0 || z != 0) dirs.emplace_back(Eigen::Vector3d(x, y, z).normalized());
+      }
+    }
+  }
+  std::stable_sort(dirs.begin(), dirs.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return a.cwiseAbs().maxCoeff() > b.cwiseAbs().maxCoeff() + 1e-9;  // faces, edges, corners
+  });
+  std::vector<bool> used(dirs.size(), false);
+  std::size_t at = 0;
+  for (std::size_t i = 0; i < dirs.size(); ++i) {
+    if (dirs[i].z() > 0.999) at = i;  // start with +z up
+  }
+  used[at] = true;
+  std::vector<Eigen::Quaterniond> poses{Eigen::Quaterniond::Identity()};  // R_world_sensor
+  while (static_cast<int>(poses.size()) < count) {
+    std::size_t next = dirs.size();
+    for (std::size_t i = 0; i < dirs.size(); ++i) {
+      if (!used[i] && (next == dirs.size() || dirs[i].dot(dirs[at]) > dirs[next].dot(dirs[at]) + 1e-12)) next = i;
+    }
+    // R_next = R_at Q with Q dirs[next] = dirs[at]: then R_next dirs[next] = R_at dirs[at] = z.
+    const Eigen::Quaterniond Q = Eigen::Quaterniond::FromTwoVectors(dirs[next], dirs[at]);
+    poses.push_back((poses.back() * Q).normalized());
+    used[next] = true;
+    at = next;
+  }
+  return poses;
 }
 
 double PosesSource::duration_s() const {

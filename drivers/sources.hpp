@@ -34,6 +34,13 @@ class PosesSource : public SignalSource {
               double gravity = 9.80665);
   // The six faces up, in the order +z, +x, +y, -z, -x, -y (the axis named points up).
   static std::vector<Eigen::Quaterniond> six_faces();
+  // `count` (1..26) poses of a tilt tour over the 26 directions of a cube's faces, edges and
+  // corners: the sensor direction that points up goes from +z to the nearest direction not yet
+  // visited (35 to 90 degrees away), and each pose is the previous one tilted by the smallest
+  // rotation that brings the new direction up, about an axis perpendicular to gravity, as a
+  // person turns a device on a table. A multi-position calibration wants many such poses
+  // (Tedaldi et al. use 30-50); the tour's rotation axes cover all three sensor axes.
+  static std::vector<Eigen::Quaterniond> tilt_tour(int count);
 
   void evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* specific_force,
                 Eigen::Matrix3Xd* angular_rate) override;

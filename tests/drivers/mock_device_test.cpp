@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <set>
 
 #include "core/profile.hpp"
 #include "core/so3.hpp"
@@ -204,6 +205,84 @@ TEST(MockDevice, PosesUriHoldsEachFaceUp) {
     ++checked;
   }
   EXPECT_GT(checked, 500);
+}
+
+TEST(MockDevice, TiltTourVisitsEveryCubeDirectionByTilts) {
+  const auto poses = PosesSource::tilt_tour(26);
+  ASSERT_EQ(poses.size(), 26u);
+  EXPECT_LT(angular_distance(poses.front(), Eigen::Quaterniond::Identity()), 1e-15);
+  std::vector<Eigen::Vector3d> ups;
+  Eigen::Vector3d axis_reach = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    // The sensor direction pointing up, R_world_sensor^T z: a face, edge or corner direction.
+    const Eigen::Vector3d up = poses[k].conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d scaled = up / up.cwiseAbs().maxCoeff();
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(scaled[i], std::round(scaled[i]), 1e-12) << "pose " << k;
+    for (const auto& seen : ups) EXPECT_LT(seen.dot(up), std::cos(30 * std::numbers::pi / 180)) << "pose " << k;
+    ups.push_back(up);
+    if (k == 0) continue;
+    // A tilt: the relative rotation's axis (sensor frame) is perpendicular to both ups, and
+    // its angle is the angle between them (35..90 degrees between neighbours of the cube).
+    const Eigen::AngleAxisd rel(poses[k - 1].conjugate() * poses[k]);
+    const double angle = std::acos(std::clamp(ups[k - 1].dot(up), -1.0, 1.0));
+    EXPECT_NEAR(rel.angle(), angle, 1e-12) << "pose " << k;
+    EXPECT_GT(angle, 35 * std::numbers::pi / 180 - 1e-9) << "pose " << k;
+    EXPECT_LE(angle, std::numbers::pi / 2 + 1e-9) << "pose " << k;
+    EXPECT_NEAR(rel.axis().dot(up), 0.0, 1e-12);
+    EXPECT_NEAR(rel.axis().dot(ups[k - 1]), 0.0, 1e-12);
+    axis_reach = axis_reach.cwiseMax(rel.axis().cwiseAbs());
+  }
+  // Rotations about every sensor axis: a gyroscope calibration needs all three excited.
+  EXPECT_GT(axis_reach.minCoeff(), 0.99);
+  // A shorter tour is the start of the long one.
+  const auto nine = PosesSource::tilt_tour(9);
+  for (std::size_t k = 0; k < nine.size(); ++k) EXPECT_LT(angular_distance(nine[k], poses[k]), 1e-15);
+}
+
+TEST(MockDevice, PosesKeySelectsTheTiltTour) {
+  // 9 holds of 0.5 s and 8 moves of 0.25 s at 200 Hz: 1300 samples; the held directions follow
+  // the tour.
+  const MockRun r = run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&poses=9&clock=virtual&disconnect_after=1300");
+  ASSERT_EQ(r.samples.size(), 1300u);
+  PosesSource src(PosesSource::tilt_tour(9), 0.5, 0.25);
+  const double lsb = 16 * 9.80665 / 32768;
+  std::set<int> seen;
+  for (const Sample& s : r.samples) {
+    int held = -1;
+    const Eigen::Quaterniond q = src.orientation(to_seconds(s.device_time), &held);
+    if (held < 0) continue;
+    const Eigen::Vector3d f = q.conjugate() * Eigen::Vector3d(0, 0, 9.80665);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.accel[k], f[k], lsb);
+    seen.insert(held);
+  }
+  EXPECT_EQ(seen.size(), 9u);
+  EXPECT_THROW(open_device("mock:poses?poses=27"), Error);
+  EXPECT_THROW(open_device("mock:poses?poses=0"), Error);
+}
+
+TEST(MockDevice, TruthHandleHoldsTheDrawnTurnOnBias) {
+  // A profile with only a turn-on bias spread: the static gyro reads the drawn bias plus
+  // quantisation noise, so its mean over 4000 samples lands within a quarter LSB of the truth.
+  const imukit::testing::TempDir dir;
+  const std::string path = (dir / "turn_on_only.json").string();
+  DeviceProfile p;
+  p.gyroscope = GyroscopeProfile{};
+  TurnOnBias tob;
+  tob.mean = Eigen::Vector3d(0.01, -0.02, 0.03);
+  tob.spread = Eigen::Vector3d(0.05, 0.05, 0.05);
+  p.gyroscope->turn_on_bias = tob;
+  write_profile(path, p);
+  MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=4000&seed=21&profile=" + path);
+  ASSERT_EQ(r.samples.size(), 4000u);
+  const auto truth = r.mock->truth();
+  ASSERT_TRUE(truth->drawn);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Sample& s : r.samples) mean += Eigen::Vector3d(s.gyro[0], s.gyro[1], s.gyro[2]) / 4000.0;
+  const double lsb = 2000 * std::numbers::pi / 180 / 32768;
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(mean[k], truth->gyroscope_bias[k], 0.5 * lsb) << k;
+  // A drawn bias, not the mean: the three draws are not all within 0.1 sigma of the mean.
+  EXPECT_GT((truth->gyroscope_bias - tob.mean).cwiseAbs().maxCoeff(), 0.005);
+  EXPECT_EQ(truth->accelerometer_bias, Eigen::Vector3d::Zero());
 }
 
 TEST(MockDevice, UriErrorsNameTheKey) {
