@@ -1,19 +1,23 @@
-// Helpers shared by `imukit characterize` and `imukit calibrate`: grouping input files into
-// recordings (files with identical time stamps are channels of one recording and are merged),
-// and gnuplot output (SVG) with the data and script left beside it.
+// What `imukit characterize`, `imukit calibrate` and `imukit demo` share: grouping input files
+// into recordings (files with identical time stamps are channels of one recording and are
+// merged), the characterization (noise of each axis, turn-on bias across recordings) and the
+// multi-position calibration as the commands run them, their printed tables and profile
+// sections, and gnuplot output (SVG) with the data and script left beside it.
 #pragma once
 
-#include <fmt/core.h>
-#include <fmt/os.h>
-
-#include <cstdlib>
+#include <Eigen/Core>
+#include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "cli/inputs.hpp"
-#include "core/error.hpp"
 #include "core/imu_series.hpp"
+#include "core/profile.hpp"
+#include "hwmodel/allan.hpp"
+#include "hwmodel/calibration.hpp"
+#include "hwmodel/noise_fit.hpp"
 
 namespace imukit::cli {
 
@@ -24,46 +28,69 @@ struct LoadedRun {
 
 // Loads every input; an input whose time stamps equal the previous run's adds its channels to
 // that run (a channel present in both is an error), any other starts a new run.
-inline std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
-  std::vector<LoadedRun> runs;
-  for (const InputArg& in : inputs) {
-    ImuSeries s = load_imu_series(in);
-    s.validate();
-    if (!runs.empty() && runs.back().series.t == s.t) {
-      ImuSeries& dst = runs.back().series;
-      auto take = [&](Eigen::Matrix3Xd& to, Eigen::Matrix3Xd& from, const char* what) {
-        if (from.cols() == 0) return;
-        if (to.cols() != 0) {
-          throw Error(fmt::format("{}: {} channel already given by {}", in.path, what, runs.back().name));
-        }
-        to = std::move(from);
-      };
-      take(dst.accel, s.accel, "accelerometer");
-      take(dst.gyro, s.gyro, "gyroscope");
-      take(dst.mag, s.mag, "magnetometer");
-      continue;
-    }
-    runs.push_back({in.path, std::move(s)});
-  }
-  return runs;
-}
+std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs);
 
 // Writes DIR/NAME.gp and runs gnuplot on it to make DIR/NAME.svg. Returns false (after a
 // note on stderr) when gnuplot is not installed: the script and data stay for later.
-inline bool run_gnuplot(const std::filesystem::path& dir, const std::string& name, const std::string& script) {
-  const auto gp = dir / (name + ".gp");
-  {
-    auto out = fmt::output_file(gp.string());
-    out.print("set terminal svg size 900,600 dynamic enhanced font 'sans,12'\nset output '{}'\n{}",
-              (dir / (name + ".svg")).string(), script);
-  }
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
-    fmt::print(stderr, "imukit: note: gnuplot not found; run `gnuplot {}` to draw the plot\n", gp.string());
-    return false;
-  }
-  const std::string cmd = fmt::format("gnuplot '{}'", gp.string());
-  if (std::system(cmd.c_str()) != 0) throw Error(fmt::format("gnuplot failed on {}", gp.string()));
-  return true;
-}
+bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
+                 const std::string& script);
+
+// ---- characterize -------------------------------------------------------------------------
+
+struct CharacterizeOptions {
+  double gravity = 9.80665;
+  int points_per_decade = 10;
+  double fit_tau_min_s = 0.0;
+  // Recordings were taken level with z up: also give the accelerometer turn-on bias, as the
+  // mean minus the specific force a still, level sensor reads. That is level_reading when set
+  // (e.g. diag(scale) misalignment (0, 0, g) from a calibration), else (0, 0, g).
+  bool level = false;
+  std::optional<Eigen::Vector3d> level_reading;
+};
+
+struct AxisNoise {
+  hwmodel::NoiseFit fit;
+  hwmodel::SlopeReadings slopes;
+};
+
+struct TriadNoise {
+  hwmodel::AllanResult allan;
+  std::array<AxisNoise, 3> axes;
+};
+
+struct CharacterizeResult {
+  std::string noise_run;  // the (longest) recording the noise came from
+  std::optional<TriadNoise> accel, gyro;
+  std::vector<Eigen::Vector3d> accel_run_bias, gyro_run_bias;  // per recording, in input order
+  DeviceProfile update;  // the noise and turn_on_bias sections
+};
+
+// Noise from the longest recording, turn-on bias across all of them; prints the tables.
+// Throws imukit::Error when the recordings hold neither accelerometer nor gyroscope data.
+CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
+                                     const CharacterizeOptions& options);
+// DIR/accelerometer_allan.svg and DIR/gyroscope_allan.svg (and their .dat and .gp).
+void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& result);
+
+// ---- calibrate ----------------------------------------------------------------------------
+
+struct CalibrateOptions {
+  double gravity = 9.80665;
+  bool raw = false;  // readings are ADC counts
+  bool gyro = true;  // calibrate the gyroscope too (when the recording has one)
+  double init_static_s = 50.0;
+};
+
+struct CalibrateResult {
+  hwmodel::CalibrationResult fit;
+  bool gyro = false;
+  DeviceProfile update;  // the calibration sections (forward model, core/profile.hpp)
+};
+
+// Multi-position calibration of one recording; prints the estimates and residuals.
+CalibrateResult calibrate_series(const ImuSeries& series, const CalibrateOptions& options);
+// DIR/calibration_residuals.svg (and .dat, .gp).
+void plot_calibration(const std::filesystem::path& dir, const ImuSeries& series,
+                      const CalibrateResult& result);
 
 }  // namespace imukit::cli

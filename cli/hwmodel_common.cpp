@@ -1,0 +1,334 @@
+#include "cli/hwmodel_common.hpp"
+
+#include <fmt/core.h>
+#include <fmt/os.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+
+#include "core/error.hpp"
+#include "core/time.hpp"
+
+namespace imukit::cli {
+
+std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
+  std::vector<LoadedRun> runs;
+  for (const InputArg& in : inputs) {
+    ImuSeries s = load_imu_series(in);
+    s.validate();
+    if (!runs.empty() && runs.back().series.t == s.t) {
+      ImuSeries& dst = runs.back().series;
+      auto take = [&](Eigen::Matrix3Xd& to, Eigen::Matrix3Xd& from, const char* what) {
+        if (from.cols() == 0) return;
+        if (to.cols() != 0) {
+          throw Error(
+              fmt::format("{}: {} channel already given by {}", in.path, what, runs.back().name));
+        }
+        to = std::move(from);
+      };
+      take(dst.accel, s.accel, "accelerometer");
+      take(dst.gyro, s.gyro, "gyroscope");
+      take(dst.mag, s.mag, "magnetometer");
+      continue;
+    }
+    runs.push_back({in.path, std::move(s)});
+  }
+  return runs;
+}
+
+bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
+                 const std::string& script) {
+  const auto gp = dir / (name + ".gp");
+  {
+    auto out = fmt::output_file(gp.string());
+    out.print("set terminal svg size 900,600 dynamic enhanced font 'sans,12'\nset output '{}'\n{}",
+              (dir / (name + ".svg")).string(), script);
+  }
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    fmt::print(stderr, "imukit: note: gnuplot not found; run `gnuplot {}` to draw the plot\n",
+               gp.string());
+    return false;
+  }
+  const std::string cmd = fmt::format("gnuplot '{}'", gp.string());
+  if (std::system(cmd.c_str()) != 0) throw Error(fmt::format("gnuplot failed on {}", gp.string()));
+  return true;
+}
+
+namespace {
+
+TriadNoise characterize_triad(const ImuSeries& s, const Eigen::Matrix3Xd& x, int ppd,
+                              double tau_min) {
+  TriadNoise out;
+  hwmodel::AllanOptions opt;
+  opt.points_per_decade = ppd;
+  out.allan = hwmodel::allan_deviation(s.t, x, opt);
+  const auto& a = out.allan.allan;
+  for (int ax = 0; ax < 3; ++ax) {
+    std::vector<double> dev, lo, hi;
+    for (Eigen::Index k = 0; k < a.deviation.cols(); ++k) {
+      dev.push_back(a.deviation(ax, k));
+      lo.push_back(a.lower(ax, k));
+      hi.push_back(a.upper(ax, k));
+    }
+    hwmodel::NoiseFitOptions fo;
+    fo.tau_min_s = tau_min;
+    out.axes[size_t(ax)].fit = hwmodel::fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors,
+                                                            int64_t(s.size()), fo);
+    out.axes[size_t(ax)].slopes = hwmodel::read_slopes(out.allan.tau_s, dev, lo, hi);
+  }
+  return out;
+}
+
+NoiseEstimate to_estimate(const TriadNoise& tn) {
+  NoiseEstimate e;
+  Eigen::Vector3d n, ns, b, bs, k, ks;
+  for (int ax = 0; ax < 3; ++ax) {
+    const auto& f = tn.axes[size_t(ax)].fit;
+    n(ax) = f.value[hwmodel::kWhite], ns(ax) = f.sigma[hwmodel::kWhite];
+    b(ax) = f.value[hwmodel::kBiasInstability], bs(ax) = f.sigma[hwmodel::kBiasInstability];
+    k(ax) = f.value[hwmodel::kRandomWalk], ks(ax) = f.sigma[hwmodel::kRandomWalk];
+  }
+  e.noise_density = n, e.noise_density_sigma = ns;
+  e.bias_instability = b, e.bias_instability_sigma = bs;
+  e.random_walk = k, e.random_walk_sigma = ks;
+  AllanCurve c;
+  c.tau_s = tn.allan.tau_s;
+  for (int ax = 0; ax < 3; ++ax) {
+    for (Eigen::Index q = 0; q < tn.allan.allan.deviation.cols(); ++q)
+      c.adev[size_t(ax)].push_back(tn.allan.allan.deviation(ax, q));
+  }
+  e.allan = c;
+  return e;
+}
+
+void print_triad(const char* name, const char* unit, const TriadNoise& tn) {
+  fmt::print("{} ({} samples, tau0 {:.6g} s measured from the time stamps{})\n", name,
+             tn.allan.sampling.samples, tn.allan.tau0_s,
+             tn.allan.uniform ? "" : "; NOT uniformly sampled: jitter above 1 % of the period");
+  fmt::print(
+      "  axis  fit: N [{u}/sqrt(Hz)]      B [{u}]              K [{u}/s/sqrt(Hz)]   chi2/dof | "
+      "slopes: N@1s      B=min/0.664   K@3s\n",
+      fmt::arg("u", unit));
+  for (int ax = 0; ax < 3; ++ax) {
+    const auto& f = tn.axes[size_t(ax)].fit;
+    const auto& s = tn.axes[size_t(ax)].slopes;
+    auto pm = [](double v, double sd, bool active, double upper) {
+      if (active) return fmt::format("{:.4g} +- {:.2g}", v, sd);
+      return upper > 0 ? fmt::format("0 (< {:.3g})", upper) : std::string("0 (not seen)");
+    };
+    auto rd = [](const hwmodel::SlopeReading& r) {
+      return r.found ? fmt::format("{:.4g}", r.value) : std::string("-");
+    };
+    fmt::print("  {}     {:<22} {:<20} {:<20} {:>7.2f}  | {:<11} {:<13} {}\n", "xyz"[ax],
+               pm(f.value[1], f.sigma[1], f.active[1], f.upper[1]),
+               pm(f.value[2], f.sigma[2], f.active[2], f.upper[2]),
+               pm(f.value[3], f.sigma[3], f.active[3], f.upper[3]), f.chi2_per_dof, rd(s.white),
+               rd(s.bias_instability), rd(s.random_walk));
+  }
+}
+
+void plot_triad(const std::filesystem::path& dir, const std::string& name, const char* unit,
+                const TriadNoise& tn) {
+  const std::string dat = (dir / (name + "_allan.dat")).string();
+  {
+    auto out = fmt::output_file(dat);
+    out.print(
+        "# tau_s adev_x lo_x hi_x model_x adev_y lo_y hi_y model_y adev_z lo_z hi_z model_z\n");
+    for (size_t k = 0; k < tn.allan.tau_s.size(); ++k) {
+      const double tau = tn.allan.tau_s[k];
+      out.print("{:.9g}", tau);
+      for (int ax = 0; ax < 3; ++ax) {
+        const auto K = Eigen::Index(k);
+        out.print(" {:.9g} {:.9g} {:.9g} {:.9g}", tn.allan.allan.deviation(ax, K),
+                  tn.allan.allan.lower(ax, K), tn.allan.allan.upper(ax, K),
+                  std::sqrt(hwmodel::model_allan_variance(tn.axes[size_t(ax)].fit.value, tau)));
+      }
+      out.print("\n");
+    }
+  }
+  // Slope lines of the fitted N and K (x axis), and the fitted model per axis.
+  const auto& fx = tn.axes[0].fit;
+  std::string script = fmt::format(
+      "set logscale xy\nset grid\nset key bottom left\nset xlabel 'averaging time tau [s]'\n"
+      "set ylabel 'Allan deviation [{}]'\nset title '{}: overlapping Allan deviation, 1-sigma "
+      "intervals, fitted model'\n"
+      "N={:.9g}; K={:.9g}; B={:.9g}\n"
+      "plot '{d}' u 1:2:3:4 w yerrorbars lc 1 pt 7 ps 0.4 t 'x', '{d}' u 1:5 w l lc 1 t 'x model', "
+      "'{d}' u 1:6:7:8 w yerrorbars lc 2 pt 7 ps 0.4 t 'y', '{d}' u 1:9 w l lc 2 t 'y model', "
+      "'{d}' u 1:10:11:12 w yerrorbars lc 3 pt 7 ps 0.4 t 'z', '{d}' u 1:13 w l lc 3 t 'z model', "
+      "(N>0 ? N/sqrt(x) : 1/0) w l dt 2 lc 0 t 'x: N/sqrt(tau)', (K>0 ? K*sqrt(x/3) : 1/0) w l dt "
+      "3 lc 0 t 'x: K sqrt(tau/3)', "
+      "(B>0 ? 0.6643*B : 1/0) w l dt 4 lc 0 t 'x: 0.664 B'\n",
+      unit, name, fx.value[1], fx.value[3], fx.value[2], fmt::arg("d", dat));
+  run_gnuplot(dir, name + "_allan", script);
+}
+
+TurnOnBias turn_on_bias(const std::vector<Eigen::Vector3d>& per_run) {
+  const auto st = hwmodel::turn_on_bias_stats(per_run);
+  TurnOnBias t;
+  t.mean = st.mean;
+  t.spread = st.spread;
+  t.runs = st.runs;
+  return t;
+}
+
+Calibration to_profile(const hwmodel::TriadCalibration& c, bool raw, double rms, double max,
+                       int64_t count) {
+  Calibration p;
+  p.scale = c.forward_scale();
+  p.misalignment = c.forward_misalignment();
+  p.bias = c.bias;
+  p.raw_counts = raw;
+  p.residual = CalibrationResidual{rms, max, count};
+  return p;
+}
+
+void print_calibration(const char* name, const hwmodel::TriadCalibration& c, bool raw,
+                       const char* unit) {
+  fmt::print("{}: true = T diag(scale) (reading - bias)\n", name);
+  fmt::print("  scale  {:.8g} {:.8g} {:.8g} {}\n", c.scale.x(), c.scale.y(), c.scale.z(),
+             raw ? fmt::format("{} per count", unit) : std::string("(dimensionless)"));
+  if (raw) {
+    fmt::print("         ({:.6g} {:.6g} {:.6g} counts per {})\n", 1 / c.scale.x(), 1 / c.scale.y(),
+               1 / c.scale.z(), unit);
+  }
+  fmt::print("  bias   {:.6g} {:.6g} {:.6g} {}\n", c.bias.x(), c.bias.y(), c.bias.z(),
+             raw ? "counts" : unit);
+  fmt::print("  T      [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(0, 0), c.T(0, 1), c.T(0, 2));
+  fmt::print("         [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(1, 0), c.T(1, 1), c.T(1, 2));
+  fmt::print("         [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(2, 0), c.T(2, 1), c.T(2, 2));
+}
+
+}  // namespace
+
+CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
+                                     const CharacterizeOptions& options) {
+  if (runs.empty()) throw Error("characterize: no recordings to characterize");
+  CharacterizeResult r;
+  // Noise from the longest recording; turn-on bias across all of them.
+  const auto longest = std::max_element(
+      runs.begin(), runs.end(),
+      [](const LoadedRun& a, const LoadedRun& b) { return a.series.size() < b.series.size(); });
+  const ImuSeries& s = longest->series;
+  r.noise_run = longest->name;
+  fmt::print("noise from {} ({} recordings given)\n", longest->name, runs.size());
+  r.update.gravity = options.gravity;
+  if (s.has_accel()) {
+    r.accel = characterize_triad(s, s.accel, options.points_per_decade, options.fit_tau_min_s);
+    print_triad("accelerometer", "m/s^2", *r.accel);
+    r.update.accelerometer = SensorProfile{};
+    r.update.accelerometer->noise = to_estimate(*r.accel);
+  }
+  if (s.has_gyro()) {
+    r.gyro = characterize_triad(s, s.gyro, options.points_per_decade, options.fit_tau_min_s);
+    print_triad("gyroscope", "rad/s", *r.gyro);
+    r.update.gyroscope = GyroscopeProfile{};
+    r.update.gyroscope->noise = to_estimate(*r.gyro);
+  }
+  if (!r.accel && !r.gyro)
+    throw Error("characterize: the inputs hold neither accelerometer nor gyroscope data");
+  fmt::print(
+      "The fit (generalised least squares on the whole curve, terms not detected set to 0) is the\n"
+      "estimate to use; the slope readings are shown for comparison with other tools "
+      "(docs/hwmodel.md).\n");
+
+  // Turn-on bias: gyroscope mean per recording; accelerometer only when level (z up), against
+  // the reading a still level sensor gives.
+  const Eigen::Vector3d level_reading =
+      options.level_reading.value_or(Eigen::Vector3d(0, 0, options.gravity));
+  for (const auto& run : runs) {
+    if (run.series.has_gyro())
+      r.gyro_run_bias.push_back(hwmodel::gyro_static_bias(run.series.gyro));
+    if (options.level && run.series.has_accel())
+      r.accel_run_bias.push_back(run.series.accel.rowwise().mean() - level_reading);
+  }
+  if (!r.gyro_run_bias.empty() && r.update.gyroscope) {
+    const TurnOnBias& t = *(r.update.gyroscope->turn_on_bias = turn_on_bias(r.gyro_run_bias));
+    fmt::print(
+        "gyroscope turn-on bias over {} recording(s): mean {:.4g} {:.4g} {:.4g} rad/s, spread "
+        "{:.3g} {:.3g} {:.3g}\n",
+        r.gyro_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(), t.spread.x(), t.spread.y(),
+        t.spread.z());
+  }
+  if (!r.accel_run_bias.empty() && r.update.accelerometer) {
+    const TurnOnBias& t = *(r.update.accelerometer->turn_on_bias = turn_on_bias(r.accel_run_bias));
+    fmt::print(
+        "accelerometer turn-on bias (level, z up) over {} recording(s): mean {:.4g} {:.4g} {:.4g} "
+        "m/s^2, "
+        "spread {:.3g} {:.3g} {:.3g}\n",
+        r.accel_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(), t.spread.x(), t.spread.y(),
+        t.spread.z());
+  }
+  return r;
+}
+
+void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& result) {
+  std::filesystem::create_directories(dir);
+  if (result.accel) plot_triad(dir, "accelerometer", "m/s^2", *result.accel);
+  if (result.gyro) plot_triad(dir, "gyroscope", "rad/s", *result.gyro);
+}
+
+CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& options) {
+  if (!s.has_accel())
+    throw Error("calibrate: the input has no accelerometer channels (ax, ay, az)");
+  CalibrateResult out;
+  out.gyro = options.gyro && s.has_gyro();
+  hwmodel::CalibrationOptions opt;
+  opt.gravity = options.gravity;
+  opt.calibrate_gyro = out.gyro;
+  opt.detector.init_static_s = options.init_static_s;
+  out.fit = hwmodel::calibrate(s.t, s.accel, out.gyro ? s.gyro : Eigen::Matrix3Xd(3, 0), opt);
+  const hwmodel::CalibrationResult& r = out.fit;
+  fmt::print("{} static poses (threshold {} x the initial static variance), fit in {:.3f} s\n",
+             r.poses.size(), r.threshold_factor, r.seconds);
+  print_calibration("accelerometer", r.accel, options.raw, "m/s^2");
+  fmt::print("  residual |a| - g over the poses: rms {:.5f} m/s^2, max {:.5f} m/s^2 (g = {})\n",
+             r.accel_rms, r.accel_max, options.gravity);
+  if (out.gyro) {
+    print_calibration("gyroscope", r.gyro, options.raw, "rad/s");
+    fmt::print(
+        "  residual gravity direction between consecutive poses: rms {:.4f} deg, max {:.4f} deg\n",
+        r.gyro_rms_rad * 180 / M_PI, r.gyro_max_rad * 180 / M_PI);
+  }
+  out.update.gravity = options.gravity;
+  out.update.accelerometer = SensorProfile{};
+  out.update.accelerometer->calibration = to_profile(r.accel, options.raw, r.accel_rms, r.accel_max,
+                                                     int64_t(r.accel_norm_error.size()));
+  if (out.gyro) {
+    out.update.gyroscope = GyroscopeProfile{};
+    out.update.gyroscope->calibration =
+        to_profile(r.gyro, options.raw, r.gyro_rms_rad, r.gyro_max_rad,
+                   int64_t(r.gyro_direction_error_rad.size()));
+  }
+  return out;
+}
+
+void plot_calibration(const std::filesystem::path& dir, const ImuSeries& s,
+                      const CalibrateResult& result) {
+  std::filesystem::create_directories(dir);
+  const hwmodel::CalibrationResult& r = result.fit;
+  const auto dat = (dir / "calibration_residuals.dat").string();
+  {
+    auto out = fmt::output_file(dat);
+    out.print("# pose start_s norm_error_mps2 gyro_direction_error_deg(to next pose)\n");
+    for (size_t i = 0; i < r.poses.size(); ++i) {
+      out.print("{} {:.6f} {:.9g} {}\n", i, to_seconds(s.t[size_t(r.poses[i].begin)] - s.t.front()),
+                r.accel_norm_error[i],
+                i < r.gyro_direction_error_rad.size()
+                    ? fmt::format("{:.9g}", r.gyro_direction_error_rad[i] * 180 / M_PI)
+                    : std::string("NaN"));
+    }
+  }
+  const std::string script = fmt::format(
+      "set multiplot layout 2,1 title 'multi-position calibration residuals'\nset grid\n"
+      "set ylabel '|a_{{cal}}| - g [m/s^2]'\nset style fill solid 0.6\nset boxwidth 0.7\n"
+      "plot '{d}' u 1:3 w boxes lc 1 t 'accelerometer, per pose'\n"
+      "set xlabel 'pose'\nset ylabel 'angle [deg]'\n"
+      "plot '{d}' u 1:4 w boxes lc 2 t 'gyroscope: carried vs measured gravity direction'\nunset "
+      "multiplot\n",
+      fmt::arg("d", dat));
+  run_gnuplot(dir, "calibration_residuals", script);
+}
+
+}  // namespace imukit::cli
