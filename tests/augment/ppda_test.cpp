@@ -208,15 +208,15 @@ TEST(Ppda, SwappingMovesASensorToAnotherPresetOfTheList) {
   const int right = scene.body.index_of("right_elbow");
   const int left = scene.body.index_of("left_elbow");
   int seen[2] = {0, 0};
-  for (uint64_t seed = 1; seed <= 40; ++seed) {
+  for (uint64_t seed = 1; seed <= 24; ++seed) {
     PpdaWindowLog log;
     run_window(aug, sub, 300, seed, &log);
     const int j = log.placements[0].joint;
     ASSERT_TRUE(j == left || j == right);
     ++seen[j == right ? 1 : 0];
   }
-  EXPECT_GT(seen[0], 5);
-  EXPECT_GT(seen[1], 5);
+  EXPECT_GT(seen[0], 3);
+  EXPECT_GT(seen[1], 3);
 }
 
 TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
@@ -259,12 +259,15 @@ TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
 }
 
 TEST(Ppda, EverySubPolicyOfThePaperGridGivesFiniteWindows) {
-  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_front_pocket_phone"}, 800);
-  PpdaAugmenter aug(scene);
+  // Short windows keep the 810 simulations cheap (under a second in the release build).
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_front_pocket_phone"}, 300);
+  PpdaOptions po;
+  po.window = 20;
+  PpdaAugmenter aug(scene, po);
   const Policy policy = builtin_policy("paper");
   ASSERT_EQ(policy.sub_policies.size(), 810u);
   std::vector<float> out(aug.window() * aug.channels());
-  const int64_t start[1] = {350};
+  const int64_t start[1] = {140};
   Rng rng(3);
   for (std::size_t k = 0; k < policy.sub_policies.size(); ++k) {
     aug.apply(policy, k, start, rng, out);
