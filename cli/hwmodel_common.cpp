@@ -278,7 +278,15 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
   opt.gravity = options.gravity;
   opt.calibrate_gyro = out.gyro;
   opt.detector.init_static_s = options.init_static_s;
-  out.fit = hwmodel::calibrate(s.t, s.accel, out.gyro ? s.gyro : Eigen::Matrix3Xd(3, 0), opt);
+  try {
+    out.fit = hwmodel::calibrate(s.t, s.accel, out.gyro ? s.gyro : Eigen::Matrix3Xd(3, 0), opt);
+  } catch (const Error& e) {
+    if (std::string(e.what()).find("static poses") == std::string::npos) throw;
+    // Too few poses: say how to record a usable calibration run.
+    throw Error(std::string(e.what()) +
+                "; record the device still in 9 or more orientations, e.g. `imukit record URI --guide multipos "
+                "--poses 12 -o poses.mcap`, starting with it still for --init-static seconds");
+  }
   const hwmodel::CalibrationResult& r = out.fit;
   fmt::print("{} static poses (threshold {} x the initial static variance), fit in {:.3f} s\n",
              r.poses.size(), r.threshold_factor, r.seconds);

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <exception>
+#include <string>
 #include <fmt/core.h>
 
 #include "cli/command.hpp"
@@ -45,10 +46,36 @@ int main(int argc, char** argv) {
     actions.emplace_back(sub, spec.setup(*sub));
   }
 
+  // An unknown command gets the list of known ones (CLI11 would only say one is required).
+  if (argc > 1 && argv[1][0] != '-') {
+    const std::string word = argv[1];
+    std::string names;
+    bool known = false;
+    for (const CommandSpec& spec : commands) {
+      known = known || spec.name == word;
+      names += (names.empty() ? "" : ", ") + spec.name;
+    }
+    if (!known) {
+      fmt::print(stderr, "imukit: error: unknown command '{}' (commands: {}); see `imukit --help`\n", word, names);
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // One line: what was wrong and where the command's options and examples are.
+    std::string where = "imukit --help";
+    for (auto& [sub, action] : actions) {
+      if (sub->parsed()) where = "imukit " + sub->get_name() + " --help";
+    }
+    fmt::print(stderr, "imukit: error: {}; see `{}`\n", e.what(), where);
+    return e.get_exit_code();
   } catch (const imukit::Error& e) {
     fmt::print(stderr, "imukit: error: {}\n", e.what());
     return 2;

@@ -1,5 +1,8 @@
 # Build helpers shared by every module: one library target per module, one test binary per
-# module, benchmarks and fuzzers, all with the same warnings and sanitizers.
+# module, benchmarks and fuzzers, all with the same warnings and sanitizers; installation as a
+# CMake package.
+
+include(GNUInstallDirs)
 
 function(imukit_configure_toolchain)
   if(CMAKE_CXX_COMPILER_ID MATCHES "GNU|Clang")
@@ -43,6 +46,69 @@ function(imukit_add_module name)
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}> $<INSTALL_INTERFACE:include/imukit>)
   target_link_libraries(imukit_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   set_target_properties(imukit_${name} PROPERTIES EXPORT_NAME ${name})
+  # Every module is installed and exported as imukit::<name> (imukit_install_package), headers
+  # keeping the "<name>/<header>.hpp" layout under include/imukit.
+  set_property(GLOBAL APPEND PROPERTY IMUKIT_MODULES ${name})
+  file(GLOB headers CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.hpp ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/imukit/${name} COMPONENT dev)
+endfunction()
+
+# The third-party packages behind a module's link dependencies, as the lines imukitConfig.cmake
+# needs to find them again (static libraries carry their private dependencies to the consumer).
+# A target Pkg::name comes from find_package(Pkg); PkgConfig::X from pkg_check_modules, whose
+# module name CMake remembers in X_MODULE_NAME.
+function(_imukit_dependency_lines target out_var)
+  set(lines "")
+  get_target_property(deps ${target} LINK_LIBRARIES)
+  get_target_property(iface ${target} INTERFACE_LINK_LIBRARIES)
+  foreach(dep IN LISTS deps iface)
+    string(REGEX REPLACE "^\\$<LINK_ONLY:(.*)>$" "\\1" dep "${dep}")
+    if(dep MATCHES "^imukit" OR NOT dep MATCHES "::" OR dep MATCHES "^\\$<")
+      continue()
+    endif()
+    string(REGEX MATCH "^[^:]+" package "${dep}")
+    if(package STREQUAL "PkgConfig")
+      string(REGEX REPLACE "^PkgConfig::" "" prefix "${dep}")
+      if(NOT ${prefix}_MODULE_NAME)
+        message(FATAL_ERROR "imukit install: cannot tell which pkg-config module made ${dep}")
+      endif()
+      list(APPEND lines "find_dependency(PkgConfig)"
+           "pkg_check_modules(${prefix} REQUIRED QUIET IMPORTED_TARGET ${${prefix}_MODULE_NAME})")
+    else()
+      list(APPEND lines "find_dependency(${package})")
+    endif()
+  endforeach()
+  set(${out_var} "${lines}" PARENT_SCOPE)
+endfunction()
+
+# Installs every module registered by imukit_add_module (libraries, headers) with a CMake package
+# (imukitConfig.cmake, version file, exported targets imukit::<module>), so that a downstream
+# project can find_package(imukit) and link imukit::sim. Call once, after every module.
+function(imukit_install_package)
+  include(CMakePackageConfigHelpers)
+  get_property(modules GLOBAL PROPERTY IMUKIT_MODULES)
+  set(targets "")
+  set(dependency_lines "")
+  foreach(m IN LISTS modules)
+    list(APPEND targets imukit_${m})
+    _imukit_dependency_lines(imukit_${m} lines)
+    list(APPEND dependency_lines ${lines})
+  endforeach()
+  list(REMOVE_DUPLICATES dependency_lines)
+  list(JOIN dependency_lines "\n" IMUKIT_FIND_DEPENDENCIES)
+  set(IMUKIT_MODULES "${modules}")
+  install(TARGETS ${targets} EXPORT imukitTargets COMPONENT dev
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+          RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+  set(cmake_dir ${CMAKE_INSTALL_LIBDIR}/cmake/imukit)
+  install(EXPORT imukitTargets NAMESPACE imukit:: DESTINATION ${cmake_dir} COMPONENT dev)
+  configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/imukitConfig.cmake.in
+                                ${PROJECT_BINARY_DIR}/imukitConfig.cmake INSTALL_DESTINATION ${cmake_dir})
+  write_basic_package_version_file(${PROJECT_BINARY_DIR}/imukitConfigVersion.cmake
+                                   VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
+  install(FILES ${PROJECT_BINARY_DIR}/imukitConfig.cmake ${PROJECT_BINARY_DIR}/imukitConfigVersion.cmake
+          DESTINATION ${cmake_dir} COMPONENT dev)
 endfunction()
 
 # imukit_add_test_suite(<module> SOURCES ... [DEPS ...])

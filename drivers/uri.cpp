@@ -150,7 +150,9 @@ OpenedDevice open_device(const std::string& text) {
       throw;
     } catch (const Error& e) {
       if (e.where()) throw;
-      throw Error("device URI '" + text + "': " + e.reason());
+      const std::string prefix = "device URI '" + text + "'";
+      if (e.reason().rfind(prefix, 0) == 0) throw;  // already says which URI
+      throw Error(prefix + ": " + e.reason());
     }
   };
   with_context([&] {
