@@ -255,6 +255,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
       "iterations{}\n",
       r.samples_used, r.samples_excluded, r.seconds, r.iterations,
       r.converged ? "" : " (not converged)");
+  for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
   fmt::print("coarse time offset (|w| cross-correlation): {:.4f} s\n", r.coarse_time_offset_s);
   fmt::print("{:<22} {:>14} {:>12}\n", "parameter", "value", "std error");
   for (const sim::ParameterEstimate& e : r.parameters) {

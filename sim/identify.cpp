@@ -818,6 +818,24 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     if (e.name == "clock_rate") res.clock_rate = kNaN;
   }
 
+  for (int k = 0; k < 3; ++k) {
+    const char ax = "xyz"[k];
+    if (o.accel_scale && std::abs(res.accel_scale[k]) > 0.1) {
+      res.warnings.push_back(fmt::format(
+          "accel_scale.{} = {:.3f} is implausible: the motion's acceleration is probably noisier "
+          "than "
+          "the accelerometer (errors in variables shrink the scale); hold accel_scale fixed",
+          ax, res.accel_scale[k]));
+    }
+    if (o.gyro_scale && std::abs(res.gyro_scale[k]) > 0.1) {
+      res.warnings.push_back(
+          fmt::format("gyro_scale.{} = {:.3f} is implausible: the motion's angular rate is "
+                      "probably noisier than "
+                      "the gyroscope; hold gyro_scale fixed",
+                      ax, res.gyro_scale[k]));
+    }
+  }
+  if (!res.converged) res.warnings.push_back("the solver did not converge: " + res.solver_summary);
   const Predicted after = predict(ctx, p);
   res.accel_after = after.accel;
   res.gyro_after = after.gyro;
@@ -863,6 +881,7 @@ std::string placement_json(const IdentifyResult& r, const Body& body) {
   }
   j["parameters"] = params;
   j["unobservable"] = r.unobservable;
+  j["warnings"] = r.warnings;
   j["fit"] = {{"samples_used", r.samples_used},
               {"samples_excluded", r.samples_excluded},
               {"rms_before",

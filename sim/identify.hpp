@@ -111,6 +111,10 @@ struct IdentifyResult {
   bool converged = false;
   double seconds = 0.0;
   std::string solver_summary;
+  // Results that are determined but implausible (e.g. a scale error beyond 10 %: with a motion
+  // whose own acceleration is noisier than the sensor, the fit shrinks the scale towards zero,
+  // the errors-in-variables bias; hold such parameters fixed).
+  std::vector<std::string> warnings;
 
   // Per used sample: IMU time, measurement, and the simulated measurement before and after.
   std::vector<TimeNs> t;

@@ -214,6 +214,7 @@ TEST(Identify, ClockRateScaleAndSegmentLength) {
   o.segment_prior = 0.2;
   const IdentifyResult r = identify(nominal, motion, imu, o);
   ASSERT_TRUE(r.unobservable.empty());
+  EXPECT_TRUE(r.warnings.empty());
   EXPECT_NEAR(r.clock_rate, tr.kappa, 10e-6);
   // IMU times are referred to the middle of the samples used; the truth to the middle of 0.5..39.5
   // s.
