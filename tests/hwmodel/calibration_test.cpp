@@ -192,7 +192,8 @@ TEST(Calibration, XsensRecordingCalibratesToGravity) {
     EXPECT_LT(1.0 / r.accel.scale(a), 500.0);
     EXPECT_NEAR(r.accel.bias(a), 32768.0, 2000.0);
   }
-  EXPECT_LT(r.seconds, 10.0);
+  // Its run time is the benchmark's business (bench_hwmodel BM_CalibrateXsens), not a test's:
+  // a wall-clock bound fails on a loaded machine and under the sanitizers.
 
   // Leave poses out: fit on 70 % of the poses (every pose whose index mod 10 is not 2, 5 or
   // 8), check the norm of the other 30 % against g.
