@@ -29,8 +29,9 @@ struct SceneHandle {
 };
 
 std::shared_ptr<ImuSeries> series_for(const sim::SensorSpec& spec, int64_t n) {
-  auto s = std::make_shared<ImuSeries>(ImuSeries::with_channels(
-      static_cast<std::size_t>(n), spec.outputs.accelerometer, spec.outputs.gyroscope));
+  auto s = std::make_shared<ImuSeries>(
+      ImuSeries::with_channels(static_cast<std::size_t>(n), spec.outputs.accelerometer,
+                               spec.outputs.gyroscope, spec.outputs.magnetometer));
   s->t.clear();
   return s;
 }
@@ -47,12 +48,14 @@ void append(ImuSeries& s, const sim::SensorBlock& b) {
   };
   put(s.accel, b.specific_force);
   put(s.gyro, b.angular_rate);
+  put(s.mag, b.magnetic_field);
 }
 
 void finish(ImuSeries& s) {
   const auto n = static_cast<Eigen::Index>(s.t.size());
   if (s.accel.cols() != 0 && s.accel.cols() != n) s.accel.conservativeResize(3, n);
   if (s.gyro.cols() != 0 && s.gyro.cols() != n) s.gyro.conservativeResize(3, n);
+  if (s.mag.cols() != 0 && s.mag.cols() != n) s.mag.conservativeResize(3, n);
 }
 
 // The scene run into one Series per sensor (and "<name>.truth" with ground truth): the hardware
@@ -124,7 +127,8 @@ Eigen::Vector3d gravity_argument(py::handle g) {
 std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<MotionSource> motion,
                                         std::optional<int64_t> frames, const std::string& method,
                                         double rate_hz, py::handle gravity, uint64_t seed,
-                                        bool ground_truth, int64_t chunk_frames) {
+                                        bool ground_truth, int64_t chunk_frames,
+                                        py::handle magnetic_field) {
   auto h = std::make_shared<SceneHandle>();
   sim::Scene& s = h->scene;
   if (motion->joint_count() != body.size()) {
@@ -139,6 +143,15 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
     throw Error("Scene: rate_hz must be in (0, 1e6] Hz");
   s.options.rate_hz = rate_hz;
   if (!gravity.is_none()) s.options.gravity_world = gravity_argument(gravity);
+  if (!magnetic_field.is_none()) {
+    s.options.magnetic_field_world = vector3(magnetic_field, "magnetic_field");
+    // Tesla, as in scene files (the Earth's field is 25-65 uT).
+    if (!(s.options.magnetic_field_world.norm() <= 1e-2)) {
+      throw Error(
+          "Scene: magnetic_field is in T (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
+          std::to_string(s.options.magnetic_field_world.norm()) + " T");
+    }
+  }
   if (chunk_frames < 2) throw Error("Scene: chunk_frames must be at least 2");
   s.options.chunk_frames = chunk_frames;
   s.seed = seed;
@@ -148,7 +161,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
 
 void add_sensor(SceneHandle& h, std::optional<std::string> name, std::optional<std::string> preset,
                 std::optional<std::string> joint, py::handle position_m, py::handle q_joint_sensor,
-                py::handle hardware, bool accelerometer, bool gyroscope) {
+                py::handle hardware, bool accelerometer, bool gyroscope, bool magnetometer) {
   sim::SceneSensor s;
   const sim::Body& body = h.scene.body;
   if (preset.has_value() == joint.has_value()) {
@@ -183,10 +196,11 @@ void add_sensor(SceneHandle& h, std::optional<std::string> name, std::optional<s
     if (other.spec.name == s.spec.name)
       throw Error("Scene.add_sensor: duplicate sensor name '" + s.spec.name + "'");
   }
-  if (!accelerometer && !gyroscope)
-    throw Error("Scene.add_sensor: ask for the accelerometer, the gyroscope or both");
+  if (!accelerometer && !gyroscope && !magnetometer)
+    throw Error("Scene.add_sensor: ask for at least one of accelerometer, gyroscope, magnetometer");
   s.spec.outputs.accelerometer = accelerometer;
   s.spec.outputs.gyroscope = gyroscope;
+  s.spec.outputs.magnetometer = magnetometer;
   if (!hardware.is_none()) {
     s.hardware = to_hardware_model(profile_argument(hardware));
     // The gyroscope's g-sensitivity needs the true specific force (as the scene reader does).
@@ -403,19 +417,21 @@ on its absolute index only. frames=None makes it endless (give Scene(frames=N)).
 Body + motion + sensors (placement and hardware) + settings, as in an imukit.scene/1 file.
 
 Scene(body, motion, frames=None, method="fd", rate_hz=0 (the motion's), gravity=None (a
-magnitude or a world vector; default 9.80665 down), seed=0, ground_truth=False),
-then add_sensor(...) per sensor; or read_scene(path) / parse_scene(text).
+magnitude or a world vector; default 9.80665 down), seed=0, ground_truth=False,
+magnetic_field=None (world vector, T; default the mid-latitude Earth field)),
+then add_sensor(...) per sensor (magnetometer=True adds Series.mag); or read_scene(path) /
+parse_scene(text).
 simulate(seed=None) -> {name: Series} (and "<name>.truth" with ground_truth): the same
 numbers as `imukit simulate` for the same scene and seed.)doc")
       .def(py::init(&make_scene), py::arg("body"), py::arg("motion"), py::kw_only(),
            py::arg("frames") = py::none(), py::arg("method") = "fd", py::arg("rate_hz") = 0.0,
            py::arg("gravity") = py::none(), py::arg("seed") = 0, py::arg("ground_truth") = false,
-           py::arg("chunk_frames") = 4096)
+           py::arg("chunk_frames") = 4096, py::arg("magnetic_field") = py::none())
       .def("add_sensor", &add_sensor, py::arg("name") = py::none(), py::kw_only(),
            py::arg("preset") = py::none(), py::arg("joint") = py::none(),
            py::arg("position_m") = py::none(), py::arg("q_joint_sensor") = py::none(),
            py::arg("hardware") = py::none(), py::arg("accelerometer") = true,
-           py::arg("gyroscope") = true,
+           py::arg("gyroscope") = true, py::arg("magnetometer") = false,
            "A sensor from a placement preset, or on a joint at position_m (joint frame) with "
            "q_joint_sensor (w, x, y, z); hardware: a Profile, a profile dict or a file name.")
       .def("simulate", &simulate, py::arg("seed") = py::none())

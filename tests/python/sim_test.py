@@ -28,7 +28,8 @@ SCENE = {
     "motion": {"procedural": {"rate_hz": 100, "duration_s": 8, "seed": 5}},
     "simulation": {"method": "spline", "rate_hz": 200, "seed": 11},
     "outputs": {"ground_truth": True},
-    "sensors": [{"name": "watch", "preset": "left_wrist_watch", "hardware": HARDWARE},
+    "sensors": [{"name": "watch", "preset": "left_wrist_watch", "hardware": HARDWARE,
+                 "outputs": ["accelerometer", "gyroscope", "magnetometer"]},
                 {"name": "belt", "preset": "waist_belt"}],
 }
 
@@ -38,7 +39,7 @@ def python_scene(seed=11):
     body = imukit.Body.default_humanoid(1.8)
     motion = imukit.ProceduralMotion(len(body), rate_hz=100, frames=math.floor(8 * 100) + 1, seed=5)
     scene = imukit.Scene(body, motion, method="spline", rate_hz=200, seed=seed, ground_truth=True)
-    scene.add_sensor("watch", preset="left_wrist_watch", hardware=HARDWARE)
+    scene.add_sensor("watch", preset="left_wrist_watch", hardware=HARDWARE, magnetometer=True)
     scene.add_sensor("belt", preset="waist_belt")
     return scene
 
@@ -66,6 +67,15 @@ class SimulateLikeTheCli(unittest.TestCase):
             np.testing.assert_array_equal(series.t, t, err_msg=name)
             np.testing.assert_array_equal(series.accel, accel, err_msg=name)
             np.testing.assert_array_equal(series.gyro, gyro, err_msg=name)
+            if name.startswith("watch"):  # the magnetometer beside it: <name>.mag[.truth].csv
+                mag_file = name.replace(".truth", "") + (".mag.truth.csv" if ".truth" in name else ".mag.csv")
+                m = np.loadtxt(os.path.join(self.out, mag_file), delimiter=",", comments="#", ndmin=2)
+                np.testing.assert_array_equal(series.mag, m[:, 1:4], err_msg=mag_file)
+                # Earth's default field is 48.3 uT; the ideal magnetometer sees its norm.
+                if ".truth" in name:
+                    np.testing.assert_allclose(np.linalg.norm(series.mag, axis=1), np.hypot(20e-6, 44e-6), rtol=1e-12)
+            else:
+                self.assertIsNone(series.mag)
 
     def test_scene_file_with_seed_equals_cli_bit_for_bit(self):
         scene = imukit.read_scene(self.scene_path)
