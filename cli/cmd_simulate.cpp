@@ -87,6 +87,18 @@ void write_orientation_rows(StreamFile& file, const sim::SensorBlock& b) {
   file.put(buf);
 }
 
+void write_mag_rows(StreamFile& file, const sim::SensorBlock& b) {
+  std::string buf;
+  for (std::size_t i = 0; i < b.t.size(); ++i) {
+    const auto c = static_cast<Eigen::Index>(i);
+    buf += fmt::format("{},{:.17g},{:.17g},{:.17g}\n", b.t[i], b.magnetic_field(0, c),
+                       b.magnetic_field(1, c), b.magnetic_field(2, c));
+  }
+  file.put(buf);
+}
+
+constexpr const char* kMagHeader = "#timestamp [ns],m_S_x [T],m_S_y [T],m_S_z [T]";
+
 int list_presets() {
   for (const sim::PlacementPreset& p : sim::placement_presets()) {
     fmt::print("{:<26} on {:<16} {}\n", p.name, sim::segment_name(p.joint), p.description);
@@ -120,25 +132,45 @@ sim::Scene quick_scene(const SimulateArgs& a) {
 // The simulation as a recording: /imu/<sensor> (and /imu/<sensor>/truth for the noiseless
 // signals) as sensor_msgs/msg/Imu, times in ns since the start of the motion, streamed in
 // constant memory; the description goes into an "imukit.simulation" metadata record.
-int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path, const std::string& description) {
+int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
+                         const std::string& description) {
   capture::McapWriter writer(path);
   writer.write_metadata("imukit.simulation", {{"description", description}});
-  const uint16_t schema = writer.add_schema(capture::kImuSchemaName, "ros2msg", capture::kImuSchemaText);
-  std::vector<uint16_t> channels, truth_channels;
+  const uint16_t schema =
+      writer.add_schema(capture::kImuSchemaName, "ros2msg", capture::kImuSchemaText);
+  uint16_t mag_schema = 0;
+  std::vector<uint16_t> channels, truth_channels, mag_channels, mag_truth_channels;
   std::vector<capture::ImuMessage> messages(scene.sensors.size());
+  std::vector<capture::MagneticFieldMessage> mag_messages(scene.sensors.size());
   for (std::size_t k = 0; k < scene.sensors.size(); ++k) {
     const std::string& name = scene.sensors[k].spec.name;
     channels.push_back(writer.add_channel(schema, "/imu/" + name, "cdr"));
-    truth_channels.push_back(scene.ground_truth ? writer.add_channel(schema, "/imu/" + name + "/truth", "cdr")
-                                                : uint16_t{0});
+    truth_channels.push_back(scene.ground_truth
+                                 ? writer.add_channel(schema, "/imu/" + name + "/truth", "cdr")
+                                 : uint16_t{0});
     messages[k].frame_id = name;
+    mag_messages[k].frame_id = name;
+    // The magnetometer beside each Imu topic: /imu/<name>/mag (and /imu/<name>/truth/mag).
+    uint16_t mag = 0, mag_truth = 0;
+    if (scene.sensors[k].spec.outputs.magnetometer) {
+      if (mag_schema == 0)
+        mag_schema = writer.add_schema(capture::kMagneticFieldSchemaName, "ros2msg",
+                                       capture::kMagneticFieldSchemaText);
+      mag = writer.add_channel(mag_schema, "/imu/" + name + "/mag", "cdr");
+      if (scene.ground_truth)
+        mag_truth = writer.add_channel(mag_schema, "/imu/" + name + "/truth/mag", "cdr");
+    }
+    mag_channels.push_back(mag);
+    mag_truth_channels.push_back(mag_truth);
   }
   int64_t samples = 0;
-  const auto put = [&](uint16_t channel, capture::ImuMessage& m, const sim::SensorBlock& b, std::size_t i) {
+  const auto put = [&](uint16_t channel, capture::ImuMessage& m, const sim::SensorBlock& b,
+                       std::size_t i) {
     const auto c = static_cast<Eigen::Index>(i);
     m.stamp = b.t[i];
     m.angular_velocity = {b.angular_rate(0, c), b.angular_rate(1, c), b.angular_rate(2, c)};
-    m.linear_acceleration = {b.specific_force(0, c), b.specific_force(1, c), b.specific_force(2, c)};
+    m.linear_acceleration = {b.specific_force(0, c), b.specific_force(1, c),
+                             b.specific_force(2, c)};
     if (i < b.q_world_sensor.size()) {
       const Eigen::Quaterniond& q = b.q_world_sensor[i];
       m.orientation_xyzw = {q.x(), q.y(), q.z(), q.w()};
@@ -147,10 +179,23 @@ int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path, const std::
     const auto t = static_cast<uint64_t>(b.t[i]);
     writer.write_message(channel, t, t, capture::encode_cdr(m));
   };
+  const auto put_mag = [&](uint16_t channel, capture::MagneticFieldMessage& m,
+                           const sim::SensorBlock& b, std::size_t i) {
+    const auto c = static_cast<Eigen::Index>(i);
+    m.stamp = b.t[i];
+    m.magnetic_field = {b.magnetic_field(0, c), b.magnetic_field(1, c), b.magnetic_field(2, c)};
+    const auto t = static_cast<uint64_t>(b.t[i]);
+    writer.write_message(channel, t, t, capture::encode_cdr(m));
+  };
   sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
     for (std::size_t i = 0; i < m.t.size(); ++i) {
       put(channels[s], messages[s], m, i);
       if (t != nullptr && scene.ground_truth) put(truth_channels[s], messages[s], *t, i);
+      if (mag_channels[s] != 0) {
+        put_mag(mag_channels[s], mag_messages[s], m, i);
+        if (t != nullptr && mag_truth_channels[s] != 0)
+          put_mag(mag_truth_channels[s], mag_messages[s], *t, i);
+      }
     }
     samples += static_cast<int64_t>(m.t.size());
   });
@@ -187,23 +232,31 @@ int run_simulate(const SimulateArgs& a) {
   const Eigen::Vector3d& g = scene.options.gravity_world;
   std::string sensors;
   for (const sim::SceneSensor& s : scene.sensors) {
-    sensors += fmt::format("{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}}}",
-                           sensors.empty() ? "" : ", ", s.spec.name, s.preset,
-                           s.hardware ? "true" : "false");
+    const ClockModel clock = s.hardware ? s.hardware->clock : ClockModel{};
+    sensors += fmt::format(
+        "{}{{\"name\": \"{}\", \"preset\": \"{}\", \"hardware\": {}, \"clock_error_ppm\": "
+        "{:.17g}, \"jitter_s\": {:.17g}}}",
+        sensors.empty() ? "" : ", ", s.spec.name, s.preset, s.hardware ? "true" : "false",
+        clock.error_ppm, clock.jitter_s);
   }
+  const Eigen::Vector3d& B = scene.options.magnetic_field_world;
   const std::string description = fmt::format(
       "{{\"schema\": \"imukit.simulation/1\", \"method\": \"{}\", \"rate_hz\": {:.17g}, "
-      "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
-      sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), scene.seed, sensors);
+      "\"gravity_world\": [{:.17g}, {:.17g}, {:.17g}], \"magnetic_field_world\": [{:.17g}, "
+      "{:.17g}, "
+      "{:.17g}], \"seed\": {}, \"sensors\": [{}]}}",
+      sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), B.x(), B.y(), B.z(),
+      scene.seed, sensors);
   if (out.extension() == ".mcap") {
     const int64_t samples = simulate_to_mcap(scene, out.string(), description);
     fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
-               scene.sensors.size(), samples, rate, sim::to_string(scene.options.method), out.string());
+               scene.sensors.size(), samples, rate, sim::to_string(scene.options.method),
+               out.string());
     return 0;
   }
   std::filesystem::create_directories(out);
   const std::string header(kEurocHeader);
-  std::vector<std::unique_ptr<StreamFile>> files, truth, orient;
+  std::vector<std::unique_ptr<StreamFile>> files, truth, orient, mag, mag_truth;
   for (const sim::SceneSensor& s : scene.sensors) {
     files.push_back(std::make_unique<StreamFile>((out / (s.spec.name + ".csv")).string(), header));
     truth.push_back(scene.ground_truth ? std::make_unique<StreamFile>(
@@ -214,15 +267,26 @@ int run_simulate(const SimulateArgs& a) {
             ? std::make_unique<StreamFile>((out / (s.spec.name + ".orientation.csv")).string(),
                                            "#timestamp [ns],q_WS_w,q_WS_x,q_WS_y,q_WS_z")
             : nullptr);
+    // The magnetometer in its own file per sensor (the EuRoC layout has no magnetometer).
+    const bool m = s.spec.outputs.magnetometer;
+    mag.push_back(
+        m ? std::make_unique<StreamFile>((out / (s.spec.name + ".mag.csv")).string(), kMagHeader)
+          : nullptr);
+    mag_truth.push_back(m && scene.ground_truth
+                            ? std::make_unique<StreamFile>(
+                                  (out / (s.spec.name + ".mag.truth.csv")).string(), kMagHeader)
+                            : nullptr);
   }
   int64_t samples = 0;
   sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
     write_rows(*files[s], m);
     if (t != nullptr && truth[s]) write_rows(*truth[s], *t);
     if (orient[s]) write_orientation_rows(*orient[s], m);
+    if (mag[s]) write_mag_rows(*mag[s], m);
+    if (t != nullptr && mag_truth[s]) write_mag_rows(*mag_truth[s], *t);
     samples += static_cast<int64_t>(m.t.size());
   });
-  for (auto* v : {&files, &truth, &orient}) {
+  for (auto* v : {&files, &truth, &orient, &mag, &mag_truth}) {
     for (auto& f : *v) {
       if (f) f->close();
     }

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """End-to-end checks of `imukit simulate` through the real binary, read back with NumPy:
 presets list, a scene JSON with hardware noise and ground truth, a still body read from a
-joint-quaternion CSV (|acc| = g and gyro = 0 exactly), clear errors, and the quick BVH form.
+joint-quaternion CSV (|acc| = g and gyro = 0 exactly), a magnetometer on a drifting device clock
+(CSV and MCAP), clear errors, and the quick BVH form.
 
 usage: sim_cli_test.py IMUKIT_BINARY
 """
@@ -107,6 +108,52 @@ with tempfile.TemporaryDirectory() as tmp:
                 _, t2, g2, a2 = euroc(os.path.join(back, name))
                 ok = ok and np.array_equal(t1, t2) and np.array_equal(g1, g2) and np.array_equal(a1, a2)
     check(ok, "-o FILE.mcap holds exactly the samples of the CSV output")
+    # A magnetometer with hard iron on a device whose clock runs 200 ppm fast.
+    B = [0.0, 2.2e-5, -4.1e-5]
+    hard_iron = [1e-6, -2e-6, 3e-6]
+    mscene = {
+        "schema": "imukit.scene/1",
+        "motion": {"procedural": {"rate_hz": 100, "duration_s": 100, "seed": 2}},
+        "simulation": {"magnetic_field": B},
+        "outputs": {"ground_truth": True},
+        "sensors": [{"name": "watch", "preset": "left_wrist_watch",
+                     "outputs": ["accelerometer", "gyroscope", "magnetometer"],
+                     "hardware": {"schema": "imukit.profile/1",
+                                  "magnetometer": {"hard_iron": hard_iron},
+                                  "clock": {"error_ppm": 200}}}],
+    }
+    mpath = os.path.join(tmp, "mag.json")
+    json.dump(mscene, open(mpath, "w"))
+    mout = os.path.join(tmp, "mag_out")
+    r = run("simulate", mpath, "-o", mout)
+    check(r.returncode == 0, "simulate a magnetometer on a drifting clock")
+    _, t, _, _ = euroc(os.path.join(mout, "watch.csv"))
+    _, tt, _, _ = euroc(os.path.join(mout, "watch.truth.csv"))
+    with open(os.path.join(mout, "watch.mag.csv")) as f:
+        mag_header = f.readline().strip()
+    m = np.loadtxt(os.path.join(mout, "watch.mag.csv"), delimiter=",", comments="#", ndmin=2)
+    mt = np.loadtxt(os.path.join(mout, "watch.mag.truth.csv"), delimiter=",", comments="#", ndmin=2)
+    n = int(np.floor(100 * 100 * 1.0002 + 1e-9)) + 1  # 10003 samples, not 10001
+    k = np.arange(n, dtype=np.int64)
+    true_t = np.array([round(int(i) * 10**9 / 100.02) for i in k], dtype=np.int64)
+    check(mag_header == "#timestamp [ns],m_S_x [T],m_S_y [T],m_S_z [T]", "magnetometer CSV header")
+    check(len(t) == n and np.array_equal(t, k * 10_000_000) and np.array_equal(m[:, 0].astype(np.int64), t),
+          f"+200 ppm: {n} samples stamped k / rate by the device, magnetometer rows at the same stamps")
+    check(np.array_equal(tt, true_t) and np.array_equal(mt[:, 0].astype(np.int64), tt),
+          "ground truth at the true instants k / (rate (1 + 200e-6))")
+    norm_err = np.max(np.abs(np.linalg.norm(mt[:, 1:4], axis=1) / np.linalg.norm(B) - 1))
+    check(norm_err < 1e-12, f"|m_true| = |B| on every sample ({norm_err:.1e})")
+    check(np.max(np.abs(m[:, 1:4] - mt[:, 1:4] - np.array(hard_iron))) < 1e-18, "hard iron adds its offset")
+    info = json.load(open(os.path.join(mout, "simulation.json")))
+    check(info["magnetic_field_world"] == B and info["sensors"][0]["clock_error_ppm"] == 200,
+          "simulation.json records the magnetic field and the clock error")
+    mmcap = os.path.join(tmp, "mag.mcap")
+    r = run("simulate", mpath, "-o", mmcap)
+    r2 = run("info", mmcap)
+    mag_lines = [line for line in r2.stdout.splitlines() if line.strip().startswith("mag") and "[T]" in line]
+    check(r.returncode == 0 and r2.returncode == 0 and len(mag_lines) == 2,
+          "-o FILE.mcap: info reads /imu/watch/mag (and its truth) back into the streams' magnetometer")
+
     bad = dict(scene, sensors=[{"preset": "left_sock"}])
     json.dump(bad, open(path, "w"))
     r = run("simulate", path, "-o", out)
