@@ -30,7 +30,11 @@ constexpr int64_t kMargin = 3;
 // Which joints carry a sensor in one apply() call, and the virtual sensors simulated for them:
 // per carrier joint, the origin (accelerometer + gyroscope, identity orientation) and the unit
 // points along the joint's x, y, z axes (accelerometer only).
+// When the sub-policy keeps every sensor's position (no swap, shift or long-axis turn), the
+// carriers are simply the sensors at their positions with identity orientation (fixed = true):
+// a quarter of the points, and rotations still follow afterwards.
 struct Carriers {
+  bool fixed = false;
   std::vector<int> joints;           // body indices
   std::map<int, std::size_t> index;  // body index -> carrier
   std::vector<sim::SensorSpec> specs;
@@ -380,12 +384,13 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
     }
     if (log != nullptr) log->placements.push_back(pl);
-    const std::size_t cidx = carriers.index.at(pl.joint);
-    const sim::SensorBlock& b0 = wk.blocks[4 * cidx];
+    const std::size_t cidx = carriers.fixed ? s : carriers.index.at(pl.joint);
+    const sim::SensorBlock& b0 = wk.blocks[carriers.fixed ? s : 4 * cidx];
     const Matrix3d R_sensor_joint = pl.q_joint_sensor.normalized().toRotationMatrix().transpose();
     // Specific force at p: f0 + sum_k p_k (f_k - f0) (affine in the position), in joint axes.
     Eigen::Matrix3Xd f(3, static_cast<Eigen::Index>(T)), w(3, static_cast<Eigen::Index>(T));
-    for (int k = 0; k < 3; ++k) {
+    if (carriers.fixed) f = b0.specific_force;
+    for (int k = 0; k < 3 && !carriers.fixed; ++k) {
       const double pk = pl.p_joint_sensor[k];
       if (k == 0) f = b0.specific_force;
       if (pk != 0.0)
@@ -462,6 +467,23 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
 
 namespace {
 
+Carriers make_fixed_carriers(const std::vector<sim::SceneSensor>& sensors) {
+  Carriers c;
+  c.fixed = true;
+  for (const sim::SceneSensor& ss : sensors) {
+    sim::SensorSpec s;
+    s.name = ss.spec.name;
+    s.placement.joint = ss.spec.placement.joint;
+    s.placement.p_joint_sensor = ss.spec.placement.p_joint_sensor;
+    c.specs.push_back(s);
+  }
+  return c;
+}
+
+bool keeps_positions(const PlacementOp& op) {
+  return !op.enabled || (op.swap_presets.empty() && !op.shift && op.long_axis_range_rad == 0.0);
+}
+
 // The joints a sub-policy may put a sensor on.
 std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::SceneSensor>& sensors,
                              const SubPolicy& sub) {
@@ -489,7 +511,9 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
       throw Error(fmt::format("augment: window start {} outside 0 .. {}", s,
                               m.samples - static_cast<int64_t>(T)));
   }
-  const Carriers carriers = make_carriers(carrier_joints(m.body, m.sensors, sub));
+  const Carriers carriers = keeps_positions(sub.placement)
+                                ? make_fixed_carriers(m.sensors)
+                                : make_carriers(carrier_joints(m.body, m.sensors, sub));
   const Rng root(rng.next_u64());
   if (log != nullptr) log->assign(starts.size(), PpdaWindowLog{});
   if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
@@ -543,7 +567,9 @@ void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
   if (start < 0 || start + static_cast<int64_t>(T) > m.samples)
     throw Error(fmt::format("augment: window start {} outside 0 .. {}", start,
                             m.samples - static_cast<int64_t>(T)));
-  const Carriers carriers = make_carriers(carrier_joints(m.body, m.sensors, sub));
+  const Carriers carriers = keeps_positions(sub.placement)
+                                ? make_fixed_carriers(m.sensors)
+                                : make_carriers(carrier_joints(m.body, m.sensors, sub));
   Impl::Worker wk;
   wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
   wk.window_motion = std::make_unique<sim::Motion>(m.motion_rate, m.body.size(), m.window_frames());
