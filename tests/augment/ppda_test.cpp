@@ -9,6 +9,7 @@
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/profile.hpp"
 #include "core/so3.hpp"
 #include "sim/placement.hpp"
 
@@ -259,6 +260,32 @@ TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
   }
   EXPECT_NEAR(std::sqrt(sa / n), 0.1, 0.1 * 0.03);
   EXPECT_NEAR(std::sqrt(sg / n), 0.01, 0.01 * 0.03);
+}
+
+TEST(Ppda, HardwareFromADeviceProfileHasTheDevicesNoise) {
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  const std::vector<double> id = run_window(aug, SubPolicy{}, 900, 1);
+  SubPolicy sub;
+  sub.hardware.kind = HardwareOp::Kind::profile;
+  // White noise densities only: per-sample sigma = N sqrt(100 Hz) = 10 N.
+  sub.hardware.profile = parse_profile(R"({"schema": "imukit.profile/1",
+      "accelerometer": {"noise": {"noise_density": [0.002, 0.002, 0.002]}},
+      "gyroscope": {"noise": {"noise_density": [0.0003, 0.0003, 0.0003]}}})",
+                                       "dev.json");
+  double sa = 0, sg = 0;
+  int n = 0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    const std::vector<double> z = run_window(aug, sub, 900, seed);
+    for (std::size_t i = 0; i < 100; ++i)
+      for (std::size_t k = 0; k < 3; ++k) {
+        sa += std::pow(z[i * 6 + k] - id[i * 6 + k], 2);
+        sg += std::pow(z[i * 6 + 3 + k] - id[i * 6 + 3 + k], 2);
+        ++n;
+      }
+  }
+  EXPECT_NEAR(std::sqrt(sa / n), 0.02, 0.02 * 0.03);
+  EXPECT_NEAR(std::sqrt(sg / n), 0.003, 0.003 * 0.03);
 }
 
 TEST(Ppda, EverySubPolicyOfThePaperGridGivesFiniteWindows) {
