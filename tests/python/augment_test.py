@@ -7,14 +7,13 @@ usage: augment_test.py IMUKIT_BINARY
 """
 import json
 import os
-import subprocess
 import tempfile
 import unittest
 
 import numpy as np
 
 import imukit
-from support import IMUKIT, cli_error, main, run_cli
+from support import main, run_cli
 
 
 def batch(n=8, t=60, c=12, dtype=np.float32, seed=0):
@@ -198,7 +197,7 @@ class Ppda(unittest.TestCase):
 
 class Datasets(unittest.TestCase):
     def test_dataset_equals_the_command(self):
-        help_text = subprocess.run([IMUKIT, "--help"], capture_output=True, text=True).stdout
+        help_text = run_cli("--help").stdout
         if " augment" not in help_text:
             self.skipTest("`imukit augment` is not built yet")
         with tempfile.TemporaryDirectory() as tmp:

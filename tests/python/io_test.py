@@ -12,7 +12,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import cli_error, euroc, main, run_cli
+from support import cli_error, euroc, main
 
 
 def sample_series(n=50, seed=1):

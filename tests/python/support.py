@@ -13,8 +13,13 @@ DATA = os.environ.get("IMUKIT_DATA_DIR",
                       os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data"))
 
 
+# Under ASan the tests preload the shared ASan runtime into python3; the command links its own
+# (static) runtime and refuses to start with a second one, so it runs without the preload.
+CLI_ENV = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
 def run_cli(*args):
-    r = subprocess.run([IMUKIT, *map(str, args)], capture_output=True, text=True)
+    r = subprocess.run([IMUKIT, *map(str, args)], capture_output=True, text=True, env=CLI_ENV)
     if r.returncode != 0:
         print(r.stdout, r.stderr)
     return r
@@ -22,7 +27,7 @@ def run_cli(*args):
 
 def cli_error(*args):
     """The one error line the command prints, without its 'imukit: error: ' prefix."""
-    r = subprocess.run([IMUKIT, *map(str, args)], capture_output=True, text=True)
+    r = subprocess.run([IMUKIT, *map(str, args)], capture_output=True, text=True, env=CLI_ENV)
     assert r.returncode != 0, f"expected imukit {' '.join(map(str, args))} to fail"
     line = r.stderr.strip().splitlines()[-1]
     prefix = "imukit: error: "
