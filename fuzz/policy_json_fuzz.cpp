@@ -5,30 +5,15 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
-#include <nlohmann/json.hpp>
 #include <string_view>
 
 #include "augment/policy.hpp"
 #include "core/error.hpp"
-
-namespace {
-
-bool names_absolute_path(const nlohmann::json& j) {
-  if (j.is_string()) return !j.get<std::string>().empty() && j.get<std::string>().front() == '/';
-  if (j.is_structured()) {
-    for (const auto& e : j) {
-      if (names_absolute_path(e)) return true;
-    }
-  }
-  return false;
-}
-
-}  // namespace
+#include "fuzz/json_fuzz.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  const nlohmann::json probe = nlohmann::json::parse(text.begin(), text.end(), nullptr, false);
-  if (!probe.is_discarded() && names_absolute_path(probe)) return 0;
+  if (imukit::fuzz::json_names_absolute_path(text)) return 0;
   imukit::augment::Policy policy;
   try {
     policy = imukit::augment::parse_policy(text, "fuzz.json", "/nonexistent-imukit-fuzz");
