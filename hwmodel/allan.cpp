@@ -705,6 +705,21 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       // ADEV's slope of -2 covers both white and flicker PM, which are treated alike.
       alpha(a, Eigen::Index(k)) = alpha_from_avar_slope(mu);
     }
+    // In an IMU, phase noise (quantisation) can dominate only the shortest taus: past the first
+    // tau where it does not, a steep local slope is the scatter of a few long-tau estimates, and
+    // taking it for white PM would claim thousands of degrees of freedom where there are a
+    // dozen. Such points get white FM, the steepest frequency-noise type.
+    if (!options.alpha) {
+      bool phase_noise_prefix = true;
+      for (size_t k = 0; k < grid; ++k) {
+        int& al = alpha(a, Eigen::Index(k));
+        if (al != 2) {
+          phase_noise_prefix = false;
+        } else if (!phase_noise_prefix) {
+          al = 0;
+        }
+      }
+    }
   }
 
   for (Deviation d : kinds) {
