@@ -13,17 +13,12 @@ import sys
 import tempfile
 
 import numpy as np
-from checks import Checks
+from checks import Checks, imukit_runner
 
 IMUKIT = sys.argv[1]
 check = Checks()
 
-
-def run(*args):
-    r = subprocess.run([IMUKIT, *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        print(r.stdout, r.stderr)
-    return r
+run = imukit_runner(IMUKIT)
 
 
 with tempfile.TemporaryDirectory() as tmp:

@@ -1,6 +1,7 @@
 """Shared by the CLI test scripts: named checks that print one line each and a closing
 'N passed, N failed' line, and an exit code that fails the ctest entry on any failed check;
 and a runner for the imukit binary under test."""
+import os
 import subprocess
 import sys
 
@@ -31,3 +32,9 @@ def imukit_runner(binary):
             print(r.stdout, r.stderr)
         return r
     return run
+
+
+def data_dir():
+    """The shared recordings: $IMUKIT_DATA_DIR, else ../shared/data beside the checkout."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    return os.environ.get("IMUKIT_DATA_DIR", os.path.join(here, "..", "..", "..", "shared", "data"))

@@ -16,19 +16,14 @@ import sys
 import tempfile
 
 import numpy as np
-from checks import Checks
+from checks import Checks, data_dir, imukit_runner
 
 IMUKIT = sys.argv[1]
 QUICK = "--quick" in sys.argv[2:]  # sanitizer builds: skip the BROAD excerpt (the unit test covers it)
-DATA = os.environ.get("IMUKIT_DATA_DIR", os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data"))
+DATA = data_dir()
 check = Checks()
 
-
-def run(*args):
-    r = subprocess.run([IMUKIT, *args], capture_output=True, text=True)
-    if r.returncode != 0:
-        print(r.stdout, r.stderr)
-    return r
+run = imukit_runner(IMUKIT)
 
 
 def expq(v):
