@@ -14,6 +14,7 @@
 #include "core/so3.hpp"
 #include "sim/identify.hpp"
 #include "sim/simulator.hpp"
+#include "tests/support/sampled_motion.hpp"
 
 namespace {
 
@@ -40,14 +41,7 @@ Vector3d trans(double t) {
 
 Motion sample(double rate, double seconds) {
   const auto frames = static_cast<int64_t>(std::llround(seconds * rate)) + 1;
-  Motion m(rate, 2, frames);
-  for (int64_t f = 0; f < frames; ++f) {
-    const double t = static_cast<double>(f) / rate;
-    m.rotation(f, 0) = root_q(t);
-    m.rotation(f, 1) = child_q(t);
-    m.root_translation(f) = trans(t);
-  }
-  return m;
+  return testing::sampled_motion(rate, frames, root_q, child_q, trans);
 }
 
 struct Case {

@@ -14,6 +14,7 @@
 #include "core/rng.hpp"
 #include "core/so3.hpp"
 #include "sim/simulator.hpp"
+#include "tests/support/sampled_motion.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace imukit::sim {
@@ -47,14 +48,9 @@ struct VariedMotion {
   }
   Motion sample(double rate, double seconds) const {
     const auto frames = static_cast<int64_t>(std::llround(seconds * rate)) + 1;
-    Motion m(rate, 2, frames);
-    for (int64_t f = 0; f < frames; ++f) {
-      const double t = static_cast<double>(f) / rate;
-      m.rotation(f, 0) = root(t);
-      m.rotation(f, 1) = child(t);
-      m.root_translation(f) = trans(t);
-    }
-    return m;
+    return testing::sampled_motion(
+        rate, frames, [this](double t) { return root(t); }, [this](double t) { return child(t); },
+        [this](double t) { return trans(t); });
   }
 };
 

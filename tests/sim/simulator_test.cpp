@@ -15,6 +15,7 @@
 #include "core/so3.hpp"
 #include "core/text_parse.hpp"
 #include "sim/bvh.hpp"
+#include "tests/support/sampled_motion.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace imukit::sim {
@@ -43,18 +44,7 @@ SensorSpec sensor_on(int joint, const Vector3d& p, const Quaterniond& q = Quater
   return s;
 }
 
-// A motion given by functions of time.
-template <class Root, class Child, class Trans>
-Motion sampled_motion(double rate, int64_t frames, Root root, Child child, Trans trans) {
-  Motion m(rate, 2, frames);
-  for (int64_t f = 0; f < frames; ++f) {
-    const double t = static_cast<double>(f) / rate;
-    m.rotation(f, 0) = root(t);
-    m.rotation(f, 1) = child(t);
-    m.root_translation(f) = trans(t);
-  }
-  return m;
-}
+using testing::sampled_motion;
 
 std::vector<TimeNs> grid_times(const Simulator& sim, const MotionSource& m, int64_t frames) {
   std::vector<TimeNs> t;
