@@ -111,7 +111,9 @@ struct PpdaAugmenter::Impl {
   // Per-thread state.
   struct Worker {
     std::unique_ptr<sim::Simulator> simulator;
-    std::unique_ptr<sim::Motion> window_motion;
+    // The window's motion, by frame count: interior windows all have the same count, identity
+    // windows at the motion's ends are cut short there (and off-grid starts may need one more).
+    std::map<int64_t, sim::Motion> window_motions;
     sim::MotionChunk chunk;
     std::vector<sim::SensorBlock> blocks;
     std::vector<TimeNs> times;
@@ -120,7 +122,8 @@ struct PpdaAugmenter::Impl {
     // The amplitude spline is linear in its knot values: column m holds the curve through the
     // unit knot vector e_m at the window frames, so a joint's curve is one matrix-vector product.
     int basis_knots = -1;
-    Eigen::MatrixXd basis;  // frames x (K + 2)
+    std::vector<double> basis_u;  // the frame positions the basis was evaluated at
+    Eigen::MatrixXd basis;        // frames x (K + 2)
   };
 
   int64_t window_frames() const {
@@ -196,25 +199,43 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   const std::size_t T = options.window;
   const double dt = 1.0 / rate;
   const double h = 1.0 / motion_rate;
-  const int64_t F = window_frames();
+  int64_t F = window_frames();
   const sim::SimulationPlan& plan = wk.simulator->plan();
   const std::size_t J = plan.joints.size();
   if (log != nullptr) *log = PpdaWindowLog{};
   if (log != nullptr) log->start = start;
 
-  // 1. Speed: the source time (s) of each window frame. u = output position in samples.
+  // 1. Speed: the source frame position x of each window frame and its output position u in
+  // samples from the window's first sample.
+  const TimeNs t_start_ns = sample_time(0, start, rate);
+  const double t_start = static_cast<double>(t_start_ns) * 1e-9;
+  // Identity: the window's motion is the source's own frames first_frame .. first_frame + F - 1,
+  // the samples' frames plus kMargin each side, cut at the motion's ends -- never moved -- so the
+  // simulator sees the same frames around every sample, and the same one-sided stencils and end
+  // conditions at the true ends, as when it simulates the whole motion.
+  int64_t first_frame = 0;
+  if (sub.speed.method == WarpMethod::identity) {
+    const TimeNs t_end_ns = sample_time(0, start + static_cast<int64_t>(T) - 1, rate);
+    int64_t f1 = sim::Simulator::frame_at(t_end_ns, motion_rate);
+    if (sample_time(0, f1, motion_rate) < t_end_ns) ++f1;
+    first_frame = std::max<int64_t>(0, sim::Simulator::frame_at(t_start_ns, motion_rate) - kMargin);
+    F = std::min<int64_t>(frames - 1, f1 + kMargin) - first_frame + 1;
+  }
   wk.u.resize(static_cast<std::size_t>(F));
   wk.x.resize(static_cast<std::size_t>(F));
   for (int64_t j = 0; j < F; ++j)
     wk.u[static_cast<std::size_t>(j)] = static_cast<double>(j - kMargin) * h / dt;
-  const double t_start = static_cast<double>(sample_time(0, start, rate)) * 1e-9;
   switch (sub.speed.method) {
-    case WarpMethod::identity:
+    case WarpMethod::identity: {
+      const TimeNs t_first = sample_time(0, first_frame, motion_rate);
       for (int64_t j = 0; j < F; ++j) {
         const auto k = static_cast<std::size_t>(j);
-        wk.x[k] = (t_start + wk.u[k] * dt) * motion_rate;
+        wk.x[k] = static_cast<double>(first_frame + j);
+        wk.u[k] =
+            (static_cast<double>(t_first - t_start_ns) * 1e-9 + static_cast<double>(j) * h) / dt;
       }
       break;
+    }
     case WarpMethod::scaling: {
       const double b = uniform_in(rng, sub.speed.lo, sub.speed.hi);
       if (log != nullptr) log->speed_scale = b;
@@ -236,7 +257,8 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       break;
     }
   }
-  // Keep the re-timed span inside the motion (a window near an end slides inwards).
+  // Keep a re-timed span inside the motion (a speed-changed window near an end slides inwards;
+  // identity spans are inside by construction).
   const double last = static_cast<double>(frames - 1);
   const double x0 = wk.x.front(), x1 = wk.x.back();
   if (x1 - x0 > last) {
@@ -258,7 +280,10 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   const auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
   motion->read(lo, hi - lo, plan.joints, wk.chunk);
   const sim::MotionChunk& c = wk.chunk;
-  sim::Motion& wm = *wk.window_motion;
+  auto slot = wk.window_motions.find(F);
+  if (slot == wk.window_motions.end())
+    slot = wk.window_motions.try_emplace(F, motion_rate, body.size(), F).first;
+  sim::Motion& wm = slot->second;
   for (int64_t j = 0; j < F; ++j) {
     const double x = wk.x[static_cast<std::size_t>(j)];
     const double fl = std::floor(x);
@@ -312,7 +337,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         std::fill(wk.scale.begin(), wk.scale.end(), a);
       } else {
         const int nk = sub.amplitude.knots + 2;
-        if (wk.basis_knots != sub.amplitude.knots) {
+        if (wk.basis_knots != sub.amplitude.knots || wk.basis_u != wk.u) {
           wk.basis.resize(F, nk);
           std::vector<double> e(static_cast<std::size_t>(nk));
           for (int m = 0; m < nk; ++m) {
@@ -324,6 +349,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
             wk.basis.col(m) = col.transpose();
           }
           wk.basis_knots = sub.amplitude.knots;
+          wk.basis_u = wk.u;
         }
         Eigen::VectorXd kv(nk);
         for (int m = 0; m < nk; ++m) kv[m] = rng.normal(1.0, sub.amplitude.sigma);
@@ -339,9 +365,16 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
 
   // 4. Simulate the carriers at the output sample times.
   wk.times.resize(T);
-  for (std::size_t i = 0; i < T; ++i) {
-    wk.times[i] = static_cast<TimeNs>(
-        std::llround((static_cast<double>(i) * dt + static_cast<double>(kMargin) * h) * 1e9));
+  if (sub.speed.method == WarpMethod::identity) {
+    // The plain simulation's sample times, counted from the window's first frame.
+    const TimeNs t_first = sample_time(0, first_frame, motion_rate);
+    for (std::size_t i = 0; i < T; ++i)
+      wk.times[i] = sample_time(0, start + static_cast<int64_t>(i), rate) - t_first;
+  } else {
+    for (std::size_t i = 0; i < T; ++i) {
+      wk.times[i] = static_cast<TimeNs>(
+          std::llround((static_cast<double>(i) * dt + static_cast<double>(kMargin) * h) * 1e9));
+    }
   }
   wk.simulator->evaluate(wm, wk.times, wk.blocks);
 
@@ -525,8 +558,6 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
     try {
       Impl::Worker wk;
       wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
-      wk.window_motion =
-          std::make_unique<sim::Motion>(m.motion_rate, m.body.size(), m.window_frames());
       for (std::size_t k = next++; k < starts.size(); k = next++) {
         Rng r = root.child(k);
         m.simulate_window(sub, carriers, starts[k], r, wk, nullptr, out.data() + k * T * C,
@@ -572,7 +603,6 @@ void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
                                 : make_carriers(carrier_joints(m.body, m.sensors, sub));
   Impl::Worker wk;
   wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
-  wk.window_motion = std::make_unique<sim::Motion>(m.motion_rate, m.body.size(), m.window_frames());
   m.simulate_window(sub, carriers, start, rng, wk, out.data(), nullptr, log);
 }
 

@@ -72,7 +72,9 @@ class PpdaAugmenter {
   // Simulates window k starting at sample starts[k] under `sub` into out (starts.size() x
   // window x channels floats, C order). threads: 0 = hardware concurrency. A speed-scaled window
   // covers b times the base span around the base window's centre, moved inside the motion when
-  // it would leave it.
+  // it would leave it. An identity-speed window never moves: it is the plain simulation's samples
+  // starts[k] .. starts[k] + window - 1 (before amplitude, placement and hardware changes), the
+  // first and last windows included.
   void apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng, std::span<float> out,
              unsigned threads = 1, std::vector<PpdaWindowLog>* log = nullptr);
   void apply(const Policy& policy, std::size_t sub_policy, std::span<const int64_t> starts,

@@ -119,6 +119,66 @@ TEST(Ppda, DoublingTheSpeedDoublesTheRateQuadruplesTheTangentialAccelerationKeep
   }
 }
 
+// Identity windows are the plain simulation's samples, at the motion's ends too: the window's
+// motion is cut at the true ends (the simulator's one-sided stencils and end conditions apply
+// there as in the whole-motion run) and never slides. Once the first and last windows slid 3
+// frames inwards: 1.4 m/s^2 and 0.23 rad/s off on this scene. Tolerances: float32 rounding of
+// the batch output (6e-8 relative, with a floor for values near zero), 1e-9 for the double path
+// (the same frames and arithmetic). Also at a sensor rate off the motion's grid (60 Hz).
+TEST(Ppda, IdentityWindowsEqualThePlainSimulationAtBothEndsAndInside) {
+  for (double sensor_rate : {100.0, 60.0}) {
+    sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_ankle_clip"}, 600);
+    scene.options.rate_hz = sensor_rate;
+    for (sim::DerivativeMethod method :
+         {sim::DerivativeMethod::fd, sim::DerivativeMethod::spline}) {
+      PpdaOptions po;
+      po.method = method;
+      PpdaAugmenter aug(scene, po);
+      const std::size_t T = aug.window(), C = aug.channels(), S = scene.sensors.size();
+      // The plain simulation of the whole motion, streamed in chunks.
+      sim::SimulationOptions so = scene.options;
+      so.method = method;
+      std::vector<sim::SensorSpec> specs;
+      for (const sim::SceneSensor& s : scene.sensors) specs.push_back(s.spec);
+      sim::Simulator plain(scene.body, specs, so);
+      std::vector<std::vector<double>> ref(S);  // per sensor: ax ay az gx gy gz per sample
+      plain.run(
+          *scene.motion,
+          [&](std::size_t s, const sim::SensorBlock& b) {
+            for (Eigen::Index i = 0; i < b.specific_force.cols(); ++i) {
+              for (int k = 0; k < 3; ++k) ref[s].push_back(b.specific_force(k, i));
+              for (int k = 0; k < 3; ++k) ref[s].push_back(b.angular_rate(k, i));
+            }
+          },
+          scene.frames);
+      ASSERT_EQ(ref[0].size(), 6 * static_cast<std::size_t>(aug.sample_count()));
+      const std::vector<int64_t> all = aug.window_starts(1);
+      const std::vector<int64_t> starts = {all.front(), all[all.size() / 2], all.back()};
+      ASSERT_EQ(starts.back() + static_cast<int64_t>(T), aug.sample_count());
+      std::vector<float> batch(starts.size() * T * C);
+      Rng rng(3);
+      aug.apply(SubPolicy{}, starts, rng, batch);
+      for (std::size_t w = 0; w < starts.size(); ++w) {
+        std::vector<double> y(T * C);
+        aug.apply_window(SubPolicy{}, starts[w], rng, y);
+        for (std::size_t i = 0; i < T; ++i) {
+          for (std::size_t s = 0; s < S; ++s) {
+            for (std::size_t k = 0; k < 6; ++k) {
+              const double r = ref[s][6 * (static_cast<std::size_t>(starts[w]) + i) + k];
+              const std::size_t o = i * C + 6 * s + k;
+              ASSERT_NEAR(batch[w * T * C + o], r, 6e-8 * std::abs(r) + 1e-7)
+                  << sim::to_string(method) << " " << sensor_rate << " Hz, start " << starts[w]
+                  << " sample " << i << " sensor " << s << " channel " << k;
+              ASSERT_NEAR(y[o], r, 1e-9) << sim::to_string(method) << " " << sensor_rate
+                                         << " Hz, start " << starts[w] << " sample " << i;
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(Ppda, AmplitudeScalingMultipliesTheJointAngleExactly) {
   const sim::Scene scene = sinusoid_scene();
   PpdaAugmenter aug(scene);
