@@ -3,8 +3,8 @@
 // (the load a recorder sees from 8 real devices), with the recorder's own losses and its CPU use.
 #include <benchmark/benchmark.h>
 
-#include <filesystem>
 #include <sys/resource.h>
+#include <filesystem>
 
 #include "capture/mcap.hpp"
 #include "capture/ros_messages.hpp"
@@ -16,7 +16,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace imukit;
 
-fs::path temp_file(const std::string& name) { return fs::temp_directory_path() / ("imukit-bench-" + name); }
+fs::path temp_file(const std::string& name) {
+  return fs::temp_directory_path() / ("imukit-bench-" + name);
+}
 
 double cpu_seconds() {
   rusage u{};
@@ -35,7 +37,8 @@ void BM_McapWriteImuSamples(benchmark::State& state) {
   for (auto _ : state) {
     capture::McapWriter w(path);
     const uint16_t s = w.add_schema(capture::kImuSchemaName, "ros2msg", capture::kImuSchemaText);
-    const uint16_t r = w.add_schema(capture::kRawImuSchemaName, "ros2msg", capture::kRawImuSchemaText);
+    const uint16_t r =
+        w.add_schema(capture::kRawImuSchemaName, "ros2msg", capture::kRawImuSchemaText);
     const uint16_t ci = w.add_channel(s, "/imu/bench", "cdr");
     const uint16_t cr = w.add_channel(r, "/imu/bench/raw", "cdr");
     for (int i = 0; i < 100'000; ++i) {
@@ -44,13 +47,16 @@ void BM_McapWriteImuSamples(benchmark::State& state) {
       imu.angular_velocity = {0.001 * (i % 100), 0.0, -0.002 * (i % 37)};
       imu.linear_acceleration = {0.01 * (i % 13), 0.0, 9.81};
       raw.sample_index = static_cast<uint64_t>(i);
-      w.write_message(cr, static_cast<uint64_t>(t), static_cast<uint64_t>(t), capture::encode_cdr(raw));
-      w.write_message(ci, static_cast<uint64_t>(t), static_cast<uint64_t>(t), capture::encode_cdr(imu));
+      w.write_message(cr, static_cast<uint64_t>(t), static_cast<uint64_t>(t),
+                      capture::encode_cdr(raw));
+      w.write_message(ci, static_cast<uint64_t>(t), static_cast<uint64_t>(t),
+                      capture::encode_cdr(imu));
     }
     w.close();
     samples += 100'000;
   }
-  state.counters["samples/s"] = benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
+  state.counters["samples/s"] =
+      benchmark::Counter(static_cast<double>(samples), benchmark::Counter::kIsRate);
   state.counters["bytes/sample"] = static_cast<double>(fs::file_size(path)) / 100'000.0;
   fs::remove(path);
 }
@@ -67,7 +73,8 @@ void BM_SessionEightDevices(benchmark::State& state) {
   for (auto _ : state) {
     std::vector<capture::SessionDevice> devices;
     for (int k = 0; k < 8; ++k) {
-      const std::string uri = "mock:static?rate=" + std::to_string(rate) + "&seed=" + std::to_string(k + 1) +
+      const std::string uri = "mock:static?rate=" + std::to_string(rate) +
+                              "&seed=" + std::to_string(k + 1) +
                               "&clock=" + (virtual_time ? "virtual" : "real") + "&block=32";
       devices.push_back({"dev" + std::to_string(k), uri, drivers::open_device(uri), std::nullopt});
     }
@@ -83,7 +90,8 @@ void BM_SessionEightDevices(benchmark::State& state) {
       missing += d.dropped;
     }
   }
-  state.counters["samples/s"] = benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
+  state.counters["samples/s"] =
+      benchmark::Counter(static_cast<double>(written), benchmark::Counter::kIsRate);
   state.counters["recorder_lost"] = static_cast<double>(lost);
   state.counters["missing"] = static_cast<double>(missing);
   // CPU seconds the whole process used per second of recording (all threads: readers, writer,

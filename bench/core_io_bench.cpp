@@ -3,9 +3,9 @@
 // std::strtod loop over the same bytes (what a hand-written reader typically does).
 #include <benchmark/benchmark.h>
 
+#include <fmt/format.h>
 #include <cstdlib>
 #include <cstring>
-#include <fmt/format.h>
 #include <string>
 
 #include "core/column_text.hpp"
@@ -39,9 +39,8 @@ void BM_NewlineScanFloor(benchmark::State& state) {
   const std::string& text = euroc_text();
   for (auto _ : state) {
     std::size_t lines = 0;
-    for (const char* p = text.data(); (p = static_cast<const char*>(
-                                           std::memchr(p, '\n', text.data() + text.size() - p)));
-         ++p) {
+    for (const char* p = text.data();
+         (p = static_cast<const char*>(std::memchr(p, '\n', text.data() + text.size() - p))); ++p) {
       ++lines;
     }
     benchmark::DoNotOptimize(lines);

@@ -37,10 +37,12 @@ class ByteWriter {
   std::size_t size() const { return out_.size(); }
   // Overwrites 4 bytes at `at` (for length prefixes filled in after the fact).
   void patch_u32(std::size_t at, uint32_t v) {
-    for (int i = 0; i < 4; ++i) out_[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
+    for (int i = 0; i < 4; ++i)
+      out_[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
   }
   void patch_u64(std::size_t at, uint64_t v) {
-    for (int i = 0; i < 8; ++i) out_[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
+    for (int i = 0; i < 8; ++i)
+      out_[at + static_cast<std::size_t>(i)] = static_cast<uint8_t>(v >> (8 * i));
   }
 
  private:
@@ -106,7 +108,8 @@ class ByteReader {
   T le(const char* what) {
     need(sizeof(T), what);
     T v = 0;
-    for (std::size_t i = 0; i < sizeof(T); ++i) v |= static_cast<T>(static_cast<T>(data_[pos_ + i]) << (8 * i));
+    for (std::size_t i = 0; i < sizeof(T); ++i)
+      v |= static_cast<T>(static_cast<T>(data_[pos_ + i]) << (8 * i));
     pos_ += sizeof(T);
     return v;
   }

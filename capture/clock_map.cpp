@@ -67,10 +67,12 @@ void ClockMapper::flush() {
 void ClockMapper::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
                            uint64_t device_transmit_ticks, TimeNs host_receive) {
   if (!started_) return;  // the mapping is anchored on the first packet
-  const double x_mid = 0.5 * (device_seconds(device_receive_ticks) + device_seconds(device_transmit_ticks));
+  const double x_mid =
+      0.5 * (device_seconds(device_receive_ticks) + device_seconds(device_transmit_ticks));
   const double y_mid = 0.5 * (to_seconds(host_send - host0_) + to_seconds(host_receive - host0_));
-  const double round_trip = to_seconds(host_receive - host_send) -
-                            (device_seconds(device_transmit_ticks) - device_seconds(device_receive_ticks));
+  const double round_trip =
+      to_seconds(host_receive - host_send) -
+      (device_seconds(device_transmit_ticks) - device_seconds(device_receive_ticks));
   if (pings_ == 0 || round_trip < best_round_trip_s_) {
     best_round_trip_s_ = round_trip;
     best_ping_x_ = x_mid;

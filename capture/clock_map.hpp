@@ -27,7 +27,7 @@ namespace imukit::capture {
 
 struct ClockFit {
   std::size_t packets = 0;
-  double skew_ppm = 0.0;            // device clock fast (> 0) or slow relative to the host
+  double skew_ppm = 0.0;              // device clock fast (> 0) or slow relative to the host
   double latency_correction_s = 0.0;  // subtracted from the envelope (0 without pings)
   bool ping_corrected = false;
   std::size_t pings = 0;
@@ -78,7 +78,7 @@ class ClockMapper {
   TimeNs host0_ = 0;
   std::size_t packets_ = 0;
   double sum_x_ = 0.0;
-  std::vector<Point> hull_;       // lower convex hull, x increasing
+  std::vector<Point> hull_;    // lower convex hull, x increasing
   std::vector<Point> recent_;  // ring of the last kJitterWindow packets, for the statistics
   std::size_t recent_next_ = 0;
   bool pending_ = false;  // add_sample's last sample, not yet in the fit

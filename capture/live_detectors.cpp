@@ -30,7 +30,8 @@ std::optional<TimeNs> TapDetector::feed(TimeNs t, const Eigen::Vector3d& accel) 
   return tap;
 }
 
-std::optional<PoseEvent> PoseGuide::feed(TimeNs t, const Eigen::Vector3d& accel, const Eigen::Vector3d* gyro) {
+std::optional<PoseEvent> PoseGuide::feed(TimeNs t, const Eigen::Vector3d& accel,
+                                         const Eigen::Vector3d* gyro) {
   const double w = gyro ? gyro->norm() : 0.0;
   window_.push_back({t, accel, w});
   sum_a_ += accel;

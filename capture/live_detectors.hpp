@@ -20,7 +20,7 @@ struct TapDetectorOptions {
   // typical jerk. A firm tap with a finger gives thousands of m/s^3, walking a few hundred.
   double min_jerk = 1000.0;  // m/s^3
   double factor = 20.0;
-  double refractory_s = 0.25;  // one tap, one event
+  double refractory_s = 0.25;   // one tap, one event
   double baseline_tau_s = 2.0;  // time constant of the running typical jerk
 };
 
@@ -41,19 +41,20 @@ class TapDetector {
 };
 
 struct PoseGuideOptions {
-  int poses_wanted = 6;             // distinct orientations to collect
-  double still_s = 2.0;             // how long a pose must be held
-  double window_s = 0.5;            // window of the stillness test
-  double max_accel_var = 0.05;      // (m/s^2)^2, sum over axes, within the window
-  double max_gyro_norm = 0.1;       // rad/s, mean |w| within the window (when a gyro is present)
-  double min_separation_deg = 30.0;  // a new pose's gravity direction differs this much from all others
+  int poses_wanted = 6;         // distinct orientations to collect
+  double still_s = 2.0;         // how long a pose must be held
+  double window_s = 0.5;        // window of the stillness test
+  double max_accel_var = 0.05;  // (m/s^2)^2, sum over axes, within the window
+  double max_gyro_norm = 0.1;   // rad/s, mean |w| within the window (when a gyro is present)
+  double min_separation_deg =
+      30.0;  // a new pose's gravity direction differs this much from all others
 };
 
 struct PoseEvent {
   enum class Kind { still, new_pose, repeated_pose, done };
   Kind kind;
   TimeNs t;
-  int count;                  // distinct poses so far
+  int count;                    // distinct poses so far
   Eigen::Vector3d gravity_dir;  // unit vector, sensor frame (what the accelerometer saw)
 };
 
@@ -61,7 +62,8 @@ class PoseGuide {
  public:
   explicit PoseGuide(PoseGuideOptions options = {}) : opt_(options) {}
   // One sample (gyro may be null). Returns what happened at it, if anything.
-  std::optional<PoseEvent> feed(TimeNs t, const Eigen::Vector3d& accel, const Eigen::Vector3d* gyro);
+  std::optional<PoseEvent> feed(TimeNs t, const Eigen::Vector3d& accel,
+                                const Eigen::Vector3d* gyro);
   int count() const { return static_cast<int>(poses_.size()); }
   bool done() const { return count() >= opt_.poses_wanted; }
   const std::vector<Eigen::Vector3d>& poses() const { return poses_; }

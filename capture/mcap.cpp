@@ -1,12 +1,12 @@
 #include "capture/mcap.hpp"
 
-#include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <fmt/core.h>
 #include <sys/stat.h>
 #include <zlib.h>
 #include <zstd.h>
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
 
 #include "capture/bytes.hpp"
 #include "core/error.hpp"
@@ -17,9 +17,19 @@ namespace {
 constexpr uint8_t kMagic[8] = {0x89, 'M', 'C', 'A', 'P', '0', '\r', '\n'};
 
 enum Opcode : uint8_t {
-  kHeader = 0x01, kFooter = 0x02, kSchema = 0x03, kChannel = 0x04, kMessage = 0x05,
-  kChunk = 0x06, kMessageIndex = 0x07, kChunkIndex = 0x08, kStatistics = 0x0B,
-  kMetadata = 0x0C, kMetadataIndex = 0x0D, kSummaryOffset = 0x0E, kDataEnd = 0x0F,
+  kHeader = 0x01,
+  kFooter = 0x02,
+  kSchema = 0x03,
+  kChannel = 0x04,
+  kMessage = 0x05,
+  kChunk = 0x06,
+  kMessageIndex = 0x07,
+  kChunkIndex = 0x08,
+  kStatistics = 0x0B,
+  kMetadata = 0x0C,
+  kMetadataIndex = 0x0D,
+  kSummaryOffset = 0x0E,
+  kDataEnd = 0x0F,
 };
 
 // A single record may not claim more than this: a length field from a corrupt file must not
@@ -152,7 +162,8 @@ uint16_t McapWriter::add_schema(std::string_view name, std::string_view encoding
 }
 
 uint16_t McapWriter::add_channel(uint16_t schema_id, std::string_view topic,
-                                 std::string_view message_encoding, const McapMetadataMap& metadata) {
+                                 std::string_view message_encoding,
+                                 const McapMetadataMap& metadata) {
   if (schema_id > schemas_.size()) {
     throw Error(fmt::format("{}: channel '{}' names unknown schema {}", path_, topic, schema_id));
   }
@@ -183,9 +194,8 @@ void McapWriter::write_message(uint16_t channel_id, uint32_t sequence, uint64_t 
     throw Error(fmt::format("{}: message for unknown channel {}", path_, channel_id));
   }
   next_sequence_[channel_id] = sequence + 1;
-  if (chunk_has_messages_ &&
-      (log_time < chunk_start_time_ ||
-       log_time - chunk_start_time_ >= options_.chunk_duration_ns)) {
+  if (chunk_has_messages_ && (log_time < chunk_start_time_ ||
+                              log_time - chunk_start_time_ >= options_.chunk_duration_ns)) {
     close_chunk();
   }
   chunk_message_index_[channel_id].emplace_back(log_time, chunk_.size());
@@ -423,7 +433,8 @@ class FileSource : public Source {
     struct stat st {};
     if (::fstat(fileno(file_), &st) != 0) {
       std::fclose(file_);
-      throw Error(InputLocation{path, {}, {}, {}}, std::string("cannot stat: ") + std::strerror(errno));
+      throw Error(InputLocation{path, {}, {}, {}},
+                  std::string("cannot stat: ") + std::strerror(errno));
     }
     size_ = static_cast<uint64_t>(st.st_size);
   }
@@ -518,9 +529,12 @@ struct Scan {
       const uint8_t op = r.u8();
       const uint64_t len = r.u64();
       ByteReader body(r.bytes(len, "record in chunk"), source, r.file_offset() - len);
-      if (op == kSchema) add_schema(parse_schema(body));
-      else if (op == kChannel) add_channel(parse_channel(body));
-      else if (op == kMessage) message(body);
+      if (op == kSchema)
+        add_schema(parse_schema(body));
+      else if (op == kChannel)
+        add_channel(parse_channel(body));
+      else if (op == kMessage)
+        message(body);
       // Other records inside chunks are not defined by the spec; skip them.
     }
   }
@@ -562,9 +576,11 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
   while (true) {
     const uint64_t record_start = file.position();
     if (file.remaining() == 0) {
-      return truncated(data_ended ? "before the footer" : "after a complete record, before Data End");
+      return truncated(data_ended ? "before the footer"
+                                  : "after a complete record, before Data End");
     }
-    if (file.remaining() < 9) return truncated(fmt::format("inside a record header at byte {}", record_start));
+    if (file.remaining() < 9)
+      return truncated(fmt::format("inside a record header at byte {}", record_start));
     file.read(9, head);
     ByteReader h(head, path, record_start);
     const uint8_t op = h.u8();
@@ -621,7 +637,8 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
           problem = fmt::format("declares {} uncompressed bytes (more than {})", uncompressed_size,
                                 kMaxChunkBytes);
         } else if (compression.empty()) {
-          if (records.size() != uncompressed_size) problem = "uncompressed size does not match its records";
+          if (records.size() != uncompressed_size)
+            problem = "uncompressed size does not match its records";
           plain = records;
         } else if (compression == "zstd" &&
                    ZSTD_getFrameContentSize(records.data(), records.size()) != uncompressed_size) {
@@ -632,9 +649,12 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
           uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
           const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),
                                                 records.data(), records.size());
-          if (ZSTD_isError(n)) problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
-          else if (n != uncompressed_size) problem = "decompressed size does not match the chunk header";
-          plain = std::span<const uint8_t>(uncompressed.data(), std::min<std::size_t>(n, uncompressed.size()));
+          if (ZSTD_isError(n))
+            problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
+          else if (n != uncompressed_size)
+            problem = "decompressed size does not match the chunk header";
+          plain = std::span<const uint8_t>(uncompressed.data(),
+                                           std::min<std::size_t>(n, uncompressed.size()));
         } else {
           problem = fmt::format("unsupported compression '{}'", compression);
         }
@@ -650,7 +670,8 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
           throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
                       "corrupt chunk: " + problem);
         }
-        scan.chunk_records(plain, path + " (chunk at byte " + std::to_string(record_start) + ")", 0);
+        scan.chunk_records(plain, path + " (chunk at byte " + std::to_string(record_start) + ")",
+                           0);
         ++out.chunks;
         break;
       }
@@ -716,7 +737,8 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
   std::map<uint16_t, const McapChannel*> channels;
   for (const auto& s : summary.schemas) {
     schema_map[s.id] = writer.add_schema(
-        s.name, s.encoding, std::string_view(reinterpret_cast<const char*>(s.data.data()), s.data.size()));
+        s.name, s.encoding,
+        std::string_view(reinterpret_cast<const char*>(s.data.data()), s.data.size()));
   }
   for (const auto& c : summary.channels) {
     const auto schema = schema_map.count(c.schema_id) ? schema_map[c.schema_id] : uint16_t{0};
@@ -725,14 +747,15 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
   }
   for (const auto& m : summary.metadata) writer.write_metadata(m.name, m.entries);
   for (const auto& m : extra_metadata) writer.write_metadata(m.name, m.entries);
-  read_mcap(in,
-            [&](const McapMessageView& m) {
-              McapMessageView copy = m;
-              if (edit) edit(*channels.at(m.channel_id), copy);
-              writer.write_message(channel_map.at(m.channel_id), copy.sequence, copy.log_time,
-                                   copy.publish_time, copy.data);
-            },
-            options);
+  read_mcap(
+      in,
+      [&](const McapMessageView& m) {
+        McapMessageView copy = m;
+        if (edit) edit(*channels.at(m.channel_id), copy);
+        writer.write_message(channel_map.at(m.channel_id), copy.sequence, copy.log_time,
+                             copy.publish_time, copy.data);
+      },
+      options);
   writer.close();
   return summary;
 }

@@ -61,7 +61,7 @@ struct McapWriterOptions {
   std::string library = "imukit";
   McapCompression compression = McapCompression::zstd;
   int zstd_level = 3;
-  std::size_t chunk_bytes = 1 << 20;        // uncompressed size that closes a chunk
+  std::size_t chunk_bytes = 1 << 20;         // uncompressed size that closes a chunk
   uint64_t chunk_duration_ns = 250'000'000;  // log-time span that closes a chunk
 };
 
@@ -76,8 +76,8 @@ class McapWriter {
   McapWriter& operator=(const McapWriter&) = delete;
 
   uint16_t add_schema(std::string_view name, std::string_view encoding, std::string_view data);
-  uint16_t add_channel(uint16_t schema_id, std::string_view topic, std::string_view message_encoding,
-                       const McapMetadataMap& metadata = {});
+  uint16_t add_channel(uint16_t schema_id, std::string_view topic,
+                       std::string_view message_encoding, const McapMetadataMap& metadata = {});
   // Appends a message; the sequence number counts per channel from 0 unless given.
   void write_message(uint16_t channel_id, uint64_t log_time, uint64_t publish_time,
                      std::span<const uint8_t> data);
@@ -141,8 +141,8 @@ struct McapReadSummary {
   uint64_t messages = 0;
   uint64_t chunks = 0;
   uint64_t corrupt_chunks = 0;
-  bool complete = false;       // Data End, footer and closing magic were all found
-  std::string truncation_note; // where and how a file that is not complete ends
+  bool complete = false;        // Data End, footer and closing magic were all found
+  std::string truncation_note;  // where and how a file that is not complete ends
 };
 
 // Callbacks for a reader that wants records as they come: a channel is always announced before
@@ -172,8 +172,8 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
 // metadata are copied as they are (plus `extra_metadata`). Reads as `options` say (e.g.
 // skipping corrupt chunks).
 using McapMessageEdit = std::function<void(const McapChannel& channel, McapMessageView& m)>;
-McapReadSummary rewrite_mcap(const std::string& in, const std::string& out, const McapMessageEdit& edit,
-                             const McapReadOptions& options = {},
+McapReadSummary rewrite_mcap(const std::string& in, const std::string& out,
+                             const McapMessageEdit& edit, const McapReadOptions& options = {},
                              const std::vector<McapMetadata>& extra_metadata = {});
 
 // Rewrites whatever `in` holds (up to where it was cut, skipping corrupt chunks) as a complete

@@ -1,10 +1,10 @@
 #include "capture/session.hpp"
 
+#include <fmt/core.h>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
-#include <fmt/core.h>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -49,7 +49,8 @@ struct Device {
   ClockMapper clock{1e9};  // device times arrive in ns
   uint64_t first_sequence = 0, last_sequence = 0;
   uint64_t gaps = 0;  // samples missing between consecutive written samples (sequence gaps)
-  bool full = false;  // reached the duration or sample limit: later samples are outside the recording
+  bool full =
+      false;  // reached the duration or sample limit: later samples are outside the recording
   uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
   bool sync_channel_made = false;
   uint64_t written = 0;
@@ -83,7 +84,8 @@ void reader_thread(Device& d, bool wait_when_full) {
         batch.clear();
         if (imukit) {
           const auto& points = imukit->sync_points();
-          while (syncs_forwarded < points.size() && d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
+          while (syncs_forwarded < points.size() &&
+                 d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
             ++syncs_forwarded;
           }
         }
@@ -108,7 +110,8 @@ void set_rate(const Device& d, DeviceProgress& p) {
     host_span = to_seconds(*d.last_device - *d.first_device) / (1.0 + p.clock.skew_ppm * 1e-6);
   }
   // Sample numbers, not samples written: dropped samples were made at the device's rate too.
-  if (host_span > 0) p.rate_hz = static_cast<double>(d.last_sequence - d.first_sequence) / host_span;
+  if (host_span > 0)
+    p.rate_hz = static_cast<double>(d.last_sequence - d.first_sequence) / host_span;
 }
 
 DeviceProgress progress_of(Device& d) {
@@ -132,13 +135,14 @@ DeviceProgress progress_of(Device& d) {
 
 // Events found in a device's samples carry the sample's device time, so the offline refit can
 // re-time them with the samples.
-void write_event(McapWriter& writer, uint16_t channel, const Event& e, const std::string& device = {},
-                 std::optional<TimeNs> device_time = std::nullopt) {
+void write_event(McapWriter& writer, uint16_t channel, const Event& e,
+                 const std::string& device = {}, std::optional<TimeNs> device_time = std::nullopt) {
   nlohmann::json j{{"kind", e.kind}, {"label", e.label}};
   if (!device.empty()) j["device"] = device;
   if (device_time) j["device_ns"] = *device_time;
   const std::string text = j.dump();
-  writer.write_message(channel, static_cast<uint64_t>(e.t), static_cast<uint64_t>(e.t), bytes_of(text));
+  writer.write_message(channel, static_cast<uint64_t>(e.t), static_cast<uint64_t>(e.t),
+                       bytes_of(text));
 }
 
 struct Live {
@@ -160,21 +164,26 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   raw.sample_index = s.sequence;
   // The device clock in its own ticks where the codec knows them, else in ns.
   const bool ticks = s.has_device_time && s.tick_hz > 0;
-  raw.device_ticks = ticks ? s.device_ticks : s.has_device_time ? static_cast<uint64_t>(s.device_time) : 0;
+  raw.device_ticks = ticks               ? s.device_ticks
+                     : s.has_device_time ? static_cast<uint64_t>(s.device_time)
+                                         : 0;
   raw.tick_hz = ticks ? s.tick_hz : s.has_device_time ? 1e9 : 0.0;
-  raw.channels = static_cast<uint8_t>((s.raw_channels & 0x0F) | (s.has_device_time ? kRawHasDeviceClock : 0));
+  raw.channels =
+      static_cast<uint8_t>((s.raw_channels & 0x0F) | (s.has_device_time ? kRawHasDeviceClock : 0));
   raw.accel = s.raw_accel;
   raw.gyro = s.raw_gyro;
   raw.mag = s.raw_mag;
   raw.temperature = s.raw_temperature;
   const auto raw_bytes = encode_cdr(raw);
-  writer.write_message(d.raw_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), raw_bytes);
+  writer.write_message(d.raw_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time),
+                       raw_bytes);
   ImuMessage& m = d.imu;
   m.stamp = t;
   m.angular_velocity = s.gyro;
   m.linear_acceleration = s.accel;
   const auto imu_bytes = encode_cdr(m);
-  writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time), imu_bytes);
+  writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time),
+                       imu_bytes);
   if (d.written == 0) {
     d.first_host = s.host_time;
     d.first_sequence = s.sequence;
@@ -185,21 +194,24 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   d.last_sequence = s.sequence;
   if (s.channels & drivers::kHasAccel) {
     const Eigen::Vector3d a(s.accel[0], s.accel[1], s.accel[2]);
-    const std::optional<TimeNs> device_time = s.has_device_time ? std::optional(s.device_time) : std::nullopt;
+    const std::optional<TimeNs> device_time =
+        s.has_device_time ? std::optional(s.device_time) : std::nullopt;
     if (live.options.detect_taps) {
       if (const auto tap = d.taps.feed(t, a)) {
-        write_event(writer, live.event_channel, {*tap, "tap", "sync tap on " + d.spec.name}, d.spec.name,
+        write_event(writer, live.event_channel, {*tap, "tap", "sync tap on " + d.spec.name},
+                    d.spec.name,
                     device_time ? std::optional(*device_time - (t - *tap)) : std::nullopt);
       }
     }
     if (d.guide) {
       const Eigen::Vector3d w(s.gyro[0], s.gyro[1], s.gyro[2]);
       if (const auto e = d.guide->feed(t, a, (s.channels & drivers::kHasGyro) ? &w : nullptr)) {
-        const char* what = e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held"
-                                                                     : "new pose";
+        const char* what =
+            e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held" : "new pose";
         write_event(writer, live.event_channel,
-                    {t, "pose", fmt::format("{} {}: {} (gravity {:.3f} {:.3f} {:.3f})", d.spec.name, e->count, what,
-                                            e->gravity_dir.x(), e->gravity_dir.y(), e->gravity_dir.z())},
+                    {t, "pose",
+                     fmt::format("{} {}: {} (gravity {:.3f} {:.3f} {:.3f})", d.spec.name, e->count,
+                                 what, e->gravity_dir.x(), e->gravity_dir.y(), e->gravity_dir.z())},
                     d.spec.name, device_time);
         if (live.options.on_pose) live.options.on_pose(d.spec.name, *e);
       }
@@ -215,13 +227,14 @@ void write_sync(McapWriter& writer, Device& d, const drivers::SyncPoint& p, uint
     d.sync_channel = writer.add_channel(schema, "/imu/" + d.spec.name + "/time_sync", "json");
     d.sync_channel_made = true;
   }
-  d.clock.add_ping(p.host_send, static_cast<uint64_t>(p.device_rx), static_cast<uint64_t>(p.device_tx),
-                   p.host_receive);
-  const std::string text = nlohmann::json{{"host_send_ns", p.host_send},
-                                          {"host_receive_ns", p.host_receive},
-                                          {"device_rx_ns", p.device_rx},
-                                          {"device_tx_ns", p.device_tx}}
-                               .dump();
+  d.clock.add_ping(p.host_send, static_cast<uint64_t>(p.device_rx),
+                   static_cast<uint64_t>(p.device_tx), p.host_receive);
+  const std::string text = nlohmann::json{
+      {"host_send_ns", p.host_send},
+      {"host_receive_ns", p.host_receive},
+      {"device_rx_ns", p.device_rx},
+      {"device_tx_ns",
+       p.device_tx}}.dump();
   writer.write_message(d.sync_channel, static_cast<uint64_t>(p.host_receive),
                        static_cast<uint64_t>(p.host_receive), bytes_of(text));
 }
@@ -236,7 +249,8 @@ std::string partial_path(const std::string& path) {
 SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
   if (specs.empty()) throw Error("record: name at least one device");
   std::vector<std::unique_ptr<Device>> devices;
-  for (auto& s : specs) devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
+  for (auto& s : specs)
+    devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
 
   // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
   // crash leaves the temporary file readable up to its last chunk.
@@ -260,8 +274,10 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
       for (int k = 0; k < 3; ++k) {
         const double g = h.gyroscope.noise_density[k];
         const double a = h.accelerometer.noise_density[k];
-        d->imu.angular_velocity_covariance[static_cast<std::size_t>(4 * k)] = g * g * h.gyroscope.rate_hz;
-        d->imu.linear_acceleration_covariance[static_cast<std::size_t>(4 * k)] = a * a * h.accelerometer.rate_hz;
+        d->imu.angular_velocity_covariance[static_cast<std::size_t>(4 * k)] =
+            g * g * h.gyroscope.rate_hz;
+        d->imu.linear_acceleration_covariance[static_cast<std::size_t>(4 * k)] =
+            a * a * h.accelerometer.rate_hz;
       }
     }
     writer.write_metadata("imukit.device." + d->spec.name,
@@ -285,7 +301,8 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     if (d.full) return;
     if (d.guide && d.guide->done()) {
       d.full = true;
-    } else if (options.duration_s > 0 && d.written > 0 && to_seconds(s.host_time - d.first_host) > options.duration_s) {
+    } else if (options.duration_s > 0 && d.written > 0 &&
+               to_seconds(s.host_time - d.first_host) > options.duration_s) {
       d.full = true;
     } else if (options.max_samples && d.written >= options.max_samples) {
       d.full = true;
@@ -321,10 +338,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
         report.stop_reason = "stopped by signal";
         break;
       }
-      if (options.guide && std::all_of(devices.begin(), devices.end(),
-                                       [](const auto& d) { return d->guide && d->guide->done(); })) {
+      if (options.guide && std::all_of(devices.begin(), devices.end(), [](const auto& d) {
+            return d->guide && d->guide->done();
+          })) {
         report.stop_reason = fmt::format("{} distinct poses held", options.guide->poses_wanted);
-        for (auto& d : devices) d->full = true;  // what a virtual-time mock made since is not wanted
+        for (auto& d : devices)
+          d->full = true;  // what a virtual-time mock made since is not wanted
         break;
       }
       bool all_done = true;
@@ -335,7 +354,8 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
         all_done = all_done && (d->full || ended);
       }
       if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
-        const bool limited = std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
+        const bool limited =
+            std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
         report.stop_reason = limited ? "limit reached" : "every device ended";
         break;
       }
@@ -399,12 +419,13 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
 namespace {
 // The device clock of a RawImu message in ns (the clock fits work in ns, like the pings).
 uint64_t device_ns(const RawImuMessage& raw) {
-  return static_cast<uint64_t>(drivers::ticks_to_ns(static_cast<int64_t>(raw.device_ticks),
-                                                    static_cast<uint64_t>(std::llround(raw.tick_hz))));
+  return static_cast<uint64_t>(drivers::ticks_to_ns(
+      static_cast<int64_t>(raw.device_ticks), static_cast<uint64_t>(std::llround(raw.tick_hz))));
 }
 }  // namespace
 
-std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, const std::string& out) {
+std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
+                                                       const std::string& out) {
   // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
   std::map<std::string, ClockMapper> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
@@ -416,26 +437,32 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
   McapHandlers handlers;
   handlers.on_channel = [&](const McapChannel& c) {
     const auto ends = [&](std::string_view s) {
-      return c.topic.size() > s.size() && c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
+      return c.topic.size() > s.size() &&
+             c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
     };
     if (c.topic == "/events") event_channel = c.id;
     if (c.topic.rfind("/imu/", 0) != 0) return;
-    if (ends("/raw")) raw_channels[c.id] = name_of(c.topic, "/raw");
-    else if (ends("/time_sync")) sync_channels[c.id] = name_of(c.topic, "/time_sync");
-    else imu_channels[c.id] = name_of(c.topic, "");
+    if (ends("/raw"))
+      raw_channels[c.id] = name_of(c.topic, "/raw");
+    else if (ends("/time_sync"))
+      sync_channels[c.id] = name_of(c.topic, "/time_sync");
+    else
+      imu_channels[c.id] = name_of(c.topic, "");
   };
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = raw_channels.find(m.channel_id); it != raw_channels.end()) {
       const RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
       if (raw.channels & kRawHasDeviceClock) {
-        clocks.try_emplace(it->second, 1e9).first->second.add_sample(device_ns(raw), raw.host_receive_time);
+        clocks.try_emplace(it->second, 1e9)
+            .first->second.add_sample(device_ns(raw), raw.host_receive_time);
       }
     } else if (const auto s = sync_channels.find(m.channel_id); s != sync_channels.end()) {
       const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
       if (j.is_object() && j.contains("device_rx_ns")) {
-        clocks.try_emplace(s->second, 1e9).first->second.add_ping(
-            j.value("host_send_ns", TimeNs{0}), j.value("device_rx_ns", uint64_t{0}),
-            j.value("device_tx_ns", uint64_t{0}), j.value("host_receive_ns", TimeNs{0}));
+        clocks.try_emplace(s->second, 1e9)
+            .first->second.add_ping(
+                j.value("host_send_ns", TimeNs{0}), j.value("device_rx_ns", uint64_t{0}),
+                j.value("device_tx_ns", uint64_t{0}), j.value("host_receive_ns", TimeNs{0}));
       }
     }
   };
@@ -460,33 +487,37 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, co
   // Pass 2: re-time every raw message, and the IMU message that follows it.
   std::map<std::string, TimeNs> last_mapped;
   std::vector<uint8_t> buffer;
-  rewrite_mcap(in, out, [&](const McapChannel& c, McapMessageView& m) {
-    if (const auto it = raw_channels.find(c.id); it != raw_channels.end()) {
-      RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
-      const auto clock = clocks.find(it->second);
-      if (!(raw.channels & kRawHasDeviceClock) || clock == clocks.end()) return;
-      raw.stamp = clock->second.map(device_ns(raw));
-      last_mapped[it->second] = raw.stamp;
-      buffer = encode_cdr(raw);
-      m.data = buffer;
-      m.log_time = static_cast<uint64_t>(raw.stamp);
-    } else if (event_channel && c.id == *event_channel) {
-      const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
-      if (!j.is_object() || !j.contains("device_ns") || !j["device_ns"].is_number_integer()) return;
-      const auto clock = clocks.find(j.value("device", std::string()));
-      if (clock == clocks.end()) return;
-      m.log_time = static_cast<uint64_t>(clock->second.map(j["device_ns"].get<uint64_t>()));
-      m.publish_time = m.log_time;
-    } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
-      const auto t = last_mapped.find(imu->second);
-      if (t == last_mapped.end()) return;
-      ImuMessage msg = decode_imu_cdr(m.data, in);
-      msg.stamp = t->second;
-      buffer = encode_cdr(msg);
-      m.data = buffer;
-      m.log_time = static_cast<uint64_t>(t->second);
-    }
-  }, McapReadOptions{}, fit_records);
+  rewrite_mcap(
+      in, out,
+      [&](const McapChannel& c, McapMessageView& m) {
+        if (const auto it = raw_channels.find(c.id); it != raw_channels.end()) {
+          RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
+          const auto clock = clocks.find(it->second);
+          if (!(raw.channels & kRawHasDeviceClock) || clock == clocks.end()) return;
+          raw.stamp = clock->second.map(device_ns(raw));
+          last_mapped[it->second] = raw.stamp;
+          buffer = encode_cdr(raw);
+          m.data = buffer;
+          m.log_time = static_cast<uint64_t>(raw.stamp);
+        } else if (event_channel && c.id == *event_channel) {
+          const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
+          if (!j.is_object() || !j.contains("device_ns") || !j["device_ns"].is_number_integer())
+            return;
+          const auto clock = clocks.find(j.value("device", std::string()));
+          if (clock == clocks.end()) return;
+          m.log_time = static_cast<uint64_t>(clock->second.map(j["device_ns"].get<uint64_t>()));
+          m.publish_time = m.log_time;
+        } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
+          const auto t = last_mapped.find(imu->second);
+          if (t == last_mapped.end()) return;
+          ImuMessage msg = decode_imu_cdr(m.data, in);
+          msg.stamp = t->second;
+          buffer = encode_cdr(msg);
+          m.data = buffer;
+          m.log_time = static_cast<uint64_t>(t->second);
+        }
+      },
+      McapReadOptions{}, fit_records);
   std::map<std::string, ClockFit> fits;
   for (const auto& [name, clock] : clocks) fits[name] = clock.fit();
   return fits;

@@ -36,15 +36,15 @@ struct SessionDevice {
 
 struct DeviceProgress {
   std::string name;
-  uint64_t samples = 0;          // written to the file
-  uint64_t dropped = 0;          // gaps in the device's sample counter within the recording
-  uint64_t codec_dropped = 0;    // every loss the codec saw (also past the end, and for devices
-                                 // without a counter, samples of frames that did not arrive)
-  uint64_t frames_corrupt = 0;   // frames that failed their checksum or format
-  uint64_t backpressure = 0;     // samples the recorder's own queue had to refuse
+  uint64_t samples = 0;         // written to the file
+  uint64_t dropped = 0;         // gaps in the device's sample counter within the recording
+  uint64_t codec_dropped = 0;   // every loss the codec saw (also past the end, and for devices
+                                // without a counter, samples of frames that did not arrive)
+  uint64_t frames_corrupt = 0;  // frames that failed their checksum or format
+  uint64_t backpressure = 0;    // samples the recorder's own queue had to refuse
   std::size_t queue_high_water = 0;
-  double rate_hz = 0.0;          // the device's sample rate on the host clock (sample numbers over
-                                 // the device clock span, corrected by the fitted skew)
+  double rate_hz = 0.0;  // the device's sample rate on the host clock (sample numbers over
+                         // the device clock span, corrected by the fitted skew)
   bool ended = false;
   std::string end_reason;
   ClockFit clock;
@@ -54,9 +54,9 @@ struct SessionOptions {
   std::string path;  // output .mcap
   // Stop when every device has delivered this much host time (0: no limit).
   double duration_s = 0.0;
-  uint64_t max_samples = 0;  // per device (0: no limit)
-  std::size_t queue_capacity = 1 << 15;  // samples per device
-  bool finalize = true;                  // offline clock fit and rewrite at the end
+  uint64_t max_samples = 0;                 // per device (0: no limit)
+  std::size_t queue_capacity = 1 << 15;     // samples per device
+  bool finalize = true;                     // offline clock fit and rewrite at the end
   const std::atomic<bool>* stop = nullptr;  // e.g. set by SIGINT/SIGTERM
   // Called about four times a second on the writer thread.
   std::function<void(const std::vector<DeviceProgress>&)> progress;
@@ -90,6 +90,7 @@ SessionReport record_session(std::vector<SessionDevice> devices, const SessionOp
 // The offline clock fit of a recording: one fit per device over all its RawImu messages (device
 // ticks against host receive times) and time-sync exchanges, written to `out` with every IMU and
 // raw message re-timed. Returns the fits by device name.
-std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in, const std::string& out);
+std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
+                                                       const std::string& out);
 
 }  // namespace imukit::capture

@@ -32,8 +32,10 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
   if (inputs.empty()) throw Error("calibrate: name the input file(s)");
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {
-    throw Error(fmt::format("calibrate: the inputs form {} recordings with different time stamps; "
-                            "give one recording (files with equal time stamps are merged)", runs.size()));
+    throw Error(
+        fmt::format("calibrate: the inputs form {} recordings with different time stamps; "
+                    "give one recording (files with equal time stamps are merged)",
+                    runs.size()));
   }
   const ImuSeries& s = runs.front().series;
   CalibrateOptions options;
@@ -53,22 +55,30 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(calibrate, CommandSpec{
-    "calibrate", "Multi-position calibration: scale, misalignment, bias -> device profile", 55,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto args = std::make_shared<CalibrateArgs>();
-      sub.allow_extras();
-      sub.add_option("-o,--output", args->output, "profile JSON to create or update (imukit.profile/1)")->required();
-      sub.add_option("--plot", args->plot_dir, "folder for SVG plots of the residuals (gnuplot)");
-      sub.add_flag("--raw", args->raw, "the readings are ADC counts: the calibration maps counts to SI");
-      sub.add_flag("--no-gyro", args->no_gyro, "calibrate the accelerometer only");
-      sub.add_option("--gravity", args->gravity, "local gravity, m/s^2");
-      sub.add_option("--init-static", args->init_static_s, "length of the initial static period, s (default 50)");
-      sub.footer(input_options_help() +
-                 "\n\nExample (the imu_tk Xsens recording, raw counts):\n"
-                 "  imukit calibrate xsens_acc.txt --columns t,ax,ay,az xsens_gyro.txt --columns t,gx,gy,gz \\\n"
-                 "      --raw --gravity 9.81744 -o calib.json --plot plots\n");
-      return [&sub, args] { return run_calibrate(*args, sub.remaining()); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    calibrate,
+    CommandSpec{"calibrate",
+                "Multi-position calibration: scale, misalignment, bias -> device profile", 55,
+                [](CLI::App& sub) -> std::function<int()> {
+                  auto args = std::make_shared<CalibrateArgs>();
+                  sub.allow_extras();
+                  sub.add_option("-o,--output", args->output,
+                                 "profile JSON to create or update (imukit.profile/1)")
+                      ->required();
+                  sub.add_option("--plot", args->plot_dir,
+                                 "folder for SVG plots of the residuals (gnuplot)");
+                  sub.add_flag("--raw", args->raw,
+                               "the readings are ADC counts: the calibration maps counts to SI");
+                  sub.add_flag("--no-gyro", args->no_gyro, "calibrate the accelerometer only");
+                  sub.add_option("--gravity", args->gravity, "local gravity, m/s^2");
+                  sub.add_option("--init-static", args->init_static_s,
+                                 "length of the initial static period, s (default 50)");
+                  sub.footer(input_options_help() +
+                             "\n\nExample (the imu_tk Xsens recording, raw counts):\n"
+                             "  imukit calibrate xsens_acc.txt --columns t,ax,ay,az xsens_gyro.txt "
+                             "--columns t,gx,gy,gz \\\n"
+                             "      --raw --gravity 9.81744 -o calib.json --plot plots\n");
+                  return [&sub, args] { return run_calibrate(*args, sub.remaining()); };
+                }});
 
 }  // namespace imukit::cli

@@ -34,7 +34,8 @@ struct CharacterizeArgs {
 int run_characterize(const CharacterizeArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
   if (inputs.empty()) throw Error("characterize: name at least one input file");
-  if (args.output.empty()) throw Error("characterize: say where the profile goes with -o profile.json");
+  if (args.output.empty())
+    throw Error("characterize: say where the profile goes with -o profile.json");
   const auto runs = load_runs(inputs);
   CharacterizeOptions options;
   options.gravity = args.gravity;
@@ -57,12 +58,15 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
       return v;
     };
     auto out = fmt::output_file(args.kalibr);
-    out.print("# written by imukit characterize from {}; continuous-time densities (Kalibr convention)\n"
-              "rostopic: /imu0\nupdate_rate: {:.6g}  # Hz, measured from the time stamps\n"
-              "accelerometer_noise_density: {:.6g}  # m/s^2/sqrt(Hz)\naccelerometer_random_walk: {:.6g}  # m/s^3/sqrt(Hz)\n"
-              "gyroscope_noise_density: {:.6g}  # rad/s/sqrt(Hz)\ngyroscope_random_walk: {:.6g}  # rad/s^2/sqrt(Hz)\n",
-              r.noise_run, 1.0 / (acc ? acc->allan.tau0_s : gyr->allan.tau0_s), mx(acc, hwmodel::kWhite),
-              mx(acc, hwmodel::kRandomWalk), mx(gyr, hwmodel::kWhite), mx(gyr, hwmodel::kRandomWalk));
+    out.print(
+        "# written by imukit characterize from {}; continuous-time densities (Kalibr convention)\n"
+        "rostopic: /imu0\nupdate_rate: {:.6g}  # Hz, measured from the time stamps\n"
+        "accelerometer_noise_density: {:.6g}  # m/s^2/sqrt(Hz)\naccelerometer_random_walk: {:.6g}  "
+        "# m/s^3/sqrt(Hz)\n"
+        "gyroscope_noise_density: {:.6g}  # rad/s/sqrt(Hz)\ngyroscope_random_walk: {:.6g}  # "
+        "rad/s^2/sqrt(Hz)\n",
+        r.noise_run, 1.0 / (acc ? acc->allan.tau0_s : gyr->allan.tau0_s), mx(acc, hwmodel::kWhite),
+        mx(acc, hwmodel::kRandomWalk), mx(gyr, hwmodel::kWhite), mx(gyr, hwmodel::kRandomWalk));
     fmt::print("wrote Kalibr noise parameters to {}\n", args.kalibr);
   }
   if (!args.plot_dir.empty()) {
@@ -74,24 +78,36 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(characterize, CommandSpec{
-    "characterize", "Noise of each axis (Allan deviation, model fit), turn-on bias -> device profile", 50,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto args = std::make_shared<CharacterizeArgs>();
-      sub.allow_extras();
-      sub.add_option("-o,--output", args->output, "profile JSON to create or update (imukit.profile/1)")->required();
-      sub.add_option("--plot", args->plot_dir, "folder for SVG plots (gnuplot)");
-      sub.add_option("--kalibr", args->kalibr, "also write Kalibr's imu.yaml here");
-      sub.add_option("--gravity", args->gravity, "local gravity, m/s^2 (recorded in the profile)");
-      sub.add_option("--points-per-decade", args->points_per_decade, "tau grid density (default 10)");
-      sub.add_option("--fit-tau-min", args->fit_tau_min_s,
-                     "fit the noise model only where tau >= this (s): leave out a sensor filter's or a vibration's mark");
-      sub.add_flag("--level", args->level, "recordings were taken level with z up: also give the accelerometer turn-on bias");
-      sub.footer(input_options_help() +
-                 "\n\nExamples:\n"
-                 "  imukit characterize imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g -o profile.json\n"
-                 "  imukit characterize run1.csv run2.csv run3.csv -o profile.json --plot plots --kalibr imu.yaml\n");
-      return [&sub, args] { return run_characterize(*args, sub.remaining()); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    characterize,
+    CommandSpec{
+        "characterize",
+        "Noise of each axis (Allan deviation, model fit), turn-on bias -> device profile", 50,
+        [](CLI::App& sub) -> std::function<int()> {
+          auto args = std::make_shared<CharacterizeArgs>();
+          sub.allow_extras();
+          sub.add_option("-o,--output", args->output,
+                         "profile JSON to create or update (imukit.profile/1)")
+              ->required();
+          sub.add_option("--plot", args->plot_dir, "folder for SVG plots (gnuplot)");
+          sub.add_option("--kalibr", args->kalibr, "also write Kalibr's imu.yaml here");
+          sub.add_option("--gravity", args->gravity,
+                         "local gravity, m/s^2 (recorded in the profile)");
+          sub.add_option("--points-per-decade", args->points_per_decade,
+                         "tau grid density (default 10)");
+          sub.add_option("--fit-tau-min", args->fit_tau_min_s,
+                         "fit the noise model only where tau >= this (s): leave out a sensor "
+                         "filter's or a vibration's mark");
+          sub.add_flag(
+              "--level", args->level,
+              "recordings were taken level with z up: also give the accelerometer turn-on bias");
+          sub.footer(input_options_help() +
+                     "\n\nExamples:\n"
+                     "  imukit characterize imu_data.txt --columns t,gx,gy,gz,ax,ay,az "
+                     "--accel-unit g -o profile.json\n"
+                     "  imukit characterize run1.csv run2.csv run3.csv -o profile.json --plot "
+                     "plots --kalibr imu.yaml\n");
+          return [&sub, args] { return run_characterize(*args, sub.remaining()); };
+        }});
 
 }  // namespace imukit::cli

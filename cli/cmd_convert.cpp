@@ -1,8 +1,8 @@
 // imukit convert: rewrite a recording as MCAP, EuRoC CSV (Kalibr, OpenVINS, pandas) or NumPy
 // arrays, or rescue an MCAP file cut short by a crash.
+#include <fmt/core.h>
 #include <algorithm>
 #include <filesystem>
-#include <fmt/core.h>
 
 #include "capture/mcap.hpp"
 #include "capture/recording_mcap.hpp"
@@ -37,14 +37,16 @@ void write_npy_pair(const std::string& out, const ImuSeries& s) {
   const fs::path p(out);
   const std::string t_path = (p.parent_path() / (p.stem().string() + "_t.npy")).string();
   write_npy(t_path, std::span<const int64_t>(s.t), t_shape);
-  fmt::print("wrote {} ({} x 6 float64: ax ay az gx gy gz) and {} (int64 ns)\n", out, s.size(), t_path);
+  fmt::print("wrote {} ({} x 6 float64: ax ay az gx gy gz) and {} (int64 ns)\n", out, s.size(),
+             t_path);
 }
 
 const ImuSeries& only_stream(const Recording& r, const std::string& out) {
   if (r.streams.size() != 1) {
-    throw Error(fmt::format("convert: the input holds {} streams; write them to a folder "
-                            "(-o DIR/) instead of the single file {}",
-                            r.streams.size(), out));
+    throw Error(
+        fmt::format("convert: the input holds {} streams; write them to a folder "
+                    "(-o DIR/) instead of the single file {}",
+                    r.streams.size(), out));
   }
   return r.streams.begin()->second;
 }
@@ -53,14 +55,16 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
   const std::vector<InputArg> inputs = parse_input_args(tokens);
   if (inputs.size() != 1) throw Error("convert: give exactly one input file (and -o OUT)");
   if (recover) {
-    if (fs::path(inputs.front().path).extension() != ".mcap" || fs::path(out).extension() != ".mcap") {
+    if (fs::path(inputs.front().path).extension() != ".mcap" ||
+        fs::path(out).extension() != ".mcap") {
       throw Error("convert --recover: input and output must both be .mcap files");
     }
     const capture::McapReadSummary s = capture::recover_mcap(inputs.front().path, out);
-    fmt::print("{}\nwrote {}: {} messages in {} chunks{}\n",
-               s.complete ? inputs.front().path + " was complete" : s.truncation_note, out,
-               s.messages, s.chunks,
-               s.corrupt_chunks ? fmt::format(" ({} corrupt chunks skipped)", s.corrupt_chunks) : "");
+    fmt::print(
+        "{}\nwrote {}: {} messages in {} chunks{}\n",
+        s.complete ? inputs.front().path + " was complete" : s.truncation_note, out, s.messages,
+        s.chunks,
+        s.corrupt_chunks ? fmt::format(" ({} corrupt chunks skipped)", s.corrupt_chunks) : "");
     return 0;
   }
   const Recording r = load_recording(inputs.front());
@@ -94,24 +98,30 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(convert, CommandSpec{
-    "convert", "Rewrite a recording as MCAP, EuRoC CSV or NumPy .npy; rescue a cut MCAP file", 20,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto out = std::make_shared<std::string>();
-      auto recover = std::make_shared<bool>(false);
-      sub.add_option("-o,--output", *out,
-                     "OUT.mcap, OUT.csv (EuRoC), OUT.npy, or a folder (one EuRoC CSV per stream)")
-          ->required();
-      sub.add_flag("--recover", *recover,
-                   "rewrite an MCAP file cut short by a crash as a valid file (corrupt chunks skipped)");
-      sub.allow_extras();
-      sub.footer(input_options_help() +
-                 "\n\nExamples:\n"
-                 "  imukit convert session.mcap -o session/            one EuRoC CSV per device\n"
-                 "  imukit convert --recover crashed.mcap -o fixed.mcap\n"
-                 "  imukit convert imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g -o imu0.mcap\n"
-                 "  imukit convert imu0.csv -o imu0.npy\n");
-      return [&sub, out, recover] { return run_convert(sub.remaining(), *out, *recover); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    convert,
+    CommandSpec{
+        "convert", "Rewrite a recording as MCAP, EuRoC CSV or NumPy .npy; rescue a cut MCAP file",
+        20, [](CLI::App& sub) -> std::function<int()> {
+          auto out = std::make_shared<std::string>();
+          auto recover = std::make_shared<bool>(false);
+          sub.add_option(
+                 "-o,--output", *out,
+                 "OUT.mcap, OUT.csv (EuRoC), OUT.npy, or a folder (one EuRoC CSV per stream)")
+              ->required();
+          sub.add_flag(
+              "--recover", *recover,
+              "rewrite an MCAP file cut short by a crash as a valid file (corrupt chunks skipped)");
+          sub.allow_extras();
+          sub.footer(
+              input_options_help() +
+              "\n\nExamples:\n"
+              "  imukit convert session.mcap -o session/            one EuRoC CSV per device\n"
+              "  imukit convert --recover crashed.mcap -o fixed.mcap\n"
+              "  imukit convert imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g -o "
+              "imu0.mcap\n"
+              "  imukit convert imu0.csv -o imu0.npy\n");
+          return [&sub, out, recover] { return run_convert(sub.remaining(), *out, *recover); };
+        }});
 
 }  // namespace imukit::cli

@@ -33,14 +33,16 @@ int list_devices(const DevicesOptions& o) {
     const std::string id = d.usb ? fmt::format("{:04x}:{:04x}", d.vid, d.pid) : std::string("-");
     fmt::print("{:<7} {:<20} {:<10} {:<12} {}\n", d.kind, d.path, id,
                d.codec.empty() ? "?" : d.codec, d.description);
-    fmt::print("        uri: {}{}\n", d.uri, d.serial.empty() ? "" : fmt::format("   serial: {}", d.serial));
+    fmt::print("        uri: {}{}\n", d.uri,
+               d.serial.empty() ? "" : fmt::format("   serial: {}", d.serial));
   };
   fmt::print("{:<7} {:<20} {:<10} {:<12} {}\n", "kind", "path", "vid:pid", "codec", "description");
   for (const auto& d : serial) show(d);
   for (const auto& d : hid) show(d);
   if (shown == 0) {
-    fmt::print("(no USB serial ports or HID devices found; no hardware? try: imukit devices --read "
-               "\"mock:static?rate=400\")\n");
+    fmt::print(
+        "(no USB serial ports or HID devices found; no hardware? try: imukit devices --read "
+        "\"mock:static?rate=400\")\n");
   }
   return 0;
 }
@@ -84,23 +86,27 @@ int read_device(const DevicesOptions& o) {
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(devices, CommandSpec{
-    "devices", "List attached IMUs (serial, HID) with the codec that reads them; --read tests one", 5,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto o = std::make_shared<DevicesOptions>();
-      sub.add_flag("--all", o->all, "Also list serial ports that are not USB devices");
-      sub.add_option("--read", o->read_uri,
-                     "Read this device URI for a while and report samples, rate, drops and errors");
-      sub.add_option("--seconds", o->seconds, "How long --read reads (default 2)")
-          ->check(CLI::PositiveNumber);
-      sub.footer(
-          "Device URIs (docs/devices.md): serial:/dev/ttyUSB0?baud=921600&codec=witmotion,\n"
-          "hid:054c:09cc, usb:2639:0013?codec=xsens, file:capture.bin?codec=xsens,\n"
-          "fd:0?codec=text, mock:static?rate=400, mock:poses?hold_s=5&move_s=2\n\n"
-          "Examples:\n"
-          "  imukit devices\n"
-          "  imukit devices --read \"mock:static?rate=400&drop=0.01\" --seconds 3\n");
-      return [o] { return o->read_uri.empty() ? list_devices(*o) : read_device(*o); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    devices,
+    CommandSpec{
+        "devices",
+        "List attached IMUs (serial, HID) with the codec that reads them; --read tests one", 5,
+        [](CLI::App& sub) -> std::function<int()> {
+          auto o = std::make_shared<DevicesOptions>();
+          sub.add_flag("--all", o->all, "Also list serial ports that are not USB devices");
+          sub.add_option(
+              "--read", o->read_uri,
+              "Read this device URI for a while and report samples, rate, drops and errors");
+          sub.add_option("--seconds", o->seconds, "How long --read reads (default 2)")
+              ->check(CLI::PositiveNumber);
+          sub.footer(
+              "Device URIs (docs/devices.md): serial:/dev/ttyUSB0?baud=921600&codec=witmotion,\n"
+              "hid:054c:09cc, usb:2639:0013?codec=xsens, file:capture.bin?codec=xsens,\n"
+              "fd:0?codec=text, mock:static?rate=400, mock:poses?hold_s=5&move_s=2\n\n"
+              "Examples:\n"
+              "  imukit devices\n"
+              "  imukit devices --read \"mock:static?rate=400&drop=0.01\" --seconds 3\n");
+          return [o] { return o->read_uri.empty() ? list_devices(*o) : read_device(*o); };
+        }});
 
 }  // namespace imukit::cli

@@ -13,14 +13,14 @@ namespace {
 void print_triad(const char* name, const char* unit, const Eigen::Matrix3Xd& m) {
   if (m.cols() == 0) return;
   const Eigen::Vector3d mean = m.rowwise().mean();
-  const Eigen::Vector3d std_dev =
-      ((m.colwise() - mean).array().square().rowwise().sum() /
-       double(std::max<Eigen::Index>(m.cols() - 1, 1)))
-          .sqrt();
-  fmt::print("  {:<6}{:<8} mean {:>12.6g} {:>12.6g} {:>12.6g}   std {:>10.4g} {:>10.4g} {:>10.4g}\n",
-             name, unit, mean.x(), mean.y(), mean.z(), std_dev.x(), std_dev.y(), std_dev.z());
-  fmt::print("  {:<14} min  {:>12.6g} {:>12.6g} {:>12.6g}   max {:>10.4g} {:>10.4g} {:>10.4g}\n", "",
-             m.row(0).minCoeff(), m.row(1).minCoeff(), m.row(2).minCoeff(), m.row(0).maxCoeff(),
+  const Eigen::Vector3d std_dev = ((m.colwise() - mean).array().square().rowwise().sum() /
+                                   double(std::max<Eigen::Index>(m.cols() - 1, 1)))
+                                      .sqrt();
+  fmt::print(
+      "  {:<6}{:<8} mean {:>12.6g} {:>12.6g} {:>12.6g}   std {:>10.4g} {:>10.4g} {:>10.4g}\n", name,
+      unit, mean.x(), mean.y(), mean.z(), std_dev.x(), std_dev.y(), std_dev.z());
+  fmt::print("  {:<14} min  {:>12.6g} {:>12.6g} {:>12.6g}   max {:>10.4g} {:>10.4g} {:>10.4g}\n",
+             "", m.row(0).minCoeff(), m.row(1).minCoeff(), m.row(2).minCoeff(), m.row(0).maxCoeff(),
              m.row(1).maxCoeff(), m.row(2).maxCoeff());
 }
 
@@ -36,7 +36,8 @@ void print_stream(const std::string& title, const ImuSeries& s) {
                st.median_period_s * 1e3, st.min_period_s * 1e3, st.max_period_s * 1e3,
                st.period_std_s * 1e6);
     fmt::print("  {}: {} gaps (> 1.5 median periods), {} repeated time stamps\n",
-               st.is_uniform() ? "uniformly sampled" : "NOT uniformly sampled", st.gaps, st.repeated);
+               st.is_uniform() ? "uniformly sampled" : "NOT uniformly sampled", st.gaps,
+               st.repeated);
   }
   print_triad("accel", "[m/s^2]", s.accel);
   print_triad("gyro", "[rad/s]", s.gyro);
@@ -53,9 +54,9 @@ int run_info(const std::vector<std::string>& tokens) {
   for (const InputArg& input : inputs) {
     const Recording r = load_recording(input);
     for (const auto& [name, series] : r.streams) {
-      print_stream(r.streams.size() == 1 && r.metadata.empty() ? input.path
-                                                                 : input.path + " " + name,
-                   series);
+      print_stream(
+          r.streams.size() == 1 && r.metadata.empty() ? input.path : input.path + " " + name,
+          series);
     }
     for (const auto& [key, value] : r.metadata) fmt::print("  metadata {} = {}\n", key, value);
     for (const Event& e : r.events) {
@@ -67,16 +68,18 @@ int run_info(const std::vector<std::string>& tokens) {
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(info, CommandSpec{
-    "info", "Describe recordings: streams, measured rate, jitter, gaps, channel statistics", 30,
-    [](CLI::App& sub) -> std::function<int()> {
-      sub.allow_extras();
-      sub.footer(input_options_help() +
-                 "\n\nExamples:\n"
-                 "  imukit info session.mcap\n"
-                 "  imukit info imu0.csv\n"
-                 "  imukit info imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g\n");
-      return [&sub] { return run_info(sub.remaining()); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    info,
+    CommandSpec{
+        "info", "Describe recordings: streams, measured rate, jitter, gaps, channel statistics", 30,
+        [](CLI::App& sub) -> std::function<int()> {
+          sub.allow_extras();
+          sub.footer(input_options_help() +
+                     "\n\nExamples:\n"
+                     "  imukit info session.mcap\n"
+                     "  imukit info imu0.csv\n"
+                     "  imukit info imu_data.txt --columns t,gx,gy,gz,ax,ay,az --accel-unit g\n");
+          return [&sub] { return run_info(sub.remaining()); };
+        }});
 
 }  // namespace imukit::cli

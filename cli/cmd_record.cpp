@@ -1,15 +1,15 @@
 // imukit record: record one or more devices into an MCAP file, with live statistics, clean
 // stops (duration, sample count, Ctrl-C / SIGTERM, device loss) and the clock fit at the end.
+#include <fmt/core.h>
+#include <unistd.h>
 #include <atomic>
 #include <csignal>
-#include <iostream>
-#include <mutex>
-#include <thread>
 #include <cstdio>
 #include <filesystem>
-#include <fmt/core.h>
+#include <iostream>
+#include <mutex>
 #include <set>
-#include <unistd.h>
+#include <thread>
 
 #include "capture/session.hpp"
 #include "cli/command.hpp"
@@ -85,7 +85,8 @@ int run_record(const RecordArgs& args) {
   std::set<std::string> used;
   for (std::string text : args.uris) {
     if (args.rate_hz > 0 && text.find("rate=") == std::string::npos) {
-      text += (text.find('?') == std::string::npos ? "?" : "&") + fmt::format("rate={}", args.rate_hz);
+      text +=
+          (text.find('?') == std::string::npos ? "?" : "&") + fmt::format("rate={}", args.rate_hz);
     }
     const drivers::DeviceUri uri = drivers::parse_device_uri(text);
     capture::SessionDevice d;
@@ -117,8 +118,9 @@ int run_record(const RecordArgs& args) {
       } else if (e.kind == capture::PoseEvent::Kind::done) {
         fmt::print("{}: pose {} of {} held: done\n", device, e.count, args.poses);
       } else {
-        fmt::print("{}: pose {} of {} held: rotate to a new orientation and hold it still for 2 s\n",
-                   device, e.count, args.poses);
+        fmt::print(
+            "{}: pose {} of {} held: rotate to a new orientation and hold it still for 2 s\n",
+            device, e.count, args.poses);
       }
       std::fflush(stdout);
     };
@@ -145,26 +147,32 @@ int run_record(const RecordArgs& args) {
   fmt::print("recording {} device(s) to {}{}\n", devices.size(), args.output,
              args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s) : " until Ctrl-C");
   if (options.guide) {
-    fmt::print("guided multi-position capture: hold the device still in {} different orientations, "
-               "2 s each\n", args.poses);
+    fmt::print(
+        "guided multi-position capture: hold the device still in {} different orientations, "
+        "2 s each\n",
+        args.poses);
   }
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
   fmt::print("stopped: {}\n", report.stop_reason);
   for (const auto& d : report.devices) {
-    fmt::print("{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
-               "the recorder {}, queue high-water {}; ended: {}\n",
-               d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
-               d.queue_high_water, d.end_reason);
+    fmt::print(
+        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
+        "the recorder {}, queue high-water {}; ended: {}\n",
+        d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
+        d.queue_high_water, d.end_reason);
     if (d.clock.packets > 1) {
-      fmt::print("  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} us{}\n",
-                 d.clock.skew_ppm, d.clock.jitter_mean_s * 1e6, d.clock.jitter_std_s * 1e6,
-                 d.clock.jitter_max_s * 1e6,
-                 d.clock.ping_corrected
-                     ? fmt::format("; latency {:.1f} us from {} time-sync pings (best round trip {:.1f} us)",
-                                   d.clock.latency_correction_s * 1e6, d.clock.pings,
-                                   d.clock.best_round_trip_s * 1e6)
-                     : "; no time-sync pings: times are receive times at the smallest latency seen");
+      fmt::print(
+          "  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} "
+          "us{}\n",
+          d.clock.skew_ppm, d.clock.jitter_mean_s * 1e6, d.clock.jitter_std_s * 1e6,
+          d.clock.jitter_max_s * 1e6,
+          d.clock.ping_corrected
+              ? fmt::format(
+                    "; latency {:.1f} us from {} time-sync pings (best round trip {:.1f} us)",
+                    d.clock.latency_correction_s * 1e6, d.clock.pings,
+                    d.clock.best_round_trip_s * 1e6)
+              : "; no time-sync pings: times are receive times at the smallest latency seen");
     }
   }
   fmt::print("wrote {}\n", args.output);
@@ -173,36 +181,48 @@ int run_record(const RecordArgs& args) {
 
 }  // namespace
 
-IMUKIT_REGISTER_COMMAND(record, CommandSpec{
-    "record", "Record devices into an MCAP file, with clocks mapped and every loss counted", 10,
-    [](CLI::App& sub) -> std::function<int()> {
-      auto args = std::make_shared<RecordArgs>();
-      sub.add_option("uris", args->uris, "device URIs (see `imukit devices` and docs/devices.md)")
-          ->required();
-      sub.add_option("-o,--output", args->output, "output FILE.mcap")->required();
-      sub.add_option("--duration", args->duration_s, "stop after this many seconds of data");
-      sub.add_option("--samples", args->samples, "stop each device after this many samples");
-      sub.add_option("--rate", args->rate_hz, "output data rate to configure (Hz), for URIs without rate=");
-      sub.add_option("--guide", args->guide,
-                     "multipos: guided multi-position capture for `imukit calibrate`: counts the "
-                     "distinct still poses and stops when there are --poses of them");
-      sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
-          ->check(CLI::Range(1, 200));
-      sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
-      sub.add_flag("--no-refit", args->no_refit,
-                   "keep the online clock fit instead of refitting over the whole file at the end");
-      sub.footer(
-          "Stops at --duration/--samples, on Ctrl-C or SIGTERM (the file is flushed and closed), or\n"
-          "when every device is gone. While recording, FILE.partial.mcap is readable up to its\n"
-          "last chunk at any moment (after a crash, `imukit convert --recover` completes it); at\n"
-          "the end the clocks are refitted over the whole recording and FILE.mcap replaces it.\n\n"
-          "Examples:\n"
-          "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
-          "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
-          "  imukit record 'mock:poses?clock=virtual' --guide multipos --poses 6 -o poses.mcap\n\n"
-          "Events (/events): sync taps found in the accelerometer (a sharp jerk), poses of --guide,\n"
-          "and lines typed while recording (host time).\n");
-      return [args] { return run_record(*args); };
-    }});
+IMUKIT_REGISTER_COMMAND(
+    record,
+    CommandSpec{
+        "record", "Record devices into an MCAP file, with clocks mapped and every loss counted", 10,
+        [](CLI::App& sub) -> std::function<int()> {
+          auto args = std::make_shared<RecordArgs>();
+          sub.add_option("uris", args->uris,
+                         "device URIs (see `imukit devices` and docs/devices.md)")
+              ->required();
+          sub.add_option("-o,--output", args->output, "output FILE.mcap")->required();
+          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data");
+          sub.add_option("--samples", args->samples, "stop each device after this many samples");
+          sub.add_option("--rate", args->rate_hz,
+                         "output data rate to configure (Hz), for URIs without rate=");
+          sub.add_option(
+              "--guide", args->guide,
+              "multipos: guided multi-position capture for `imukit calibrate`: counts the "
+              "distinct still poses and stops when there are --poses of them");
+          sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
+              ->check(CLI::Range(1, 200));
+          sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
+          sub.add_flag(
+              "--no-refit", args->no_refit,
+              "keep the online clock fit instead of refitting over the whole file at the end");
+          sub.footer(
+              "Stops at --duration/--samples, on Ctrl-C or SIGTERM (the file is flushed and "
+              "closed), or\n"
+              "when every device is gone. While recording, FILE.partial.mcap is readable up to "
+              "its\n"
+              "last chunk at any moment (after a crash, `imukit convert --recover` completes it); "
+              "at\n"
+              "the end the clocks are refitted over the whole recording and FILE.mcap replaces "
+              "it.\n\n"
+              "Examples:\n"
+              "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
+              "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
+              "  imukit record 'mock:poses?clock=virtual' --guide multipos --poses 6 -o "
+              "poses.mcap\n\n"
+              "Events (/events): sync taps found in the accelerometer (a sharp jerk), poses of "
+              "--guide,\n"
+              "and lines typed while recording (host time).\n");
+          return [args] { return run_record(*args); };
+        }});
 
 }  // namespace imukit::cli

@@ -284,7 +284,8 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
     if (std::string(e.what()).find("static poses") == std::string::npos) throw;
     // Too few poses: say how to record a usable calibration run.
     throw Error(std::string(e.what()) +
-                "; record the device still in 9 or more orientations, e.g. `imukit record URI --guide multipos "
+                "; record the device still in 9 or more orientations, e.g. `imukit record URI "
+                "--guide multipos "
                 "--poses 12 -o poses.mcap`, starting with it still for --init-static seconds");
   }
   const hwmodel::CalibrationResult& r = out.fit;

@@ -1,7 +1,7 @@
 #include "cli/inputs.hpp"
 
-#include <cmath>
 #include <fmt/core.h>
+#include <cmath>
 
 #include <filesystem>
 
@@ -36,7 +36,8 @@ double mag_factor(const std::string& unit) {
 }
 
 bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 // MCAP files are recognised by their magic bytes, whatever their name.
@@ -73,23 +74,32 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
       value = tokens[++i];
     }
     InputArg& target = inputs.empty() ? defaults : inputs.back();
-    if (token == "--columns") target.columns = value;
-    else if (token == "--gaps") target.gaps = value;
-    else if (token == "--time-unit") target.time_unit = value;
-    else if (token == "--accel-unit") target.accel_unit = value;
-    else if (token == "--gyro-unit") target.gyro_unit = value;
-    else if (token == "--mag-unit") target.mag_unit = value;
-    else throw Error(fmt::format("unknown option {} (see --help)", token));
+    if (token == "--columns")
+      target.columns = value;
+    else if (token == "--gaps")
+      target.gaps = value;
+    else if (token == "--time-unit")
+      target.time_unit = value;
+    else if (token == "--accel-unit")
+      target.accel_unit = value;
+    else if (token == "--gyro-unit")
+      target.gyro_unit = value;
+    else if (token == "--mag-unit")
+      target.mag_unit = value;
+    else
+      throw Error(fmt::format("unknown option {} (see --help)", token));
   }
   return inputs;
 }
 
 std::string input_options_help() {
-  return "Inputs: MCAP recordings and EuRoC CSV files are recognised by their ending (.mcap, .csv);\n"
+  return "Inputs: MCAP recordings and EuRoC CSV files are recognised by their ending (.mcap, "
+         ".csv);\n"
          "any other numeric text needs a column map. Options after a file apply to that file,\n"
          "options before the first file to all files:\n"
          "  --columns MAP      e.g. t,ax,ay,az,gx,gy,gz (names t ax..az gx..gz mx..mz qw..qz\n"
-         "                     px..pz temp; _ skips a column, _N skips N, a final _* ignores the rest)\n"
+         "                     px..pz temp; _ skips a column, _N skips N, a final _* ignores the "
+         "rest)\n"
          "  --time-unit U      s (default), ms, us or ns\n"
          "  --gaps COLS        columns that may hold NaN or be empty, e.g. qw,qx,qy,qz\n"
          "  --accel-unit U     m/s^2 (default), g (= 9.80665 m/s^2) or mg\n"
@@ -102,7 +112,8 @@ Recording load_recording(const InputArg& input) {
   if (input.columns.empty() && is_mcap(input.path)) {
     capture::RecordingRead read = capture::read_recording_mcap(input.path);
     if (!read.summary.complete) {
-      fmt::print(stderr, "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
+      fmt::print(stderr,
+                 "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
                  read.summary.truncation_note);
     }
     return std::move(read.recording);
@@ -123,8 +134,9 @@ ImuSeries load_imu_series(const InputArg& input) {
   }
   if (input.columns.empty()) {
     if (ends_with(input.path, ".csv")) return read_euroc_csv(input.path);
-    throw Error(fmt::format("{}: say what its columns are with --columns, e.g. --columns t,ax,ay,az,gx,gy,gz",
-                            input.path));
+    throw Error(fmt::format(
+        "{}: say what its columns are with --columns, e.g. --columns t,ax,ay,az,gx,gy,gz",
+        input.path));
   }
   const ColumnSpec spec =
       ColumnSpec::parse(input.columns, input.gaps, parse_time_unit(input.time_unit));

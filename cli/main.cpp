@@ -1,9 +1,9 @@
 // imukit: capture, characterize, simulate and augment wearable IMUs.
+#include <fmt/core.h>
 #include <algorithm>
 #include <cstdio>
 #include <exception>
 #include <string>
-#include <fmt/core.h>
 
 #include "cli/command.hpp"
 #include "core/error.hpp"
@@ -56,7 +56,9 @@ int main(int argc, char** argv) {
       names += (names.empty() ? "" : ", ") + spec.name;
     }
     if (!known) {
-      fmt::print(stderr, "imukit: error: unknown command '{}' (commands: {}); see `imukit --help`\n", word, names);
+      fmt::print(stderr,
+                 "imukit: error: unknown command '{}' (commands: {}); see `imukit --help`\n", word,
+                 names);
       return 2;
     }
   }

@@ -1,7 +1,7 @@
 #include "core/column_text.hpp"
 
-#include <cmath>
 #include <fmt/core.h>
+#include <cmath>
 
 #include "core/error.hpp"
 #include "core/text_parse.hpp"
@@ -10,17 +10,21 @@ namespace imukit {
 namespace {
 
 constexpr std::array<std::string_view, kColumnCount> kNames = {
-    "t", "ax", "ay", "az", "gx", "gy", "gz", "mx", "my", "mz",
-    "qw", "qx", "qy", "qz", "px", "py", "pz", "temp"};
+    "t",  "ax", "ay", "az", "gx", "gy", "gz", "mx", "my",
+    "mz", "qw", "qx", "qy", "qz", "px", "py", "pz", "temp"};
 
 std::size_t index(Column c) { return static_cast<std::size_t>(c); }
 
 int unit_digits(TimeUnit u) {
   switch (u) {
-    case TimeUnit::s: return 9;
-    case TimeUnit::ms: return 6;
-    case TimeUnit::us: return 3;
-    case TimeUnit::ns: return 0;
+    case TimeUnit::s:
+      return 9;
+    case TimeUnit::ms:
+      return 6;
+    case TimeUnit::us:
+      return 3;
+    case TimeUnit::ns:
+      return 0;
   }
   return 9;
 }
@@ -29,7 +33,8 @@ bool is_nan_token(std::string_view s) {
   if (s.size() != 3 && s.size() != 4) return false;
   if (s.size() == 4 && s[0] != '-' && s[0] != '+') return false;
   if (s.size() == 4) s.remove_prefix(1);
-  return (s[0] == 'n' || s[0] == 'N') && (s[1] == 'a' || s[1] == 'A') && (s[2] == 'n' || s[2] == 'N');
+  return (s[0] == 'n' || s[0] == 'N') && (s[1] == 'a' || s[1] == 'A') &&
+         (s[2] == 'n' || s[2] == 'N');
 }
 
 bool is_blank_line(std::string_view line) {
@@ -40,7 +45,8 @@ bool is_blank_line(std::string_view line) {
 }
 
 ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
-  if (spec.columns.empty()) throw Error("column map is empty: name the file's columns with --columns");
+  if (spec.columns.empty())
+    throw Error("column map is empty: name the file's columns with --columns");
   ColumnTable table;
   table.source = reader.source_name();
   const int digits = unit_digits(spec.time_unit);
@@ -71,8 +77,8 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
     }
     if (fields.size() < spec.columns.size() ||
         (fields.size() > spec.columns.size() && !spec.ignore_extra)) {
-      throw Error(where(1), fmt::format("expected {} columns ({}), found {}{}",
-                                        spec.columns.size(), spec.to_string(), fields.size(),
+      throw Error(where(1), fmt::format("expected {} columns ({}), found {}{}", spec.columns.size(),
+                                        spec.to_string(), fields.size(),
                                         fields.size() > spec.columns.size()
                                             ? "; skip extra columns with _ or end the map with _*"
                                             : ""));
@@ -81,9 +87,7 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
       if (!spec.columns[i]) continue;
       const Column name = *spec.columns[i];
       const Field& f = fields[i];
-      const auto describe = [&] {
-        return fmt::format("column {} ({})", i + 1, column_name(name));
-      };
+      const auto describe = [&] { return fmt::format("column {} ({})", i + 1, column_name(name)); };
       if (name == Column::t) {
         const auto t = parse_scaled_integer(f.text, digits);
         if (!t) {
@@ -92,9 +96,8 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
                                   describe(), f.text));
         }
         if (!table.t.empty() && *t < table.t.back()) {
-          throw Error(where(f.column),
-                      fmt::format("{}: time goes backwards ({} after {})", describe(), f.text,
-                                  to_seconds(table.t.back())));
+          throw Error(where(f.column), fmt::format("{}: time goes backwards ({} after {})",
+                                                   describe(), f.text, to_seconds(table.t.back())));
         }
         table.t.push_back(*t);
         continue;
@@ -112,8 +115,7 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
       } else {
         const auto parsed = parse_double(f.text);
         if (!parsed) {
-          throw Error(where(f.column),
-                      fmt::format("{}: '{}' is not a number", describe(), f.text));
+          throw Error(where(f.column), fmt::format("{}: '{}' is not a number", describe(), f.text));
         }
         if (std::isinf(*parsed)) {
           throw Error(where(f.column), fmt::format("{}: infinite value '{}'", describe(), f.text));
@@ -172,8 +174,9 @@ ColumnSpec ColumnSpec::parse(std::string_view columns, std::string_view gaps, Ti
     } else {
       const auto c = column_from_name(token);
       if (!c) {
-        throw bad("unknown column name (use t, ax ay az, gx gy gz, mx my mz, qw qx qy qz, "
-                  "px py pz, temp, or _ to skip)");
+        throw bad(
+            "unknown column name (use t, ax ay az, gx gy gz, mx my mz, qw qx qy qz, "
+            "px py pz, temp, or _ to skip)");
       }
       if (seen[index(*c)]) throw bad("named twice");
       seen.set(index(*c));
@@ -187,7 +190,8 @@ ColumnSpec ColumnSpec::parse(std::string_view columns, std::string_view gaps, Ti
     if (g.text.empty()) continue;
     const auto c = column_from_name(g.text);
     if (!c) throw Error(fmt::format("--gaps '{}': '{}' is not a column name", gaps, g.text));
-    if (*c == Column::t) throw Error(fmt::format("--gaps '{}': the time column cannot have gaps", gaps));
+    if (*c == Column::t)
+      throw Error(fmt::format("--gaps '{}': the time column cannot have gaps", gaps));
     if (!seen[index(*c)]) {
       throw Error(fmt::format("--gaps '{}': '{}' is not in --columns '{}'", gaps, g.text, columns));
     }
@@ -266,8 +270,8 @@ ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {
   triad(Column::gx, scale.gyro, series.gyro, "gyroscope");
   triad(Column::mx, scale.mag, series.mag, "magnetometer");
   if (table.has(Column::temp)) {
-    series.temperature_c = Eigen::Map<const Eigen::VectorXd>(
-        table[Column::temp].data(), static_cast<Eigen::Index>(table.rows));
+    series.temperature_c = Eigen::Map<const Eigen::VectorXd>(table[Column::temp].data(),
+                                                             static_cast<Eigen::Index>(table.rows));
   }
   return series;
 }

@@ -24,7 +24,24 @@
 namespace imukit {
 
 enum class Column : uint8_t {
-  t, ax, ay, az, gx, gy, gz, mx, my, mz, qw, qx, qy, qz, px, py, pz, temp
+  t,
+  ax,
+  ay,
+  az,
+  gx,
+  gy,
+  gz,
+  mx,
+  my,
+  mz,
+  qw,
+  qx,
+  qy,
+  qz,
+  px,
+  py,
+  pz,
+  temp
 };
 inline constexpr std::size_t kColumnCount = 18;
 
@@ -55,11 +72,13 @@ struct ColumnTable {
   std::vector<std::string> header;  // the header row's fields, if the file had one
   std::vector<TimeNs> t;            // empty when the map has no t column
   std::array<std::vector<double>, kColumnCount> values;  // empty for columns not in the map
-  std::bitset<kColumnCount> present;  // the columns the map named
+  std::bitset<kColumnCount> present;                     // the columns the map named
   std::size_t rows = 0;
 
   bool has(Column c) const { return present[static_cast<std::size_t>(c)]; }
-  const std::vector<double>& operator[](Column c) const { return values[static_cast<std::size_t>(c)]; }
+  const std::vector<double>& operator[](Column c) const {
+    return values[static_cast<std::size_t>(c)];
+  }
 };
 
 ColumnTable read_column_text(const std::string& path, const ColumnSpec& spec);

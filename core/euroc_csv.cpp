@@ -1,8 +1,8 @@
 #include "core/euroc_csv.hpp"
 
+#include <fmt/format.h>
 #include <cerrno>
 #include <cstring>
-#include <fmt/format.h>
 
 #include "core/column_text.hpp"
 #include "core/error.hpp"
@@ -44,9 +44,10 @@ void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesVie
   fmt::format_to(std::back_inserter(buffer), "{}\n", kEurocHeader);
   for (std::size_t i = 0; i < series.size(); ++i) {
     const auto c = static_cast<Eigen::Index>(i);
-    fmt::format_to(std::back_inserter(buffer), "{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n",
-                   series.t[i], series.gyro(0, c), series.gyro(1, c), series.gyro(2, c),
-                   series.accel(0, c), series.accel(1, c), series.accel(2, c));
+    fmt::format_to(std::back_inserter(buffer),
+                   "{},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g},{:.17g}\n", series.t[i],
+                   series.gyro(0, c), series.gyro(1, c), series.gyro(2, c), series.accel(0, c),
+                   series.accel(1, c), series.accel(2, c));
     if (buffer.size() > (1 << 16)) {
       write_block(out, name, buffer);
       buffer.clear();
@@ -54,7 +55,8 @@ void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesVie
   }
   write_block(out, name, buffer);
   if (std::fflush(out) != 0) {
-    throw Error(InputLocation{name, {}, {}, {}}, std::string("write failed: ") + std::strerror(errno));
+    throw Error(InputLocation{name, {}, {}, {}},
+                std::string("write failed: ") + std::strerror(errno));
   }
 }
 
@@ -71,7 +73,8 @@ void write_euroc_csv(const std::string& path, const ImuSeriesView& series) {
     throw;
   }
   if (std::fclose(out) != 0) {
-    throw Error(InputLocation{path, {}, {}, {}}, std::string("close failed: ") + std::strerror(errno));
+    throw Error(InputLocation{path, {}, {}, {}},
+                std::string("close failed: ") + std::strerror(errno));
   }
 }
 

@@ -1,9 +1,9 @@
 #include "core/npy.hpp"
 
+#include <fmt/format.h>
 #include <bit>
 #include <cerrno>
 #include <cstring>
-#include <fmt/format.h>
 #include <fstream>
 #include <iterator>
 
@@ -21,9 +21,12 @@ constexpr std::size_t kMagicSize = 6;
 
 std::string_view descr(NpyDtype d) {
   switch (d) {
-    case NpyDtype::float32: return "<f4";
-    case NpyDtype::float64: return "<f8";
-    case NpyDtype::int64: return "<i8";
+    case NpyDtype::float32:
+      return "<f4";
+    case NpyDtype::float64:
+      return "<f8";
+    case NpyDtype::int64:
+      return "<i8";
   }
   return "";
 }
@@ -39,10 +42,11 @@ std::size_t product(std::span<const std::size_t> shape) {
 void write_raw(const std::string& path, NpyDtype dtype, const void* data, std::size_t count,
                std::span<const std::size_t> shape) {
   if (product(shape) != count) {
-    throw Error(fmt::format("{}: NPY shape holds {} values but {} were given", path,
-                            product(shape), count));
+    throw Error(fmt::format("{}: NPY shape holds {} values but {} were given", path, product(shape),
+                            count));
   }
-  std::string dict = fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': (", descr(dtype));
+  std::string dict =
+      fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': (", descr(dtype));
   // Python tuple syntax: (), (3,), (3, 4).
   for (std::size_t k = 0; k < shape.size(); ++k) {
     if (k > 0) dict += ", ";
@@ -76,18 +80,22 @@ void write_raw(const std::string& path, NpyDtype dtype, const void* data, std::s
 }
 
 [[noreturn]] void fail(const std::string& source, std::size_t offset, const std::string& what) {
-  throw Error(InputLocation{source, {}, {}, static_cast<int64_t>(offset)}, "not a valid .npy: " + what);
+  throw Error(InputLocation{source, {}, {}, static_cast<int64_t>(offset)},
+              "not a valid .npy: " + what);
 }
 
 }  // namespace
 
-void write_npy(const std::string& path, std::span<const float> data, std::span<const std::size_t> shape) {
+void write_npy(const std::string& path, std::span<const float> data,
+               std::span<const std::size_t> shape) {
   write_raw(path, NpyDtype::float32, data.data(), data.size(), shape);
 }
-void write_npy(const std::string& path, std::span<const double> data, std::span<const std::size_t> shape) {
+void write_npy(const std::string& path, std::span<const double> data,
+               std::span<const std::size_t> shape) {
   write_raw(path, NpyDtype::float64, data.data(), data.size(), shape);
 }
-void write_npy(const std::string& path, std::span<const int64_t> data, std::span<const std::size_t> shape) {
+void write_npy(const std::string& path, std::span<const int64_t> data,
+               std::span<const std::size_t> shape) {
   write_raw(path, NpyDtype::int64, data.data(), data.size(), shape);
 }
 
@@ -124,30 +132,38 @@ NpyArray parse_npy(std::span<const std::byte> file, const std::string& source) {
   } else if (major == 2 || major == 3) {
     if (file.size() < 12) fail(source, file.size(), "truncated header length");
     header_len = 0;
-    for (int k = 3; k >= 0; --k) header_len = (header_len << 8) | static_cast<std::size_t>(file[8 + k]);
+    for (int k = 3; k >= 0; --k)
+      header_len = (header_len << 8) | static_cast<std::size_t>(file[8 + k]);
     header_start = 12;
   } else {
     fail(source, 6, fmt::format("unsupported format version {}", major));
   }
   if (header_len > file.size() - header_start) fail(source, 8, "header longer than the file");
-  const std::string_view header(reinterpret_cast<const char*>(file.data()) + header_start, header_len);
+  const std::string_view header(reinterpret_cast<const char*>(file.data()) + header_start,
+                                header_len);
 
   NpyArray array;
   const auto value_of = [&](std::string_view key) -> std::string_view {
     const std::size_t k = header.find(key);
-    if (k == std::string_view::npos) fail(source, header_start, fmt::format("header has no {}", key));
+    if (k == std::string_view::npos)
+      fail(source, header_start, fmt::format("header has no {}", key));
     std::size_t v = header.find(':', k + key.size());
-    if (v == std::string_view::npos) fail(source, header_start + k, fmt::format("{} has no value", key));
+    if (v == std::string_view::npos)
+      fail(source, header_start + k, fmt::format("{} has no value", key));
     ++v;
     while (v < header.size() && header[v] == ' ') ++v;
     return header.substr(v);
   };
   const std::string_view d = value_of("'descr'");
-  if (d.rfind("'<f4'", 0) == 0) array.dtype = NpyDtype::float32;
-  else if (d.rfind("'<f8'", 0) == 0) array.dtype = NpyDtype::float64;
-  else if (d.rfind("'<i8'", 0) == 0) array.dtype = NpyDtype::int64;
-  else fail(source, header_start + static_cast<std::size_t>(d.data() - header.data()),
-            "dtype must be '<f4', '<f8' or '<i8'");
+  if (d.rfind("'<f4'", 0) == 0)
+    array.dtype = NpyDtype::float32;
+  else if (d.rfind("'<f8'", 0) == 0)
+    array.dtype = NpyDtype::float64;
+  else if (d.rfind("'<i8'", 0) == 0)
+    array.dtype = NpyDtype::int64;
+  else
+    fail(source, header_start + static_cast<std::size_t>(d.data() - header.data()),
+         "dtype must be '<f4', '<f8' or '<i8'");
   if (value_of("'fortran_order'").rfind("False", 0) != 0) {
     fail(source, header_start, "only C-order arrays are supported");
   }
@@ -179,8 +195,9 @@ NpyArray parse_npy(std::span<const std::byte> file, const std::string& source) {
   const std::size_t item = item_size(array.dtype);
   if (elements > SIZE_MAX / item) fail(source, s_offset, "shape too large");
   if (elements * item != available) {
-    fail(source, data_start, fmt::format("shape needs {} bytes of data but the file has {}",
-                                         elements * item, available));
+    fail(source, data_start,
+         fmt::format("shape needs {} bytes of data but the file has {}", elements * item,
+                     available));
   }
   array.bytes.assign(file.begin() + static_cast<std::ptrdiff_t>(data_start), file.end());
   return array;

@@ -15,9 +15,12 @@ namespace imukit {
 enum class NpyDtype { float32, float64, int64 };
 
 // Writes `data` (C order) with the given shape; the product of shape must equal data.size().
-void write_npy(const std::string& path, std::span<const float> data, std::span<const std::size_t> shape);
-void write_npy(const std::string& path, std::span<const double> data, std::span<const std::size_t> shape);
-void write_npy(const std::string& path, std::span<const int64_t> data, std::span<const std::size_t> shape);
+void write_npy(const std::string& path, std::span<const float> data,
+               std::span<const std::size_t> shape);
+void write_npy(const std::string& path, std::span<const double> data,
+               std::span<const std::size_t> shape);
+void write_npy(const std::string& path, std::span<const int64_t> data,
+               std::span<const std::size_t> shape);
 
 struct NpyArray {
   NpyDtype dtype = NpyDtype::float64;

@@ -34,7 +34,8 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t) {
   const auto [lo, hi] = std::minmax_element(periods.begin(), periods.end());
   s.min_period_s = to_seconds(*lo);
   s.max_period_s = to_seconds(*hi);
-  std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(n / 2), periods.end());
+  std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(n / 2),
+                   periods.end());
   const TimeNs median = periods[n / 2];
   s.median_period_s = to_seconds(median);
   for (TimeNs p : periods) {

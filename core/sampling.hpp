@@ -12,15 +12,15 @@ namespace imukit {
 
 struct SamplingStats {
   std::size_t samples = 0;
-  TimeNs duration = 0;           // last minus first time
-  double mean_period_s = 0.0;    // duration / (samples - 1)
-  double mean_rate_hz = 0.0;     // 1 / mean_period_s
+  TimeNs duration = 0;         // last minus first time
+  double mean_period_s = 0.0;  // duration / (samples - 1)
+  double mean_rate_hz = 0.0;   // 1 / mean_period_s
   double median_period_s = 0.0;
   double min_period_s = 0.0;
   double max_period_s = 0.0;
-  double period_std_s = 0.0;     // standard deviation of the periods (jitter)
-  std::size_t gaps = 0;          // periods longer than 1.5 median periods
-  std::size_t repeated = 0;      // periods of zero (equal time stamps)
+  double period_std_s = 0.0;  // standard deviation of the periods (jitter)
+  std::size_t gaps = 0;       // periods longer than 1.5 median periods
+  std::size_t repeated = 0;   // periods of zero (equal time stamps)
 
   // True when the periods differ from the median by more than `tolerance` (relative) anywhere:
   // the stream is not uniformly sampled, and methods that assume it should say so.

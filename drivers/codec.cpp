@@ -18,7 +18,8 @@ double option_double(const CodecOptions& options, const std::string& key, double
   const std::string& text = it->second;
   double v = 0;
   const auto r = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() || !std::isfinite(v)) {
+  if (text.empty() || r.ec != std::errc() || r.ptr != text.data() + text.size() ||
+      !std::isfinite(v)) {
     throw Error(key + "=" + text + ": expected a number");
   }
   return v;
@@ -86,10 +87,12 @@ std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& o
     if (rate > 0) witmotion_rate_commands(rate);  // validate now, not at start
     o.accel_range_g = option_double(options, "accel_range_g", 16.0);
     o.gyro_range_dps = option_double(options, "gyro_range_dps", 2000.0);
-    if (o.accel_range_g <= 0 || o.gyro_range_dps <= 0) throw Error("witmotion: ranges must be positive");
+    if (o.accel_range_g <= 0 || o.gyro_range_dps <= 0)
+      throw Error("witmotion: ranges must be positive");
     return std::make_unique<WitmotionCodec>(o);
   }
-  if (name == "dualshock4") return std::make_unique<PlaystationCodec>(PlaystationModel::kDualShock4);
+  if (name == "dualshock4")
+    return std::make_unique<PlaystationCodec>(PlaystationModel::kDualShock4);
   if (name == "dualsense") return std::make_unique<PlaystationCodec>(PlaystationModel::kDualSense);
   if (name == "text") return std::make_unique<TextCodec>(text_codec_options(options));
   std::string known;

@@ -79,8 +79,10 @@ std::vector<AttachedDevice> list_serial_ports() {
       if (auto k = find_known_device(d.vid, d.pid, false)) {
         d.codec = k->codec;
         if (d.description.empty()) d.description = k->name;
-        if (!d.codec.empty()) d.uri += "?codec=" + d.codec;
-        else d.description += std::string(" [") + k->name + "]";
+        if (!d.codec.empty())
+          d.uri += "?codec=" + d.codec;
+        else
+          d.description += std::string(" [") + k->name + "]";
       }
     }
     out.push_back(std::move(d));

@@ -14,7 +14,7 @@ struct KnownDevice {
   uint16_t pid;
   const char* codec;  // make_codec() name
   const char* name;
-  bool hid;           // HID device (else a serial port)
+  bool hid;  // HID device (else a serial port)
 };
 
 // Sony DualShock 4 (two revisions) and DualSense over USB, Xsens MTi USB devices and the Xsens
@@ -24,9 +24,9 @@ const std::vector<KnownDevice>& known_devices();
 std::optional<KnownDevice> find_known_device(uint16_t vid, uint16_t pid, bool hid);
 
 struct AttachedDevice {
-  std::string uri;          // what to pass to open_device (codec key added when known)
-  std::string kind;         // "serial" or "hid"
-  std::string path;         // /dev/ttyUSB0, /dev/hidraw3
+  std::string uri;   // what to pass to open_device (codec key added when known)
+  std::string kind;  // "serial" or "hid"
+  std::string path;  // /dev/ttyUSB0, /dev/hidraw3
   uint16_t vid = 0;
   uint16_t pid = 0;
   bool usb = false;         // VID/PID known (USB)

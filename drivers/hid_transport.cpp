@@ -46,7 +46,8 @@ HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial
   }
   dev_ = hid_open_path(path.c_str());
   if (!dev_) {
-    throw TransportError(error("cannot open " + name_ + " at " + path + " (permission? see packaging/udev)"));
+    throw TransportError(
+        error("cannot open " + name_ + " at " + path + " (permission? see packaging/udev)"));
   }
   name_ += " (" + path + ")";
 }
@@ -54,7 +55,9 @@ HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial
 HidTransport::HidTransport(const std::string& path) : name_("hid " + path) {
   init_once();
   dev_ = hid_open_path(path.c_str());
-  if (!dev_) throw TransportError(error("cannot open " + name_ + " (attached? permission: see packaging/udev)"));
+  if (!dev_)
+    throw TransportError(
+        error("cannot open " + name_ + " (attached? permission: see packaging/udev)"));
 }
 
 HidTransport::~HidTransport() {
@@ -80,7 +83,8 @@ ReadResult HidTransport::read_report(std::span<uint8_t> buf, int timeout_ms) {
 }
 
 void HidTransport::write_report(std::span<const uint8_t> report) {
-  if (hid_write(dev_, report.data(), report.size()) < 0) throw TransportError(error(name_ + ": write"));
+  if (hid_write(dev_, report.data(), report.size()) < 0)
+    throw TransportError(error(name_ + ": write"));
 }
 
 std::vector<uint8_t> HidTransport::get_feature_report(uint8_t id, std::size_t size) {

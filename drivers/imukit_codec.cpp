@@ -18,18 +18,30 @@ uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
 const char* nack_reason(proto::NackCode code) {
   using proto::NackCode;
   switch (code) {
-    case NackCode::kUnknownMessage: return "unknown message";
-    case NackCode::kMalformed: return "malformed request";
-    case NackCode::kBadState: return "not allowed in this state";
-    case NackCode::kUnsupportedRate: return "rate not supported (see DeviceInfo rates)";
-    case NackCode::kUnsupportedSensor: return "a requested sensor is not present";
-    case NackCode::kNoSensorsEnabled: return "no sensor enabled";
-    case NackCode::kUnsupportedRange: return "range not supported";
-    case NackCode::kInvalidBlockSize: return "samples per block must be 1..32";
-    case NackCode::kHardwareError: return "the sensor hardware refused the configuration";
-    case NackCode::kCalibrationInvalid: return "calibration invalid";
-    case NackCode::kNoCalibration: return "no calibration stored";
-    case NackCode::kStorageError: return "storage error";
+    case NackCode::kUnknownMessage:
+      return "unknown message";
+    case NackCode::kMalformed:
+      return "malformed request";
+    case NackCode::kBadState:
+      return "not allowed in this state";
+    case NackCode::kUnsupportedRate:
+      return "rate not supported (see DeviceInfo rates)";
+    case NackCode::kUnsupportedSensor:
+      return "a requested sensor is not present";
+    case NackCode::kNoSensorsEnabled:
+      return "no sensor enabled";
+    case NackCode::kUnsupportedRange:
+      return "range not supported";
+    case NackCode::kInvalidBlockSize:
+      return "samples per block must be 1..32";
+    case NackCode::kHardwareError:
+      return "the sensor hardware refused the configuration";
+    case NackCode::kCalibrationInvalid:
+      return "calibration invalid";
+    case NackCode::kNoCalibration:
+      return "no calibration stored";
+    case NackCode::kStorageError:
+      return "storage error";
   }
   return "unknown reason";
 }
@@ -124,7 +136,8 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       for (uint8_t i = 0; parsed && i < info.sensor_count; ++i) {
         const proto::SensorInfo& si = info.sensors[i];
         finite = finite && std::isfinite(si.offset);
-        for (uint8_t r = 0; r < si.range_count; ++r) finite = finite && std::isfinite(si.ranges[r].scale);
+        for (uint8_t r = 0; r < si.range_count; ++r)
+          finite = finite && std::isfinite(si.ranges[r].scale);
       }
       // A DeviceInfo whose scales are not finite numbers would turn every count into NaN.
       if (!parsed || info.tick_hz == 0 || !finite) {
@@ -221,9 +234,12 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
     return true;
   };
   float sa = 0, oa = 0, sg = 0, og = 0, sm = 0, om = 0, st = 0, ot = 0;
-  const bool ha = (b.channels & proto::kChannelAccel) && scale_of(proto::SensorKind::kAccelerometer, sa, oa);
-  const bool hg = (b.channels & proto::kChannelGyro) && scale_of(proto::SensorKind::kGyroscope, sg, og);
-  const bool hm = (b.channels & proto::kChannelMag) && scale_of(proto::SensorKind::kMagnetometer, sm, om);
+  const bool ha =
+      (b.channels & proto::kChannelAccel) && scale_of(proto::SensorKind::kAccelerometer, sa, oa);
+  const bool hg =
+      (b.channels & proto::kChannelGyro) && scale_of(proto::SensorKind::kGyroscope, sg, og);
+  const bool hm =
+      (b.channels & proto::kChannelMag) && scale_of(proto::SensorKind::kMagnetometer, sm, om);
   const bool ht = (b.channels & proto::kChannelTemperature) &&
                   scale_of(proto::SensorKind::kTemperature, st, ot);
   for (int i = 0; i < b.count; ++i) {
@@ -257,10 +273,11 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
     s.raw_temperature = b.temperature[i];
     s.channels = static_cast<uint8_t>((ha ? kHasAccel : 0) | (hg ? kHasGyro : 0) |
                                       (hm ? kHasMag : 0) | (ht ? kHasTemperature : 0));
-    s.raw_channels = static_cast<uint8_t>(((b.channels & proto::kChannelAccel) ? kHasAccel : 0) |
-                                          ((b.channels & proto::kChannelGyro) ? kHasGyro : 0) |
-                                          ((b.channels & proto::kChannelMag) ? kHasMag : 0) |
-                                          ((b.channels & proto::kChannelTemperature) ? kHasTemperature : 0));
+    s.raw_channels =
+        static_cast<uint8_t>(((b.channels & proto::kChannelAccel) ? kHasAccel : 0) |
+                             ((b.channels & proto::kChannelGyro) ? kHasGyro : 0) |
+                             ((b.channels & proto::kChannelMag) ? kHasMag : 0) |
+                             ((b.channels & proto::kChannelTemperature) ? kHasTemperature : 0));
     out.push_back(s);
   }
   stats_.samples_decoded += b.count;

@@ -22,12 +22,12 @@
 namespace imukit::drivers {
 
 struct ImukitCodecOptions {
-  bool send_commands = true;   // false: decode only (replay of a capture)
-  double rate_hz = 0.0;        // 0: keep the device's rate (no Configure)
+  bool send_commands = true;  // false: decode only (replay of a capture)
+  double rate_hz = 0.0;       // 0: keep the device's rate (no Configure)
   int samples_per_block = 8;
-  uint8_t channels = 0;        // 0: every channel the device has
+  uint8_t channels = 0;                    // 0: every channel the device has
   TimeNs ping_interval_ns = kNsPerSecond;  // 0: no pings
-  TimeNs retry_ns = 500'000'000;  // repeat an unanswered GetDeviceInfo / Start after this
+  TimeNs retry_ns = 500'000'000;           // repeat an unanswered GetDeviceInfo / Start after this
 };
 
 struct SyncPoint {

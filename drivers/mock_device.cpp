@@ -64,14 +64,12 @@ MockDevice::~MockDevice() = default;
 
 std::string MockDevice::describe() const {
   std::ostringstream s;
-  s << "mock imukit device at " << opt_.rate_hz << " Hz (" << (opt_.virtual_time ? "virtual" : "real")
-    << " time, seed " << opt_.seed << ")";
+  s << "mock imukit device at " << opt_.rate_hz << " Hz ("
+    << (opt_.virtual_time ? "virtual" : "real") << " time, seed " << opt_.seed << ")";
   return s.str();
 }
 
-TimeNs MockDevice::now() const {
-  return opt_.virtual_time ? opt_.epoch + t_ : host_now();
-}
+TimeNs MockDevice::now() const { return opt_.virtual_time ? opt_.epoch + t_ : host_now(); }
 
 TimeNs MockDevice::device_ticks_at(TimeNs t) const {
   const long double ticks = static_cast<long double>(t) * opt_.tick_hz *
@@ -112,8 +110,9 @@ bool MockDevice::read_sensors(uint32_t tick, uint8_t channels, proto::SensorSamp
   const TimeNs now_ticks = device_ticks_at(t_);
   const auto behind = static_cast<uint32_t>(static_cast<uint32_t>(now_ticks) - tick);
   const TimeNs sample_ticks = now_ticks - behind;
-  const long double t_true = static_cast<long double>(sample_ticks) * 1e9L /
-                             (opt_.tick_hz * (1.0L + static_cast<long double>(opt_.drift_ppm) * 1e-6L));
+  const long double t_true =
+      static_cast<long double>(sample_ticks) * 1e9L /
+      (opt_.tick_hz * (1.0L + static_cast<long double>(opt_.drift_ppm) * 1e-6L));
   const TimeNs t = static_cast<TimeNs>(std::llround(t_true));
   source_->evaluate(std::span<const TimeNs>(&t, 1), &f_, &w_);
   errors_->apply_gyroscope(w_, f_);
@@ -158,7 +157,8 @@ bool MockDevice::write(const uint8_t* data, std::size_t n) {
     }
   }
   TimeNs due = t_ + static_cast<TimeNs>(std::llround(opt_.latency_us * 1e3));
-  if (opt_.jitter_us > 0) due += static_cast<TimeNs>(std::llround(link_rng_.uniform() * opt_.jitter_us * 1e3));
+  if (opt_.jitter_us > 0)
+    due += static_cast<TimeNs>(std::llround(link_rng_.uniform() * opt_.jitter_us * 1e3));
   const TimeNs stall_start = static_cast<TimeNs>(std::llround(opt_.stall_at_s * 1e9));
   const TimeNs stall_end = stall_start + static_cast<TimeNs>(std::llround(opt_.stall_ms * 1e6));
   if (opt_.stall_ms > 0 && t_ >= stall_start && t_ < stall_end) due = std::max(due, stall_end);
@@ -233,8 +233,9 @@ ReadResult MockDevice::read(std::span<uint8_t> buf, int timeout_ms) {
         const TimeNs now_ticks = device_ticks_at(t_);
         const uint32_t ahead = model_->next_sample_tick() - static_cast<uint32_t>(now_ticks);
         if (ahead < 0x80000000u) {
-          const long double due = static_cast<long double>(now_ticks + ahead) * 1e9L /
-                                  (opt_.tick_hz * (1.0L + static_cast<long double>(opt_.drift_ppm) * 1e-6L));
+          const long double due =
+              static_cast<long double>(now_ticks + ahead) * 1e9L /
+              (opt_.tick_hz * (1.0L + static_cast<long double>(opt_.drift_ppm) * 1e-6L));
           next = std::clamp(static_cast<TimeNs>(std::ceil(due)), t_ + 1, t_ + kStepNs);
         }
       }
@@ -253,7 +254,8 @@ void MockDevice::write(std::span<const uint8_t> bytes) {
     return;
   }
   TimeNs due = t_ + static_cast<TimeNs>(std::llround(opt_.latency_us * 1e3));
-  if (opt_.jitter_us > 0) due += static_cast<TimeNs>(std::llround(uplink_rng_.uniform() * opt_.jitter_us * 1e3));
+  if (opt_.jitter_us > 0)
+    due += static_cast<TimeNs>(std::llround(uplink_rng_.uniform() * opt_.jitter_us * 1e3));
   if (!inbound_.empty()) due = std::max(due, inbound_.back().due);  // in order
   inbound_.push_back({due, std::vector<uint8_t>(bytes.begin(), bytes.end())});
 }
@@ -281,7 +283,8 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   if (disc < 0) throw Error("disconnect_after: expected a sample count >= 0");
   o.disconnect_after = static_cast<uint64_t>(disc);
   const std::string clock = option_string(keys, "clock", "real");
-  if (clock != "real" && clock != "virtual") throw Error("clock=" + clock + ": expected real or virtual");
+  if (clock != "real" && clock != "virtual")
+    throw Error("clock=" + clock + ": expected real or virtual");
   o.virtual_time = clock == "virtual";
   const std::string profile = option_string(keys, "profile", "");
   if (!profile.empty()) o.hardware = to_hardware_model(read_profile(profile));
@@ -312,7 +315,8 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
     const double move = option_double(keys, "move_s", 2.0);
     if (!(hold >= 0) || !(move > 0)) throw Error("hold_s must be >= 0 and move_s > 0");
     const int64_t count = option_int(keys, "poses", 6);
-    if (count < 1 || count > 26) throw Error("poses: expected 1 to 26 poses (6: the six faces; more: a tilt tour)");
+    if (count < 1 || count > 26)
+      throw Error("poses: expected 1 to 26 poses (6: the six faces; more: a tilt tour)");
     // Six or fewer: the faces (what the existing recordings and tests use); more: the tilt tour.
     auto poses = PosesSource::six_faces();
     if (count > 6) {

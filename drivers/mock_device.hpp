@@ -35,14 +35,14 @@ namespace imukit::drivers {
 struct MockOptions {
   double rate_hz = 400.0;
   uint64_t seed = 1;
-  HardwareModel hardware;       // ideal by default
-  double drop = 0.0;            // frame drop probability
-  double flip = 0.0;            // per-byte probability of one flipped bit
-  double drift_ppm = 0.0;       // device clock error
-  double latency_us = 0.0;      // constant link delay
-  double jitter_us = 0.0;       // extra uniform delay in [0, jitter]
-  double stall_ms = 0.0;        // one stall of this length...
-  double stall_at_s = 1.0;      // ...starting here (true time)
+  HardwareModel hardware;         // ideal by default
+  double drop = 0.0;              // frame drop probability
+  double flip = 0.0;              // per-byte probability of one flipped bit
+  double drift_ppm = 0.0;         // device clock error
+  double latency_us = 0.0;        // constant link delay
+  double jitter_us = 0.0;         // extra uniform delay in [0, jitter]
+  double stall_ms = 0.0;          // one stall of this length...
+  double stall_at_s = 1.0;        // ...starting here (true time)
   uint64_t disconnect_after = 0;  // samples; 0 = never
   bool virtual_time = true;
   TimeNs epoch = 1'700'000'000'000'000'000;  // host time at t = 0 in virtual time
@@ -107,14 +107,14 @@ class MockDevice : public ByteTransport, private proto::Hal {
   std::optional<ImuErrorGenerator> errors_;
   std::shared_ptr<MockTruth> truth_ = std::make_shared<MockTruth>();
   double configured_rate_hz_ = 0;
-  TimeNs t_ = 0;             // true time now
-  TimeNs real_start_ = 0;    // host clock at t = 0 (real time)
+  TimeNs t_ = 0;           // true time now
+  TimeNs real_start_ = 0;  // host clock at t = 0 (real time)
   struct Pending {
     TimeNs due;  // true time the bytes reach the host
     std::vector<uint8_t> bytes;
   };
-  std::deque<Pending> pending_;   // device -> host
-  std::deque<Pending> inbound_;   // host -> device
+  std::deque<Pending> pending_;  // device -> host
+  std::deque<Pending> inbound_;  // host -> device
   Rng uplink_rng_;
   TimeNs last_due_ = 0;
   uint64_t frames_dropped_ = 0;

@@ -51,7 +51,8 @@ PsCalibration parse_playstation_calibration(PlaystationModel model, std::span<co
   for (int i = 0; i < 3; ++i) {
     if (ds4) {
       c.gyro[i].bias = 0;
-      c.gyro[i].denom = std::abs(gyro_plus[i] - gyro_bias[i]) + std::abs(gyro_minus[i] - gyro_bias[i]);
+      c.gyro[i].denom =
+          std::abs(gyro_plus[i] - gyro_bias[i]) + std::abs(gyro_minus[i] - gyro_bias[i]);
     } else {
       c.gyro[i].bias = gyro_bias[i];
       c.gyro[i].denom = gyro_plus[i] - gyro_minus[i];
@@ -83,7 +84,8 @@ void PlaystationCodec::on_feature_report(uint8_t, std::span<const uint8_t> repor
   set_calibration(parse_playstation_calibration(model_, report));
 }
 
-void PlaystationCodec::feed(std::span<const uint8_t> r, TimeNs host_time, std::vector<Sample>& out) {
+void PlaystationCodec::feed(std::span<const uint8_t> r, TimeNs host_time,
+                            std::vector<Sample>& out) {
   stats_.bytes_received += r.size();
   if (r.size() != kInputReportSize || r[0] != 0x01) {
     // Another report (a Bluetooth-mode or vendor report) or a truncated one.
@@ -110,7 +112,8 @@ void PlaystationCodec::feed(std::span<const uint8_t> r, TimeNs host_time, std::v
     s.device_time = ticks_to_ns(ticks * 16, 3'000'000);
   } else {
     const uint32_t raw = static_cast<uint32_t>(r[28]) | (static_cast<uint32_t>(r[29]) << 8) |
-                         (static_cast<uint32_t>(r[30]) << 16) | (static_cast<uint32_t>(r[31]) << 24);
+                         (static_cast<uint32_t>(r[30]) << 16) |
+                         (static_cast<uint32_t>(r[31]) << 24);
     s.device_time = ticks_to_ns(time_.unwrap(raw), 3'000'000);  // 1/3 us units
   }
   s.has_device_time = true;

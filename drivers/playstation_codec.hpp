@@ -46,7 +46,8 @@ PsCalibration playstation_default_calibration();
 // Parses the calibration feature report (DualShock 4 USB: 0x02, 37 bytes; DualSense: 0x05, 41
 // bytes; report ID at byte 0). Throws imukit::Error if the report is too short or has the wrong
 // ID.
-PsCalibration parse_playstation_calibration(PlaystationModel model, std::span<const uint8_t> report);
+PsCalibration parse_playstation_calibration(PlaystationModel model,
+                                            std::span<const uint8_t> report);
 
 class PlaystationCodec : public Codec {
  public:

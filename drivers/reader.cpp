@@ -46,7 +46,8 @@ void DeviceReader::stop() {
 
 bool DeviceReader::wait(int timeout_ms) {
   std::unique_lock lock(mutex_);
-  return ended_cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms), [&] { return ended_.load(); });
+  return ended_cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms),
+                            [&] { return ended_.load(); });
 }
 
 std::vector<Sample> DeviceReader::take() {
@@ -121,7 +122,8 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
   } catch (const std::exception& e) {
     if (end.kind != EndKind::kError) end = {EndKind::kError, e.what()};
   } catch (...) {
-    if (end.kind != EndKind::kError) end = {EndKind::kError, "unknown error at the end of the stream"};
+    if (end.kind != EndKind::kError)
+      end = {EndKind::kError, "unknown error at the end of the stream"};
   }
   return end;
 }

@@ -25,15 +25,15 @@ inline constexpr uint8_t kHasTemperature = 1u << 3;
 inline constexpr uint8_t kHasAngles = 1u << 4;
 
 struct Sample {
-  TimeNs host_time = 0;        // host receive time of the bytes that completed the sample, ns
-  TimeNs device_time = 0;      // device clock, unwrapped, ns since its zero (has_device_time)
+  TimeNs host_time = 0;    // host receive time of the bytes that completed the sample, ns
+  TimeNs device_time = 0;  // device clock, unwrapped, ns since its zero (has_device_time)
   bool has_device_time = false;
   // Cumulative sample number: the device's counter unwrapped to 64 bits when it has one (so
   // gaps show), otherwise the count of samples decoded so far.
   uint64_t sequence = 0;
-  uint8_t channels = 0;                // kHas* bits
-  std::array<double, 3> accel{};       // specific force, m/s^2
-  std::array<double, 3> gyro{};        // angular rate, rad/s
+  uint8_t channels = 0;           // kHas* bits
+  std::array<double, 3> accel{};  // specific force, m/s^2
+  std::array<double, 3> gyro{};   // angular rate, rad/s
   // Magnetic field: tesla, unless mag_arbitrary_units (Xsens reports a.u. normalised to the
   // Earth field at its calibration site; WitMotion raw LSB), which the consumer must scale.
   std::array<double, 3> mag{};
@@ -66,8 +66,8 @@ struct CodecStats {
   // Samples the device made that never arrived: gaps in its sample counter, or (for devices
   // without one) frames whose loss left a sample incomplete.
   uint64_t samples_dropped = 0;
-  uint64_t counter_resets = 0;   // counter repeated or jumped back (device restarted its stream)
-  uint64_t device_errors = 0;    // error messages the device itself sent
+  uint64_t counter_resets = 0;  // counter repeated or jumped back (device restarted its stream)
+  uint64_t device_errors = 0;   // error messages the device itself sent
 };
 
 // Unwraps a free-running counter of `bits` bits (1..63) to 64 bits with the half-range rule: a

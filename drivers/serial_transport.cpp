@@ -34,7 +34,8 @@ SerialTransport::SerialTransport(const std::string& port, int baud, bool rtscts)
     // libserialport says only "invalid argument" for a missing port: ask the OS why.
     struct stat st {};
     if (::stat(port.c_str(), &st) != 0) {
-      throw TransportError(os_error("cannot open serial " + port + " (`imukit devices` lists ports)", errno));
+      throw TransportError(
+          os_error("cannot open serial " + port + " (`imukit devices` lists ports)", errno));
     }
     throw TransportError(sp_message("serial " + port + " is not a serial port", rc));
   }
@@ -111,10 +112,11 @@ ReadResult SerialTransport::read(std::span<uint8_t> buf, int timeout_ms) {
 
 void SerialTransport::write(std::span<const uint8_t> bytes) {
   const int n = sp_blocking_write(port_, bytes.data(), bytes.size(), 1000);
-  if (n < 0) throw TransportError(sp_message("serial " + name_ + ": write", static_cast<sp_return>(n)));
+  if (n < 0)
+    throw TransportError(sp_message("serial " + name_ + ": write", static_cast<sp_return>(n)));
   if (static_cast<std::size_t>(n) != bytes.size()) {
-    throw TransportError("serial " + name_ + ": write timed out after " + std::to_string(n) + " of " +
-                         std::to_string(bytes.size()) + " bytes");
+    throw TransportError("serial " + name_ + ": write timed out after " + std::to_string(n) +
+                         " of " + std::to_string(bytes.size()) + " bytes");
   }
 }
 

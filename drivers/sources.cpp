@@ -53,9 +53,10 @@ std::vector<Eigen::Quaterniond> PosesSource::tilt_tour(int count) {
       }
     }
   }
-  std::stable_sort(dirs.begin(), dirs.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-    return a.cwiseAbs().maxCoeff() > b.cwiseAbs().maxCoeff() + 1e-9;  // faces, edges, corners
-  });
+  std::stable_sort(
+      dirs.begin(), dirs.end(), [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+        return a.cwiseAbs().maxCoeff() > b.cwiseAbs().maxCoeff() + 1e-9;  // faces, edges, corners
+      });
   std::vector<bool> used(dirs.size(), false);
   std::size_t at = 0;
   for (std::size_t i = 0; i < dirs.size(); ++i) {
@@ -66,7 +67,9 @@ std::vector<Eigen::Quaterniond> PosesSource::tilt_tour(int count) {
   while (static_cast<int>(poses.size()) < count) {
     std::size_t next = dirs.size();
     for (std::size_t i = 0; i < dirs.size(); ++i) {
-      if (!used[i] && (next == dirs.size() || dirs[i].dot(dirs[at]) > dirs[next].dot(dirs[at]) + 1e-12)) next = i;
+      if (!used[i] &&
+          (next == dirs.size() || dirs[i].dot(dirs[at]) > dirs[next].dot(dirs[at]) + 1e-12))
+        next = i;
     }
     // R_next = R_at Q with Q dirs[next] = dirs[at]: then R_next dirs[next] = R_at dirs[at] = z.
     const Eigen::Quaterniond Q = Eigen::Quaterniond::FromTwoVectors(dirs[next], dirs[at]);

@@ -12,19 +12,30 @@ namespace imukit::drivers {
 TextCodecOptions text_codec_options(const CodecOptions& options) {
   TextCodecOptions o;
   const std::string t = option_string(options, "time_unit", "ms");
-  if (t == "s") o.time_scale_ns = 1e9;
-  else if (t == "ms") o.time_scale_ns = 1e6;
-  else if (t == "us") o.time_scale_ns = 1e3;
-  else if (t == "ns") o.time_scale_ns = 1.0;
-  else throw Error("time_unit=" + t + ": expected s, ms, us or ns");
+  if (t == "s")
+    o.time_scale_ns = 1e9;
+  else if (t == "ms")
+    o.time_scale_ns = 1e6;
+  else if (t == "us")
+    o.time_scale_ns = 1e3;
+  else if (t == "ns")
+    o.time_scale_ns = 1.0;
+  else
+    throw Error("time_unit=" + t + ": expected s, ms, us or ns");
   const std::string a = option_string(options, "accel_unit", "mps2");
-  if (a == "g") o.accel_scale = kStandardGravity;
-  else if (a == "mps2") o.accel_scale = 1.0;
-  else throw Error("accel_unit=" + a + ": expected g or mps2");
+  if (a == "g")
+    o.accel_scale = kStandardGravity;
+  else if (a == "mps2")
+    o.accel_scale = 1.0;
+  else
+    throw Error("accel_unit=" + a + ": expected g or mps2");
   const std::string g = option_string(options, "gyro_unit", "rads");
-  if (g == "dps") o.gyro_scale = std::numbers::pi / 180.0;
-  else if (g == "rads") o.gyro_scale = 1.0;
-  else throw Error("gyro_unit=" + g + ": expected dps or rads");
+  if (g == "dps")
+    o.gyro_scale = std::numbers::pi / 180.0;
+  else if (g == "rads")
+    o.gyro_scale = 1.0;
+  else
+    throw Error("gyro_unit=" + g + ": expected dps or rads");
   return o;
 }
 
@@ -96,7 +107,8 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
     std::size_t end = commas ? line.find(',', pos) : line.find_first_of(" \t", pos);
     if (end == std::string_view::npos) end = line.size();
     std::string_view field = line.substr(pos, end - pos);
-    while (!field.empty() && (field.front() == ' ' || field.front() == '\t')) field.remove_prefix(1);
+    while (!field.empty() && (field.front() == ' ' || field.front() == '\t'))
+      field.remove_prefix(1);
     while (!field.empty() && (field.back() == ' ' || field.back() == '\t')) field.remove_suffix(1);
     if (n == 7 || field.empty()) {
       ok = false;

@@ -17,9 +17,7 @@ TimeNs host_now() {
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
 }
 
-std::string os_error(const std::string& what, int err) {
-  return what + ": " + std::strerror(err);
-}
+std::string os_error(const std::string& what, int err) { return what + ": " + std::strerror(err); }
 
 FdTransport::FdTransport(int fd, bool owns, std::string name, bool writable)
     : fd_(fd), owns_(owns), name_(std::move(name)), writable_(writable) {}

@@ -100,8 +100,8 @@ class FdTransport : public ByteTransport {
 // Writes are kept for inspection.
 class MemoryTransport : public ByteTransport {
  public:
-  explicit MemoryTransport(std::vector<uint8_t> data, std::size_t chunk = 0,
-                           TimeNs start_time = 0, TimeNs step_ns = 1'000'000);
+  explicit MemoryTransport(std::vector<uint8_t> data, std::size_t chunk = 0, TimeNs start_time = 0,
+                           TimeNs step_ns = 1'000'000);
   ReadResult read(std::span<uint8_t> buf, int timeout_ms) override;
   void write(std::span<const uint8_t> bytes) override;
   std::string describe() const override { return "memory"; }

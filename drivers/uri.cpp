@@ -17,8 +17,8 @@ namespace imukit::drivers {
 namespace {
 
 const std::vector<std::string> kCodecKeys = {
-    "codec", "rate", "commands", "block", "ping_s", "mag_rate", "accel_range_g", "gyro_range_dps",
-    "time_unit", "accel_unit", "gyro_unit"};
+    "codec",         "rate",           "commands",  "block",      "ping_s",   "mag_rate",
+    "accel_range_g", "gyro_range_dps", "time_unit", "accel_unit", "gyro_unit"};
 
 const std::vector<std::string> kSchemes = {"serial", "hid", "usb", "file", "fd", "mock"};
 
@@ -84,9 +84,9 @@ std::vector<std::string> uri_keys(const std::string& scheme) {
   } else if (scheme == "usb") {
     keys.insert(keys.end(), {"interface", "ep_in", "ep_out"});
   } else if (scheme == "mock") {
-    keys.insert(keys.end(), {"seed", "profile", "drop", "flip", "drift_ppm", "latency_us", "jitter_us",
-                             "stall_ms", "stall_at_s", "disconnect_after", "clock", "quat", "hold_s",
-                             "move_s", "poses", "gravity"});
+    keys.insert(keys.end(), {"seed", "profile", "drop", "flip", "drift_ppm", "latency_us",
+                             "jitter_us", "stall_ms", "stall_at_s", "disconnect_after", "clock",
+                             "quat", "hold_s", "move_s", "poses", "gravity"});
   }
   return keys;
 }
@@ -122,7 +122,8 @@ DeviceUri parse_device_uri(const std::string& text) {
         for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
         fail(text, pos, "unknown key '" + key + "' for " + u.scheme + ": (known: " + list + ")");
       }
-      if (!u.keys.emplace(key, pair.substr(eq + 1)).second) fail(text, pos, "key '" + key + "' given twice");
+      if (!u.keys.emplace(key, pair.substr(eq + 1)).second)
+        fail(text, pos, "key '" + key + "' given twice");
       if (amp == text.size()) break;
       pos = amp + 1;
     }
@@ -135,7 +136,8 @@ DeviceUri parse_device_uri(const std::string& text) {
   }
   if (u.scheme == "usb") {
     uint16_t v, p;
-    if (!parse_vid_pid(u.address, v, p)) fail(text, colon + 1, "expected VID:PID in hex, e.g. 2639:0013");
+    if (!parse_vid_pid(u.address, v, p))
+      fail(text, colon + 1, "expected VID:PID in hex, e.g. 2639:0013");
   }
   return u;
 }
@@ -185,13 +187,15 @@ OpenedDevice open_device(const std::string& text) {
       const int64_t baud = option_int(u.keys, "baud", 115200);
       if (baud <= 0 || baud > 20'000'000) throw Error("baud: expected a positive baud rate");
       const std::string flow = option_string(u.keys, "flow", "none");
-      if (flow != "none" && flow != "rtscts") throw Error("flow=" + flow + ": expected none or rtscts");
+      if (flow != "none" && flow != "rtscts")
+        throw Error("flow=" + flow + ": expected none or rtscts");
       std::optional<KnownDevice> known;
       for (const AttachedDevice& a : list_serial_ports()) {
         if (a.path == u.address && a.usb) known = find_known_device(a.vid, a.pid, false);
       }
       d.codec = make_codec(codec_for(u, known), u.keys);
-      d.transport = std::make_unique<SerialTransport>(u.address, static_cast<int>(baud), flow == "rtscts");
+      d.transport =
+          std::make_unique<SerialTransport>(u.address, static_cast<int>(baud), flow == "rtscts");
     } else if (u.scheme == "hid") {
       std::optional<KnownDevice> known;
       uint16_t vid = 0, pid = 0;
@@ -204,7 +208,8 @@ OpenedDevice open_device(const std::string& text) {
         known = find_known_device(vid, pid, true);
       }
       d.codec = make_codec(codec_for(u, known), u.keys);
-      if (!d.codec->report_based()) throw Error("codec " + d.codec->name() + " reads byte streams, not HID reports");
+      if (!d.codec->report_based())
+        throw Error("codec " + d.codec->name() + " reads byte streams, not HID reports");
       if (u.address[0] == '/') {
         d.transport = std::make_unique<HidTransport>(u.address);
       } else {

@@ -17,11 +17,13 @@ UsbBulkTransport::UsbBulkTransport(uint16_t vid, uint16_t pid, int interface, ui
   char id[16];
   std::snprintf(id, sizeof id, "%04x:%04x", vid, pid);
   name_ = std::string("usb ") + id + " interface " + std::to_string(interface);
-  if (const int rc = libusb_init(&ctx_); rc != 0) throw TransportError(usb_error("libusb_init", rc));
+  if (const int rc = libusb_init(&ctx_); rc != 0)
+    throw TransportError(usb_error("libusb_init", rc));
   handle_ = libusb_open_device_with_vid_pid(ctx_, vid, pid);
   if (!handle_) {
     libusb_exit(ctx_);
-    throw TransportError("cannot open " + name_ + ": not attached, or no permission (see packaging/udev)");
+    throw TransportError("cannot open " + name_ +
+                         ": not attached, or no permission (see packaging/udev)");
   }
   libusb_set_auto_detach_kernel_driver(handle_, 1);
   if (const int rc = libusb_claim_interface(handle_, interface_); rc != 0) {
@@ -40,8 +42,8 @@ UsbBulkTransport::~UsbBulkTransport() {
 ReadResult UsbBulkTransport::read(std::span<uint8_t> buf, int timeout_ms) {
   ReadResult r;
   int got = 0;
-  const int rc = libusb_bulk_transfer(handle_, ep_in_, buf.data(), static_cast<int>(buf.size()), &got,
-                                      static_cast<unsigned>(timeout_ms));
+  const int rc = libusb_bulk_transfer(handle_, ep_in_, buf.data(), static_cast<int>(buf.size()),
+                                      &got, static_cast<unsigned>(timeout_ms));
   r.host_time = host_now();
   r.size = got > 0 ? static_cast<std::size_t>(got) : 0;
   if (rc == 0 || rc == LIBUSB_ERROR_TIMEOUT) return r;

@@ -22,9 +22,8 @@ std::vector<uint8_t> witmotion_rate_commands(double rate_hz) {
     double hz;
     uint8_t code;
   };
-  static constexpr Code kCodes[] = {{0.2, 0x01}, {0.5, 0x02}, {1, 0x03},   {2, 0x04},
-                                    {5, 0x05},   {10, 0x06},  {20, 0x07},  {50, 0x08},
-                                    {100, 0x09}, {200, 0x0B}};
+  static constexpr Code kCodes[] = {{0.2, 0x01}, {0.5, 0x02}, {1, 0x03},  {2, 0x04},   {5, 0x05},
+                                    {10, 0x06},  {20, 0x07},  {50, 0x08}, {100, 0x09}, {200, 0x0B}};
   for (const Code& c : kCodes) {
     if (std::abs(c.hz - rate_hz) < 1e-9) {
       std::vector<uint8_t> out = witmotion_command(0x69, 0xB588);  // unlock: FF AA 69 88 B5
@@ -82,7 +81,8 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
   out.push_back(current_);
 }
 
-void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
+                          std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
   buf_.insert(buf_.end(), data.begin(), data.end());
   const double accel_lsb = opt_.accel_range_g * kStandardGravity / 32768.0;

@@ -39,7 +39,8 @@ constexpr std::size_t kWidth[4] = {4, 4, 6, 8};
 
 bool read_vector(std::span<const uint8_t> v, unsigned precision, std::size_t n, double* out) {
   if (v.size() != n * kWidth[precision]) return false;
-  for (std::size_t i = 0; i < n; ++i) out[i] = read_component(v.data() + i * kWidth[precision], precision);
+  for (std::size_t i = 0; i < n; ++i)
+    out[i] = read_component(v.data() + i * kWidth[precision], precision);
   return true;
 }
 
@@ -74,13 +75,16 @@ std::vector<uint8_t> xsens_output_configuration(std::span<const XsensOutput> out
 
 std::vector<uint8_t> xsens_configure_commands(uint16_t rate_hz, uint16_t mag_rate_hz) {
   const uint16_t mag = std::min(rate_hz, mag_rate_hz);
-  const XsensOutput outputs[] = {
-      {xsens::kPacketCounter, xsens::kMaxRate}, {xsens::kSampleTimeFine, xsens::kMaxRate},
-      {xsens::kAcceleration, rate_hz},          {xsens::kRateOfTurn, rate_hz},
-      {xsens::kMagneticField, mag},             {xsens::kTemperature, mag},
-      {xsens::kStatusWord, xsens::kMaxRate}};
+  const XsensOutput outputs[] = {{xsens::kPacketCounter, xsens::kMaxRate},
+                                 {xsens::kSampleTimeFine, xsens::kMaxRate},
+                                 {xsens::kAcceleration, rate_hz},
+                                 {xsens::kRateOfTurn, rate_hz},
+                                 {xsens::kMagneticField, mag},
+                                 {xsens::kTemperature, mag},
+                                 {xsens::kStatusWord, xsens::kMaxRate}};
   std::vector<uint8_t> out = xsens_frame(xsens::kMidGoToConfig, {});
-  const auto cfg = xsens_frame(xsens::kMidSetOutputConfiguration, xsens_output_configuration(outputs));
+  const auto cfg =
+      xsens_frame(xsens::kMidSetOutputConfiguration, xsens_output_configuration(outputs));
   out.insert(out.end(), cfg.begin(), cfg.end());
   const auto meas = xsens_frame(xsens::kMidGoToMeasurement, {});
   out.insert(out.end(), meas.begin(), meas.end());
@@ -115,9 +119,12 @@ bool parse_mtdata2(std::span<const uint8_t> payload, XsensPacket& out) {
         std::array<double, 3> a{};
         if (!read_vector(v, precision, 3, a.data())) return false;
         const unsigned group = id & 0xFFF0u;
-        if (group == (xsens::kAcceleration & 0xFFF0u)) out.acceleration = a;
-        else if (group == (xsens::kRateOfTurn & 0xFFF0u)) out.rate_of_turn = a;
-        else out.magnetic_field = a;
+        if (group == (xsens::kAcceleration & 0xFFF0u))
+          out.acceleration = a;
+        else if (group == (xsens::kRateOfTurn & 0xFFF0u))
+          out.rate_of_turn = a;
+        else
+          out.magnetic_field = a;
         break;
       }
       case xsens::kTemperature & 0xFFF0u: {
@@ -228,7 +235,8 @@ void XsensCodec::on_message(uint8_t mid, std::span<const uint8_t> data, TimeNs h
   if (pk.packet_counter) {
     const bool first = !counter_.started();
     int64_t c = counter_.unwrap(*pk.packet_counter);
-    if (counter_.last_step() > 1) stats_.samples_dropped += static_cast<uint64_t>(counter_.last_step() - 1);
+    if (counter_.last_step() > 1)
+      stats_.samples_dropped += static_cast<uint64_t>(counter_.last_step() - 1);
     if (!first && counter_.last_step() <= 0) {
       // A repeated or earlier counter: the device restarted (or a packet came twice).
       // Counted, and the counter is followed from here.

@@ -13,7 +13,6 @@
 
 namespace imukit::drivers::fuzz {
 
-
 inline void run_stream(Codec& codec, const uint8_t* data, std::size_t size, bool finite_values) {
   if (size == 0) return;
   const std::size_t chunk = 1 + data[0] % 97;
@@ -34,7 +33,8 @@ inline void run_stream(Codec& codec, const uint8_t* data, std::size_t size, bool
     return;  // a codec may end a stream with an error (e.g. the device refused its configuration)
   }
   const CodecStats& s = codec.stats();
-  if (s.bytes_received != s.bytes_accepted + s.bytes_discarded + codec.bytes_pending()) std::abort();
+  if (s.bytes_received != s.bytes_accepted + s.bytes_discarded + codec.bytes_pending())
+    std::abort();
   if (s.samples_decoded != out.size()) std::abort();
   if (finite_values) {
     for (const Sample& x : out) {

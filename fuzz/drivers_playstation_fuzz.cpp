@@ -10,7 +10,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace imukit::drivers;
   if (size < 2) return 0;
-  PlaystationCodec codec((data[0] & 1) ? PlaystationModel::kDualSense : PlaystationModel::kDualShock4);
+  PlaystationCodec codec((data[0] & 1) ? PlaystationModel::kDualSense
+                                       : PlaystationModel::kDualShock4);
   std::size_t cal = data[1] % 48;
   data += 2;
   size -= 2;
@@ -25,7 +26,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::vector<Sample> out;
   std::size_t pos = 0;
   while (pos < size) {
-    const std::size_t len = std::min<std::size_t>((data[pos] & 0x80) ? data[pos] % 80 : 64, size - pos);
+    const std::size_t len =
+        std::min<std::size_t>((data[pos] & 0x80) ? data[pos] % 80 : 64, size - pos);
     codec.feed(std::span<const uint8_t>(data + pos, len), 0, out);
     pos += len == 0 ? 1 : len;
   }

@@ -8,8 +8,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
-    const imukit::ImuSeries s =
-        imukit::parse_euroc_csv(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.csv");
+    const imukit::ImuSeries s = imukit::parse_euroc_csv(
+        std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.csv");
     s.validate();
   } catch (const imukit::Error&) {
   }

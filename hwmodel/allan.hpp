@@ -6,8 +6,9 @@
 // 2008), for n rate samples y_i at the mean period tau0, averaging factor m, tau = m tau0, and
 // S_k = sum_{i<k} y_i (so the "phase" is x_k = tau0 S_k):
 //   AVAR(m) = 1/(2 m^2 (n+1-2m)) sum_{j=0}^{n-2m} (S_{j+2m} - 2 S_{j+m} + S_j)^2
-//   MVAR(m) = 1/(2 m^4 (n+2-3m)) sum_{j=0}^{n+1-3m} (sum_{i=j}^{j+m-1} S_{i+2m} - 2 S_{i+m} + S_i)^2
-//   HVAR(m) = 1/(6 m^2 (n+1-3m)) sum_{j=0}^{n-3m} (S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} - S_j)^2
+//   MVAR(m) = 1/(2 m^4 (n+2-3m)) sum_{j=0}^{n+1-3m} (sum_{i=j}^{j+m-1} S_{i+2m} - 2 S_{i+m} +
+//   S_i)^2 HVAR(m) = 1/(6 m^2 (n+1-3m)) sum_{j=0}^{n-3m} (S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} -
+//   S_j)^2
 // The cumulative sum makes each tau O(n) (MVAR's inner sum slides over j), and all axes share
 // one pass: S is stored sample-major (all axes of one sample adjacent). The mean of each axis is
 // removed before summing (differences of S do not change) and S is built with Kahan-compensated
@@ -46,14 +47,14 @@ std::vector<int64_t> log_spaced_factors(int64_t n, int points_per_decade = 10,
 
 struct AllanOptions {
   int points_per_decade = 10;
-  int64_t max_factor = 0;          // 0: n / 4
-  std::vector<int64_t> factors;    // explicit grid (overrides the two above); each in [1, n/3]
+  int64_t max_factor = 0;        // 0: n / 4
+  std::vector<int64_t> factors;  // explicit grid (overrides the two above); each in [1, n/3]
   bool allan = true;
   bool modified = true;
   bool hadamard = true;
   double confidence = 0.6826894921370859;  // two-sided, 1 sigma by default
-  std::optional<int> alpha;        // fix the noise type for the intervals (2, 0, -1 or -2)
-  unsigned threads = 0;            // 0: std::thread::hardware_concurrency()
+  std::optional<int> alpha;                // fix the noise type for the intervals (2, 0, -1 or -2)
+  unsigned threads = 0;                    // 0: std::thread::hardware_concurrency()
 };
 
 // One deviation over the grid: rows are axes, columns averaging factors.
@@ -62,15 +63,15 @@ struct DeviationCurve {
   Eigen::MatrixXd deviation;  // unit of the input
   Eigen::MatrixXd lower;      // confidence interval bounds
   Eigen::MatrixXd upper;
-  Eigen::MatrixXd edf;        // equivalent degrees of freedom
-  Eigen::MatrixXi alpha;      // power-law noise type the interval assumed
+  Eigen::MatrixXd edf;         // equivalent degrees of freedom
+  Eigen::MatrixXi alpha;       // power-law noise type the interval assumed
   std::vector<int64_t> terms;  // number of squared differences in each estimate
 };
 
 struct AllanResult {
   SamplingStats sampling;  // from the time stamps; tau0 = sampling.mean_period_s
   double tau0_s = 0.0;
-  bool uniform = true;     // false: time stamps jitter by more than 1 % of the median period
+  bool uniform = true;  // false: time stamps jitter by more than 1 % of the median period
   std::vector<int64_t> factors;
   std::vector<double> tau_s;  // factors * tau0_s
   DeviationCurve allan, modified, hadamard;
@@ -83,7 +84,8 @@ struct AllanResult {
 // Deviations of the rows of `samples` (axes x n, one column per sample) taken at times t (n
 // entries, non-decreasing, ns). Throws imukit::Error for fewer than 8 samples, a zero duration,
 // non-finite values or a factor outside [1, n/3].
-AllanResult allan_deviation(std::span<const TimeNs> t, const Eigen::Ref<const Eigen::MatrixXd>& samples,
+AllanResult allan_deviation(std::span<const TimeNs> t,
+                            const Eigen::Ref<const Eigen::MatrixXd>& samples,
                             const AllanOptions& options = {});
 
 // Equivalent degrees of freedom of one estimate: n rate samples, factor m, noise exponent alpha

@@ -94,7 +94,8 @@ int jacobian_rank(ceres::Problem& problem, const std::vector<double>& reference,
   for (int r = 0; r < crs.num_rows; ++r)
     for (int k = crs.rows[size_t(r)]; k < crs.rows[size_t(r) + 1]; ++k)
       J(r, crs.cols[size_t(k)]) = crs.values[size_t(k)];
-  for (Eigen::Index c = 0; c < J.cols() && size_t(c) < reference.size(); ++c) J.col(c) *= reference[size_t(c)];
+  for (Eigen::Index c = 0; c < J.cols() && size_t(c) < reference.size(); ++c)
+    J.col(c) *= reference[size_t(c)];
   *cols_out = crs.num_cols;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(J);
   const Eigen::VectorXd sv = svd.singularValues();
@@ -109,10 +110,12 @@ Eigen::Vector3d interval_mean(const Eigen::Matrix3Xd& x, const StaticInterval& i
   return x.middleCols(iv.begin, iv.end - iv.begin).rowwise().mean();
 }
 
-std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
+                                                    const Eigen::Matrix3Xd& accel,
                                                     const StaticDetectorOptions& opt) {
   const auto n = int64_t(t.size());
-  if (n < 2 || accel.cols() != n) throw Error("static detector: time stamps and samples differ in count");
+  if (n < 2 || accel.cols() != n)
+    throw Error("static detector: time stamps and samples differ in count");
   const double period = to_seconds(t.back() - t.front()) / double(n - 1);
   const int64_t half = std::max<int64_t>(1, int64_t(std::llround(0.5 * opt.window_s / period)));
   const int64_t init_end = int64_t(std::llround(opt.init_static_s / period));
@@ -181,8 +184,8 @@ Eigen::Vector3d gyro_static_bias(const Eigen::Matrix3Xd& gyro) {
   return gyro.rowwise().mean();
 }
 
-Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel, const Eigen::Matrix3d& R_world_sensor,
-                                  double gravity) {
+Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel,
+                                  const Eigen::Matrix3d& R_world_sensor, double gravity) {
   if (accel.cols() == 0) throw Error("turn-on bias: empty accelerometer recording");
   // At rest the specific force is -g_world = (0, 0, +g) in the world, seen in the sensor frame.
   return accel.rowwise().mean() - R_world_sensor.transpose() * Eigen::Vector3d(0, 0, gravity);
@@ -205,13 +208,20 @@ TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& means, do
   }
   ceres::Problem problem;
   for (const auto& m : means) {
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelResidual, 1, 3, 3, 3>(
-                                 new AccelResidual(m, gravity)),
-                             nullptr, mis, s, b);
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<AccelResidual, 1, 3, 3, 3>(new AccelResidual(m, gravity)),
+        nullptr, mis, s, b);
   }
   auto refs = [&] {
-    return std::vector<double>{1, 1, 1, std::abs(s[0]), std::abs(s[1]), std::abs(s[2]),
-                               1 / std::abs(s[0]), 1 / std::abs(s[1]), 1 / std::abs(s[2])};
+    return std::vector<double>{1,
+                               1,
+                               1,
+                               std::abs(s[0]),
+                               std::abs(s[1]),
+                               std::abs(s[2]),
+                               1 / std::abs(s[0]),
+                               1 / std::abs(s[1]),
+                               1 / std::abs(s[2])};
   };
   int cols = 0;
   const int rank_before = jacobian_rank(problem, refs(), &cols);
@@ -225,9 +235,10 @@ TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& means, do
   ceres::Solve(so, &problem, &summary);
   const int rank = jacobian_rank(problem, refs(), &cols);
   if (rank < cols || rank_before < cols) {
-    throw Error("accelerometer calibration: the static poses do not excite all axes (Jacobian rank " +
-                std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
-                "); hold the sensor in more orientations, each axis up and down");
+    throw Error(
+        "accelerometer calibration: the static poses do not excite all axes (Jacobian rank " +
+        std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
+        "); hold the sensor in more orientations, each axis up and down");
   }
   if (summary.termination_type == ceres::FAILURE) {
     throw Error("accelerometer calibration did not converge: " + summary.BriefReport());
@@ -241,7 +252,8 @@ TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& means, do
 
 namespace {
 
-std::vector<Eigen::Vector3d> pose_means(const Eigen::Matrix3Xd& accel, const std::vector<StaticInterval>& iv) {
+std::vector<Eigen::Vector3d> pose_means(const Eigen::Matrix3Xd& accel,
+                                        const std::vector<StaticInterval>& iv) {
   std::vector<Eigen::Vector3d> m;
   for (const auto& i : iv) m.push_back(interval_mean(accel, i));
   return m;
@@ -312,7 +324,8 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
     for (size_t p = 0; p + 1 < iv.size(); ++p) {
       // From the middle of pose p to the middle of pose p+1: the static parts at both ends carry
       // the bias into the fit and cost nothing in rotation.
-      const int64_t from = (iv[p].begin + iv[p].end) / 2, to = (iv[p + 1].begin + iv[p + 1].end) / 2;
+      const int64_t from = (iv[p].begin + iv[p].end) / 2,
+                    to = (iv[p + 1].begin + iv[p + 1].end) / 2;
       std::vector<double> dt;
       for (int64_t q = from; q < to; ++q) dt.push_back(to_seconds(t[size_t(q + 1)] - t[size_t(q)]));
       problem.AddResidualBlock(
@@ -336,8 +349,18 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
       }
     }
     auto refs = [&] {
-      return std::vector<double>{1, 1, 1, 1, 1, 1, std::abs(s[0]), std::abs(s[1]), std::abs(s[2]),
-                                 1 / std::abs(s[0]), 1 / std::abs(s[1]), 1 / std::abs(s[2])};
+      return std::vector<double>{1,
+                                 1,
+                                 1,
+                                 1,
+                                 1,
+                                 1,
+                                 std::abs(s[0]),
+                                 std::abs(s[1]),
+                                 std::abs(s[2]),
+                                 1 / std::abs(s[0]),
+                                 1 / std::abs(s[1]),
+                                 1 / std::abs(s[2])};
     };
     int cols = 0;
     const int rank_before = jacobian_rank(problem, refs(), &cols);
@@ -349,9 +372,11 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
     ceres::Solve(so, &problem, &summary);
     const int rank = jacobian_rank(problem, refs(), &cols);
     if (std::min(rank, rank_before) < cols) {
-      throw Error("gyroscope calibration: the rotations between poses do not excite all axes "
-                  "(Jacobian rank " + std::to_string(std::min(rank, rank_before)) + " of " +
-                  std::to_string(cols) + "); rotate about each of the three axes");
+      throw Error(
+          "gyroscope calibration: the rotations between poses do not excite all axes "
+          "(Jacobian rank " +
+          std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
+          "); rotate about each of the three axes");
     }
     if (summary.termination_type == ceres::FAILURE) {
       throw Error("gyroscope calibration did not converge: " + summary.BriefReport());
@@ -379,7 +404,8 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
       ss += ang * ang;
       best.gyro_max_rad = std::max(best.gyro_max_rad, ang);
     }
-    best.gyro_rms_rad = std::sqrt(ss / double(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
+    best.gyro_rms_rad =
+        std::sqrt(ss / double(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
   }
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return best;

@@ -60,8 +60,8 @@ TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& per_run_b
 // Gyro turn-on bias of a static recording: the mean rate. Accelerometer: the mean minus the
 // specific force expected for a known orientation, f = R_world_sensor^T (0, 0, g).
 Eigen::Vector3d gyro_static_bias(const Eigen::Matrix3Xd& gyro);
-Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel, const Eigen::Matrix3d& R_world_sensor,
-                                  double gravity);
+Eigen::Vector3d accel_static_bias(const Eigen::Matrix3Xd& accel,
+                                  const Eigen::Matrix3d& R_world_sensor, double gravity);
 
 // One triad's correction: true = T diag(scale) (raw - bias). T is unit-diagonal (the
 // accelerometer's is upper triangular).
@@ -69,7 +69,9 @@ struct TriadCalibration {
   Eigen::Matrix3d T = Eigen::Matrix3d::Identity();
   Eigen::Vector3d scale = Eigen::Vector3d::Ones();
   Eigen::Vector3d bias = Eigen::Vector3d::Zero();
-  Eigen::Vector3d apply(const Eigen::Vector3d& raw) const { return T * scale.asDiagonal() * (raw - bias); }
+  Eigen::Vector3d apply(const Eigen::Vector3d& raw) const {
+    return T * scale.asDiagonal() * (raw - bias);
+  }
   // The forward model of core/profile.hpp: raw = diag(s) M true + bias. With T^-1 = diag(d) M
   // (d its diagonal, M unit-diagonal): s = d / scale. The accelerometer's triangular T has
   // d = 1; the gyroscope's full T has d within about 1e-4 of 1.
@@ -97,7 +99,7 @@ struct CalibrationResult {
   TriadCalibration accel, gyro;
   std::vector<StaticInterval> poses;
   double threshold_factor = 0.0;
-  std::vector<double> accel_norm_error;   // |a_cal| - g per pose, m/s^2
+  std::vector<double> accel_norm_error;  // |a_cal| - g per pose, m/s^2
   double accel_rms = 0.0, accel_max = 0.0;
   std::vector<double> gyro_direction_error_rad;  // angle between carried and measured gravity
   double gyro_rms_rad = 0.0, gyro_max_rad = 0.0;

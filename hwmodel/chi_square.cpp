@@ -22,8 +22,8 @@ double lower_series(double a, double x) {
   return sum * std::exp(log_prefactor(a, x));
 }
 
-// Upper tail by the continued fraction Q(a,x) = e^-x x^a / Gamma(a) * 1/(x+1-a- 1(1-a)/(x+3-a- ...)),
-// evaluated with the modified Lentz method.
+// Upper tail by the continued fraction Q(a,x) = e^-x x^a / Gamma(a) * 1/(x+1-a- 1(1-a)/(x+3-a-
+// ...)), evaluated with the modified Lentz method.
 double upper_fraction(double a, double x) {
   constexpr double tiny = 1e-300;
   double b = x + 1.0 - a;
@@ -95,8 +95,8 @@ double chi_square_quantile(double p, double nu) {
     } else {
       hi = x;
     }
-    const double log_pdf = (half - 1.0) * std::log(x) - 0.5 * x - half * std::log(2.0) -
-                           std::lgamma(half);
+    const double log_pdf =
+        (half - 1.0) * std::log(x) - 0.5 * x - half * std::log(2.0) - std::lgamma(half);
     const double pdf = std::exp(log_pdf);
     double next = pdf > 0.0 ? x - f / pdf : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);

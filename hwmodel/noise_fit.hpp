@@ -36,7 +36,7 @@ double model_allan_variance(const std::array<double, kNoiseTerms>& coefficients,
 
 struct NoiseFitOptions {
   std::array<bool, kNoiseTerms> terms = {true, true, true, true, true};  // which to fit
-  double confidence = 0.95;      // of the reported intervals
+  double confidence = 0.95;  // of the reported intervals
   int reweight_iterations = 4;
   // Overlapping estimates at neighbouring taus are strongly correlated, which a least-squares
   // covariance ignores: the parameter covariance is multiplied by this factor for every grid
@@ -49,25 +49,25 @@ struct NoiseFitOptions {
 };
 
 struct NoiseFit {
-  std::array<double, kNoiseTerms> value{};   // Q, N, B, K, R (0 when not supported)
-  std::array<double, kNoiseTerms> sigma{};   // 1-sigma, delta method on the fitted squares
-  std::array<double, kNoiseTerms> lower{};   // interval at options.confidence
+  std::array<double, kNoiseTerms> value{};  // Q, N, B, K, R (0 when not supported)
+  std::array<double, kNoiseTerms> sigma{};  // 1-sigma, delta method on the fitted squares
+  std::array<double, kNoiseTerms> lower{};  // interval at options.confidence
   std::array<double, kNoiseTerms> upper{};
   // Term detected: positive in the fit (the GLS fit also needs its interval to exclude 0;
   // an undetected term has value 0 and upper = its upper bound).
   std::array<bool, kNoiseTerms> active{};
-  double chi2_per_dof = 0.0;                 // of the last weighted fit
-  int points = 0;                            // taus used
-  double covariance_inflation = 1.0;         // correlation factor times max(1, chi2/dof)
+  double chi2_per_dof = 0.0;          // of the last weighted fit
+  int points = 0;                     // taus used
+  double covariance_inflation = 1.0;  // correlation factor times max(1, chi2/dof)
 };
 
 // Textbook readings off the curve, each with its 1-sigma from the estimate's interval.
 struct SlopeReading {
-  bool found = false;      // a part of the curve has a slope within 0.15 of the target
+  bool found = false;  // a part of the curve has a slope within 0.15 of the target
   double value = 0.0;
   double sigma = 0.0;
-  double tau_s = 0.0;      // where it was read
-  double slope = 0.0;      // the curve's local log-log slope there
+  double tau_s = 0.0;  // where it was read
+  double slope = 0.0;  // the curve's local log-log slope there
 };
 struct SlopeReadings {
   SlopeReading quantization, white, bias_instability, random_walk, ramp;

@@ -19,6 +19,8 @@ stamp "release build (gcc, assertions on, -Werror)"
 cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DIMUKIT_ASSERTIONS=ON \
   -DIMUKIT_WERROR=ON >/dev/null
 cmake --build build/release -j"$jobs"
+stamp "format check (clang-format, .clang-format)"
+cmake --build build/release --target format-check
 stamp "release tests"
 (cd build/release && ctest --output-on-failure -j"$jobs" --timeout 900)
 

@@ -250,7 +250,7 @@ struct Simulator::Workspace {
   std::vector<int> rate_slot;         // per plan joint: its index among the rate joints, or -1
   int rate_joints = 0;
   std::vector<double> rate_soa;  // fd: per rate joint, world w, x, y, z over the loaded frames
-  std::vector<double> soa;            // forward kinematics scratch: per joint w x y z px py pz
+  std::vector<double> soa;       // forward kinematics scratch: per joint w x y z px py pz
   std::vector<Quaterniond> sensor_q;
   // Spline: per plan joint, the interval whose chart coordinates are cached.
   std::vector<int64_t> chart_interval;
@@ -655,9 +655,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   }
   const auto increment = [&](int64_t f, std::size_t k) -> Vector3d {
     assert(f >= d0 && f <= d1 && ws.rate_slot[k] >= 0);
-    const double* D =
-        ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz +
-        static_cast<std::size_t>(f - lo);
+    const double* D = ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz +
+                      static_cast<std::size_t>(f - lo);
     return Vector3d(D[0], D[Fz], D[2 * Fz]);
   };
 

@@ -1,8 +1,8 @@
 #include "capture/clock_map.hpp"
 
+#include <gtest/gtest.h>
 #include <algorithm>
 #include <cmath>
-#include <gtest/gtest.h>
 
 #include "core/rng.hpp"
 
@@ -21,7 +21,8 @@ struct Link {
 
   double true_time(int64_t sample) const { return static_cast<double>(sample) / rate_hz; }
   uint64_t ticks_at(double true_s) const {
-    return tick_start + static_cast<uint64_t>(std::llround(true_s * (1 + drift_ppm * 1e-6) * tick_hz));
+    return tick_start +
+           static_cast<uint64_t>(std::llround(true_s * (1 + drift_ppm * 1e-6) * tick_hz));
   }
   TimeNs host_at(double true_s) const { return host_start + from_seconds(true_s); }
   double jitter(Rng& rng) const { return std::min(1e-3, -0.25e-3 * std::log(1.0 - rng.uniform())); }
@@ -34,13 +35,15 @@ TEST(ClockMapper, EnvelopeMapsSamplesWithConstantOffsetDespiteDriftAndJitter) {
   const int64_t samples = 60'000;  // 60 s at 1 kHz
   for (int64_t first = 0; first < samples; first += 8) {
     const double sent = link.true_time(first + 7);  // the block leaves after its last sample
-    mapper.add_packet(link.ticks_at(link.true_time(first)), link.host_at(sent + link.latency_s + link.jitter(rng)));
+    mapper.add_packet(link.ticks_at(link.true_time(first)),
+                      link.host_at(sent + link.latency_s + link.jitter(rng)));
   }
   // Mapped time minus true sample time: constant (the unobservable latency plus the block's
   // 7 ms of buffering) to within 50 us over every sample.
   double lo = 1e9, hi = -1e9;
   for (int64_t i = 0; i < samples; i += 7) {
-    const double err = to_seconds(mapper.map(link.ticks_at(link.true_time(i))) - link.host_at(link.true_time(i)));
+    const double err =
+        to_seconds(mapper.map(link.ticks_at(link.true_time(i))) - link.host_at(link.true_time(i)));
     lo = std::min(lo, err);
     hi = std::max(hi, err);
   }
@@ -113,8 +116,10 @@ TEST(ClockMapper, SamplesOfAPacketCountOnceAsItsLastSample) {
   Rng rng(6);
   ClockMapper mapper(link.tick_hz);
   for (int64_t first = 0; first < 8000; first += 8) {
-    const TimeNs received = link.host_at(link.true_time(first + 7) + link.latency_s + link.jitter(rng));
-    for (int64_t i = first; i < first + 8; ++i) mapper.add_sample(link.ticks_at(link.true_time(i)), received);
+    const TimeNs received =
+        link.host_at(link.true_time(first + 7) + link.latency_s + link.jitter(rng));
+    for (int64_t i = first; i < first + 8; ++i)
+      mapper.add_sample(link.ticks_at(link.true_time(i)), received);
   }
   mapper.flush();
   const ClockFit fit = mapper.fit();
@@ -135,7 +140,8 @@ TEST(ClockMapper, ADayAt100HzStaysExact) {
   }
   for (int64_t i : {int64_t{0}, samples / 2, samples - 10}) {
     const double t = link.true_time(i);
-    EXPECT_NEAR(to_seconds(mapper.map(link.ticks_at(t)) - link.host_at(t)), link.latency_s, 2e-6) << i;
+    EXPECT_NEAR(to_seconds(mapper.map(link.ticks_at(t)) - link.host_at(t)), link.latency_s, 2e-6)
+        << i;
   }
   EXPECT_NEAR(mapper.fit().skew_ppm, 35.0, 1e-3);
 }

@@ -1,7 +1,7 @@
 #include "capture/live_detectors.hpp"
 
-#include <cmath>
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "core/rng.hpp"
 
@@ -61,7 +61,9 @@ PoseRun run_poses(const std::vector<Eigen::Vector3d>& dirs, PoseGuideOptions opt
   int64_t i = 0;
   for (std::size_t p = 0; p < dirs.size(); ++p) {
     for (int k = 0; k < 600; ++k, ++i) {  // 3 s still
-      const Eigen::Vector3d a = 9.80665 * dirs[p] + Eigen::Vector3d(0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal());
+      const Eigen::Vector3d a =
+          9.80665 * dirs[p] +
+          Eigen::Vector3d(0.02 * rng.normal(), 0.02 * rng.normal(), 0.02 * rng.normal());
       const Eigen::Vector3d w(0.002 * rng.normal(), 0.002 * rng.normal(), 0.002 * rng.normal());
       if (auto e = guide.feed(sample_time(0, i, kRate), a, &w)) run.events.push_back(*e);
     }
@@ -78,8 +80,8 @@ PoseRun run_poses(const std::vector<Eigen::Vector3d>& dirs, PoseGuideOptions opt
 }
 
 TEST(PoseGuide, CountsDistinctPosesAndSaysWhenThereAreEnough) {
-  const std::vector<Eigen::Vector3d> dirs = {
-      {0, 0, 1}, {1, 0, 0}, {0, 0, 1}, {0, 1, 0}, {0, 0, -1}, {-1, 0, 0}, {0.1, -0.995, 0}};
+  const std::vector<Eigen::Vector3d> dirs = {{0, 0, 1},  {1, 0, 0},  {0, 0, 1},       {0, 1, 0},
+                                             {0, 0, -1}, {-1, 0, 0}, {0.1, -0.995, 0}};
   const PoseRun run = run_poses(dirs);
   ASSERT_EQ(run.events.size(), 7u);  // one event per still pose
   EXPECT_EQ(run.events[0].kind, PoseEvent::Kind::new_pose);
@@ -93,7 +95,8 @@ TEST(PoseGuide, CountsDistinctPosesAndSaysWhenThereAreEnough) {
   // Each pose is reported once it has been held for 2 s, counted from the start of the first
   // still window.
   EXPECT_NEAR(to_seconds(run.events[0].t), 2.0, 0.01);
-  EXPECT_NEAR(to_seconds(run.events[1].t), 4.0 + 2.0, 0.6);  // stillness begins once the window is clear of the rotation
+  EXPECT_NEAR(to_seconds(run.events[1].t), 4.0 + 2.0,
+              0.6);  // stillness begins once the window is clear of the rotation
 }
 
 TEST(PoseGuide, NearbyOrientationsAreNotNewPoses) {

@@ -1,9 +1,9 @@
 #include "capture/mcap.hpp"
 
+#include <gtest/gtest.h>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <gtest/gtest.h>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -24,23 +24,26 @@ struct Msg {
 
 std::vector<uint8_t> slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  return std::vector<uint8_t>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return std::vector<uint8_t>((std::istreambuf_iterator<char>(in)),
+                              std::istreambuf_iterator<char>());
 }
 
 void spit(const std::string& path, std::span<const uint8_t> bytes) {
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+  out.write(reinterpret_cast<const char*>(bytes.data()),
+            static_cast<std::streamsize>(bytes.size()));
 }
 
 std::vector<Msg> read_all(const std::string& path, McapReadSummary* summary = nullptr,
                           McapReadOptions options = {}) {
   std::vector<Msg> out;
-  auto s = read_mcap(path,
-                     [&](const McapMessageView& m) {
-                       out.push_back({m.channel_id, m.sequence, m.log_time, m.publish_time,
-                                      std::vector<uint8_t>(m.data.begin(), m.data.end())});
-                     },
-                     options);
+  auto s = read_mcap(
+      path,
+      [&](const McapMessageView& m) {
+        out.push_back({m.channel_id, m.sequence, m.log_time, m.publish_time,
+                       std::vector<uint8_t>(m.data.begin(), m.data.end())});
+      },
+      options);
   if (summary) *summary = s;
   return out;
 }
@@ -145,7 +148,8 @@ TEST(Mcap, EveryTruncationReadsBackToTheLastCompleteChunk) {
     ASSERT_EQ(got.size(), expected) << "cut at " << k;
     ASSERT_TRUE(std::equal(got.begin(), got.end(), written.begin())) << "cut at " << k;
     ASSERT_FALSE(s.complete) << "cut at " << k;
-    ASSERT_NE(s.truncation_note.find("the file ends at byte " + std::to_string(k)), std::string::npos)
+    ASSERT_NE(s.truncation_note.find("the file ends at byte " + std::to_string(k)),
+              std::string::npos)
         << s.truncation_note;
     if (k % 997 == 0) {  // the file path gives the same answer as memory
       spit(cut, std::span(bytes).first(k));
@@ -208,7 +212,8 @@ TEST(Mcap, CorruptChunkIsAnErrorNamingItsOffsetAndRecoverySkipsIt) {
     read_all(path);
     FAIL() << "corruption not detected";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(third)), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(third)), std::string::npos)
+        << e.what();
     EXPECT_NE(std::string(e.what()).find("corrupt chunk"), std::string::npos) << e.what();
   }
   const std::string fixed = (dir / "fixed.mcap").string();
@@ -232,7 +237,7 @@ TEST(Mcap, ChunkSizeFieldsCannotForceHugeAllocations) {
     chunk += 9 + len;
   }
   const std::pair<uint64_t, const char*> cases[] = {
-      {1'700'000'000, "more than"},  // above any chunk imukit accepts
+      {1'700'000'000, "more than"},                    // above any chunk imukit accepts
       {200'000'000, "does not match its zstd frame"},  // plausible, but not what the frame says
       {12345, "does not match its zstd frame"}};
   for (const auto& [claimed, why] : cases) {
@@ -244,7 +249,8 @@ TEST(Mcap, ChunkSizeFieldsCannotForceHugeAllocations) {
     } catch (const Error& e) {
       EXPECT_NE(std::string(e.what()).find("corrupt chunk"), std::string::npos) << e.what();
       EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(chunk)), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("byte " + std::to_string(chunk)), std::string::npos)
+          << e.what();
     }
   }
 }
@@ -258,7 +264,8 @@ TEST(Mcap, NotAnMcapFileIsRejectedAtByteZero) {
     read_all(path);
     FAIL();
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(path + ": byte 0: not an MCAP file"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path + ": byte 0: not an MCAP file"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -269,7 +276,8 @@ TEST(Mcap, DiskFullIsAClearErrorAndEarlierChunksStayReadable) {
     const uint16_t s = w.add_schema("s", "ros2msg", "uint8 x\n");
     const uint16_t c = w.add_channel(s, "/t", "cdr");
     const std::vector<uint8_t> data(100, 7);
-    for (int i = 0; i < 100000; ++i) w.write_message(c, static_cast<uint64_t>(i) * 1'000'000, 0, data);
+    for (int i = 0; i < 100000; ++i)
+      w.write_message(c, static_cast<uint64_t>(i) * 1'000'000, 0, data);
     w.close();
     FAIL() << "writing to /dev/full succeeded";
   } catch (const Error& e) {

@@ -1,7 +1,7 @@
 #include "capture/session.hpp"
 
-#include <algorithm>
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include "capture/ros_messages.hpp"
 #include "drivers/imukit_codec.hpp"
@@ -15,7 +15,9 @@ namespace {
 class Borrowed : public drivers::ByteTransport {
  public:
   explicit Borrowed(drivers::MockDevice& mock) : mock_(mock) {}
-  drivers::ReadResult read(std::span<uint8_t> buf, int timeout_ms) override { return mock_.read(buf, timeout_ms); }
+  drivers::ReadResult read(std::span<uint8_t> buf, int timeout_ms) override {
+    return mock_.read(buf, timeout_ms);
+  }
   void write(std::span<const uint8_t> bytes) override { mock_.write(bytes); }
   std::string describe() const override { return mock_.describe(); }
   TimeNs now() const override { return mock_.now(); }
@@ -43,7 +45,7 @@ std::vector<RawRow> raw_rows(const std::string& path, const std::string& device)
   h.on_message = [&](const McapMessageView& m) {
     if (m.channel_id != raw_channel) return;
     const RawImuMessage r = decode_raw_imu_cdr(m.data, path);
-    EXPECT_EQ(r.tick_hz, 1e6);  // the mock's clock, in its own ticks
+    EXPECT_EQ(r.tick_hz, 1e6);           // the mock's clock, in its own ticks
     EXPECT_EQ(r.channels & 0x03, 0x03);  // raw accelerometer and gyroscope counts present
     rows.push_back({r.sample_index, r.device_ticks * 1000, r.stamp, m.log_time, r.accel[2]});
   };
@@ -57,15 +59,23 @@ std::vector<RawRow> raw_rows(const std::string& path, const std::string& device)
 // so everything it made is either in the file or was dropped on the link).
 TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   testing::TempDir dir;
-  const auto mock = drivers::make_mock_device(
-      "static", {{"rate", "1000"}, {"drop", "0.005"}, {"drift_ppm", "200"}, {"latency_us", "2000"},
-                 {"jitter_us", "1000"}, {"seed", "7"}, {"clock", "virtual"},
-                 {"disconnect_after", "60000"}});
+  const auto mock = drivers::make_mock_device("static", {{"rate", "1000"},
+                                                         {"drop", "0.005"},
+                                                         {"drift_ppm", "200"},
+                                                         {"latency_us", "2000"},
+                                                         {"jitter_us", "1000"},
+                                                         {"seed", "7"},
+                                                         {"clock", "virtual"},
+                                                         {"disconnect_after", "60000"}});
   const TimeNs epoch = mock->now();
   std::vector<SessionDevice> devices;
   drivers::ImukitCodecOptions codec;
   codec.rate_hz = 1000;
-  devices.push_back({"mock", "mock:static", {std::make_unique<Borrowed>(*mock), std::make_unique<drivers::ImukitCodec>(codec)}, std::nullopt});
+  devices.push_back(
+      {"mock",
+       "mock:static",
+       {std::make_unique<Borrowed>(*mock), std::make_unique<drivers::ImukitCodec>(codec)},
+       std::nullopt});
   SessionOptions options;
   options.path = (dir / "rec.mcap").string();
   const SessionReport report = record_session(std::move(devices), options);
@@ -90,7 +100,8 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   EXPECT_EQ(rows.front().index, 0u);
   EXPECT_EQ(rows.size() + mock->samples_in_dropped_frames(), mock->samples_made());
   EXPECT_LE(d.dropped, mock->samples_in_dropped_frames());
-  EXPECT_EQ(d.dropped + (mock->samples_made() - 1 - rows.back().index), mock->samples_in_dropped_frames());
+  EXPECT_EQ(d.dropped + (mock->samples_made() - 1 - rows.back().index),
+            mock->samples_in_dropped_frames());
   // Mapped time minus true sample time is constant to within 50 us (true time: the device clock
   // runs 200 ppm fast from 0 at the mock's start).
   double lo = 1e9, hi = -1e9;
@@ -112,14 +123,15 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   EXPECT_NEAR(d.clock.latency_correction_s, 0.002, 100e-6);
   EXPECT_NEAR(lo, 0.0, 100e-6);
   EXPECT_NEAR(hi, 0.0, 100e-6);
-  std::printf("offset %.1f..%.1f us, latency correction %.1f us, skew %.3f ppm\n", lo * 1e6, hi * 1e6,
-              d.clock.latency_correction_s * 1e6, d.clock.skew_ppm);
+  std::printf("offset %.1f..%.1f us, latency correction %.1f us, skew %.3f ppm\n", lo * 1e6,
+              hi * 1e6, d.clock.latency_correction_s * 1e6, d.clock.skew_ppm);
 }
 
 TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
   testing::TempDir dir;
   std::vector<SessionDevice> devices;
-  devices.push_back({"watch", "mock:poses", drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2"),
+  devices.push_back({"watch", "mock:poses",
+                     drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2"),
                      std::nullopt});
   SessionOptions options;
   options.path = (dir / "poses.mcap").string();
@@ -146,7 +158,7 @@ TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
   };
   read_mcap(options.path, h);
   ASSERT_EQ(labels.size(), 6u);
-  const char* faces[] = {"0.000 0.000 1.000", "1.000 0.000 0.000", "0.000 1.000 0.000",
+  const char* faces[] = {"0.000 0.000 1.000",  "1.000 0.000 0.000",  "0.000 1.000 0.000",
                          "0.000 0.000 -1.000", "-1.000 0.000 0.000", "0.000 -1.000 0.000"};
   for (int k = 0; k < 6; ++k) {
     EXPECT_NE(labels[k].find(std::string("(gravity ") + faces[k]), std::string::npos) << labels[k];

@@ -1,7 +1,7 @@
 #include "core/column_text.hpp"
 
-#include <cmath>
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "core/error.hpp"
 #include "tests/support/test_data.hpp"
@@ -135,8 +135,9 @@ TEST(ColumnText, ReadsEveryTextFileOfTheSharedData) {
       {"imu_tk_xsens/xsens_acc.txt", "t,ax,ay,az", "", 51175, 0.02984, 511.718},
       {"imu_tk_xsens/xsens_gyro.txt", "t,gx,gy,gz", "", 51175, 0.02984, 511.718},
       {"hfi_static/imu_data.txt", "t,gx,gy,gz,ax,ay,az", "", 27963, 1459.63, 4294.96},
-      {"broad/02_undisturbed_slow_rotation_B.csv", "t,ax,ay,az,gx,gy,gz,mx,my,mz,qw,qx,qy,qz,px,py,pz,_",
-       "qw,qx,qy,qz,px,py,pz", 53240, 0.0, 186.3365},
+      {"broad/02_undisturbed_slow_rotation_B.csv",
+       "t,ax,ay,az,gx,gy,gz,mx,my,mz,qw,qx,qy,qz,px,py,pz,_", "qw,qx,qy,qz,px,py,pz", 53240, 0.0,
+       186.3365},
       {"broad/07_undisturbed_fast_rotation_B.csv", "t,ax,ay,az,gx,gy,gz,_3,qw,qx,qy,qz,px,py,pz,_",
        "qw,qx,qy,qz,px,py,pz", 52518, 0.0, 183.8095},
       {"broad/16_undisturbed_fast_translation_B.csv", "t,ax,ay,az,gx,gy,gz,_*", "", 53392, 0.0,
@@ -151,7 +152,8 @@ TEST(ColumnText, ReadsEveryTextFileOfTheSharedData) {
   };
   for (const DataFile& f : files) {
     SCOPED_TRACE(f.path);
-    const ColumnTable t = read_column_text((data / f.path).string(), ColumnSpec::parse(f.columns, f.gaps));
+    const ColumnTable t =
+        read_column_text((data / f.path).string(), ColumnSpec::parse(f.columns, f.gaps));
     EXPECT_EQ(t.rows, f.rows);
     ASSERT_EQ(t.t.size(), f.rows);
     EXPECT_EQ(t.t.front(), from_seconds(f.first_time_s));
@@ -171,9 +173,9 @@ TEST(ColumnText, ReadsEveryTextFileOfTheSharedData) {
 
 TEST(ColumnText, BroadGapsAreNaNExactlyWhereTheFileSaysNan) {
   IMUKIT_REQUIRE_DATA(data);
-  const ColumnTable t = read_column_text(
-      (data / "broad/02_undisturbed_slow_rotation_B.csv").string(),
-      ColumnSpec::parse("t,_9,qw,qx,qy,qz,_*", "qw,qx,qy,qz"));
+  const ColumnTable t =
+      read_column_text((data / "broad/02_undisturbed_slow_rotation_B.csv").string(),
+                       ColumnSpec::parse("t,_9,qw,qx,qy,qz,_*", "qw,qx,qy,qz"));
   // README: optical data valid from 4.32 to 184.70 s, plus a 5-sample gap at 4.4 s.
   std::size_t missing = 0;
   for (std::size_t i = 0; i < t.rows; ++i) {

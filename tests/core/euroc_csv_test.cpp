@@ -1,8 +1,8 @@
 #include "core/euroc_csv.hpp"
 
+#include <gtest/gtest.h>
 #include <cstring>
 #include <fstream>
-#include <gtest/gtest.h>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -62,7 +62,7 @@ TEST(EurocCsv, MalformedLinesAreRejectedWithTheLineNumber) {
     std::string expect;
   };
   const std::vector<Case> cases = {
-      {"1,0,0,0,0,0\n", "x.csv:3:1: expected 7 columns"},                 // missing column
+      {"1,0,0,0,0,0\n", "x.csv:3:1: expected 7 columns"},  // missing column
       {"1,0,0,zero,0,0,9.8\n", "x.csv:3:7: column 4 (gz): 'zero' is not a number"},
       {"1,0,0,0,nan,0,9.8\n", "x.csv:3:9: column 5 (ax): NaN is not allowed"},
       {"1,0,0,0,0,inf,9.8\n", "x.csv:3:11: column 6 (ay): infinite value"},

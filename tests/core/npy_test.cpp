@@ -1,8 +1,8 @@
 #include "core/npy.hpp"
 
+#include <gtest/gtest.h>
 #include <cstring>
 #include <fstream>
-#include <gtest/gtest.h>
 #include <sstream>
 
 #include "core/error.hpp"
@@ -21,7 +21,9 @@ TEST(Npy, HeaderIsNumpyVersion1AlignedTo64Bytes) {
   ASSERT_EQ(file.size(), 128u + 24u);  // 10 + 60 + 1 bytes of header round up to 128
   EXPECT_EQ(file.substr(0, 8), std::string("\x93NUMPY\x01\x00", 8));
   EXPECT_EQ(static_cast<unsigned char>(file[8]) + 256 * static_cast<unsigned char>(file[9]), 118);
-  EXPECT_EQ(file.substr(10, 118).rfind("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }", 0), 0u);
+  EXPECT_EQ(
+      file.substr(10, 118).rfind("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 3), }", 0),
+      0u);
   EXPECT_EQ(file[127], '\n');
   float third;
   std::memcpy(&third, file.data() + 128 + 8, 4);
@@ -67,9 +69,9 @@ TEST(Npy, MalformedFilesNameTheByteOffset) {
   write_npy((dir / "ok.npy").string(), std::span<const double>(d), shape);
   const std::string good = testing::read_file((dir / "ok.npy").string());
   const auto parse = [](const std::string& bytes) {
-    return parse_npy(std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()),
-                                                 bytes.size()),
-                     "m.npy");
+    return parse_npy(
+        std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()), bytes.size()),
+        "m.npy");
   };
   EXPECT_NO_THROW(parse(good));
   const auto expect = [&](std::string bytes, const std::string& part) {

@@ -1,7 +1,7 @@
 #include "core/sampling.hpp"
 
-#include <cmath>
 #include <gtest/gtest.h>
+#include <cmath>
 #include <vector>
 
 namespace imukit {
@@ -9,8 +9,8 @@ namespace {
 
 TEST(AnalyzeSampling, MeasuresRateJitterGapsAndRepeats) {
   // 10 ms nominal, one 11 ms period, one 30 ms gap, one repeated stamp.
-  const std::vector<TimeNs> t = {0, 10'000'000, 21'000'000, 31'000'000, 61'000'000, 61'000'000,
-                                 71'000'000};
+  const std::vector<TimeNs> t = {0,          10'000'000, 21'000'000, 31'000'000,
+                                 61'000'000, 61'000'000, 71'000'000};
   const SamplingStats s = analyze_sampling(t);
   EXPECT_EQ(s.samples, 7u);
   EXPECT_EQ(s.duration, 71'000'000);
@@ -23,7 +23,8 @@ TEST(AnalyzeSampling, MeasuresRateJitterGapsAndRepeats) {
   EXPECT_FALSE(s.is_uniform());
   // Population std of {10,11,10,30,0,10} ms about their mean 71/6 ms.
   const double m = 71.0 / 6.0;
-  const double var = ((10 - m) * (10 - m) * 3 + (11 - m) * (11 - m) + (30 - m) * (30 - m) + m * m) / 6.0;
+  const double var =
+      ((10 - m) * (10 - m) * 3 + (11 - m) * (11 - m) + (30 - m) * (30 - m) + m * m) / 6.0;
   EXPECT_NEAR(s.period_std_s, std::sqrt(var) * 1e-3, 1e-15);
 }
 

@@ -1,7 +1,7 @@
 #include "core/text_parse.hpp"
 
-#include <cmath>
 #include <gtest/gtest.h>
+#include <cmath>
 
 #include "core/error.hpp"
 #include "tests/support/test_data.hpp"

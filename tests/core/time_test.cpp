@@ -19,7 +19,8 @@ TEST(SampleTime, IsExactForIntegralRatesOverADay) {
 TEST(SampleTime, HandlesFractionalRates) {
   // BROAD's 285.714285 Hz: sample k at k / 285.714285 s.
   const double rate = 285.714285;
-  for (int64_t k : {int64_t{0}, int64_t{1}, int64_t{1000}, int64_t{52'000}, int64_t{24'685'714'000}}) {
+  for (int64_t k :
+       {int64_t{0}, int64_t{1}, int64_t{1000}, int64_t{52'000}, int64_t{24'685'714'000}}) {
     const long double expected = static_cast<long double>(k) * 1e9L / rate;
     EXPECT_NEAR(static_cast<long double>(sample_time(0, k, rate)), expected, 0.5L) << k;
   }

@@ -41,8 +41,9 @@ MockRun run(const std::string& uri) {
 TEST(MockDevice, StaticDeviceReadsGravityInItsOrientation) {
   // Rolled 90 degrees about x: sensor +y points up... q = (cos 45, sin 45, 0, 0).
   const double h = std::sqrt(0.5);
-  const MockRun r = run("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=" +
-                    std::to_string(h) + ",0.70710678118654757,0,0");
+  const MockRun r =
+      run("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=" + std::to_string(h) +
+          ",0.70710678118654757,0,0");
   EXPECT_EQ(r.end.kind, EndKind::kEndOfStream);
   EXPECT_NE(r.end.message.find("disconnect"), std::string::npos);
   ASSERT_EQ(r.samples.size(), 400u);
@@ -63,7 +64,8 @@ TEST(MockDevice, StaticDeviceReadsGravityInItsOrientation) {
 }
 
 TEST(MockDevice, VirtualTimeIsDeterministic) {
-  const std::string uri = "mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=9";
+  const std::string uri =
+      "mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=9";
   const MockRun a = run(uri);
   const MockRun b = run(uri);
   ASSERT_EQ(a.samples.size(), b.samples.size());
@@ -72,9 +74,11 @@ TEST(MockDevice, VirtualTimeIsDeterministic) {
     EXPECT_EQ(a.samples[i].sequence, b.samples[i].sequence);
   }
   // Another seed draws other jitter: some arrival time differs.
-  const MockRun c = run("mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=10");
+  const MockRun c = run(
+      "mock:static?rate=400&clock=virtual&disconnect_after=800&jitter_us=300&drop=0.05&seed=10");
   bool differs = a.samples.size() != c.samples.size();
-  for (std::size_t i = 0; !differs && i < a.samples.size(); ++i) differs = a.samples[i].host_time != c.samples[i].host_time;
+  for (std::size_t i = 0; !differs && i < a.samples.size(); ++i)
+    differs = a.samples[i].host_time != c.samples[i].host_time;
   EXPECT_TRUE(differs);
 }
 
@@ -86,21 +90,25 @@ TEST(MockDevice, DroppedFramesAreExactlyTheDroppedSamples) {
 }
 
 TEST(MockDevice, BitFlipsAreCaughtAndEveryLostSampleCounted) {
-  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=4000&flip=0.002&seed=5");
+  const MockRun r =
+      run("mock:static?rate=400&clock=virtual&disconnect_after=4000&flip=0.002&seed=5");
   EXPECT_GT(r.mock->bytes_flipped(), 50u);
   EXPECT_GT(r.stats.frames_corrupt, 10u);
   // Unless the very last block was hit (then nothing after it can show the gap).
   EXPECT_GE(r.stats.samples_decoded + r.stats.samples_dropped, 4000u - 8u);
   EXPECT_LE(r.stats.samples_decoded + r.stats.samples_dropped, 4000u);
   const double lsb = 16 * 9.80665 / 32768;
-  for (const Sample& s : r.samples) EXPECT_NEAR(s.accel[2], 9.80665, lsb);  // nothing corrupt got through
+  for (const Sample& s : r.samples)
+    EXPECT_NEAR(s.accel[2], 9.80665, lsb);  // nothing corrupt got through
 }
 
 TEST(MockDevice, DeviceClockDriftShowsAgainstHostTime) {
-  const MockRun r = run("mock:static?rate=100&clock=virtual&disconnect_after=2000&drift_ppm=250&latency_us=1500");
+  const MockRun r =
+      run("mock:static?rate=100&clock=virtual&disconnect_after=2000&drift_ppm=250&latency_us=1500");
   ASSERT_EQ(r.samples.size(), 2000u);
-  // Over the run the device clock gains 250 ppm on the host's: device span = host span * (1 + 2.5e-4).
-  // Host times are block arrival times, so compare the first and last samples of whole blocks.
+  // Over the run the device clock gains 250 ppm on the host's: device span = host span * (1
+  // + 2.5e-4). Host times are block arrival times, so compare the first and last samples of whole
+  // blocks.
   const Sample& a = r.samples[7];
   const Sample& b = r.samples[1999];
   const double device = static_cast<double>(b.device_time - a.device_time);
@@ -111,7 +119,9 @@ TEST(MockDevice, DeviceClockDriftShowsAgainstHostTime) {
 }
 
 TEST(MockDevice, LatencyAndJitterDelayArrivalsWithinTheirBounds) {
-  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=2000&latency_us=2000&jitter_us=500&seed=2");
+  const MockRun r =
+      run("mock:static?rate=400&clock=virtual&disconnect_after=2000&latency_us=2000&jitter_us=500&"
+          "seed=2");
   ASSERT_EQ(r.samples.size(), 2000u);
   // A block leaves when its last sample is due; it arrives latency + U(0, jitter) later. The
   // device clock has no drift here, so host - (epoch + device time) of each block's last sample
@@ -129,7 +139,8 @@ TEST(MockDevice, LatencyAndJitterDelayArrivalsWithinTheirBounds) {
 }
 
 TEST(MockDevice, StallHoldsBytesBackThenDeliversThemAll) {
-  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=1200&stall_ms=300&stall_at_s=1");
+  const MockRun r =
+      run("mock:static?rate=400&clock=virtual&disconnect_after=1200&stall_ms=300&stall_at_s=1");
   ASSERT_EQ(r.samples.size(), 1200u);
   TimeNs max_gap = 0;
   for (std::size_t i = 1; i < r.samples.size(); ++i) {
@@ -148,7 +159,8 @@ TEST(MockDevice, ProfileNoiseReachesTheSamples) {
   p.accelerometer = acc;
   const std::string path = (dir / "p.json").string();
   write_profile(path, p);
-  const MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=8000&seed=4&profile=" + path);
+  const MockRun r =
+      run("mock:static?rate=400&clock=virtual&disconnect_after=8000&seed=4&profile=" + path);
   ASSERT_EQ(r.samples.size(), 8000u);
   double sum = 0, sum2 = 0;
   for (const Sample& s : r.samples) {
@@ -189,7 +201,8 @@ TEST(MockDevice, PosesRotateBetweenSixFacesWithConsistentGyro) {
 
 TEST(MockDevice, PosesUriHoldsEachFaceUp) {
   // 6 holds of 0.5 s and 5 moves of 0.25 s: 4.25 s at 200 Hz.
-  const MockRun r = run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
+  const MockRun r =
+      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
   ASSERT_EQ(r.samples.size(), 840u);
   PosesSource src(PosesSource::six_faces(), 0.5, 0.25);
   const double lsb = 16 * 9.80665 / 32768;
@@ -217,8 +230,10 @@ TEST(MockDevice, TiltTourVisitsEveryCubeDirectionByTilts) {
     // The sensor direction pointing up, R_world_sensor^T z: a face, edge or corner direction.
     const Eigen::Vector3d up = poses[k].conjugate() * Eigen::Vector3d::UnitZ();
     const Eigen::Vector3d scaled = up / up.cwiseAbs().maxCoeff();
-    for (int i = 0; i < 3; ++i) EXPECT_NEAR(scaled[i], std::round(scaled[i]), 1e-12) << "pose " << k;
-    for (const auto& seen : ups) EXPECT_LT(seen.dot(up), std::cos(30 * std::numbers::pi / 180)) << "pose " << k;
+    for (int i = 0; i < 3; ++i)
+      EXPECT_NEAR(scaled[i], std::round(scaled[i]), 1e-12) << "pose " << k;
+    for (const auto& seen : ups)
+      EXPECT_LT(seen.dot(up), std::cos(30 * std::numbers::pi / 180)) << "pose " << k;
     ups.push_back(up);
     if (k == 0) continue;
     // A tilt: the relative rotation's axis (sensor frame) is perpendicular to both ups, and
@@ -236,13 +251,15 @@ TEST(MockDevice, TiltTourVisitsEveryCubeDirectionByTilts) {
   EXPECT_GT(axis_reach.minCoeff(), 0.99);
   // A shorter tour is the start of the long one.
   const auto nine = PosesSource::tilt_tour(9);
-  for (std::size_t k = 0; k < nine.size(); ++k) EXPECT_LT(angular_distance(nine[k], poses[k]), 1e-15);
+  for (std::size_t k = 0; k < nine.size(); ++k)
+    EXPECT_LT(angular_distance(nine[k], poses[k]), 1e-15);
 }
 
 TEST(MockDevice, PosesKeySelectsTheTiltTour) {
   // 9 holds of 0.5 s and 8 moves of 0.25 s at 200 Hz: 1300 samples; the held directions follow
   // the tour.
-  const MockRun r = run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&poses=9&clock=virtual&disconnect_after=1300");
+  const MockRun r =
+      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&poses=9&clock=virtual&disconnect_after=1300");
   ASSERT_EQ(r.samples.size(), 1300u);
   PosesSource src(PosesSource::tilt_tour(9), 0.5, 0.25);
   const double lsb = 16 * 9.80665 / 32768;
@@ -272,12 +289,14 @@ TEST(MockDevice, TruthHandleHoldsTheDrawnTurnOnBias) {
   tob.spread = Eigen::Vector3d(0.05, 0.05, 0.05);
   p.gyroscope->turn_on_bias = tob;
   write_profile(path, p);
-  MockRun r = run("mock:static?rate=400&clock=virtual&disconnect_after=4000&seed=21&profile=" + path);
+  MockRun r =
+      run("mock:static?rate=400&clock=virtual&disconnect_after=4000&seed=21&profile=" + path);
   ASSERT_EQ(r.samples.size(), 4000u);
   const auto truth = r.mock->truth();
   ASSERT_TRUE(truth->drawn);
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const Sample& s : r.samples) mean += Eigen::Vector3d(s.gyro[0], s.gyro[1], s.gyro[2]) / 4000.0;
+  for (const Sample& s : r.samples)
+    mean += Eigen::Vector3d(s.gyro[0], s.gyro[1], s.gyro[2]) / 4000.0;
   const double lsb = 2000 * std::numbers::pi / 180 / 32768;
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(mean[k], truth->gyroscope_bias[k], 0.5 * lsb) << k;
   // A drawn bias, not the mean: the three draws are not all within 0.1 sigma of the mean.

@@ -19,23 +19,23 @@ void put16(std::vector<uint8_t>& r, std::size_t at, int v) {
 std::vector<uint8_t> ds4_calibration() {
   std::vector<uint8_t> r(37, 0);
   r[0] = 0x02;
-  put16(r, 1, -7);     // pitch bias
-  put16(r, 3, 9);      // yaw bias
-  put16(r, 5, -7);     // roll bias
-  put16(r, 7, 8958);   // pitch+
-  put16(r, 9, -8972);  // pitch-
-  put16(r, 11, 8891);  // yaw+
-  put16(r, 13, -8871); // yaw-
-  put16(r, 15, 8841);  // roll+
-  put16(r, 17, -8856); // roll-
-  put16(r, 19, 540);   // speed+
-  put16(r, 21, 540);   // speed-
-  put16(r, 23, 8403);  // acc x+
-  put16(r, 25, -8441); // acc x-
-  put16(r, 27, 8383);  // acc y+
-  put16(r, 29, -8022); // acc y-
-  put16(r, 31, 7868);  // acc z+
-  put16(r, 33, -8568); // acc z-
+  put16(r, 1, -7);      // pitch bias
+  put16(r, 3, 9);       // yaw bias
+  put16(r, 5, -7);      // roll bias
+  put16(r, 7, 8958);    // pitch+
+  put16(r, 9, -8972);   // pitch-
+  put16(r, 11, 8891);   // yaw+
+  put16(r, 13, -8871);  // yaw-
+  put16(r, 15, 8841);   // roll+
+  put16(r, 17, -8856);  // roll-
+  put16(r, 19, 540);    // speed+
+  put16(r, 21, 540);    // speed-
+  put16(r, 23, 8403);   // acc x+
+  put16(r, 25, -8441);  // acc x-
+  put16(r, 27, 8383);   // acc y+
+  put16(r, 29, -8022);  // acc y-
+  put16(r, 31, 7868);   // acc z+
+  put16(r, 33, -8568);  // acc z-
   return r;
 }
 
@@ -143,9 +143,9 @@ TEST(PlaystationCodec, DualSenseLayoutAndCalibration) {
   // accel z bias = 8292 - 16384 / 2 = 100: reads 0.
   EXPECT_NEAR(out[0].accel[2], 0.0, 1e-12);
   EXPECT_EQ(out[0].device_time, ticks_to_ns(0xFFFFFFF0LL, 3'000'000));
-  EXPECT_THROW(parse_playstation_calibration(PlaystationModel::kDualSense,
-                                             std::vector<uint8_t>(20, 0x05)),
-               imukit::Error);
+  EXPECT_THROW(
+      parse_playstation_calibration(PlaystationModel::kDualSense, std::vector<uint8_t>(20, 0x05)),
+      imukit::Error);
 }
 
 TEST(PlaystationCodec, ZeroCalibrationFallsBackToNominalScale) {

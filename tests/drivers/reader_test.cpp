@@ -33,7 +33,8 @@ TEST(DeviceReader, PipeClosedByTheWriterEndsCleanlyWithEverySample) {
   EXPECT_NE(end.message.find("end of stream"), std::string::npos) << end.message;
   const auto samples = reader.take();
   ASSERT_EQ(samples.size(), 501u);
-  for (std::size_t i = 0; i < samples.size(); ++i) EXPECT_EQ(samples[i].device_time, static_cast<int64_t>(i) * 1'000'000);
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    EXPECT_EQ(samples[i].device_time, static_cast<int64_t>(i) * 1'000'000);
   EXPECT_EQ(reader.stats().samples_decoded, 501u);
 }
 
@@ -66,7 +67,8 @@ TEST(DeviceReader, TransportExceptionEndsTheStreamWithItsMessage) {
 TEST(DeviceReader, StopEndsAnIdleStream) {
   int fds[2];
   ASSERT_EQ(::pipe(fds), 0);
-  DeviceReader reader(std::make_unique<FdTransport>(fds[0], true, "pipe"), std::make_unique<TextCodec>());
+  DeviceReader reader(std::make_unique<FdTransport>(fds[0], true, "pipe"),
+                      std::make_unique<TextCodec>());
   reader.start();
   EXPECT_FALSE(reader.wait(100));  // nothing arrives: still running
   reader.stop();

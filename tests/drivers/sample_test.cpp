@@ -39,8 +39,8 @@ TEST(CounterUnwrapper, LateValueBeforeAWrapUnwrapsBelowTheReference) {
 
 TEST(TicksToNs, IsExactAndRoundsToNearest) {
   EXPECT_EQ(ticks_to_ns(1'000'000, 1'000'000), 1'000'000'000);
-  EXPECT_EQ(ticks_to_ns(1, 3'000'000), 333);            // 333.33 ns
-  EXPECT_EQ(ticks_to_ns(2, 3'000'000), 667);            // 666.67 ns
+  EXPECT_EQ(ticks_to_ns(1, 3'000'000), 333);  // 333.33 ns
+  EXPECT_EQ(ticks_to_ns(2, 3'000'000), 667);  // 666.67 ns
   EXPECT_EQ(ticks_to_ns(-1, 3'000'000), -333);
   // 2^40 ticks of a 10 kHz clock: 109951162.7776 s, exact in integers.
   EXPECT_EQ(ticks_to_ns(int64_t{1} << 40, 10'000), (int64_t{1} << 40) * 100'000);

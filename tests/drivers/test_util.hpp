@@ -15,7 +15,8 @@ inline std::vector<Sample> feed_split(Codec& codec, const std::vector<uint8_t>& 
   std::size_t pos = 0;
   TimeNs t = 0;
   while (pos < bytes.size()) {
-    const std::size_t n = std::min<std::size_t>(1 + rng.uniform_index(max_chunk), bytes.size() - pos);
+    const std::size_t n =
+        std::min<std::size_t>(1 + rng.uniform_index(max_chunk), bytes.size() - pos);
     codec.feed(std::span<const uint8_t>(bytes.data() + pos, n), t += 1000, out);
     pos += n;
   }

@@ -15,9 +15,11 @@ namespace {
 std::vector<uint8_t> bytes(const std::string& s) { return {s.begin(), s.end()}; }
 
 TEST(TextCodec, ReadsCsvAndWhitespaceWithStatedUnits) {
-  TextCodec codec(text_codec_options({{"time_unit", "ms"}, {"accel_unit", "g"}, {"gyro_unit", "dps"}}));
+  TextCodec codec(
+      text_codec_options({{"time_unit", "ms"}, {"accel_unit", "g"}, {"gyro_unit", "dps"}}));
   std::vector<Sample> out;
-  codec.feed(bytes("time,ax,ay,az,gx,gy,gz\r\n10,0,0,1,90,0,-180\r\n  20  0.5 0 1 0 0 0\n"), 7, out);
+  codec.feed(bytes("time,ax,ay,az,gx,gy,gz\r\n10,0,0,1,90,0,-180\r\n  20  0.5 0 1 0 0 0\n"), 7,
+             out);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].device_time, 10'000'000);
   EXPECT_EQ(out[1].device_time, 20'000'000);
@@ -46,10 +48,18 @@ TEST(TextCodec, CountsEveryBrokenLineAndSurvivesSplits) {
     if (i > 0 && rng.uniform() < 0.05) {
       broken.insert(i);
       switch (rng.uniform_index(4)) {
-        case 0: line = line.substr(0, line.size() / 2) + "\n"; break;     // cut short
-        case 1: line[1 + rng.uniform_index(line.size() - 2)] = 'x'; break;  // garbage
-        case 2: line.insert(line.size() - 1, ",7"); break;              // extra field
-        default: line = std::string(600, '9') + "\n"; break;            // overlong
+        case 0:
+          line = line.substr(0, line.size() / 2) + "\n";
+          break;  // cut short
+        case 1:
+          line[1 + rng.uniform_index(line.size() - 2)] = 'x';
+          break;  // garbage
+        case 2:
+          line.insert(line.size() - 1, ",7");
+          break;  // extra field
+        default:
+          line = std::string(600, '9') + "\n";
+          break;  // overlong
       }
     }
     text += line;

@@ -37,7 +37,8 @@ namespace {
 // H: binary attribute in hex, N: device node).
 constexpr const char* kDevices =
     "P: /devices/pci0000:00/usb1/1-1\nE: SUBSYSTEM=usb\nE: DEVTYPE=usb_device\n"
-    "A: idVendor=1a86\nA: idProduct=7523\nA: serial=WT901-0042\nA: manufacturer=QinHeng Electronics\n"
+    "A: idVendor=1a86\nA: idProduct=7523\nA: serial=WT901-0042\nA: manufacturer=QinHeng "
+    "Electronics\n"
     "A: product=USB Serial\nA: busnum=1\nA: devnum=5\n\n"
     "P: /devices/pci0000:00/usb1/1-1/1-1:1.0\nE: SUBSYSTEM=usb\nE: DEVTYPE=usb_interface\n\n"
     "P: /devices/pci0000:00/usb1/1-1/1-1:1.0/ttyUSB0\nN: ttyUSB0\nE: DEVNAME=/dev/ttyUSB0\n"
@@ -54,15 +55,17 @@ constexpr const char* kDevices =
     "P: /devices/pci0000:00/usb1/1-2/1-2:1.3\nE: SUBSYSTEM=usb\nE: DEVTYPE=usb_interface\n"
     "A: bInterfaceNumber=03\n\n"
     "P: /devices/pci0000:00/usb1/1-2/1-2:1.3/0003:054C:09CC.0001\nE: SUBSYSTEM=hid\n"
-    "E: HID_ID=0003:0000054C:000009CC\nE: HID_NAME=Sony Interactive Entertainment Wireless Controller\n"
+    "E: HID_ID=0003:0000054C:000009CC\nE: HID_NAME=Sony Interactive Entertainment Wireless "
+    "Controller\n"
     "E: HID_UNIQ=\nE: HID_PHYS=usb-0000:00:14.0-2/input3\n\n"
     "P: /devices/pci0000:00/usb1/1-2/1-2:1.3/0003:054C:09CC.0001/hidraw/hidraw0\nN: hidraw0\n"
     "E: DEVNAME=/dev/hidraw0\nE: SUBSYSTEM=hidraw\nA: dev=241:0\n";
 
 // Report descriptor: input report 1 (63 bytes), feature report 2 (36 bytes).
-constexpr uint8_t kReportDescriptor[] = {0x05, 0x01, 0x09, 0x05, 0xA1, 0x01, 0x85, 0x01, 0x06, 0x00, 0xFF,
-                                         0x09, 0x20, 0x15, 0x00, 0x26, 0xFF, 0x00, 0x75, 0x08, 0x95, 0x3F,
-                                         0x81, 0x02, 0x85, 0x02, 0x09, 0x24, 0x95, 0x24, 0xB1, 0x02, 0xC0};
+constexpr uint8_t kReportDescriptor[] = {0x05, 0x01, 0x09, 0x05, 0xA1, 0x01, 0x85, 0x01, 0x06,
+                                         0x00, 0xFF, 0x09, 0x20, 0x15, 0x00, 0x26, 0xFF, 0x00,
+                                         0x75, 0x08, 0x95, 0x3F, 0x81, 0x02, 0x85, 0x02, 0x09,
+                                         0x24, 0x95, 0x24, 0xB1, 0x02, 0xC0};
 
 void put16(uint8_t* p, int v) {
   p[0] = static_cast<uint8_t>(v & 0xFF);
@@ -73,8 +76,8 @@ void put16(uint8_t* p, int v) {
 std::vector<uint8_t> ds4_calibration() {
   std::vector<uint8_t> r(37, 0);
   r[0] = 0x02;
-  const int v[17] = {-7, 9, -7, 8958, -8972, 8891, -8871, 8841, -8856, 540, 540,
-                     8403, -8441, 8383, -8022, 7868, -8568};
+  const int v[17] = {-7,  9,   -7,   8958,  -8972, 8891,  -8871, 8841, -8856,
+                     540, 540, 8403, -8441, 8383,  -8022, 7868,  -8568};
   for (int i = 0; i < 17; ++i) put16(&r[1 + 2 * i], v[i]);
   return r;
 }
@@ -91,7 +94,8 @@ gboolean on_serial_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* c, gpointer) {
   const gulong req = umockdev_ioctl_client_get_request(c);
   if (req == TIOCMGET || req == TIOCMSET || req == TIOCMBIS || req == TIOCMBIC) {
     GError* e = nullptr;
-    UMockdevIoctlData* d = umockdev_ioctl_data_resolve(umockdev_ioctl_client_get_arg(c), 0, sizeof(int), &e);
+    UMockdevIoctlData* d =
+        umockdev_ioctl_data_resolve(umockdev_ioctl_client_get_arg(c), 0, sizeof(int), &e);
     if (!d) {
       umockdev_ioctl_client_complete(c, -1, EFAULT);
       return TRUE;
@@ -102,7 +106,8 @@ gboolean on_serial_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* c, gpointer) {
     int v = 0;
     if (bytes && n >= static_cast<int>(sizeof v)) std::memcpy(&v, bytes, sizeof v);
     if (req == TIOCMGET) {
-      umockdev_ioctl_data_update(d, 0, reinterpret_cast<guint8*>(&g_handlers.modem_bits), sizeof(int));
+      umockdev_ioctl_data_update(d, 0, reinterpret_cast<guint8*>(&g_handlers.modem_bits),
+                                 sizeof(int));
     } else if (req == TIOCMSET) {
       g_handlers.modem_bits = v;
     } else if (req == TIOCMBIS) {
@@ -135,7 +140,8 @@ gboolean on_hid_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* c, gpointer) {
     return TRUE;
   }
   if (req == HIDIOCGRDESC) {
-    UMockdevIoctlData* d = umockdev_ioctl_data_resolve(arg, 0, sizeof(hidraw_report_descriptor), &e);
+    UMockdevIoctlData* d =
+        umockdev_ioctl_data_resolve(arg, 0, sizeof(hidraw_report_descriptor), &e);
     hidraw_report_descriptor rd{};
     rd.size = sizeof kReportDescriptor;
     std::memcpy(rd.value, kReportDescriptor, sizeof kReportDescriptor);
@@ -147,7 +153,8 @@ gboolean on_hid_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* c, gpointer) {
     const std::size_t len = _IOC_SIZE(req);
     UMockdevIoctlData* d = umockdev_ioctl_data_resolve(arg, 0, len, &e);
     const auto cal = ds4_calibration();
-    umockdev_ioctl_data_update(d, 0, const_cast<guint8*>(cal.data()), static_cast<int>(std::min(len, cal.size())));
+    umockdev_ioctl_data_update(d, 0, const_cast<guint8*>(cal.data()),
+                               static_cast<int>(std::min(len, cal.size())));
     ++g_handlers.feature_requests;
     umockdev_ioctl_client_complete(c, static_cast<glong>(std::min(len, cal.size())), 0);
     return TRUE;
@@ -167,7 +174,8 @@ class Umockdev : public ::testing::Test {
     testbed_ = umockdev_testbed_new();
     ASSERT_TRUE(umockdev_in_mock_environment());
     GError* err = nullptr;
-    ASSERT_TRUE(umockdev_testbed_add_from_string(testbed_, kDevices, &err)) << (err ? err->message : "");
+    ASSERT_TRUE(umockdev_testbed_add_from_string(testbed_, kDevices, &err))
+        << (err ? err->message : "");
     serial_handler_ = umockdev_ioctl_base_new();
     g_signal_connect(serial_handler_, "handle-ioctl", G_CALLBACK(on_serial_ioctl), nullptr);
     ASSERT_TRUE(umockdev_testbed_attach_ioctl(testbed_, "/dev/ttyUSB0", serial_handler_, &err));
@@ -257,8 +265,10 @@ TEST_F(Umockdev, WitmotionStreamArrivesAndTheRateCommandIsWrittenBack) {
   // 301 sample groups written in random chunks (the 301st accel frame closes group 300).
   std::vector<uint8_t> stream;
   for (int i = 0; i <= 300; ++i) {
-    const int16_t a[4] = {static_cast<int16_t>(i), 0, 2048, 2400}, g[4] = {0, 0, static_cast<int16_t>(-i), 0};
-    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g)}) stream.insert(stream.end(), f.begin(), f.end());
+    const int16_t a[4] = {static_cast<int16_t>(i), 0, 2048, 2400},
+                  g[4] = {0, 0, static_cast<int16_t>(-i), 0};
+    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g)})
+      stream.insert(stream.end(), f.begin(), f.end());
   }
   Rng rng(1);
   for (std::size_t pos = 0; pos < stream.size();) {
@@ -283,7 +293,8 @@ TEST_F(Umockdev, ImukitMockBehindTheSerialPortStreamsThroughLibserialport) {
   ASSERT_GE(dev, 0);
   ::fcntl(dev, F_SETFL, ::fcntl(dev, F_GETFL) | O_NONBLOCK);
   // The device side: a mock imukit device in virtual time, bridged to the pty master.
-  auto mock = make_mock_device("static", {{"rate", "200"}, {"clock", "virtual"}, {"disconnect_after", "400"}});
+  auto mock = make_mock_device(
+      "static", {{"rate", "200"}, {"clock", "virtual"}, {"disconnect_after", "400"}});
   std::atomic<bool> done{false};
   std::thread device([&] {
     std::vector<uint8_t> buf(4096);
@@ -295,8 +306,10 @@ TEST_F(Umockdev, ImukitMockBehindTheSerialPortStreamsThroughLibserialport) {
         std::size_t off = 0;
         while (off < r.size) {
           const ssize_t w = ::write(dev, buf.data() + off, r.size - off);
-          if (w > 0) off += static_cast<std::size_t>(w);
-          else std::this_thread::sleep_for(std::chrono::milliseconds(1));
+          if (w > 0)
+            off += static_cast<std::size_t>(w);
+          else
+            std::this_thread::sleep_for(std::chrono::milliseconds(1));
         }
       }
       if (r.end) break;
@@ -383,10 +396,12 @@ TEST_F(Umockdev, SerialUnplugEndsTheStreamWithTheReasonAndKeepsTheSamples) {
   std::vector<uint8_t> stream;
   for (int i = 0; i < 50; ++i) {
     const int16_t a[4] = {static_cast<int16_t>(i), 0, 0, 0}, g[4] = {0, 0, 0, 0};
-    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g)}) stream.insert(stream.end(), f.begin(), f.end());
+    for (const auto& f : {witmotion_frame(0x51, a), witmotion_frame(0x52, g)})
+      stream.insert(stream.end(), f.begin(), f.end());
   }
   write_all(dev, stream);
-  for (int k = 0; k < 200 && reader.samples_total() < 49; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int k = 0; k < 200 && reader.samples_total() < 49; ++k)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_EQ(reader.samples_total(), 49u);  // the 50th group is still open
   unplug(dev);
   ASSERT_TRUE(reader.wait(10'000));

@@ -71,14 +71,16 @@ TEST(DeviceUri, FileReplayDecodesWithTheNamedCodec) {
 
 TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
   // Capture what a mock device sends (as a raw byte dump of the serial line would), decoding live.
-  OpenedDevice live = open_device("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=0,1,0,0");
+  OpenedDevice live =
+      open_device("mock:static?rate=200&clock=virtual&disconnect_after=400&quat=0,1,0,0");
   struct Tee : ByteTransport {
     ByteTransport& inner;
     std::vector<uint8_t> captured;
     explicit Tee(ByteTransport& t) : inner(t) {}
     ReadResult read(std::span<uint8_t> buf, int timeout_ms) override {
       ReadResult r = inner.read(buf, timeout_ms);
-      captured.insert(captured.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(r.size));
+      captured.insert(captured.end(), buf.begin(),
+                      buf.begin() + static_cast<std::ptrdiff_t>(r.size));
       return r;
     }
     void write(std::span<const uint8_t> b) override { inner.write(b); }
@@ -98,7 +100,8 @@ TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
   }
   OpenedDevice replay = open_device("file:" + path + "?codec=imukit");
   std::vector<Sample> replayed;
-  const EndReason end = DeviceReader::run(*replay.transport, *replay.codec, ReaderOptions{}, stop, replayed);
+  const EndReason end =
+      DeviceReader::run(*replay.transport, *replay.codec, ReaderOptions{}, stop, replayed);
   EXPECT_EQ(end.kind, EndKind::kEndOfStream);
   ASSERT_EQ(replayed.size(), live_samples.size());
   for (std::size_t i = 0; i < replayed.size(); ++i) {

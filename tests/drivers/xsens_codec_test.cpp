@@ -4,8 +4,8 @@
 
 #include <cstring>
 #include <fstream>
-#include <set>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "tests/drivers/test_util.hpp"
@@ -122,13 +122,16 @@ TEST(XsensCodec, BuildsTheConfigurationMtManagerSent) {
   // "Configuration Example" of mtmanager_packets.md: the bytes MT Manager wrote.
   EXPECT_EQ(xsens_frame(xsens::kMidGoToConfig, {}), hex_bytes("FA FF 30 00 D1"));
   EXPECT_EQ(xsens_frame(xsens::kMidGoToMeasurement, {}), hex_bytes("FA FF 10 00 F1"));
-  const XsensOutput outputs[] = {{0x1020, 0xFFFF}, {0x1060, 0xFFFF}, {0x2010, 400}, {0x4020, 400},
-                                 {0x4010, 400},    {0x4030, 400},    {0x8020, 400}, {0x8030, 400},
-                                 {0xC020, 100},    {0x0810, 10},     {0x3010, 50},  {0xE020, 0xFFFF}};
-  const auto frame = xsens_frame(xsens::kMidSetOutputConfiguration, xsens_output_configuration(outputs));
-  EXPECT_EQ(frame, hex_bytes("FA FF C0 30 10 20 FF FF 10 60 FF FF 20 10 01 90 40 20 01 90 40 10 01 90 "
-                             "40 30 01 90 80 20 01 90 80 30 01 90 C0 20 00 64 08 10 00 0A 30 10 00 "
-                             "32 E0 20 FF FF 99"));
+  const XsensOutput outputs[] = {{0x1020, 0xFFFF}, {0x1060, 0xFFFF}, {0x2010, 400},
+                                 {0x4020, 400},    {0x4010, 400},    {0x4030, 400},
+                                 {0x8020, 400},    {0x8030, 400},    {0xC020, 100},
+                                 {0x0810, 10},     {0x3010, 50},     {0xE020, 0xFFFF}};
+  const auto frame =
+      xsens_frame(xsens::kMidSetOutputConfiguration, xsens_output_configuration(outputs));
+  EXPECT_EQ(frame,
+            hex_bytes("FA FF C0 30 10 20 FF FF 10 60 FF FF 20 10 01 90 40 20 01 90 40 10 01 90 "
+                      "40 30 01 90 80 20 01 90 80 30 01 90 C0 20 00 64 08 10 00 0A 30 10 00 "
+                      "32 E0 20 FF FF 99"));
 }
 
 TEST(XsensCodec, QueuesConfigurationAtStartAndReadsAcks) {
@@ -136,7 +139,7 @@ TEST(XsensCodec, QueuesConfigurationAtStartAndReadsAcks) {
   codec.start(0);
   const auto sent = codec.take_outgoing();
   auto expected = xsens_frame(xsens::kMidGoToConfig, {});
-  const XsensOutput outputs[] = {{0x1020, 0xFFFF}, {0x1060, 0xFFFF}, {0x4020, 100}, {0x8020, 100},
+  const XsensOutput outputs[] = {{0x1020, 0xFFFF}, {0x1060, 0xFFFF}, {0x4020, 100},   {0x8020, 100},
                                  {0xC020, 50},     {0x0810, 50},     {0xE020, 0xFFFF}};
   auto cfg = xsens_frame(0xC0, xsens_output_configuration(outputs));
   expected.insert(expected.end(), cfg.begin(), cfg.end());
@@ -145,8 +148,10 @@ TEST(XsensCodec, QueuesConfigurationAtStartAndReadsAcks) {
   EXPECT_EQ(sent, expected);
   // Responses recorded in the md file: GoToConfigAck, OutputConfiguration, InitMTResults.
   std::vector<Sample> out;
-  codec.feed(hex_bytes("FA FF 31 00 D0  FA FF C1 08 10 20 FF FF 10 60 FF FF 9C  FA FF 03 04 03 70 03 F8 8C"),
-             0, out);
+  codec.feed(
+      hex_bytes(
+          "FA FF 31 00 D0  FA FF C1 08 10 20 FF FF 10 60 FF FF 9C  FA FF 03 04 03 70 03 F8 8C"),
+      0, out);
   EXPECT_EQ(codec.stats().frames_ok, 3u);
   EXPECT_EQ(codec.stats().frames_corrupt, 0u);
   EXPECT_EQ(codec.messages(), (std::vector<uint8_t>{0x31, 0xC1, 0x03}));
@@ -165,10 +170,23 @@ std::vector<uint8_t> synthetic_packet(uint16_t counter, uint32_t time, float bas
     std::memcpy(&b, &f, 4);
     for (int i = 3; i >= 0; --i) p.push_back(static_cast<uint8_t>(b >> (8 * i)));
   };
-  u16(0x1020); p.push_back(2); u16(counter);
-  u16(0x1060); p.push_back(4); u16(static_cast<uint16_t>(time >> 16)); u16(static_cast<uint16_t>(time));
-  u16(0x4020); p.push_back(12); f32(base); f32(base + 1); f32(base + 2);
-  u16(0x8020); p.push_back(12); f32(-base); f32(0.5f); f32(0.25f);
+  u16(0x1020);
+  p.push_back(2);
+  u16(counter);
+  u16(0x1060);
+  p.push_back(4);
+  u16(static_cast<uint16_t>(time >> 16));
+  u16(static_cast<uint16_t>(time));
+  u16(0x4020);
+  p.push_back(12);
+  f32(base);
+  f32(base + 1);
+  f32(base + 2);
+  u16(0x8020);
+  p.push_back(12);
+  f32(-base);
+  f32(0.5f);
+  f32(0.25f);
   return xsens_frame(xsens::kMidMtData2, p);
 }
 
@@ -262,7 +280,8 @@ TEST(XsensCodec, ReadsFixedPointAndDoublePrecision) {
   // Acceleration as fp1220 (id 0x4021) and rate of turn as float64 (id 0x8023).
   std::vector<uint8_t> p = {0x40, 0x21, 12};
   for (int32_t v : {1 << 20, -(3 << 19), 5}) {
-    for (int i = 3; i >= 0; --i) p.push_back(static_cast<uint8_t>(static_cast<uint32_t>(v) >> (8 * i)));
+    for (int i = 3; i >= 0; --i)
+      p.push_back(static_cast<uint8_t>(static_cast<uint32_t>(v) >> (8 * i)));
   }
   p.insert(p.end(), {0x80, 0x23, 24});
   for (double d : {0.1, -2.5, 1e-3}) {

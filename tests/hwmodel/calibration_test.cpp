@@ -118,7 +118,7 @@ TEST(Calibration, RecoversKnownAccelerometerAndGyroscopeCalibration) {
   }
   EXPECT_TRUE(r.accel.T.isApprox(acc.T, 1e-3));
   EXPECT_LT((r.gyro.T - gyr.T).cwiseAbs().maxCoeff(), 1e-3);
-  EXPECT_LT(r.accel_rms, 0.01);        // m/s^2
+  EXPECT_LT(r.accel_rms, 0.01);  // m/s^2
   EXPECT_LT(r.gyro_rms_rad, 2e-3);
 }
 
@@ -126,7 +126,8 @@ TEST(Calibration, ReportsRankDeficiencyWhenPosesTiltOnlyAboutOneAxis) {
   // All poses are rotations about x: gravity never gets a component on x, so the x scale and
   // bias are not determined.
   std::vector<Eigen::Matrix3d> poses;
-  for (int i = 0; i < 14; ++i) poses.push_back(Eigen::AngleAxisd(0.45 * i, Eigen::Vector3d::UnitX()).toRotationMatrix());
+  for (int i = 0; i < 14; ++i)
+    poses.push_back(Eigen::AngleAxisd(0.45 * i, Eigen::Vector3d::UnitX()).toRotationMatrix());
   const Synthetic s = make_session(poses, accel_truth(), gyro_truth(), 9.81, 0.5, 3);
   CalibrationOptions opt;
   opt.gravity = 9.81;
@@ -160,8 +161,8 @@ TEST(Calibration, ForwardModelInvertsTheCorrection) {
 }
 
 TEST(TurnOnBias, MeanAndSpreadAcrossRuns) {
-  const TurnOnBiasStats s = turn_on_bias_stats({Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(3, 2, 1),
-                                                Eigen::Vector3d(2, 2, 2)});
+  const TurnOnBiasStats s = turn_on_bias_stats(
+      {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(3, 2, 1), Eigen::Vector3d(2, 2, 2)});
   EXPECT_EQ(s.runs, 3);
   EXPECT_TRUE(s.mean.isApprox(Eigen::Vector3d(2, 2, 2)));
   EXPECT_NEAR(s.spread(0), 1.0, 1e-15);
@@ -169,15 +170,18 @@ TEST(TurnOnBias, MeanAndSpreadAcrossRuns) {
   // Accelerometer at rest, z up, reading 0.1 too much on x: bias (0.1, 0, 0).
   Eigen::Matrix3Xd acc(3, 2);
   acc << 0.1, 0.1, 0, 0, 9.8, 9.8;
-  EXPECT_TRUE(accel_static_bias(acc, Eigen::Matrix3d::Identity(), 9.8).isApprox(Eigen::Vector3d(0.1, 0, 0)));
+  EXPECT_TRUE(accel_static_bias(acc, Eigen::Matrix3d::Identity(), 9.8)
+                  .isApprox(Eigen::Vector3d(0.1, 0, 0)));
 }
 
 TEST(Calibration, XsensRecordingCalibratesToGravity) {
   IMUKIT_REQUIRE_DATA(data);
   const auto spec = ColumnSpec::parse("t,ax,ay,az");
-  const ImuSeries acc = to_imu_series(read_column_text((data / "imu_tk_xsens/xsens_acc.txt").string(), spec));
+  const ImuSeries acc =
+      to_imu_series(read_column_text((data / "imu_tk_xsens/xsens_acc.txt").string(), spec));
   const auto gspec = ColumnSpec::parse("t,gx,gy,gz");
-  const ImuSeries gyr = to_imu_series(read_column_text((data / "imu_tk_xsens/xsens_gyro.txt").string(), gspec));
+  const ImuSeries gyr =
+      to_imu_series(read_column_text((data / "imu_tk_xsens/xsens_gyro.txt").string(), gspec));
   ASSERT_EQ(acc.t, gyr.t);
   CalibrationOptions opt;
   opt.gravity = 9.81744;

@@ -66,7 +66,8 @@ TEST(NoiseFit, RecoversExactModelCurve) {
     edf.push_back(1000.0);
   }
   const NoiseFit fit = fit_noise_model(tau, adev, edf);
-  for (int i = 0; i < 4; ++i) EXPECT_NEAR(fit.value[size_t(i)], truth[size_t(i)], 1e-6 * truth[size_t(i)]) << i;
+  for (int i = 0; i < 4; ++i)
+    EXPECT_NEAR(fit.value[size_t(i)], truth[size_t(i)], 1e-6 * truth[size_t(i)]) << i;
   EXPECT_EQ(fit.value[kRamp], 0.0);
   EXPECT_FALSE(fit.active[kRamp]);
   EXPECT_LT(fit.chi2_per_dof, 1e-12);
@@ -83,7 +84,8 @@ TEST(NoiseFit, IntervalsCoverTruthAcrossSeedsWithBiasInstability) {
     opt.terms = {false, true, true, true, false};
     const NoiseFit fit = fit_noise_model_gls(c.tau, c.adev, c.factors, c.n, opt);
     covered[kWhite] += fit.lower[kWhite] <= N && N <= fit.upper[kWhite];
-    covered[kBiasInstability] += fit.lower[kBiasInstability] <= B && B <= fit.upper[kBiasInstability];
+    covered[kBiasInstability] +=
+        fit.lower[kBiasInstability] <= B && B <= fit.upper[kBiasInstability];
     covered[kRandomWalk] += fit.lower[kRandomWalk] <= K && K <= fit.upper[kRandomWalk];
   }
   EXPECT_GE(covered[kWhite], 17);
@@ -103,7 +105,8 @@ TEST(NoiseFit, FindsNoBiasInstabilityWhereThereIsNone) {
     ASSERT_TRUE(s.bias_instability.found);
     EXPECT_LT(fit.value[kBiasInstability], 0.1 * s.bias_instability.value) << "seed " << seed;
     // The false B of the textbook reading is of the size of the curve's minimum.
-    EXPECT_GT(s.bias_instability.value, 0.8 * std::sqrt(2.0 * N * K / std::sqrt(3.0)) / kFlickerFloorFactor);
+    EXPECT_GT(s.bias_instability.value,
+              0.8 * std::sqrt(2.0 * N * K / std::sqrt(3.0)) / kFlickerFloorFactor);
     covered_n += fit.lower[kWhite] <= N && N <= fit.upper[kWhite];
     covered_k += fit.lower[kRandomWalk] <= K && K <= fit.upper[kRandomWalk];
   }
