@@ -325,8 +325,9 @@ TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
 
 // Built for AVX-512, AVX2 and the baseline, picked at load time (no -march in the build): the
 // frame tiles' loops vectorise to the machine's width. Arithmetic and its order are the same in
-// each variant (no FMA contraction), so the samples are too.
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+// each variant (no FMA contraction), so the samples are too. gcc only: clang 14 does not emit the
+// plain symbol of a cloned function that other translation units call, so they fail to link.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx512f", "avx2", "default")))
 #endif
 void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
