@@ -18,29 +18,58 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t) {
   if (t.size() < 2) return s;
   s.duration = t.back() - t.front();
   const std::size_t n = t.size() - 1;
-  std::vector<TimeNs> periods(n);
-  for (std::size_t i = 0; i < n; ++i) periods[i] = t[i + 1] - t[i];
   s.mean_period_s = to_seconds(s.duration) / static_cast<double>(n);
   s.mean_rate_hz = s.mean_period_s > 0 ? 1.0 / s.mean_period_s : 0.0;
-  // Jitter about the mean in integer ns first, so a long stream keeps full precision.
+  // One pass over the periods, taken on the fly (a copy of a long stream's periods costs more
+  // than the pass: 58 MB of fresh pages for 7.2 M samples). Jitter about the mean in integer ns
+  // first, so a long stream keeps full precision.
   double sum_sq = 0.0;
   const double mean_ns = static_cast<double>(s.duration) / static_cast<double>(n);
-  for (TimeNs p : periods) {
+  TimeNs lo = t[1] - t[0], hi = lo;
+  for (std::size_t i = 0; i < n; ++i) {
+    const TimeNs p = t[i + 1] - t[i];
     const double d = static_cast<double>(p) - mean_ns;
     sum_sq += d * d;
     if (p == 0) ++s.repeated;
+    lo = std::min(lo, p);
+    hi = std::max(hi, p);
   }
   s.period_std_s = std::sqrt(sum_sq / static_cast<double>(n)) * 1e-9;
-  const auto [lo, hi] = std::minmax_element(periods.begin(), periods.end());
-  s.min_period_s = to_seconds(*lo);
-  s.max_period_s = to_seconds(*hi);
-  std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(n / 2),
-                   periods.end());
-  const TimeNs median = periods[n / 2];
-  s.median_period_s = to_seconds(median);
-  for (TimeNs p : periods) {
-    if (2 * p > 3 * median) ++s.gaps;
+  s.min_period_s = to_seconds(lo);
+  s.max_period_s = to_seconds(hi);
+  // The median (the period of rank n / 2, 0-based) and the gaps: by counting when the periods
+  // span few distinct nanosecond values (a clocked stream), else from a sorted copy.
+  TimeNs median = lo;
+  constexpr TimeNs kCountingRange = TimeNs(1) << 15;
+  if (lo == hi) {
+    s.gaps = 2 * lo > 3 * lo ? n : 0;
+  } else if (hi - lo < kCountingRange) {
+    // Four interleaved tallies: a clocked stream's periods fall into a few bins, and a single
+    // tally would make every increment wait for the previous one.
+    const auto range = static_cast<std::size_t>(hi - lo) + 1;
+    std::vector<std::size_t> tally(4 * range, 0);
+    for (std::size_t i = 0; i < n; ++i)
+      ++tally[(i & 3) * range + static_cast<std::size_t>(t[i + 1] - t[i] - lo)];
+    std::vector<std::size_t> count(range);
+    for (std::size_t v = 0; v < range; ++v)
+      count[v] = tally[v] + tally[range + v] + tally[2 * range + v] + tally[3 * range + v];
+    std::size_t below = 0, v = 0;
+    while (below + count[v] <= n / 2) below += count[v++];
+    median = lo + static_cast<TimeNs>(v);
+    for (std::size_t u = 0; u < range; ++u) {
+      if (2 * (lo + static_cast<TimeNs>(u)) > 3 * median) s.gaps += count[u];
+    }
+  } else {
+    std::vector<TimeNs> periods(n);
+    for (std::size_t i = 0; i < n; ++i) periods[i] = t[i + 1] - t[i];
+    std::nth_element(periods.begin(), periods.begin() + static_cast<std::ptrdiff_t>(n / 2),
+                     periods.end());
+    median = periods[n / 2];
+    for (TimeNs p : periods) {
+      if (2 * p > 3 * median) ++s.gaps;
+    }
   }
+  s.median_period_s = to_seconds(median);
   return s;
 }
 

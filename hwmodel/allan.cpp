@@ -23,16 +23,21 @@ constexpr int64_t kBlock = 1024;
 
 // Memory traffic, not arithmetic, bounds these sweeps (a 6-axis, 7.2 M-sample S is 345 MB), so
 // the work is ordered for cache reuse:
-// - factors m <= kSmallFactor are done together, chunk by chunk of kChunk terms: the chunk of S
-//   and its neighbourhood (kChunk + 3 m samples) stays in L2 while every small factor sweeps it,
-//   so all of them cost one pass over S instead of one pass each;
+// - the factors whose window of S (the 2m or 3m samples a term spans, times the axes) fits in
+//   kSharedWindowBytes are done together, chunk by chunk of kChunk terms, in increasing j: every
+//   one of them reads the newest part of S from memory at most once between them and the rest of
+//   its window from the cache (for m <= kSmallFactor the chunk's neighbourhood, kChunk + 3 m
+//   samples, stays in L2; above that the window stays in L3, which is 32 MB here, shared by the
+//   cores and the other processes, so the budget is a fraction of it). So all of them together
+//   cost one pass over S from memory instead of one pass each;
 // - a larger factor visits its chunks in the order j0, j0 + m, j0 + 2m, ...: the chunk read at
 //   offset j + m for one step is the chunk at offset j for the next, so each part of S is read
 //   from memory about once per factor instead of two or three times.
 // Sums run per chunk (at most kChunk terms) and chunks are added in a fixed order, so results
 // do not depend on the number of threads.
-constexpr int64_t kChunk = 2048;
+constexpr int64_t kChunk = 4096;
 constexpr int64_t kSmallFactor = 1024;
+constexpr int64_t kSharedWindowBytes = int64_t(6) << 20;
 
 // Adds sum over j in [j0, j1) of the squared difference of order `Order` (2: S_{j+2m} - 2 S_{j+m}
 // + S_j; 3: S_{j+3m} - 3 S_{j+2m} + 3 S_{j+m} - S_j) to acc[0..axes). The generic kernel, for
@@ -373,6 +378,26 @@ double term_covariance(Deviation kind, int64_t m, double l, int alpha) {
   return c;
 }
 
+// Mean of each axis. For interleaved axes the flat run of values is summed in kLanes lanes
+// (lane l holds axis l mod k, as in the kernels), a pass at the speed of memory where Eigen's
+// row-wise mean of a 6-row matrix takes about 2.5 times longer. The mean only keeps S small (it
+// cancels in every difference), so a plain sum is exact enough.
+Eigen::VectorXd axis_means(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
+  const int axes = int(samples.rows());
+  const auto n = int64_t(samples.cols());
+  if (samples.outerStride() != axes || !lane_kernels_serve(axes)) return samples.rowwise().mean();
+  const double* p = samples.data();
+  const int64_t total = n * axes;
+  double lanes[kLanes] = {};
+  int64_t f = 0;
+  for (; f + kLanes <= total; f += kLanes)
+    for (int l = 0; l < kLanes; ++l) lanes[l] += p[f + l];
+  for (int l = 0; f < total; ++f, ++l) lanes[l] += p[f];
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(axes);
+  for (int l = 0; l < kLanes; ++l) mean(l % axes) += lanes[l];
+  return mean / double(n);
+}
+
 // S_0 = 0, S_{i+1} = S_i + (y_i - mean), Kahan-compensated per axis (independent chains, so the
 // axes run side by side). Returns false if a sample is not finite (checked in the same pass).
 template <int A>
@@ -415,6 +440,11 @@ std::vector<int64_t> log_spaced_factors(int64_t n, int points_per_decade, int64_
   }
   if (f.empty() || f.back() != max_factor) f.push_back(max_factor);
   return f;
+}
+
+int64_t default_shared_factor_limit(int axes) {
+  return std::max<int64_t>(kSmallFactor, kSharedWindowBytes / (2 * int64_t(std::max(axes, 1)) *
+                                                               int64_t(sizeof(double))));
 }
 
 double equivalent_dof(Deviation kind, int64_t n, int64_t m, int alpha) {
@@ -512,7 +542,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   for (int64_t m : r.factors) r.tau_s.push_back(double(m) * r.tau0_s);
 
   // Cumulative sums of the mean-free samples, Kahan-compensated.
-  const Eigen::VectorXd mean = samples.rowwise().mean();
+  const Eigen::VectorXd mean = axis_means(samples);
   // Not value-initialised: every entry is written below, and zeroing 345 MB first (6 axes of
   // 7.2 M samples) would cost a full extra pass over memory.
   const std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
@@ -545,22 +575,30 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   // Work items: the small factors of ADEV and HDEV together, in fixed groups of chunks, and
   // those of MDEV likewise; each larger factor alone. Threads take the next item from a
   // counter, the most expensive first.
-  std::vector<size_t> small, large;
-  for (size_t k = 0; k < grid; ++k) (r.factors[k] <= kSmallFactor ? small : large).push_back(k);
+  // shared: ADEV/HDEV factors of the shared pass (see kSharedWindowBytes); small: MDEV's factors
+  // of its group pass (its sliding sum restarts at each group with an O(m) direct sum, so its
+  // limit stays at kSmallFactor).
+  const int64_t shared_limit = options.shared_factor_limit > 0 ? options.shared_factor_limit
+                                                               : default_shared_factor_limit(axes);
+  const int64_t small_limit = std::min(kSmallFactor, shared_limit);
+  std::vector<size_t> shared, small;
+  for (size_t k = 0; k < grid; ++k) {
+    if (r.factors[k] <= shared_limit) shared.push_back(k);
+    if (r.factors[k] <= small_limit) small.push_back(k);
+  }
   std::vector<int> orders;  // 2: ADEV, 3: HDEV
   if (options.allan) orders.push_back(2);
   if (options.hadamard) orders.push_back(3);
   const int64_t n_chunks = (n + kChunk - 1) / kChunk;
   constexpr int64_t kChunksPerGroup = 64;
   const int64_t groups = (n_chunks + kChunksPerGroup - 1) / kChunksPerGroup;
-  // partial[order slot][chunk][small index * axes + a]
+  // partial[order slot][chunk][shared index * axes + a]
   std::vector<std::vector<double>> partial(
-      orders.size(), std::vector<double>(size_t(n_chunks) * small.size() * size_t(axes), 0.0));
+      orders.size(), std::vector<double>(size_t(n_chunks) * shared.size() * size_t(axes), 0.0));
   std::vector<std::function<void()>> tasks;
   for (size_t k = grid; k-- > 0;) {
     const int64_t m = r.factors[k];
-    if (m <= kSmallFactor) continue;
-    if (options.modified) {
+    if (options.modified && m > small_limit) {
       tasks.emplace_back([&, k, m] {
         double out[16];
         pick_modified(axes)(S, n, m, axes, out);
@@ -570,7 +608,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
           variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a] * scale;
       });
     }
-    for (size_t o = 0; o < orders.size(); ++o) {
+    for (size_t o = 0; o < orders.size() && m > shared_limit; ++o) {
       tasks.emplace_back([&, k, m, o] {
         double out[16];
         const int order = orders[o];
@@ -613,7 +651,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       });
     }
   }
-  if (!small.empty() && !orders.empty()) {
+  if (!shared.empty() && !orders.empty()) {
     for (int64_t g = 0; g < groups; ++g) {
       tasks.emplace_back([&, g] {
         for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup);
@@ -621,12 +659,12 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
           const int64_t j0 = c * kChunk;
           for (size_t o = 0; o < orders.size(); ++o) {
             const ChunkFn fn = pick_chunk(orders[o], axes);
-            for (size_t q = 0; q < small.size(); ++q) {
-              const int64_t m = r.factors[small[q]];
+            for (size_t q = 0; q < shared.size(); ++q) {
+              const int64_t m = r.factors[shared[q]];
               const int64_t terms = n + 1 - orders[o] * m;
               const int64_t j1 = std::min(j0 + kChunk, terms);
               if (j1 <= j0) continue;
-              fn(S, m, axes, j0, j1, &partial[o][(size_t(c) * small.size() + q) * size_t(axes)]);
+              fn(S, m, axes, j0, j1, &partial[o][(size_t(c) * shared.size() + q) * size_t(axes)]);
             }
           }
         }
@@ -664,15 +702,15 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   for (size_t o = 0; o < orders.size(); ++o) {
     const int order = orders[o];
     const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
-    for (size_t q = 0; q < small.size(); ++q) {
-      const int64_t m = r.factors[small[q]];
+    for (size_t q = 0; q < shared.size(); ++q) {
+      const int64_t m = r.factors[shared[q]];
       const int64_t terms = n + 1 - order * m;
       const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
       for (int a = 0; a < axes; ++a) {
         double total = 0.0;
         for (int64_t c = 0; c < n_chunks; ++c)
-          total += partial[o][(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
-        variance.at(d)(a, Eigen::Index(small[q])) = total * scale;
+          total += partial[o][(size_t(c) * shared.size() + q) * size_t(axes) + size_t(a)];
+        variance.at(d)(a, Eigen::Index(shared[q])) = total * scale;
       }
     }
   }

@@ -55,6 +55,11 @@ struct AllanOptions {
   double confidence = 0.6826894921370859;  // two-sided, 1 sigma by default
   std::optional<int> alpha;                // fix the noise type for the intervals (2, 0, -1 or -2)
   unsigned threads = 0;                    // 0: std::thread::hardware_concurrency()
+  // ADEV and HDEV factors up to this share one pass over the cumulative sums (each reads the
+  // newest part from memory once between them, the rest from the cache); each larger one sweeps
+  // them alone. 0: automatic (the factors whose 2m-sample window of all axes fits in 6 MB of
+  // cache; 65,536 for 6 axes). A tuning knob only: results agree either way to rounding.
+  int64_t shared_factor_limit = 0;
 };
 
 // One deviation over the grid: rows are axes, columns averaging factors.
@@ -87,6 +92,10 @@ struct AllanResult {
 AllanResult allan_deviation(std::span<const TimeNs> t,
                             const Eigen::Ref<const Eigen::MatrixXd>& samples,
                             const AllanOptions& options = {});
+
+// The automatic AllanOptions::shared_factor_limit for `axes` axes: the largest factor whose
+// 2m-sample window of the cumulative sums of all axes fits in 6 MB, at least 1024.
+int64_t default_shared_factor_limit(int axes);
 
 // Equivalent degrees of freedom of one estimate: n rate samples, factor m, noise exponent alpha
 // in {2, 1, 0, -1, -2} (1, flicker PM, is treated as 2: it does not occur in the IMU model).

@@ -1,8 +1,11 @@
 #include "core/sampling.hpp"
 
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <cmath>
 #include <vector>
+
+#include "core/rng.hpp"
 
 namespace imukit {
 namespace {
@@ -45,6 +48,42 @@ TEST(AnalyzeSampling, ShortStreamsHaveNoPeriods) {
   const SamplingStats one = analyze_sampling(std::vector<TimeNs>{5});
   EXPECT_EQ(one.samples, 1u);
   EXPECT_EQ(one.mean_rate_hz, 0.0);
+}
+
+// The median and the gap count by the definition (sorted periods), for comparison with the
+// counting path analyze_sampling takes when the periods span fewer than 32,768 ns.
+TEST(AnalyzeSampling, MedianAndGapsAgreeWithSortedPeriodsOnEveryPath) {
+  Rng rng(31);
+  // Jitter spans: 0 ns (all periods equal), a few ns and a few us (counting), 1 ms (sorting).
+  for (const TimeNs jitter : {TimeNs(0), TimeNs(3), TimeNs(4000), TimeNs(1'000'000)}) {
+    for (const std::size_t count :
+         {std::size_t(2), std::size_t(3), std::size_t(1000), std::size_t(1001)}) {
+      std::vector<TimeNs> t(count);
+      TimeNs now = 1'000'000'000;
+      for (std::size_t i = 0; i < count; ++i) {
+        t[i] = now;
+        TimeNs p = 10'000;
+        if (jitter > 0) p += TimeNs(std::floor(rng.uniform() * double(jitter)));
+        if (i % 97 == 5) p = 0;                // repeated stamp
+        if (i % 89 == 7) p = 16'000 + jitter;  // gap (above 1.5 median periods)
+        now += p;
+      }
+      std::vector<TimeNs> periods;
+      for (std::size_t i = 0; i + 1 < count; ++i) periods.push_back(t[i + 1] - t[i]);
+      std::vector<TimeNs> sorted = periods;
+      std::sort(sorted.begin(), sorted.end());
+      const TimeNs median = sorted[sorted.size() / 2];
+      std::size_t gaps = 0, repeated = 0;
+      for (TimeNs p : periods) gaps += 2 * p > 3 * median, repeated += p == 0;
+      const SamplingStats s = analyze_sampling(t);
+      SCOPED_TRACE(testing::Message() << "jitter " << jitter << " count " << count);
+      EXPECT_EQ(s.median_period_s, to_seconds(median));
+      EXPECT_EQ(s.min_period_s, to_seconds(sorted.front()));
+      EXPECT_EQ(s.max_period_s, to_seconds(sorted.back()));
+      EXPECT_EQ(s.gaps, gaps);
+      EXPECT_EQ(s.repeated, repeated);
+    }
+  }
 }
 
 }  // namespace

@@ -42,11 +42,12 @@ double naive_mvar(const std::vector<double>& y, int64_t m) {
 // Checks ADEV and HDEV (and MDEV if `modified`) of every axis of y against the textbook
 // definitions, to 1e-12 relative.
 void expect_textbook_values(const Eigen::MatrixXd& y, const std::vector<int64_t>& factors,
-                            bool modified) {
+                            bool modified, int64_t shared_factor_limit = 0) {
   const auto n = int64_t(y.cols());
   AllanOptions opt;
   opt.factors = factors;
   opt.modified = modified;
+  opt.shared_factor_limit = shared_factor_limit;
   opt.threads = 2;
   const AllanResult r = allan_deviation(uniform_times(n, 100.0), y, opt);
   ASSERT_TRUE(r.allan.computed && r.hadamard.computed && r.modified.computed == modified);
@@ -96,6 +97,44 @@ TEST(AllanDeviation, EqualsTextbookDefinitionsForLargeFactorsAndAxisCounts) {
   expect_textbook_values(y, factors, false);
   expect_textbook_values(y.topRows(2), factors, false);
   expect_textbook_values(y.topRows(5), factors, false);
+}
+
+TEST(AllanDeviation, EqualsTextbookDefinitionsWhicheverSweepTakesAFactor) {
+  // Which factors share one pass over the cumulative sums and which sweep them alone is a tuning
+  // choice (AllanOptions::shared_factor_limit; by default 65,536 for 6 axes, so the test above
+  // no longer reaches the lone sweeps): each factor must give the textbook value either way, on
+  // both sides of every limit, with the lane kernels (6, 2 axes) and the generic one (5).
+  const int64_t n = 3400;
+  Rng rng(14);
+  Eigen::MatrixXd y(6, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 6; ++a) y(a, i) = 3.0 * double(a) - 7.0 + 2e-3 * double(i) + rng.normal();
+  const std::vector<int64_t> factors = {1, 2, 7, 300, 1024, 1025, 1100};
+  for (const int64_t limit : {1, 7, 1024, 1100}) {
+    SCOPED_TRACE(::testing::Message() << "shared factor limit " << limit);
+    expect_textbook_values(y, factors, false, limit);
+    expect_textbook_values(y.topRows(2), factors, false, limit);
+    expect_textbook_values(y.topRows(5), factors, false, limit);
+  }
+  // Either way, the numbers do not depend on the thread count.
+  AllanOptions one;
+  one.threads = 1;
+  one.factors = factors;
+  one.shared_factor_limit = 7;
+  AllanOptions two = one;
+  two.threads = 2;
+  const AllanResult r1 = allan_deviation(uniform_times(n, 100.0), y, one);
+  const AllanResult r2 = allan_deviation(uniform_times(n, 100.0), y, two);
+  EXPECT_EQ(r1.allan.deviation, r2.allan.deviation);
+  EXPECT_EQ(r1.hadamard.deviation, r2.hadamard.deviation);
+  EXPECT_EQ(r1.modified.deviation, r2.modified.deviation);
+  // MDEV's factors up to min(1024, limit) share its group pass, larger ones slide alone.
+  const Eigen::MatrixXd head = y.leftCols(90);
+  for (const int64_t limit : {1, 5, 0}) {
+    SCOPED_TRACE(::testing::Message() << "shared factor limit " << limit);
+    expect_textbook_values(head, {1, 2, 5, 6, 17, 30}, true, limit);
+    expect_textbook_values(head.topRows(5), {1, 2, 5, 6, 17, 30}, true, limit);
+  }
 }
 
 TEST(AllanDeviation, EqualsTextbookDefinitionsAcrossWorkGroups) {
