@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cassert>
 #include <cmath>
 #include <map>
 #include <set>
@@ -12,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/hardware_model.hpp"
+#include "core/lane_math.hpp"
 #include "core/so3.hpp"
 #include "core/time.hpp"
 
@@ -77,20 +79,81 @@ double uniform_in(Rng& rng, double lo, double hi) {
   return lo == hi ? lo : lo + (hi - lo) * u;
 }
 
-// exp(s log q) for a unit q, the same rotation axis with s times the (shortest-arc) angle:
-// with w >= 0, half-angle h = atan2(|v|, w), q' = (cos(s h), v sin(s h) / |v|). No series is
-// needed near the identity: sin(s h) / |v| -> s / w stays accurate as |v| -> 0, and |v| = 0 is
-// the identity itself. (core's scale_rotation does the same through so3_log and so3_exp; this is
-// the hot loop of amplitude augmentation.)
-Quaterniond scale_angle(const Quaterniond& q_in, double s) {
-  const double sign = q_in.w() < 0.0 ? -1.0 : 1.0;
-  const double w = sign * q_in.w();
-  const Vector3d v = sign * q_in.vec();
-  const double n = v.norm();
-  if (n == 0.0) return Quaterniond::Identity();
-  const double h = s * std::atan2(n, w);
-  const double k = std::sin(h) / n;
-  return Quaterniond(std::cos(h), k * v.x(), k * v.y(), k * v.z());
+// q_k <- exp(s_k log q_k) for n unit quaternions stored as Eigen keeps them (x, y, z, w): the
+// same rotation axis with s times the (shortest-arc) angle. With w >= 0, half-angle
+// h = atan2(|v|, w) and q' = (cos(s h), v sin(s h) / |v|); at |v| = 0 that is the identity
+// itself, and near it sin(s h) / |v| -> s / w stays accurate. The hot loop of amplitude
+// augmentation, so built from core/lane_math's branch-free functions: it vectorises.
+// (core's scale_rotation does the same through so3_log and so3_exp.)
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void scale_angles(double* __restrict q, const double* __restrict s, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const double sign = q[4 * i + 3] < 0.0 ? -1.0 : 1.0;
+    const double x = sign * q[4 * i], y = sign * q[4 * i + 1], z = sign * q[4 * i + 2];
+    const double w = sign * q[4 * i + 3];
+    const double nv = __builtin_sqrt(x * x + y * y + z * z);
+    const lane::SinCos sc = lane::sincos_small(s[i] * lane::atan2_first_quadrant(nv, w));
+    const double k = sc.sin / (nv > 0.0 ? nv : 1.0);
+    q[4 * i] = k * x;
+    q[4 * i + 1] = k * y;
+    q[4 * i + 2] = k * z;
+    q[4 * i + 3] = sc.cos;
+  }
+}
+
+// The window's rotations of one joint: for window frame j, the 4-point Lagrange combination
+// (weights w[4j..4j+3]) of the source rotations s0[j] .. s0[j]+3, each sign-aligned with the
+// rotation at ref[j], renormalised -- or that rotation itself, bit for bit, where exact[j] is 1.
+// Source rotations are `stride` doubles apart (x, y, z, w each); dst holds n of them, packed.
+// Tiles of frames are gathered into structure-of-arrays form first, so the arithmetic vectorises.
+constexpr std::size_t kInterpolationTile = 64;
+
+// One tile: st holds, per component c of the sign reference and of the four stencil rotations,
+// kInterpolationTile values (st[(5 r + ... )]: reference at rows 0-3, stencil m at rows 4 + 4 m).
+[[gnu::always_inline]] inline void interpolate_tile(const double* __restrict st,
+                                                    const double* __restrict w,
+                                                    const double* __restrict exact,
+                                                    double* __restrict dst, std::size_t n) {
+  constexpr std::size_t T = kInterpolationTile;
+  for (std::size_t j = 0; j < n; ++j) {
+    const double rx = st[j], ry = st[T + j], rz = st[2 * T + j], rw = st[3 * T + j];
+    double a[4] = {0.0, 0.0, 0.0, 0.0};
+    for (std::size_t m = 0; m < 4; ++m) {
+      const double* q = st + (4 + 4 * m) * T + j;
+      const double dot = q[0] * rx + q[T] * ry + q[2 * T] * rz + q[3 * T] * rw;
+      const double c = dot < 0.0 ? -w[4 * j + m] : w[4 * j + m];
+      for (std::size_t k = 0; k < 4; ++k) a[k] += c * q[k * T];
+    }
+    const double inv = 1.0 / __builtin_sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
+    const bool keep = exact[j] != 0.0;
+    dst[4 * j] = keep ? rx : a[0] * inv;
+    dst[4 * j + 1] = keep ? ry : a[1] * inv;
+    dst[4 * j + 2] = keep ? rz : a[2] * inv;
+    dst[4 * j + 3] = keep ? rw : a[3] * inv;
+  }
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void interpolate_rotations(const double* src, std::size_t stride, const int64_t* ref,
+                           const int64_t* s0, const double* w, const double* exact, double* dst,
+                           std::size_t n) {
+  constexpr std::size_t T = kInterpolationTile;
+  double st[20 * T];
+  for (std::size_t j0 = 0; j0 < n; j0 += T) {
+    const std::size_t m = std::min(T, n - j0);
+    for (std::size_t j = 0; j < m; ++j) {
+      const double* r = src + static_cast<std::size_t>(ref[j0 + j]) * stride;
+      for (std::size_t c = 0; c < 4; ++c) st[c * T + j] = r[c];
+      const double* q = src + static_cast<std::size_t>(s0[j0 + j]) * stride;
+      for (std::size_t k = 0; k < 4; ++k, q += stride)
+        for (std::size_t c = 0; c < 4; ++c) st[(4 + 4 * k + c) * T + j] = q[c];
+    }
+    interpolate_tile(st, w + 4 * j0, exact + j0, dst + 4 * j0, m);
+  }
 }
 
 }  // namespace
@@ -98,6 +161,7 @@ Quaterniond scale_angle(const Quaterniond& q_in, double s) {
 struct PpdaAugmenter::Impl {
   sim::Body body;
   std::shared_ptr<sim::MotionSource> motion;
+  const sim::Motion* direct_motion = nullptr;  // `motion` when it is in memory (read in place)
   int64_t frames = 0;
   double motion_rate = 0.0;
   double rate = 0.0;
@@ -119,6 +183,8 @@ struct PpdaAugmenter::Impl {
     std::vector<TimeNs> times;
     std::vector<double> u, x;  // per window frame: output position, source frame position
     std::vector<double> scale;
+    std::vector<int64_t> ref, s0;  // per window frame (interpolate_rotations)
+    std::vector<double> weights, exact;
     // The amplitude spline is linear in its knot values: column m holds the curve through the
     // unit knot vector e_m at the window frames, so a joint's curve is one matrix-vector product.
     int basis_knots = -1;
@@ -141,6 +207,7 @@ PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
   if (!scene.motion) throw Error("augment: the scene has no motion");
   m.body = scene.body;
   m.motion = scene.motion;
+  m.direct_motion = dynamic_cast<const sim::Motion*>(scene.motion.get());
   m.options = options;
   if (options.window < 2) throw Error("augment: a window needs at least 2 samples");
   const std::optional<int64_t> n = scene.frames ? scene.frames : scene.motion->frame_count();
@@ -278,41 +345,59 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   // motion rates) -- exact copies where a position falls on a frame.
   const auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
   const auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
-  motion->read(lo, hi - lo, plan.joints, wk.chunk);
-  const sim::MotionChunk& c = wk.chunk;
+  assert(hi - lo >= 4);  // the constructor asks for more frames than a window's span
+  // Per window frame: the frame at or before x (its rotation is the sign reference), the
+  // stencil's first frame, both from lo, the four weights, and 1 where x is a frame itself.
+  wk.ref.resize(static_cast<std::size_t>(F));
+  wk.s0.resize(static_cast<std::size_t>(F));
+  wk.weights.resize(4 * static_cast<std::size_t>(F));
+  wk.exact.resize(static_cast<std::size_t>(F));
+  for (int64_t j = 0; j < F; ++j) {
+    const auto u = static_cast<std::size_t>(j);
+    const double x = wk.x[u];
+    const double fl = std::floor(x);
+    const auto i = static_cast<int64_t>(fl);
+    const int64_t s0 = std::clamp<int64_t>(i - 1, lo, hi - 4);
+    const std::array<double, 4> w = lagrange4(x, s0);
+    wk.ref[u] = i - lo;
+    wk.s0[u] = s0 - lo;
+    std::copy(w.begin(), w.end(), wk.weights.begin() + static_cast<std::ptrdiff_t>(4 * u));
+    wk.exact[u] = x == fl ? 1.0 : 0.0;
+  }
+  // The source in place when it is an in-memory Motion (joint by joint), else through a chunk.
+  std::size_t stride = 4;
+  const double* translation = nullptr;
+  if (direct_motion != nullptr) {
+    translation = direct_motion->translation_data() + 3 * lo;
+  } else {
+    motion->read(lo, hi - lo, plan.joints, wk.chunk);
+    stride = 4 * J;
+    translation = wk.chunk.root_translation.data();
+  }
   auto slot = wk.window_motions.find(F);
   if (slot == wk.window_motions.end())
     slot = wk.window_motions.try_emplace(F, motion_rate, body.size(), F).first;
   sim::Motion& wm = slot->second;
+  for (std::size_t k = 0; k < J; ++k) {
+    const auto joint = static_cast<std::size_t>(plan.joints[k]);
+    const double* src = direct_motion != nullptr
+                            ? direct_motion->rotation_data(joint)[lo].coeffs().data()
+                            : wk.chunk.rotations[k].coeffs().data();
+    interpolate_rotations(src, stride, wk.ref.data(), wk.s0.data(), wk.weights.data(),
+                          wk.exact.data(), wm.rotation(0, joint).coeffs().data(),
+                          static_cast<std::size_t>(F));
+  }
   for (int64_t j = 0; j < F; ++j) {
-    const double x = wk.x[static_cast<std::size_t>(j)];
-    const double fl = std::floor(x);
-    const auto i = static_cast<int64_t>(fl);
-    if (x == fl) {
-      for (std::size_t k = 0; k < J; ++k)
-        wm.rotation(j, static_cast<std::size_t>(plan.joints[k])) = c.rotation(i - lo, k);
-      wm.root_translation(j) = c.root_translation.col(i - lo);
+    const auto u = static_cast<std::size_t>(j);
+    const auto tr = [&](int64_t f) { return Eigen::Map<const Vector3d>(translation + 3 * f); };
+    if (wk.exact[u] != 0.0) {
+      wm.root_translation(j) = tr(wk.ref[u]);
       continue;
     }
-    const int64_t s0 = std::clamp<int64_t>(i - 1, lo, std::max<int64_t>(lo, hi - 4));
-    const std::array<double, 4> w = lagrange4(x, s0);
-    const int64_t n = std::min<int64_t>(4, hi - s0);
     Vector3d p = Vector3d::Zero();
-    for (int64_t m = 0; m < n; ++m)
-      p += w[static_cast<std::size_t>(m)] * c.root_translation.col(s0 + m - lo);
+    for (int64_t m = 0; m < 4; ++m)
+      p += wk.weights[4 * u + static_cast<std::size_t>(m)] * tr(wk.s0[u] + m);
     wm.root_translation(j) = p;
-    for (std::size_t k = 0; k < J; ++k) {
-      const Quaterniond& ref = c.rotation(i - lo, k);
-      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
-      for (int64_t m = 0; m < n; ++m) {
-        const Quaterniond& q = c.rotation(s0 + m - lo, k);
-        const double sgn = q.coeffs().dot(ref.coeffs()) < 0.0 ? -1.0 : 1.0;
-        acc += (sgn * w[static_cast<std::size_t>(m)]) * q.coeffs();
-      }
-      Quaterniond q;
-      q.coeffs() = acc / acc.norm();
-      wm.rotation(j, static_cast<std::size_t>(plan.joints[k])) = q;
-    }
   }
 
   // 3. Amplitude: q' = exp(s log q) for the chosen joints' relative rotations.
@@ -356,10 +441,8 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         if (log != nullptr) log->amplitude.insert(log->amplitude.end(), kv.begin(), kv.end());
         Eigen::Map<Eigen::VectorXd>(wk.scale.data(), F) = wk.basis * kv;
       }
-      for (int64_t j = 0; j < F; ++j) {
-        Quaterniond& q = wm.rotation(j, static_cast<std::size_t>(joint));
-        q = scale_angle(q, wk.scale[static_cast<std::size_t>(j)]);
-      }
+      scale_angles(wm.rotation(0, static_cast<std::size_t>(joint)).coeffs().data(), wk.scale.data(),
+                   static_cast<std::size_t>(F));
     }
   }
 

@@ -120,6 +120,17 @@ ExpDerivatives exp_with_derivatives(const Vector3d& psi, const Vector3d& dpsi,
 [[gnu::always_inline]] inline Vector3d rotate_inverse(const Quaterniond& q, const Vector3d& v) {
   return rotate(Quaterniond(q.w(), -q.x(), -q.y(), -q.z()), v);
 }
+// rotate() on plain doubles, for the structure-of-arrays loops.
+[[gnu::always_inline]] inline void rotate_into(double w, double ux, double uy, double uz, double vx,
+                                               double vy, double vz, double& ox, double& oy,
+                                               double& oz) {
+  const double tx = 2.0 * (uy * vz - uz * vy);
+  const double ty = 2.0 * (uz * vx - ux * vz);
+  const double tz = 2.0 * (ux * vy - uy * vx);
+  ox = vx + w * tx + (uy * tz - uz * ty);
+  oy = vy + w * ty + (uz * tx - ux * tz);
+  oz = vz + w * tz + (ux * ty - uy * tx);
+}
 
 // Lagrange basis on nodes tau (frames relative to the interval start), value, first and second
 // derivative at u.
@@ -162,6 +173,9 @@ LagrangeWeights lagrange(const std::array<double, 4>& tau, int n, double u) {
 // can legitimately exceed pi (fast spins at low frame rates), so they are unwrapped against the
 // linear extrapolation of their nearer neighbours.
 Vector3d unwrap_near(const Vector3d& phi, const Vector3d& ref) {
+  // Within pi of ref, no other equivalent (2 pi away along the axis) can be nearer: the common
+  // case, decided without a square root.
+  if ((phi - ref).squaredNorm() <= std::numbers::pi * std::numbers::pi) return phi;
   const double th = phi.norm();
   Vector3d n;
   if (th > 0.0) {
@@ -177,6 +191,38 @@ Vector3d unwrap_near(const Vector3d& phi, const Vector3d& ref) {
     if ((c - ref).squaredNorm() < (best - ref).squaredNorm()) best = c;
   }
   return best;
+}
+
+// log q for a quaternion q = (w, x, y, z) of any norm and sign, when its angle is small
+// (|v| < 0.1 |w|, below about 0.2 rad -- the increments between neighbouring frames): with the
+// sign made positive, log q = v (2 / w) atan(r) / r, r = |v| / w, and atan(r) / r =
+// sum (-r^2)^k / (2k + 1), 9 terms for an error below 1e-18: no atan2, no square root, no branch,
+// so loops over frames vectorise. `large` is 1 where the series does not apply and the caller
+// takes so3_log instead, else 0 (a double, not a bool, so that it vectorises with the rest).
+// q and -q give the same.
+struct SmallAngleLog {
+  double x, y, z;
+  double large;
+};
+[[gnu::always_inline]] inline SmallAngleLog small_angle_log(double qw, double qx, double qy,
+                                                            double qz) {
+  const double sgn = qw < 0.0 ? -1.0 : 1.0;
+  const double w = sgn * qw;
+  const double vx = sgn * qx, vy = sgn * qy, vz = sgn * qz;
+  const double s2 = vx * vx + vy * vy + vz * vz;
+  const double inv = 1.0 / w;
+  const double r2 = s2 * (inv * inv);
+  double r = 1.0 / 17.0;
+  for (int m = 7; m >= 0; --m) r = 1.0 / (2 * m + 1) - r2 * r;
+  const double scale = 2.0 * r * inv;
+  return {vx * scale, vy * scale, vz * scale, s2 < 0.01 * w * w ? 0.0 : 1.0};
+}
+
+// log(a^* b), the rotation from a to b in a's axes: by the series when small, else so3_log.
+Vector3d relative_log(const Quaterniond& a, const Quaterniond& b) {
+  const Quaterniond q = multiply(a.conjugate(), b);
+  const SmallAngleLog d = small_angle_log(q.w(), q.x(), q.y(), q.z());
+  return d.large == 0.0 ? Vector3d(d.x, d.y, d.z) : so3_log(q);
 }
 
 // Intrinsic XYZ Euler angles of a rotation matrix as the reference computes them.
@@ -236,6 +282,302 @@ SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sen
   return plan;
 }
 
+namespace {
+
+// The spline on motion frames, in structure-of-arrays form.
+//
+// A sample exactly on frame f with the full interior stencil f-1 .. f+2 (every sample of a
+// sensor at the motion's rate, or at a whole fraction of it, and every PPDA window) needs no
+// exp: there the chart coordinate psi is 0, so a joint's local body rate and acceleration are the
+// stencil's derivative weights applied to its three neighbours' chart coordinates log(q_f^* q_m),
+// and the chain is propagated with quaternions. Lanes are samples: the local rotations are
+// gathered per tile, then the kernels below run over plain arrays and vectorise (the small-angle
+// log has no branch; the rare larger angles are redone through so3_log). Same formulas as the
+// per-sample path, so the two agree to rounding; which path a sample takes depends only on its
+// own frame position, never on the other samples of the call.
+//
+// The kernels take every array as a separate __restrict parameter: gcc 12 does not vectorise
+// these loops when the arrays are offsets of one local pointer.
+struct OnFrameInputs {
+  const SimulationPlan* plan = nullptr;
+  const std::vector<Vector3d>* offsets = nullptr;  // per plan joint, from its plan parent
+  const std::vector<SensorSpec>* sensors = nullptr;
+  // The motion from frame lo on: per plan joint its local rotation at frame lo (x, y, z, w, as
+  // Eigen stores them) and the doubles from one frame to the next; the root translation (x, y, z
+  // per frame).
+  int64_t lo = 0;
+  const std::vector<const double*>* rotations = nullptr;
+  std::size_t rotation_stride = 4;
+  const double* translation = nullptr;
+  double rate = 0.0;
+  Vector3d gravity_world, magnetic_field_world;
+};
+
+constexpr std::size_t kOnFrameTile = 64;
+// Per plan joint and tile: world rotation (w x y z), world angular rate and acceleration, joint
+// origin acceleration (13 arrays of kOnFrameTile, in this order).
+constexpr std::size_t kJointArrays = 13;
+// Per tile, rows of kStencilRow values: the local rotations (16 rows: w x y z of the stencil's
+// four frames; a tile of consecutive frames uses rows 0-3 for its n + 3 frames), the steps
+// log(q_(f-1)^* q_f) and log(q_f^* q_f+1) (rows 16-21; for consecutive frames rows 16-18 hold
+// n + 1 steps, each sample's backward step followed by its forward one), log(q_f^* q_f+2) (rows
+// 22-24), their flags (25-27) and the sensor outputs (specific force, angular rate; 28-33).
+constexpr std::size_t kStencilRow = kOnFrameTile + 4;
+constexpr std::size_t kStencilArrays = 34;
+
+// log(a^* b) lane by lane (see small_angle_log): out x, y, z and the flag `large`.
+[[gnu::always_inline]] inline void relative_log_lanes(
+    const double* __restrict aw, const double* __restrict ax, const double* __restrict ay,
+    const double* __restrict az, const double* __restrict bw, const double* __restrict bx,
+    const double* __restrict by, const double* __restrict bz, double* __restrict px,
+    double* __restrict py, double* __restrict pz, double* __restrict large, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    // a^* b, as multiply(a.conjugate(), b).
+    const double cw = aw[i], cx = -ax[i], cy = -ay[i], cz = -az[i];
+    const SmallAngleLog d = small_angle_log(cw * bw[i] - cx * bx[i] - cy * by[i] - cz * bz[i],
+                                            (cw * bx[i] + cx * bw[i]) + (cy * bz[i] - cz * by[i]),
+                                            (cw * by[i] + cy * bw[i]) + (cz * bx[i] - cx * bz[i]),
+                                            (cw * bz[i] + cz * bw[i]) + (cx * by[i] - cy * bx[i]));
+    px[i] = d.x;
+    py[i] = d.y;
+    pz[i] = d.z;
+    large[i] = d.large;
+  }
+}
+
+// One joint's world rotation, angular rate and acceleration and its origin's acceleration, from
+// its stencil (st: the local rotations and chart coordinates of kStencilArrays) and its parent's
+// arrays (pa, kJointArrays; unused for the root, whose origin acceleration is filled in later).
+// d*, e*: the derivative weights of the neighbours times rate and rate^2; o: the joint's offset
+// in its parent's axes.
+// The chart coordinates are psi_-1 = -back, psi_1 = fwd, psi_2 = fwd2 (psi_0 = 0 drops out; the
+// sign of back is in the weights d[0], e[0]); each points at 3 rows (x, y, z) of kStencilRow, as
+// does lq, the local rotation at f (w, x, y, z).
+template <bool Root>
+[[gnu::always_inline]] inline void joint_lanes(
+    const double* __restrict lq, const double* __restrict back, const double* __restrict fwd,
+    const double* __restrict fwd2, const double* __restrict pa, double* __restrict jt,
+    std::size_t n, const double (&d)[3], const double (&e)[3], const Vector3d& o) {
+  constexpr std::size_t T = kOnFrameTile;
+  constexpr std::size_t R = kStencilRow;
+  const double ox = o.x(), oy = o.y(), oz = o.z();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double wbx = (d[0] * back[i] + d[1] * fwd[i]) + d[2] * fwd2[i];
+    const double wby = (d[0] * back[R + i] + d[1] * fwd[R + i]) + d[2] * fwd2[R + i];
+    const double wbz = (d[0] * back[2 * R + i] + d[1] * fwd[2 * R + i]) + d[2] * fwd2[2 * R + i];
+    const double abx = (e[0] * back[i] + e[1] * fwd[i]) + e[2] * fwd2[i];
+    const double aby = (e[0] * back[R + i] + e[1] * fwd[R + i]) + e[2] * fwd2[R + i];
+    const double abz = (e[0] * back[2 * R + i] + e[1] * fwd[2 * R + i]) + e[2] * fwd2[2 * R + i];
+    // The local rotation at f, normalised.
+    const double lw = lq[i], lx = lq[R + i], ly = lq[2 * R + i], lz = lq[3 * R + i];
+    const double inv = 1.0 / std::sqrt(lw * lw + lx * lx + ly * ly + lz * lz);
+    const double bw = lw * inv, bx = lx * inv, by = ly * inv, bz = lz * inv;
+    if constexpr (Root) {
+      jt[i] = bw;
+      jt[T + i] = bx;
+      jt[2 * T + i] = by;
+      jt[3 * T + i] = bz;
+      rotate_into(bw, bx, by, bz, wbx, wby, wbz, jt[4 * T + i], jt[5 * T + i], jt[6 * T + i]);
+      rotate_into(bw, bx, by, bz, abx, aby, abz, jt[7 * T + i], jt[8 * T + i], jt[9 * T + i]);
+      continue;
+    }
+    const double aw = pa[i], ax = pa[T + i], ay = pa[2 * T + i], az = pa[3 * T + i];
+    const double pwx = pa[4 * T + i], pwy = pa[5 * T + i], pwz = pa[6 * T + i];
+    const double pdx = pa[7 * T + i], pdy = pa[8 * T + i], pdz = pa[9 * T + i];
+    // World rotation: parent * local (multiply(), spelled out).
+    const double kw = aw * bw - ax * bx - ay * by - az * bz;
+    const double kx = (aw * bx + ax * bw) + (ay * bz - az * by);
+    const double ky = (aw * by + ay * bw) + (az * bx - ax * bz);
+    const double kz = (aw * bz + az * bw) + (ax * by - ay * bx);
+    double wlx, wly, wlz, alx, aly, alz, owx, owy, owz;
+    rotate_into(kw, kx, ky, kz, wbx, wby, wbz, wlx, wly, wlz);
+    rotate_into(kw, kx, ky, kz, abx, aby, abz, alx, aly, alz);
+    rotate_into(aw, ax, ay, az, ox, oy, oz, owx, owy, owz);
+    jt[i] = kw;
+    jt[T + i] = kx;
+    jt[2 * T + i] = ky;
+    jt[3 * T + i] = kz;
+    // w = w_p + w_l; dw = dw_p + w_p x w_l + R a_b; a = a_p + dw_p x o + w_p x (w_p x o).
+    jt[4 * T + i] = pwx + wlx;
+    jt[5 * T + i] = pwy + wly;
+    jt[6 * T + i] = pwz + wlz;
+    jt[7 * T + i] = (pdx + (pwy * wlz - pwz * wly)) + alx;
+    jt[8 * T + i] = (pdy + (pwz * wlx - pwx * wlz)) + aly;
+    jt[9 * T + i] = (pdz + (pwx * wly - pwy * wlx)) + alz;
+    const double cx = pwy * owz - pwz * owy, cy = pwz * owx - pwx * owz, cz = pwx * owy - pwy * owx;
+    jt[10 * T + i] = (pa[10 * T + i] + (pdy * owz - pdz * owy)) + (pwy * cz - pwz * cy);
+    jt[11 * T + i] = (pa[11 * T + i] + (pdz * owx - pdx * owz)) + (pwz * cx - pwx * cz);
+    jt[12 * T + i] = (pa[12 * T + i] + (pdx * owy - pdy * owx)) + (pwx * cy - pwy * cx);
+  }
+}
+
+// A sensor's specific force and angular rate (into so: 6 arrays) from its joint's arrays.
+[[gnu::always_inline]] inline void sensor_lanes(const double* __restrict jt, double* __restrict so,
+                                                std::size_t n, const Quaterniond& q_js,
+                                                const Vector3d& p_js, const Vector3d& g) {
+  constexpr std::size_t T = kOnFrameTile;
+  const double sw = q_js.w(), sx = q_js.x(), sy = q_js.y(), sz = q_js.z();
+  const double rx = p_js.x(), ry = p_js.y(), rz = p_js.z();
+  const double gx = g.x(), gy = g.y(), gz = g.z();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double kw = jt[i], kx = jt[T + i], ky = jt[2 * T + i], kz = jt[3 * T + i];
+    const double wx = jt[4 * T + i], wy = jt[5 * T + i], wz = jt[6 * T + i];
+    const double dx = jt[7 * T + i], dy = jt[8 * T + i], dz = jt[9 * T + i];
+    // q_world_sensor = q_world_joint q_joint_sensor, then its inverse rotates world vectors.
+    const double qw = kw * sw - kx * sx - ky * sy - kz * sz;
+    const double qx = -((kw * sx + kx * sw) + (ky * sz - kz * sy));
+    const double qy = -((kw * sy + ky * sw) + (kz * sx - kx * sz));
+    const double qz = -((kw * sz + kz * sw) + (kx * sy - ky * sx));
+    double px, py, pz;
+    rotate_into(kw, kx, ky, kz, rx, ry, rz, px, py, pz);
+    // a + dw x r + w x (w x r) - g.
+    const double cx = wy * pz - wz * py, cy = wz * px - wx * pz, cz = wx * py - wy * px;
+    const double fx = ((jt[10 * T + i] + (dy * pz - dz * py)) + (wy * cz - wz * cy)) - gx;
+    const double fy = ((jt[11 * T + i] + (dz * px - dx * pz)) + (wz * cx - wx * cz)) - gy;
+    const double fz = ((jt[12 * T + i] + (dx * py - dy * px)) + (wx * cy - wy * cx)) - gz;
+    rotate_into(qw, qx, qy, qz, fx, fy, fz, so[i], so[T + i], so[2 * T + i]);
+    rotate_into(qw, qx, qy, qz, wx, wy, wz, so[3 * T + i], so[4 * T + i], so[5 * T + i]);
+  }
+}
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+__attribute__((target_clones("avx512f", "avx2", "default")))
+#endif
+void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samples,
+                      std::span<const int64_t> frames, std::vector<double>& scratch,
+                      std::vector<SensorBlock>& out) {
+  constexpr std::size_t T = kOnFrameTile;
+  const SimulationPlan& plan = *in.plan;
+  const std::size_t J = plan.joints.size();
+  const double rate = in.rate, rate2 = rate * rate;
+  // The stencil's derivative weights at u = 0 (nodes -1, 0, 1, 2), as the per-sample path has
+  // them; node 0 (psi = 0) drops out.
+  const LagrangeWeights L = lagrange({-1.0, 0.0, 1.0, 2.0}, 4, 0.0);
+  // psi_-1 is minus the backward step, so its weights change sign (exactly).
+  const double d[3] = {-(L.dw[0] * rate), L.dw[2] * rate, L.dw[3] * rate};
+  const double e[3] = {-(L.ddw[0] * rate2), L.ddw[2] * rate2, L.ddw[3] * rate2};
+  constexpr std::size_t R = kStencilRow;
+  scratch.resize(J * kJointArrays * T + kStencilArrays * R);
+  double* const st = scratch.data() + J * kJointArrays * T;
+  const auto joint_arrays = [&](std::size_t k) { return scratch.data() + k * kJointArrays * T; };
+  for (std::size_t t0 = 0; t0 < samples.size(); t0 += T) {
+    const std::size_t n = std::min(T, samples.size() - t0);
+    const int64_t* fr = frames.data() + t0;
+    for (std::size_t k = 0; k < J; ++k) {
+      // A tile of consecutive frames shares its rotations and steps between samples: n + 3
+      // frames and n + 1 steps instead of 4 n and 2 n.
+      const bool run = fr[n - 1] - fr[0] == static_cast<int64_t>(n) - 1;
+      const double* rot = (*in.rotations)[k];
+      const auto gather = [&](std::size_t row, std::size_t col, int64_t f) {
+        const double* q = rot + static_cast<std::size_t>(f - in.lo) * in.rotation_stride;
+        st[row * R + col] = q[3];
+        st[(row + 1) * R + col] = q[0];
+        st[(row + 2) * R + col] = q[1];
+        st[(row + 3) * R + col] = q[2];
+      };
+      const auto quat = [&](std::size_t row, std::size_t col) {
+        return Quaterniond(st[row * R + col], st[(row + 1) * R + col], st[(row + 2) * R + col],
+                           st[(row + 3) * R + col]);
+      };
+      const auto put = [&](std::size_t row, std::size_t col, const Vector3d& v) {
+        for (std::size_t x = 0; x < 3; ++x)
+          st[(row + x) * R + col] = v[static_cast<Eigen::Index>(x)];
+      };
+      const auto logs = [&](const double* a, const double* b, std::size_t row, std::size_t m) {
+        relative_log_lanes(a, a + R, a + 2 * R, a + 3 * R, b, b + R, b + 2 * R, b + 3 * R,
+                           st + row * R, st + (row + 1) * R, st + (row + 2) * R,
+                           st + (25 + (row - 16) / 3) * R, m);
+      };
+      const double *lq, *back, *fwd;
+      if (run) {
+        for (std::size_t i = 0; i < n + 3; ++i) gather(0, i, fr[0] - 1 + static_cast<int64_t>(i));
+        logs(st, st + 1, 16, n + 1);  // steps from frame f-1 on
+        logs(st + 1, st + 3, 22, n);  // f to f+2
+        for (std::size_t i = 0; i < n + 1; ++i) {
+          if (st[25 * R + i] != 0.0) put(16, i, relative_log(quat(0, i), quat(0, i + 1)));
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+          if (st[27 * R + i] == 0.0) continue;
+          const Vector3d fw(st[16 * R + i + 1], st[17 * R + i + 1], st[18 * R + i + 1]);
+          put(22, i, unwrap_near(relative_log(quat(0, i + 1), quat(0, i + 3)), 2.0 * fw));
+        }
+        lq = st + 1;
+        back = st + 16 * R;
+        fwd = st + 16 * R + 1;
+      } else {
+        for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t m = 0; m < 4; ++m) gather(4 * m, i, fr[i] - 1 + static_cast<int64_t>(m));
+        logs(st, st + 4 * R, 16, n);           // f-1 to f
+        logs(st + 4 * R, st + 8 * R, 19, n);   // f to f+1
+        logs(st + 4 * R, st + 12 * R, 22, n);  // f to f+2
+        for (std::size_t i = 0; i < n; ++i) {
+          if (st[25 * R + i] + st[26 * R + i] + st[27 * R + i] == 0.0) continue;
+          put(16, i, relative_log(quat(0, i), quat(4, i)));
+          const Vector3d fw = relative_log(quat(4, i), quat(8, i));
+          put(19, i, fw);
+          put(22, i, unwrap_near(relative_log(quat(4, i), quat(12, i)), 2.0 * fw));
+        }
+        lq = st + 4 * R;
+        back = st + 16 * R;
+        fwd = st + 19 * R;
+      }
+      const double* fwd2 = st + 22 * R;
+      const int p = plan.parent[k];
+      double* jt = joint_arrays(k);
+      if (p < 0) {
+        joint_lanes<true>(lq, back, fwd, fwd2, nullptr, jt, n, d, e, Vector3d::Zero());
+        // The root translation's second derivative, in differences from frame f (a still root
+        // stays exactly still).
+        for (std::size_t i = 0; i < n; ++i) {
+          const auto tr = [&](int64_t f) {
+            return Eigen::Map<const Vector3d>(in.translation + 3 * (f - in.lo));
+          };
+          const Vector3d t0v = tr(fr[i]);
+          const Vector3d ta = L.ddw[0] * (tr(fr[i] - 1) - t0v) + L.ddw[2] * (tr(fr[i] + 1) - t0v) +
+                              L.ddw[3] * (tr(fr[i] + 2) - t0v);
+          jt[10 * T + i] = ta.x() * rate2;
+          jt[11 * T + i] = ta.y() * rate2;
+          jt[12 * T + i] = ta.z() * rate2;
+        }
+      } else {
+        joint_lanes<false>(lq, back, fwd, fwd2, joint_arrays(static_cast<std::size_t>(p)), jt, n, d,
+                           e, (*in.offsets)[k]);
+      }
+    }
+    // The sensors: computed into the tile, then copied to the samples' columns.
+    double* so = st + 28 * R;
+    for (std::size_t s = 0; s < in.sensors->size(); ++s) {
+      const SensorSpec& spec = (*in.sensors)[s];
+      const double* jt = joint_arrays(static_cast<std::size_t>(plan.sensor_joint[s]));
+      sensor_lanes(jt, so, n, spec.placement.q_joint_sensor, spec.placement.p_joint_sensor,
+                   in.gravity_world);
+      double* of = spec.outputs.accelerometer ? out[s].specific_force.data() : nullptr;
+      double* ow = spec.outputs.gyroscope ? out[s].angular_rate.data() : nullptr;
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t col = samples[t0 + i];
+        for (std::size_t x = 0; x < 3; ++x) {
+          if (of != nullptr) of[3 * col + x] = so[x * T + i];
+          if (ow != nullptr) ow[3 * col + x] = so[(3 + x) * T + i];
+        }
+      }
+      if (!spec.outputs.orientation && !spec.outputs.magnetometer) continue;
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t col = samples[t0 + i];
+        const Quaterniond q_ws = Quaterniond(jt[i], jt[T + i], jt[2 * T + i], jt[3 * T + i]) *
+                                 spec.placement.q_joint_sensor;
+        // As the per-sample path has it (the sign from the rotation matrix).
+        if (spec.outputs.orientation)
+          out[s].q_world_sensor[col] = Quaterniond(q_ws.toRotationMatrix()).normalized();
+        if (spec.outputs.magnetometer)
+          out[s].magnetic_field.col(static_cast<Eigen::Index>(col)) =
+              q_ws.conjugate() * in.magnetic_field_world;
+      }
+    }
+  }
+}
+
+}  // namespace
+
 struct Simulator::Workspace {
   MotionChunk chunk;
   std::vector<Quaterniond> q_world;  // loaded frames x plan joints
@@ -255,6 +597,13 @@ struct Simulator::Workspace {
   // Spline: per plan joint, the interval whose chart coordinates are cached.
   std::vector<int64_t> chart_interval;
   std::vector<std::array<Vector3d, 4>> chart_psi;
+  std::vector<int64_t> step_frame;  // per plan joint: f of the cached step log(q_f^* q_f+1)
+  std::vector<Vector3d> step;
+  std::vector<char> on_frame;  // per sample: taken by spline_on_frames
+  std::vector<std::size_t> on_frame_samples;
+  std::vector<int64_t> on_frame_frames;
+  std::vector<double> on_frame_scratch;
+  std::vector<const double*> on_frame_rotations;
   std::vector<Matrix3d> chart_R;
   std::vector<Matrix3d> R;
   std::vector<Vector3d> p, v, a, w, dw;
@@ -366,18 +715,35 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   const int64_t lo = std::max<int64_t>(0, imin - 2);
   const int64_t hi = std::min<int64_t>(N, imax + 4);
   const int64_t F = hi - lo;
-  // Grid methods read an in-memory Motion in place (a copy was an eighth of fd's run time);
-  // other sources, and the spline, through a chunk.
-  const auto* direct =
-      options_.method == DerivativeMethod::spline ? nullptr : dynamic_cast<const Motion*>(&motion);
-  if (direct == nullptr) motion.read(lo, hi - lo, plan_.joints, ws.chunk);
+  // The spline's samples on frames (spline_on_frames; the rest are evaluated one by one).
+  const bool spline = options_.method == DerivativeMethod::spline;
+  ws.on_frame.assign(times.size(), 0);
+  ws.on_frame_samples.clear();
+  ws.on_frame_frames.clear();
+  for (std::size_t i = 0; i < times.size() && spline; ++i) {
+    if (pos[i].frac == 0.0 && pos[i].frame >= 1 && pos[i].frame + 2 <= N - 1) {
+      ws.on_frame[i] = 1;
+      ws.on_frame_samples.push_back(i);
+      ws.on_frame_frames.push_back(pos[i].frame);
+    }
+  }
+  // Grid methods and the spline's on-frame samples read an in-memory Motion in place (a copy
+  // was an eighth of fd's run time); other sources, and samples between frames, through a chunk.
+  const auto* direct = dynamic_cast<const Motion*>(&motion);
+  if (direct == nullptr || (spline && ws.on_frame_samples.size() < times.size()))
+    motion.read(lo, hi - lo, plan_.joints, ws.chunk);
   const MotionChunk& c = ws.chunk;
   const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& {
     return c.rotation(f - lo, k);
   };
 
-  if (options_.method == DerivativeMethod::spline) {
+  if (spline) {
     ws.chart_interval.assign(J, -1);
+    ws.step_frame.assign(J, -1);
+    ws.step.resize(J);
+    LagrangeWeights last_L;
+    double last_u = 0.0;
+    std::array<double, 4> last_tau{};
     ws.chart_psi.resize(J);
     ws.chart_R.resize(J);
     ws.R.resize(J);
@@ -386,7 +752,31 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     ws.a.resize(J);
     ws.w.resize(J);
     ws.dw.resize(J);
+    if (!ws.on_frame_samples.empty()) {
+      OnFrameInputs in;
+      in.plan = &plan_;
+      in.offsets = &offsets_;
+      in.sensors = &sensors_;
+      in.lo = lo;
+      ws.on_frame_rotations.resize(J);
+      for (std::size_t k = 0; k < J; ++k) {
+        ws.on_frame_rotations[k] =
+            direct != nullptr ? direct->rotation_data(static_cast<std::size_t>(plan_.joints[k]))[lo]
+                                    .coeffs()
+                                    .data()
+                              : c.rotations[k].coeffs().data();
+      }
+      in.rotations = &ws.on_frame_rotations;
+      in.rotation_stride = direct != nullptr ? 4 : 4 * J;
+      in.translation =
+          direct != nullptr ? direct->translation_data() + 3 * lo : c.root_translation.data();
+      in.rate = rate;
+      in.gravity_world = options_.gravity_world;
+      in.magnetic_field_world = B_world;
+      spline_on_frames(in, ws.on_frame_samples, ws.on_frame_frames, ws.on_frame_scratch, out);
+    }
     for (std::size_t i = 0; i < times.size(); ++i) {
+      if (ws.on_frame[i] != 0) continue;
       const int64_t fi = pos[i].frame;
       int64_t s0 = std::max<int64_t>(0, fi - 1);
       int64_t s1 = std::min<int64_t>(N - 1, fi + 2);
@@ -398,15 +788,35 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       std::array<double, 4> tau{};
       for (int m = 0; m < n; ++m)
         tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
-      const LagrangeWeights L = lagrange(tau, n, pos[i].frac);
+      const double u = pos[i].frac;
+      if (i == 0 || u != last_u || n != last_L.n || tau != last_tau) {
+        last_L = lagrange(tau, n, u);
+        last_u = u;
+        last_tau = tau;
+      }
+      const LagrangeWeights& L = last_L;
       for (std::size_t k = 0; k < J; ++k) {
         if (ws.chart_interval[k] != fi) {
-          const Quaterniond qi_inv = q_local(fi, k).conjugate();
+          // psi_m = log(q_fi^* q_m); the neighbours' are the steps d_f = log(q_f^* q_f+1): d_fi
+          // forwards and -d_(fi-1) backwards, where d_(fi-1) was the previous chart's forward step.
+          const auto step = [&](int64_t f) -> Vector3d {
+            if (ws.step_frame[k] == f) return ws.step[k];
+            ws.step_frame[k] = f;
+            ws.step[k] = relative_log(q_local(f, k), q_local(f + 1, k));
+            return ws.step[k];
+          };
           auto& psi = ws.chart_psi[k];
           const auto c0 = static_cast<int>(fi - s0);  // the chart centre's stencil index
           for (int m = 0; m < n; ++m) {
-            psi[static_cast<std::size_t>(m)] =
-                m == c0 ? Vector3d::Zero() : so3_log(qi_inv * q_local(s0 + m, k));
+            const auto um = static_cast<std::size_t>(m);
+            if (m == c0)
+              psi[um] = Vector3d::Zero();
+            else if (m == c0 - 1)
+              psi[um] = -step(fi - 1);
+            else if (m == c0 + 1)
+              psi[um] = step(fi);
+            else
+              psi[um] = relative_log(q_local(fi, k), q_local(s0 + m, k));
           }
           for (int m = c0 + 2; m < n; ++m) {
             const auto u = static_cast<std::size_t>(m);
@@ -422,12 +832,22 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
         Vector3d psi = Vector3d::Zero(), dpsi = Vector3d::Zero(), ddpsi = Vector3d::Zero();
         for (int m = 0; m < n; ++m) {
           const Vector3d& y = ws.chart_psi[k][static_cast<std::size_t>(m)];
-          psi += L.w[static_cast<std::size_t>(m)] * y;
+          if (u != 0.0) psi += L.w[static_cast<std::size_t>(m)] * y;
           dpsi += L.dw[static_cast<std::size_t>(m)] * y;
           ddpsi += L.ddw[static_cast<std::size_t>(m)] * y;
         }
-        const ExpDerivatives E = exp_with_derivatives(psi, dpsi * rate, ddpsi * (rate * rate));
-        const Matrix3d Rl = ws.chart_R[k] * E.e.toRotationMatrix();
+        ExpDerivatives E;
+        Matrix3d Rl;
+        if (u == 0.0) {
+          // On a frame psi = 0: exp is the identity and its body rate and acceleration are dpsi
+          // and ddpsi themselves (what exp_with_derivatives returns there, bit for bit).
+          E.w_body = dpsi * rate;
+          E.dw_body = ddpsi * (rate * rate);
+          Rl = ws.chart_R[k];
+        } else {
+          E = exp_with_derivatives(psi, dpsi * rate, ddpsi * (rate * rate));
+          Rl = ws.chart_R[k] * E.e.toRotationMatrix();
+        }
         const int p = plan_.parent[k];
         if (p < 0) {
           // Differences from the interval's start frame: the weights of the derivatives sum
@@ -611,12 +1031,9 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   const int64_t d0 = std::max<int64_t>(lo, g0 - 1);
   const int64_t d1 = std::min<int64_t>(g1, N - 2);
   if (use_rate_soa) {
-    // log(q[f]^* q[f+1]) over the joint's rotations in structure-of-arrays form, without
-    // branches so that it vectorises. Increments are small (|angle| < 0.2 rad, i.e.
-    // x = |v|/w < 0.1): there log q = v (2/w) atan(x)/x with atan(x)/x = sum (-x^2)^k / (2k+1),
-    // 9 terms for an error below 1e-18, no atan2 and no square root; the sign of q is made
-    // positive first, so q and -q give the same. The rare larger increments (flagged) are redone
-    // through so3_log afterwards.
+    // log(q[f]^* q[f+1]) over the joint's rotations in structure-of-arrays form by the
+    // branch-free small-angle series, so that it vectorises; the rare larger increments
+    // (flagged) are redone through so3_log afterwards.
     ws.increments.resize(static_cast<std::size_t>(n_rate) * 4 * Fz);
     for (std::size_t k = 0; k < J; ++k) {
       if (ws.rate_slot[k] < 0) continue;
@@ -630,30 +1047,14 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       double* __restrict DZ = DX + 2 * Fz;
       double* __restrict big = DX + 3 * Fz;
       const auto a = static_cast<std::size_t>(d0 - lo), b = static_cast<std::size_t>(d1 - lo);
-      for (std::size_t f = a; f <= b; ++f) {
-        const double aw = W[f], ax = -X[f], ay = -Y[f], az = -Z[f];
-        const double bw = W[f + 1], bx = X[f + 1], by = Y[f + 1], bz = Z[f + 1];
-        const double qw0 = aw * bw - ax * bx - ay * by - az * bz;
-        const double sgn = qw0 < 0.0 ? -1.0 : 1.0;
-        const double w = sgn * qw0;
-        const double vx = sgn * ((aw * bx + ax * bw) + (ay * bz - az * by));
-        const double vy = sgn * ((aw * by + ay * bw) + (az * bx - ax * bz));
-        const double vz = sgn * ((aw * bz + az * bw) + (ax * by - ay * bx));
-        const double s2 = vx * vx + vy * vy + vz * vz;
-        const double inv = 1.0 / w;
-        const double x2 = s2 * (inv * inv);
-        double r = 1.0 / 17.0;
-        for (int m = 7; m >= 0; --m) r = 1.0 / (2 * m + 1) - x2 * r;
-        const double scale = 2.0 * r * inv;
-        DX[f] = vx * scale;
-        DY[f] = vy * scale;
-        DZ[f] = vz * scale;
-        big[f] = s2 < 0.01 * w * w ? 0.0 : 1.0;
+      if (b >= a) {
+        relative_log_lanes(W + a, X + a, Y + a, Z + a, W + a + 1, X + a + 1, Y + a + 1, Z + a + 1,
+                           DX + a, DY + a, DZ + a, big + a, b - a + 1);
       }
       for (std::size_t f = a; f <= b; ++f) {
         if (big[f] == 0.0) continue;
-        const Vector3d d = so3_log(multiply(qw(static_cast<int64_t>(f) + lo, k).conjugate(),
-                                            qw(static_cast<int64_t>(f) + lo + 1, k)));
+        const Vector3d d = relative_log(qw(static_cast<int64_t>(f) + lo, k),
+                                        qw(static_cast<int64_t>(f) + lo + 1, k));
         DX[f] = d.x();
         DY[f] = d.y();
         DZ[f] = d.z();
