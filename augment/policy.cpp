@@ -6,11 +6,13 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "core/error.hpp"
 #include "sim/placement.hpp"
+#include "sim/scene.hpp"
 
 namespace imukit::augment {
 
@@ -125,8 +127,29 @@ SpeedOp parse_speed(const json& j, const std::string& source, const std::string&
   return op;
 }
 
-PlacementOp parse_placement(const json& j, const std::string& source, const std::string& path) {
-  only_keys(j, {"rotation_deg", "long_axis_deg", "flip", "shift", "swap_presets"}, source, path);
+// A subject's placements from its scene file, read once per policy however many sub-policies
+// name it.
+using SubjectCache = std::map<std::string, SubjectPlacements>;
+
+SubjectPlacements read_subject(const std::string& written, const std::string& base_dir,
+                               SubjectCache& cache) {
+  std::filesystem::path p(written);
+  if (p.is_relative() && !base_dir.empty()) p = std::filesystem::path(base_dir) / p;
+  const auto hit = cache.find(p.string());
+  if (hit != cache.end()) return hit->second;
+  const sim::Scene scene = sim::read_scene(p.string());
+  SubjectPlacements subject;
+  subject.scene_path = written;
+  for (const sim::SceneSensor& s : scene.sensors)
+    subject.sensors.push_back(sim::describe_placement(s.spec.placement, scene.body, s.spec.name));
+  cache.emplace(p.string(), subject);
+  return subject;
+}
+
+PlacementOp parse_placement(const json& j, const std::string& source, const std::string& path,
+                            const std::string& base_dir, SubjectCache& subjects) {
+  only_keys(j, {"rotation_deg", "long_axis_deg", "flip", "shift", "swap_presets", "swap_subjects"},
+            source, path);
   PlacementOp op;
   op.enabled = true;
   if (j.contains("rotation_deg")) {
@@ -161,6 +184,20 @@ PlacementOp parse_placement(const json& j, const std::string& source, const std:
         fail(source, fmt::format("{}.swap_presets[{}]", path, i), e.what());
       }
       op.swap_presets.push_back(p);
+    }
+  }
+  if (j.contains("swap_subjects")) {
+    const json& s = j["swap_subjects"];
+    if (!s.is_array())
+      fail(source, path + ".swap_subjects", "expected an array of scene files (imukit.scene/1)");
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      const std::string where = fmt::format("{}.swap_subjects[{}]", path, i);
+      const std::string file = string_of(s[i], source, where);
+      try {
+        op.swap_subjects.push_back(read_subject(file, base_dir, subjects));
+      } catch (const Error& e) {
+        fail(source, where, e.what());
+      }
     }
   }
   return op;
@@ -229,6 +266,8 @@ json placement_json(const PlacementOp& op) {
   if (op.flip) j["flip"] = true;
   if (op.shift) j["shift"] = true;
   if (!op.swap_presets.empty()) j["swap_presets"] = op.swap_presets;
+  for (const SubjectPlacements& subject : op.swap_subjects)
+    j["swap_subjects"].push_back(subject.scene_path);
   return j;
 }
 
@@ -283,6 +322,7 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
   if (!root.contains("schema") || root["schema"] != std::string(kPolicySchema))
     fail(source, "schema", "expected \"" + std::string(kPolicySchema) + "\"");
   Policy policy;
+  SubjectCache subjects;
   bool per_sub_probability = false;
   if (root.contains("builtin") == root.contains("sub_policies"))
     fail(source, "$", "give either \"builtin\" or \"sub_policies\"");
@@ -309,7 +349,8 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
         sp.amplitude = parse_amplitude(s["amplitude"], source, path + ".amplitude");
       if (s.contains("speed")) sp.speed = parse_speed(s["speed"], source, path + ".speed");
       if (s.contains("placement"))
-        sp.placement = parse_placement(s["placement"], source, path + ".placement");
+        sp.placement =
+            parse_placement(s["placement"], source, path + ".placement", base_dir, subjects);
       if (s.contains("hardware"))
         sp.hardware = parse_hardware(s["hardware"], source, path + ".hardware", base_dir);
       if (i > 0 && s.contains("probability") != any_probability)
@@ -408,6 +449,8 @@ std::string SubPolicy::describe() const {
     if (placement.shift) out += ",shift";
     if (!placement.swap_presets.empty())
       out += fmt::format(",swap{}", placement.swap_presets.size());
+    if (!placement.swap_subjects.empty())
+      out += fmt::format(",subjects{}", placement.swap_subjects.size());
     out += ")";
   }
   out += " hardware=";

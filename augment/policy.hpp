@@ -29,6 +29,7 @@
 #include "augment/stda.hpp"
 #include "core/profile.hpp"
 #include "core/rng.hpp"
+#include "sim/placement.hpp"
 
 namespace imukit::augment {
 
@@ -62,6 +63,15 @@ struct SpeedOp {
 
 // Sensor placement, drawn per window and sensor. Rotations are composed, never added as angles:
 // q_joint_sensor' = R_L(forearm) q_joint_sensor R_flip Rx Ry Rz, with L the segment's long axis.
+// Another subject's sensor placements (sensors of an imukit.scene/1 file), each described in
+// its segment's anatomical frame (sim::describe_placement; the preset's name is the sensor's),
+// so they carry over to a body of other proportions.
+struct SubjectPlacements {
+  std::string scene_path;  // as written in the policy
+  std::vector<sim::PlacementPreset> sensors;
+  bool operator==(const SubjectPlacements& other) const { return scene_path == other.scene_path; }
+};
+
 struct PlacementOp {
   bool enabled = false;
   Eigen::Vector3d rotation_range_rad = Eigen::Vector3d::Zero();  // U[-r, r] about sensor x, y, z
@@ -71,6 +81,9 @@ struct PlacementOp {
   bool shift = false;
   // Swap: each sensor whose preset is in this list is moved to a preset drawn uniformly from it.
   std::vector<std::string> swap_presets;
+  // Swap between subjects: per window one subject is drawn uniformly, and each sensor it has (by
+  // name) takes its placement, position and orientation. Before the other placement changes.
+  std::vector<SubjectPlacements> swap_subjects;
   bool operator==(const PlacementOp&) const = default;
 };
 
@@ -125,7 +138,8 @@ std::vector<SpeedOp> paper_speed_options();
 std::vector<PlacementOp> paper_placement_options();
 std::vector<HardwareOp> paper_hardware_options(bool paper_numbers);
 
-// Parses imukit.policy/1 JSON. Profile files named inside are read relative to base_dir.
+// Parses imukit.policy/1 JSON. Profile and subject scene files named inside are read relative
+// to base_dir.
 Policy parse_policy(std::string_view text, const std::string& source_name,
                     const std::string& base_dir);
 // A built-in name ("paper", "imukit") or a JSON file.

@@ -465,10 +465,17 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   const std::size_t S = sensors.size();
   const std::size_t C = 6 * S;
   const double kPi = M_PI;
+  const SubjectPlacements* subject = nullptr;  // one subject's placements for the whole window
+  if (sub.placement.enabled && !sub.placement.swap_subjects.empty())
+    subject = &sub.placement.swap_subjects[rng.uniform_index(sub.placement.swap_subjects.size())];
   for (std::size_t s = 0; s < S; ++s) {
     sim::Placement pl = sensors[s].spec.placement;
     std::string preset = sensors[s].preset;
     const PlacementOp& op = sub.placement;
+    if (subject != nullptr) {
+      for (const sim::PlacementPreset& p : subject->sensors)
+        if (p.name == sensors[s].spec.name) pl = sim::resolve_preset(p, body);
+    }
     if (op.enabled) {
       if (!op.swap_presets.empty() && std::find(op.swap_presets.begin(), op.swap_presets.end(),
                                                 preset) != op.swap_presets.end()) {
@@ -597,7 +604,8 @@ Carriers make_fixed_carriers(const std::vector<sim::SceneSensor>& sensors) {
 }
 
 bool keeps_positions(const PlacementOp& op) {
-  return !op.enabled || (op.swap_presets.empty() && !op.shift && op.long_axis_range_rad == 0.0);
+  return !op.enabled || (op.swap_presets.empty() && op.swap_subjects.empty() && !op.shift &&
+                         op.long_axis_range_rad == 0.0);
 }
 
 // The joints a sub-policy may put a sensor on.
@@ -608,6 +616,15 @@ std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::Scene
   if (sub.placement.enabled) {
     for (const std::string& p : sub.placement.swap_presets)
       joints.insert(sim::resolve_preset(sim::placement_preset(p), body).joint);
+    for (const SubjectPlacements& subject : sub.placement.swap_subjects) {
+      for (const sim::PlacementPreset& p : subject.sensors) {
+        try {
+          joints.insert(sim::resolve_preset(p, body).joint);
+        } catch (const Error& e) {
+          throw Error("augment: subject " + subject.scene_path + ": " + e.what());
+        }
+      }
+    }
   }
   return joints;
 }

@@ -119,6 +119,28 @@ Placement resolve_preset(const PlacementPreset& preset, const Body& body) {
   return p;
 }
 
+PlacementPreset describe_placement(const Placement& placement, const Body& body, std::string name) {
+  const Joint& joint = body.joint(static_cast<std::size_t>(placement.joint));
+  const double length = body.segment_end(placement.joint).norm();
+  if (length < 1e-9) {
+    throw Error("placement of " + name + ": segment '" + joint.name +
+                "' has no length to measure a position along");
+  }
+  const Eigen::Matrix3d F = anatomical_frame(body, placement.joint);
+  const Eigen::Vector3d p_lan = F.transpose() * placement.p_joint_sensor;
+  const Eigen::Matrix3d R = placement.q_joint_sensor.normalized().toRotationMatrix();
+  PlacementPreset preset;
+  preset.name = std::move(name);
+  preset.description = "carried over from segment " + joint.name;
+  preset.joint = joint.name;
+  preset.along = p_lan.x() / length;
+  preset.anterior_m = p_lan.y();
+  preset.normal_m = p_lan.z();
+  preset.sensor_x_lan = F.transpose() * R.col(0);
+  preset.sensor_z_lan = F.transpose() * R.col(2);
+  return preset;
+}
+
 Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::string_view order,
                                        bool intrinsic, bool degrees) {
   if (order.size() != 3) throw Error("Euler order must name three axes, e.g. \"XYZ\"");

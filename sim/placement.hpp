@@ -57,6 +57,13 @@ Eigen::Matrix3d anatomical_frame(const Body& body, int joint);
 // The preset on this body. Throws imukit::Error if the body has no such segment.
 Placement resolve_preset(const PlacementPreset& preset, const Body& body);
 
+// The inverse: `placement` on `body` as a preset named `name` (its segment's canonical joint, the
+// position as a fraction along the segment plus offsets across it, the axes in the anatomical
+// frame; no ranges), so that resolve_preset carries it over to a body of other proportions -- a
+// watch 80 % down one subject's forearm sits 80 % down another's. Throws imukit::Error for a
+// segment of zero length (no long axis to measure along).
+PlacementPreset describe_placement(const Placement& placement, const Body& body, std::string name);
+
 // Euler angles -> quaternion with the convention spelled out (DESIGN.md): `order` a permutation
 // or repetition of three axes from "XYZ" ("ZYX", "ZXZ", ...), intrinsic (each rotation about the
 // already rotated axes: R = R1(a1) R2(a2) R3(a3)) or extrinsic (fixed axes: R = R3 R2 R1),

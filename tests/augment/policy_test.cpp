@@ -9,6 +9,7 @@
 #include <set>
 
 #include "core/error.hpp"
+#include "sim/placement.hpp"
 
 namespace imukit::augment {
 namespace {
@@ -136,6 +137,44 @@ TEST(Policy, HardwareFromAProfileIsReadRelativeToThePolicy) {
       {"hardware": {"profile": "missing.json"}}]})",
                             "p.json", dir),
                Error);
+}
+
+TEST(Policy, SubjectsAreReadFromTheirScenesRelativeToThePolicy) {
+  const std::string dir = testing::TempDir();
+  std::ofstream(dir + "/s2.scene.json") << R"({"schema": "imukit.scene/1",
+    "body": {"default_humanoid": {"height_m": 1.9}},
+    "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 1}},
+    "sensors": [{"name": "watch", "preset": "left_wrist_watch"},
+                {"name": "ankle", "segment": "right_knee", "position_m": [0, 0, -0.3]}]})";
+  const std::string text = R"({"schema": "imukit.policy/1", "sub_policies": [
+      {"placement": {"rotation_deg": 0, "swap_subjects": ["s2.scene.json"]}},
+      {"placement": {"swap_subjects": ["s2.scene.json", "s2.scene.json"]}}]})";
+  const Policy p = parse_policy(text, "p.json", dir);
+  const std::vector<SubjectPlacements>& subjects = p.sub_policies[0].placement.swap_subjects;
+  ASSERT_EQ(subjects.size(), 1u);
+  EXPECT_EQ(subjects[0].scene_path, "s2.scene.json");
+  ASSERT_EQ(subjects[0].sensors.size(), 2u);
+  // The preset's own description comes back: same segment, fraction and axes.
+  const sim::PlacementPreset& watch = subjects[0].sensors[0];
+  const sim::PlacementPreset& preset = sim::placement_preset("left_wrist_watch");
+  EXPECT_EQ(watch.name, "watch");
+  EXPECT_EQ(watch.joint, preset.joint);
+  EXPECT_NEAR(watch.along, preset.along, 1e-12);
+  EXPECT_NEAR(watch.normal_m, preset.normal_m, 1e-12);
+  EXPECT_EQ(subjects[0].sensors[1].joint, "right_knee");
+  EXPECT_EQ(p.sub_policies[1].placement.swap_subjects.size(), 2u);
+  const Policy back = parse_policy(format_policy(p), "again.json", dir);
+  EXPECT_TRUE(back.sub_policies[1].placement == p.sub_policies[1].placement);
+  try {
+    (void)parse_policy(R"({"schema": "imukit.policy/1", "sub_policies": [
+      {"placement": {"swap_subjects": ["nobody.json"]}}]})",
+                       "p.json", dir);
+    FAIL() << "a missing subject scene was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("sub_policies[0].placement.swap_subjects[0]"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Policy, ErrorsNameTheLineOrTheJsonPath) {

@@ -283,6 +283,63 @@ TEST(Ppda, SwappingMovesASensorToAnotherPresetOfTheList) {
   EXPECT_GT(seen[1], 3);
 }
 
+// Subjects of other proportions: each window takes one subject's placements, carried over in
+// the segment's anatomical frame, and simulates them as a direct simulation would.
+TEST(Ppda, SwappingSubjectsCarriesTheirPlacementsOverToThisBody) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch"});
+  PpdaAugmenter aug(scene);
+  const sim::Body tall = sim::Body::default_humanoid(1.95);
+  const auto subject = [&](const char* joint, double along, const Vector3d& turn_deg) {
+    sim::Placement pl;
+    pl.joint = tall.index_of(joint);
+    pl.p_joint_sensor = along * tall.segment_end(pl.joint) + Vector3d(0.0, 0.0, 0.02);
+    pl.q_joint_sensor = sim::euler_to_quaternion(turn_deg, "XYZ", true, true);
+    SubjectPlacements sp;
+    sp.scene_path = joint;
+    sp.sensors.push_back(sim::describe_placement(pl, tall, "left_wrist_watch"));
+    return sp;
+  };
+  SubPolicy sub;
+  sub.placement.enabled = true;
+  sub.placement.swap_subjects = {subject("left_elbow", 0.55, Vector3d(0, 20, 180)),
+                                 subject("right_elbow", 0.9, Vector3d(-30, 0, 45))};
+  int seen[2] = {0, 0};
+  for (uint64_t seed = 1; seed <= 16; ++seed) {
+    PpdaWindowLog log;
+    const std::vector<double> y = run_window(aug, sub, 300, seed, &log);
+    const sim::Placement& pl = log.placements.at(0);
+    const int which = pl.joint == scene.body.index_of("right_elbow") ? 1 : 0;
+    ++seen[which];
+    const sim::Placement expected =
+        sim::resolve_preset(sub.placement.swap_subjects[which].sensors[0], scene.body);
+    ASSERT_EQ(pl.joint, expected.joint);
+    EXPECT_LT((pl.p_joint_sensor - expected.p_joint_sensor).norm(), 1e-15);
+    EXPECT_LT(pl.q_joint_sensor.angularDistance(expected.q_joint_sensor), 1e-12);
+    // 90 % down the tall subject's forearm is 90 % down this one's.
+    const double along = sim::anatomical_frame(scene.body, pl.joint).col(0).dot(pl.p_joint_sensor) /
+                         scene.body.segment_end(pl.joint).norm();
+    EXPECT_NEAR(along, which == 1 ? 0.9 : 0.55, 1e-12);
+    sim::SensorSpec spec = scene.sensors[0].spec;
+    spec.placement = pl;
+    sim::SimulationOptions o;
+    o.method = sim::DerivativeMethod::spline;
+    sim::Simulator direct(scene.body, {spec}, o);
+    std::vector<TimeNs> times;
+    for (int64_t i = 0; i < 100; ++i) times.push_back(sample_time(0, 300 + i, 100.0));
+    std::vector<sim::SensorBlock> blocks;
+    direct.evaluate(*scene.motion, times, blocks);
+    for (Eigen::Index i = 0; i < 100; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const auto o6 = static_cast<std::size_t>(i) * 6;
+        EXPECT_NEAR(y[o6 + static_cast<std::size_t>(k)], blocks[0].specific_force(k, i), 1e-9);
+        EXPECT_NEAR(y[o6 + 3 + static_cast<std::size_t>(k)], blocks[0].angular_rate(k, i), 1e-11);
+      }
+    }
+  }
+  EXPECT_GT(seen[0], 2);
+  EXPECT_GT(seen[1], 2);
+}
+
 TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
   const sim::Scene scene = sinusoid_scene();
   PpdaAugmenter aug(scene);

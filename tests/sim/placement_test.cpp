@@ -47,6 +47,40 @@ TEST(Placement, WatchesSitAboveTheWristScreenUpInTPose) {
               1e-12);
 }
 
+// describe_placement inverts resolve_preset on the same body (any joint, position and
+// orientation), and on a taller body keeps the fraction along the segment, the offsets across it
+// and the orientation relative to the anatomy.
+TEST(Placement, DescribedPlacementsResolveBackAndCarryOverToOtherProportions) {
+  const Body a = Body::default_humanoid(1.60);
+  const Body b = Body::default_humanoid(1.95);
+  const Eigen::Quaterniond turn =
+      euler_to_quaternion(Eigen::Vector3d(10, -35, 170), "ZYX", true, true);
+  for (const char* joint : {"left_elbow", "right_knee", "spine", "head"}) {
+    Placement pl;
+    pl.joint = a.index_of(joint);
+    pl.p_joint_sensor = 0.6 * a.segment_end(pl.joint) + Eigen::Vector3d(0.01, -0.02, 0.03);
+    pl.q_joint_sensor = turn;
+    const PlacementPreset d = describe_placement(pl, a, "s");
+    const Placement back = resolve_preset(d, a);
+    EXPECT_EQ(back.joint, pl.joint);
+    EXPECT_LT((back.p_joint_sensor - pl.p_joint_sensor).norm(), 1e-15) << joint;
+    EXPECT_LT(back.q_joint_sensor.angularDistance(pl.q_joint_sensor), 1e-14) << joint;
+
+    const Placement moved = resolve_preset(d, b);
+    const Eigen::Matrix3d Fa = anatomical_frame(a, pl.joint), Fb = anatomical_frame(b, moved.joint);
+    const Eigen::Vector3d pa = Fa.transpose() * pl.p_joint_sensor;
+    const Eigen::Vector3d pb = Fb.transpose() * moved.p_joint_sensor;
+    EXPECT_NEAR(pb.x() / b.segment_end(moved.joint).norm(), pa.x() / a.segment_end(pl.joint).norm(),
+                1e-14)
+        << joint;
+    EXPECT_NEAR(pb.y(), pa.y(), 1e-15) << joint;
+    EXPECT_NEAR(pb.z(), pa.z(), 1e-15) << joint;
+    const Eigen::Matrix3d Ra = Fa.transpose() * pl.q_joint_sensor.toRotationMatrix();
+    const Eigen::Matrix3d Rb = Fb.transpose() * moved.q_joint_sensor.toRotationMatrix();
+    EXPECT_LT((Ra - Rb).norm(), 1e-14) << joint;
+  }
+}
+
 TEST(Placement, PresetsNeedTheirSegment) {
   Body b;
   b.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
