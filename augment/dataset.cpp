@@ -316,6 +316,9 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     throw Error(fmt::format("augment: {} labels for {} samples", labels.size(), n));
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
   std::vector<float> windows = extract_windows(streams, base, options.window);
+  // The whole recording, for time scaling: a faster window covers more than its own samples.
+  const std::vector<int64_t> whole_start{0};
+  std::vector<float> whole = extract_windows(streams, whole_start, n);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = 6 * streams.size();
   Dataset d;
@@ -324,7 +327,13 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   d.info.sensors = stream_names;
   d.info.rate_hz = rate;
   // z-scoring comes first here: jitter sigmas are then standard deviations (the paper's setting).
-  if (options.normalize) normalize(windows, C, d.info);
+  if (options.normalize) {
+    normalize(windows, C, d.info);
+    for (std::size_t r = 0; r < n; ++r)
+      for (std::size_t c = 0; c < C; ++c)
+        whole[r * C + c] =
+            static_cast<float>((whole[r * C + c] - d.info.channel_mean[c]) / d.info.channel_std[c]);
+  }
   const ChannelLayout layout = ChannelLayout::imu(stream_names);
   d.shape = {N, T, C};
   d.X.resize(d.shape.size());
@@ -344,9 +353,44 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     if (idx < 0) continue;
     const std::span<float> batch_x(d.X.data() + b0 * T * C, nb * T * C);
     const BatchShape shape{nb, T, C};
-    for (const StdaSpec& spec : stda_counterparts(
-             policy.sub_policies[static_cast<std::size_t>(idx)], policy, options.normalize))
-      apply_stda(spec, layout, batch_x, shape, br);
+    std::vector<StdaSpec> specs = stda_counterparts(
+        policy.sub_policies[static_cast<std::size_t>(idx)], policy, options.normalize);
+    // Time scaling first, from the recording itself: window k becomes the recording at
+    // start + c + b (i - c), c = (T-1)/2, b ~ U[lo, hi] (moved inside the recording when it
+    // would leave it), linearly interpolated -- a faster window shows b T recorded samples
+    // instead of holding its edge values. The other methods then act on the result.
+    for (auto it = specs.begin(); it != specs.end(); ++it) {
+      if (it->method != StdaMethod::time_scaling) continue;
+      const double c = 0.5 * static_cast<double>(T - 1), last = static_cast<double>(n - 1);
+      for (std::size_t k = 0; k < nb; ++k) {
+        const double b = it->lo == it->hi ? it->lo : br.uniform(it->lo, it->hi);
+        const auto s0 = static_cast<double>(base[(b0 + k) % base.size()]);
+        const double first = s0 + c - b * c;
+        double shift = 0.0;
+        const double end = s0 + c + b * c;
+        if (end - first > last)
+          throw Error(
+              fmt::format("augment: a window of {} samples at {:g}x speed needs {:.0f} "
+                          "samples; the recording has {}",
+                          T, b, end - first + 1, n));
+        if (first < 0.0) shift = -first;
+        if (end > last) shift = last - end;
+        float* o = batch_x.data() + k * T * C;
+        for (std::size_t i = 0; i < T; ++i) {
+          const double pos =
+              std::clamp(s0 + c + b * (static_cast<double>(i) - c) + shift, 0.0, last);
+          const auto j = std::min(static_cast<std::size_t>(pos), n - 2);
+          const double f = pos - static_cast<double>(j);
+          for (std::size_t ch = 0; ch < C; ++ch) {
+            const double a0 = whole[j * C + ch], a1 = whole[(j + 1) * C + ch];
+            o[i * C + ch] = static_cast<float>(a0 + f * (a1 - a0));
+          }
+        }
+      }
+      specs.erase(it);
+      break;
+    }
+    for (const StdaSpec& spec : specs) apply_stda(spec, layout, batch_x, shape, br);
   }
   return d;
 }

@@ -167,5 +167,44 @@ TEST(Dataset, StdaFromRecordedStreams) {
   EXPECT_NE(e.X, d.X);
 }
 
+// STDA time scaling of a recording reads the recording beyond the window: at twice the speed a
+// window shows 2 T recorded samples of a ramp, slope doubled up to both edges (no held edge
+// values), and near the recording's end the window moves inwards rather than running off it.
+TEST(Dataset, TimeScalingOfARecordingReadsBeyondTheWindow) {
+  const std::size_t n = 600;
+  ImuSeries s = ImuSeries::with_channels(n, true, true);
+  for (std::size_t i = 0; i < n; ++i) {
+    s.t[i] = static_cast<TimeNs>(i) * 10'000'000;  // 100 Hz
+    s.accel.col(static_cast<Eigen::Index>(i)) = Eigen::Vector3d(0.01 * i, 1.0, -0.02 * i);
+    s.gyro.col(static_cast<Eigen::Index>(i)) = Eigen::Vector3d(0.001 * i, 0, 0);
+  }
+  Policy policy;
+  SubPolicy sub;
+  sub.speed.method = WarpMethod::scaling;
+  sub.speed.lo = sub.speed.hi = 2.0;
+  policy.sub_policies = {sub};
+  policy.probabilities = {1.0};
+  DatasetOptions o;
+  o.window = 50;
+  o.stride = 50;
+  o.batch_size = 4;
+  const Dataset d = generate_dataset({"imu"}, {&s}, policy, {}, o);
+  ASSERT_EQ(d.shape, (BatchShape{12, 50, 6}));
+  for (std::size_t w = 0; w < 12; ++w) {
+    const double start = static_cast<double>(50 * w);
+    // Positions start + 24.5 + 2 (i - 24.5), moved inside [0, 599].
+    double first = start + 24.5 - 49.0;
+    first = std::clamp(first, 0.0, 599.0 - 98.0);
+    for (std::size_t i = 0; i < 50; ++i) {
+      const double pos = first + 2.0 * static_cast<double>(i);
+      const float* row = d.X.data() + (w * 50 + i) * 6;
+      EXPECT_NEAR(row[0], 0.01 * pos, 1e-5) << w << " " << i;
+      EXPECT_NEAR(row[1], 1.0, 1e-6);
+      EXPECT_NEAR(row[2], -0.02 * pos, 1e-5) << w << " " << i;
+      EXPECT_NEAR(row[3], 0.001 * pos, 1e-6) << w << " " << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace imukit::augment
