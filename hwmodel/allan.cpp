@@ -399,7 +399,9 @@ Eigen::VectorXd axis_means(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
 }
 
 // S_0 = 0, S_{i+1} = S_i + (y_i - mean), Kahan-compensated per axis (independent chains, so the
-// axes run side by side). Returns false if a sample is not finite (checked in the same pass).
+// axes run side by side). The caller has checked that the means are finite, which they are only
+// if every sample is (a NaN or infinity anywhere makes its axis' sum NaN or infinite); returns
+// false if the sums overflow nonetheless (seen at the end: infinity and NaN propagate).
 template <int A>
 bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen::VectorXd& mean,
                   double* S, int axes) {
@@ -409,12 +411,10 @@ bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen:
   const auto n = int64_t(samples.cols());
   const double* base = samples.data();
   const int64_t stride = samples.outerStride();
-  bool finite = true;
   for (int64_t i = 0; i < n; ++i) {
     const double* col = base + i * stride;
     double* out = S + (i + 1) * k;
     for (int a = 0; a < k; ++a) {
-      finite = finite && std::isfinite(col[a]);
       const double y = (col[a] - mu[a]) - comp[a];
       const double t = sum[a] + y;
       comp[a] = (t - sum[a]) - y;
@@ -422,6 +422,8 @@ bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen:
       out[a] = t;
     }
   }
+  bool finite = true;
+  for (int a = 0; a < k; ++a) finite = finite && std::isfinite(sum[a]) && std::isfinite(comp[a]);
   return finite;
 }
 
@@ -543,6 +545,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
 
   // Cumulative sums of the mean-free samples, Kahan-compensated.
   const Eigen::VectorXd mean = axis_means(samples);
+  if (!mean.allFinite()) throw Error("Allan deviation: the samples contain NaN or infinity");
   // Not value-initialised: every entry is written below, and zeroing 345 MB first (6 axes of
   // 7.2 M samples) would cost a full extra pass over memory.
   const std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
@@ -562,7 +565,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       finite = build_cumsum<0>(samples, mean, S, axes);
       break;
   }
-  if (!finite) throw Error("Allan deviation: the samples contain NaN or infinity");
+  if (!finite) throw Error("Allan deviation: the cumulative sums of the samples overflow");
 
   std::vector<Deviation> kinds;
   if (options.allan) kinds.push_back(Deviation::kAllan);

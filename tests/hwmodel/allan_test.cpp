@@ -332,6 +332,25 @@ TEST(AllanDeviation, LogGridHasRequestedDensity) {
   for (size_t i = 1; i < f.size(); ++i) EXPECT_GT(f[i], f[i - 1]);
 }
 
+TEST(AllanDeviation, RejectsNonFiniteSamplesAnywhere) {
+  // Checked through the axis means (a NaN or infinity anywhere makes its axis' sum non-finite)
+  // and the final cumulative sums (overflow), not sample by sample.
+  const auto t = uniform_times(200, 10.0);
+  for (const int axes : {1, 5, 6}) {
+    for (const double bad : {std::nan(""), HUGE_VAL, -HUGE_VAL}) {
+      for (const Eigen::Index at : {Eigen::Index(0), Eigen::Index(117), Eigen::Index(199)}) {
+        Eigen::MatrixXd y = Eigen::MatrixXd::Ones(axes, 200);
+        y(axes - 1, at) = bad;
+        EXPECT_THROW(allan_deviation(t, y), Error) << axes << " axes, " << bad << " at " << at;
+      }
+    }
+  }
+  // Finite samples with a finite mean (0) whose cumulative sums overflow (1e309 at the middle).
+  Eigen::MatrixXd big(1, 200);
+  for (Eigen::Index i = 0; i < 200; ++i) big(0, i) = i < 100 ? 1e307 : -1e307;
+  EXPECT_THROW(allan_deviation(t, big), Error);
+}
+
 TEST(AllanDeviation, RejectsBadInput) {
   Eigen::MatrixXd y = Eigen::MatrixXd::Ones(1, 100);
   const auto t = uniform_times(100, 10.0);
