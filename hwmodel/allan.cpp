@@ -5,6 +5,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <map>
 #include <memory>
@@ -217,6 +218,17 @@ ChunkFn pick_chunk(int order, int axes) {
 // W_{j+1} = W_j + D_{j+m} - D_j, kept with Kahan compensation (w, wc per axis) so it does not
 // drift. It must run in j order, so it is cut into spans that each start from a directly summed
 // W: a whole factor (large m), or a group of chunks that all small factors sweep together.
+// Two axes side by side in one SSE2 register (GCC/Clang vector extension: portable, and the
+// operations per axis are those of the scalar code, in the same order, so are the results).
+// The MDEV slide of 6 axes runs as three such pairs: gcc leaves the scalar loop unvectorised.
+using Pair = double __attribute__((vector_size(16)));
+inline Pair load_pair(const double* p) {
+  Pair v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store_pair(double* p, Pair v) { std::memcpy(p, &v, sizeof v); }
+
 template <int A>
 struct Kernels {
   static int count(int axes) { return A > 0 ? A : axes; }
@@ -227,6 +239,23 @@ struct Kernels {
 
   // w, wc = W_j summed directly (Kahan): D_j + ... + D_{j+m-1}.
   static void start(const double* S, int64_t m, int axes, int64_t j, double* w, double* wc) {
+    if constexpr (A == 6) {
+      const Pair two = {2.0, 2.0};
+      Pair pw[3] = {}, pwc[3] = {};
+      for (int64_t i = j; i < j + m; ++i) {
+        const double* s0 = S + i * 6;
+        for (int q = 0; q < 3; ++q) {
+          const Pair d = load_pair(s0 + 12 * m + 2 * q) - two * load_pair(s0 + 6 * m + 2 * q) +
+                         load_pair(s0 + 2 * q);
+          const Pair y = d - pwc[q];
+          const Pair t = pw[q] + y;
+          pwc[q] = (t - pw[q]) - y;
+          pw[q] = t;
+        }
+      }
+      for (int q = 0; q < 3; ++q) store_pair(w + 2 * q, pw[q]), store_pair(wc + 2 * q, pwc[q]);
+      return;
+    }
     const int k = count(axes);
     for (int a = 0; a < k; ++a) w[a] = wc[a] = 0.0;
     for (int64_t i = j; i < j + m; ++i) {
@@ -243,6 +272,37 @@ struct Kernels {
   // (no slide past the last of the `terms` terms, whose successor would read past S).
   static void run(const double* S, int64_t m, int axes, int64_t j0, int64_t j1, int64_t terms,
                   double* w, double* wc, double* acc) {
+    if constexpr (A == 6) {
+      const Pair two = {2.0, 2.0};
+      Pair pw[3], pwc[3], block[3] = {};
+      for (int q = 0; q < 3; ++q) pw[q] = load_pair(w + 2 * q), pwc[q] = load_pair(wc + 2 * q);
+      const int64_t slide_end = std::min(j1, terms - 1);
+      int64_t j = j0;
+      for (; j < slide_end; ++j) {
+        const double* s0 = S + j * 6;
+        const double* s1 = s0 + 6 * m;
+        const double* s2 = s1 + 6 * m;
+        const double* s3 = s2 + 6 * m;
+        for (int q = 0; q < 3; ++q) {
+          block[q] += pw[q] * pw[q];
+          const Pair a0 = load_pair(s0 + 2 * q), a1 = load_pair(s1 + 2 * q);
+          const Pair a2 = load_pair(s2 + 2 * q), a3 = load_pair(s3 + 2 * q);
+          const Pair y = ((a3 - two * a2 + a1) - (a2 - two * a1 + a0)) - pwc[q];
+          const Pair t = pw[q] + y;
+          pwc[q] = (t - pw[q]) - y;
+          pw[q] = t;
+        }
+      }
+      for (; j < j1; ++j)
+        for (int q = 0; q < 3; ++q) block[q] += pw[q] * pw[q];
+      for (int q = 0; q < 3; ++q) {
+        acc[2 * q] += block[q][0];
+        acc[2 * q + 1] += block[q][1];
+        store_pair(w + 2 * q, pw[q]);
+        store_pair(wc + 2 * q, pwc[q]);
+      }
+      return;
+    }
     const int k = count(axes);
     double block[16] = {};
     for (int64_t j = j0; j < j1; ++j) {
