@@ -720,7 +720,7 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   ws.on_frame.assign(times.size(), 0);
   ws.on_frame_samples.clear();
   ws.on_frame_frames.clear();
-  for (std::size_t i = 0; i < times.size() && spline; ++i) {
+  for (std::size_t i = 0; i < times.size() && spline && options_.spline_on_frames; ++i) {
     if (pos[i].frac == 0.0 && pos[i].frame >= 1 && pos[i].frame + 2 <= N - 1) {
       ws.on_frame[i] = 1;
       ws.on_frame_samples.push_back(i);

@@ -81,6 +81,9 @@ struct SimulationOptions {
   Eigen::Vector3d magnetic_field_world = kDefaultEarthMagneticField;  // T
   double rate_hz = 0.0;         // sensor sample rate; 0 = the motion's frame rate
   int64_t chunk_frames = 4096;  // motion frames per streamed chunk
+  // spline: evaluate samples that fall on frames through the vectorised on-frame path (the same
+  // values to rounding; docs/simulation.md). Off only to compare the two paths.
+  bool spline_on_frames = true;
 };
 
 // The samples of one sensor for a block of times. Channels not requested have 0 columns.
