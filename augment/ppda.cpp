@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 #include <map>
 #include <set>
 #include <thread>
@@ -107,31 +108,35 @@ void scale_angles(double* __restrict q, const double* __restrict s, std::size_t 
 // (weights w[4j..4j+3]) of the source rotations s0[j] .. s0[j]+3, each sign-aligned with the
 // rotation at ref[j], renormalised -- or that rotation itself, bit for bit, where exact[j] is 1.
 // Source rotations are `stride` doubles apart (x, y, z, w each); dst holds n of them, packed.
-// Tiles of frames are gathered into structure-of-arrays form first, so the arithmetic vectorises.
+// Each tile first copies every frame's four stencil rotations (contiguous in an in-memory
+// Motion: one 128-byte copy) and its reference next to each other, so the arithmetic below
+// reads fixed offsets and vectorises.
 constexpr std::size_t kInterpolationTile = 64;
 
-// One tile: st holds, per component c of the sign reference and of the four stencil rotations,
-// kInterpolationTile values (st[(5 r + ... )]: reference at rows 0-3, stencil m at rows 4 + 4 m).
+// st: per frame 16 doubles (the four stencil rotations), rf: per frame its reference rotation.
 [[gnu::always_inline]] inline void interpolate_tile(const double* __restrict st,
+                                                    const double* __restrict rf,
                                                     const double* __restrict w,
                                                     const double* __restrict exact,
                                                     double* __restrict dst, std::size_t n) {
-  constexpr std::size_t T = kInterpolationTile;
   for (std::size_t j = 0; j < n; ++j) {
-    const double rx = st[j], ry = st[T + j], rz = st[2 * T + j], rw = st[3 * T + j];
-    double a[4] = {0.0, 0.0, 0.0, 0.0};
+    const double rx = rf[4 * j], ry = rf[4 * j + 1], rz = rf[4 * j + 2], rw = rf[4 * j + 3];
+    double ax = 0.0, ay = 0.0, az = 0.0, aw = 0.0;
     for (std::size_t m = 0; m < 4; ++m) {
-      const double* q = st + (4 + 4 * m) * T + j;
-      const double dot = q[0] * rx + q[T] * ry + q[2 * T] * rz + q[3 * T] * rw;
+      const double* q = st + 16 * j + 4 * m;
+      const double dot = q[0] * rx + q[1] * ry + q[2] * rz + q[3] * rw;
       const double c = dot < 0.0 ? -w[4 * j + m] : w[4 * j + m];
-      for (std::size_t k = 0; k < 4; ++k) a[k] += c * q[k * T];
+      ax += c * q[0];
+      ay += c * q[1];
+      az += c * q[2];
+      aw += c * q[3];
     }
-    const double inv = 1.0 / __builtin_sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
+    const double inv = 1.0 / __builtin_sqrt(ax * ax + ay * ay + az * az + aw * aw);
     const bool keep = exact[j] != 0.0;
-    dst[4 * j] = keep ? rx : a[0] * inv;
-    dst[4 * j + 1] = keep ? ry : a[1] * inv;
-    dst[4 * j + 2] = keep ? rz : a[2] * inv;
-    dst[4 * j + 3] = keep ? rw : a[3] * inv;
+    dst[4 * j] = keep ? rx : ax * inv;
+    dst[4 * j + 1] = keep ? ry : ay * inv;
+    dst[4 * j + 2] = keep ? rz : az * inv;
+    dst[4 * j + 3] = keep ? rw : aw * inv;
   }
 }
 
@@ -142,17 +147,21 @@ void interpolate_rotations(const double* src, std::size_t stride, const int64_t*
                            const int64_t* s0, const double* w, const double* exact, double* dst,
                            std::size_t n) {
   constexpr std::size_t T = kInterpolationTile;
-  double st[20 * T];
+  double st[16 * T], rf[4 * T];
   for (std::size_t j0 = 0; j0 < n; j0 += T) {
     const std::size_t m = std::min(T, n - j0);
     for (std::size_t j = 0; j < m; ++j) {
-      const double* r = src + static_cast<std::size_t>(ref[j0 + j]) * stride;
-      for (std::size_t c = 0; c < 4; ++c) st[c * T + j] = r[c];
+      std::memcpy(rf + 4 * j, src + static_cast<std::size_t>(ref[j0 + j]) * stride,
+                  4 * sizeof(double));
       const double* q = src + static_cast<std::size_t>(s0[j0 + j]) * stride;
-      for (std::size_t k = 0; k < 4; ++k, q += stride)
-        for (std::size_t c = 0; c < 4; ++c) st[(4 + 4 * k + c) * T + j] = q[c];
+      if (stride == 4) {
+        std::memcpy(st + 16 * j, q, 16 * sizeof(double));
+      } else {
+        for (std::size_t k = 0; k < 4; ++k)
+          std::memcpy(st + 16 * j + 4 * k, q + k * stride, 4 * sizeof(double));
+      }
     }
-    interpolate_tile(st, w + 4 * j0, exact + j0, dst + 4 * j0, m);
+    interpolate_tile(st, rf, w + 4 * j0, exact + j0, dst + 4 * j0, m);
   }
 }
 
