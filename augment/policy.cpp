@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/json_text.hpp"
 #include "sim/placement.hpp"
 #include "sim/scene.hpp"
 
@@ -299,22 +300,7 @@ std::vector<double> uniform(std::size_t n) {
 
 Policy parse_policy_impl(std::string_view text, const std::string& source,
                          const std::string& base_dir) {
-  json root;
-  try {
-    root = json::parse(text.begin(), text.end());
-  } catch (const json::parse_error& e) {
-    const std::size_t off = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
-    int64_t line = 1, col = 1;
-    for (std::size_t i = 0; i < off; ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-    throw Error(InputLocation{source, line, col, static_cast<int64_t>(off)}, "JSON syntax error");
-  }
+  const json root = parse_json_text<json>(text, source);
   only_keys(root,
             {"schema", "name", "description", "builtin", "sub_policies", "probabilities",
              "stda_rotation_deg"},

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/json_text.hpp"
 
 namespace imukit {
 namespace {
@@ -47,148 +48,8 @@ const std::pair<const char*, const char*> kUnits[] = {
     {"soft_iron", "1"},
 };
 
-// ---------------------------------------------------------------------------------------------
-// Locations in the text.
-
-// 1-based line and column (in characters: UTF-8 continuation bytes do not count) of the byte at
-// `offset`, clamped to the text.
-InputLocation locate(std::string_view text, std::size_t offset, const std::string& source) {
-  offset = std::min(offset, text.size());
-  int64_t line = 1;
-  std::size_t line_start = 0;
-  for (std::size_t i = 0; i < offset; ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      line_start = i + 1;
-    }
-  }
-  int64_t column = 1;
-  for (std::size_t i = line_start; i < offset; ++i) {
-    if ((static_cast<unsigned char>(text[i]) & 0xC0) != 0x80) ++column;
-  }
-  return InputLocation{source, line, column, {}};
-}
-
-// Rejects nesting deeper than kMaxDepth before the parser sees it, pointing at the bracket.
-void check_depth(std::string_view text, const std::string& source) {
-  int depth = 0;
-  bool in_string = false;
-  bool escaped = false;
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const char c = text[i];
-    if (in_string) {
-      if (escaped) {
-        escaped = false;
-      } else if (c == '\\') {
-        escaped = true;
-      } else if (c == '"') {
-        in_string = false;
-      }
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      if (++depth > kMaxDepth) {
-        throw Error(locate(text, i, source),
-                    fmt::format("nesting deeper than {} levels", kMaxDepth));
-      }
-    } else if ((c == ']' || c == '}') && depth > 0) {
-      --depth;
-    }
-  }
-}
-
-// nlohmann's messages start with "[json.exception.parse_error.101] parse error at line 1,
-// column 2: "; we print our own location, so keep only what went wrong.
-std::string clean_message(std::string message) {
-  if (!message.empty() && message[0] == '[') {
-    const auto end = message.find("] ");
-    if (end != std::string::npos) message.erase(0, end + 2);
-  }
-  if (message.rfind("parse error", 0) == 0) {
-    const auto colon = message.find(": ");
-    if (colon != std::string::npos) message.erase(0, colon + 2);
-  }
-  return message;
-}
-
-// Builds the document from nlohmann's SAX events, recording where a parse error happened (the
-// DOM parser drops the position of some errors, e.g. number overflow).
-class DomBuilder {
- public:
-  explicit DomBuilder(Json& root) : root_(root) {}
-
-  bool null() { return put(nullptr); }
-  bool boolean(bool v) { return put(v); }
-  bool number_integer(Json::number_integer_t v) { return put(v); }
-  bool number_unsigned(Json::number_unsigned_t v) { return put(v); }
-  bool number_float(Json::number_float_t v, const Json::string_t&) { return put(v); }
-  bool string(Json::string_t& v) { return put(std::move(v)); }
-  bool binary(Json::binary_t& v) { return put(Json::binary(std::move(v))); }
-  bool start_object(std::size_t) {
-    put(Json::object());
-    stack_.push_back(last_);
-    return true;
-  }
-  bool key(Json::string_t& k) {
-    key_ = std::move(k);
-    return true;
-  }
-  bool end_object() {
-    stack_.pop_back();
-    return true;
-  }
-  bool start_array(std::size_t) {
-    put(Json::array());
-    stack_.push_back(last_);
-    return true;
-  }
-  bool end_array() {
-    stack_.pop_back();
-    return true;
-  }
-  bool parse_error(std::size_t position, const std::string&, const Json::exception& e) {
-    error_position = position;
-    error_message = clean_message(e.what());
-    return false;
-  }
-
-  std::size_t error_position = 0;
-  std::string error_message;
-
- private:
-  // Only the innermost open container grows, so pointers to its ancestors stay valid.
-  bool put(Json&& value) {
-    if (stack_.empty()) {
-      root_ = std::move(value);
-      last_ = &root_;
-    } else if (stack_.back()->is_array()) {
-      stack_.back()->push_back(std::move(value));
-      last_ = &stack_.back()->back();
-    } else {
-      Json& slot = (*stack_.back())[key_];
-      slot = std::move(value);
-      last_ = &slot;
-    }
-    return true;
-  }
-
-  Json& root_;
-  Json* last_ = nullptr;
-  std::vector<Json*> stack_;
-  Json::string_t key_;
-};
-
 Json parse_json(std::string_view text, const std::string& source) {
-  check_depth(text, source);
-  Json root;
-  DomBuilder builder(root);
-  const bool ok = Json::sax_parse(text.begin(), text.end(), &builder);
-  if (!ok) {
-    // The position counts characters read, so the offending byte is the one before it.
-    const std::size_t offset = builder.error_position > 0 ? builder.error_position - 1 : 0;
-    throw Error(locate(text, offset, source), builder.error_message);
-  }
-  return root;
+  return parse_json_text<Json>(text, source, kMaxDepth);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/json_text.hpp"
 #include "core/profile.hpp"
 #include "core/rng.hpp"
 #include "sim/bvh.hpp"
@@ -119,23 +120,7 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::s
 namespace {
 Scene parse_scene_impl(std::string_view text, const std::string& source,
                        const std::string& base_dir) {
-  json root;
-  try {
-    root = json::parse(text.begin(), text.end());
-  } catch (const json::parse_error& e) {
-    // Byte offset -> line and column.
-    const std::size_t off = std::min<std::size_t>(e.byte == 0 ? 0 : e.byte - 1, text.size());
-    int64_t line = 1, col = 1;
-    for (std::size_t i = 0; i < off; ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-    throw Error(InputLocation{source, line, col, static_cast<int64_t>(off)}, "JSON syntax error");
-  }
+  const json root = parse_json_text<json>(text, source);
   only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
             source, "$");
   if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {

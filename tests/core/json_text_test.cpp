@@ -1,0 +1,40 @@
+#include "core/json_text.hpp"
+
+#include <gtest/gtest.h>
+
+#include <string>
+
+namespace imukit {
+namespace {
+
+std::string message_of(std::string_view text, int depth = 64) {
+  try {
+    (void)parse_json_text<nlohmann::json>(text, "f.json", depth);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(JsonText, SyntaxErrorsNameLineAndColumnInCharacters) {
+  // The stray 'x' is on line 3; "é" before it is two bytes but one column.
+  EXPECT_EQ(message_of("{\n  \"a\": 1,\n  \"é\": x}").rfind("f.json:3:8: ", 0), 0u)
+      << message_of("{\n  \"a\": 1,\n  \"é\": x}");
+  // At the end of the input: where the missing bracket belongs.
+  EXPECT_EQ(message_of("[1, 2").rfind("f.json:1:6: ", 0), 0u) << message_of("[1, 2");
+  // No nlohmann prefix in the reason.
+  EXPECT_EQ(message_of("{").find("json.exception"), std::string::npos);
+  // A number too large for a double is located too (the DOM parser loses that position).
+  EXPECT_EQ(message_of("{\"v\": 1e999}").rfind("f.json:1:", 0), 0u);
+}
+
+TEST(JsonText, NestingBeyondTheLimitIsRejectedAtItsBracket) {
+  const std::string deep = std::string(5, '[') + std::string(5, ']');
+  EXPECT_EQ(parse_json_text<nlohmann::ordered_json>(deep, "f.json", 5).dump(), "[[[[[]]]]]");
+  EXPECT_EQ(message_of(deep, 4), "f.json:1:5: nesting deeper than 4 levels");
+  // Brackets inside strings do not count.
+  EXPECT_EQ(parse_json_text<nlohmann::json>("[\"[[[[[[\"]", "f.json", 1)[0], "[[[[[[");
+}
+
+}  // namespace
+}  // namespace imukit
