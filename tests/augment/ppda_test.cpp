@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "core/error.hpp"
 #include "core/profile.hpp"
@@ -73,6 +74,36 @@ std::vector<double> run_window(PpdaAugmenter& aug, const SubPolicy& sub, int64_t
   Rng rng(seed);
   aug.apply_window(sub, start, rng, out, log);
   return out;
+}
+
+// A 100-sample window y (ax ay az gx gy gz per sensor) from `start` against a direct spline
+// simulation of the scene's sensors at the drawn placements: 1e-9 m/s^2 and 1e-11 rad/s.
+void expect_direct_simulation(const sim::Scene& scene,
+                              const std::vector<sim::Placement>& placements, int64_t start,
+                              const std::vector<double>& y) {
+  std::vector<sim::SensorSpec> specs;
+  for (std::size_t s = 0; s < placements.size(); ++s) {
+    specs.push_back(scene.sensors[s].spec);
+    specs.back().placement = placements[s];
+  }
+  sim::SimulationOptions o;
+  o.method = sim::DerivativeMethod::spline;
+  sim::Simulator direct(scene.body, specs, o);
+  std::vector<TimeNs> times;
+  for (int64_t i = 0; i < 100; ++i) times.push_back(sample_time(0, start + i, 100.0));
+  std::vector<sim::SensorBlock> blocks;
+  direct.evaluate(*scene.motion, times, blocks);
+  const std::size_t C = 6 * specs.size();
+  for (std::size_t s = 0; s < specs.size(); ++s) {
+    for (Eigen::Index i = 0; i < 100; ++i) {
+      for (int k = 0; k < 3; ++k) {
+        const std::size_t o6 =
+            static_cast<std::size_t>(i) * C + 6 * s + static_cast<std::size_t>(k);
+        EXPECT_NEAR(y[o6], blocks[s].specific_force(k, i), 1e-9) << s << " " << i;
+        EXPECT_NEAR(y[o6 + 3], blocks[s].angular_rate(k, i), 1e-11) << s << " " << i;
+      }
+    }
+  }
 }
 
 TEST(Ppda, DoublingTheSpeedDoublesTheRateQuadruplesTheTangentialAccelerationKeepsGravity) {
@@ -235,31 +266,12 @@ TEST(Ppda, PlacementMatchesADirectSimulationOfTheDrawnPlacement) {
     Rng rng(seed);
     aug.apply_window(sub, n0, rng, y, &log);
     ASSERT_EQ(log.placements.size(), 2u);
-    std::vector<sim::SensorSpec> specs;
     for (std::size_t s = 0; s < 2; ++s) {
-      sim::SensorSpec spec = scene.sensors[s].spec;
-      spec.placement = log.placements[s];
-      specs.push_back(spec);
       // The drawn placement stays on the segment and is a proper rotation away from the preset.
       EXPECT_EQ(log.placements[s].joint, scene.sensors[s].spec.placement.joint);
       EXPECT_NEAR(log.placements[s].q_joint_sensor.norm(), 1.0, 1e-12);
     }
-    sim::SimulationOptions o;
-    o.method = sim::DerivativeMethod::spline;
-    sim::Simulator direct(scene.body, specs, o);
-    std::vector<TimeNs> times;
-    for (int64_t i = 0; i < 100; ++i) times.push_back(sample_time(0, n0 + i, 100.0));
-    std::vector<sim::SensorBlock> blocks;
-    direct.evaluate(*scene.motion, times, blocks);
-    for (std::size_t s = 0; s < 2; ++s) {
-      for (Eigen::Index i = 0; i < 100; ++i) {
-        for (int k = 0; k < 3; ++k) {
-          const std::size_t o6 = static_cast<std::size_t>(i) * 12 + 6 * s;
-          EXPECT_NEAR(y[o6 + static_cast<std::size_t>(k)], blocks[s].specific_force(k, i), 1e-9);
-          EXPECT_NEAR(y[o6 + 3 + static_cast<std::size_t>(k)], blocks[s].angular_rate(k, i), 1e-11);
-        }
-      }
-    }
+    expect_direct_simulation(scene, log.placements, n0, y);
   }
 }
 
@@ -319,25 +331,28 @@ TEST(Ppda, SwappingSubjectsCarriesTheirPlacementsOverToThisBody) {
     const double along = sim::anatomical_frame(scene.body, pl.joint).col(0).dot(pl.p_joint_sensor) /
                          scene.body.segment_end(pl.joint).norm();
     EXPECT_NEAR(along, which == 1 ? 0.9 : 0.55, 1e-12);
-    sim::SensorSpec spec = scene.sensors[0].spec;
-    spec.placement = pl;
-    sim::SimulationOptions o;
-    o.method = sim::DerivativeMethod::spline;
-    sim::Simulator direct(scene.body, {spec}, o);
-    std::vector<TimeNs> times;
-    for (int64_t i = 0; i < 100; ++i) times.push_back(sample_time(0, 300 + i, 100.0));
-    std::vector<sim::SensorBlock> blocks;
-    direct.evaluate(*scene.motion, times, blocks);
-    for (Eigen::Index i = 0; i < 100; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        const auto o6 = static_cast<std::size_t>(i) * 6;
-        EXPECT_NEAR(y[o6 + static_cast<std::size_t>(k)], blocks[0].specific_force(k, i), 1e-9);
-        EXPECT_NEAR(y[o6 + 3 + static_cast<std::size_t>(k)], blocks[0].angular_rate(k, i), 1e-11);
-      }
-    }
+    expect_direct_simulation(scene, log.placements, 300, y);
   }
   EXPECT_GT(seen[0], 2);
   EXPECT_GT(seen[1], 2);
+}
+
+// RMS of the accelerometer and gyroscope differences from the noiseless window `id` over 20
+// draws of the single-sensor window at sample 900 (6000 values each).
+std::pair<double, double> noise_rms(PpdaAugmenter& aug, const SubPolicy& sub,
+                                    const std::vector<double>& id) {
+  double sa = 0, sg = 0;
+  int n = 0;
+  for (uint64_t seed = 1; seed <= 20; ++seed) {
+    const std::vector<double> z = run_window(aug, sub, 900, seed);
+    for (std::size_t i = 0; i < 100; ++i)
+      for (std::size_t k = 0; k < 3; ++k) {
+        sa += std::pow(z[i * 6 + k] - id[i * 6 + k], 2);
+        sg += std::pow(z[i * 6 + 3 + k] - id[i * 6 + 3 + k], 2);
+        ++n;
+      }
+  }
+  return {std::sqrt(sa / n), std::sqrt(sg / n)};
 }
 
 TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
@@ -364,19 +379,9 @@ TEST(Ppda, HardwareRangesAddTheLoggedBiasAndTheStatedNoise) {
   sub.hardware.accel_bias = sub.hardware.gyro_bias = 0.0;
   sub.hardware.accel_noise = 0.1;
   sub.hardware.gyro_noise = 0.01;
-  double sa = 0, sg = 0;
-  int n = 0;
-  for (uint64_t seed = 1; seed <= 20; ++seed) {
-    const std::vector<double> z = run_window(aug, sub, 900, seed);
-    for (std::size_t i = 0; i < 100; ++i)
-      for (std::size_t k = 0; k < 3; ++k) {
-        sa += std::pow(z[i * 6 + k] - id[i * 6 + k], 2);
-        sg += std::pow(z[i * 6 + 3 + k] - id[i * 6 + 3 + k], 2);
-        ++n;
-      }
-  }
-  EXPECT_NEAR(std::sqrt(sa / n), 0.1, 0.1 * 0.03);
-  EXPECT_NEAR(std::sqrt(sg / n), 0.01, 0.01 * 0.03);
+  const auto [accel_rms, gyro_rms] = noise_rms(aug, sub, id);
+  EXPECT_NEAR(accel_rms, 0.1, 0.1 * 0.03);
+  EXPECT_NEAR(gyro_rms, 0.01, 0.01 * 0.03);
 }
 
 TEST(Ppda, HardwareFromADeviceProfileHasTheDevicesNoise) {
@@ -390,19 +395,9 @@ TEST(Ppda, HardwareFromADeviceProfileHasTheDevicesNoise) {
       "accelerometer": {"noise": {"noise_density": [0.002, 0.002, 0.002]}},
       "gyroscope": {"noise": {"noise_density": [0.0003, 0.0003, 0.0003]}}})",
                                        "dev.json");
-  double sa = 0, sg = 0;
-  int n = 0;
-  for (uint64_t seed = 1; seed <= 20; ++seed) {
-    const std::vector<double> z = run_window(aug, sub, 900, seed);
-    for (std::size_t i = 0; i < 100; ++i)
-      for (std::size_t k = 0; k < 3; ++k) {
-        sa += std::pow(z[i * 6 + k] - id[i * 6 + k], 2);
-        sg += std::pow(z[i * 6 + 3 + k] - id[i * 6 + 3 + k], 2);
-        ++n;
-      }
-  }
-  EXPECT_NEAR(std::sqrt(sa / n), 0.02, 0.02 * 0.03);
-  EXPECT_NEAR(std::sqrt(sg / n), 0.003, 0.003 * 0.03);
+  const auto [accel_rms, gyro_rms] = noise_rms(aug, sub, id);
+  EXPECT_NEAR(accel_rms, 0.02, 0.02 * 0.03);
+  EXPECT_NEAR(gyro_rms, 0.003, 0.003 * 0.03);
 }
 
 TEST(Ppda, EverySubPolicyOfThePaperGridGivesFiniteWindows) {
