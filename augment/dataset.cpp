@@ -316,9 +316,6 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     throw Error(fmt::format("augment: {} labels for {} samples", labels.size(), n));
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
   std::vector<float> windows = extract_windows(streams, base, options.window);
-  // The whole recording, for time scaling: a faster window covers more than its own samples.
-  const std::vector<int64_t> whole_start{0};
-  std::vector<float> whole = extract_windows(streams, whole_start, n);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = 6 * streams.size();
   Dataset d;
@@ -327,19 +324,14 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   d.info.sensors = stream_names;
   d.info.rate_hz = rate;
   // z-scoring comes first here: jitter sigmas are then standard deviations (the paper's setting).
-  if (options.normalize) {
-    normalize(windows, C, d.info);
-    for (std::size_t r = 0; r < n; ++r)
-      for (std::size_t c = 0; c < C; ++c)
-        whole[r * C + c] =
-            static_cast<float>((whole[r * C + c] - d.info.channel_mean[c]) / d.info.channel_std[c]);
-  }
+  if (options.normalize) normalize(windows, C, d.info);
   const ChannelLayout layout = ChannelLayout::imu(stream_names);
   d.shape = {N, T, C};
   d.X.resize(d.shape.size());
   d.y.resize(N);
   d.sub_policy.resize(N);
   const Rng root(options.seed);
+  std::vector<float> whole;  // the recording itself, for time scaling
   for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
     const std::size_t nb = std::min(options.batch_size, N - b0);
     Rng br = root.child(batch);
@@ -361,6 +353,15 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     // instead of holding its edge values. The other methods then act on the result.
     for (auto it = specs.begin(); it != specs.end(); ++it) {
       if (it->method != StdaMethod::time_scaling) continue;
+      if (whole.empty()) {
+        // The whole recording, scaled like the windows, made the first time it is needed.
+        const std::vector<int64_t> whole_start{0};
+        whole = extract_windows(streams, whole_start, n);
+        for (std::size_t r = 0; r < n && options.normalize; ++r)
+          for (std::size_t c = 0; c < C; ++c)
+            whole[r * C + c] = static_cast<float>((whole[r * C + c] - d.info.channel_mean[c]) /
+                                                  d.info.channel_std[c]);
+      }
       const double c = 0.5 * static_cast<double>(T - 1), last = static_cast<double>(n - 1);
       for (std::size_t k = 0; k < nb; ++k) {
         const double b = it->lo == it->hi ? it->lo : br.uniform(it->lo, it->hi);

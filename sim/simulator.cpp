@@ -606,7 +606,7 @@ struct Simulator::Workspace {
   std::vector<const double*> on_frame_rotations;
   std::vector<Matrix3d> chart_R;
   std::vector<Matrix3d> R;
-  std::vector<Vector3d> p, v, a, w, dw;
+  std::vector<Vector3d> a, w, dw;
 };
 
 Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, SimulationOptions options)
@@ -747,8 +747,6 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     ws.chart_psi.resize(J);
     ws.chart_R.resize(J);
     ws.R.resize(J);
-    ws.p.resize(J);
-    ws.v.resize(J);
     ws.a.resize(J);
     ws.w.resize(J);
     ws.dw.resize(J);
@@ -852,17 +850,13 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
         if (p < 0) {
           // Differences from the interval's start frame: the weights of the derivatives sum
           // to 0 only up to rounding, differences make a still root exactly still.
+          // (Positions and velocities are not needed: a sensor's acceleration follows from the
+          // chain's rates and the root's acceleration.)
           const Vector3d t0 = c.root_translation.col(fi - lo);
-          Vector3d tp = t0, tv = Vector3d::Zero(), ta = Vector3d::Zero();
-          for (int m = 0; m < n; ++m) {
-            const Vector3d y = c.root_translation.col(s0 + m - lo) - t0;
-            tp += L.w[static_cast<std::size_t>(m)] * y;
-            tv += L.dw[static_cast<std::size_t>(m)] * y;
-            ta += L.ddw[static_cast<std::size_t>(m)] * y;
-          }
+          Vector3d ta = Vector3d::Zero();
+          for (int m = 0; m < n; ++m)
+            ta += L.ddw[static_cast<std::size_t>(m)] * (c.root_translation.col(s0 + m - lo) - t0);
           ws.R[k] = Rl;
-          ws.p[k] = tp;
-          ws.v[k] = tv * rate;
           ws.a[k] = ta * (rate * rate);
           ws.w[k] = Rl * E.w_body;
           ws.dw[k] = Rl * E.dw_body;
@@ -873,8 +867,6 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
           const Vector3d wl = ws.R[k] * E.w_body;  // the joint's own rate, world axes
           ws.w[k] = ws.w[pp] + wl;
           ws.dw[k] = ws.dw[pp] + ws.w[pp].cross(wl) + ws.R[k] * E.dw_body;
-          ws.p[k] = ws.p[pp] + o;
-          ws.v[k] = ws.v[pp] + ws.w[pp].cross(o);
           ws.a[k] = ws.a[pp] + ws.dw[pp].cross(o) + ws.w[pp].cross(ws.w[pp].cross(o));
         }
       }
