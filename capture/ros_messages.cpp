@@ -5,6 +5,17 @@
 
 namespace imukit::capture {
 
+// The nested definitions a ROS 2 schema text appends after its own fields, each behind a
+// separator line (string literals, so the texts below are assembled at compile time).
+#define IMUKIT_ROS_SEPARATOR \
+  "================================================================================\n"
+#define IMUKIT_ROS_TIME \
+  IMUKIT_ROS_SEPARATOR "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
+#define IMUKIT_ROS_HEADER \
+  IMUKIT_ROS_SEPARATOR "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
+#define IMUKIT_ROS_VECTOR3 \
+  IMUKIT_ROS_SEPARATOR "MSG: geometry_msgs/Vector3\nfloat64 x\nfloat64 y\nfloat64 z\n"
+
 const std::string_view kImuSchemaName = "sensor_msgs/msg/Imu";
 const std::string_view kImuSchemaText =
     "std_msgs/Header header\n"
@@ -13,26 +24,13 @@ const std::string_view kImuSchemaText =
     "geometry_msgs/Vector3 angular_velocity\n"
     "float64[9] angular_velocity_covariance\n"
     "geometry_msgs/Vector3 linear_acceleration\n"
-    "float64[9] linear_acceleration_covariance\n"
-    "================================================================================\n"
-    "MSG: std_msgs/Header\n"
-    "builtin_interfaces/Time stamp\n"
-    "string frame_id\n"
-    "================================================================================\n"
-    "MSG: builtin_interfaces/Time\n"
-    "int32 sec\n"
-    "uint32 nanosec\n"
-    "================================================================================\n"
+    "float64[9] linear_acceleration_covariance\n" IMUKIT_ROS_HEADER IMUKIT_ROS_TIME
+        IMUKIT_ROS_SEPARATOR
     "MSG: geometry_msgs/Quaternion\n"
     "float64 x\n"
     "float64 y\n"
     "float64 z\n"
-    "float64 w\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Vector3\n"
-    "float64 x\n"
-    "float64 y\n"
-    "float64 z\n";
+    "float64 w\n" IMUKIT_ROS_VECTOR3;
 
 const std::string_view kRawImuSchemaName = "imukit_msgs/msg/RawImu";
 const std::string_view kRawImuSchemaText =
@@ -45,30 +43,18 @@ const std::string_view kRawImuSchemaText =
     "int32[3] gyro\n"
     "int32[3] mag\n"
     "int32 temperature\n"
-    "uint8 channels\n"
-    "================================================================================\n"
-    "MSG: builtin_interfaces/Time\n"
-    "int32 sec\n"
-    "uint32 nanosec\n";
+    "uint8 channels\n" IMUKIT_ROS_TIME;
 
 const std::string_view kMagneticFieldSchemaName = "sensor_msgs/msg/MagneticField";
 const std::string_view kMagneticFieldSchemaText =
     "std_msgs/Header header\n"
     "geometry_msgs/Vector3 magnetic_field\n"
-    "float64[9] magnetic_field_covariance\n"
-    "================================================================================\n"
-    "MSG: std_msgs/Header\n"
-    "builtin_interfaces/Time stamp\n"
-    "string frame_id\n"
-    "================================================================================\n"
-    "MSG: builtin_interfaces/Time\n"
-    "int32 sec\n"
-    "uint32 nanosec\n"
-    "================================================================================\n"
-    "MSG: geometry_msgs/Vector3\n"
-    "float64 x\n"
-    "float64 y\n"
-    "float64 z\n";
+    "float64[9] magnetic_field_covariance\n" IMUKIT_ROS_HEADER IMUKIT_ROS_TIME IMUKIT_ROS_VECTOR3;
+
+#undef IMUKIT_ROS_SEPARATOR
+#undef IMUKIT_ROS_TIME
+#undef IMUKIT_ROS_HEADER
+#undef IMUKIT_ROS_VECTOR3
 
 namespace {
 

@@ -87,6 +87,16 @@ struct GyroResidual {
 // scale factor, one SI unit's worth of counts for a bias), so a parameter the data barely
 // touch shows up as a singular value far below the others (threshold 1e-4 of the largest);
 // scaling columns to unit norm instead would hide exactly that.
+// jacobian_rank's references for the calibration's blocks in order: `angles` misalignment angles
+// (1 rad), the three scale factors s (themselves) and the three biases (one SI unit in counts,
+// 1 / s).
+std::vector<double> column_references(int angles, const double* s) {
+  std::vector<double> r(static_cast<std::size_t>(angles), 1.0);
+  for (int a = 0; a < 3; ++a) r.push_back(std::abs(s[a]));
+  for (int a = 0; a < 3; ++a) r.push_back(1 / std::abs(s[a]));
+  return r;
+}
+
 int jacobian_rank(ceres::Problem& problem, const std::vector<double>& reference, int* cols_out) {
   ceres::CRSMatrix crs;
   problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &crs);
@@ -212,17 +222,7 @@ TriadCalibration fit_accelerometer(const std::vector<Eigen::Vector3d>& means, do
         new ceres::AutoDiffCostFunction<AccelResidual, 1, 3, 3, 3>(new AccelResidual(m, gravity)),
         nullptr, mis, s, b);
   }
-  auto refs = [&] {
-    return std::vector<double>{1,
-                               1,
-                               1,
-                               std::abs(s[0]),
-                               std::abs(s[1]),
-                               std::abs(s[2]),
-                               1 / std::abs(s[0]),
-                               1 / std::abs(s[1]),
-                               1 / std::abs(s[2])};
-  };
+  auto refs = [&] { return column_references(3, s); };
   int cols = 0;
   const int rank_before = jacobian_rank(problem, refs(), &cols);
   ceres::Solver::Options so;
@@ -348,20 +348,7 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
         for (double& v : s) v = num / den;
       }
     }
-    auto refs = [&] {
-      return std::vector<double>{1,
-                                 1,
-                                 1,
-                                 1,
-                                 1,
-                                 1,
-                                 std::abs(s[0]),
-                                 std::abs(s[1]),
-                                 std::abs(s[2]),
-                                 1 / std::abs(s[0]),
-                                 1 / std::abs(s[1]),
-                                 1 / std::abs(s[2])};
-    };
+    auto refs = [&] { return column_references(6, s); };
     int cols = 0;
     const int rank_before = jacobian_rank(problem, refs(), &cols);
     ceres::Solver::Options so;

@@ -199,24 +199,33 @@ TEST(MockDevice, PosesRotateBetweenSixFacesWithConsistentGyro) {
   EXPECT_NEAR(f(2, 0), -9.80665, 1e-12);  // pose 3 is -z up
 }
 
-TEST(MockDevice, PosesUriHoldsEachFaceUp) {
-  // 6 holds of 0.5 s and 5 moves of 0.25 s: 4.25 s at 200 Hz.
-  const MockRun r =
-      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
-  ASSERT_EQ(r.samples.size(), 840u);
-  PosesSource src(PosesSource::six_faces(), 0.5, 0.25);
+// Every sample taken while the pose source holds a pose reads gravity in that pose's sensor axes
+// (to one LSB of the +-16 g range); `also(sample, pose)` is called for each. The device clock
+// counts from the mock's creation, the source's time zero (no drift).
+template <class Also>
+void expect_held_samples_read_gravity(const MockRun& r, const PosesSource& src, Also also) {
   const double lsb = 16 * 9.80665 / 32768;
-  int checked = 0;
   for (const Sample& s : r.samples) {
-    // The device clock counts from the mock's creation, the source's time zero (no drift).
     int held = -1;
     const Eigen::Quaterniond q = src.orientation(to_seconds(s.device_time), &held);
     if (held < 0) continue;
     const Eigen::Vector3d f = q.conjugate() * Eigen::Vector3d(0, 0, 9.80665);
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.accel[k], f[k], lsb);
-    for (int k = 0; k < 3; ++k) EXPECT_EQ(s.gyro[k], 0.0);
-    ++checked;
+    also(s, held);
   }
+}
+
+TEST(MockDevice, PosesUriHoldsEachFaceUp) {
+  // 6 holds of 0.5 s and 5 moves of 0.25 s: 4.25 s at 200 Hz.
+  const MockRun r =
+      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
+  ASSERT_EQ(r.samples.size(), 840u);
+  int checked = 0;
+  expect_held_samples_read_gravity(r, PosesSource(PosesSource::six_faces(), 0.5, 0.25),
+                                   [&](const Sample& s, int) {
+                                     for (int k = 0; k < 3; ++k) EXPECT_EQ(s.gyro[k], 0.0);
+                                     ++checked;
+                                   });
   EXPECT_GT(checked, 500);
 }
 
@@ -261,17 +270,9 @@ TEST(MockDevice, PosesKeySelectsTheTiltTour) {
   const MockRun r =
       run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&poses=9&clock=virtual&disconnect_after=1300");
   ASSERT_EQ(r.samples.size(), 1300u);
-  PosesSource src(PosesSource::tilt_tour(9), 0.5, 0.25);
-  const double lsb = 16 * 9.80665 / 32768;
   std::set<int> seen;
-  for (const Sample& s : r.samples) {
-    int held = -1;
-    const Eigen::Quaterniond q = src.orientation(to_seconds(s.device_time), &held);
-    if (held < 0) continue;
-    const Eigen::Vector3d f = q.conjugate() * Eigen::Vector3d(0, 0, 9.80665);
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.accel[k], f[k], lsb);
-    seen.insert(held);
-  }
+  expect_held_samples_read_gravity(r, PosesSource(PosesSource::tilt_tour(9), 0.5, 0.25),
+                                   [&](const Sample&, int held) { seen.insert(held); });
   EXPECT_EQ(seen.size(), 9u);
   EXPECT_THROW(open_device("mock:poses?poses=27"), Error);
   EXPECT_THROW(open_device("mock:poses?poses=0"), Error);
