@@ -100,7 +100,9 @@ struct Dataset {
 // labels: per sample (at the sensor rate), may be empty.
 Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
                          std::span<const int64_t> labels, const DatasetOptions& options);
-// The STDA counterparts of the policy applied to recorded windows.
+// The STDA counterparts of the policy applied to recorded windows. Time scaling runs first and
+// reads the recording around each window (a faster window shows more of it), instead of holding
+// the window's edge values as apply_stda does on bare windows.
 Dataset generate_dataset(const std::vector<std::string>& stream_names,
                          const std::vector<const ImuSeries*>& streams, const Policy& policy,
                          std::span<const int64_t> labels, const DatasetOptions& options);
