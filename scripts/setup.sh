@@ -15,6 +15,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   python3 python3-numpy                          # independent check that numpy reads our .npy
   pybind11-dev python3-dev                       # the Python module (python/, docs/python.md)
+  python3-scipy python3-pytest                   # dataset readers (loadmat), Python tests
+  python3-torch python3-matplotlib               # imukit.har: HAR models, training, plots
   gnuplot-nox                                    # characterize/calibrate --plot (SVG)
 )
 # node + npm run the MCAP project's own reader on our files (tests/capture/node); the machine
