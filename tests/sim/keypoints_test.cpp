@@ -7,6 +7,7 @@
 
 #include "core/error.hpp"
 #include "core/so3.hpp"
+#include "sim/bvh.hpp"
 #include "sim/scene.hpp"
 
 namespace imukit::sim {
@@ -549,6 +550,49 @@ TEST(AverageBodies, TakesTheJointWiseMedian) {
               average_bodies(std::vector<Body>{a, d});
             }).find("joint 3 differs"),
             std::string::npos);
+}
+
+}  // namespace
+}  // namespace imukit::sim
+
+namespace imukit::sim {
+namespace {
+
+// ----- writers --------------------------------------------------------------------------------
+
+TEST(MotionWriters, BvhAndQuaternionCsvReadBackToTheSameMotion) {
+  const Body body = kinect_body();
+  const Motion m = hinge_motion(body, 50.0, 101);  // a full pelvis turn passes +-180 deg
+  // Quaternion CSV: the same doubles (to the reader's renormalisation, 1 ulp).
+  const Motion c = parse_quaternion_csv(format_quaternion_csv(body, m), "m.csv", body);
+  ASSERT_EQ(c.frames(), m.frames());
+  EXPECT_EQ(c.rate_hz(), 50.0);
+  for (int64_t f = 0; f < m.frames(); ++f) {
+    EXPECT_EQ(c.root_translation(f), m.root_translation(f));
+    for (std::size_t j = 0; j < body.size(); ++j)
+      EXPECT_LT((c.rotation(f, j).coeffs() - m.rotation(f, j).coeffs()).norm(), 1e-15);
+  }
+  // BVH, Y up: offsets and world rotations to 1e-8 (10 significant digits).
+  const BvhData d = parse_bvh(format_bvh(body, m), "m.bvh");
+  ASSERT_EQ(d.body.size(), body.size());
+  EXPECT_EQ(d.motion.rate_hz(), 50.0);
+  const WorldPoses a = world_poses(body, m);
+  const WorldPoses b = world_poses(d.body, d.motion);
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    EXPECT_EQ(d.body.joint(j).name, body.joint(j).name);
+    EXPECT_LT((d.body.joint(j).offset_parent_joint - body.joint(j).offset_parent_joint).norm(),
+              1e-9);
+  }
+  EXPECT_LT((d.body.segment_end(7) - body.segment_end(7)).norm(), 1e-9);  // the hand's End Site
+  double worst = 0.0, worst_p = 0.0;
+  for (std::size_t i = 0; i < a.rotations.size(); ++i) {
+    worst = std::max(worst, angular_distance(a.rotations[i], b.rotations[i]));
+    worst_p = std::max(worst_p, (a.positions.col(static_cast<Eigen::Index>(i)) -
+                                 b.positions.col(static_cast<Eigen::Index>(i)))
+                                    .norm());
+  }
+  EXPECT_LT(worst, 1e-8);
+  EXPECT_LT(worst_p, 1e-8);
 }
 
 }  // namespace
