@@ -77,6 +77,7 @@ nlohmann::json report_of(const sim::KeypointMotion& r, const MotionArgs& a) {
   j["frozen_frames"] = r.frozen_frames;
   j["swapped_frames"] = r.swapped_frames;
   j["outlier_frames"] = r.outlier_frames;
+  j["jump_frames"] = r.jump_frames;
   j["flagged_frames"] = r.flagged_frames;
   nlohmann::json gaps = nlohmann::json::array();
   for (const auto& [b, e] : r.invalid_motion) gaps.push_back({b, e});
@@ -119,6 +120,7 @@ int run_motion(const MotionArgs& a) {
     o.fix_swaps = false;
     o.drop_frozen_frames = false;
     o.max_bone_deviation = 0.0;
+    o.jump_speed_mps = 0.0;
   }
   const sim::KeypointMotion r = sim::motion_from_keypoints(k, topo, o);
   if (ext == ".bvh") {
@@ -169,7 +171,8 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--report", a->report,
                          "Also write a JSON report: repairs by frame, world frame, segments");
           sub.add_flag("--no-repairs", a->no_repairs,
-                       "Keep frozen frames, limb swaps and bone-length outliers as they are");
+                       "Keep frozen frames, limb swaps and bone-length outliers as they are (and "
+                       "flag no jumps)");
           sub.add_flag("-q,--quiet", a->quiet, "No summary or warnings on stderr");
           sub.add_option("--print-topology", a->print_topology,
                          "Print a topology as JSON (a starting point for your own) and exit");

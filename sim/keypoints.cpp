@@ -1110,9 +1110,36 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
       if (!any) throw Error("keypoints: keypoint '" + topo.keypoints[j] + "' has no usable frame");
     }
   }
+  // Jumps: a keypoint that steps faster than jump_speed_mps between two frames, and more than
+  // three times as fast as in the steps before and after (a tracking failure snapping back,
+  // not a fast swing). Kept (the data may be right), but named and left out of identification.
+  if (opt.jump_speed_mps > 0.0) {
+    std::vector<int64_t> jumps;
+    const auto speed = [&](int64_t f, std::size_t j) {  // step f-1 -> f, 0 when unknown
+      if (f < 1 || f >= F || !c.valid[idx(f, j)] || !c.valid[idx(f - 1, j)]) return 0.0;
+      return (c.p.col(col(f, j)) - c.p.col(col(f - 1, j))).norm() /
+             (c.t[static_cast<std::size_t>(f)] - c.t[static_cast<std::size_t>(f - 1)]);
+    };
+    for (int64_t f = 1; f < F; ++f) {
+      for (std::size_t j = 0; j < J; ++j) {
+        const double v = speed(f, j);
+        if (v > opt.jump_speed_mps && v > 3.0 * std::max(speed(f - 1, j), speed(f + 1, j))) {
+          jumps.push_back(f);
+          break;
+        }
+      }
+    }
+    out.jump_frames = jumps;
+    if (!jumps.empty())
+      out.warnings.push_back("keypoints jump faster than " +
+                             std::to_string(opt.jump_speed_mps).substr(0, 4) +
+                             " m/s (a tracking failure?) into input frames " + frame_list(jumps) +
+                             ": kept, and listed in invalid_motion");
+  }
   {
     std::vector<int64_t> all = out.missing_frames;
-    for (const auto* v : {&out.frozen_frames, &out.swapped_frames, &out.outlier_frames})
+    for (const auto* v :
+         {&out.frozen_frames, &out.swapped_frames, &out.outlier_frames, &out.jump_frames})
       all.insert(all.end(), v->begin(), v->end());
     std::sort(all.begin(), all.end());
     out.flagged_frames = std::unique(all.begin(), all.end()) - all.begin();
@@ -1281,6 +1308,23 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
       }
       f = g + 1;
     }
+    // Jumps, widened by the smoothing's reach (half a period of the cut-off) on each side.
+    const double reach = 0.5 / opt.cutoff_hz;
+    for (const int64_t f : out.jump_frames) {
+      const double b = std::max(0.0, c.t[static_cast<std::size_t>(f - 1)] - c.t.front() - reach);
+      const double e = std::min(duration, c.t[static_cast<std::size_t>(f)] - c.t.front() + reach);
+      out.invalid_motion.emplace_back(from_seconds(b), from_seconds(e));
+    }
+    std::sort(out.invalid_motion.begin(), out.invalid_motion.end());
+    std::vector<std::pair<TimeNs, TimeNs>> merged;
+    for (const auto& iv : out.invalid_motion) {
+      if (!merged.empty() && iv.first <= merged.back().second) {
+        merged.back().second = std::max(merged.back().second, iv.second);
+      } else {
+        merged.push_back(iv);
+      }
+    }
+    out.invalid_motion = std::move(merged);
   }
 
   // Rotations (step 5).

@@ -10,7 +10,8 @@
 //      one exactly: a dropped camera frame) become missing; left/right limb swaps are undone;
 //      of a bone whose length is off its median by more than max_bone_deviation, the keypoint
 //      that jumped (further from its neighbouring frames' midpoint) becomes missing; missing
-//      samples are weights of zero in step 4;
+//      samples are weights of zero in step 4; jumps (a keypoint snapping back after a tracking
+//      failure) are named and their stretches listed in invalid_motion;
 //   3. world frame: up from KeypointMotionOptions::up, else from the body's own axis while it
 //      stands upright; forward (+y) the median facing direction of the hips; x = y cross z
 //      (right); z = 0 at the floor (the lowest keypoints), the root over the origin at frame 0;
@@ -143,6 +144,10 @@ struct KeypointMotionOptions {
   // A bone longer or shorter than its median by more than this fraction (and 5 cm) drops the
   // keypoint of its two that jumped in that frame (0: never drop).
   double max_bone_deviation = 0.3;
+  // A keypoint stepping faster than this between two frames, and three times faster than in
+  // the neighbouring steps, is a jump: named in a warning and its stretch (widened by
+  // 0.5 / cutoff_hz on each side) put in invalid_motion; the data are kept (0: no check).
+  double jump_speed_mps = 4.0;
   // Secondary directions closer than these angles to the bone carry no twist information
   // (weight 0) and beyond the second full weight; in between a smooth ramp.
   double twist_min_angle_deg = 10.0;
@@ -173,9 +178,11 @@ struct KeypointMotion {
   std::vector<int64_t> frozen_frames;
   std::vector<int64_t> swapped_frames;
   std::vector<int64_t> outlier_frames;
-  int64_t flagged_frames = 0;  // input frames in any list
-  // Motion-time intervals [begin, end] (ns since motion frame 0) filled over two or more
-  // consecutive input frames without data; IdentifyOptions::invalid_motion takes them as is.
+  std::vector<int64_t> jump_frames;  // the frame after each jump
+  int64_t flagged_frames = 0;        // input frames in any list
+  // Motion-time intervals [begin, end] (ns since motion frame 0, sorted, disjoint) filled over
+  // two or more consecutive input frames without data, and around jumps; the motion there is
+  // a guess. IdentifyOptions::invalid_motion takes them as is.
   std::vector<std::pair<TimeNs, TimeNs>> invalid_motion;
   std::vector<SegmentReport> segments;
 };

@@ -36,7 +36,8 @@ py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::h
                                 py::handle times, double output_rate_hz, double cutoff_hz,
                                 py::handle up, const Body* body, bool fix_swaps,
                                 bool drop_frozen_frames, double max_bone_deviation,
-                                double twist_min_angle_deg, double twist_full_angle_deg) {
+                                double jump_speed_mps, double twist_min_angle_deg,
+                                double twist_full_angle_deg) {
   const sim::KeypointTopology topo = topology_argument(topology);
   const auto a = read_f64(keypoints, "keypoints");
   if (a.ndim() != 3 || a.shape(2) != 3) {
@@ -69,6 +70,7 @@ py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::h
   o.fix_swaps = fix_swaps;
   o.drop_frozen_frames = drop_frozen_frames;
   o.max_bone_deviation = max_bone_deviation;
+  o.jump_speed_mps = jump_speed_mps;
   o.twist_min_angle_deg = twist_min_angle_deg;
   o.twist_full_angle_deg = twist_full_angle_deg;
   std::shared_ptr<sim::KeypointMotion> r;
@@ -88,6 +90,7 @@ py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::h
   info["frozen_frames"] = r->frozen_frames;
   info["swapped_frames"] = r->swapped_frames;
   info["outlier_frames"] = r->outlier_frames;
+  info["jump_frames"] = r->jump_frames;
   info["flagged_frames"] = r->flagged_frames;
   info["invalid_motion_ns"] = r->invalid_motion;
   py::list segs;
@@ -112,7 +115,8 @@ void bind_keypoints(py::module_& m) {
         py::arg("output_rate_hz") = 100.0, py::arg("cutoff_hz") = 4.0, py::arg("up") = py::none(),
         py::arg("body") = nullptr, py::arg("fix_swaps") = true,
         py::arg("drop_frozen_frames") = true, py::arg("max_bone_deviation") = 0.3,
-        py::arg("twist_min_angle_deg") = 10.0, py::arg("twist_full_angle_deg") = 25.0, R"doc(
+        py::arg("jump_speed_mps") = 4.0, py::arg("twist_min_angle_deg") = 10.0,
+        py::arg("twist_full_angle_deg") = 25.0, R"doc(
 Body motion from 3D keypoints (docs/keypoints.md): keypoints (frames, J, 3) in metres (NaN =
 missing) in any fixed right-handed frame, the topology (a name: kinect_v1_20, h36m_17; a JSON file;
 or a dict), and the frame times: rate_hz= or times= (s). Returns (Body, Motion, info): the motion

@@ -319,6 +319,36 @@ TEST(MotionFromKeypoints, FillsGapsAndFrozenFramesAndUndoesSwapsWithWarnings) {
   EXPECT_GT(worst_raw / kDeg, 20.0);
 }
 
+TEST(MotionFromKeypoints, NamesJumpsAndListsTheirStretchesForIdentification) {
+  const Body body = kinect_body();
+  const Motion truth = hinge_motion(body, 20.0, 121);
+  const KeypointTopology topo = keypoint_topology("kinect_v1_20");
+  Keypoints k = keypoints_of(body, truth, topo);
+  const auto J = static_cast<Eigen::Index>(topo.keypoints.size());
+  // The right arm stuck 40 cm off for frames 50-57 (a tracker lost it), then snapping back.
+  for (int f = 50; f < 58; ++f) {
+    for (const char* n : {"right_elbow", "right_wrist", "right_hand"})
+      k.positions.col(f * J + topo.keypoint_index(n)) += Vector3d(0.4, 0, 0);
+  }
+  KeypointMotionOptions o;
+  o.max_bone_deviation = 0.0;  // the upper arm stretches: keep it, to see the jumps alone
+  const KeypointMotion r = motion_from_keypoints(k, topo, o);
+  EXPECT_EQ(r.jump_frames, (std::vector<int64_t>{50, 58}));
+  // Steps of 0.4 m in 50 ms, widened by 0.5 / 4 Hz on each side.
+  ASSERT_EQ(r.invalid_motion.size(), 2u);
+  EXPECT_EQ(r.invalid_motion[0],
+            std::make_pair(from_seconds(49 / 20.0 - 0.125), from_seconds(50 / 20.0 + 0.125)));
+  EXPECT_EQ(r.invalid_motion[1],
+            std::make_pair(from_seconds(57 / 20.0 - 0.125), from_seconds(58 / 20.0 + 0.125)));
+  bool named = false;
+  for (const std::string& w : r.warnings)
+    named |= w.find("into input frames 50, 58") != std::string::npos;
+  EXPECT_TRUE(named);
+  // A fast but smooth motion (the clean data) has none.
+  o.jump_speed_mps = 0.5;
+  EXPECT_TRUE(motion_from_keypoints(keypoints_of(body, truth, topo), topo, o).jump_frames.empty());
+}
+
 TEST(MotionFromKeypoints, UnusableInputGetsClearErrors) {
   const KeypointTopology topo = keypoint_topology("kinect_v1_20");
   Keypoints k;
