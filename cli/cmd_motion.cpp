@@ -26,7 +26,7 @@ struct MotionArgs {
   std::string print_topology;
   double rate_hz = 0.0;
   double output_rate_hz = 100.0;
-  double cutoff_hz = 4.0;
+  double cutoff_hz = 3.0;
   std::vector<double> up;
   bool no_repairs = false;
   bool quiet = false;
@@ -160,7 +160,7 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--output-rate", a->output_rate_hz,
                          "Output frame rate in Hz (default 100)");
           sub.add_option("--cutoff", a->cutoff_hz,
-                         "Smoothing cut-off in Hz: gain 1/2 there (default 4)");
+                         "Smoothing cut-off in Hz: gain 1/2 there (default 3)");
           sub.add_option("--up", a->up,
                          "Up direction in the input's frame: x,y,z (default: "
                          "estimated from the upright body)")

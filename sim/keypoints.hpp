@@ -132,7 +132,7 @@ Keypoints parse_keypoints_csv(std::string_view text, const std::string& source_n
 
 struct KeypointMotionOptions {
   double rate_hz = 100.0;  // output frame rate (the smoothing spline is evaluated there)
-  double cutoff_hz = 4.0;  // smoothing: gain 1/2 at cutoff_hz (docs/keypoints.md)
+  double cutoff_hz = 3.0;  // smoothing: gain 1/2 at cutoff_hz (docs/keypoints.md)
   // Up (against gravity) in the input's frame, e.g. the IMU's gravity reading at rest mapped to
   // the camera frame, negated. None: estimated from the data.
   std::optional<Eigen::Vector3d> up;

@@ -112,7 +112,7 @@ py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::h
 void bind_keypoints(py::module_& m) {
   m.def("motion_from_keypoints", &motion_from_keypoints, py::arg("keypoints"), py::arg("topology"),
         py::arg("rate_hz") = py::none(), py::arg("times") = py::none(), py::kw_only(),
-        py::arg("output_rate_hz") = 100.0, py::arg("cutoff_hz") = 4.0, py::arg("up") = py::none(),
+        py::arg("output_rate_hz") = 100.0, py::arg("cutoff_hz") = 3.0, py::arg("up") = py::none(),
         py::arg("body") = nullptr, py::arg("fix_swaps") = true,
         py::arg("drop_frozen_frames") = true, py::arg("max_bone_deviation") = 0.3,
         py::arg("jump_speed_mps") = 4.0, py::arg("twist_min_angle_deg") = 10.0,

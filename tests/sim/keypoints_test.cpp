@@ -332,6 +332,7 @@ TEST(MotionFromKeypoints, NamesJumpsAndListsTheirStretchesForIdentification) {
   }
   KeypointMotionOptions o;
   o.max_bone_deviation = 0.0;  // the upper arm stretches: keep it, to see the jumps alone
+  o.cutoff_hz = 4.0;
   const KeypointMotion r = motion_from_keypoints(k, topo, o);
   EXPECT_EQ(r.jump_frames, (std::vector<int64_t>{50, 58}));
   // Steps of 0.4 m in 50 ms, widened by 0.5 / 4 Hz on each side.
