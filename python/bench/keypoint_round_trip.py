@@ -104,7 +104,7 @@ def camera(tilt_deg):
     return tilt @ base
 
 
-def run(bvh, fps=19.0, jitter_m=0.01, swap_rate=0.01, tilt_deg=10.0, cutoff_hz=4.0, seed=1,
+def run(bvh, fps=19.0, jitter_m=0.01, swap_rate=0.01, tilt_deg=10.0, cutoff_hz=3.0, seed=1,
         give_up=False, band_hz=5.0):
     rng = np.random.default_rng(seed)
     body, motion, _ = imukit.read_bvh(bvh)

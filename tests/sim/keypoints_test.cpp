@@ -350,6 +350,42 @@ TEST(MotionFromKeypoints, NamesJumpsAndListsTheirStretchesForIdentification) {
   EXPECT_TRUE(motion_from_keypoints(keypoints_of(body, truth, topo), topo, o).jump_frames.empty());
 }
 
+TEST(MotionFromKeypoints, AStillPoseGivesAStillMotionAndDegenerateInputNoNaN) {
+  const Body body = kinect_body();
+  Motion still(30.0, body.size(), 40);
+  for (int64_t f = 0; f < 40; ++f) still.root_translation(f) = Vector3d(0, 0, 1);
+  const KeypointTopology topo = keypoint_topology("kinect_v1_20");
+  const KeypointMotion r = motion_from_keypoints(keypoints_of(body, still, topo), topo);
+  EXPECT_TRUE(r.frozen_frames.empty());  // every frame the same: a still input, not a frozen one
+  // Straight arms in a T-pose: the elbow planes never exist, which is said for the six arm
+  // segments (upper arms, forearms, hands); the minimum twist then gives the identity back.
+  EXPECT_EQ(r.warnings.size(), 6u);
+  for (const std::string& w : r.warnings)
+    EXPECT_NE(w.find("twist unobservable in every frame"), std::string::npos) << w;
+  for (std::size_t j = 0; j < r.body.size(); ++j) {
+    for (int64_t k = 1; k < r.motion.frames(); ++k)
+      EXPECT_LT(angular_distance(r.motion.rotation(k, j), r.motion.rotation(0, j)), 1e-9);
+    EXPECT_LT(angular_distance(r.motion.rotation(0, j), still.rotation(0, j)), 1e-9) << j;
+  }
+  // Every keypoint at one point: no direction anywhere. Up unknown is an error; given, the
+  // motion is finite (identity-like) with warnings instead of NaN.
+  Keypoints k;
+  k.keypoints = 20;
+  k.rate_hz = 30.0;
+  k.positions = Eigen::Matrix3Xd::Zero(3, 20 * 10);
+  EXPECT_NE(error_of([&] { motion_from_keypoints(k, topo); }).find("up is unknown"),
+            std::string::npos);
+  KeypointMotionOptions o;
+  o.up = Vector3d::UnitZ();
+  const KeypointMotion d = motion_from_keypoints(k, topo, o);
+  EXPECT_FALSE(d.warnings.empty());
+  for (std::size_t j = 0; j < d.body.size(); ++j) {
+    EXPECT_TRUE(d.body.joint(j).offset_parent_joint.allFinite());
+    for (int64_t f = 0; f < d.motion.frames(); ++f)
+      EXPECT_TRUE(d.motion.rotation(f, j).coeffs().allFinite());
+  }
+}
+
 TEST(MotionFromKeypoints, UnusableInputGetsClearErrors) {
   const KeypointTopology topo = keypoint_topology("kinect_v1_20");
   Keypoints k;
