@@ -25,6 +25,10 @@ using Eigen::Vector3d;
 constexpr double kPi = std::numbers::pi;
 // Kinect v1 jitters by centimetres: a 5 cm hand segment must not lose every other frame.
 constexpr double kMinBoneDeviationM = 0.05;
+// Limits that keep every sum of squares, time in ns and buffer finite and sane.
+constexpr double kMaxCoordinateM = 1e6;
+constexpr double kMaxDurationS = 1e7;
+constexpr int64_t kMaxOutputFrames = 10'000'000;
 
 // ---------------------------------------------------------------------------------------------
 // Built-in topologies
@@ -930,6 +934,10 @@ void check_and_time(const Keypoints& k, const KeypointTopology& topo, Cleaned& c
           throw Error("keypoints: frame " + std::to_string(f) + ", keypoint " + topo.keypoints[j] +
                       ": infinite coordinate");
       }
+      if (v.allFinite() && !(v.cwiseAbs().maxCoeff() <= kMaxCoordinateM)) {
+        throw Error("keypoints: frame " + std::to_string(f) + ", keypoint " + topo.keypoints[j] +
+                    ": a coordinate beyond 1e6 m (not metres?)");
+      }
       if (!v.allFinite()) {
         c.valid[static_cast<std::size_t>(col)] = 0;
         c.p.col(col).setConstant(std::numeric_limits<double>::quiet_NaN());
@@ -1264,6 +1272,11 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
 
   // Smoothing and resampling (step 4), in the world frame.
   const double duration = c.t.back() - c.t.front();
+  if (!(duration <= kMaxDurationS))
+    throw Error("keypoints: the input lasts " + std::to_string(duration) + " s (more than 1e7 s)");
+  if (!(duration * opt.rate_hz < static_cast<double>(kMaxOutputFrames)))
+    throw Error("keypoints: more than 1e7 output frames at " + std::to_string(opt.rate_hz) +
+                " Hz: lower rate_hz or split the input");
   const auto N = static_cast<int64_t>(std::floor(duration * opt.rate_hz + 1e-9)) + 1;
   if (N < 2)
     throw Error("keypoints: the input lasts " + std::to_string(duration) +

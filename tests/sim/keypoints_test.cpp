@@ -410,6 +410,16 @@ TEST(MotionFromKeypoints, UnusableInputGetsClearErrors) {
             }).find("frame 3, keypoint left_elbow: infinite"),
             std::string::npos);
   k.positions = Eigen::Matrix3Xd::Random(3, 200);
+  k.positions(2, 4 * 20 + 9) = 3e6;
+  EXPECT_NE(error_of([&] {
+              motion_from_keypoints(k, topo);
+            }).find("frame 4, keypoint right_elbow: a coordinate beyond 1e6 m"),
+            std::string::npos);
+  k.positions = Eigen::Matrix3Xd::Random(3, 200);
+  k.rate_hz = 1e-6;  // 9e6 s at 100 Hz
+  EXPECT_NE(error_of([&] { motion_from_keypoints(k, topo); }).find("more than 1e7 output frames"),
+            std::string::npos);
+  k.rate_hz = 30.0;
   k.t_s = {0, 1, 2, 3, 3, 5, 6, 7, 8, 9};
   EXPECT_NE(error_of([&] {
               motion_from_keypoints(k, topo);
