@@ -13,7 +13,7 @@
 //      samples are weights of zero in step 4; jumps (a keypoint snapping back after a tracking
 //      failure) are named and their stretches listed in invalid_motion;
 //   3. world frame: up from KeypointMotionOptions::up, else from the body's own axis while it
-//      stands upright; forward (+y) the median facing direction of the hips; x = y cross z
+//      stands upright; forward (+y) the mean facing direction of the hips; x = y cross z
 //      (right); z = 0 at the floor (the lowest keypoints), the root over the origin at frame 0;
 //   4. smoothing and resampling: every coordinate is a penalised cubic B-spline (a smoothing
 //      spline) whose frequency response is 1 / (1 + (f / cutoff_hz)^4), a zero-phase 2nd-order
@@ -189,7 +189,8 @@ struct KeypointMotion {
 
 // The whole pipeline (header comment). Throws imukit::Error for unusable input: fewer than 2
 // frames, a keypoint missing everywhere, a keypoint count that does not match the topology,
-// non-increasing or non-finite times, infinite coordinates, bad options.
+// non-increasing or non-finite times, infinite coordinates or beyond 1e6 m, an input longer
+// than 1e7 s or 1e7 output frames, bad options.
 KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointTopology& topology,
                                      const KeypointMotionOptions& options = {});
 
@@ -210,7 +211,8 @@ WorldPoses world_poses(const Body& body, const Motion& motion);
 // Smoothing used by step 4, exposed for tests and other resampling: a cubic B-spline on a
 // uniform knot grid fitted to (t_i, y_i) with weights w_i (0 = missing) minimising
 //   sum_i w_i (y_i - s(t_i))^2 + lambda int s''(t)^2 dt + tension int s'(t)^2 dt,
-// lambda = 1 / (h (2 pi cutoff_hz)^4) with h the mean spacing of the weighted data, so the gain
+// lambda = wbar / (h (2 pi cutoff_hz)^4) with h the mean sample spacing and wbar the mean
+// positive weight, so the gain
 // is 1 / (1 + (f / cutoff_hz)^4) (1/2 at cutoff_hz) where the data are dense, then
 // evaluated (derivative `order` 0..2) at the query times. y is C x n (channels in rows).
 Eigen::MatrixXd smooth_and_resample(std::span<const double> t, const Eigen::MatrixXd& y,
