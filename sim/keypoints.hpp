@@ -212,9 +212,9 @@ WorldPoses world_poses(const Body& body, const Motion& motion);
 // uniform knot grid fitted to (t_i, y_i) with weights w_i (0 = missing) minimising
 //   sum_i w_i (y_i - s(t_i))^2 + lambda int s''(t)^2 dt + tension int s'(t)^2 dt,
 // lambda = wbar / (h (2 pi cutoff_hz)^4) with h the mean sample spacing and wbar the mean
-// positive weight, so the gain
-// is 1 / (1 + (f / cutoff_hz)^4) (1/2 at cutoff_hz) where the data are dense, then
-// evaluated (derivative `order` 0..2) at the query times. y is C x n (channels in rows).
+// positive weight, so the gain is 1 / (1 + (f / cutoff_hz)^4) (1/2 at cutoff_hz) where the data
+// are dense, then evaluated (derivative `order` 0..2) at the query times. y is C x n (channels
+// in rows).
 Eigen::MatrixXd smooth_and_resample(std::span<const double> t, const Eigen::MatrixXd& y,
                                     std::span<const double> w, double cutoff_hz,
                                     std::span<const double> t_out, int order = 0,
