@@ -727,9 +727,13 @@ Eigen::MatrixXd smooth_and_resample(std::span<const double> t, const Eigen::Matr
   const double wc = 2.0 * kPi * cutoff_hz;
   const double lambda = wbar / (h * std::pow(wc, 4));
   if (positive < 2) tension = std::max(tension, lambda * wc * wc);  // pins the slope
-  const double knot_step = std::min(h, 1.0 / (8.0 * cutoff_hz));
-  const auto intervals =
-      std::max<Eigen::Index>(1, static_cast<Eigen::Index>(std::ceil((t1 - t0) / knot_step - 1e-9)));
+  // Knots at least 8 per cut-off period and per sample, but no denser than two per sample (a
+  // finer grid adds nothing the data could fix).
+  const double knot_step = std::max(std::min(h, 1.0 / (8.0 * cutoff_hz)), 0.5 * h);
+  const double grid = std::ceil((t1 - t0) / knot_step - 1e-9);
+  if (!(grid <= 4.0 * static_cast<double>(n + static_cast<Eigen::Index>(t_out.size())) + 16.0))
+    throw Error("smooth_and_resample: the query times reach far beyond the data");
+  const auto intervals = std::max<Eigen::Index>(1, static_cast<Eigen::Index>(grid));
   const double dk = (t1 - t0) / static_cast<double>(intervals);
   const Eigen::Index K = intervals + 3;
   const auto locate = [&](double x, double& u) {
