@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
@@ -302,6 +303,13 @@ Vector3d jvec3(const json& j, const std::string& source, const std::string& path
   return v;
 }
 
+// Normalised, but a vector already unit to rounding is kept as it is, so a topology written
+// and read again is the same bit for bit.
+Vector3d unit(const Vector3d& v) {
+  const double n = v.norm();
+  return std::abs(n - 1.0) <= 4.0 * std::numeric_limits<double>::epsilon() ? v : Vector3d(v / n);
+}
+
 KeypointTopology parse_topology_impl(std::string_view text, const std::string& source) {
   const json root = parse_json_text<json>(text, source);
   only_keys(root,
@@ -351,7 +359,7 @@ KeypointTopology parse_topology_impl(std::string_view text, const std::string& s
     s.origin = kp(js["origin"], path + ".origin");
     if (js.contains("end") && !js["end"].is_null()) s.end = kp(js["end"], path + ".end");
     if (!js.contains("neutral")) jfail(source, path + ".neutral", "missing");
-    s.neutral = jvec3(js["neutral"], source, path + ".neutral").normalized();
+    s.neutral = unit(jvec3(js["neutral"], source, path + ".neutral"));
     if (js.contains("secondary")) {
       const json& sec = js["secondary"];
       if (!sec.is_array()) jfail(source, path + ".secondary", "expected an array");
