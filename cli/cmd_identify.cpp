@@ -180,7 +180,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     throw Error(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
-  imu.validate(in.imu->path);
+  imu.validate();
 
   sim::IdentifyOptions o;
   o.threads = a.threads;

@@ -16,7 +16,7 @@ std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
   std::vector<LoadedRun> runs;
   for (const InputArg& in : inputs) {
     ImuSeries s = load_imu_series(in);
-    s.validate(in.path);
+    s.validate();
     if (!runs.empty() && runs.back().series.t == s.t) {
       ImuSeries& dst = runs.back().series;
       auto take = [&](Eigen::Matrix3Xd& to, Eigen::Matrix3Xd& from, const char* what) {

@@ -1,7 +1,5 @@
 #include "core/imu_series.hpp"
 
-#include <fmt/core.h>
-
 #include <cassert>
 
 #include "core/error.hpp"
@@ -26,18 +24,11 @@ ImuSeriesView::MapX map_range(const Vector& v, std::size_t begin, std::size_t co
   return {v.data() + begin, static_cast<Eigen::Index>(count)};
 }
 
-void check_columns(std::string_view source, const char* name, Eigen::Index cols, std::size_t n) {
+void check_columns(const char* name, Eigen::Index cols, std::size_t n) {
   if (cols != 0 && static_cast<std::size_t>(cols) != n) {
-    throw Error(fmt::format("{}: channel {} has {} samples but the series has {} timestamps",
-                            source, name, cols, n));
+    throw Error(std::string("ImuSeries: channel ") + name + " has " + std::to_string(cols) +
+                " samples but the series has " + std::to_string(n) + " timestamps");
   }
-}
-
-// A time in seconds with all nine decimals, exactly (a double would round ns since the epoch).
-std::string exact_seconds(TimeNs t) {
-  const uint64_t magnitude = t < 0 ? uint64_t{0} - static_cast<uint64_t>(t) : static_cast<uint64_t>(t);
-  return fmt::format("{}{}.{:09d}", t < 0 ? "-" : "", magnitude / 1'000'000'000,
-                     magnitude % 1'000'000'000);
 }
 
 }  // namespace
@@ -54,21 +45,15 @@ ImuSeries ImuSeries::with_channels(std::size_t n, bool accel, bool gyro, bool ma
   return s;
 }
 
-void ImuSeries::validate(std::string_view source) const {
-  check_columns(source, "accel", accel.cols(), size());
-  check_columns(source, "gyro", gyro.cols(), size());
-  check_columns(source, "mag", mag.cols(), size());
-  check_columns(source, "temperature", temperature_c.size(), size());
+void ImuSeries::validate() const {
+  check_columns("accel", accel.cols(), size());
+  check_columns("gyro", gyro.cols(), size());
+  check_columns("mag", mag.cols(), size());
+  check_columns("temperature", temperature_c.size(), size());
   for (std::size_t i = 1; i < t.size(); ++i) {
     if (t[i] < t[i - 1]) {
-      // Both times in seconds (ns digits kept), and the step back, so the size of the problem is
-      // visible at a glance.
-      throw Error(fmt::format(
-          "{}: time goes backwards at sample {} (counting from 0): {} s after {} s, {:.6f} s "
-          "earlier",
-          source, i, exact_seconds(t[i]), exact_seconds(t[i - 1]),
-          static_cast<double>(static_cast<uint64_t>(t[i - 1]) - static_cast<uint64_t>(t[i])) *
-              1e-9));
+      throw Error("ImuSeries: time goes backwards at sample " + std::to_string(i) + " (" +
+                  std::to_string(t[i - 1]) + " ns then " + std::to_string(t[i]) + " ns)");
     }
   }
 }

@@ -11,7 +11,6 @@
 #include <map>
 #include <span>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "core/time.hpp"
@@ -39,8 +38,8 @@ struct ImuSeries {
   bool has_temperature() const { return temperature_c.size() > 0; }
 
   // Throws imukit::Error unless every present channel has size() samples and times never
-  // decrease; the message starts with `source` (the file the series came from).
-  void validate(std::string_view source = "ImuSeries") const;
+  // decrease.
+  void validate() const;
 
   // Samples [begin, begin + count), without copying. Asserts the range is inside the series.
   ImuSeriesView slice(std::size_t begin, std::size_t count) const;

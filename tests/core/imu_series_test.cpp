@@ -70,22 +70,5 @@ TEST(ImuSeries, ValidateRejectsTimeGoingBackwards) {
   }
 }
 
-// Issue 16: the message names the file, the sample and both times in one unit (seconds, every
-// ns digit kept), and how far back the time steps.
-TEST(ImuSeries, TimeGoingBackwardsNamesTheFileAndBothTimesInSeconds) {
-  ImuSeries s = make_series(10);
-  for (std::size_t i = 0; i < s.size(); ++i)
-    s.t[i] = 1'700'000'000'000'000'000 + static_cast<TimeNs>(i) * 1'000'000;
-  s.t[8] = s.t[7] - 6'000'000;  // the step of issue 16's --no-refit recordings
-  try {
-    s.validate("n.mcap");
-    FAIL() << "expected an error";
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "n.mcap: time goes backwards at sample 8 (counting from 0): 1700000000.001000000 s "
-              "after 1700000000.007000000 s, 0.006000 s earlier");
-  }
-}
-
 }  // namespace
 }  // namespace imukit
