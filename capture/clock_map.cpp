@@ -159,11 +159,12 @@ TimeNs ClockMapper::map_monotonic(uint64_t device_ticks) {
   const double target = estimate(x);
   double y = target;
   if (emitted_) {
-    // Free running from the last output at the fitted rate, pulled toward the fit by at most
-    // kMaxSlew of the elapsed device time (b_ > 0, so the result never precedes last_y_).
+    // Free running from the last output at the device's nominal rate (the fitted one can be off
+    // by percent over the first few packets), pulled toward the fit by at most kMaxSlew of the
+    // elapsed device time: never before last_y_.
     const double dx = std::max(0.0, x - last_x_);
-    const double free_run = last_y_ + b_ * dx;
-    const double limit = kMaxSlew * b_ * dx;
+    const double free_run = last_y_ + dx;
+    const double limit = kMaxSlew * dx;
     y = std::max(last_y_, free_run + std::clamp(target - free_run, -limit, limit));
   }
   if (!std::isfinite(y)) y = emitted_ ? last_y_ : 0.0;

@@ -21,9 +21,10 @@
 // with less delay than any before lowers the envelope (a ping lowers it by the latency). Stepping
 // the time stamps with the fit would step them back, so the online map slews instead, as NTP
 // slews a clock (RFC 5905, section 11.3): the next time is the previous one plus the device time
-// elapsed at the fitted rate, corrected toward the fit by at most kMaxSlew of that interval. Each
-// interval between time stamps thus stays within +-kMaxSlew of the device's own, and the times
-// meet the fit after (distance / kMaxSlew) of device time, then follow it exactly.
+// elapsed (at the nominal tick rate), corrected toward the fit by at most kMaxSlew of that
+// interval. Each interval between time stamps thus stays within +-kMaxSlew of the device's own,
+// and the times meet the fit after (distance / kMaxSlew) of device time, then follow it exactly
+// (the fitted skew, parts per million, is far inside the slew).
 #pragma once
 
 #include <cstdint>

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -487,6 +488,8 @@ TEST(Mcap, RecoveryKeepsEveryIntactChunkWhateverRecordIsDamaged) {
   }
   // Most damage outside the chunks costs no message at all.
   EXPECT_GT(lossless, cases.size() / 2);
+  std::printf("%zu damaged files, %zu of them recovered with every message\n", cases.size(),
+              lossless);
 }
 
 // The two errors of issue 16 item 10: without recovery, a damaged message index fails the data
