@@ -93,4 +93,15 @@ SessionReport record_session(std::vector<SessionDevice> devices, const SessionOp
 std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
                                                        const std::string& out);
 
+// A recording cut short by a crash (FILE.partial.mcap after kill -9 or a power cut) or damaged
+// on disk, rewritten as a complete file: every intact chunk is kept, damaged records are skipped
+// (McapReadOptions::recover), and the clocks are refitted over the samples kept, as at the end
+// of a normal recording. Messages that do not decode are left out.
+struct RecoveredRecording {
+  McapReadSummary read;  // what the damaged file held: truncation note, damage, counts
+  std::map<std::string, ClockFit> clocks;
+  uint64_t undecodable_messages = 0;
+};
+RecoveredRecording recover_recording(const std::string& in, const std::string& out);
+
 }  // namespace imukit::capture

@@ -268,6 +268,15 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     }
     const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
     if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
+    // The frame rates a BVH may state, too: a step of 1e20 s made the simulator's sample times
+    // overflow int64 ns (found by fuzzing), one of 1e-12 s puts every frame at the same ns.
+    if (!(dt >= 1e-6 && dt <= 3600.0)) {
+      std::ostringstream what;
+      what << "t steps by " << dt
+           << " s per frame: motions are read at 1 frame per hour to 1e6 frames per second";
+      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
+                  what.str());
+    }
     for (int64_t f = 1; f < frames; ++f) {
       const double step =
           times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
