@@ -10,6 +10,7 @@
 
 #include "capture/bytes.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -425,11 +426,7 @@ class Source {
 class FileSource : public Source {
  public:
   explicit FileSource(const std::string& path) : path_(path) {
-    file_ = std::fopen(path.c_str(), "rb");
-    if (!file_) {
-      throw Error(InputLocation{path, {}, {}, {}},
-                  std::string("cannot open for reading: ") + std::strerror(errno));
-    }
+    file_ = open_regular_file(path, "MCAP recording").release();
     struct stat st {};
     if (::fstat(fileno(file_), &st) != 0) {
       std::fclose(file_);

@@ -8,6 +8,7 @@
 #include "capture/recording_mcap.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -43,12 +44,14 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 // MCAP files are recognised by their magic bytes, whatever their name.
 bool is_mcap(const std::string& path) {
   if (ends_with(path, ".mcap")) return true;
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
+  UniqueFile f;
+  try {
+    f = open_regular_file(path, "recording");
+  } catch (const IoError&) {
+    return false;  // the reader the name points to says what is wrong
+  }
   char magic[5] = {};
-  const bool yes = std::fread(magic, 1, 5, f) == 5 && std::string_view(magic, 5) == "\x89MCAP";
-  std::fclose(f);
-  return yes;
+  return std::fread(magic, 1, 5, f.get()) == 5 && std::string_view(magic, 5) == "\x89MCAP";
 }
 
 }  // namespace

@@ -92,8 +92,8 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
         const auto t = parse_scaled_integer(f.text, digits);
         if (!t) {
           throw Error(where(f.column),
-                      fmt::format("{}: '{}' is not a finite decimal time that fits in int64 ns",
-                                  describe(), f.text));
+                      fmt::format("{}: {} is not a finite decimal time that fits in int64 ns",
+                                  describe(), quote_excerpt(f.text, 24)));
         }
         if (!table.t.empty() && *t < table.t.back()) {
           throw Error(where(f.column), fmt::format("{}: time goes backwards ({} after {})",
@@ -115,10 +115,12 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
       } else {
         const auto parsed = parse_double(f.text);
         if (!parsed) {
-          throw Error(where(f.column), fmt::format("{}: '{}' is not a number", describe(), f.text));
+          throw Error(where(f.column),
+                      fmt::format("{}: {} is not a number", describe(), quote_excerpt(f.text, 24)));
         }
         if (std::isinf(*parsed)) {
-          throw Error(where(f.column), fmt::format("{}: infinite value '{}'", describe(), f.text));
+          throw Error(where(f.column),
+                      fmt::format("{}: infinite value {}", describe(), quote_excerpt(f.text, 24)));
         }
         value = *parsed;
       }
