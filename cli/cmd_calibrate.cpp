@@ -11,7 +11,9 @@
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/profile.hpp"
 #include "hwmodel/calibration.hpp"
 
@@ -29,7 +31,8 @@ struct CalibrateArgs {
 
 int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
-  if (inputs.empty()) throw Error("calibrate: name the input file(s)");
+  if (inputs.empty()) throw UsageError("calibrate: name the input file(s)");
+  check_updatable_file(args.output, "profile to create or update");  // before the work
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {
     throw Error(
@@ -70,9 +73,11 @@ IMUKIT_REGISTER_COMMAND(
                   sub.add_flag("--raw", args->raw,
                                "the readings are ADC counts: the calibration maps counts to SI");
                   sub.add_flag("--no-gyro", args->no_gyro, "calibrate the accelerometer only");
-                  sub.add_option("--gravity", args->gravity, "local gravity, m/s^2");
+                  sub.add_option("--gravity", args->gravity, "local gravity, m/s^2")
+                      ->check(gravity_range());
                   sub.add_option("--init-static", args->init_static_s,
-                                 "length of the initial static period, s (default 50)");
+                                 "length of the initial static period, s (default 50)")
+                      ->check(real_in(0, 3600, "s", LowEnd::open));
                   sub.footer(input_options_help() +
                              "\n\nExample (the imu_tk Xsens recording, raw counts):\n"
                              "  imukit calibrate xsens_acc.txt --columns t,ax,ay,az xsens_gyro.txt "

@@ -16,6 +16,7 @@
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/column_text.hpp"
 #include "core/error.hpp"
 #include "core/so3.hpp"
@@ -181,6 +182,10 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
   imu.validate();
+  if (imu.size() < 2) {
+    throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
+                            imu.size()));
+  }
 
   sim::IdentifyOptions o;
   o.threads = a.threads;
@@ -293,7 +298,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
                "motion that "
                "turns about more axes, or hold them with --fix\n",
                names);
-    return 2;
+    return kBadInput;  // the output is written, but the motion could not determine all asked
   }
   return 0;
 }
@@ -314,11 +319,13 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--joint", a->joint, "the joint (or segment) carrying the sensor");
           sub.add_option("--init", a->init,
                          "placement preset to start from (see imukit simulate --list-presets)");
-          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres");
+          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres")
+              ->check(bvh_scale_range());
           sub.add_option("--up", a->up, "up axis of the BVH file: y (default) or z")
               ->check(CLI::IsMember({"y", "z"}));
           sub.add_option("--height", a->height,
-                         "stature of the default humanoid for a quaternion CSV, m");
+                         "stature of the default humanoid for a quaternion CSV, m")
+              ->check(real_in(0.3, 3, "m"));
           sub.add_option("--fix", a->fix,
                          "hold at the initial value (comma list): rotation, position, accel_bias, "
                          "gyro_bias, time_offset")
@@ -331,16 +338,21 @@ IMUKIT_REGISTER_COMMAND(
                          "length) to fit")
               ->delimiter(',');
           sub.add_option("--segment-prior", a->segment_prior,
-                         "relative width of the segment-length prior (default 0.05)");
+                         "relative width of the segment-length prior (default 0.05)")
+              ->check(real_in(0, 10, "", LowEnd::open));
           sub.add_option("--time-offset", a->time_offset,
-                         "initial time offset, s (skips the cross-correlation)");
+                         "initial time offset, s (skips the cross-correlation)")
+              ->check(real_in(-86400, 86400, "s"));
           sub.add_option("--max-time-offset", a->max_time_offset,
-                         "search range of the cross-correlation, s (default 1)");
+                         "search range of the cross-correlation, s (default 1)")
+              ->check(real_in(0, 3600, "s", LowEnd::open));
           sub.add_option("--motion-start", a->motion_start,
-                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)");
-          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2");
+                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)")
+              ->check(real_in(-4e9, 4e9, "s"));
+          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2")
+              ->check(gravity_range());
           sub.add_option("--threads", a->threads, "threads for the Jacobian (default 1)")
-              ->check(CLI::Range(1, 64));
+              ->check(whole_in(1, 64));
           sub.add_option("--plot", a->plot_dir,
                          "folder for an SVG of measured against simulated signals (gnuplot)");
           sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +

@@ -13,6 +13,7 @@
 
 #include "capture/session.hpp"
 #include "cli/command.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "drivers/transport.hpp"
 #include "drivers/uri.hpp"
@@ -29,6 +30,7 @@ struct RecordArgs {
   double duration_s = 0.0;
   uint64_t samples = 0;
   double rate_hz = 0.0;
+  double no_data_timeout_s = 10.0;
   bool no_refit = false;
   bool no_taps = false;
   std::string guide;
@@ -70,16 +72,18 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   std::string line;
   for (const auto& d : devices) {
     if (!line.empty()) line += " | ";
-    line += fmt::format("{}: {} samples {:.1f} Hz, dropped {}, corrupt {}, queue max {}{}", d.name,
-                        d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.queue_high_water,
-                        d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
+    line +=
+        fmt::format("{}: {} samples {:.1f} Hz, dropped {}, corrupt {}, backlog max {}{}", d.name,
+                    d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.queue_high_water,
+                    d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
   }
   return line;
 }
 
 int run_record(const RecordArgs& args) {
   if (std::filesystem::path(args.output).extension() != ".mcap") {
-    throw Error(fmt::format("record: the output must be a .mcap file, got '{}'", args.output));
+    throw UsageError(fmt::format("record: the output must be a .mcap file, got {}",
+                                 quote_excerpt(args.output, 200)));
   }
   std::vector<capture::SessionDevice> devices;
   std::set<std::string> used;
@@ -103,11 +107,12 @@ int run_record(const RecordArgs& args) {
   options.path = args.output;
   options.duration_s = args.duration_s;
   options.max_samples = args.samples;
+  options.no_data_timeout_s = args.no_data_timeout_s;
   options.finalize = !args.no_refit;
   options.stop = &g_stop;
   options.detect_taps = !args.no_taps;
   if (!args.guide.empty()) {
-    if (args.guide != "multipos") throw Error("--guide: the only guide is multipos");
+    if (args.guide != "multipos") throw UsageError("--guide: the only guide is multipos");
     capture::PoseGuideOptions guide;
     guide.poses_wanted = args.poses;
     options.guide = guide;
@@ -155,12 +160,17 @@ int run_record(const RecordArgs& args) {
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
   fmt::print("stopped: {}\n", report.stop_reason);
+  const std::size_t queue_capacity = capture::SessionOptions{}.queue_capacity;
+  std::string silent;
   for (const auto& d : report.devices) {
+    // The backlog is how far the writer fell behind the device (the queue between them): near
+    // the capacity, samples were about to be lost.
     fmt::print(
         "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
-        "the recorder {}, queue high-water {}; ended: {}\n",
+        "the recorder {}, largest backlog {} of {} samples; ended: {}\n",
         d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
-        d.queue_high_water, d.end_reason);
+        d.queue_high_water, queue_capacity, d.end_reason);
+    if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
     if (d.clock.packets > 1) {
       fmt::print(
           "  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} "
@@ -176,6 +186,8 @@ int run_record(const RecordArgs& args) {
     }
   }
   fmt::print("wrote {}\n", args.output);
+  if (!silent.empty())
+    throw IoError(fmt::format("record: no samples from {} (see the end reason above)", silent));
   return 0;
 }
 
@@ -191,16 +203,23 @@ IMUKIT_REGISTER_COMMAND(
                          "device URIs (see `imukit devices` and docs/devices.md)")
               ->required();
           sub.add_option("-o,--output", args->output, "output FILE.mcap")->required();
-          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data");
-          sub.add_option("--samples", args->samples, "stop each device after this many samples");
+          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data")
+              ->check(real_in(0, 1e7, "s", LowEnd::open));
+          sub.add_option("--samples", args->samples, "stop each device after this many samples")
+              ->check(whole_in(1, 1'000'000'000'000'000));
           sub.add_option("--rate", args->rate_hz,
-                         "output data rate to configure (Hz), for URIs without rate=");
+                         "output data rate to configure (Hz), for URIs without rate=")
+              ->check(sample_rate_range());
+          sub.add_option("--no-data-timeout", args->no_data_timeout_s,
+                         "stop a device that sends no sample for this long, s of wall-clock time "
+                         "(default 10)")
+              ->check(real_in(0, 86400, "s", LowEnd::open));
           sub.add_option(
               "--guide", args->guide,
               "multipos: guided multi-position capture for `imukit calibrate`: counts the "
               "distinct still poses and stops when there are --poses of them");
           sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
-              ->check(CLI::Range(1, 200));
+              ->check(whole_in(1, 200));
           sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
           sub.add_flag(
               "--no-refit", args->no_refit,
