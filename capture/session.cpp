@@ -208,6 +208,16 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
     if (d.guide) {
       const Eigen::Vector3d w(s.gyro[0], s.gyro[1], s.gyro[2]);
       if (const auto e = d.guide->feed(t, a, (s.channels & drivers::kHasGyro) ? &w : nullptr)) {
+        if (e->initial) {
+          // Where calibrate's initial static period starts (imukit.guide gives its length).
+          write_event(
+              writer, live.event_channel,
+              {e->still_since, "initial_still",
+               fmt::format("{}: still for {:g} s from here", d.spec.name,
+                           to_seconds(t - e->still_since))},
+              d.spec.name,
+              device_time ? std::optional(*device_time - (t - e->still_since)) : std::nullopt);
+        }
         const char* what =
             e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held" : "new pose";
         write_event(writer, live.event_channel,
@@ -264,6 +274,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
   const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
   for (const Event& e : options.events) write_event(writer, event_channel, e);
+  if (options.guide) {
+    writer.write_metadata(
+        "imukit.guide", {{"guide", "multipos"},
+                         {"poses_wanted", std::to_string(options.guide->poses_wanted)},
+                         {"initial_still_s", fmt::format("{:g}", options.guide->initial_still_s)}});
+  }
   for (auto& d : devices) {
     d->imu_channel = writer.add_channel(imu_schema, "/imu/" + d->spec.name, "cdr");
     d->raw_channel = writer.add_channel(raw_schema, "/imu/" + d->spec.name + "/raw", "cdr");

@@ -5,8 +5,10 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
@@ -26,7 +28,7 @@ struct CalibrateArgs {
   bool raw = false;
   bool no_gyro = false;
   double gravity = 9.80665;
-  double init_static_s = 50.0;
+  std::optional<double> init_static_s;
 };
 
 int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tokens) {
@@ -40,12 +42,22 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
                     "give one recording (files with equal time stamps are merged)",
                     runs.size()));
   }
-  const ImuSeries& s = runs.front().series;
+  ImuSeries s = std::move(runs.front().series);
   CalibrateOptions options;
   options.gravity = args.gravity;
   options.raw = args.raw;
   options.gyro = !args.no_gyro;
-  options.init_static_s = args.init_static_s;
+  if (args.init_static_s) {
+    options.init_static_s = *args.init_static_s;
+  } else if (const auto guided = guided_initial_still(runs.front())) {
+    // A guided capture says how long the device lay still and from when: start there.
+    options.init_static_s = guided->seconds;
+    const auto first = std::lower_bound(s.t.begin(), s.t.end(), guided->start);
+    const auto skip = static_cast<std::size_t>(first - s.t.begin());
+    fmt::print("initial static period: {:g} s from {:.3f} s, as the guided capture recorded\n",
+               guided->seconds, s.empty() ? 0.0 : to_seconds(guided->start - s.t.front()));
+    if (skip > 0) s = s.slice(skip, s.size() - skip).copy();
+  }
   const CalibrateResult r = calibrate_series(s, options);
   update_profile(args.output, r.update);
   fmt::print("wrote calibration sections to {}\n", args.output);
@@ -76,7 +88,8 @@ IMUKIT_REGISTER_COMMAND(
                   sub.add_option("--gravity", args->gravity, "local gravity, m/s^2")
                       ->check(gravity_range());
                   sub.add_option("--init-static", args->init_static_s,
-                                 "length of the initial static period, s (default 50)")
+                                 "length of the initial static period, s (default: what a guided "
+                                 "capture recorded, else 50)")
                       ->check(real_in(0, 3600, "s", LowEnd::open));
                   sub.footer(input_options_help() +
                              "\n\nExample (the imu_tk Xsens recording, raw counts):\n"

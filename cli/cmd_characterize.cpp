@@ -71,6 +71,17 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
         r.noise_run, 1.0 / (acc ? acc->allan.tau0_s : gyr->allan.tau0_s), mx(acc, hwmodel::kWhite),
         mx(acc, hwmodel::kRandomWalk), mx(gyr, hwmodel::kWhite), mx(gyr, hwmodel::kRandomWalk));
     fmt::print("wrote Kalibr noise parameters to {}\n", args.kalibr);
+    // 0 tells Kalibr's filter the bias never wanders, which no real sensor does.
+    for (const auto& [name, triad] :
+         {std::pair{"accelerometer", &acc}, std::pair{"gyroscope", &gyr}}) {
+      if (*triad && mx(*triad, hwmodel::kRandomWalk) == 0.0) {
+        fmt::print(stderr,
+                   "imukit: warning: no {} random walk seen in {} (too short a recording?): "
+                   "Kalibr's {}_random_walk is 0, which says its bias never drifts; record for "
+                   "hours, or set a value from the datasheet\n",
+                   name, r.noise_run, name);
+      }
+    }
   }
   if (!args.plot_dir.empty()) {
     plot_noise(args.plot_dir, r);

@@ -68,7 +68,8 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     return 0;
   }
   const Recording r = load_recording(inputs.front());
-  for (const auto& [name, series] : r.streams) series.validate();
+  for (const auto& [name, series] : r.streams)
+    series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
   if (ext == ".mcap") {
     capture::write_recording_mcap(out, r);

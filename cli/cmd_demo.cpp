@@ -238,31 +238,33 @@ void append(ImuSeries& to, const sim::SensorBlock& b) {
 }
 
 void plot_simulation(const fs::path& dir) {
-  const std::string m = (dir / (std::string(kSensor) + ".csv")).string();
-  const std::string t = (dir / (std::string(kSensor) + ".truth.csv")).string();
+  // Noisy samples as small light points, the noiseless signal as a dark line over them, one hue
+  // per axis; data by name beside the script (run_gnuplot).
+  const std::string m = std::string(kSensor) + ".csv";
+  const std::string t = std::string(kSensor) + ".truth.csv";
+  const char* light[3] = {"#f4a6a6", "#a6dba0", "#a6c8ef"};
+  const char* dark[3] = {"#b2182b", "#1b7837", "#2166ac"};
+  const auto panel = [&](int first_column, const char* symbol) {
+    std::string p;
+    for (int ax = 0; ax < 3; ++ax) {
+      p += fmt::format(
+          "{}'{}' u (($1-t0)*1e-9):{} every ::1 w p pt 7 ps 0.25 lc rgb '{}' t '{}_{} measured', "
+          "'{}' u (($1-t0)*1e-9):{} w l lw 2 lc rgb '{}' t '{}_{} noiseless'",
+          ax == 0 ? "" : ", ", m, first_column + ax, light[ax], symbol, "xyz"[ax], t,
+          first_column + ax, dark[ax], symbol, "xyz"[ax]);
+    }
+    return p;
+  };
   const std::string script = fmt::format(
-      "set datafile separator ','\nset grid\nset key outside right\nset multiplot layout 2,1 title "
-      "'simulated left-wrist watch on a CMU walk: measured hardware model (points) and noiseless "
-      "(lines)'\n"
-      "set ylabel 'specific force [m/s^2]'\n"
-      "plot '{m}' u (($1-t0)*1e-9):5 every ::1 w p pt 7 ps 0.2 lc 1 t 'a_x', '{t}' u "
-      "(($1-t0)*1e-9):5 w l lc 1 notitle, "
-      "'{m}' u (($1-t0)*1e-9):6 w p pt 7 ps 0.2 lc 2 t 'a_y', '{t}' u (($1-t0)*1e-9):6 w l lc 2 "
-      "notitle, "
-      "'{m}' u (($1-t0)*1e-9):7 w p pt 7 ps 0.2 lc 3 t 'a_z', '{t}' u (($1-t0)*1e-9):7 w l lc 3 "
-      "notitle\n"
-      "set xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\n"
-      "plot '{m}' u (($1-t0)*1e-9):2 w p pt 7 ps 0.2 lc 1 t 'w_x', '{t}' u (($1-t0)*1e-9):2 w l lc "
-      "1 notitle, "
-      "'{m}' u (($1-t0)*1e-9):3 w p pt 7 ps 0.2 lc 2 t 'w_y', '{t}' u (($1-t0)*1e-9):3 w l lc 2 "
-      "notitle, "
-      "'{m}' u (($1-t0)*1e-9):4 w p pt 7 ps 0.2 lc 3 t 'w_z', '{t}' u (($1-t0)*1e-9):4 w l lc 3 "
-      "notitle\n"
+      "set datafile separator ','\nset grid\nset key outside right font ',10'\n"
+      "t0 = 0\nstats '{m}' u 1 every ::1::1 nooutput\nt0 = STATS_min\n"
+      "set multiplot layout 2,1 title 'simulated left-wrist watch on a CMU walk: with the measured "
+      "hardware model (points) and noiseless (lines)'\n"
+      "set ylabel 'specific force [m/s^2]'\nplot {accel}\n"
+      "set xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\nplot {gyro}\n"
       "unset multiplot\n",
-      fmt::arg("m", m), fmt::arg("t", t));
-  // t0: the first time stamp, so the axis starts at 0 s.
-  run_gnuplot(dir, kSensor,
-              "t0 = 0\nstats '" + m + "' u 1 every ::1::1 nooutput\nt0 = STATS_min\n" + script);
+      fmt::arg("m", m), fmt::arg("accel", panel(5, "a")), fmt::arg("gyro", panel(2, "w")));
+  run_gnuplot(dir, kSensor, script);
 }
 
 // ---- the comparison table ----------------------------------------------------------------
@@ -273,13 +275,22 @@ struct Row {
   std::string error;  // formatted
 };
 
-void print_rows(const std::string& title, const std::vector<Row>& rows) {
+// Prints the rows and returns them as report.json holds them: every number the table shows.
+Json print_rows(const std::string& title, const std::vector<Row>& rows) {
   fmt::print("  {}\n", title);
+  Json out = Json::array();
   for (const Row& r : rows) {
     fmt::print("    {:<34} true {:>+12.6g}   estimated {:>+12.6g}{}   {}\n", r.what, r.truth,
                r.estimate,
                r.sigma > 0 ? fmt::format(" +- {:<9.2g}", r.sigma) : std::string(13, ' '), r.error);
+    out.push_back({{"quantity", r.what},
+                   {"true", r.truth},
+                   {"estimated", r.estimate},
+                   {"standard_error", r.sigma > 0 ? Json(r.sigma) : Json(nullptr)},
+                   {"error", r.estimate - r.truth},
+                   {"summary", r.error}});
   }
+  return out;
 }
 
 int run_demo(const DemoArgs& args) {
@@ -356,10 +367,11 @@ int run_demo(const DemoArgs& args) {
   capture::PoseGuideOptions guide;
   guide.poses_wanted = plan.poses;
   const uint64_t poses_seed = args.seed * 1000 + 999;
-  const CaptureOutcome poses = capture_mock(
-      mock_uri("poses", poses_seed,
-               fmt::format("&poses={}&hold_s={}&move_s={}", plan.poses, plan.hold_s, plan.move_s)),
-      poses_path, plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
+  const CaptureOutcome poses =
+      capture_mock(mock_uri("poses", poses_seed,
+                            fmt::format("&poses={}&hold_s={}&move_s={}&init_s={}", plan.poses,
+                                        plan.hold_s, plan.move_s, plan.hold_s)),
+                   poses_path, plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
   fmt::print("      {}: {} samples, {} distinct poses ({})\n", poses_path, poses.samples,
              poses.poses, poses.stop_reason);
   steps.push_back({"multi-position capture", seconds_since(t0), {"recordings/poses.mcap"}});
@@ -386,7 +398,8 @@ int run_demo(const DemoArgs& args) {
       acal.scale.asDiagonal() * acal.misalignment * Eigen::Vector3d(0, 0, g);
   // Each recording is its own power cycle (load_runs would merge files with equal time stamps).
   std::vector<LoadedRun> static_loaded;
-  for (const InputArg& in : static_inputs) static_loaded.push_back({in.path, load_imu_series(in)});
+  for (const InputArg& in : static_inputs)
+    static_loaded.push_back({in.path, load_imu_series(in), {}});
   CharacterizeOptions nopt;
   nopt.gravity = g;
   nopt.level = true;  // the static mock lies level, z up
@@ -467,7 +480,7 @@ int run_demo(const DemoArgs& args) {
                       cm.bias[ax], 0,
                       fmt::format("{:+.3g} {}", cm.bias[ax] - pose_bias[ax], unit)});
     }
-    print_rows(name, rows);
+    j["rows"] = print_rows(name, rows);
     j["true_calibration_bias_of_poses_run"] = vec(pose_bias);
     j["wire_lsb"] = lsb;
     comparison[name] = j;

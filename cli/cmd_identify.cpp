@@ -138,9 +138,9 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
 
 void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::filesystem::create_directories(dir);
-  const auto dat = (std::filesystem::path(dir) / "identify_signals.dat").string();
+  const std::string dat = "identify_signals.dat";  // beside the script (run_gnuplot)
   {
-    auto out = fmt::output_file(dat);
+    auto out = fmt::output_file((std::filesystem::path(dir) / dat).string());
     out.print(
         "# t_s  measured ax ay az gx gy gz  simulated-before ax ay az gx gy gz  simulated-after ax "
         "ay az gx gy gz\n");
@@ -157,16 +157,20 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::string script = fmt::format(
       "set multiplot layout 3,2 title 'measured vs simulated (identified placement, bias, time "
       "offset)'\n"
-      "set grid\nset key top right font ',9'\n");
+      "set grid\n");
   const char* axis = "xyz";
   for (int k = 0; k < 3; ++k) {
     for (int s = 0; s < 2; ++s) {  // accelerometer column 2+k, gyroscope 5+k
       const int col = 2 + 3 * s + k;
+      // One legend, above the first panel: inside a panel it covers the data.
+      const std::string key = k == 0 && s == 0   ? "set key above horizontal font ',9'\n"
+                              : k == 0 && s == 1 ? "unset key\n"
+                                                 : "";
       script += fmt::format(
-          "set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
+          "{}set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
           "1:{} w l lc 1 t "
           "'simulated, identified', '' u 1:{} w l lc 2 dt 2 t 'simulated, before'\n",
-          s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
+          key, s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
           k == 2 ? "set xlabel 't [s]'\n" : "", dat, col, col + 12, col + 6);
     }
   }
@@ -181,7 +185,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     throw Error(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
-  imu.validate();
+  imu.validate(in.imu->path);
   if (imu.size() < 2) {
     throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
                             imu.size()));

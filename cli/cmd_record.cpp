@@ -2,6 +2,7 @@
 // stops (duration, sample count, Ctrl-C / SIGTERM, device loss) and the clock fit at the end.
 #include <fmt/core.h>
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -35,6 +36,7 @@ struct RecordArgs {
   bool no_taps = false;
   std::string guide;
   int poses = 12;
+  double init_static_s = 10.0;
 };
 
 // Lines typed while recording become /events markers ("note", the text typed; an empty line is
@@ -99,6 +101,15 @@ int run_record(const RecordArgs& args) {
     d.device = drivers::open_device(text);
     devices.push_back(std::move(d));
   }
+  // A virtual-clock mock makes data as fast as the disk takes it: without a limit it would fill
+  // the disk before anyone reached for Ctrl-C. A guide is a limit only if it can complete.
+  const bool all_virtual = std::all_of(
+      devices.begin(), devices.end(),
+      [](const capture::SessionDevice& d) { return d.device.transport->virtual_time(); });
+  if (all_virtual && args.duration_s == 0 && args.samples == 0) {
+    throw UsageError(
+        "record: a virtual-clock mock runs as fast as it can: give --duration or --samples");
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   const bool tty = ::isatty(STDOUT_FILENO) != 0;
@@ -115,9 +126,14 @@ int run_record(const RecordArgs& args) {
     if (args.guide != "multipos") throw UsageError("--guide: the only guide is multipos");
     capture::PoseGuideOptions guide;
     guide.poses_wanted = args.poses;
+    guide.initial_still_s = args.init_static_s;
     options.guide = guide;
     options.on_pose = [&](const std::string& device, const capture::PoseEvent& e) {
       if (tty) fmt::print("\n");
+      if (e.initial) {
+        fmt::print("{}: held still for {:g} s (the initial static period): done\n", device,
+                   args.init_static_s);
+      }
       if (e.kind == capture::PoseEvent::Kind::repeated_pose) {
         fmt::print("{}: this orientation is already recorded: turn to a new one\n", device);
       } else if (e.kind == capture::PoseEvent::Kind::done) {
@@ -153,9 +169,10 @@ int run_record(const RecordArgs& args) {
              args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s) : " until Ctrl-C");
   if (options.guide) {
     fmt::print(
-        "guided multi-position capture: hold the device still in {} different orientations, "
-        "2 s each\n",
-        args.poses);
+        "guided multi-position capture: first hold the device still for {:g} s (the initial "
+        "static period that `imukit calibrate` measures the stillness threshold on), then in {} "
+        "different orientations, 2 s each\n",
+        args.init_static_s, args.poses);
   }
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
@@ -220,6 +237,10 @@ IMUKIT_REGISTER_COMMAND(
               "distinct still poses and stops when there are --poses of them");
           sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
               ->check(whole_in(1, 200));
+          sub.add_option("--init-static", args->init_static_s,
+                         "--guide multipos: how long the device must first lie still, s (default "
+                         "10; `imukit calibrate` reads it from the recording)")
+              ->check(real_in(1, 3600, "s"));
           sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
           sub.add_flag(
               "--no-refit", args->no_refit,
@@ -236,8 +257,17 @@ IMUKIT_REGISTER_COMMAND(
               "Examples:\n"
               "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
               "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
-              "  imukit record 'mock:poses?clock=virtual' --guide multipos --poses 6 -o "
-              "poses.mcap\n\n"
+              "  imukit record 'mock:poses?clock=virtual&poses=12&profile=examples/profiles/"
+              "wrist_watch_imu.json' \\\n"
+              "      --guide multipos --poses 12 --duration 600 -o poses.mcap\n"
+              "  (a guided capture asks for --init-static s of stillness first, 10 by default; "
+              "`imukit calibrate`\n"
+              "  reads it from the recording)\n\n"
+              "Virtual-clock mocks need --duration or --samples: they run as fast as the disk "
+              "takes.\n"
+              "A device that sends nothing for --no-data-timeout s is stopped; a device that sent "
+              "no sample\n"
+              "makes the command fail (exit 3).\n\n"
               "Events (/events): sync taps found in the accelerometer (a sharp jerk), poses of "
               "--guide,\n"
               "and lines typed while recording (host time).\n");

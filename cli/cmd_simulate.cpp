@@ -4,6 +4,7 @@
 // chunk by chunk (constant memory for hours-long scenes).
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -229,7 +230,17 @@ int run_simulate(const SimulateArgs& a) {
       throw Error("simulate: sensor " + s.spec.name +
                   ": an EuRoC CSV needs both accelerometer and gyroscope");
     }
-    if (s.hardware) validate_hardware_model(*s.hardware, rate);
+    if (!s.hardware) continue;
+    try {
+      validate_hardware_model(*s.hardware, rate);
+    } catch (const Error& e) {
+      // Usually a sensor simulated at a motion capture's frame rate (60-120 Hz) with the
+      // bandwidth of a sensor sampling much faster: simulate at the sensor's own rate.
+      const double own = std::max(s.hardware->accelerometer.rate_hz, s.hardware->gyroscope.rate_hz);
+      throw Error(fmt::format(
+          "sensor {}: {}; simulate at a rate above twice the bandwidth with --rate{}", s.spec.name,
+          e.what(), own > 0 ? fmt::format(" (the profile's own rate: --rate {:g})", own) : ""));
+    }
   }
   for (const std::string& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
   // What was simulated, so the outputs can be traced (gravity included, as DESIGN.md asks).

@@ -114,6 +114,13 @@ std::string input_options_help() {
 Recording load_recording(const InputArg& input) {
   if (input.columns.empty() && is_mcap(input.path)) {
     capture::RecordingRead read = capture::read_recording_mcap(input.path);
+    if (read.recording.streams.empty()) {
+      // An empty file, or one cut before its first complete chunk: nothing to work on.
+      std::string why = read.summary.truncation_note;
+      if (why.rfind(input.path + ": ", 0) == 0) why.erase(0, input.path.size() + 2);
+      throw Error(fmt::format("{}: holds no IMU samples{}", input.path,
+                              read.summary.complete ? "" : " (" + why + ")"));
+    }
     if (!read.summary.complete) {
       fmt::print(stderr,
                  "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
@@ -126,14 +133,19 @@ Recording load_recording(const InputArg& input) {
   return r;
 }
 
-ImuSeries load_imu_series(const InputArg& input) {
+ImuSeries load_imu_series(const InputArg& input, Recording* context) {
   if (input.columns.empty() && is_mcap(input.path)) {
     Recording r = load_recording(input);
     if (r.streams.size() != 1) {
       throw Error(fmt::format("{}: holds {} IMU streams; this command reads one", input.path,
                               r.streams.size()));
     }
-    return std::move(r.streams.begin()->second);
+    ImuSeries s = std::move(r.streams.begin()->second);
+    if (context != nullptr) {
+      r.streams.clear();
+      *context = std::move(r);
+    }
+    return s;
   }
   if (input.columns.empty()) {
     if (ends_with(input.path, ".csv")) return read_euroc_csv(input.path);

@@ -30,7 +30,8 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens);
 std::string input_options_help();
 
 // Reads one input as an IMU stream in SI units (an MCAP file must hold exactly one stream).
-ImuSeries load_imu_series(const InputArg& input);
+// `context`, when given, receives the recording's metadata and events (MCAP only).
+ImuSeries load_imu_series(const InputArg& input, Recording* context = nullptr);
 
 // Reads one input as a Recording: an MCAP file as recorded (a file cut short is read up to its
 // last complete chunk, with a note on stderr), any other input as one stream named after the

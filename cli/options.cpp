@@ -12,9 +12,22 @@
 namespace imukit::cli {
 namespace {
 
+// 1e7 rather than 1e+07.
+std::string number_text(double v) {
+  std::string s = fmt::format("{:g}", v);
+  for (const char* from : {"e+0", "e+", "e-0"}) {
+    const auto at = s.find(from);
+    if (at != std::string::npos) {
+      s.replace(at, std::string_view(from).size(), from[1] == '-' ? "e-" : "e");
+      break;
+    }
+  }
+  return s;
+}
+
 std::string range_text(double lo, double hi, const std::string& unit, LowEnd low) {
-  return fmt::format("{}{:g}, {:g}]{}", low == LowEnd::open ? "(" : "[", lo, hi,
-                     unit.empty() ? "" : " " + unit);
+  return fmt::format("{}{}, {}]{}", low == LowEnd::open ? "(" : "[", number_text(lo),
+                     number_text(hi), unit.empty() ? "" : " " + unit);
 }
 
 }  // namespace

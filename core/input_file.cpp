@@ -32,7 +32,8 @@ void check_regular(const std::string& path, mode_t mode, std::string_view what) 
   fail(path, fmt::format("is {}, not a file; give the {} as a regular file", kind_of(mode), what));
 }
 
-std::string megabytes(std::size_t bytes) {
+std::string size_text(std::size_t bytes) {
+  if (bytes < (std::size_t{1} << 20)) return fmt::format("{} bytes", bytes);
   return fmt::format("{:.1f} MiB", static_cast<double>(bytes) / double(1 << 20));
 }
 
@@ -69,7 +70,7 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
   if (::fstat(::fileno(f.get()), &st) == 0 && static_cast<uint64_t>(st.st_size) > max_bytes) {
     fail(path,
          fmt::format("{} is more than a {} may hold ({})",
-                     megabytes(static_cast<std::size_t>(st.st_size)), what, megabytes(max_bytes)));
+                     size_text(static_cast<std::size_t>(st.st_size)), what, size_text(max_bytes)));
   }
   std::string text;
   text.resize(static_cast<std::size_t>(st.st_size));
@@ -78,7 +79,7 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
     if (got == text.size()) {
       // The file grew since fstat (or reports no size): read on, within the limit.
       if (text.size() > max_bytes)
-        fail(path, fmt::format("more than a {} may hold ({})", what, megabytes(max_bytes)));
+        fail(path, fmt::format("more than a {} may hold ({})", what, size_text(max_bytes)));
       text.resize(std::max<std::size_t>(4096, text.size() * 2));
     }
     const std::size_t n = std::fread(text.data() + got, 1, text.size() - got, f.get());
@@ -89,7 +90,7 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
     }
   }
   if (got > max_bytes)
-    fail(path, fmt::format("more than a {} may hold ({})", what, megabytes(max_bytes)));
+    fail(path, fmt::format("more than a {} may hold ({})", what, size_text(max_bytes)));
   text.resize(got);
   return text;
 }

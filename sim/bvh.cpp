@@ -62,12 +62,12 @@ class Tokenizer {
   void expect(std::string_view word) {
     const Token t = expect_any(std::string(word).c_str());
     if (t.text != word)
-      fail(t, "expected '" + std::string(word) + "', got " + quote_excerpt(t.text));
+      fail(t, "expected '" + std::string(word) + "', got " + quote_excerpt(t.text, 24));
   }
   double number(const char* what) {
     const Token t = expect_any(what);
     const auto v = parse_double(t.text);
-    if (!v) fail(t, std::string("expected ") + what + ", got " + quote_excerpt(t.text));
+    if (!v) fail(t, std::string("expected ") + what + ", got " + quote_excerpt(t.text, 24));
     if (!std::isfinite(*v)) fail(t, std::string(what) + " is not finite");
     return *v;
   }
@@ -113,7 +113,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
   tz.expect("OFFSET");
   for (int i = 0; i < 3; ++i) j.offset(i) = tz.number("an OFFSET value");
   const Token ch = tz.expect_any("CHANNELS");
-  if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got " + quote_excerpt(ch.text));
+  if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got " + quote_excerpt(ch.text, 24));
   const Token nt = tz.expect_any("a channel count");
   const auto n = parse_double(nt.text);
   if (!n || *n != std::floor(*n) || *n < 0 || *n > 6) tz.fail(nt, "channel count must be 0..6");
@@ -135,9 +135,9 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
     else if (l == "zrotation")
       k = Channel::zrot;
     else
-      tz.fail(c, "unknown channel " + quote_excerpt(c.text));
+      tz.fail(c, "unknown channel " + quote_excerpt(c.text, 24));
     for (Channel e : j.channels) {
-      if (e == k) tz.fail(c, "channel " + quote_excerpt(c.text) + " listed twice");
+      if (e == k) tz.fail(c, "channel " + quote_excerpt(c.text, 24) + " listed twice");
     }
     j.channels.push_back(k);
   }
@@ -157,7 +157,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
       tz.expect("}");
       joints[static_cast<std::size_t>(self)].end = e;
     } else {
-      tz.fail(t, "expected JOINT, End Site or '}', got " + quote_excerpt(t.text));
+      tz.fail(t, "expected JOINT, End Site or '}', got " + quote_excerpt(t.text, 24));
     }
   }
 }
@@ -187,7 +187,7 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
   {
     const Token t = tz.expect_any("MOTION");
     if (t.text == "ROOT") tz.fail(t, "more than one ROOT is not supported");
-    if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got " + quote_excerpt(t.text));
+    if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got " + quote_excerpt(t.text, 24));
   }
   tz.expect("Frames:");
   const Token ft = tz.expect_any("the frame count");
