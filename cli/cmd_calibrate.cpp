@@ -37,7 +37,7 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
   check_updatable_file(args.output, "profile to create or update");  // before the work
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {
-    throw Error(
+    throw UsageError(
         fmt::format("calibrate: the inputs form {} recordings with different time stamps; "
                     "give one recording (files with equal time stamps are merged)",
                     runs.size()));
@@ -58,7 +58,12 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
                guided->seconds, s.empty() ? 0.0 : to_seconds(guided->start - s.t.front()));
     if (skip > 0) s = s.slice(skip, s.size() - skip).copy();
   }
-  const CalibrateResult r = calibrate_series(s, options);
+  CalibrateResult r;
+  try {
+    r = calibrate_series(s, options);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", runs.front().name, e.what()));  // which recording
+  }
   update_profile(args.output, r.update);
   fmt::print("wrote calibration sections to {}\n", args.output);
   if (!args.plot_dir.empty()) {

@@ -21,6 +21,7 @@
 #include "capture/session.hpp"
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/profile.hpp"
@@ -184,10 +185,7 @@ CaptureOutcome capture_mock(const std::string& uri, const std::string& path, dou
 }
 
 std::string find_motion(const std::string& given) {
-  if (!given.empty()) {
-    if (!fs::exists(given)) throw Error("demo: --motion " + given + ": no such file");
-    return given;
-  }
+  if (!given.empty()) return given;  // read_bvh says what is wrong with it
   std::vector<fs::path> candidates;
   // Installed: <prefix>/bin/imukit and <prefix>/share/imukit/motion/.
   std::error_code ec;
@@ -237,33 +235,60 @@ void append(ImuSeries& to, const sim::SensorBlock& b) {
   to.gyro.rightCols(n) = b.angular_rate;
 }
 
-void plot_simulation(const fs::path& dir) {
-  // Noisy samples as small light points, the noiseless signal as a dark line over them, one hue
-  // per axis; data by name beside the script (run_gnuplot).
+// Left: the noiseless signal (lines) with the measured samples over it (points); at this scale
+// the hardware's error is far smaller than the motion, so the right column shows it alone
+// (measured - noiseless: noise, bias, scale and misalignment). The spikes in the specific force
+// are the bundled BVH's: its root translation has millimetre glitches, and a second derivative at
+// 120 Hz turns 2 mm into 30 m/s^2 (examples/motion/README.md).
+void plot_simulation(const fs::path& dir, const ImuSeries& measured, const ImuSeries& truth) {
+  const std::string dat = std::string(kSensor) + "_error.dat";
+  {
+    auto out = fmt::output_file((dir / dat).string());
+    out.print("# t_s  measured - noiseless: ax ay az [m/s^2] gx gy gz [rad/s]\n");
+    for (std::size_t i = 0; i < measured.size(); ++i) {
+      const auto c = static_cast<Eigen::Index>(i);
+      const Eigen::Vector3d da = measured.accel.col(c) - truth.accel.col(c);
+      const Eigen::Vector3d dg = measured.gyro.col(c) - truth.gyro.col(c);
+      out.print("{:.6f} {:.7g} {:.7g} {:.7g} {:.7g} {:.7g} {:.7g}\n",
+                to_seconds(measured.t[i] - measured.t.front()), da.x(), da.y(), da.z(), dg.x(),
+                dg.y(), dg.z());
+    }
+  }
   const std::string m = std::string(kSensor) + ".csv";
   const std::string t = std::string(kSensor) + ".truth.csv";
-  const char* light[3] = {"#f4a6a6", "#a6dba0", "#a6c8ef"};
-  const char* dark[3] = {"#b2182b", "#1b7837", "#2166ac"};
-  const auto panel = [&](int first_column, const char* symbol) {
+  const char* colour[3] = {"#b2182b", "#1b7837", "#2166ac"};
+  const auto signals = [&](int first_column, const char* symbol) {
     std::string p;
     for (int ax = 0; ax < 3; ++ax) {
       p += fmt::format(
-          "{}'{}' u (($1-t0)*1e-9):{} every ::1 w p pt 7 ps 0.25 lc rgb '{}' t '{}_{} measured', "
-          "'{}' u (($1-t0)*1e-9):{} w l lw 2 lc rgb '{}' t '{}_{} noiseless'",
-          ax == 0 ? "" : ", ", m, first_column + ax, light[ax], symbol, "xyz"[ax], t,
-          first_column + ax, dark[ax], symbol, "xyz"[ax]);
+          "{}'{}' u (($1-t0)*1e-9):{} w l lw 1.5 lc rgb '{}' t '{}_{}', '{}' u (($1-t0)*1e-9):{} "
+          "w p pt 7 ps 0.2 lc rgb 'black' {}",
+          ax == 0 ? "" : ", ", t, first_column + ax, colour[ax], symbol, "xyz"[ax], m,
+          first_column + ax, ax == 2 ? "t 'measured'" : "notitle");
+    }
+    return p;
+  };
+  const auto errors = [&](int first_column, const char* symbol) {
+    std::string p;
+    for (int ax = 0; ax < 3; ++ax) {
+      p += fmt::format("{}'{}' u 1:{} w l lw 1 lc rgb '{}' t '{}_{}'", ax == 0 ? "" : ", ", dat,
+                       first_column + ax, colour[ax], symbol, "xyz"[ax]);
     }
     return p;
   };
   const std::string script = fmt::format(
-      "set datafile separator ','\nset grid\nset key outside right font ',10'\n"
-      "t0 = 0\nstats '{m}' u 1 every ::1::1 nooutput\nt0 = STATS_min\n"
-      "set multiplot layout 2,1 title 'simulated left-wrist watch on a CMU walk: with the measured "
-      "hardware model (points) and noiseless (lines)'\n"
-      "set ylabel 'specific force [m/s^2]'\nplot {accel}\n"
-      "set xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\nplot {gyro}\n"
+      "set grid\nset key outside right font ',9'\n"
+      "t0 = 0\nset datafile separator ','\nstats '{m}' u 1 every ::0::0 nooutput\nt0 = STATS_min\n"
+      "set multiplot layout 2,2 title 'simulated left-wrist watch on a CMU walk, measured hardware "
+      "model: signal (left) and its error (right)'\n"
+      "set ylabel 'specific force [m/s^2]'\nplot {a}\n"
+      "set datafile separator whitespace\nset ylabel 'measured - noiseless [m/s^2]'\nplot {ea}\n"
+      "set datafile separator ','\nset xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\n"
+      "plot {g}\n"
+      "set datafile separator whitespace\nset ylabel 'measured - noiseless [rad/s]'\nplot {eg}\n"
       "unset multiplot\n",
-      fmt::arg("m", m), fmt::arg("accel", panel(5, "a")), fmt::arg("gyro", panel(2, "w")));
+      fmt::arg("m", m), fmt::arg("a", signals(5, "a")), fmt::arg("g", signals(2, "w")),
+      fmt::arg("ea", errors(2, "a")), fmt::arg("eg", errors(5, "w")));
   run_gnuplot(dir, kSensor, script);
 }
 
@@ -303,6 +328,8 @@ int run_demo(const DemoArgs& args) {
     throw Error(fmt::format("demo: cannot create {}: {}; choose another folder with -o DIR",
                             out.string(), ec.message()));
   const std::string motion_path = find_motion(args.motion);
+  // Read now: a bad motion file is refused before minutes of capture, not after.
+  (void)sim::read_bvh(motion_path, sim::BvhOptions{});
   const fs::path plots = out / "plots";
   fs::create_directories(plots);
   std::vector<StepRecord> steps;
@@ -514,7 +541,7 @@ int run_demo(const DemoArgs& args) {
   }
   write_euroc_csv((sim_dir / (std::string(kSensor) + ".csv")).string(), watch.view());
   write_euroc_csv((sim_dir / (std::string(kSensor) + ".truth.csv")).string(), watch_truth.view());
-  plot_simulation(sim_dir);
+  plot_simulation(sim_dir, watch, watch_truth);
   fmt::print("      {} samples at {:g} Hz ({:.2f} s) -> {}/{}.csv (+ .truth.csv, noiseless)\n",
              watch.size(), plan.rate_hz, watch.size() / plan.rate_hz, sim_dir.string(), kSensor);
   steps.push_back({"simulate",
@@ -606,7 +633,8 @@ IMUKIT_REGISTER_COMMAND(
                 sub.add_option("--motion", args->motion,
                                "a BVH file (metres, Y up) instead of the bundled CMU walk");
                 sub.add_option("--seed", args->seed,
-                               "seed of the mock devices, the simulation and the augmentation");
+                               "seed of the mock devices, the simulation and the augmentation")
+                    ->check(whole_in(0, 1'000'000'000'000));  // times 1000 for the mock seeds
                 sub.footer(
                     "\nSteps: (1) record a still mock smartwatch IMU with a known hardware model "
                     "for 2 h of\n"

@@ -60,20 +60,22 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
   auto flush = [&] {
     if (role.empty()) return;
     const auto parsed = parse_input_args(group);
-    if (parsed.size() != 1) throw Error(fmt::format("identify: {} takes exactly one file", role));
+    if (parsed.size() != 1)
+      throw UsageError(fmt::format("identify: {} takes exactly one file", role));
     (role == "--imu" ? r.imu : r.pose) = parsed.front();
   };
   for (std::size_t i = 0; i < tokens.size(); ++i) {
     if (tokens[i] == "--imu" || tokens[i] == "--pose") {
       flush();
       role = tokens[i];
-      if (i + 1 >= tokens.size()) throw Error(fmt::format("identify: {} needs a file", role));
+      if (i + 1 >= tokens.size()) throw UsageError(fmt::format("identify: {} needs a file", role));
       if ((role == "--imu" ? r.imu : r.pose).has_value())
-        throw Error(fmt::format("identify: {} given twice", role));
+        throw UsageError(fmt::format("identify: {} given twice", role));
       group = {tokens[++i]};
       continue;
     }
-    if (role.empty()) throw Error(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
+    if (role.empty())
+      throw UsageError(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
     group.push_back(tokens[i]);
   }
   flush();
@@ -82,15 +84,15 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
 
 sim::PoseTrack load_pose_track(const InputArg& in) {
   if (in.columns.empty()) {
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "{}: say where the pose is with --columns, e.g. --columns t,qw,qx,qy,qz,px,py,pz",
         in.path));
   }
-  const ColumnSpec spec = ColumnSpec::parse(in.columns, in.gaps, parse_time_unit(in.time_unit));
+  const ColumnSpec spec = column_spec(in);
   for (Column c : {Column::t, Column::qw, Column::qx, Column::qy, Column::qz, Column::px,
                    Column::py, Column::pz}) {
     if (!spec.has(c)) {
-      throw Error(
+      throw UsageError(
           fmt::format("{}: a pose track needs columns t, qw, qx, qy, qz, px, py, pz (missing {})",
                       in.path, column_name(c)));
     }
@@ -128,7 +130,7 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
     else if (n == "clock_rate")
       o.clock_rate = value;
     else {
-      throw Error(
+      throw UsageError(
           fmt::format("identify: {} '{}' is not one of rotation, position, accel_bias, gyro_bias, "
                       "accel_scale, gyro_scale, time_offset, clock_rate",
                       option, n));
@@ -180,9 +182,9 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
 
 int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
   const RoleInputs in = split_inputs(tokens);
-  if (!in.imu) throw Error("identify: give the IMU recording with --imu FILE");
+  if (!in.imu) throw UsageError("identify: give the IMU recording with --imu FILE");
   if (in.pose.has_value() == !a.motion.empty())
-    throw Error(
+    throw UsageError(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
   imu.validate(in.imu->path);
@@ -208,7 +210,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   std::vector<std::string> warnings;
   if (in.pose) {
     if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
-      throw Error(
+      throw UsageError(
           "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
           "apply");
     sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(*in.pose), in.pose->path);
@@ -245,13 +247,15 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     if (!a.joint.empty()) {
       const int j = body.index_of(a.joint);
       if (!a.init.empty() && j != o.joint) {
-        throw Error(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'", a.init,
-                                body.joint(static_cast<std::size_t>(o.joint)).name, a.joint));
+        throw UsageError(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'",
+                                     a.init, body.joint(static_cast<std::size_t>(o.joint)).name,
+                                     a.joint));
       }
       o.joint = j;
     }
     if (o.joint < 0)
-      throw Error("identify --motion: name the sensor's joint with --joint (or --init PRESET)");
+      throw UsageError(
+          "identify --motion: name the sensor's joint with --joint (or --init PRESET)");
     for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
     o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
   }
@@ -285,9 +289,9 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
       r.rms_before.accel, r.rms_after.accel, r.rms_before.gyro, r.rms_after.gyro);
   {
     std::ofstream f(a.output);
-    if (!f) throw Error(a.output + ": cannot open for writing");
+    if (!f) throw IoError(a.output + ": cannot open for writing");
     f << sim::placement_json(r, body);
-    if (!f.flush()) throw Error(a.output + ": write failed");
+    if (!f.flush()) throw IoError(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
   if (!a.plot_dir.empty()) {

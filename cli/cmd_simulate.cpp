@@ -45,7 +45,7 @@ class StreamFile {
  public:
   StreamFile(const std::string& path, const std::string& header) : path_(path) {
     f_ = std::fopen(path.c_str(), "wb");
-    if (f_ == nullptr) throw Error(path + ": cannot open for writing");
+    if (f_ == nullptr) throw IoError(path + ": cannot open for writing");
     put(header + "\n");
   }
   ~StreamFile() {
@@ -55,12 +55,12 @@ class StreamFile {
   StreamFile& operator=(const StreamFile&) = delete;
   void put(const std::string& s) {
     if (std::fwrite(s.data(), 1, s.size(), f_) != s.size())
-      throw Error(path_ + ": write failed (disk full?)");
+      throw IoError(path_ + ": write failed (disk full?)");
   }
   void close() {
     if (f_ != nullptr && std::fclose(f_) != 0) {
       f_ = nullptr;
-      throw Error(path_ + ": write failed on close");
+      throw IoError(path_ + ": write failed on close");
     }
     f_ = nullptr;
   }

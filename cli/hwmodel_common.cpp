@@ -189,14 +189,17 @@ void plot_triad(const std::filesystem::path& dir, const std::string& name, const
   // Per axis: the estimates with their intervals (open symbols of three shapes, so an axis
   // under another still shows), the fitted model, and the slope line of each fitted term (only
   // the terms detected: a line at 0 would be listed and not drawn).
-  const int point_type[3] = {6, 8, 4};  // open circle, triangle, square
+  // Open circle (largest, so an axis with the same values as another still rings it), triangle,
+  // square.
+  const int point_type[3] = {6, 8, 4};
+  const double point_size[3] = {0.9, 0.6, 0.6};
   std::string plots;
   const auto add = [&](const std::string& p) { plots += (plots.empty() ? "" : ", \\\n     ") + p; };
   for (int ax = 0; ax < 3; ++ax) {
     const int col = 2 + 4 * ax;
     const char axis = "xyz"[ax];
-    add(fmt::format("'{}' u 1:{}:{}:{} w yerrorbars lc rgb '{}' pt {} ps 0.6 t '{}'", dat, col,
-                    col + 1, col + 2, kAxisColour[ax], point_type[ax], axis));
+    add(fmt::format("'{}' u 1:{}:{}:{} w yerrorbars lc rgb '{}' pt {} ps {} t '{}'", dat, col,
+                    col + 1, col + 2, kAxisColour[ax], point_type[ax], point_size[ax], axis));
     add(fmt::format("'{}' u 1:{} w l lc rgb '{}' lw 1.5 t '{} model'", dat, col + 3,
                     kAxisColour[ax], axis));
   }

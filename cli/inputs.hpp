@@ -26,6 +26,10 @@ struct InputArg {
 // an option without its value.
 std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens);
 
+// The input's --columns, --gaps and --time-unit as a ColumnSpec; a mistake in them is a usage
+// error (UsageError).
+ColumnSpec column_spec(const InputArg& input);
+
 // Help text describing the per-input options, for a subcommand's footer.
 std::string input_options_help();
 
