@@ -11,6 +11,7 @@
 
 #include "capture/bytes.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -109,8 +110,8 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options)
     : path_(path), options_(std::move(options)) {
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) {
-    throw Error(InputLocation{path, {}, {}, {}},
-                std::string("cannot open for writing: ") + std::strerror(errno));
+    throw IoError(InputLocation{path, {}, {}, {}},
+                  std::string("cannot open for writing: ") + std::strerror(errno));
   }
   write_raw(kMagic);
   std::vector<uint8_t> body;
@@ -134,8 +135,8 @@ McapWriter::~McapWriter() {
 void McapWriter::write_raw(std::span<const uint8_t> bytes) {
   if (!file_) throw Error(fmt::format("{}: write after close", path_));
   if (!bytes.empty() && std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
   data_crc_ = mcap_crc32(bytes, data_crc_);
   offset_ += bytes.size();
@@ -280,8 +281,8 @@ void McapWriter::close_chunk() {
   entry.message_index_length = offset_ + out.size() - index_start;
   write_raw(out);
   if (std::fflush(file_) != 0) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
   chunk_index_.push_back(std::move(entry));
   chunk_.clear();
@@ -292,8 +293,8 @@ void McapWriter::close_chunk() {
 void McapWriter::flush() {
   close_chunk();
   if (file_ && std::fflush(file_) != 0) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
 }
 
@@ -398,8 +399,8 @@ void McapWriter::close() {
   const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
   if (!flushed || !closed) {
-    throw Error(InputLocation{path_, {}, {}, {}},
-                std::string("close failed: ") + std::strerror(flushed ? errno : saved));
+    throw IoError(InputLocation{path_, {}, {}, {}},
+                  std::string("close failed: ") + std::strerror(flushed ? errno : saved));
   }
 }
 
@@ -429,16 +430,12 @@ class Source {
 class FileSource : public Source {
  public:
   explicit FileSource(const std::string& path) : path_(path) {
-    file_ = std::fopen(path.c_str(), "rb");
-    if (!file_) {
-      throw Error(InputLocation{path, {}, {}, {}},
-                  std::string("cannot open for reading: ") + std::strerror(errno));
-    }
+    file_ = open_regular_file(path, "MCAP recording").release();
     struct stat st {};
     if (::fstat(fileno(file_), &st) != 0) {
       std::fclose(file_);
-      throw Error(InputLocation{path, {}, {}, {}},
-                  std::string("cannot stat: ") + std::strerror(errno));
+      throw IoError(InputLocation{path, {}, {}, {}},
+                    std::string("cannot stat: ") + std::strerror(errno));
     }
     size_ = static_cast<uint64_t>(st.st_size);
   }

@@ -61,6 +61,8 @@ struct Device {
   RawImuMessage raw;
   TapDetector taps;
   std::optional<PoseGuide> guide;
+  std::chrono::steady_clock::time_point last_data = std::chrono::steady_clock::now();
+  std::string silent_reason;  // set when the no-data timeout stopped the device
 
   Device(SessionDevice s, std::size_t capacity) : spec(std::move(s)), samples(capacity) {}
 };
@@ -123,7 +125,7 @@ DeviceProgress progress_of(Device& d) {
     const std::lock_guard lock(d.mutex);
     p.codec_dropped = d.stats.samples_dropped;
     p.frames_corrupt = d.stats.frames_corrupt;
-    p.end_reason = d.end_reason;
+    p.end_reason = d.silent_reason.empty() ? d.end_reason : d.silent_reason;
   }
   p.backpressure = d.backpressure.load();
   p.queue_high_water = d.samples.high_water();
@@ -206,6 +208,16 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
     if (d.guide) {
       const Eigen::Vector3d w(s.gyro[0], s.gyro[1], s.gyro[2]);
       if (const auto e = d.guide->feed(t, a, (s.channels & drivers::kHasGyro) ? &w : nullptr)) {
+        if (e->initial) {
+          // Where calibrate's initial static period starts (imukit.guide gives its length).
+          write_event(
+              writer, live.event_channel,
+              {e->still_since, "initial_still",
+               fmt::format("{}: still for {:g} s from here", d.spec.name,
+                           to_seconds(t - e->still_since))},
+              d.spec.name,
+              device_time ? std::optional(*device_time - (t - e->still_since)) : std::nullopt);
+        }
         const char* what =
             e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held" : "new pose";
         write_event(writer, live.event_channel,
@@ -262,6 +274,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
   const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
   for (const Event& e : options.events) write_event(writer, event_channel, e);
+  if (options.guide) {
+    writer.write_metadata(
+        "imukit.guide", {{"guide", "multipos"},
+                         {"poses_wanted", std::to_string(options.guide->poses_wanted)},
+                         {"initial_still_s", fmt::format("{:g}", options.guide->initial_still_s)}});
+  }
   for (auto& d : devices) {
     d->imu_channel = writer.add_channel(imu_schema, "/imu/" + d->spec.name, "cdr");
     d->raw_channel = writer.add_channel(raw_schema, "/imu/" + d->spec.name + "/raw", "cdr");
@@ -322,12 +340,23 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     drivers::SyncPoint sync;
     for (;;) {
       bool busy = false;
+      const auto now = std::chrono::steady_clock::now();
       for (auto& d : devices) {
         for (int n = 0; n < 4096 && d->samples.pop(sample); ++n) {
           busy = true;
+          d->last_data = now;
           accept(*d, sample);
         }
         while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
+        if (options.no_data_timeout_s > 0 && d->silent_reason.empty() && !d->full &&
+            !d->ended.load(std::memory_order_acquire) &&
+            std::chrono::duration<double>(now - d->last_data).count() > options.no_data_timeout_s) {
+          const std::lock_guard lock(d->mutex);
+          d->silent_reason = fmt::format(
+              "no data for {:g} s{}", options.no_data_timeout_s,
+              d->written == 0 ? " since the start (check the baud rate and codec in the URI)" : "");
+          d->stop.store(true);
+        }
       }
       if (options.take_markers) {
         std::vector<Event> markers;
@@ -356,11 +385,15 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
       if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
         const bool limited =
             std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
-        report.stop_reason = limited ? "limit reached" : "every device ended";
+        const bool silent = std::all_of(devices.begin(), devices.end(),
+                                        [](const auto& d) { return !d->silent_reason.empty(); });
+        report.stop_reason =
+            limited  ? "limit reached"
+            : silent ? fmt::format("no data from any device for {:g} s", options.no_data_timeout_s)
+                     : "every device ended";
         break;
       }
       if (all_done) stop_all();
-      const auto now = std::chrono::steady_clock::now();
       if (options.progress && now - last_progress > std::chrono::milliseconds(250)) {
         last_progress = now;
         std::vector<DeviceProgress> p;

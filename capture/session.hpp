@@ -54,7 +54,12 @@ struct SessionOptions {
   std::string path;  // output .mcap
   // Stop when every device has delivered this much host time (0: no limit).
   double duration_s = 0.0;
-  uint64_t max_samples = 0;                 // per device (0: no limit)
+  uint64_t max_samples = 0;  // per device (0: no limit)
+  // A device that delivers no sample for this long of wall-clock time (from the start, or since
+  // its last sample) is stopped with a reason saying so: a silent device (wrong baud rate or
+  // codec, a mock that drops everything) would otherwise keep a data-time limit from ever
+  // being reached. 0: wait forever.
+  double no_data_timeout_s = 0.0;
   std::size_t queue_capacity = 1 << 15;     // samples per device
   bool finalize = true;                     // offline clock fit and rewrite at the end
   const std::atomic<bool>* stop = nullptr;  // e.g. set by SIGINT/SIGTERM

@@ -44,7 +44,7 @@ void write_npy_pair(const std::string& out, const ImuSeries& s) {
 
 const ImuSeries& only_stream(const Recording& r, const std::string& out) {
   if (r.streams.size() != 1) {
-    throw Error(
+    throw UsageError(
         fmt::format("convert: the input holds {} streams; write them to a folder "
                     "(-o DIR/) instead of the single file {}",
                     r.streams.size(), out));
@@ -54,11 +54,11 @@ const ImuSeries& only_stream(const Recording& r, const std::string& out) {
 
 int run_convert(const std::vector<std::string>& tokens, const std::string& out, bool recover) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
-  if (inputs.size() != 1) throw Error("convert: give exactly one input file (and -o OUT)");
+  if (inputs.size() != 1) throw UsageError("convert: give exactly one input file (and -o OUT)");
   if (recover) {
     if (fs::path(inputs.front().path).extension() != ".mcap" ||
         fs::path(out).extension() != ".mcap") {
-      throw Error("convert --recover: input and output must both be .mcap files");
+      throw UsageError("convert --recover: input and output must both be .mcap files");
     }
     std::error_code ec;
     if (fs::equivalent(inputs.front().path, out, ec)) {
@@ -89,7 +89,8 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     return 0;
   }
   const Recording r = load_recording(inputs.front());
-  for (const auto& [name, series] : r.streams) series.validate();
+  for (const auto& [name, series] : r.streams)
+    series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
   if (ext == ".mcap") {
     capture::write_recording_mcap(out, r);
@@ -111,7 +112,7 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
       fmt::print("wrote {} ({} samples, EuRoC CSV)\n", path, series.size());
     }
   } else {
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "convert: output '{}' must be OUT.mcap, OUT.csv (EuRoC), OUT.npy or a folder", out));
   }
   return 0;

@@ -16,6 +16,7 @@
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/column_text.hpp"
 #include "core/error.hpp"
 #include "core/so3.hpp"
@@ -59,20 +60,22 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
   auto flush = [&] {
     if (role.empty()) return;
     const auto parsed = parse_input_args(group);
-    if (parsed.size() != 1) throw Error(fmt::format("identify: {} takes exactly one file", role));
+    if (parsed.size() != 1)
+      throw UsageError(fmt::format("identify: {} takes exactly one file", role));
     (role == "--imu" ? r.imu : r.pose) = parsed.front();
   };
   for (std::size_t i = 0; i < tokens.size(); ++i) {
     if (tokens[i] == "--imu" || tokens[i] == "--pose") {
       flush();
       role = tokens[i];
-      if (i + 1 >= tokens.size()) throw Error(fmt::format("identify: {} needs a file", role));
+      if (i + 1 >= tokens.size()) throw UsageError(fmt::format("identify: {} needs a file", role));
       if ((role == "--imu" ? r.imu : r.pose).has_value())
-        throw Error(fmt::format("identify: {} given twice", role));
+        throw UsageError(fmt::format("identify: {} given twice", role));
       group = {tokens[++i]};
       continue;
     }
-    if (role.empty()) throw Error(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
+    if (role.empty())
+      throw UsageError(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
     group.push_back(tokens[i]);
   }
   flush();
@@ -81,15 +84,15 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
 
 sim::PoseTrack load_pose_track(const InputArg& in) {
   if (in.columns.empty()) {
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "{}: say where the pose is with --columns, e.g. --columns t,qw,qx,qy,qz,px,py,pz",
         in.path));
   }
-  const ColumnSpec spec = ColumnSpec::parse(in.columns, in.gaps, parse_time_unit(in.time_unit));
+  const ColumnSpec spec = column_spec(in);
   for (Column c : {Column::t, Column::qw, Column::qx, Column::qy, Column::qz, Column::px,
                    Column::py, Column::pz}) {
     if (!spec.has(c)) {
-      throw Error(
+      throw UsageError(
           fmt::format("{}: a pose track needs columns t, qw, qx, qy, qz, px, py, pz (missing {})",
                       in.path, column_name(c)));
     }
@@ -127,7 +130,7 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
     else if (n == "clock_rate")
       o.clock_rate = value;
     else {
-      throw Error(
+      throw UsageError(
           fmt::format("identify: {} '{}' is not one of rotation, position, accel_bias, gyro_bias, "
                       "accel_scale, gyro_scale, time_offset, clock_rate",
                       option, n));
@@ -137,9 +140,9 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
 
 void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::filesystem::create_directories(dir);
-  const auto dat = (std::filesystem::path(dir) / "identify_signals.dat").string();
+  const std::string dat = "identify_signals.dat";  // beside the script (run_gnuplot)
   {
-    auto out = fmt::output_file(dat);
+    auto out = fmt::output_file((std::filesystem::path(dir) / dat).string());
     out.print(
         "# t_s  measured ax ay az gx gy gz  simulated-before ax ay az gx gy gz  simulated-after ax "
         "ay az gx gy gz\n");
@@ -156,16 +159,20 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::string script = fmt::format(
       "set multiplot layout 3,2 title 'measured vs simulated (identified placement, bias, time "
       "offset)'\n"
-      "set grid\nset key top right font ',9'\n");
+      "set grid\n");
   const char* axis = "xyz";
   for (int k = 0; k < 3; ++k) {
     for (int s = 0; s < 2; ++s) {  // accelerometer column 2+k, gyroscope 5+k
       const int col = 2 + 3 * s + k;
+      // One legend, above the first panel: inside a panel it covers the data.
+      const std::string key = k == 0 && s == 0   ? "set key above horizontal font ',9'\n"
+                              : k == 0 && s == 1 ? "unset key\n"
+                                                 : "";
       script += fmt::format(
-          "set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
+          "{}set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
           "1:{} w l lc 1 t "
           "'simulated, identified', '' u 1:{} w l lc 2 dt 2 t 'simulated, before'\n",
-          s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
+          key, s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
           k == 2 ? "set xlabel 't [s]'\n" : "", dat, col, col + 12, col + 6);
     }
   }
@@ -175,12 +182,16 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
 
 int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
   const RoleInputs in = split_inputs(tokens);
-  if (!in.imu) throw Error("identify: give the IMU recording with --imu FILE");
+  if (!in.imu) throw UsageError("identify: give the IMU recording with --imu FILE");
   if (in.pose.has_value() == !a.motion.empty())
-    throw Error(
+    throw UsageError(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
-  imu.validate();
+  imu.validate(in.imu->path);
+  if (imu.size() < 2) {
+    throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
+                            imu.size()));
+  }
 
   sim::IdentifyOptions o;
   o.threads = a.threads;
@@ -199,7 +210,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   std::vector<std::string> warnings;
   if (in.pose) {
     if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
-      throw Error(
+      throw UsageError(
           "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
           "apply");
     sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(*in.pose), in.pose->path);
@@ -236,13 +247,15 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     if (!a.joint.empty()) {
       const int j = body.index_of(a.joint);
       if (!a.init.empty() && j != o.joint) {
-        throw Error(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'", a.init,
-                                body.joint(static_cast<std::size_t>(o.joint)).name, a.joint));
+        throw UsageError(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'",
+                                     a.init, body.joint(static_cast<std::size_t>(o.joint)).name,
+                                     a.joint));
       }
       o.joint = j;
     }
     if (o.joint < 0)
-      throw Error("identify --motion: name the sensor's joint with --joint (or --init PRESET)");
+      throw UsageError(
+          "identify --motion: name the sensor's joint with --joint (or --init PRESET)");
     for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
     o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
   }
@@ -276,9 +289,9 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
       r.rms_before.accel, r.rms_after.accel, r.rms_before.gyro, r.rms_after.gyro);
   {
     std::ofstream f(a.output);
-    if (!f) throw Error(a.output + ": cannot open for writing");
+    if (!f) throw IoError(a.output + ": cannot open for writing");
     f << sim::placement_json(r, body);
-    if (!f.flush()) throw Error(a.output + ": write failed");
+    if (!f.flush()) throw IoError(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
   if (!a.plot_dir.empty()) {
@@ -293,7 +306,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
                "motion that "
                "turns about more axes, or hold them with --fix\n",
                names);
-    return 2;
+    return kBadInput;  // the output is written, but the motion could not determine all asked
   }
   return 0;
 }
@@ -314,11 +327,13 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--joint", a->joint, "the joint (or segment) carrying the sensor");
           sub.add_option("--init", a->init,
                          "placement preset to start from (see imukit simulate --list-presets)");
-          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres");
+          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres")
+              ->check(bvh_scale_range());
           sub.add_option("--up", a->up, "up axis of the BVH file: y (default) or z")
               ->check(CLI::IsMember({"y", "z"}));
           sub.add_option("--height", a->height,
-                         "stature of the default humanoid for a quaternion CSV, m");
+                         "stature of the default humanoid for a quaternion CSV, m")
+              ->check(real_in(0.3, 3, "m"));
           sub.add_option("--fix", a->fix,
                          "hold at the initial value (comma list): rotation, position, accel_bias, "
                          "gyro_bias, time_offset")
@@ -331,16 +346,21 @@ IMUKIT_REGISTER_COMMAND(
                          "length) to fit")
               ->delimiter(',');
           sub.add_option("--segment-prior", a->segment_prior,
-                         "relative width of the segment-length prior (default 0.05)");
+                         "relative width of the segment-length prior (default 0.05)")
+              ->check(real_in(0, 10, "", LowEnd::open));
           sub.add_option("--time-offset", a->time_offset,
-                         "initial time offset, s (skips the cross-correlation)");
+                         "initial time offset, s (skips the cross-correlation)")
+              ->check(real_in(-86400, 86400, "s"));
           sub.add_option("--max-time-offset", a->max_time_offset,
-                         "search range of the cross-correlation, s (default 1)");
+                         "search range of the cross-correlation, s (default 1)")
+              ->check(real_in(0, 3600, "s", LowEnd::open));
           sub.add_option("--motion-start", a->motion_start,
-                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)");
-          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2");
+                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)")
+              ->check(real_in(-4e9, 4e9, "s"));
+          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2")
+              ->check(gravity_range());
           sub.add_option("--threads", a->threads, "threads for the Jacobian (default 1)")
-              ->check(CLI::Range(1, 64));
+              ->check(whole_in(1, 64));
           sub.add_option("--plot", a->plot_dir,
                          "folder for an SVG of measured against simulated signals (gnuplot)");
           sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +

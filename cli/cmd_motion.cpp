@@ -5,12 +5,12 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "cli/command.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "sim/bvh.hpp"
 #include "sim/keypoints.hpp"
 
@@ -31,13 +31,6 @@ struct MotionArgs {
   bool no_repairs = false;
   bool quiet = false;
 };
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw Error(path + ": cannot open for writing");
-  out << text;
-  if (!out) throw Error(path + ": write failed (disk full?)");
-}
 
 // The body as a scene's "body" object (docs/formats.md): {"joints": [...]}.
 nlohmann::json body_object(const sim::Body& body) {
@@ -128,8 +121,8 @@ int run_motion(const MotionArgs& a) {
   } else {
     sim::write_quaternion_csv(a.output, r.body, r.motion);
   }
-  if (!a.body_json.empty()) write_text(a.body_json, body_object(r.body).dump(2) + "\n");
-  if (!a.report.empty()) write_text(a.report, report_of(r, a).dump(2) + "\n");
+  if (!a.body_json.empty()) write_text_file(a.body_json, body_object(r.body).dump(2) + "\n");
+  if (!a.report.empty()) write_text_file(a.report, report_of(r, a).dump(2) + "\n");
   if (!a.quiet) {
     for (const std::string& w : r.warnings) fmt::print(stderr, "imukit: warning: {}\n", w);
     fmt::print(stderr,

@@ -28,6 +28,16 @@ namespace imukit::sim {
 
 enum class UpAxis { y, z };
 
+// What a BVH file and its options may say: the scale (metres per file unit) and the frame rate
+// are bounded like the CLI's options, and no length or root position may exceed
+// max_length_m once scaled.
+struct BvhLimits {
+  static constexpr double min_scale = 1e-5, max_scale = 100.0;
+  static constexpr double max_rate_hz = 1e6;
+  static constexpr double max_frame_time_s = 3600.0;
+  static constexpr double max_length_m = 1e4;
+};
+
 struct BvhOptions {
   double scale = 1.0;
   UpAxis up = UpAxis::y;

@@ -1,10 +1,10 @@
 // BVH writer (sim/bvh.hpp): the inverse of parse_bvh's mappings.
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "sim/bvh.hpp"
 
 namespace imukit::sim {
@@ -118,10 +118,7 @@ std::string format_bvh(const Body& body, const Motion& motion, const BvhOptions&
 void write_bvh(const std::string& path, const Body& body, const Motion& motion,
                const BvhOptions& options) {
   const std::string text = format_bvh(body, motion, options);
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw Error(path + ": cannot open for writing");
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  if (!out) throw Error(path + ": write failed (disk full?)");
+  write_text_file(path, text);
 }
 
 }  // namespace imukit::sim

@@ -377,6 +377,12 @@ double coarse_offset(const Body& body, MotionSource& motion, const IdentifyOptio
   }
   const auto best = static_cast<int64_t>(std::max_element(r.begin(), r.end()) - r.begin());
   *peak_r = r[static_cast<std::size_t>(best)];
+  if (*peak_r < -1.0) {  // no lag had 10 samples of both (or any variation in them)
+    throw Error(fmt::format(
+        "identify: the IMU recording and the motion do not overlap by 10 samples at any time "
+        "offset within +-{:g} s (or one of them does not move); check --motion-start",
+        o.max_time_offset_s));
+  }
   double frac = 0.0;
   if (best > 0 && best < 2 * L) {
     const double a = r[static_cast<std::size_t>(best - 1)], b = r[static_cast<std::size_t>(best)],
@@ -456,6 +462,9 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(o.huber_sigmas > 0) || !(o.max_time_offset_s >= 0) || !(o.segment_prior > 0))
     throw Error(
         "identify: huber_sigmas, segment_prior must be positive, max_time_offset_s non-negative");
+  // Offsets become ns (int64): beyond a day they are not an offset but a wrong clock.
+  if (!(std::abs(o.time_offset_init_s) <= 86400.0) || !(o.max_time_offset_s <= 86400.0))
+    throw Error("identify: time offsets must be finite and within a day (86400 s)");
 
   const double mrate = motion.rate_hz();
   const int64_t frames = *motion.frame_count();
@@ -658,7 +667,8 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   for (int stage = 0; stage < 2; ++stage) {
     reweight();
     ceres::Solve(so, &problem, &summary);
-    res.iterations += static_cast<int>(summary.iterations.size()) - 1;
+    // iterations[0] is the initial evaluation; a solve that fails at once has none at all.
+    res.iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   }
   res.converged = summary.termination_type == ceres::CONVERGENCE;
   res.solver_summary = summary.BriefReport();

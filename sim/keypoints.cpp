@@ -5,13 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/json_text.hpp"
 #include "core/npy.hpp"
 #include "core/so3.hpp"
@@ -522,11 +522,8 @@ KeypointTopology load_keypoint_topology(const std::string& name_or_path) {
   }
   if (!std::filesystem::exists(name_or_path))
     return keypoint_topology(name_or_path);  // the unknown-name error lists the built-ins
-  std::ifstream in(name_or_path, std::ios::binary);
-  if (!in) throw Error(name_or_path + ": cannot open");
-  std::stringstream s;
-  s << in.rdbuf();
-  return parse_keypoint_topology(s.str(), name_or_path);
+  return parse_keypoint_topology(
+      read_regular_file(name_or_path, kMaxJsonBytes, "keypoint topology"), name_or_path);
 }
 
 std::string keypoint_topology_json(const KeypointTopology& t) {
@@ -692,11 +689,8 @@ Keypoints read_keypoints(const std::string& path, const KeypointTopology& topolo
     k.rate_hz = *rate_hz;
     return k;
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::stringstream s;
-  s << in.rdbuf();
-  return parse_keypoints_csv(s.str(), path, topology, rate_hz);
+  return parse_keypoints_csv(read_regular_file(path, kMaxMotionBytes, "keypoints CSV"), path,
+                             topology, rate_hz);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -4,11 +4,11 @@
 #include <cassert>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <numbers>
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/rng.hpp"
 #include "core/text_parse.hpp"
 #include "core/time.hpp"
@@ -216,16 +216,18 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       const int comp = c == 'w' ? 0 : c == 'x' ? 1 : c == 'y' ? 2 : c == 'z' ? 3 : -1;
       const auto j = body.find(name.substr(0, name.size() - 3));
       if (comp < 0 || !j) {
-        throw Error(at(fields[i].column), "column '" + name + "' names no joint of the body");
+        throw Error(at(fields[i].column),
+                    "column " + quote_excerpt(name) + " names no joint of the body");
       }
       if (have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)]) {
-        throw Error(at(fields[i].column), "column '" + name + "' repeats a joint component");
+        throw Error(at(fields[i].column),
+                    "column " + quote_excerpt(name) + " repeats a joint component");
       }
       have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)] = true;
       role[i] = 10 + 4 * *j + comp;
     } else {
-      throw Error(at(fields[i].column),
-                  "unknown column '" + name + "' (expected t, root_x..z or <joint>_qw..qz)");
+      throw Error(at(fields[i].column), "unknown column " + quote_excerpt(name) +
+                                            " (expected t, root_x..z or <joint>_qw..qz)");
     }
   }
   for (std::size_t j = 0; j < body.size(); ++j) {
@@ -248,7 +250,7 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     for (std::size_t i = 0; i < width; ++i) {
       const auto v = parse_double(fields[i].text);
       if (!v)
-        throw Error(at(fields[i].column), "not a number: '" + std::string(fields[i].text) + "'");
+        throw Error(at(fields[i].column), "not a number: " + quote_excerpt(fields[i].text, 24));
       if (!std::isfinite(*v)) {
         throw Error(at(fields[i].column),
                     "frame " + std::to_string(times.size()) + ": value is not finite");
@@ -274,8 +276,7 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       std::ostringstream what;
       what << "t steps by " << dt
            << " s per frame: motions are read at 1 frame per hour to 1e6 frames per second";
-      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
-                  what.str());
+      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt}, what.str());
     }
     for (int64_t f = 1; f < frames; ++f) {
       const double step =
@@ -316,11 +317,8 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
 
 Motion read_quaternion_csv(const std::string& path, const Body& body, std::optional<double> rate_hz,
                            std::vector<std::string>* warnings) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_quaternion_csv(s.str(), path, body, rate_hz, warnings);
+  const std::string text = read_regular_file(path, kMaxMotionBytes, "joint-quaternion CSV");
+  return parse_quaternion_csv(text, path, body, rate_hz, warnings);
 }
 
 std::string format_quaternion_csv(const Body& body, const Motion& motion) {
@@ -352,10 +350,7 @@ std::string format_quaternion_csv(const Body& body, const Motion& motion) {
 
 void write_quaternion_csv(const std::string& path, const Body& body, const Motion& motion) {
   const std::string text = format_quaternion_csv(body, motion);
-  std::ofstream out(path, std::ios::binary);
-  if (!out) throw Error(path + ": cannot open for writing");
-  out.write(text.data(), static_cast<std::streamsize>(text.size()));
-  if (!out) throw Error(path + ": write failed (disk full?)");
+  write_text_file(path, text);
 }
 
 }  // namespace imukit::sim

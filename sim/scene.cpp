@@ -1,17 +1,18 @@
 #include "sim/scene.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <exception>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/json_text.hpp"
 #include "core/profile.hpp"
 #include "core/rng.hpp"
@@ -147,6 +148,15 @@ Body body_of_joints(const json& joints, const std::string& source) {
 namespace {
 Scene parse_scene_impl(std::string_view text, const std::string& source,
                        const std::string& base_dir);
+
+// Seeds are whole numbers in [0, 2^53]: JSON numbers are doubles, and beyond 2^53 not every
+// whole number is one.
+uint64_t seed_of(const json& j, const std::string& source, const std::string& path) {
+  const double seed = number(j, source, path);
+  if (!(seed >= 0 && seed == std::floor(seed) && seed <= 9007199254740992.0))
+    fail(source, path, fmt::format("expected a whole number in [0, 2^53], got {:g}", seed));
+  return static_cast<uint64_t>(seed);
+}
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
@@ -228,10 +238,14 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     ProceduralMotionOptions po;
     if (p.contains("rate_hz"))
       po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
-    if (p.contains("seed"))
-      po.seed = static_cast<uint64_t>(number(p["seed"], source, "motion.procedural.seed"));
-    if (p.contains("amplitude_rad"))
+    if (!(po.rate_hz >= 1 && po.rate_hz <= 1e6))
+      fail(source, "motion.procedural.rate_hz", "must be a whole number of Hz in [1, 1e6]");
+    if (p.contains("seed")) po.seed = seed_of(p["seed"], source, "motion.procedural.seed");
+    if (p.contains("amplitude_rad")) {
       po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
+      if (!(po.amplitude_rad >= 0 && po.amplitude_rad <= 10))
+        fail(source, "motion.procedural.amplitude_rad", "must be in [0, 10] rad");
+    }
     if (!p.contains("duration_s")) fail(source, "motion.procedural.duration_s", "missing");
     const double dur = number(p["duration_s"], source, "motion.procedural.duration_s");
     if (!(dur > 0.0 && dur < 1e7))
@@ -269,8 +283,11 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
       if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
         fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
     }
-    if (s.contains("gravity"))
+    if (s.contains("gravity")) {
       scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+      if (!(scene.options.gravity_world.norm() <= 100.0))
+        fail(source, "simulation.gravity", "expected at most 100 m/s^2 (the Earth's is 9.81)");
+    }
     if (s.contains("magnetic_field")) {
       scene.options.magnetic_field_world =
           vec3(s["magnetic_field"], source, "simulation.magnetic_field");
@@ -280,12 +297,7 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
              "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
                  std::to_string(scene.options.magnetic_field_world.norm()) + " T");
     }
-    if (s.contains("seed")) {
-      const double seed = number(s["seed"], source, "simulation.seed");
-      if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
-        fail(source, "simulation.seed", "expected a whole number >= 0");
-      scene.seed = static_cast<uint64_t>(seed);
-    }
+    if (s.contains("seed")) scene.seed = seed_of(s["seed"], source, "simulation.seed");
     if (s.contains("chunk_frames")) {
       const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
       if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
@@ -386,11 +398,8 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
 }  // namespace
 
 Scene read_scene(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_scene(s.str(), path, std::filesystem::path(path).parent_path().string());
+  const std::string text = read_regular_file(path, kMaxJsonBytes, "scene");
+  return parse_scene(text, path, std::filesystem::path(path).parent_path().string());
 }
 
 namespace {

@@ -219,9 +219,10 @@ TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
 TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
   testing::TempDir dir;
   std::vector<SessionDevice> devices;
-  devices.push_back({"watch", "mock:poses",
-                     drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2"),
-                     std::nullopt});
+  devices.push_back(
+      {"watch", "mock:poses",
+       drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2&init_s=4"),
+       std::nullopt});
   SessionOptions options;
   options.path = (dir / "poses.mcap").string();
   PoseGuideOptions guide;
