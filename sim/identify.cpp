@@ -291,7 +291,10 @@ void joint_state(const Context& c, int i, const T* dt, const T* kappa, const T* 
   }
   if (ctrl == nullptr) return;
   const SplineSpot& sp = c.spot[static_cast<std::size_t>(i)];
-  for (int d = 0; d < c.dims; ++d) {
+  // Q = Exp(a1 e1) Exp(a2 e2) Exp(a0 e0): the tilts first, the twist innermost, so that a
+  // constant twist is exactly a turn of the placement about e0 (see the re-centring in identify).
+  for (const int d : {1, 2, 0}) {
+    if (d >= c.dims) continue;
     T a(0.0), da(0.0), dda(0.0);
     for (std::size_t m = 0; m < 4; ++m) {
       a += sp.w[m] * ctrl[m][d];
@@ -349,6 +352,38 @@ struct AccelCost {
                   T* r) const {
     T m[3];
     accel_model<T>(*c, i, rot, pos, ba, sa, dt, kappa, nullptr, 0, nullptr, m);
+    for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
+    return true;
+  }
+};
+
+// With the segment correction (D angles per control point; the sample's four control points).
+template <int D>
+struct CorrectedGyroCost {
+  const Context* c;
+  int i;
+  Eigen::Vector3d meas;
+  template <typename T>
+  bool operator()(const T* rot, const T* bg, const T* sg, const T* dt, const T* kappa, const T* c0,
+                  const T* c1, const T* c2, const T* c3, T* r) const {
+    const T* ctrl[4] = {c0, c1, c2, c3};
+    T m[3];
+    gyro_model<T>(*c, i, rot, bg, sg, dt, kappa, ctrl, m);
+    for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_g;
+    return true;
+  }
+};
+template <int D>
+struct CorrectedAccelCost {
+  const Context* c;
+  int i;
+  Eigen::Vector3d meas;
+  template <typename T>
+  bool operator()(const T* rot, const T* pos, const T* ba, const T* sa, const T* dt, const T* kappa,
+                  const T* c0, const T* c1, const T* c2, const T* c3, T* r) const {
+    const T* ctrl[4] = {c0, c1, c2, c3};
+    T m[3];
+    accel_model<T>(*c, i, rot, pos, ba, sa, dt, kappa, nullptr, 0, ctrl, m);
     for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
     return true;
   }
@@ -672,7 +707,9 @@ Eigen::Vector3d CorrectionSpline::accelerations(TimeNs t) const {
 Eigen::Quaterniond CorrectionSpline::rotation(TimeNs t) const {
   const Eigen::Vector3d a = angles(t);
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-  for (int d = 0; d < dims; ++d) q = q * so3_exp(a[d] * axes.col(d));
+  for (const int d : {1, 2, 0}) {
+    if (d < dims) q = q * so3_exp(a[d] * axes.col(d));
+  }
   return q.normalized();
 }
 
@@ -718,6 +755,9 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(o.huber_sigmas > 0) || !(o.max_time_offset_s >= 0) || !(o.segment_prior > 0))
     throw Error(
         "identify: huber_sigmas, segment_prior must be positive, max_time_offset_s non-negative");
+  if (!(o.function_tolerance > 0 && o.function_tolerance < 1))
+    throw Error(fmt::format("identify: function_tolerance must be in (0, 1), got {}",
+                            o.function_tolerance));
   if (!(o.max_clock_rate >= 0 && o.max_clock_rate <= 0.5))
     throw Error(fmt::format("identify: max_clock_rate must be in [0, 0.5], got {}",
                             o.max_clock_rate));
@@ -972,7 +1012,35 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
       // The sample's four control points.
       const int f0 = ctx.spot[static_cast<std::size_t>(i)].first;
       std::vector<double*> ctrl;
-      for (int m = 0; m < 4; ++m) ctrl.push_back(p.ctrl.data() + static_cast<std::size_t>((f0 + m) * dims));
+      for (int m = 0; m < 4; ++m)
+        ctrl.push_back(p.ctrl.data() + static_cast<std::size_t>((f0 + m) * dims));
+      const Eigen::Vector3d g = res.gyro.col(i), a = res.accel.col(i);
+      if (S == 0 && dims == 1) {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedGyroCost<1>, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+                new CorrectedGyroCost<1>{&ctx, ii, g}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedAccelCost<1>, 3, 3, 3, 3, 3, 1, 1, 1, 1, 1,
+                                            1>(new CorrectedAccelCost<1>{&ctx, ii, a}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
+            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        continue;
+      }
+      if (S == 0 && dims == 3) {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedGyroCost<3>, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
+                new CorrectedGyroCost<3>{&ctx, ii, g}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedAccelCost<3>, 3, 3, 3, 3, 3, 1, 1, 3, 3, 3,
+                                            3>(new CorrectedAccelCost<3>{&ctx, ii, a}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
+            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        continue;
+      }
       for (const bool gyro : {true, false}) {
         auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(new GeneralCost{
             &ctx, ii, gyro, gyro ? 0 : S, true, gyro ? res.gyro.col(i) : res.accel.col(i)});
@@ -1085,7 +1153,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = o.max_iterations;
   so.num_threads = std::max(1, o.threads);
-  so.function_tolerance = 1e-12;
+  so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = 1e-12;
   so.gradient_tolerance = 1e-14;
   ceres::Solver::Summary summary;
@@ -1096,6 +1164,23 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   }
   res.converged = summary.termination_type == ceres::CONVERGENCE;
   res.solver_summary = summary.BriefReport();
+  if (dims > 0 && o.rotation && o.position) {
+    // A constant twist and a turn of the placement about the long axis e0 give the same
+    // signals (the twist is the innermost factor of Q); the weak prior alone splits them
+    // arbitrarily. Re-centre: the correction's twist averages zero over the samples used, its
+    // mean moves into the placement (R_joint_sensor and p_joint_sensor turned about e0).
+    double mean = 0.0;
+    for (const SplineSpot& sp : ctx.spot) {
+      for (std::size_t m = 0; m < 4; ++m)
+        mean += sp.w[m] * p.ctrl[static_cast<std::size_t>((sp.first + static_cast<int>(m)) * dims)];
+    }
+    mean /= static_cast<double>(ctx.spot.size());
+    for (int k = 0; k < knots; ++k) p.ctrl[static_cast<std::size_t>(k * dims)] -= mean;
+    const Eigen::Matrix3d turn = so3_exp(mean * ctx.axes.col(0)).toRotationMatrix();
+    ctx.R0 = turn * ctx.R0;  // R_joint_sensor = R0 Exp(delta): delta is kept
+    const Eigen::Vector3d pos = turn * Eigen::Vector3d(p.pos[0], p.pos[1], p.pos[2]);
+    p.pos = {pos.x(), pos.y(), pos.z()};
+  }
   ctx.update(p.dt, p.kappa);  // the last evaluation may have been a rejected step
 
   // Observability: the Jacobian of the free parameters (the correction's too, so that a

@@ -62,4 +62,5 @@ PYBIND11_MODULE(_imukit, m) {
   bind_sim(m);
   bind_hwmodel(m);
   bind_augment(m);
+  bind_identify(m);
 }
