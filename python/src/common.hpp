@@ -21,6 +21,7 @@ namespace py = pybind11;
 
 void bind_io(py::module_& m);
 void bind_sim(py::module_& m);
+void bind_keypoints(py::module_& m);
 void bind_hwmodel(py::module_& m);
 void bind_augment(py::module_& m);
 void bind_identify(py::module_& m);
