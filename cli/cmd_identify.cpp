@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -52,6 +53,10 @@ struct IdentifyArgs {
   double tilt_prior_deg = 5.7;
   double correction_smoothness = 30.0;
   double function_tolerance = 1e-12;
+  double accel_bias_prior = 0.0;
+  double gyro_bias_prior = 0.0;
+  std::string scene_out;
+  std::string sensor_name;
 };
 
 // --imu FILE [options] and --pose FILE [options], from the tokens CLI11 left over.
@@ -201,6 +206,8 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   o.tilt_prior_rad = a.tilt_prior_deg * std::numbers::pi / 180.0;
   o.correction_smoothness_radps2 = a.correction_smoothness;
   o.function_tolerance = a.function_tolerance;
+  o.accel_bias_prior_mps2 = a.accel_bias_prior;
+  o.gyro_bias_prior_radps = a.gyro_bias_prior;
   apply_names(a.fix, false, o, "--fix");
   apply_names(a.estimate, true, o, "--estimate");
   if (a.time_offset) {
@@ -314,6 +321,23 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     if (!f.flush()) throw Error(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
+  if (!a.scene_out.empty()) {
+    if (in.pose) throw Error("identify --scene-out: needs a skeleton motion (--motion), not --pose");
+    // The fitted motion on the IMU's clock: frame k at the k-th IMU period after the first
+    // sample (the median period), as many frames as IMU samples.
+    std::vector<TimeNs> d(imu.size() - 1);
+    for (std::size_t i = 0; i + 1 < imu.size(); ++i) d[i] = imu.t[i + 1] - imu.t[i];
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+    const double rate = 1e9 / static_cast<double>(d[d.size() / 2]);
+    const sim::Motion fitted = sim::fitted_motion(body, *motion, r, imu.t.front(),
+                                                  static_cast<int64_t>(imu.size()), rate);
+    sim::write_fitted_scene(a.scene_out, body, fitted, r,
+                            a.sensor_name.empty() ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
+                                                  : a.sensor_name,
+                            o.gravity_world);
+    fmt::print("wrote the fitted scene in {} (scene.json, motion.csv at {:.6g} Hz, placement.json)\n",
+               a.scene_out, rate);
+  }
   if (!a.plot_dir.empty()) {
     write_plot(a.plot_dir, r);
     fmt::print("plots in {}\n", a.plot_dir);
@@ -393,6 +417,15 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--function-tolerance", a->function_tolerance,
                          "stop when a step changes the cost by less than this fraction "
                          "(default 1e-12; 1e-6 with a clock rate, docs/identification.md)");
+          sub.add_option("--accel-bias-prior", a->accel_bias_prior,
+                         "1-sigma Gaussian prior of the accelerometer bias, m/s^2 (0: none)");
+          sub.add_option("--gyro-bias-prior", a->gyro_bias_prior,
+                         "1-sigma Gaussian prior of the gyroscope bias, rad/s (0: none)");
+          sub.add_option("--scene-out", a->scene_out,
+                         "folder for the fitted scene: scene.json, motion.csv (the fit baked into "
+                         "the motion, on the IMU's clock) and placement.json");
+          sub.add_option("--sensor-name", a->sensor_name,
+                         "the sensor's name in the fitted scene (default: the joint's name)");
           sub.add_option("--plot", a->plot_dir,
                          "folder for an SVG of measured against simulated signals (gnuplot)");
           sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +

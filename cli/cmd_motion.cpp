@@ -13,6 +13,7 @@
 #include "core/error.hpp"
 #include "sim/bvh.hpp"
 #include "sim/keypoints.hpp"
+#include "sim/scene.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -37,23 +38,6 @@ void write_text(const std::string& path, const std::string& text) {
   if (!out) throw Error(path + ": cannot open for writing");
   out << text;
   if (!out) throw Error(path + ": write failed (disk full?)");
-}
-
-// The body as a scene's "body" object (docs/formats.md): {"joints": [...]}.
-nlohmann::json body_object(const sim::Body& body) {
-  nlohmann::json joints = nlohmann::json::array();
-  for (const sim::Joint& j : body.joints()) {
-    nlohmann::json o;
-    o["name"] = j.name;
-    o["parent"] = j.parent < 0
-                      ? nlohmann::json(nullptr)
-                      : nlohmann::json(body.joint(static_cast<std::size_t>(j.parent)).name);
-    const Eigen::Vector3d& v = j.offset_parent_joint;
-    o["offset_m"] = {v.x(), v.y(), v.z()};
-    if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
-    joints.push_back(o);
-  }
-  return {{"joints", joints}};
 }
 
 nlohmann::json report_of(const sim::KeypointMotion& r, const MotionArgs& a) {
@@ -128,7 +112,7 @@ int run_motion(const MotionArgs& a) {
   } else {
     sim::write_quaternion_csv(a.output, r.body, r.motion);
   }
-  if (!a.body_json.empty()) write_text(a.body_json, body_object(r.body).dump(2) + "\n");
+  if (!a.body_json.empty()) write_text(a.body_json, nlohmann::json::parse(sim::body_json(r.body)).dump(2) + "\n");
   if (!a.report.empty()) write_text(a.report, report_of(r, a).dump(2) + "\n");
   if (!a.quiet) {
     for (const std::string& w : r.warnings) fmt::print(stderr, "imukit: warning: {}\n", w);

@@ -9,13 +9,17 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/profile.hpp"
 #include "core/so3.hpp"
 #include "sim/placement.hpp"
+#include "sim/scene.hpp"
 #include "sim/simulator.hpp"
 
 namespace imukit::sim {
@@ -426,6 +430,16 @@ struct SegmentPrior {
   }
 };
 
+// A zero-mean Gaussian prior on a 3-vector (the biases).
+struct VectorPrior {
+  double inv_sigma;
+  template <typename T>
+  bool operator()(const T* b, T* r) const {
+    for (int k = 0; k < 3; ++k) r[k] = b[k] * inv_sigma;
+    return true;
+  }
+};
+
 // Priors of the segment correction: each control point's angles (magnitude), each knot's
 // angular acceleration (second difference of neighbouring control points / spacing^2).
 template <int D>
@@ -755,6 +769,8 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(o.huber_sigmas > 0) || !(o.max_time_offset_s >= 0) || !(o.segment_prior > 0))
     throw Error(
         "identify: huber_sigmas, segment_prior must be positive, max_time_offset_s non-negative");
+  if (!(o.accel_bias_prior_mps2 >= 0) || !(o.gyro_bias_prior_radps >= 0))
+    throw Error("identify: the bias priors must be non-negative (0: none)");
   if (!(o.function_tolerance > 0 && o.function_tolerance < 1))
     throw Error(fmt::format("identify: function_tolerance must be in (0, 1), got {}",
                             o.function_tolerance));
@@ -844,9 +860,17 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   // first pass finds the samples' span with it, whose middle becomes t_ref.
   const double window = o.time_offset ? 3.0 * h_imu + 3.0 / mrate : 0.0;
   const double edge = 2.0 / mrate + 2e-9 * static_cast<double>(kTimeStepNs);
-  auto reach = [&](double b, double rel, double dt_c, double& lo, double& hi) {
-    const double dlo = std::min(0.0, dt_c - window), dhi = std::max(0.0, dt_c + window);
-    const double klo = std::min(0.0, kappa_lo), khi = std::max(0.0, kappa_hi);
+  // The motion times a sample may be read at: the fit's range of offsets and clock rates, and
+  // with `before` also offset 0 and rate 0 (the "before" figures; they only need the sample
+  // inside the motion, while the fit's range must also stay clear of the invalid intervals).
+  auto reach = [&](double b, double rel, double dt_c, double& lo, double& hi, bool before) {
+    double dlo = dt_c - window, dhi = dt_c + window, klo = kappa_lo, khi = kappa_hi;
+    if (before) {
+      dlo = std::min(0.0, dlo);
+      dhi = std::max(0.0, dhi);
+      klo = std::min(0.0, klo);
+      khi = std::max(0.0, khi);
+    }
     lo = b + dlo + std::min(klo * rel, khi * rel);
     hi = b + dhi + std::max(klo * rel, khi * rel);
   };
@@ -855,7 +879,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
     double lo = 0, hi = 0;
-    reach(b, b - coarse.t_ref_s, coarse.offset_s, lo, hi);
+    reach(b, b - coarse.t_ref_s, coarse.offset_s, lo, hi, true);
     if (lo >= edge && hi <= T - edge) {
       if (!any) first = imu.t[i];
       last = imu.t[i];
@@ -875,10 +899,11 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
     const double rel = to_seconds(imu.t[i] - res.t_ref_ns);
     double lo = 0, hi = 0;
-    reach(b, rel, dt0, lo, hi);
+    reach(b, rel, dt0, lo, hi, true);
     bool ok = lo >= edge && hi <= T - edge &&
               imu.accel.col(static_cast<Eigen::Index>(i)).allFinite() &&
               imu.gyro.col(static_cast<Eigen::Index>(i)).allFinite();
+    reach(b, rel, dt0, lo, hi, false);
     for (const auto& [ga, gb] : o.invalid_motion) {
       if (ok && from_seconds(hi) >= ga - guard && from_seconds(lo) <= gb + guard) ok = false;
     }
@@ -1090,6 +1115,14 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     cf->AddParameterBlock(S);
     cf->SetNumResiduals(1);
     problem.AddResidualBlock(cf, nullptr, std::vector<double*>{p.ell.data()});
+  }
+  for (const auto& [sigma, block] : {std::pair{o.accel_bias_prior_mps2, p.ba.data()},
+                                     std::pair{o.gyro_bias_prior_radps, p.bg.data()}}) {
+    if (sigma > 0.0) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<VectorPrior, 3, 3>(new VectorPrior{1.0 / sigma}),
+          nullptr, block);
+    }
   }
   if (dims > 0) {
     const std::array<double, 3> inv_mag = {1.0 / o.twist_prior_rad, 1.0 / o.tilt_prior_rad,
@@ -1520,6 +1553,60 @@ Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResul
     }
   }
   return out;
+}
+
+void write_fitted_scene(const std::string& dir, const Body& body, const Motion& fitted,
+                        const IdentifyResult& r, const std::string& sensor_name,
+                        const Eigen::Vector3d& gravity_world) {
+  using nlohmann::json;
+  const Placement& pl = r.placement;
+  if (pl.joint < 0 || static_cast<std::size_t>(pl.joint) >= body.size())
+    throw Error("write_fitted_scene: the result's joint is not a joint of the body");
+  if (!pl.p_joint_sensor.allFinite() || !pl.q_joint_sensor.coeffs().allFinite() ||
+      !r.accel_bias.allFinite() || !r.gyro_bias.allFinite() || !r.accel_scale.allFinite() ||
+      !r.gyro_scale.allFinite()) {
+    std::string names;
+    for (const std::string& n : r.unobservable) names += (names.empty() ? "" : ", ") + n;
+    throw Error("write_fitted_scene: not every placement and hardware parameter was identified (" +
+                names + "); no scene is written");
+  }
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path d(dir);
+  write_quaternion_csv((d / "motion.csv").string(), body, fitted);
+  DeviceProfile hw;
+  hw.device = DeviceInfo{"", "", "", sensor_name};
+  Calibration ca, cg;
+  ca.scale = Eigen::Vector3d::Ones() + r.accel_scale;
+  ca.bias = r.accel_bias;
+  cg.scale = Eigen::Vector3d::Ones() + r.gyro_scale;
+  cg.bias = r.gyro_bias;
+  hw.accelerometer = SensorProfile{};
+  hw.accelerometer->calibration = ca;
+  hw.gyroscope = GyroscopeProfile{};
+  hw.gyroscope->calibration = cg;
+  const Eigen::Quaterniond& q = pl.q_joint_sensor;
+  json sensor = {{"name", sensor_name},
+                 {"segment", body.joint(static_cast<std::size_t>(pl.joint)).name},
+                 {"position_m", {pl.p_joint_sensor.x(), pl.p_joint_sensor.y(), pl.p_joint_sensor.z()}},
+                 {"rotation", {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}}}},
+                 {"hardware", json::parse(format_profile(hw))}};
+  json scene = {{"schema", "imukit.scene/1"},
+                {"body", json::parse(body_json(body))},
+                {"motion", {{"quaternion_csv", "motion.csv"}}},
+                {"simulation",
+                 {{"method", "spline"},
+                  {"rate_hz", fitted.rate_hz()},
+                  {"gravity", {gravity_world.x(), gravity_world.y(), gravity_world.z()}}}},
+                {"sensors", json::array({sensor})}};
+  auto write = [&](const std::string& name, const std::string& text) {
+    const std::string path = (d / name).string();
+    std::ofstream f(path);
+    if (!f) throw Error(path + ": cannot open for writing");
+    f << text;
+    if (!f.flush()) throw Error(path + ": write failed");
+  };
+  write("scene.json", scene.dump(2) + "\n");
+  write("placement.json", placement_json(r, body));
 }
 
 PoseMotion pose_track_motion(const PoseTrack& track, const std::string& source) {

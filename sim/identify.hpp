@@ -100,6 +100,10 @@ struct IdentifyOptions {
   // is estimated, each with a Gaussian prior of relative width segment_prior (at most 6).
   std::vector<int> segments;
   double segment_prior = 0.05;
+  // Gaussian priors (1 sigma per axis) on the biases; 0: none. Short recordings against a motion
+  // with model error (keypoints) otherwise let the constant biases soak up that error.
+  double accel_bias_prior_mps2 = 0.0;
+  double gyro_bias_prior_radps = 0.0;
 
   // Clocks: motion frame 0 is at motion_start_ns on the IMU clock.
   TimeNs motion_start_ns = 0;
@@ -211,6 +215,17 @@ std::string placement_json(const IdentifyResult& result, const Body& body);
 // (Q^T R_joint_child, so they keep their world orientation).
 Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResult& result,
                      TimeNs first_ns, int64_t frames, double rate_hz);
+
+// A scene folder that `imukit simulate`, read_scene and PPDA's Augmenter load (docs/formats.md,
+// "Fitted scenes"): `motion.csv` (the fitted motion, joint-quaternion CSV), `scene.json` (the
+// body's joints, that motion, spline simulation at the motion's rate with gravity_world, one
+// sensor `sensor_name` at the identified placement with the fitted biases and scale errors as
+// its hardware, calibration section: reading = (1 + s) true + b) and `placement.json`
+// (placement_json). Creates dir. Throws imukit::Error when a placement or hardware parameter
+// was not identifiable (NaN) or a file cannot be written.
+void write_fitted_scene(const std::string& dir, const Body& body, const Motion& fitted,
+                        const IdentifyResult& result, const std::string& sensor_name,
+                        const Eigen::Vector3d& gravity_world);
 
 // A rigid body's pose track (optical motion capture): world orientation and position per row,
 // NaN where the tracker lost the body.

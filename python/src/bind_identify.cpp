@@ -8,6 +8,8 @@
 #include "sim/body.hpp"
 #include "sim/identify.hpp"
 #include "sim/motion.hpp"
+#include "sim/placement.hpp"
+#include "sim/simulator.hpp"
 
 namespace imukit::python {
 namespace {
@@ -68,15 +70,28 @@ void apply_names(py::handle names, bool value, sim::IdentifyOptions& o, const ch
 }
 
 std::shared_ptr<IdentifyHandle> run_identify(
-    const sim::Body& body, sim::MotionSource& motion, const ImuSeries& imu, const std::string& joint,
-    py::handle position_m, py::handle q_joint_sensor, bool rotation_from_data, py::handle estimate,
+    const sim::Body& body, sim::MotionSource& motion, const ImuSeries& imu,
+    std::optional<std::string> joint, std::optional<std::string> init, py::handle position_m, py::handle q_joint_sensor, bool rotation_from_data, py::handle estimate,
     py::handle fix, const std::string& correction, double knot_spacing_s, double twist_prior_rad,
     double tilt_prior_rad, double smoothness, double max_clock_rate,
     std::optional<int64_t> motion_start_ns, std::optional<double> time_offset_s,
     double max_time_offset_s, std::optional<double> gravity, py::handle invalid_motion,
-    int threads, double function_tolerance) {
+    int threads, double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
   sim::IdentifyOptions o;
-  o.joint = body.index_of(joint);
+  if (init) {
+    o.init = sim::resolve_preset(sim::placement_preset(*init), body);
+    o.joint = o.init.joint;
+  }
+  if (joint) {
+    const int j = body.index_of(*joint);
+    if (init && j != o.joint) {
+      throw Error("identify: preset '" + *init + "' sits on '" +
+                  body.joint(static_cast<std::size_t>(o.joint)).name + "', not on joint '" +
+                  *joint + "'");
+    }
+    o.joint = j;
+  }
+  if (o.joint < 0) throw Error("identify: name the sensor's joint (joint=) or a preset (init=)");
   if (!position_m.is_none()) {
     const auto p = read_f64(position_m, "position_m");
     if (p.size() != 3) throw py::value_error("position_m: expected 3 numbers");
@@ -116,6 +131,8 @@ std::shared_ptr<IdentifyHandle> run_identify(
   }
   o.threads = threads;
   o.function_tolerance = function_tolerance;
+  o.accel_bias_prior_mps2 = accel_bias_prior;
+  o.gyro_bias_prior_radps = gyro_bias_prior;
   auto h = std::make_shared<IdentifyHandle>();
   h->body = body;
   {
@@ -257,10 +274,29 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           py::arg("rate_hz") = py::none(),
           "The fit baked into a Motion (the motion given to identify): frame k at IMU time "
           "first_ns + k / rate_hz (default: the IMU's first sample, its sample count and rate), "
-          "time offset, clock rate and segment correction applied.");
+          "time offset, clock rate and segment correction applied.")
+      .def(
+          "write_scene",
+          [](const H& h, const std::string& dir, sim::MotionSource& motion,
+             std::optional<std::string> sensor_name, py::handle gravity) {
+            Eigen::Vector3d g = sim::kStandardGravity;
+            if (!gravity.is_none()) g = Eigen::Vector3d(0, 0, -std::abs(gravity.cast<double>()));
+            const std::string name = sensor_name.value_or(
+                h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name);
+            py::gil_scoped_release release;
+            const sim::Motion fitted = sim::fitted_motion(h.body, motion, h.result, h.imu_first_ns,
+                                                          h.imu_samples, h.imu_rate_hz);
+            sim::write_fitted_scene(dir, h.body, fitted, h.result, name, g);
+          },
+          py::arg("dir"), py::arg("motion"), py::arg("sensor_name") = py::none(),
+          py::arg("gravity") = py::none(),
+          "Writes dir/scene.json, motion.csv (the fitted motion on the IMU's clock: scene sample "
+          "k = IMU sample k) and placement.json (docs/formats.md, \"Fitted scenes\"); "
+          "imukit.read_scene(dir + '/scene.json') and Augmenter load it.");
 
   m.def("identify", &run_identify, py::arg("body"), py::arg("motion"), py::arg("imu"),
-        py::arg("joint"), py::kw_only(), py::arg("position_m") = py::none(),
+        py::arg("joint") = py::none(), py::kw_only(), py::arg("init") = py::none(),
+        py::arg("position_m") = py::none(),
         py::arg("q_joint_sensor") = py::none(), py::arg("rotation_from_data") = true,
         py::arg("estimate") = py::tuple(), py::arg("fix") = py::tuple(),
         py::arg("correction") = "none", py::arg("knot_spacing_s") = 0.3,
@@ -269,14 +305,18 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
         py::arg("motion_start_ns") = py::none(), py::arg("time_offset_s") = py::none(),
         py::arg("max_time_offset_s") = 1.0, py::arg("gravity") = py::none(),
         py::arg("invalid_motion") = py::none(), py::arg("threads") = 1,
-        py::arg("function_tolerance") = 1e-12, R"doc(
+        py::arg("function_tolerance") = 1e-12, py::arg("accel_bias_prior_mps2") = 0.0,
+        py::arg("gyro_bias_prior_radps") = 0.0, R"doc(
 Fits a sensor's placement, biases (scale errors, clock rate with estimate=[...]), the time offset
 and optionally a smooth correction of the sensor segment's rotation (correction="twist" or
 "rotation") so that the simulator reproduces a real IMU (imukit.Series with accel and gyro).
-joint: the segment carrying the sensor ("right_forearm"); position_m, q_joint_sensor: the
-initial placement (the rotation is found from the data unless rotation_from_data=False);
+joint: the segment carrying the sensor ("right_forearm"); init: a placement preset to start
+from (imukit.placement_presets(); gives the joint too); position_m, q_joint_sensor: the initial
+placement, over the preset's (the rotation is found from the data unless
+rotation_from_data=False);
 motion_start_ns: IMU time of motion frame 0 (default the first IMU sample); time_offset_s:
-skip the coarse search and start there. Returns an IdentifyResult; raises imukit.Error for
+skip the coarse search and start there; *_bias_prior_*: 1-sigma Gaussian priors on the biases
+(0: none). Returns an IdentifyResult; raises imukit.Error for
 unusable input. The GIL is released while it runs (threads can fit trials in parallel).)doc");
 
   m.def(
