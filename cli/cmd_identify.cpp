@@ -8,7 +8,6 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -49,8 +48,9 @@ struct IdentifyArgs {
   double max_clock_rate = 2e-4;
   std::string correct = "none";
   double knot_spacing = 0.3;
-  double twist_prior_deg = 86.0;
-  double tilt_prior_deg = 5.7;
+  // The library's defaults (1.5 rad, 0.1 rad) in degrees.
+  double twist_prior_deg = 1.5 * 180.0 / std::numbers::pi;
+  double tilt_prior_deg = 0.1 * 180.0 / std::numbers::pi;
   double correction_smoothness = 30.0;
   double function_tolerance = 1e-12;
   double accel_bias_prior = 0.0;
@@ -323,12 +323,10 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   fmt::print("wrote {}\n", a.output);
   if (!a.scene_out.empty()) {
     if (in.pose) throw Error("identify --scene-out: needs a skeleton motion (--motion), not --pose");
-    // The fitted motion on the IMU's clock: frame k at the k-th IMU period after the first
-    // sample (the median period), as many frames as IMU samples.
-    std::vector<TimeNs> d(imu.size() - 1);
-    for (std::size_t i = 0; i + 1 < imu.size(); ++i) d[i] = imu.t[i + 1] - imu.t[i];
-    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-    const double rate = 1e9 / static_cast<double>(d[d.size() / 2]);
+    // The fitted motion on the IMU's clock: frame k at first + k / rate with the mean rate, as
+    // many frames as IMU samples (the last on the last sample).
+    const double rate = 1e9 * static_cast<double>(imu.size() - 1) /
+                        static_cast<double>(imu.t.back() - imu.t.front());
     const sim::Motion fitted = sim::fitted_motion(body, *motion, r, imu.t.front(),
                                                   static_cast<int64_t>(imu.size()), rate);
     sim::write_fitted_scene(a.scene_out, body, fitted, r,
@@ -408,9 +406,9 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--knot-spacing", a->knot_spacing,
                          "knot spacing of the correction's spline, s (default 0.3)");
           sub.add_option("--twist-prior", a->twist_prior_deg,
-                         "1-sigma prior of the twist angle, deg (default 86)");
+                         "1-sigma prior of the twist angle, deg (default 85.94, 1.5 rad)");
           sub.add_option("--tilt-prior", a->tilt_prior_deg,
-                         "1-sigma prior of the two tilt angles, deg (default 5.7)");
+                         "1-sigma prior of the two tilt angles, deg (default 5.73, 0.1 rad)");
           sub.add_option("--correction-smoothness", a->correction_smoothness,
                          "1-sigma prior of the correction's angular acceleration at each knot, "
                          "rad/s^2 (default 30)");

@@ -18,7 +18,7 @@ namespace {
 struct IdentifyHandle {
   sim::IdentifyResult result;
   sim::Body body;
-  double imu_rate_hz = 0.0;  // median rate of the IMU given (fitted_motion's default)
+  double imu_rate_hz = 0.0;  // mean rate of the IMU given (fitted_motion's default)
   int64_t imu_samples = 0;
   TimeNs imu_first_ns = 0;
 };
@@ -139,10 +139,9 @@ std::shared_ptr<IdentifyHandle> run_identify(
     py::gil_scoped_release release;
     h->result = sim::identify(body, motion, imu, o);
   }
-  std::vector<TimeNs> d(imu.size() - 1);
-  for (std::size_t i = 0; i + 1 < imu.size(); ++i) d[i] = imu.t[i + 1] - imu.t[i];
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  h->imu_rate_hz = 1e9 / static_cast<double>(d[d.size() / 2]);
+  // The mean rate: frame k of the fitted motion at first + k / rate, the last on the last sample.
+  h->imu_rate_hz = 1e9 * static_cast<double>(imu.size() - 1) /
+                   static_cast<double>(imu.t.back() - imu.t.front());
   h->imu_samples = static_cast<int64_t>(imu.size());
   h->imu_first_ns = imu.t.front();
   return h;
