@@ -1395,11 +1395,11 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     }
   }
   if (o.clock_rate && std::isfinite(res.clock_rate) &&
-      (res.clock_rate <= kappa_lo + 1e-12 || res.clock_rate >= kappa_hi - 1e-12)) {
+      std::abs(res.clock_rate) >= o.max_clock_rate * (1 - 1e-9)) {
     res.warnings.push_back(fmt::format(
-        "clock_rate = {:.6g} is at the bound of its range [{:.6g}, {:.6g}]: the clock rate may "
-        "lie beyond it (raise the maximum clock rate)",
-        res.clock_rate, kappa_lo, kappa_hi));
+        "clock_rate = {:.6g} is at its bound +-{:.6g}: the clock rate may lie beyond it (raise "
+        "the maximum clock rate)",
+        res.clock_rate, o.max_clock_rate));
   }
   if (!res.converged) res.warnings.push_back("the solver did not converge: " + res.solver_summary);
   const Predicted after = predict(ctx, p);

@@ -112,7 +112,7 @@ def fit_trial(root, trial_id, out_dir, body=None, rigid=True):
         try:
             kb, motion, info = _keypoint_motion(trial, body)
         except imukit.Error as e:
-            rec["reason"] = f"keypoints: {e}"
+            rec["reason"] = str(e)
             return rec
         rec["keypoints_seconds"] = time.perf_counter() - t0
         rec["keypoint_warnings"] = len(info["warnings"])
@@ -120,7 +120,7 @@ def fit_trial(root, trial_id, out_dir, body=None, rigid=True):
         try:
             fit, note = _identify(kb, motion, imu, info, trial.site, FIT["correction"])
         except imukit.Error as e:
-            rec["reason"] = f"identify: {e}"
+            rec["reason"] = str(e)
             return rec
         if note:
             rec["warnings"].append(note)
@@ -146,7 +146,7 @@ def fit_trial(root, trial_id, out_dir, body=None, rigid=True):
         try:
             fit.write_scene(folder, motion, trial.site)
         except imukit.Error as e:
-            rec["reason"] = f"scene: {e}"
+            rec["reason"] = str(e)
             return rec
         # What PPDA will use: the written scene, simulated again, against every real sample
         # ("scene") and against the samples the fit used ("scene_valid": the motion there is
