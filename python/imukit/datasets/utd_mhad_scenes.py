@@ -288,7 +288,13 @@ def main(argv=None):
     ap.add_argument("--subjects", default="", help="comma list of subjects (default all)")
     ap.add_argument("--limit", type=int, default=0, help="only the first N trials")
     ap.add_argument("--no-rigid", action="store_true", help="skip the comparison fit without the twist")
+    ap.add_argument("--correction", choices=("none", "twist", "rotation"), default=FIT["correction"],
+                    help=f"segment correction (default {FIT['correction']})")
+    ap.add_argument("--knot-spacing", type=float, default=FIT["knot_spacing_s"],
+                    help=f"the correction's knot spacing, s (default {FIT['knot_spacing_s']})")
     args = ap.parse_args(argv)
+    FIT["correction"] = args.correction
+    FIT["knot_spacing_s"] = args.knot_spacing
     trials, unpaired = utd_mhad.list_trials(args.root)
     if args.subjects:
         keep = {int(s) for s in args.subjects.split(",")}
