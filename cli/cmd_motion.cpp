@@ -13,6 +13,7 @@
 #include "core/input_file.hpp"
 #include "sim/bvh.hpp"
 #include "sim/keypoints.hpp"
+#include "sim/scene.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -31,23 +32,6 @@ struct MotionArgs {
   bool no_repairs = false;
   bool quiet = false;
 };
-
-// The body as a scene's "body" object (docs/formats.md): {"joints": [...]}.
-nlohmann::json body_object(const sim::Body& body) {
-  nlohmann::json joints = nlohmann::json::array();
-  for (const sim::Joint& j : body.joints()) {
-    nlohmann::json o;
-    o["name"] = j.name;
-    o["parent"] = j.parent < 0
-                      ? nlohmann::json(nullptr)
-                      : nlohmann::json(body.joint(static_cast<std::size_t>(j.parent)).name);
-    const Eigen::Vector3d& v = j.offset_parent_joint;
-    o["offset_m"] = {v.x(), v.y(), v.z()};
-    if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
-    joints.push_back(o);
-  }
-  return {{"joints", joints}};
-}
 
 nlohmann::json report_of(const sim::KeypointMotion& r, const MotionArgs& a) {
   nlohmann::json j;
@@ -121,7 +105,8 @@ int run_motion(const MotionArgs& a) {
   } else {
     sim::write_quaternion_csv(a.output, r.body, r.motion);
   }
-  if (!a.body_json.empty()) write_text_file(a.body_json, body_object(r.body).dump(2) + "\n");
+  if (!a.body_json.empty())
+    write_text_file(a.body_json, nlohmann::json::parse(sim::body_json(r.body)).dump(2) + "\n");
   if (!a.report.empty()) write_text_file(a.report, report_of(r, a).dump(2) + "\n");
   if (!a.quiet) {
     for (const std::string& w : r.warnings) fmt::print(stderr, "imukit: warning: {}\n", w);

@@ -397,6 +397,21 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
 }
 }  // namespace
 
+std::string body_json(const Body& body) {
+  json joints = json::array();
+  for (const Joint& j : body.joints()) {
+    json o;
+    o["name"] = j.name;
+    o["parent"] =
+        j.parent < 0 ? json(nullptr) : json(body.joint(static_cast<std::size_t>(j.parent)).name);
+    const Eigen::Vector3d& v = j.offset_parent_joint;
+    o["offset_m"] = {v.x(), v.y(), v.z()};
+    if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
+    joints.push_back(o);
+  }
+  return json{{"joints", joints}}.dump();
+}
+
 Scene read_scene(const std::string& path) {
   const std::string text = read_regular_file(path, kMaxJsonBytes, "scene");
   return parse_scene(text, path, std::filesystem::path(path).parent_path().string());

@@ -63,4 +63,5 @@ PYBIND11_MODULE(_imukit, m) {
   bind_keypoints(m);
   bind_hwmodel(m);
   bind_augment(m);
+  bind_identify(m);
 }
