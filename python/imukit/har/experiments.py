@@ -1,0 +1,277 @@
+"""The experiments of the HAR evaluation (docs/har.md): arms, splits, resumable runs.
+
+An *arm* says how training mini-batches are augmented:
+
+| arm | meaning |
+|---|---|
+| `baseline` | real windows only |
+| `stda:<method>:<option>`, `ppda:<method>:<option>` | one-at-a-time: half of the mini-batches under one sub-policy of the `paper` grid, the other half unaugmented; `<option>` is the grid option of the method's group (1-8; 1 for placement) |
+| `stda:all`, `ppda:all` | one of the 810 sub-policies per mini-batch, uniformly |
+| `stda:all:learned`, `ppda:all:learned` | the same with learned probabilities (GumbelPolicy) |
+| `sim:identity` | sim-only: every window re-simulated from its fitted scene, nothing else changed |
+
+A *run* is (arm, model, test subject, validation subject, training subjects, seed); its result is
+appended to the experiment's JSON as soon as it ends, so a killed experiment continues where it
+stopped. Runs are spread over `jobs` worker processes of one torch thread each.
+"""
+import dataclasses
+import itertools
+import json
+import multiprocessing
+import os
+import time
+
+import numpy as np
+
+import imukit
+
+from . import augmentation, train, windows as windowing
+
+# The six method pairs of the paper (Table I): the STDA method, the PPDA method, the sub-policy
+# group and its option in the `paper` grid (index = ((a * 9 + s) * 2 + p) * 5 + h), and the
+# option used when none is given: the middle of each grid, chosen before any run.
+PAIRS = {
+    "amplitude_scaling": ("magnitude scaling", "amplitude scaling", "a", range(1, 5), 2),
+    "amplitude_warping": ("magnitude warping", "amplitude warping", "a", range(5, 9), 5),
+    "speed_scaling": ("time scaling", "speed scaling", "s", range(1, 5), 3),
+    "speed_warping": ("time warping", "speed warping", "s", range(5, 9), 5),
+    "placement": ("rotation", "placement", "p", range(1, 2), 1),
+    "hardware": ("jittering", "hardware", "h", range(1, 5), 2),
+}
+_GROUP_STRIDE = {"a": 90, "s": 10, "p": 5, "h": 1}
+
+
+def grid_index(method, option):
+    group, options = PAIRS[method][2], PAIRS[method][3]
+    if option not in options:
+        raise ValueError(f"{method}: option {option} is not one of {list(options)}")
+    return _GROUP_STRIDE[group] * option
+
+
+@dataclasses.dataclass(frozen=True)
+class Arm:
+    name: str
+    kind: str                   # none | stda | ppda
+    probabilities: tuple = ()   # over the policy's sub-policies; () for none
+    learned: bool = False
+    resimulate_identity: bool = False
+
+    @property
+    def label(self):
+        parts = self.name.split(":")
+        if self.name == "baseline":
+            return "baseline (no augmentation)"
+        if self.name == "sim:identity":
+            return "sim-only (re-simulated windows)"
+        if parts[1] == "all":
+            return f"{parts[0].upper()} all 810{' learned' if self.learned else ' uniform'}"
+        stda_name, ppda_name = PAIRS[parts[1]][:2]
+        return f"{parts[0].upper()} {stda_name if parts[0] == 'stda' else ppda_name}"
+
+
+def parse_arm(name, policy_size=810):
+    parts = name.split(":")
+    if name == "baseline":
+        return Arm(name, "none")
+    if name == "sim:identity":
+        p = np.zeros(policy_size)
+        p[0] = 1.0
+        return Arm(name, "ppda", tuple(p), resimulate_identity=True)
+    if len(parts) >= 2 and parts[0] in ("stda", "ppda"):
+        if parts[1] == "all" and len(parts) in (2, 3):
+            if len(parts) == 3 and parts[2] != "learned":
+                raise ValueError(f"arm '{name}': expected {parts[0]}:all or {parts[0]}:all:learned")
+            return Arm(name, parts[0], tuple(np.full(policy_size, 1.0 / policy_size)),
+                       learned=len(parts) == 3)
+        if parts[1] in PAIRS and len(parts) in (2, 3):
+            option = int(parts[2]) if len(parts) == 3 else PAIRS[parts[1]][4]
+            p = np.zeros(policy_size)
+            p[0] = 0.5
+            p[grid_index(parts[1], option)] = 0.5
+            return Arm(f"{parts[0]}:{parts[1]}:{option}", parts[0], tuple(p))
+    raise ValueError(f"unknown arm '{name}' (baseline, stda|ppda:<method>[:<option>], stda|ppda:all[:learned], "
+                     f"sim:identity; methods: {', '.join(PAIRS)})")
+
+
+ONE_AT_A_TIME_ARMS = (["baseline"] + [f"stda:{m}" for m in PAIRS] + [f"ppda:{m}" for m in PAIRS])
+FEWER_SUBJECTS_ARMS = ["baseline", "stda:all", "ppda:all", "ppda:all:learned"]
+
+
+@dataclasses.dataclass
+class Settings:
+    """What every run of an experiment shares (recorded in the JSON; a resumed experiment must
+    have the same)."""
+    window: int = 50
+    stride: int = 25
+    epochs: int = 30
+    patience: int = 10
+    batch_size: int = 64
+    tiny: bool = False
+    policy: str = "paper"
+    learn_every: int = 2
+    learn_lr: float = 0.01
+
+
+def run_key(run):
+    return "|".join([run["arm"], run["model"], f"test={run['test']}", f"val={run['val']}",
+                     "train=" + ",".join(run["train"]), f"seed={run['seed']}"])
+
+
+# ---- one run, in a worker process ----------------------------------------------------------
+
+_STATE = {}
+
+
+def _init_worker(recordings, settings):
+    train.set_threads(1)
+    _STATE.clear()
+    _STATE.update(recordings=recordings, settings=settings,
+                  windows=windowing.make_windows(recordings, settings.window, settings.stride),
+                  policy=imukit.read_policy(settings.policy), ppda=None)
+    _STATE["subject"] = np.array([recordings[i].subject for i in _STATE["windows"].recording])
+
+
+def run_one(run):
+    """Trains and tests one run (a dict: arm, model, test, val, train, seed); returns it with
+    its results."""
+    R, s, W, policy = _STATE["recordings"], _STATE["settings"], _STATE["windows"], _STATE["policy"]
+    subject = _STATE["subject"]
+    arm = parse_arm(run["arm"], len(policy))
+    tr = W.subset(np.isin(subject, run["train"]))
+    va = W.subset(subject == run["val"])
+    te = W.subset(subject == run["test"])
+    standardize = windowing.Standardizer.fit(tr.X)
+    ppda = None
+    if arm.kind == "ppda":
+        if _STATE["ppda"] is None:
+            _STATE["ppda"] = augmentation.PpdaSource(R, s.window)
+        ppda = _STATE["ppda"]
+    augmenter = augmentation.BatchAugmenter(arm.kind, policy, tr, standardize, ppda=ppda,
+                                            resimulate_identity=arm.resimulate_identity)
+    if arm.learned:
+        sampler = augmentation.GumbelPolicy(len(policy), run["seed"], lr=s.learn_lr, every=s.learn_every)
+    else:
+        p = arm.probabilities if arm.kind != "none" else np.eye(1, len(policy))[0]
+        sampler = augmentation.SubPolicySampler(p, run["seed"])
+    config = train.TrainConfig(model=run["model"], tiny=s.tiny, epochs=s.epochs, patience=s.patience,
+                               batch_size=s.batch_size, seed=run["seed"], threads=1)
+    trainer = train.Trainer(config, len(R.classes), R.channels, augmenter, sampler)
+    result = trainer.fit(tr, standardize(va.X), va.y, standardize(te.X), te.y)
+    result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)
+    result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
+    return dict(run, **result)
+
+
+# ---- experiments -----------------------------------------------------------------------------
+
+def loso_splits(subjects):
+    """Leave-one-subject-out: test subject i, validation subject i + 1 (cyclic), training the rest."""
+    out = []
+    for i, t in enumerate(subjects):
+        v = subjects[(i + 1) % len(subjects)]
+        out.append((t, v, [s for s in subjects if s not in (t, v)]))
+    return out
+
+
+def one_at_a_time_runs(subjects, arms, models, seeds):
+    return [{"arm": a, "model": m, "test": t, "val": v, "train": tr, "seed": s}
+            for m in models for s in range(seeds) for (t, v, tr) in loso_splits(subjects) for a in arms]
+
+
+def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
+    """For n training subjects: up to `combinations` splits; split j tests subject j mod S,
+    validates on the next one and trains on a random n-subset of the other S - 2 (all of them for
+    n = S - 2: the LOSO folds). Seed 0 for every run (the spread is over subject subsets)."""
+    rng = np.random.default_rng(20250601)
+    runs = []
+    for n in sizes:
+        splits = []
+        if n == len(subjects) - 2:
+            splits = loso_splits(subjects)
+        else:
+            for j in range(combinations):
+                t, v = subjects[j % len(subjects)], subjects[(j + 1) % len(subjects)]
+                pool = [s for s in subjects if s not in (t, v)]
+                splits.append((t, v, sorted(rng.choice(pool, size=n, replace=False).tolist())))
+        for m in models:
+            for (t, v, tr) in splits:
+                for a in arms:
+                    runs.append({"arm": a, "model": m, "test": t, "val": v, "train": tr, "seed": seed,
+                                 "n_train": n})
+    return runs
+
+
+class ResultStore:
+    """The experiment's JSON: settings plus one entry per finished run, rewritten atomically
+    after each run."""
+
+    def __init__(self, path, experiment, settings, data):
+        self.path = path
+        self.doc = {"schema": "imukit.har/1", "experiment": experiment,
+                    "settings": dataclasses.asdict(settings), "data": data, "runs": []}
+        if os.path.exists(path):
+            with open(path, encoding="utf-8") as f:
+                old = json.load(f)
+            if old.get("settings") != self.doc["settings"] or old.get("experiment") != experiment:
+                raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
+                                 "use another --out or delete it")
+            self.doc["runs"] = old.get("runs", [])
+            self.doc["wall_seconds"] = old.get("wall_seconds", 0.0)
+        self.done = {run_key(r) for r in self.doc["runs"]}
+
+    def add(self, result):
+        self.doc["runs"].append(result)
+        self.done.add(run_key(result))
+        self.save()
+
+    def save(self):
+        tmp = self.path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(self.doc, f, indent=1)
+            f.write("\n")
+        os.replace(tmp, self.path)
+
+
+def execute(runs, store, recordings, settings, jobs=1, log=print):
+    """Runs what the store does not have yet, `jobs` at a time; returns the wall time."""
+    pending = [r for r in runs if run_key(r) not in store.done]
+    log(f"{len(runs) - len(pending)} of {len(runs)} runs already done, {len(pending)} to go, {jobs} job(s)")
+    t0 = time.perf_counter()
+    wall0 = store.doc.get("wall_seconds", 0.0)
+
+    def finished(i, r):
+        store.doc["wall_seconds"] = wall0 + time.perf_counter() - t0
+        store.add(r)
+        log(f"[{i + 1}/{len(pending)}] {run_key(r)}: test F1 {r['test_f1']:.4f} (val {r['val_f1']:.4f}, "
+            f"epoch {r['best_epoch']}/{r['epochs_run']}, {r['seconds']:.0f} s, imukit {100 * r['imukit_share']:.1f} %)")
+
+    if jobs <= 1 or len(pending) <= 1:
+        _init_worker(recordings, settings)
+        for i, run in enumerate(pending):
+            finished(i, run_one(run))
+    else:
+        ctx = multiprocessing.get_context("fork")
+        with ctx.Pool(jobs, initializer=_init_worker, initargs=(recordings, settings),
+                      maxtasksperchild=None) as pool:
+            for i, r in enumerate(pool.imap_unordered(run_one, pending)):
+                finished(i, r)
+    return time.perf_counter() - t0
+
+
+def expand_arms(arms, options_all=False):
+    out = []
+    for a in arms:
+        parts = a.split(":")
+        if options_all and len(parts) == 2 and parts[1] in PAIRS:
+            out += [f"{a}:{o}" for o in PAIRS[parts[1]][3]]
+        else:
+            out.append(parse_arm(a).name)
+    return list(dict.fromkeys(out))
+
+
+def check_scenes(recordings, arms):
+    if any(parse_arm(a).kind == "ppda" for a in arms):
+        missing = [r.id for r in recordings.recordings if r.scene is None]
+        if missing:
+            raise ValueError(f"PPDA arms need a fitted scene for every recording; {len(missing)} have none "
+                             f"(e.g. {missing[:3]}): give --scenes")
