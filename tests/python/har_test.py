@@ -233,6 +233,16 @@ class Augmentation(unittest.TestCase):
             np.testing.assert_allclose(np.linalg.norm(rawp[..., block], axis=-1),
                                        np.linalg.norm(raw[..., block], axis=-1), rtol=1e-4, atol=1e-3)
         self.assertGreater(np.abs(rawp - raw).max(), 1.0)
+        # A recording without a fitted scene keeps its real windows (listed last in the batch).
+        scene = self.R[0].scene
+        try:
+            self.R.recordings[0].scene = None
+            X0, y0 = aug.batch(0, index, seed=1)
+            real = self.W.recording[index] == 0
+            self.assertEqual(aug.unfitted_windows, int(real.sum()))
+            np.testing.assert_allclose(X0[-int(real.sum()):], self.st(self.W.X[index[real]]), atol=1e-6)
+        finally:
+            self.R.recordings[0].scene = scene
 
     def test_ppda_time_offset_and_scene_sensor_selection(self):
         with tempfile.TemporaryDirectory() as d:
@@ -247,6 +257,11 @@ class Augmentation(unittest.TestCase):
             src.apply(0, np.array([0, 0]), np.array([0, 30]), 1, PAPER, out)
             np.testing.assert_allclose(out[0], x[20:70], atol=2e-5)
             np.testing.assert_allclose(out[1], x[50:100], atol=2e-5)   # 30 + 20 = 50: the last window
+            # The fitted biases are added to every re-simulated sample.
+            R.recordings[0].scene.bias = np.array([[0.1, -0.2, 0.3, 0.01, 0.02, -0.03]])
+            src = augmentation.PpdaSource(R, 50)
+            src.apply(0, np.array([0]), np.array([0]), 1, PAPER, out[:1])
+            np.testing.assert_allclose(out[0] - x[20:70], np.broadcast_to(R[0].scene.bias, (50, 6)), atol=2e-5)
             bad = rf.Recordings("t", ["a"], [rf.Recording("r", "s", x, np.zeros(100, np.int64), 50.0, ["w"],
                                                           rf.SceneRef(path, ["chest"]))])
             with self.assertRaisesRegex(ValueError, r"no sensor \['chest'\]"):

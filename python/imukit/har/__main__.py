@@ -101,7 +101,8 @@ def main(argv=None):
         arms = ["baseline", "sim:identity"]
         runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds)
         name = "sim_only"
-    experiments.check_scenes(R, arms)
+    missing = experiments.check_scenes(R, arms)
+    source["recordings_without_scene"] = missing
     os.makedirs(args.out, exist_ok=True)
     store = experiments.ResultStore(os.path.join(args.out, f"{name}.json"), name, settings, source)
     experiments.execute(runs, store, R, settings, jobs=args.jobs,

@@ -102,13 +102,17 @@ class PpdaSource:
                 raise ValueError(f"{r.scene.path}: no sensor {missing} (the scene has {names})")
             cols = np.concatenate([np.arange(6) + 6 * names.index(s) for s in r.scene.sensors])
             offset = int(round(r.scene.time_offset_s * r.rate_hz))
-            a = (a, None if np.array_equal(cols, np.arange(a.channels)) else cols, offset)
+            bias = None if r.scene.bias is None else np.asarray(r.scene.bias, np.float32).reshape(-1)
+            a = (a, None if np.array_equal(cols, np.arange(a.channels)) else cols, offset, bias)
             self._augmenters[i] = a
         return a
 
+    def has_scene(self, i):
+        return self.recordings[i].scene is not None
+
     def scene_starts(self, i, starts):
         """The scene's sample index of each real window start (kept inside the scene)."""
-        a, _, offset = self.augmenter(i)
+        a, _, offset, _ = self.augmenter(i)
         return np.clip(starts + offset, 0, a.sample_count - self.window).astype(np.int64)
 
     def apply(self, sub, recording, start, rng, policy, out):
@@ -118,12 +122,14 @@ class PpdaSource:
         cut = np.flatnonzero(np.diff(recording)) + 1
         for a0, a1 in zip(np.r_[0, cut], np.r_[cut, n]):
             i = int(recording[a0])
-            aug, cols, _ = self.augmenter(i)
+            aug, cols, _, bias = self.augmenter(i)
             starts = self.scene_starts(i, start[a0:a1])
             if cols is None:
                 aug.apply(sub, starts, rng, policy=policy, out=out[a0:a1], threads=1)
             else:
                 out[a0:a1] = aug.apply(sub, starts, rng, policy=policy, threads=1)[:, :, cols]
+            if bias is not None:
+                out[a0:a1] += bias
         return out
 
 
@@ -144,6 +150,7 @@ class BatchAugmenter:
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
+        self.unfitted_windows = 0  # PPDA windows left real for want of a fitted scene
         self._specs = {}
 
     def _stda_specs(self, k):
@@ -174,9 +181,15 @@ class BatchAugmenter:
                 imukit.stda(X, spec, rng, out=X)
             self.imukit_seconds += time.perf_counter() - t0
             return X, w.y[index]
-        index = index[np.argsort(w.recording[index], kind="stable")]
+        # Windows of recordings without a fitted scene (a failed fit) stay real, at the end.
+        rec = w.recording[index]
+        fitted = np.array([self.ppda.has_scene(i) for i in rec])
+        index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
+        n = int(fitted.sum())
         X = np.empty((len(index),) + w.X.shape[1:], np.float32)
         t0 = time.perf_counter()
-        self.ppda.apply(k, w.recording[index], w.start[index], imukit.Rng(seed), self.policy, X)
+        self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n])
         self.imukit_seconds += time.perf_counter() - t0
+        X[n:] = w.X[index[n:]]
+        self.unfitted_windows += len(index) - n
         return self.standardize(X, out=X), w.y[index]

@@ -159,6 +159,7 @@ def run_one(run):
     result = trainer.fit(tr, standardize(va.X), va.y, standardize(te.X), te.y)
     result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)
     result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
+    result["unfitted_windows"] = augmenter.unfitted_windows
     return dict(run, **result)
 
 
@@ -270,8 +271,9 @@ def expand_arms(arms, options_all=False):
 
 
 def check_scenes(recordings, arms):
-    if any(parse_arm(a).kind == "ppda" for a in arms):
-        missing = [r.id for r in recordings.recordings if r.scene is None]
-        if missing:
-            raise ValueError(f"PPDA arms need a fitted scene for every recording; {len(missing)} have none "
-                             f"(e.g. {missing[:3]}): give --scenes")
+    """The recordings without a fitted scene (their PPDA windows stay real); an error when no
+    recording has one and a PPDA arm is asked for."""
+    missing = [r.id for r in recordings.recordings if r.scene is None]
+    if any(parse_arm(a).kind == "ppda" for a in arms) and len(missing) == len(recordings):
+        raise ValueError("PPDA arms need fitted scenes and no recording has one: give --scenes")
+    return missing

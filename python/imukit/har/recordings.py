@@ -30,10 +30,13 @@ class SceneRef:
     path: the scene file (`imukit.scene/1`); sensors: the scene's sensor names in the order of
     the recording's sensors; time_offset_s: the recording's sample at time t (from its first
     sample) saw the scene's motion at t + time_offset_s (the identified placement's
-    `timing.time_offset_s`)."""
+    `timing.time_offset_s`); bias: optional constant offsets (sensors, 6) -- ax ay az (m/s^2)
+    gx gy gz (rad/s) per sensor -- added to every re-simulated sample (the fitted hardware's
+    biases: `imukit.Augmenter` leaves a scene's hardware out)."""
     path: str
     sensors: list
     time_offset_s: float = 0.0
+    bias: np.ndarray = None
 
 
 @dataclasses.dataclass
@@ -117,6 +120,11 @@ def check_recording(rec, classes, where):
     if rec.scene is not None and len(rec.scene.sensors) != len(rec.sensors):
         raise FormatError(f"{where}: scene.sensors {rec.scene.sensors} must name one scene sensor "
                           f"per recording sensor {rec.sensors}")
+    if rec.scene is not None and rec.scene.bias is not None:
+        b = np.asarray(rec.scene.bias)
+        if b.shape != (len(rec.sensors), 6) or not np.all(np.isfinite(b)):
+            raise FormatError(f"{where}: scene.bias must be {len(rec.sensors)} finite rows of 6 "
+                              f"(ax ay az gx gy gz), got shape {b.shape}")
 
 
 def _require(cond, msg):
@@ -197,12 +205,17 @@ def read_recordings(folder):
             _require(isinstance(s, dict) and "file" in s and "sensors" in s,
                      f"{where}.scene: expected {{\"file\": ..., \"sensors\": [...], \"time_offset_s\": ...}}")
             for k in s:
-                _require(k in ("file", "sensors", "time_offset_s"), f"{where}.scene: unknown key '{k}'")
+                _require(k in ("file", "sensors", "time_offset_s", "bias"), f"{where}.scene: unknown key '{k}'")
             offset = s.get("time_offset_s", 0.0)
             _require(isinstance(offset, (int, float)) and np.isfinite(offset),
                      f"{where}.scene.time_offset_s: expected seconds, got {offset!r}")
+            bias = s.get("bias")
+            try:
+                bias = None if bias is None else np.asarray(bias, np.float64)
+            except (TypeError, ValueError):
+                raise FormatError(f"{where}.scene.bias: expected rows of 6 numbers") from None
             scene = SceneRef(path=os.path.join(folder, s["file"]), sensors=list(s["sensors"]),
-                             time_offset_s=float(offset))
+                             time_offset_s=float(offset), bias=bias)
         rec = Recording(id=rid, subject=str(e["subject"]), samples=x, labels=y, rate_hz=float(rate),
                         sensors=list(sensors), scene=scene)
         check_recording(rec, classes, f"{where} ({path})")
@@ -232,6 +245,8 @@ def write_recordings(folder, recordings):
         if r.scene is not None:
             e["scene"] = {"file": os.path.relpath(r.scene.path, folder), "sensors": list(r.scene.sensors),
                           "time_offset_s": r.scene.time_offset_s}
+            if r.scene.bias is not None:
+                e["scene"]["bias"] = np.asarray(r.scene.bias).tolist()
         entries.append(e)
     doc = {"schema": SCHEMA, "name": recordings.name, "classes": list(recordings.classes),
            "units": {"accelerometer": "m/s^2", "gyroscope": "rad/s"}}

@@ -32,12 +32,17 @@ def scene_ref(folder, site):
         sensor = names[0]
     else:
         raise ValueError(f"{path}: no sensor named '{site}' among {names}")
-    offset = 0.0
+    offset, bias = 0.0, None
     placement = os.path.join(folder, "placement.json")
     if os.path.exists(placement):
         with open(placement, encoding="utf-8") as f:
-            offset = float(json.load(f).get("timing", {}).get("time_offset_s", 0.0) or 0.0)
-    return SceneRef(path=path, sensors=[sensor], time_offset_s=offset)
+            p = json.load(f)
+        offset = float(p.get("timing", {}).get("time_offset_s", 0.0) or 0.0)
+        ba = p.get("accelerometer", {}).get("bias_mps2")
+        bg = p.get("gyroscope", {}).get("bias_radps")
+        if ba is not None or bg is not None:
+            bias = np.array([list(ba or [0.0] * 3) + list(bg or [0.0] * 3)], np.float64)
+    return SceneRef(path=path, sensors=[sensor], time_offset_s=offset, bias=bias)
 
 
 def load(root, scenes=None, subjects=None, actions=None):
