@@ -52,7 +52,7 @@ class GumbelPolicy:
     step of the model (DARTS' second-order term, by the finite difference of two gradients;
     see Trainer._policy_step)."""
 
-    def __init__(self, count, seed, lr=0.01, temperature=1.0, every=2):
+    def __init__(self, count, seed, lr=0.01, temperature=1.0, every=4):
         self.logits = torch.zeros(count, requires_grad=True)
         self.optimizer = torch.optim.Adam([self.logits], lr=lr)
         self.temperature = temperature

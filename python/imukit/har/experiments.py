@@ -108,7 +108,7 @@ class Settings:
     batch_size: int = 64
     tiny: bool = False
     policy: str = "paper"
-    learn_every: int = 2
+    learn_every: int = 4
     learn_lr: float = 0.01
 
 
