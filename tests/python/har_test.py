@@ -379,6 +379,14 @@ class Experiments(unittest.TestCase):
                 har_main(argv[:-3] + ["2"] + argv[-2:])
             self.assertIn("10 of 12 runs already done, 2 to go, 2 job(s)", log.getvalue())
             self.assertEqual(len(load_json(os.path.join(out, "one_at_a_time.json"))["runs"]), 12)
+            # sim-only shares the baseline runs (same arm, split, seed and settings).
+            log = io.StringIO()
+            with contextlib.redirect_stdout(log):
+                har_main(["sim-only"] + argv[1:argv.index("--seeds")] + argv[argv.index("--seeds") + 2:-2])
+            self.assertIn("3 run(s) taken from", log.getvalue())
+            sim = load_json(os.path.join(out, "sim_only.json"))
+            self.assertEqual(sorted(r["arm"] for r in sim["runs"]), ["baseline"] * 3 + ["sim:identity"] * 3)
+            self.assertTrue(all(r["augmented_windows"] > 0 for r in sim["runs"] if r["arm"] == "sim:identity"))
             with self.assertRaisesRegex(ValueError, "written with other settings"):
                 with contextlib.redirect_stdout(io.StringIO()):
                     har_main(argv[:argv.index("--epochs") + 1] + ["2"] + argv[argv.index("--epochs") + 2:])

@@ -105,6 +105,10 @@ def main(argv=None):
     source["recordings_without_scene"] = missing
     os.makedirs(args.out, exist_ok=True)
     store = experiments.ResultStore(os.path.join(args.out, f"{name}.json"), name, settings, source)
+    for other in ("one_at_a_time", "sim_only", "fewer_subjects"):
+        if other != name:
+            experiments.reuse(runs, store, os.path.join(args.out, f"{other}.json"),
+                              log=lambda s: print(s, flush=True))
     experiments.execute(runs, store, R, settings, jobs=args.jobs,
                         log=lambda s: print(s, flush=True))
     print(report.write(store.doc, args.out))

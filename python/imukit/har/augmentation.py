@@ -151,6 +151,7 @@ class BatchAugmenter:
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
         self.unfitted_windows = 0  # PPDA windows left real for want of a fitted scene
+        self.augmented_windows = 0
         self._specs = {}
 
     def _stda_specs(self, k):
@@ -180,6 +181,7 @@ class BatchAugmenter:
             for spec in jitter:
                 imukit.stda(X, spec, rng, out=X)
             self.imukit_seconds += time.perf_counter() - t0
+            self.augmented_windows += len(index)
             return X, w.y[index]
         # Windows of recordings without a fitted scene (a failed fit) stay real, at the end.
         rec = w.recording[index]
@@ -192,4 +194,5 @@ class BatchAugmenter:
         self.imukit_seconds += time.perf_counter() - t0
         X[n:] = w.X[index[n:]]
         self.unfitted_windows += len(index) - n
+        self.augmented_windows += n
         return self.standardize(X, out=X), w.y[index]

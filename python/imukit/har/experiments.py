@@ -233,6 +233,28 @@ class ResultStore:
         os.replace(tmp, self.path)
 
 
+def reuse(runs, store, other_path, log=print):
+    """Copies into `store` the runs another experiment's JSON (same settings) already has: the
+    same arm, model, split and seed give the same result (fewer-subjects' 6-subject baseline is
+    the one-at-a-time baseline)."""
+    if not os.path.exists(other_path):
+        return 0
+    with open(other_path, encoding="utf-8") as f:
+        other = json.load(f)
+    if other.get("settings") != store.doc["settings"]:
+        return 0
+    have = {run_key(r): r for r in other.get("runs", [])}
+    copied = 0
+    for run in runs:
+        k = run_key(run)
+        if k in have and k not in store.done:
+            store.add(dict(have[k], **run, reused_from=os.path.basename(other_path)))
+            copied += 1
+    if copied:
+        log(f"{copied} run(s) taken from {other_path}")
+    return copied
+
+
 def execute(runs, store, recordings, settings, jobs=1, log=print):
     """Runs what the store does not have yet, `jobs` at a time; returns the wall time."""
     pending = [r for r in runs if run_key(r) not in store.done]

@@ -134,7 +134,6 @@ class Trainer:
         history = []
         step_seconds = 0.0
         steps = 0
-        augmented = 0
         drawn = np.zeros(len(self.augmenter.policy), np.int64)
         t_start = time.perf_counter()
         stale = 0
@@ -151,8 +150,6 @@ class Trainer:
                 drawn[k] += 1
                 seed = (c.seed * 1_000_003 + epoch) * 100_003 + b
                 Xb, yb = self.augmenter.batch(k, index, seed)
-                if not self.augmenter.policy[k].is_identity and self.augmenter.kind != "none":
-                    augmented += len(index)
                 X = torch.from_numpy(Xb)
                 y = torch.from_numpy(yb)
                 if learn:
@@ -189,7 +186,7 @@ class Trainer:
         result = {
             "best_epoch": best[1], "epochs_run": len(history), "val_f1": best[0],
             "parameters": parameter_count(self.model), "steps": steps,
-            "augmented_windows": augmented,
+            "augmented_windows": self.augmenter.augmented_windows,
             "seconds": time.perf_counter() - t_start,
             "step_seconds_mean": step_seconds / max(steps, 1),
             "imukit_seconds": self.augmenter.imukit_seconds,
