@@ -4,18 +4,20 @@ The trials are read by `imukit.datasets.utd_mhad` (SI units, sensor axes as reco
 sensor is named by where it was worn (`right_wrist` for actions 1-21, `right_thigh` for 22-27);
 the model sees the same six channels either way, as in the dataset. Class k is action k + 1.
 
-With `scenes=FOLDER`, a trial whose fitted scene exists (`FOLDER/<a_s_t>/scene.json`, what
-`imukit.har.scenes` and issue 18's batch write) gets it as its `scene`; the scene's sensor is the
-one whose name is the trial's site (or the scene's only sensor), and the time offset between the
-IMU and the motion comes from the folder's `placement.json` (`imukit.placement/1`,
-`timing.time_offset_s`) when there is one.
+With `scenes=FOLDER`, a trial whose fitted scene exists (`FOLDER/<a_s_t>/scene.json`, what the
+UTD-MHAD fitting batch writes) gets it as its `scene`; the scene's sensor is the one named as the
+trial's site (or the scene's only sensor). The batch bakes the fitted time offset and clock rate
+into the scene's motion (scene sample k is IMU sample k), so no offset is applied here; the
+fitted constant biases come from the folder's `placement.json` (`imukit.placement/1`:
+`accelerometer.bias_mps2`, `gyroscope.bias_radps`) when there is one.
 """
 import json
 import os
 
+import numpy as np
+
 from ..datasets import utd_mhad as reader
 from .recordings import Recording, Recordings, SceneRef
-import numpy as np
 
 
 def scene_ref(folder, site):
@@ -32,17 +34,16 @@ def scene_ref(folder, site):
         sensor = names[0]
     else:
         raise ValueError(f"{path}: no sensor named '{site}' among {names}")
-    offset, bias = 0.0, None
+    bias = None
     placement = os.path.join(folder, "placement.json")
     if os.path.exists(placement):
         with open(placement, encoding="utf-8") as f:
             p = json.load(f)
-        offset = float(p.get("timing", {}).get("time_offset_s", 0.0) or 0.0)
         ba = p.get("accelerometer", {}).get("bias_mps2")
         bg = p.get("gyroscope", {}).get("bias_radps")
         if ba is not None or bg is not None:
             bias = np.array([list(ba or [0.0] * 3) + list(bg or [0.0] * 3)], np.float64)
-    return SceneRef(path=path, sensors=[sensor], time_offset_s=offset, bias=bias)
+    return SceneRef(path=path, sensors=[sensor], time_offset_s=0.0, bias=bias)
 
 
 def load(root, scenes=None, subjects=None, actions=None):
