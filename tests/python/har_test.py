@@ -121,6 +121,23 @@ class Format(unittest.TestCase):
             self.assertEqual(back[0].scene.path, os.path.join(d, "sc", "scene.json"))
             self.assertIsNone(back[1].scene)
 
+    def test_a_utd_mhad_fitted_scene_folder(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.assertIsNone(utd_mhad.scene_ref(d, "right_wrist"))
+            write_scene(d, ["right_wrist_watch"])
+            with open(os.path.join(d, "placement.json"), "w") as f:
+                json.dump({"schema": "imukit.placement/1", "timing": {"time_offset_s": 0.3},
+                           "accelerometer": {"bias_mps2": [0.1, 0.2, 0.3]},
+                           "gyroscope": {"bias_radps": [0.01, 0.02, 0.03]}}, f)
+            ref = utd_mhad.scene_ref(d, "right_wrist")
+            # The scene's only sensor; the batch's motion is on the IMU's clock: no offset.
+            self.assertEqual(ref.sensors, ["right_wrist_watch"])
+            self.assertEqual(ref.time_offset_s, 0.0)
+            np.testing.assert_array_equal(ref.bias, [[0.1, 0.2, 0.3, 0.01, 0.02, 0.03]])
+            write_scene(d, ["right_wrist_watch", "left_wrist_watch"])
+            with self.assertRaisesRegex(ValueError, "no sensor named 'right_wrist' among"):
+                utd_mhad.scene_ref(d, "right_wrist")
+
     def test_errors_name_the_file_and_the_place(self):
         with tempfile.TemporaryDirectory() as d:
             np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
