@@ -45,6 +45,18 @@ struct IdentifyArgs {
   double max_time_offset = 1.0;
   double gravity = 9.80665;
   int threads = 1;
+  double max_clock_rate = 2e-4;
+  std::string correct = "none";
+  double knot_spacing = 0.3;
+  // The library's defaults (1.5 rad, 0.1 rad) in degrees.
+  double twist_prior_deg = 1.5 * 180.0 / std::numbers::pi;
+  double tilt_prior_deg = 0.1 * 180.0 / std::numbers::pi;
+  double correction_smoothness = 30.0;
+  double function_tolerance = 1e-12;
+  double accel_bias_prior = 0.0;
+  double gyro_bias_prior = 0.0;
+  std::string scene_out;
+  std::string sensor_name;
 };
 
 // --imu FILE [options] and --pose FILE [options], from the tokens CLI11 left over.
@@ -187,6 +199,15 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   o.max_time_offset_s = a.max_time_offset;
   o.segment_prior = a.segment_prior;
   o.gravity_world = Eigen::Vector3d(0, 0, -std::abs(a.gravity));
+  o.max_clock_rate = a.max_clock_rate;
+  o.correction = sim::parse_segment_correction(a.correct);
+  o.correction_knot_spacing_s = a.knot_spacing;
+  o.twist_prior_rad = a.twist_prior_deg * std::numbers::pi / 180.0;
+  o.tilt_prior_rad = a.tilt_prior_deg * std::numbers::pi / 180.0;
+  o.correction_smoothness_radps2 = a.correction_smoothness;
+  o.function_tolerance = a.function_tolerance;
+  o.accel_bias_prior_mps2 = a.accel_bias_prior;
+  o.gyro_bias_prior_radps = a.gyro_bias_prior;
   apply_names(a.fix, false, o, "--fix");
   apply_names(a.estimate, true, o, "--estimate");
   if (a.time_offset) {
@@ -270,10 +291,29 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     }
     fmt::print("{:<22} {:>14.6g} {:>12.3g}  {}\n", e.name, e.value * f, e.std_error * f, unit);
   }
+  if (o.clock_rate) fmt::print("time scale (1 + clock_rate): {:.6f}\n", 1.0 + r.clock_rate);
+  if (r.correction.dims > 0) {
+    const char* names[3] = {"twist", "tilt (anterior axis)", "tilt (normal axis)"};
+    const auto n = static_cast<double>(std::max<Eigen::Index>(1, r.correction_angles.cols()));
+    for (int d = 0; d < r.correction.dims; ++d) {
+      fmt::print("segment correction {}: RMS {:.2f} deg, max {:.2f} deg ({} knots every {:.3f} s)\n",
+                 names[d], std::sqrt(r.correction_angles.row(d).squaredNorm() / n) * 180.0 / std::numbers::pi,
+                 r.correction_angles.row(d).cwiseAbs().maxCoeff() * 180.0 / std::numbers::pi,
+                 r.correction.control.cols(), r.correction.knot_spacing_s);
+    }
+  }
   fmt::print(
       "residual RMS  accelerometer {:.4f} -> {:.4f} m/s^2, gyroscope {:.5f} -> {:.5f} rad/s "
       "(before -> after)\n",
       r.rms_before.accel, r.rms_after.accel, r.rms_before.gyro, r.rms_after.gyro);
+  fmt::print("fidelity per axis, before -> after:\n");
+  for (int k = 0; k < 3; ++k) {
+    fmt::print("  a{}: RMSE {:.3f} -> {:.3f} m/s^2, r {:.3f} -> {:.3f}   g{}: RMSE {:.4f} -> {:.4f} rad/s, r {:.3f} -> {:.3f}\n",
+               "xyz"[k], r.fidelity_before.accel.rmse[k], r.fidelity_after.accel.rmse[k],
+               r.fidelity_before.accel.correlation[k], r.fidelity_after.accel.correlation[k],
+               "xyz"[k], r.fidelity_before.gyro.rmse[k], r.fidelity_after.gyro.rmse[k],
+               r.fidelity_before.gyro.correlation[k], r.fidelity_after.gyro.correlation[k]);
+  }
   {
     std::ofstream f(a.output);
     if (!f) throw Error(a.output + ": cannot open for writing");
@@ -281,6 +321,21 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     if (!f.flush()) throw Error(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
+  if (!a.scene_out.empty()) {
+    if (in.pose) throw Error("identify --scene-out: needs a skeleton motion (--motion), not --pose");
+    // The fitted motion on the IMU's clock: frame k at first + k / rate with the mean rate, as
+    // many frames as IMU samples (the last on the last sample).
+    const double rate = 1e9 * static_cast<double>(imu.size() - 1) /
+                        static_cast<double>(imu.t.back() - imu.t.front());
+    const sim::Motion fitted = sim::fitted_motion(body, *motion, r, imu.t.front(),
+                                                  static_cast<int64_t>(imu.size()), rate);
+    sim::write_fitted_scene(a.scene_out, body, fitted, r,
+                            a.sensor_name.empty() ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
+                                                  : a.sensor_name,
+                            o.gravity_world);
+    fmt::print("wrote the fitted scene in {} (scene.json, motion.csv at {:.6g} Hz, placement.json)\n",
+               a.scene_out, rate);
+  }
   if (!a.plot_dir.empty()) {
     write_plot(a.plot_dir, r);
     fmt::print("plots in {}\n", a.plot_dir);
@@ -341,6 +396,34 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2");
           sub.add_option("--threads", a->threads, "threads for the Jacobian (default 1)")
               ->check(CLI::Range(1, 64));
+          sub.add_option("--max-clock-rate", a->max_clock_rate,
+                         "bound of |clock_rate| with --estimate clock_rate (default 2e-4; streams "
+                         "aligned by duration need e.g. 0.1, which also searches it coarsely)");
+          sub.add_option("--correct", a->correct,
+                         "smooth correction of the sensor segment's rotation: none (default), "
+                         "twist (about the segment's long axis) or rotation (twist + two tilts)")
+              ->check(CLI::IsMember({"none", "twist", "rotation"}));
+          sub.add_option("--knot-spacing", a->knot_spacing,
+                         "knot spacing of the correction's spline, s (default 0.3)");
+          sub.add_option("--twist-prior", a->twist_prior_deg,
+                         "1-sigma prior of the twist angle, deg (default 85.94, 1.5 rad)");
+          sub.add_option("--tilt-prior", a->tilt_prior_deg,
+                         "1-sigma prior of the two tilt angles, deg (default 5.73, 0.1 rad)");
+          sub.add_option("--correction-smoothness", a->correction_smoothness,
+                         "1-sigma prior of the correction's angular acceleration at each knot, "
+                         "rad/s^2 (default 30)");
+          sub.add_option("--function-tolerance", a->function_tolerance,
+                         "stop when a step changes the cost by less than this fraction "
+                         "(default 1e-12; 1e-6 with a clock rate, docs/identification.md)");
+          sub.add_option("--accel-bias-prior", a->accel_bias_prior,
+                         "1-sigma Gaussian prior of the accelerometer bias, m/s^2 (0: none)");
+          sub.add_option("--gyro-bias-prior", a->gyro_bias_prior,
+                         "1-sigma Gaussian prior of the gyroscope bias, rad/s (0: none)");
+          sub.add_option("--scene-out", a->scene_out,
+                         "folder for the fitted scene: scene.json, motion.csv (the fit baked into "
+                         "the motion, on the IMU's clock) and placement.json");
+          sub.add_option("--sensor-name", a->sensor_name,
+                         "the sensor's name in the fitted scene (default: the joint's name)");
           sub.add_option("--plot", a->plot_dir,
                          "folder for an SVG of measured against simulated signals (gnuplot)");
           sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +

@@ -44,4 +44,14 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
                   const BvhOptions& options = {});
 BvhData read_bvh(const std::string& path, const BvhOptions& options = {});
 
+// A Body and Motion as BVH (bvh_write.cpp): lengths divided by options.scale, vectors and
+// rotations mapped back to Y up unless options.up == z (the inverse of the reader's mapping),
+// every joint with Zrotation Yrotation Xrotation channels (the root also Xposition Yposition
+// Zposition), angles unwrapped frame to frame so they stay continuous, 10 significant digits
+// (1e-8 degrees); leaves end in an End Site at Body::segment_end. Reading the file back with the
+// same options gives the body's offsets and the motion's rotations to 1e-9.
+std::string format_bvh(const Body& body, const Motion& motion, const BvhOptions& options = {});
+void write_bvh(const std::string& path, const Body& body, const Motion& motion,
+               const BvhOptions& options = {});
+
 }  // namespace imukit::sim

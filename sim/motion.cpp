@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <numbers>
 #include <sstream>
@@ -10,6 +11,7 @@
 #include "core/error.hpp"
 #include "core/rng.hpp"
 #include "core/text_parse.hpp"
+#include "core/time.hpp"
 
 namespace imukit::sim {
 
@@ -310,6 +312,41 @@ Motion read_quaternion_csv(const std::string& path, const Body& body, std::optio
   std::ostringstream s;
   s << in.rdbuf();
   return parse_quaternion_csv(s.str(), path, body, rate_hz, warnings);
+}
+
+std::string format_quaternion_csv(const Body& body, const Motion& motion) {
+  if (motion.joint_count() != body.size())
+    throw Error("quaternion CSV: the motion has " + std::to_string(motion.joint_count()) +
+                " joints, the body " + std::to_string(body.size()));
+  std::string out = "t,root_x,root_y,root_z";
+  for (const Joint& j : body.joints()) {
+    for (const char* c : {"_qw", "_qx", "_qy", "_qz"}) out.append(",").append(j.name).append(c);
+  }
+  out += "\n";
+  char buf[32];
+  const auto put = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.17g", v);
+    out += buf;
+  };
+  for (int64_t f = 0; f < motion.frames(); ++f) {
+    std::snprintf(buf, sizeof buf, "%.17g", to_seconds(sample_time(0, f, motion.rate_hz())));
+    out += buf;
+    for (int k = 0; k < 3; ++k) put(motion.root_translation(f)(k));
+    for (std::size_t j = 0; j < body.size(); ++j) {
+      const Eigen::Quaterniond& q = motion.rotation(f, j);
+      put(q.w()), put(q.x()), put(q.y()), put(q.z());
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+void write_quaternion_csv(const std::string& path, const Body& body, const Motion& motion) {
+  const std::string text = format_quaternion_csv(body, motion);
+  std::ofstream out(path, std::ios::binary);
+  if (!out) throw Error(path + ": cannot open for writing");
+  out.write(text.data(), static_cast<std::streamsize>(text.size()));
+  if (!out) throw Error(path + ": write failed (disk full?)");
 }
 
 }  // namespace imukit::sim

@@ -100,6 +100,48 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
   fail(source, path, "expected quaternion_wxyz or euler");
 }
 
+// "body": {"joints": [{"name": N, "parent": P or null, "offset_m": [x, y, z],
+// "end_offset_m": [x, y, z]}]}: parents by name, each before its children.
+Body body_of_joints(const json& joints, const std::string& source) {
+  if (!joints.is_array() || joints.empty())
+    fail(source, "body.joints", "expected a non-empty array of joints");
+  std::vector<std::string> names;
+  std::vector<int> parents;
+  Eigen::Matrix3Xd offsets(3, static_cast<Eigen::Index>(joints.size()));
+  std::vector<std::optional<Eigen::Vector3d>> ends;
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const std::string path = "body.joints[" + std::to_string(i) + "]";
+    const json& j = joints[i];
+    only_keys(j, {"name", "parent", "offset_m", "end_offset_m"}, source, path);
+    if (!j.contains("name")) fail(source, path + ".name", "missing");
+    names.push_back(string_of(j["name"], source, path + ".name"));
+    int parent = -1;
+    if (j.contains("parent") && !j["parent"].is_null()) {
+      const std::string p = string_of(j["parent"], source, path + ".parent");
+      for (std::size_t k = 0; k < i; ++k) {
+        if (names[k] == p) parent = static_cast<int>(k);
+      }
+      if (parent < 0) fail(source, path + ".parent", "'" + p + "' is not an earlier joint");
+    } else if (i > 0) {
+      fail(source, path + ".parent", "missing (only the first joint is the root)");
+    }
+    parents.push_back(parent);
+    if (!j.contains("offset_m")) fail(source, path + ".offset_m", "missing");
+    offsets.col(static_cast<Eigen::Index>(i)) = vec3(j["offset_m"], source, path + ".offset_m");
+    ends.push_back(j.contains("end_offset_m")
+                       ? std::optional(vec3(j["end_offset_m"], source, path + ".end_offset_m"))
+                       : std::nullopt);
+  }
+  Body body;
+  try {
+    body = body_from_joints(names, parents, offsets, "body.joints");
+  } catch (const Error& e) {
+    throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, e.what());
+  }
+  for (std::size_t i = 0; i < ends.size(); ++i) body.joint(i).end_offset = ends[i];
+  return body;
+}
+
 }  // namespace
 
 namespace {
@@ -152,9 +194,14 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     if (body_from_motion)
       fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
     const json& b = root["body"];
-    only_keys(b, {"default_humanoid"}, source, "body");
-    if (!b.contains("default_humanoid")) fail(source, "body", "expected default_humanoid");
-    const json& h = b["default_humanoid"];
+    only_keys(b, {"default_humanoid", "joints"}, source, "body");
+    if (b.contains("default_humanoid") == b.contains("joints"))
+      fail(source, "body", "expected one of default_humanoid or joints");
+  }
+  if (root.contains("body") && root["body"].contains("joints")) {
+    scene.body = body_of_joints(root["body"]["joints"], source);
+  } else if (root.contains("body")) {
+    const json& h = root["body"]["default_humanoid"];
     only_keys(h, {"height_m"}, source, "body.default_humanoid");
     try {
       scene.body = Body::default_humanoid(
@@ -337,6 +384,21 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
   return scene;
 }
 }  // namespace
+
+std::string body_json(const Body& body) {
+  json joints = json::array();
+  for (const Joint& j : body.joints()) {
+    json o;
+    o["name"] = j.name;
+    o["parent"] =
+        j.parent < 0 ? json(nullptr) : json(body.joint(static_cast<std::size_t>(j.parent)).name);
+    const Eigen::Vector3d& v = j.offset_parent_joint;
+    o["offset_m"] = {v.x(), v.y(), v.z()};
+    if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
+    joints.push_back(o);
+  }
+  return json{{"joints", joints}}.dump();
+}
 
 Scene read_scene(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
