@@ -362,6 +362,8 @@ class Experiments(unittest.TestCase):
         runs = experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], [1, 2, 4, 6], 10)
         by_n = {n: [r for r in runs if r["n_train"] == n] for n in (1, 2, 4, 6)}
         self.assertEqual([len(by_n[n]) for n in (1, 2, 4, 6)], [10, 10, 10, 8])
+        four = experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], [1, 6], 4)
+        self.assertEqual([r["test"] for r in four], ["s1", "s2", "s3", "s4"] * 2)
         for r in runs:
             self.assertEqual(len(r["train"]), r["n_train"])
             self.assertNotIn(r["test"], r["train"])

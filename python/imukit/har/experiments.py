@@ -182,13 +182,14 @@ def one_at_a_time_runs(subjects, arms, models, seeds):
 def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
     """For n training subjects: up to `combinations` splits; split j tests subject j mod S,
     validates on the next one and trains on a random n-subset of the other S - 2 (all of them for
-    n = S - 2: the LOSO folds). Seed 0 for every run (the spread is over subject subsets)."""
+    n = S - 2: the first `combinations` LOSO folds). Seed 0 for every run (the spread is over
+    subject subsets)."""
     rng = np.random.default_rng(20250601)
     runs = []
     for n in sizes:
         splits = []
         if n == len(subjects) - 2:
-            splits = loso_splits(subjects)
+            splits = loso_splits(subjects)[:combinations]
         else:
             for j in range(combinations):
                 t, v = subjects[j % len(subjects)], subjects[(j + 1) % len(subjects)]
