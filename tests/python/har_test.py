@@ -261,6 +261,15 @@ class Augmentation(unittest.TestCase):
         finally:
             self.R.recordings[0].scene = scene
 
+    def test_window_fidelity_of_a_scene_that_made_the_recording(self):
+        f = experiments.window_fidelity(self.R, 50, 25)
+        self.assertEqual(f["fitted_windows"], len(self.W))
+        for kind in ("accel", "gyro"):
+            # The recordings are the scenes' simulations plus N(0, 0.05^2) per sample.
+            self.assertAlmostEqual(f[kind]["rmse_median"], 0.05, delta=0.005)
+            self.assertGreater(f[kind]["correlation"]["q1"], 0.9)
+            self.assertEqual(f[kind]["windows_peaking_above_real_max"], 0)
+
     def test_ppda_time_offset_and_scene_sensor_selection(self):
         with tempfile.TemporaryDirectory() as d:
             path = write_scene(d, ["left_wrist_watch", "right_wrist_watch"])

@@ -64,6 +64,8 @@ def main(argv=None):
     few.add_argument("--combinations", type=int, default=10)
     sim = sub.add_parser("sim-only", parents=[common])
     sim.add_argument("--seeds", type=int, default=1)
+    fid = sub.add_parser("fidelity", parents=[common],
+                         help="the identity re-simulation of every window against the real one")
     rep = sub.add_parser("report")
     rep.add_argument("--out", required=True)
     args = ap.parse_args(argv)
@@ -80,6 +82,15 @@ def main(argv=None):
     if not (args.utd_mhad or args.recordings):
         ap.error("give --utd-mhad or --recordings")
     R, source = _data(args)
+    if args.command == "fidelity":
+        import json
+        result = dict(experiments.window_fidelity(R, args.window, args.stride, args.policy), data=source)
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "fidelity_windows.json"), "w", encoding="utf-8") as f:
+            json.dump(result, f, indent=1)
+            f.write("\n")
+        print(json.dumps(result, indent=1))
+        return 0
     settings = experiments.Settings(window=args.window, stride=args.stride, epochs=args.epochs,
                                      patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
                                      policy=args.policy)
