@@ -597,6 +597,7 @@ std::pair<double, double> deviation_interval(double dev, double nu, double confi
 }
 
 int alpha_from_avar_slope(double mu) {
+  if (std::isnan(mu)) return 0;  // no slope to read (an overflowed curve): white FM
   if (mu <= -1.5) return 2;
   const double a = std::round(-mu - 1.0);
   return int(std::clamp(a, -2.0, 0.0));
@@ -837,7 +838,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       for (size_t q = 0; q < grid; ++q) {
         const double lq = std::log10(r.tau_s[q]);
         const double v = slope_source(a, Eigen::Index(q));
-        if (std::abs(lq - lk) <= 0.25 + 1e-12 && v > 0.0) {
+        if (std::abs(lq - lk) <= 0.25 + 1e-12 && v > 0.0 && std::isfinite(v)) {
           const double y = std::log10(v);
           sx += lq, sy += y, sxx += lq * lq, sxy += lq * y;
           ++cnt;

@@ -351,6 +351,26 @@ TEST(AllanDeviation, RejectsNonFiniteSamplesAnywhere) {
   EXPECT_THROW(allan_deviation(t, big), Error);
 }
 
+// Finite sums whose squares overflow (an axis of 1e300s, as a corrupt file gives): the variance is
+// infinite, and the noise type of such points must not come from a NaN slope (undefined
+// behaviour in the conversion to an int, caught by UBSan in the bad-input sweep).
+TEST(AllanDeviation, OverflowingVarianceGivesNoNoiseTypeFromANaNSlope) {
+  EXPECT_EQ(alpha_from_avar_slope(std::nan("")), 0);
+  const auto t = uniform_times(300, 100.0);
+  Eigen::MatrixXd y(2, 300);
+  Rng rng(5);
+  for (Eigen::Index i = 0; i < 300; ++i) {
+    y(0, i) = 0.01 * rng.normal();
+    y(1, i) = (i % 2 ? 1e300 : -1e300);
+  }
+  const AllanResult r = allan_deviation(t, y);
+  EXPECT_TRUE(r.allan.deviation.row(0).allFinite());
+  for (Eigen::Index k = 0; k < r.allan.alpha.cols(); ++k) {
+    EXPECT_GE(r.allan.alpha(1, k), -2);
+    EXPECT_LE(r.allan.alpha(1, k), 2);
+  }
+}
+
 TEST(AllanDeviation, RejectsBadInput) {
   Eigen::MatrixXd y = Eigen::MatrixXd::Ones(1, 100);
   const auto t = uniform_times(100, 10.0);
