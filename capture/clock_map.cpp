@@ -92,9 +92,8 @@ void ClockMapper::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
   const double x_mid =
       0.5 * (device_seconds(device_receive_ticks) + device_seconds(device_transmit_ticks));
   const double y_mid = 0.5 * (*sent + *received);
-  const double round_trip =
-      (*received - *sent) -
-      (device_seconds(device_transmit_ticks) - device_seconds(device_receive_ticks));
+  const double round_trip = (*received - *sent) - (device_seconds(device_transmit_ticks) -
+                                                   device_seconds(device_receive_ticks));
   if (!std::isfinite(round_trip)) return;
   if (pings_ == 0 || round_trip < best_round_trip_s_) {
     best_round_trip_s_ = round_trip;

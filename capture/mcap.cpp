@@ -512,16 +512,26 @@ McapMessageView parse_message(ByteReader& r) {
 
 const char* record_name(uint8_t op) {
   switch (op) {
-    case kHeader: return "Header";
-    case kFooter: return "Footer";
-    case kSchema: return "Schema";
-    case kChannel: return "Channel";
-    case kMessage: return "Message";
-    case kChunk: return "Chunk";
-    case kMessageIndex: return "Message Index";
-    case kMetadata: return "Metadata";
-    case kDataEnd: return "Data End";
-    default: return "summary";
+    case kHeader:
+      return "Header";
+    case kFooter:
+      return "Footer";
+    case kSchema:
+      return "Schema";
+    case kChannel:
+      return "Channel";
+    case kMessage:
+      return "Message";
+    case kChunk:
+      return "Chunk";
+    case kMessageIndex:
+      return "Message Index";
+    case kMetadata:
+      return "Metadata";
+    case kDataEnd:
+      return "Data End";
+    default:
+      return "summary";
   }
 }
 
@@ -568,9 +578,8 @@ struct Scan {
         ++summary.orphan_messages;
         return;
       }
-      throw Error(
-          InputLocation{source, {}, {}, static_cast<int64_t>(offset)},
-          fmt::format("message for channel {} before its Channel record", m.channel_id));
+      throw Error(InputLocation{source, {}, {}, static_cast<int64_t>(offset)},
+                  fmt::format("message for channel {} before its Channel record", m.channel_id));
     }
     ++summary.messages;
     if (handlers.on_message) handlers.on_message(m);
@@ -705,8 +714,8 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
     file.seek(summary_start);
     file.read(covered, buf);
     if (mcap_crc32(buf) != summary_crc) {
-      scan.note_damage(fmt::format("byte {}: the summary's CRC-32 does not match; not used",
-                                   summary_start));
+      scan.note_damage(
+          fmt::format("byte {}: the summary's CRC-32 does not match; not used", summary_start));
       return;
     }
     ByteReader r(std::span<const uint8_t>(buf).first(footer_at - summary_start), path,
@@ -769,7 +778,8 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
     }
     bool unreadable = false;
     if (!h) {
-      if (!recover) return truncated(fmt::format("inside a record header at byte {}", record_start));
+      if (!recover)
+        return truncated(fmt::format("inside a record header at byte {}", record_start));
       unreadable = true;
     } else if (h->len > kMaxRecordBytes) {
       if (!recover) {
@@ -869,9 +879,9 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
             if (records.size() != uncompressed_size)
               problem = "uncompressed size does not match its records";
             p.plain = records;
-          } else if (compression == "zstd" && ZSTD_getFrameContentSize(records.data(),
-                                                                       records.size()) !=
-                                                  uncompressed_size) {
+          } else if (compression == "zstd" &&
+                     ZSTD_getFrameContentSize(records.data(), records.size()) !=
+                         uncompressed_size) {
             // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
             // checking first means a lying header never decides how much memory is allocated.
             problem = "uncompressed size does not match its zstd frame";
@@ -950,9 +960,8 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
     } else if (p.metadata) {
       if (!data_ended) out.metadata.push_back(std::move(*p.metadata));
     } else if (p.chunk) {
-      const auto damaged =
-          scan.chunk_records(p.plain, path + " (chunk at byte " + std::to_string(record_start) + ")",
-                             0);
+      const auto damaged = scan.chunk_records(
+          p.plain, path + " (chunk at byte " + std::to_string(record_start) + ")", 0);
       if (damaged) {
         scan.note_damage(fmt::format("Chunk records cut short ({})", *damaged));
       } else {

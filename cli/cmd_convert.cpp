@@ -62,9 +62,10 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     }
     std::error_code ec;
     if (fs::equivalent(inputs.front().path, out, ec)) {
-      throw Error(fmt::format("convert --recover: {} is the input; write the recovered file to a "
-                              "new name",
-                              out));
+      throw Error(
+          fmt::format("convert --recover: {} is the input; write the recovered file to a "
+                      "new name",
+                      out));
     }
     // Recordings of `imukit record` also get their clocks refitted over the samples kept.
     const capture::RecoveredRecording r = capture::recover_recording(inputs.front().path, out);
@@ -78,10 +79,10 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
                  s.orphan_messages);
     if (r.undecodable_messages)
       fmt::print("  {} messages left out: they do not decode\n", r.undecodable_messages);
-    fmt::print("wrote {}: {} messages of {} chunks{}\n", out,
-               s.messages - r.undecodable_messages, s.chunks,
-               s.damaged_records ? fmt::format("; {} damaged records skipped", s.damaged_records)
-                                 : "");
+    fmt::print(
+        "wrote {}: {} messages of {} chunks{}\n", out, s.messages - r.undecodable_messages,
+        s.chunks,
+        s.damaged_records ? fmt::format("; {} damaged records skipped", s.damaged_records) : "");
     for (const auto& [device, fit] : r.clocks) {
       fmt::print("  {}: clock refitted over {} packets ({:+.3f} ppm)\n", device, fit.packets,
                  fit.skew_ppm);

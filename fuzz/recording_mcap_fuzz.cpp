@@ -12,8 +12,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
-    const imukit::capture::RecordingRead r = imukit::capture::read_recording_mcap(
-        std::span<const uint8_t>(data, size), "fuzz.mcap");
+    const imukit::capture::RecordingRead r =
+        imukit::capture::read_recording_mcap(std::span<const uint8_t>(data, size), "fuzz.mcap");
     imukit::fuzz::use_recording(r.recording);
   } catch (const imukit::Error&) {
   }

@@ -34,8 +34,7 @@ inline void use_recording(const Recording& recording) {
     } catch (const Error&) {
       std::abort();  // imukit cannot read what it wrote
     }
-    if (back.t != series.t || back.accel != series.accel || back.gyro != series.gyro)
-      std::abort();
+    if (back.t != series.t || back.accel != series.accel || back.gyro != series.gyro) std::abort();
   }
 }
 

@@ -27,9 +27,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   uint64_t messages = 0;
   imukit::capture::McapReadSummary back;
   try {
-    back = imukit::capture::read_mcap(out, [&](const imukit::capture::McapMessageView&) {
-      ++messages;
-    });
+    back = imukit::capture::read_mcap(out,
+                                      [&](const imukit::capture::McapMessageView&) { ++messages; });
   } catch (const imukit::Error&) {
     std::abort();
   }

@@ -49,12 +49,12 @@ std::string_view to_string(SegmentCorrection c);
 SegmentCorrection parse_segment_correction(std::string_view name);
 
 struct CorrectionSpline {
-  int dims = 0;                                      // 0 (none), 1 (twist) or 3 (rotation)
+  int dims = 0;                                        // 0 (none), 1 (twist) or 3 (rotation)
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // e0, e1, e2 in the joint frame (columns)
-  TimeNs t0_ns = 0;              // IMU time of the first knot
-  double knot_spacing_s = 0.0;   // spacing of the uniform knots
-  Eigen::MatrixXd control;       // dims x (segments + 3) control points, rad
-  TimeNs t1_ns() const;          // IMU time of the last knot
+  TimeNs t0_ns = 0;                                    // IMU time of the first knot
+  double knot_spacing_s = 0.0;                         // spacing of the uniform knots
+  Eigen::MatrixXd control;                             // dims x (segments + 3) control points, rad
+  TimeNs t1_ns() const;                                // IMU time of the last knot
   // Angles (a0, a1, a2) and their first two time derivatives at IMU time t (held at the end
   // values outside [t0, t1]); zero where dims says there is no such angle.
   Eigen::Vector3d angles(TimeNs t) const;

@@ -71,12 +71,13 @@ void apply_names(py::handle names, bool value, sim::IdentifyOptions& o, const ch
 
 std::shared_ptr<IdentifyHandle> run_identify(
     const sim::Body& body, sim::MotionSource& motion, const ImuSeries& imu,
-    std::optional<std::string> joint, std::optional<std::string> init, py::handle position_m, py::handle q_joint_sensor, bool rotation_from_data, py::handle estimate,
-    py::handle fix, const std::string& correction, double knot_spacing_s, double twist_prior_rad,
+    std::optional<std::string> joint, std::optional<std::string> init, py::handle position_m,
+    py::handle q_joint_sensor, bool rotation_from_data, py::handle estimate, py::handle fix,
+    const std::string& correction, double knot_spacing_s, double twist_prior_rad,
     double tilt_prior_rad, double smoothness, double max_clock_rate,
     std::optional<int64_t> motion_start_ns, std::optional<double> time_offset_s,
-    double max_time_offset_s, std::optional<double> gravity, py::handle invalid_motion,
-    int threads, double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
+    double max_time_offset_s, std::optional<double> gravity, py::handle invalid_motion, int threads,
+    double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
   sim::IdentifyOptions o;
   if (init) {
     o.init = sim::resolve_preset(sim::placement_preset(*init), body);
@@ -140,8 +141,8 @@ std::shared_ptr<IdentifyHandle> run_identify(
     h->result = sim::identify(body, motion, imu, o);
   }
   // The mean rate: frame k of the fitted motion at first + k / rate, the last on the last sample.
-  h->imu_rate_hz = 1e9 * static_cast<double>(imu.size() - 1) /
-                   static_cast<double>(imu.t.back() - imu.t.front());
+  h->imu_rate_hz =
+      1e9 * static_cast<double>(imu.size() - 1) / static_cast<double>(imu.t.back() - imu.t.front());
   h->imu_samples = static_cast<int64_t>(imu.size());
   h->imu_first_ns = imu.t.front();
   return h;
@@ -158,10 +159,11 @@ q_joint_sensor w x y z), biases and scale errors, timing (time_offset_s, clock_r
 per-axis fidelity before and after (dicts: accel/gyro -> rmse, correlation), the samples used
 and the model's signals before and after ((n, 3) arrays). to_json() is imukit.placement/1;
 fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
-      .def_property_readonly("joint",
-                             [](const H& h) {
-                               return h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name;
-                             })
+      .def_property_readonly(
+          "joint",
+          [](const H& h) {
+            return h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name;
+          })
       .def_property_readonly("position_m",
                              [](const H& h) { return vec(h.result.placement.p_joint_sensor); })
       .def_property_readonly("q_joint_sensor",
@@ -181,34 +183,33 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
                              [](const H& h) { return h.result.coarse_clock_rate; })
       .def_property_readonly("t_ref_ns", [](const H& h) { return h.result.t_ref_ns; })
       .def_property_readonly("motion_start_ns", [](const H& h) { return h.result.motion_start_ns; })
-      .def_property_readonly("correction",
-                             [](const H& h) {
-                               const sim::CorrectionSpline& c = h.result.correction;
-                               py::dict d;
-                               d["kind"] = c.dims == 0 ? "none" : c.dims == 1 ? "twist" : "rotation";
-                               d["axes_joint"] = vec(Eigen::Map<const Eigen::VectorXd>(
-                                                         c.axes.data(), 3 * c.dims))
-                                                     .attr("reshape")(c.dims, 3);
-                               d["t0_ns"] = c.t0_ns;
-                               d["knot_spacing_s"] = c.knot_spacing_s;
-                               Eigen::MatrixXd ct = c.control.transpose();  // (knots, dims)
-                               py::array_t<double> ctrl({ct.rows(), ct.cols()});
-                               for (Eigen::Index i = 0; i < ct.rows(); ++i)
-                                 for (Eigen::Index k = 0; k < ct.cols(); ++k)
-                                   ctrl.mutable_at(i, k) = ct(i, k);
-                               d["control_rad"] = ctrl;
-                               return d;
-                             })
-      .def_property_readonly("correction_angles",
-                             [](const H& h) {
-                               const Eigen::MatrixXd& a = h.result.correction_angles;
-                               py::array_t<double> out({a.cols(), a.rows()});
-                               for (Eigen::Index i = 0; i < a.cols(); ++i)
-                                 for (Eigen::Index k = 0; k < a.rows(); ++k)
-                                   out.mutable_at(i, k) = a(k, i);
-                               return out;
-                             },
-                             "(samples used, dims) correction angles at the samples used, rad")
+      .def_property_readonly(
+          "correction",
+          [](const H& h) {
+            const sim::CorrectionSpline& c = h.result.correction;
+            py::dict d;
+            d["kind"] = c.dims == 0 ? "none" : c.dims == 1 ? "twist" : "rotation";
+            d["axes_joint"] = vec(Eigen::Map<const Eigen::VectorXd>(c.axes.data(), 3 * c.dims))
+                                  .attr("reshape")(c.dims, 3);
+            d["t0_ns"] = c.t0_ns;
+            d["knot_spacing_s"] = c.knot_spacing_s;
+            Eigen::MatrixXd ct = c.control.transpose();  // (knots, dims)
+            py::array_t<double> ctrl({ct.rows(), ct.cols()});
+            for (Eigen::Index i = 0; i < ct.rows(); ++i)
+              for (Eigen::Index k = 0; k < ct.cols(); ++k) ctrl.mutable_at(i, k) = ct(i, k);
+            d["control_rad"] = ctrl;
+            return d;
+          })
+      .def_property_readonly(
+          "correction_angles",
+          [](const H& h) {
+            const Eigen::MatrixXd& a = h.result.correction_angles;
+            py::array_t<double> out({a.cols(), a.rows()});
+            for (Eigen::Index i = 0; i < a.cols(); ++i)
+              for (Eigen::Index k = 0; k < a.rows(); ++k) out.mutable_at(i, k) = a(k, i);
+            return out;
+          },
+          "(samples used, dims) correction angles at the samples used, rad")
       .def_property_readonly("fidelity_before",
                              [](const H& h) { return fidelity_dict(h.result.fidelity_before); })
       .def_property_readonly("fidelity_after",
@@ -223,10 +224,13 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
                                return py::make_tuple(h.result.rms_after.accel,
                                                      h.result.rms_after.gyro);
                              })
-      .def_property_readonly("t", [](const H& h) { return py::array_t<int64_t>(h.result.t.size(), h.result.t.data()); })
+      .def_property_readonly(
+          "t",
+          [](const H& h) { return py::array_t<int64_t>(h.result.t.size(), h.result.t.data()); })
       .def_property_readonly("accel", [](const H& h) { return triad(h.result.accel); })
       .def_property_readonly("gyro", [](const H& h) { return triad(h.result.gyro); })
-      .def_property_readonly("accel_before", [](const H& h) { return triad(h.result.accel_before); })
+      .def_property_readonly("accel_before",
+                             [](const H& h) { return triad(h.result.accel_before); })
       .def_property_readonly("gyro_before", [](const H& h) { return triad(h.result.gyro_before); })
       .def_property_readonly("accel_after", [](const H& h) { return triad(h.result.accel_after); })
       .def_property_readonly("gyro_after", [](const H& h) { return triad(h.result.gyro_after); })
@@ -254,8 +258,9 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
       .def_property_readonly("converged", [](const H& h) { return h.result.converged; })
       .def_property_readonly("seconds", [](const H& h) { return h.result.seconds; })
       .def_property_readonly("solver_summary", [](const H& h) { return h.result.solver_summary; })
-      .def("to_json", [](const H& h) { return sim::placement_json(h.result, h.body); },
-           "The result as imukit.placement/1 JSON text.")
+      .def(
+          "to_json", [](const H& h) { return sim::placement_json(h.result, h.body); },
+          "The result as imukit.placement/1 JSON text.")
       .def(
           "fitted_motion",
           [](const H& h, sim::MotionSource& motion, std::optional<int64_t> first_ns,
@@ -295,17 +300,16 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
 
   m.def("identify", &run_identify, py::arg("body"), py::arg("motion"), py::arg("imu"),
         py::arg("joint") = py::none(), py::kw_only(), py::arg("init") = py::none(),
-        py::arg("position_m") = py::none(),
-        py::arg("q_joint_sensor") = py::none(), py::arg("rotation_from_data") = true,
-        py::arg("estimate") = py::tuple(), py::arg("fix") = py::tuple(),
-        py::arg("correction") = "none", py::arg("knot_spacing_s") = 0.3,
-        py::arg("twist_prior_rad") = 1.5, py::arg("tilt_prior_rad") = 0.1,
-        py::arg("correction_smoothness_radps2") = 30.0, py::arg("max_clock_rate") = 2e-4,
-        py::arg("motion_start_ns") = py::none(), py::arg("time_offset_s") = py::none(),
-        py::arg("max_time_offset_s") = 1.0, py::arg("gravity") = py::none(),
-        py::arg("invalid_motion") = py::none(), py::arg("threads") = 1,
-        py::arg("function_tolerance") = 1e-12, py::arg("accel_bias_prior_mps2") = 0.0,
-        py::arg("gyro_bias_prior_radps") = 0.0, R"doc(
+        py::arg("position_m") = py::none(), py::arg("q_joint_sensor") = py::none(),
+        py::arg("rotation_from_data") = true, py::arg("estimate") = py::tuple(),
+        py::arg("fix") = py::tuple(), py::arg("correction") = "none",
+        py::arg("knot_spacing_s") = 0.3, py::arg("twist_prior_rad") = 1.5,
+        py::arg("tilt_prior_rad") = 0.1, py::arg("correction_smoothness_radps2") = 30.0,
+        py::arg("max_clock_rate") = 2e-4, py::arg("motion_start_ns") = py::none(),
+        py::arg("time_offset_s") = py::none(), py::arg("max_time_offset_s") = 1.0,
+        py::arg("gravity") = py::none(), py::arg("invalid_motion") = py::none(),
+        py::arg("threads") = 1, py::arg("function_tolerance") = 1e-12,
+        py::arg("accel_bias_prior_mps2") = 0.0, py::arg("gyro_bias_prior_radps") = 0.0, R"doc(
 Fits a sensor's placement, biases (scale errors, clock rate with estimate=[...]), the time offset
 and optionally a smooth correction of the sensor segment's rotation (correction="twist" or
 "rotation") so that the simulator reproduces a real IMU (imukit.Series with accel and gyro).
@@ -326,10 +330,9 @@ unusable input. The GIL is released while it runs (threads can fit trials in par
         const auto g = read_f64(mg, "measured_gyro");
         const auto x = read_f64(sa, "simulated_accel");
         const auto y = read_f64(sg, "simulated_gyro");
-        return fidelity_dict(sim::fidelity(map_triad(a, n, "measured_accel"),
-                                           map_triad(g, n, "measured_gyro"),
-                                           map_triad(x, n, "simulated_accel"),
-                                           map_triad(y, n, "simulated_gyro")));
+        return fidelity_dict(
+            sim::fidelity(map_triad(a, n, "measured_accel"), map_triad(g, n, "measured_gyro"),
+                          map_triad(x, n, "simulated_accel"), map_triad(y, n, "simulated_gyro")));
       },
       py::arg("measured_accel"), py::arg("measured_gyro"), py::arg("simulated_accel"),
       py::arg("simulated_gyro"),

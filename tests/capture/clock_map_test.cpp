@@ -204,10 +204,11 @@ TEST(ClockMapper, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
   EXPECT_LT(worst_vs_fit, 20e-6);
   EXPECT_LT(worst_after, 100e-6);
   EXPECT_LT(worst_after_10s, 30e-6);
-  std::printf("online - offline: %.1f us at the start, %.1f us after 0.1 s, %.1f us after 10 s; "
-              "slewed - online fit after 0.1 s: %.1f us; intervals %.1f..%.1f us\n",
-              first_error * 1e6, worst_after * 1e6, worst_after_10s * 1e6, worst_vs_fit * 1e6,
-              static_cast<double>(min_step) * 1e-3, static_cast<double>(max_step) * 1e-3);
+  std::printf(
+      "online - offline: %.1f us at the start, %.1f us after 0.1 s, %.1f us after 10 s; "
+      "slewed - online fit after 0.1 s: %.1f us; intervals %.1f..%.1f us\n",
+      first_error * 1e6, worst_after * 1e6, worst_after_10s * 1e6, worst_vs_fit * 1e6,
+      static_cast<double>(min_step) * 1e-3, static_cast<double>(max_step) * 1e-3);
 }
 
 // The first time-sync ping lowers the fit by the link latency (2 ms) at once; the online times
@@ -250,7 +251,7 @@ TEST(ClockMapper, GarbageTimesAreLeftOutAndTheMapNeverOverflowsOrRunsBack) {
   m.add_packet(3'000'000, INT64_MAX);
   EXPECT_EQ(m.fit().rejected, 2u);
   EXPECT_EQ(m.fit().packets, 2u);
-  EXPECT_EQ(m.map(UINT64_MAX / 2), INT64_MAX);  // far past the int64 range: saturated
+  EXPECT_EQ(m.map(UINT64_MAX / 2), INT64_MAX);      // far past the int64 range: saturated
   m.add_ping(INT64_MIN, 0, UINT64_MAX, INT64_MAX);  // a ping from nowhere: ignored
   EXPECT_FALSE(m.fit().ping_corrected);
 

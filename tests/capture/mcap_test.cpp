@@ -360,14 +360,13 @@ std::vector<Msg> recover_in_memory(const std::vector<uint8_t>& bytes, McapReadSu
   std::vector<Msg> got;
   McapReadOptions options;
   options.recover = true;
-  *s = read_mcap(
-      std::span<const uint8_t>(bytes), "damaged.mcap",
-      McapHandlers{nullptr, nullptr,
-                   [&](const McapMessageView& m) {
-                     got.push_back({m.channel_id, m.sequence, m.log_time, m.publish_time,
-                                    std::vector<uint8_t>(m.data.begin(), m.data.end())});
-                   }},
-      options);
+  *s = read_mcap(std::span<const uint8_t>(bytes), "damaged.mcap",
+                 McapHandlers{nullptr, nullptr,
+                              [&](const McapMessageView& m) {
+                                got.push_back({m.channel_id, m.sequence, m.log_time, m.publish_time,
+                                               std::vector<uint8_t>(m.data.begin(), m.data.end())});
+                              }},
+                 options);
   return got;
 }
 
@@ -523,8 +522,9 @@ TEST(Mcap, DamagedMessageIndexOrChunkHeaderFailsReadingButNotRecovery) {
     }
     McapReadSummary s;
     const auto got = recover_in_memory(*bytes, &s);
-    const std::vector<const Record*> lost =
-        bytes == &bad_header ? std::vector<const Record*>{third_chunk} : std::vector<const Record*>{};
+    const std::vector<const Record*> lost = bytes == &bad_header
+                                                ? std::vector<const Record*>{third_chunk}
+                                                : std::vector<const Record*>{};
     EXPECT_EQ(got, without_chunks(written, lost)) << error;
     EXPECT_EQ(got.size(), bytes == &bad_header ? 400u - 50u : 400u) << error;
     ASSERT_EQ(s.damage.size(), 1u) << error << notes(s);
@@ -542,8 +542,8 @@ TEST(Mcap, WithoutASummaryADamagedChannelRecordCostsOnlyItsMessages) {
   const auto written = write_file(path, 200, 100.0, McapCompression::zstd, 12);
   std::vector<uint8_t> bytes = slurp(path);
   const std::vector<Record> records = records_of(bytes);
-  const auto data_end = std::find_if(records.begin(), records.end(),
-                                     [](const Record& r) { return r.op == 0x0F; });
+  const auto data_end =
+      std::find_if(records.begin(), records.end(), [](const Record& r) { return r.op == 0x0F; });
   ASSERT_NE(data_end, records.end());
   bytes.resize(data_end->offset);  // cut where Data End would start: every chunk complete
   std::vector<const Record*> channels;

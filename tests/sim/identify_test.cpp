@@ -277,7 +277,8 @@ TEST(Identify, TimeScaleFollowsTheChainRule) {
   EXPECT_NEAR(r.rms_after.accel, tr.sigma_a, 0.1 * tr.sigma_a);
   EXPECT_NEAR(r.rms_after.gyro, tr.sigma_g, 0.1 * tr.sigma_g);
   // The fitted motion at the IMU's rate re-simulates the fitted model.
-  Motion fitted = fitted_motion(body, motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), 50.0);
+  Motion fitted =
+      fitted_motion(body, motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), 50.0);
   SensorSpec placed = spec;
   placed.placement = r.placement;
   Simulator resim(body, {placed}, so);

@@ -70,8 +70,9 @@ TEST(Motion, NonFiniteValuesNameFrameAndJoint) {
 // of 1e-12 s would put every frame at the same ns. The rate from t is bounded like a BVH's.
 TEST(Motion, AbsurdFrameStepsInTheTimeColumnAreRejected) {
   for (const char* t1 : {"333333333333333333333", "1e-12", "7200"}) {
-    const std::string text = std::string("t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n") +
-                             t1 + ",1,0,0,0\n";
+    const std::string text =
+        std::string("t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n") + t1 +
+        ",1,0,0,0\n";
     try {
       parse_quaternion_csv(text, "steps.csv", small_body());
       ADD_FAILURE() << "accepted a step of " << t1 << " s";
