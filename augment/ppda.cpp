@@ -14,6 +14,7 @@
 
 #include "core/error.hpp"
 #include "core/hardware_model.hpp"
+#include "core/isa.hpp"
 #include "core/lane_math.hpp"
 #include "core/so3.hpp"
 #include "core/time.hpp"
@@ -86,10 +87,8 @@ double uniform_in(Rng& rng, double lo, double hi) {
 // itself, and near it sin(s h) / |v| -> s / w stays accurate. The hot loop of amplitude
 // augmentation, so built from core/lane_math's branch-free functions: it vectorises.
 // (core's scale_rotation does the same through so3_log and so3_exp.)
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void scale_angles(double* __restrict q, const double* __restrict s, std::size_t n) {
+[[gnu::always_inline]] inline void scale_angles_kernel(double* __restrict q,
+                                                       const double* __restrict s, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
     const double sign = q[4 * i + 3] < 0.0 ? -1.0 : 1.0;
     const double x = sign * q[4 * i], y = sign * q[4 * i + 1], z = sign * q[4 * i + 2];
@@ -103,6 +102,10 @@ void scale_angles(double* __restrict q, const double* __restrict s, std::size_t 
     q[4 * i + 3] = sc.cos;
   }
 }
+// Built for the baseline, AVX2 and AVX-512 (core/isa.hpp): the loop vectorises to the machine's
+// width, with the same bits in every variant.
+IMUKIT_ISA_VARIANTS(void, scale_angles, scale_angles_kernel,
+                    (double* q, const double* s, std::size_t n), (q, s, n))
 
 // The window's rotations of one joint: for window frame j, the 4-point Lagrange combination
 // (weights w[4j..4j+3]) of the source rotations s0[j] .. s0[j]+3, each sign-aligned with the
@@ -140,12 +143,9 @@ constexpr std::size_t kInterpolationTile = 64;
   }
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void interpolate_rotations(const double* src, std::size_t stride, const int64_t* ref,
-                           const int64_t* s0, const double* w, const double* exact, double* dst,
-                           std::size_t n) {
+[[gnu::always_inline]] inline void interpolate_rotations_kernel(
+    const double* src, std::size_t stride, const int64_t* ref, const int64_t* s0, const double* w,
+    const double* exact, double* dst, std::size_t n) {
   // Unchanged timing: every frame is a source frame, in order, so the rotations are copied.
   bool copy = true;
   for (std::size_t j = 0; j < n && copy; ++j)
@@ -173,6 +173,10 @@ void interpolate_rotations(const double* src, std::size_t stride, const int64_t*
     interpolate_tile(st, rf, w + 4 * j0, exact + j0, dst + 4 * j0, m);
   }
 }
+IMUKIT_ISA_VARIANTS(void, interpolate_rotations, interpolate_rotations_kernel,
+                    (const double* src, std::size_t stride, const int64_t* ref, const int64_t* s0,
+                     const double* w, const double* exact, double* dst, std::size_t n),
+                    (src, stride, ref, s0, w, exact, dst, n))
 
 }  // namespace
 
