@@ -2,6 +2,7 @@
 #include "augment/dataset.hpp"
 
 #include <fmt/core.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -63,7 +64,7 @@ std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, d
       const std::optional<double> v = parse_double(f.text);
       if (!v || !std::isfinite(*v))
         throw Error(InputLocation{path, reader.line_number(), f.column, std::nullopt},
-                    "expected a number, got '" + std::string(f.text) + "'");
+                    "expected a number, got " + quote_excerpt(f.text, 24));
       return *v;
     };
     const auto label = [&](const Field& f) {
@@ -235,6 +236,26 @@ void check_options(const DatasetOptions& o, const Policy& policy) {
   policy.validate();
 }
 
+// N windows of T samples and C channels (float32, plus an int64 label and sub-policy index each)
+// must fit in the memory allowed before they are allocated.
+void check_size(std::size_t N, std::size_t T, std::size_t C, std::size_t max_bytes) {
+  if (max_bytes == 0) {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+    max_bytes = pages > 0 && page > 0
+                    ? static_cast<std::size_t>(pages) / 2 * static_cast<std::size_t>(page)
+                    : std::size_t{4} << 30;
+  }
+  // In long double: the product of three size_t can exceed 2^64.
+  const long double bytes = static_cast<long double>(N) *
+                            (static_cast<long double>(T) * static_cast<long double>(C) * 4 + 16);
+  if (bytes <= static_cast<long double>(max_bytes)) return;
+  const auto gib = [](long double b) { return static_cast<double>(b / (1 << 30)); };
+  throw Error(fmt::format(
+      "augment: {} windows x {} samples x {} channels need {:.3g} GiB in memory, more than the "
+      "{:.3g} GiB allowed (half this machine's memory); ask for fewer windows (--count)",
+      N, T, C, gib(bytes), gib(static_cast<long double>(max_bytes))));
+}
+
 // Sub-policy of batch b (-1: identity), drawn from the batch's stream.
 int64_t batch_sub_policy(const Policy& policy, double identity_fraction, Rng& batch_rng) {
   if (identity_fraction > 0.0 && batch_rng.uniform() < identity_fraction) return -1;
@@ -268,6 +289,7 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = aug.channels();
+  check_size(N, T, C, options.max_bytes);
   Dataset d;
   d.shape = {N, T, C};
   d.X.resize(d.shape.size());
@@ -315,9 +337,10 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   if (!labels.empty() && labels.size() != n)
     throw Error(fmt::format("augment: {} labels for {} samples", labels.size(), n));
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
-  std::vector<float> windows = extract_windows(streams, base, options.window);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = 6 * streams.size();
+  check_size(N + base.size(), T, C, options.max_bytes);  // the base windows are held too
+  std::vector<float> windows = extract_windows(streams, base, options.window);
   Dataset d;
   d.info = base_info(policy, options);
   d.info.mode = "stda";

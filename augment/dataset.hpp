@@ -82,6 +82,9 @@ struct DatasetOptions {
   // Fraction of batches left unaugmented (the paper's one-at-a-time comparison uses 0.5).
   double identity_fraction = 0.0;
   sim::DerivativeMethod method = sim::DerivativeMethod::spline;  // see PpdaOptions
+  // The dataset is built in memory: one needing more bytes than this is refused before anything
+  // is allocated. 0: half the machine's physical memory.
+  std::size_t max_bytes = 0;
 };
 
 struct Dataset {

@@ -5,12 +5,11 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/json_text.hpp"
 #include "sim/placement.hpp"
 #include "sim/scene.hpp"
@@ -40,6 +39,18 @@ double number(const json& j, const std::string& source, const std::string& path)
 double non_negative(const json& j, const std::string& source, const std::string& path) {
   const double v = number(j, source, path);
   if (v < 0.0) fail(source, path, fmt::format("must be >= 0, got {}", v));
+  return v;
+}
+
+// A number in [lo, hi] (unit for the message).
+double bounded(const json& j, const std::string& source, const std::string& path, double lo,
+               double hi, std::string_view unit = "") {
+  const double v = number(j, source, path);
+  if (!(v >= lo && v <= hi)) {
+    fail(source, path,
+         fmt::format("expected a number in [{:g}, {:g}]{}{}, got {:g}", lo, hi,
+                     unit.empty() ? "" : " ", unit, v));
+  }
   return v;
 }
 
@@ -89,7 +100,7 @@ AmplitudeOp parse_amplitude(const json& j, const std::string& source, const std:
   op.method = warp_method(j["method"], source, path + ".method");
   if (op.method != WarpMethod::identity) {
     if (!j.contains("sigma")) fail(source, path + ".sigma", "missing");
-    op.sigma = non_negative(j["sigma"], source, path + ".sigma");
+    op.sigma = bounded(j["sigma"], source, path + ".sigma", 0, PolicyLimits::max_amplitude_sigma);
   }
   if (op.method == WarpMethod::warping) {
     if (!j.contains("knots")) fail(source, path + ".knots", "missing");
@@ -114,16 +125,15 @@ SpeedOp parse_speed(const json& j, const std::string& source, const std::string&
     if (!r.is_array() || r.size() != 2) fail(source, path + ".range", "expected [lo, hi]");
     op.lo = number(r[0], source, path + ".range[0]");
     op.hi = number(r[1], source, path + ".range[1]");
-    if (!(op.lo > 0.0 && op.hi >= op.lo))
-      fail(source, path + ".range", "expected 0 < lo <= hi (b > 1 is faster)");
-    if (op.hi > 100.0) fail(source, path + ".range", "speed factors above 100 are not plausible");
+    if (!(op.lo >= PolicyLimits::min_speed && op.hi >= op.lo && op.hi <= PolicyLimits::max_speed))
+      fail(source, path + ".range",
+           fmt::format("expected {:g} <= lo <= hi <= {:g} (b > 1 is faster)",
+                       PolicyLimits::min_speed, PolicyLimits::max_speed));
   } else if (op.method == WarpMethod::warping) {
     if (!j.contains("knots")) fail(source, path + ".knots", "missing");
     if (!j.contains("ratio")) fail(source, path + ".ratio", "missing");
     op.knots = integer(j["knots"], source, path + ".knots", 0, 1000);
-    op.ratio = number(j["ratio"], source, path + ".ratio");
-    if (!(op.ratio >= 1.0 && op.ratio <= 100.0))
-      fail(source, path + ".ratio", "expected a ratio in [1, 100]");
+    op.ratio = bounded(j["ratio"], source, path + ".ratio", 1, PolicyLimits::max_speed_ratio);
   }
   return op;
 }
@@ -220,24 +230,25 @@ HardwareOp parse_hardware(const json& j, const std::string& source, const std::s
     if (p.is_relative() && !base_dir.empty()) p = std::filesystem::path(base_dir) / p;
     op.profile = read_profile(p.string());
     if (j.contains("scale_spread"))
-      op.scale_spread = non_negative(j["scale_spread"], source, path + ".scale_spread");
+      op.scale_spread = bounded(j["scale_spread"], source, path + ".scale_spread", 0,
+                                PolicyLimits::max_scale_spread);
     if (j.contains("misalignment_spread_deg"))
       op.misalignment_spread_rad =
-          non_negative(j["misalignment_spread_deg"], source, path + ".misalignment_spread_deg") *
+          bounded(j["misalignment_spread_deg"], source, path + ".misalignment_spread_deg", 0,
+                  PolicyLimits::max_misalignment_spread_deg, "deg") *
           kDeg;
     return op;
   }
   for (const char* k : {"scale_spread", "misalignment_spread_deg"})
     if (j.contains(k)) fail(source, path + "." + k, "only with a profile");
   op.kind = HardwareOp::Kind::ranges;
-  if (j.contains("accel_noise"))
-    op.accel_noise = non_negative(j["accel_noise"], source, path + ".accel_noise");
-  if (j.contains("accel_bias"))
-    op.accel_bias = non_negative(j["accel_bias"], source, path + ".accel_bias");
-  if (j.contains("gyro_noise"))
-    op.gyro_noise = non_negative(j["gyro_noise"], source, path + ".gyro_noise");
-  if (j.contains("gyro_bias"))
-    op.gyro_bias = non_negative(j["gyro_bias"], source, path + ".gyro_bias");
+  const auto range = [&](const char* key, double max, const char* unit) {
+    return j.contains(key) ? bounded(j[key], source, path + "." + key, 0, max, unit) : 0.0;
+  };
+  op.accel_noise = range("accel_noise", PolicyLimits::max_accel, "m/s^2");
+  op.accel_bias = range("accel_bias", PolicyLimits::max_accel, "m/s^2");
+  op.gyro_noise = range("gyro_noise", PolicyLimits::max_gyro, "rad/s");
+  op.gyro_bias = range("gyro_bias", PolicyLimits::max_gyro, "rad/s");
   return op;
 }
 
@@ -367,7 +378,8 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
   if (per_sub_probability || root.contains("probabilities")) {
     double sum = 0.0;
     for (double q : policy.probabilities) sum += q;
-    if (!(sum > 0.0) || !std::isfinite(sum)) fail(source, "probabilities", "must not all be 0");
+    if (!(sum > 0.0) || !std::isfinite(sum))
+      fail(source, "probabilities", "must not all be 0 and must sum to a finite number");
     for (double& q : policy.probabilities) q /= sum;
   }
   if (root.contains("stda_rotation_deg")) {
@@ -468,21 +480,33 @@ void Policy::validate() const {
       throw Error(fmt::format("policy {}: probability {} is not a finite number >= 0", name, q));
     sum += q;
   }
-  if (!(sum > 0.0)) throw Error("policy " + name + ": probabilities sum to 0");
+  if (!(sum > 0.0 && std::isfinite(sum)))
+    throw Error("policy " + name +
+                ": probabilities must not all be 0 and must sum to a finite number");
   for (std::size_t i = 0; i < sub_policies.size(); ++i) {
     const SubPolicy& s = sub_policies[i];
     const auto bad = [&](const std::string& what) {
       throw Error(fmt::format("policy {}: sub-policy {}: {}", name, i, what));
     };
-    if (!(std::isfinite(s.amplitude.sigma) && s.amplitude.sigma >= 0)) bad("amplitude sigma");
+    using L = PolicyLimits;
+    const auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
+    if (!in(s.amplitude.sigma, 0, L::max_amplitude_sigma))
+      bad(fmt::format("amplitude sigma outside [0, {:g}]", L::max_amplitude_sigma));
     if (s.amplitude.knots < 0 || s.speed.knots < 0) bad("negative knot count");
-    if (!(s.speed.lo > 0 && s.speed.hi >= s.speed.lo && std::isfinite(s.speed.hi)))
-      bad("speed range");
-    if (!(s.speed.ratio >= 1 && std::isfinite(s.speed.ratio))) bad("speed ratio");
-    for (double v :
-         {s.hardware.accel_noise, s.hardware.accel_bias, s.hardware.gyro_noise,
-          s.hardware.gyro_bias, s.hardware.scale_spread, s.hardware.misalignment_spread_rad})
-      if (!(std::isfinite(v) && v >= 0)) bad("hardware ranges must be finite and >= 0");
+    if (!(in(s.speed.lo, L::min_speed, L::max_speed) && in(s.speed.hi, s.speed.lo, L::max_speed)))
+      bad(fmt::format("speed range outside {:g} <= lo <= hi <= {:g}", L::min_speed, L::max_speed));
+    if (!in(s.speed.ratio, 1, L::max_speed_ratio))
+      bad(fmt::format("speed ratio outside [1, {:g}]", L::max_speed_ratio));
+    if (!(in(s.hardware.accel_noise, 0, L::max_accel) &&
+          in(s.hardware.accel_bias, 0, L::max_accel) && in(s.hardware.gyro_noise, 0, L::max_gyro) &&
+          in(s.hardware.gyro_bias, 0, L::max_gyro) &&
+          in(s.hardware.scale_spread, 0, L::max_scale_spread) &&
+          in(s.hardware.misalignment_spread_rad, 0, L::max_misalignment_spread_deg * kDeg)))
+      bad("hardware ranges outside the limits of augment::PolicyLimits");
+    const Eigen::Vector3d& r = s.placement.rotation_range_rad;
+    if (!(in(r.minCoeff(), 0, M_PI + 1e-12) && in(r.maxCoeff(), 0, M_PI + 1e-12) &&
+          in(s.placement.long_axis_range_rad, 0, M_PI + 1e-12)))
+      bad("placement half-widths outside [0, 180] degrees");
     if (s.hardware.kind == HardwareOp::Kind::profile && !s.hardware.profile) bad("profile missing");
   }
 }
@@ -566,14 +590,14 @@ Policy parse_policy(std::string_view text, const std::string& source, const std:
 Policy read_policy(const std::string& name_or_path) {
   for (const std::string& b : builtin_policy_names())
     if (name_or_path == b) return builtin_policy(b);
-  std::ifstream in(name_or_path, std::ios::binary);
-  if (!in) {
-    throw Error(name_or_path + ": cannot open policy (or use a built-in name: imukit, paper)");
+  std::string text;
+  try {
+    text = read_regular_file(name_or_path, kMaxJsonBytes, "policy");
+  } catch (const IoError& e) {
+    throw IoError(std::string(e.what()) + " (or name a built-in policy: imukit, paper)");
   }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  Policy p = parse_policy(ss.str(), name_or_path,
-                          std::filesystem::path(name_or_path).parent_path().string());
+  Policy p =
+      parse_policy(text, name_or_path, std::filesystem::path(name_or_path).parent_path().string());
   if (p.name.empty()) p.name = std::filesystem::path(name_or_path).stem().string();
   return p;
 }

@@ -35,6 +35,19 @@ namespace imukit::augment {
 
 inline constexpr std::string_view kPolicySchema = "imukit.policy/1";
 
+// The plausible range of every parameter: a policy outside it is refused when it is read (and
+// by Policy::validate), not when a draw from it breaks the simulation. Draws beyond these would
+// not be human motion or a real sensor.
+struct PolicyLimits {
+  static constexpr double max_amplitude_sigma = 2.0;            // the grids use up to 0.6
+  static constexpr double min_speed = 0.01, max_speed = 100.0;  // speed factor b
+  static constexpr double max_speed_ratio = 100.0;
+  static constexpr double max_accel = 1000.0;  // m/s^2: noise sigma and bias half-width
+  static constexpr double max_gyro = 100.0;    // rad/s: noise sigma and bias half-width
+  static constexpr double max_scale_spread = 1.0;
+  static constexpr double max_misalignment_spread_deg = 90.0;
+};
+
 enum class WarpMethod { identity, scaling, warping };
 std::string_view to_string(WarpMethod method);
 

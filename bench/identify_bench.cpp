@@ -1,6 +1,7 @@
 // Identification speed (sim/identify.hpp): the time to identify placement, biases and time
 // offset from 60 s at 100 Hz, against the time to simulate that minute once with the spline
-// method (the baseline measured in the same run), and a run-time-vs-error table over the
+// method (the baseline measured in the same run); a UTD-MHAD-sized trial with a time scale and
+// the segment correction against simulating it once; and a run-time-vs-error table over the
 // recording length (--table).
 #include <benchmark/benchmark.h>
 
@@ -52,7 +53,7 @@ struct Case {
   double dt = 0.2373;
 };
 
-Case make_case(double seconds, uint64_t seed) {
+Case make_case(double seconds, uint64_t seed, double imu_period_s = 0.01) {
   Case c;
   c.body.add_joint("pelvis", -1, Vector3d::Zero());
   c.body.add_joint("arm", 0, Vector3d(0.3, 0.0, 0.1));
@@ -67,7 +68,7 @@ Case make_case(double seconds, uint64_t seed) {
   so.method = DerivativeMethod::spline;
   Simulator sim(c.body, {s}, so);
   std::vector<TimeNs> stamps, tau;
-  for (double t = 0.5; t < seconds - 0.5; t += 0.01) {
+  for (double t = 0.5; t < seconds - 0.5; t += imu_period_s) {
     stamps.push_back(std::llround(t * 1e9));
     tau.push_back(std::llround((t + c.dt) * 1e9));
   }
@@ -117,6 +118,47 @@ void BM_Identify60s100Hz(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_Identify60s100Hz)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// A UTD-MHAD-sized trial (5 s at 50 Hz) fitted as the batch fits one (docs/identification.md,
+// "UTD-MHAD"): clock rate within +-5 % (coarse grid, then Levenberg-Marquardt), bias priors,
+// function tolerance 1e-6; arg 0 without a segment correction, 1 the twist, 2 the 3-D rotation.
+void BM_IdentifyTrial5s50Hz(benchmark::State& state) {
+  Case c = make_case(6.0, 1, 0.02);
+  IdentifyOptions o;
+  o.joint = 1;
+  o.clock_rate = true;
+  o.max_clock_rate = 0.05;
+  o.accel_bias_prior_mps2 = 0.5;
+  o.gyro_bias_prior_radps = 0.05;
+  o.function_tolerance = 1e-6;
+  o.correction = state.range(0) == 0   ? SegmentCorrection::none
+                 : state.range(0) == 1 ? SegmentCorrection::twist
+                                       : SegmentCorrection::rotation;
+  for (auto _ : state) {
+    const IdentifyResult r = identify(c.body, c.motion, c.imu, o);
+    benchmark::DoNotOptimize(r.time_offset_s);
+    state.counters["iterations"] = r.iterations;
+    state.counters["samples"] = static_cast<double>(r.samples_used);
+  }
+}
+BENCHMARK(BM_IdentifyTrial5s50Hz)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond);
+
+// Baseline of the trial: simulating its 5 s once (spline, at the 50 Hz IMU times).
+void BM_SimulateTrialSpline(benchmark::State& state) {
+  Case c = make_case(6.0, 1, 0.02);
+  SensorSpec s;
+  s.name = "imu";
+  s.placement = c.truth;
+  SimulationOptions so;
+  so.method = DerivativeMethod::spline;
+  Simulator sim(c.body, {s}, so);
+  std::vector<SensorBlock> out;
+  for (auto _ : state) {
+    sim.evaluate(c.motion, c.imu.t, out);
+    benchmark::DoNotOptimize(out[0].specific_force.data());
+  }
+}
+BENCHMARK(BM_SimulateTrialSpline)->Unit(benchmark::kMicrosecond);
 
 void print_table() {
   std::printf(

@@ -1,5 +1,6 @@
 #include "capture/live_detectors.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace imukit::capture {
@@ -64,15 +65,23 @@ std::optional<PoseEvent> PoseGuide::feed(TimeNs t, const Eigen::Vector3d& accel,
   }
   still_sum_ += accel;
   ++still_n_;
-  if (pose_taken_ || to_seconds(t - still_since_) < opt_.still_s) return std::nullopt;
+  const bool initial = poses_.empty() && opt_.initial_still_s > 0;
+  const double hold = initial ? std::max(opt_.still_s, opt_.initial_still_s) : opt_.still_s;
+  if (pose_taken_ || to_seconds(t - still_since_) < hold) return std::nullopt;
   pose_taken_ = true;
   const Eigen::Vector3d dir = still_sum_.normalized();
   const double cos_min = std::cos(opt_.min_separation_deg * M_PI / 180.0);
   for (const Eigen::Vector3d& p : poses_) {
-    if (p.dot(dir) > cos_min) return PoseEvent{PoseEvent::Kind::repeated_pose, t, count(), dir};
+    if (p.dot(dir) > cos_min)
+      return PoseEvent{PoseEvent::Kind::repeated_pose, t, count(), dir, still_since_, false};
   }
   poses_.push_back(dir);
-  return PoseEvent{done() ? PoseEvent::Kind::done : PoseEvent::Kind::new_pose, t, count(), dir};
+  return PoseEvent{done() ? PoseEvent::Kind::done : PoseEvent::Kind::new_pose,
+                   t,
+                   count(),
+                   dir,
+                   still_since_,
+                   initial};
 }
 
 }  // namespace imukit::capture

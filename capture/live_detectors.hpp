@@ -48,6 +48,10 @@ struct PoseGuideOptions {
   double max_gyro_norm = 0.1;   // rad/s, mean |w| within the window (when a gyro is present)
   double min_separation_deg =
       30.0;  // a new pose's gravity direction differs this much from all others
+  // The first pose counts only once the device has been still this long: the initial static
+  // period whose variance sets a multi-position calibration's stillness threshold (Tedaldi et
+  // al.; `imukit calibrate --init-static`). 0: the first pose is like any other.
+  double initial_still_s = 0.0;
 };
 
 struct PoseEvent {
@@ -56,6 +60,8 @@ struct PoseEvent {
   TimeNs t;
   int count;                    // distinct poses so far
   Eigen::Vector3d gravity_dir;  // unit vector, sensor frame (what the accelerometer saw)
+  TimeNs still_since = 0;       // start of the stillness that made this pose
+  bool initial = false;         // the first pose, held for the initial still period
 };
 
 class PoseGuide {

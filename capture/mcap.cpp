@@ -7,9 +7,11 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <optional>
 
 #include "capture/bytes.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -108,8 +110,8 @@ McapWriter::McapWriter(const std::string& path, McapWriterOptions options)
     : path_(path), options_(std::move(options)) {
   file_ = std::fopen(path.c_str(), "wb");
   if (!file_) {
-    throw Error(InputLocation{path, {}, {}, {}},
-                std::string("cannot open for writing: ") + std::strerror(errno));
+    throw IoError(InputLocation{path, {}, {}, {}},
+                  std::string("cannot open for writing: ") + std::strerror(errno));
   }
   write_raw(kMagic);
   std::vector<uint8_t> body;
@@ -133,8 +135,8 @@ McapWriter::~McapWriter() {
 void McapWriter::write_raw(std::span<const uint8_t> bytes) {
   if (!file_) throw Error(fmt::format("{}: write after close", path_));
   if (!bytes.empty() && std::fwrite(bytes.data(), 1, bytes.size(), file_) != bytes.size()) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
   data_crc_ = mcap_crc32(bytes, data_crc_);
   offset_ += bytes.size();
@@ -279,8 +281,8 @@ void McapWriter::close_chunk() {
   entry.message_index_length = offset_ + out.size() - index_start;
   write_raw(out);
   if (std::fflush(file_) != 0) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
   chunk_index_.push_back(std::move(entry));
   chunk_.clear();
@@ -291,8 +293,8 @@ void McapWriter::close_chunk() {
 void McapWriter::flush() {
   close_chunk();
   if (file_ && std::fflush(file_) != 0) {
-    throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path_, {}, {}, static_cast<int64_t>(offset_)},
+                  std::string("write failed: ") + std::strerror(errno));
   }
 }
 
@@ -397,8 +399,8 @@ void McapWriter::close() {
   const bool closed = std::fclose(file_) == 0;
   file_ = nullptr;
   if (!flushed || !closed) {
-    throw Error(InputLocation{path_, {}, {}, {}},
-                std::string("close failed: ") + std::strerror(flushed ? errno : saved));
+    throw IoError(InputLocation{path_, {}, {}, {}},
+                  std::string("close failed: ") + std::strerror(flushed ? errno : saved));
   }
 }
 
@@ -407,7 +409,8 @@ void McapWriter::close() {
 
 namespace {
 
-// Where the reader gets its bytes: a file read sequentially, or memory (tests, fuzzing).
+// Where the reader gets its bytes: a file, or memory (tests, fuzzing). Read sequentially; recovery
+// also seeks (to the footer, and to look for the next record after a damaged one).
 class Source {
  public:
   virtual ~Source() = default;
@@ -416,6 +419,8 @@ class Source {
   uint64_t remaining() const { return size_ - pos_; }
   // Reads exactly n <= remaining() bytes into out (resized).
   virtual void read(uint64_t n, std::vector<uint8_t>& out) = 0;
+  // Moves to pos <= size().
+  virtual void seek(uint64_t pos) = 0;
 
  protected:
   uint64_t size_ = 0;
@@ -425,16 +430,12 @@ class Source {
 class FileSource : public Source {
  public:
   explicit FileSource(const std::string& path) : path_(path) {
-    file_ = std::fopen(path.c_str(), "rb");
-    if (!file_) {
-      throw Error(InputLocation{path, {}, {}, {}},
-                  std::string("cannot open for reading: ") + std::strerror(errno));
-    }
+    file_ = open_regular_file(path, "MCAP recording").release();
     struct stat st {};
     if (::fstat(fileno(file_), &st) != 0) {
       std::fclose(file_);
-      throw Error(InputLocation{path, {}, {}, {}},
-                  std::string("cannot stat: ") + std::strerror(errno));
+      throw IoError(InputLocation{path, {}, {}, {}},
+                    std::string("cannot stat: ") + std::strerror(errno));
     }
     size_ = static_cast<uint64_t>(st.st_size);
   }
@@ -450,6 +451,14 @@ class FileSource : public Source {
     }
     pos_ += n;
   }
+  void seek(uint64_t pos) override {
+    if (pos == pos_) return;
+    if (::fseeko(file_, static_cast<off_t>(pos), SEEK_SET) != 0) {
+      throw Error(InputLocation{path_, {}, {}, static_cast<int64_t>(pos)},
+                  std::string("seek failed: ") + std::strerror(errno));
+    }
+    pos_ = pos;
+  }
 
  private:
   std::string path_;
@@ -464,6 +473,7 @@ class MemorySource : public Source {
     out.assign(part.begin(), part.end());
     pos_ += n;
   }
+  void seek(uint64_t pos) override { pos_ = pos; }
 
  private:
   std::span<const uint8_t> bytes_;
@@ -490,6 +500,47 @@ McapChannel parse_channel(ByteReader& r) {
   return c;
 }
 
+McapMessageView parse_message(ByteReader& r) {
+  McapMessageView m;
+  m.channel_id = r.u16();
+  m.sequence = r.u32();
+  m.log_time = r.u64();
+  m.publish_time = r.u64();
+  m.data = r.bytes(r.remaining(), "message data");
+  return m;
+}
+
+const char* record_name(uint8_t op) {
+  switch (op) {
+    case kHeader: return "Header";
+    case kFooter: return "Footer";
+    case kSchema: return "Schema";
+    case kChannel: return "Channel";
+    case kMessage: return "Message";
+    case kChunk: return "Chunk";
+    case kMessageIndex: return "Message Index";
+    case kMetadata: return "Metadata";
+    case kDataEnd: return "Data End";
+    default: return "summary";
+  }
+}
+
+// Opcodes of the MCAP spec (0x01 Header .. 0x0F Data End); recovery takes nothing else for the
+// start of a record.
+bool known_opcode(uint8_t op) { return op >= kHeader && op <= kDataEnd; }
+
+struct RecordHead {
+  uint8_t op = 0;
+  uint64_t len = 0;
+};
+
+RecordHead decode_head(const uint8_t* p) {
+  RecordHead h;
+  h.op = p[0];
+  for (int i = 0; i < 8; ++i) h.len |= static_cast<uint64_t>(p[1 + i]) << (8 * i);
+  return h;
+}
+
 struct Scan {
   McapReadSummary summary;
   const McapReadOptions& options;
@@ -509,46 +560,86 @@ struct Scan {
     if (handlers.on_channel) handlers.on_channel(c);
     summary.channels.push_back(std::move(c));
   }
-  void message(ByteReader& r) {
-    McapMessageView m;
-    m.channel_id = r.u16();
-    m.sequence = r.u32();
-    m.log_time = r.u64();
-    m.publish_time = r.u64();
-    m.data = r.bytes(r.remaining(), "message data");
+  void message(const McapMessageView& m, const std::string& source, uint64_t offset) {
     if (!channel_slot.count(m.channel_id)) {
-      r.fail(fmt::format("message for channel {} before its Channel record", m.channel_id));
+      // In recovery, the Channel record may be what was damaged: its messages cannot be told
+      // apart from noise, so they are counted and left out.
+      if (options.recover) {
+        ++summary.orphan_messages;
+        return;
+      }
+      throw Error(
+          InputLocation{source, {}, {}, static_cast<int64_t>(offset)},
+          fmt::format("message for channel {} before its Channel record", m.channel_id));
     }
     ++summary.messages;
     if (handlers.on_message) handlers.on_message(m);
   }
-  // Records inside a chunk (uncompressed).
-  void chunk_records(std::span<const uint8_t> records, const std::string& source, uint64_t base) {
+  void note_damage(std::string what) {
+    ++summary.damaged_records;
+    if (summary.damage.size() < McapReadSummary::kMaxDamageNotes)
+      summary.damage.push_back(std::move(what));
+  }
+  // Records inside a chunk (uncompressed). Each is parsed before it is handed on, so an error
+  // from a handler is the handler's, never mistaken for damage. In recovery, returns why the
+  // records stopped early (the ones before stay delivered).
+  std::optional<std::string> chunk_records(std::span<const uint8_t> records,
+                                           const std::string& source, uint64_t base) {
     ByteReader r(records, source, base);
     while (!r.done()) {
-      const uint8_t op = r.u8();
-      const uint64_t len = r.u64();
-      ByteReader body(r.bytes(len, "record in chunk"), source, r.file_offset() - len);
-      if (op == kSchema)
-        add_schema(parse_schema(body));
-      else if (op == kChannel)
-        add_channel(parse_channel(body));
-      else if (op == kMessage)
-        message(body);
-      // Other records inside chunks are not defined by the spec; skip them.
+      uint8_t op = 0;
+      uint64_t at = 0;
+      std::optional<McapSchema> schema;
+      std::optional<McapChannel> channel;
+      std::optional<McapMessageView> message_view;
+      try {
+        op = r.u8();
+        const uint64_t len = r.u64();
+        at = r.file_offset();
+        ByteReader body(r.bytes(len, "record in chunk"), source, at);
+        if (op == kSchema)
+          schema = parse_schema(body);
+        else if (op == kChannel)
+          channel = parse_channel(body);
+        else if (op == kMessage)
+          message_view = parse_message(body);
+        // Other records inside chunks are not defined by the spec; skip them.
+      } catch (const Error& e) {
+        if (!options.recover) throw;
+        return std::string(e.what());
+      }
+      if (schema) add_schema(std::move(*schema));
+      if (channel) add_channel(std::move(*channel));
+      if (message_view) message(*message_view, source, at);
     }
+    return std::nullopt;
   }
 };
 
-}  // namespace
-
-namespace {
+// One record of the data section, parsed but not yet handed on.
+struct Parsed {
+  uint64_t consumed = 0;  // bytes of the body its fields took (a longer body may be damage)
+  std::optional<McapSchema> schema;
+  std::optional<McapChannel> channel;
+  std::optional<McapMessageView> message;
+  std::optional<McapMetadata> metadata;
+  std::optional<std::pair<std::string, std::string>> header;  // profile, library
+  std::optional<uint32_t> data_end_crc;
+  bool chunk = false;  // its records are in `plain`
+  std::span<const uint8_t> plain;
+};
 
 McapReadSummary read_source(Source& file, const std::string& path, const McapHandlers& handlers,
                             const McapReadOptions& options) {
   Scan scan{McapReadSummary{}, options, handlers, {}};
   McapReadSummary& out = scan.summary;
+  const bool recover = options.recover;
   std::vector<uint8_t> buf;
+  std::vector<uint8_t> head;
+  std::vector<uint8_t> uncompressed;
+  const auto at = [&](uint64_t offset) {
+    return InputLocation{path, {}, {}, static_cast<int64_t>(offset)};
+  };
   const auto truncated = [&](const std::string& what) {
     out.complete = false;
     out.truncation_note = fmt::format(
@@ -557,147 +648,341 @@ McapReadSummary read_source(Source& file, const std::string& path, const McapHan
     return out;
   };
 
+  // Recovery's view of record boundaries: a header is a known opcode with a length that fits in
+  // the file; a candidate found by searching must also be followed by a header (or the end of
+  // the file, or a record the end cuts short).
+  std::vector<uint8_t> peek;
+  const auto head_at = [&](uint64_t p) -> std::optional<RecordHead> {
+    if (p > file.size() || file.size() - p < 9) return std::nullopt;
+    file.seek(p);
+    file.read(9, peek);
+    return decode_head(peek.data());
+  };
+  const auto fits = [&](const RecordHead& h, uint64_t p) {
+    return known_opcode(h.op) && h.len <= kMaxRecordBytes && h.len <= file.size() - p - 9;
+  };
+  const auto followed = [&](uint64_t p, const RecordHead& h) {
+    const uint64_t next = p + 9 + h.len;
+    if (next == file.size() || h.op == kFooter) return true;
+    const auto n = head_at(next);
+    return !n || (known_opcode(n->op) && n->len <= kMaxRecordBytes);
+  };
+  // The first record start at or after `from`, searched a window at a time.
+  const auto resync = [&](uint64_t from) -> std::optional<uint64_t> {
+    constexpr uint64_t kWindow = uint64_t{1} << 16;
+    std::vector<uint8_t> window;
+    for (uint64_t base = from; base < file.size() && file.size() - base >= 9; base += kWindow) {
+      const uint64_t n = std::min(kWindow + 8, file.size() - base);
+      file.seek(base);
+      file.read(n, window);
+      for (uint64_t i = 0; i < kWindow && i + 9 <= n; ++i) {
+        const RecordHead h = decode_head(&window[static_cast<std::size_t>(i)]);
+        if (fits(h, base + i) && followed(base + i, h)) return base + i;
+      }
+    }
+    return std::nullopt;
+  };
+  // Recovery trusts the summary's schemas and channels when the summary CRC checks out: a
+  // damaged Channel record in the data section then costs no messages.
+  const auto use_summary = [&] {
+    constexpr uint64_t kFooterBytes = 9 + 20;
+    if (file.size() < 8 + kFooterBytes + 8) return;
+    const uint64_t footer_at = file.size() - 8 - kFooterBytes;
+    file.seek(footer_at);
+    file.read(kFooterBytes + 8, buf);
+    ByteReader f(buf, path, footer_at);
+    const RecordHead h{f.u8(), f.u64()};
+    const uint64_t summary_start = f.u64();
+    (void)f.u64();  // summary offset start
+    const uint32_t summary_crc = f.u32();
+    if (h.op != kFooter || h.len != 20 || std::memcmp(&buf[kFooterBytes], kMagic, 8) != 0 ||
+        summary_start < 8 || summary_start >= footer_at || summary_crc == 0 ||
+        footer_at - summary_start > kMaxRecordBytes) {
+      return;
+    }
+    // The CRC covers the summary, the summary offsets and the footer up to the CRC itself.
+    const uint64_t covered = footer_at + 1 + 8 + 16 - summary_start;
+    file.seek(summary_start);
+    file.read(covered, buf);
+    if (mcap_crc32(buf) != summary_crc) {
+      scan.note_damage(fmt::format("byte {}: the summary's CRC-32 does not match; not used",
+                                   summary_start));
+      return;
+    }
+    ByteReader r(std::span<const uint8_t>(buf).first(footer_at - summary_start), path,
+                 summary_start);
+    try {
+      while (!r.done()) {
+        const uint8_t op = r.u8();
+        const uint64_t len = r.u64();
+        ByteReader body(r.bytes(len, "summary record"), path, r.file_offset() - len);
+        if (op == kSchema) scan.add_schema(parse_schema(body));
+        if (op == kChannel) scan.add_channel(parse_channel(body));
+      }
+    } catch (const Error&) {
+      // The CRC matched, so the writer made it so; what was read before stays.
+    }
+    out.summary_used = true;
+  };
+
   if (file.size() < 8) {
     if (file.size() == 0) return truncated("before the magic (empty file)");
     file.read(file.size(), buf);
     if (std::memcmp(buf.data(), kMagic, buf.size()) != 0) {
-      throw Error(InputLocation{path, {}, {}, 0}, "not an MCAP file (bad magic)");
+      throw Error(at(0), "not an MCAP file (bad magic)");
     }
     return truncated("inside the magic");
   }
   file.read(8, buf);
-  if (std::memcmp(buf.data(), kMagic, 8) != 0) {
-    throw Error(InputLocation{path, {}, {}, 0}, "not an MCAP file (bad magic)");
-  }
   uint32_t data_crc = mcap_crc32(buf);
+  bool crc_meaningful = true;  // nothing skipped yet, so the data section CRC can be checked
+  if (std::memcmp(buf.data(), kMagic, 8) != 0) {
+    // Recovery reads on when a Header record follows: only the magic was hit.
+    const auto h = recover ? head_at(8) : std::nullopt;
+    if (!h || h->op != kHeader || !fits(*h, 8)) throw Error(at(0), "not an MCAP file (bad magic)");
+    scan.note_damage("byte 0: bad magic; read on from the Header record at byte 8");
+    crc_meaningful = false;
+  }
+  if (recover) use_summary();
+  file.seek(8);
+
   bool data_ended = false;
-  std::vector<uint8_t> head;
-  std::vector<uint8_t> uncompressed;
+  // In recovery, where to search from when the header at the current position is unreadable:
+  // the end of the last record's fields, which is before the current position when that
+  // record's length claimed more than its fields hold (a damaged length).
+  uint64_t resume = 8;
+  // In recovery, whether the record at the current position must prove itself by being followed
+  // by another record header: after damage, and after a record whose fields did not account
+  // for its whole length or cannot be checked (a message outside a chunk, summary records).
+  bool suspect = false;
+  bool after_damage = false;  // the last record was skipped as damaged (already noted)
   while (true) {
     const uint64_t record_start = file.position();
     if (file.remaining() == 0) {
       return truncated(data_ended ? "before the footer"
                                   : "after a complete record, before Data End");
     }
-    if (file.remaining() < 9)
-      return truncated(fmt::format("inside a record header at byte {}", record_start));
-    file.read(9, head);
-    ByteReader h(head, path, record_start);
-    const uint8_t op = h.u8();
-    const uint64_t len = h.u64();
-    if (len > kMaxRecordBytes) {
-      throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
-                  fmt::format("record of {} bytes is larger than any imukit writes", len));
+    std::optional<RecordHead> h;
+    if (file.remaining() >= 9) {
+      file.read(9, head);
+      h = decode_head(head.data());
     }
-    if (len > file.remaining()) {
-      return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}", op,
-                                   record_start));
+    bool unreadable = false;
+    if (!h) {
+      if (!recover) return truncated(fmt::format("inside a record header at byte {}", record_start));
+      unreadable = true;
+    } else if (h->len > kMaxRecordBytes) {
+      if (!recover) {
+        throw Error(at(record_start),
+                    fmt::format("record of {} bytes is larger than any imukit writes", h->len));
+      }
+      unreadable = true;
+    } else if (h->len > file.remaining()) {
+      if (!recover) {
+        return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}",
+                                     h->op, record_start));
+      }
+      unreadable = true;
+    } else if (recover && !known_opcode(h->op)) {
+      unreadable = true;
+    } else if (recover && suspect) {
+      unreadable = !followed(record_start, *h);
+      file.seek(record_start + 9);
     }
-    file.read(len, buf);
-    ByteReader r(buf, path, record_start + 9);
+    if (unreadable) {
+      const auto next = resync(resume < record_start ? resume : record_start + 1);
+      if (!next) {
+        // Nothing readable follows: the end of a file cut short (or damaged to its end).
+        if (h && known_opcode(h->op) && h->len <= kMaxRecordBytes &&
+            h->len > file.size() - record_start - 9)
+          return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}",
+                                       h->op, record_start));
+        return truncated(
+            fmt::format("after byte {}, with no complete record from there", record_start));
+      }
+      if (!after_damage) {
+        scan.note_damage(
+            *next > record_start
+                ? fmt::format("byte {}: no readable record; {} bytes skipped to the record at "
+                              "byte {}",
+                              record_start, *next - record_start, *next)
+                : fmt::format("byte {}: no readable record; read on from the record found at "
+                              "byte {}, inside the one before",
+                              record_start, *next));
+      }
+      crc_meaningful = false;
+      file.seek(*next);
+      resume = *next;
+      suspect = false;  // a record found by resync() is followed by another
+      after_damage = false;
+      continue;
+    }
+    const uint8_t op = h->op;
+    file.read(h->len, buf);
     // The data section CRC covers every byte before the Data End record.
     const uint32_t crc_before_record = data_crc;
     if (!data_ended && op != kDataEnd) data_crc = mcap_crc32(buf, mcap_crc32(head, data_crc));
 
-    switch (op) {
-      case kHeader:
-        out.profile = r.string("header profile");
-        out.library = r.string("header library");
-        break;
-      case kSchema:
-        if (!data_ended) scan.add_schema(parse_schema(r));
-        break;
-      case kChannel:
-        if (!data_ended) scan.add_channel(parse_channel(r));
-        break;
-      case kMessage:
-        scan.message(r);
-        break;
-      case kMetadata: {
-        if (data_ended) break;
-        McapMetadata m;
-        m.name = r.string("metadata name");
-        m.entries = get_map(r);
-        out.metadata.push_back(std::move(m));
-        break;
-      }
-      case kChunk: {
-        const uint64_t start_time = r.u64();
-        const uint64_t end_time = r.u64();
-        const uint64_t uncompressed_size = r.u64();
-        const uint32_t uncompressed_crc = r.u32();
-        const std::string compression = r.string("chunk compression");
-        const uint64_t records_len = r.u64();
-        const auto records = r.bytes(records_len, "chunk records");
-        (void)start_time;
-        (void)end_time;
-        std::string problem;
-        std::span<const uint8_t> plain;
-        if (uncompressed_size > kMaxChunkBytes) {
-          problem = fmt::format("declares {} uncompressed bytes (more than {})", uncompressed_size,
-                                kMaxChunkBytes);
-        } else if (compression.empty()) {
-          if (records.size() != uncompressed_size)
-            problem = "uncompressed size does not match its records";
-          plain = records;
-        } else if (compression == "zstd" &&
-                   ZSTD_getFrameContentSize(records.data(), records.size()) != uncompressed_size) {
-          // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
-          // checking first means a lying header never decides how much memory is allocated.
-          problem = "uncompressed size does not match its zstd frame";
-        } else if (compression == "zstd") {
-          uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
-          const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),
-                                                records.data(), records.size());
-          if (ZSTD_isError(n))
-            problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
-          else if (n != uncompressed_size)
-            problem = "decompressed size does not match the chunk header";
-          plain = std::span<const uint8_t>(uncompressed.data(),
-                                           std::min<std::size_t>(n, uncompressed.size()));
-        } else {
-          problem = fmt::format("unsupported compression '{}'", compression);
+    Parsed p;
+    std::string problem;
+    try {
+      ByteReader r(buf, path, record_start + 9);
+      switch (op) {
+        case kHeader: {
+          std::string profile = r.string("header profile");
+          p.header.emplace(std::move(profile), r.string("header library"));
+          break;
         }
-        if (problem.empty() && options.verify_crcs && uncompressed_crc != 0 &&
-            mcap_crc32(plain) != uncompressed_crc) {
-          problem = "CRC-32 of its records does not match";
+        case kSchema:
+          p.schema = parse_schema(r);
+          break;
+        case kChannel:
+          p.channel = parse_channel(r);
+          break;
+        case kMessage:
+          p.message = parse_message(r);
+          break;
+        case kMetadata: {
+          McapMetadata m;
+          m.name = r.string("metadata name");
+          m.entries = get_map(r);
+          p.metadata = std::move(m);
+          break;
         }
-        if (!problem.empty()) {
-          if (options.skip_corrupt_chunks) {
-            ++out.corrupt_chunks;
-            break;
+        case kMessageIndex: {  // not used, but its fields delimit it for recovery
+          (void)r.u16();
+          r.skip(r.u32(), "message index entries");
+          break;
+        }
+        case kChunk: {
+          (void)r.u64();  // start time
+          (void)r.u64();  // end time
+          const uint64_t uncompressed_size = r.u64();
+          const uint32_t uncompressed_crc = r.u32();
+          const std::string compression = r.string("chunk compression");
+          const uint64_t records_len = r.u64();
+          const auto records = r.bytes(records_len, "chunk records");
+          if (uncompressed_size > kMaxChunkBytes) {
+            problem = fmt::format("declares {} uncompressed bytes (more than {})",
+                                  uncompressed_size, kMaxChunkBytes);
+          } else if (compression.empty()) {
+            if (records.size() != uncompressed_size)
+              problem = "uncompressed size does not match its records";
+            p.plain = records;
+          } else if (compression == "zstd" && ZSTD_getFrameContentSize(records.data(),
+                                                                       records.size()) !=
+                                                  uncompressed_size) {
+            // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
+            // checking first means a lying header never decides how much memory is allocated.
+            problem = "uncompressed size does not match its zstd frame";
+          } else if (compression == "zstd") {
+            uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
+            const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),
+                                                  records.data(), records.size());
+            if (ZSTD_isError(n))
+              problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
+            else if (n != uncompressed_size)
+              problem = "decompressed size does not match the chunk header";
+            p.plain = std::span<const uint8_t>(uncompressed.data(),
+                                               std::min<std::size_t>(n, uncompressed.size()));
+          } else {
+            problem = fmt::format("unsupported compression '{}'", compression);
           }
-          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
-                      "corrupt chunk: " + problem);
+          if (problem.empty() && options.verify_crcs && uncompressed_crc != 0 &&
+              mcap_crc32(p.plain) != uncompressed_crc) {
+            problem = "CRC-32 of its records does not match";
+          }
+          if (!problem.empty()) {
+            if (!recover) throw Error(at(record_start), "corrupt chunk: " + problem);
+            ++out.corrupt_chunks;
+            problem = fmt::format("{}: corrupt chunk: {}", at(record_start).to_string(), problem);
+          }
+          p.chunk = true;
+          break;
         }
-        scan.chunk_records(plain, path + " (chunk at byte " + std::to_string(record_start) + ")",
-                           0);
+        case kDataEnd:
+          p.data_end_crc = r.u32();
+          break;
+        case kFooter:
+          (void)r.u64();
+          (void)r.u64();
+          (void)r.u32();
+          break;
+        default:
+          r.skip(r.remaining(), "record");  // summary records and unknown opcodes
+          break;
+      }
+      p.consumed = r.position();
+    } catch (const Error& e) {
+      if (!recover) throw;
+      problem = e.what();
+    }
+    if (!problem.empty()) {
+      scan.note_damage(fmt::format("{} record skipped ({})", record_name(op), problem));
+      crc_meaningful = false;
+      // Go on right after it if a record that is followed by another starts there (its length
+      // was sound), else search from just after its start (its length was what the damage hit).
+      resume = record_start + 1;
+      suspect = true;
+      after_damage = true;
+      continue;
+    }
+    after_damage = false;
+    resume = record_start + 9 + p.consumed;
+    // Verified: a chunk that passed its CRC, or a record whose self-delimiting fields used
+    // exactly its length.
+    const bool self_delimited = op == kHeader || op == kSchema || op == kChannel ||
+                                op == kMetadata || op == kMessageIndex || op == kDataEnd ||
+                                op == kFooter || op == kChunk;
+    suspect = !(self_delimited && p.consumed == h->len);
+
+    if (p.header) {
+      out.profile = std::move(p.header->first);
+      out.library = std::move(p.header->second);
+    } else if (p.schema) {
+      // A summary whose CRC matches lists every schema and channel; the data section's copies
+      // have no CRC of their own (a damaged id would parse as another schema).
+      if (!data_ended && !out.summary_used) scan.add_schema(std::move(*p.schema));
+    } else if (p.channel) {
+      if (!data_ended && !out.summary_used) scan.add_channel(std::move(*p.channel));
+    } else if (p.message) {
+      scan.message(*p.message, path, record_start);
+    } else if (p.metadata) {
+      if (!data_ended) out.metadata.push_back(std::move(*p.metadata));
+    } else if (p.chunk) {
+      const auto damaged =
+          scan.chunk_records(p.plain, path + " (chunk at byte " + std::to_string(record_start) + ")",
+                             0);
+      if (damaged) {
+        scan.note_damage(fmt::format("Chunk records cut short ({})", *damaged));
+      } else {
         ++out.chunks;
-        break;
       }
-      case kDataEnd: {
-        const uint32_t stored = r.u32();
-        if (options.verify_crcs && stored != 0 && stored != crc_before_record &&
-            out.corrupt_chunks == 0) {
-          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(record_start)},
-                      fmt::format("data section CRC-32 0x{:08x} does not match the stored 0x{:08x}",
-                                  crc_before_record, stored));
-        }
-        data_ended = true;
-        break;
+    } else if (p.data_end_crc) {
+      const uint32_t stored = *p.data_end_crc;
+      if (options.verify_crcs && stored != 0 && stored != crc_before_record && crc_meaningful) {
+        const std::string what =
+            fmt::format("data section CRC-32 0x{:08x} does not match the stored 0x{:08x}",
+                        crc_before_record, stored);
+        if (!recover) throw Error(at(record_start), what);
+        // Every chunk passed its own CRC: the damage is in a record outside the chunks.
+        scan.note_damage(fmt::format("{}: {} (a record outside the chunks is damaged{})",
+                                     at(record_start).to_string(), what,
+                                     out.summary_used ? "; schemas and channels came from the "
+                                                        "summary, whose CRC matches"
+                                                      : ""));
       }
-      case kFooter: {
-        if (file.remaining() < 8) return truncated("inside the closing magic");
-        file.read(8, buf);
-        if (std::memcmp(buf.data(), kMagic, 8) != 0) {
-          throw Error(InputLocation{path, {}, {}, static_cast<int64_t>(file.position() - 8)},
-                      "bad closing magic after the footer");
-        }
-        out.complete = true;
-        return out;
+      data_ended = true;
+    } else if (op == kFooter) {
+      if (file.remaining() < 8) return truncated("inside the closing magic");
+      file.read(8, buf);
+      if (std::memcmp(buf.data(), kMagic, 8) != 0) {
+        if (!recover) throw Error(at(file.position() - 8), "bad closing magic after the footer");
+        scan.note_damage(fmt::format("byte {}: bad closing magic", file.position() - 8));
+        return truncated("after a footer without its closing magic");
       }
-      default:
-        break;  // message indexes, summary records and unknown opcodes: nothing to read
+      out.complete = true;
+      return out;
     }
   }
 }
@@ -717,10 +1002,15 @@ McapReadSummary read_mcap(const std::string& path,
 }
 
 McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& source_name,
+                          const McapHandlers& handlers, const McapReadOptions& options) {
+  MemorySource memory(bytes);
+  return read_source(memory, source_name, handlers, options);
+}
+
+McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& source_name,
                           const std::function<void(const McapMessageView&)>& on_message,
                           const McapReadOptions& options) {
-  MemorySource memory(bytes);
-  return read_source(memory, source_name, McapHandlers{nullptr, nullptr, on_message}, options);
+  return read_mcap(bytes, source_name, McapHandlers{nullptr, nullptr, on_message}, options);
 }
 
 McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
@@ -745,13 +1035,17 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
     channel_map[c.id] = writer.add_channel(schema, c.topic, c.message_encoding, c.metadata);
     channels[c.id] = &c;
   }
-  for (const auto& m : summary.metadata) writer.write_metadata(m.name, m.entries);
+  for (const auto& m : summary.metadata) {
+    const bool replaced = std::any_of(extra_metadata.begin(), extra_metadata.end(),
+                                      [&](const McapMetadata& e) { return e.name == m.name; });
+    if (!replaced) writer.write_metadata(m.name, m.entries);
+  }
   for (const auto& m : extra_metadata) writer.write_metadata(m.name, m.entries);
   read_mcap(
       in,
       [&](const McapMessageView& m) {
         McapMessageView copy = m;
-        if (edit) edit(*channels.at(m.channel_id), copy);
+        if (edit && !edit(*channels.at(m.channel_id), copy)) return;
         writer.write_message(channel_map.at(m.channel_id), copy.sequence, copy.log_time,
                              copy.publish_time, copy.data);
       },
@@ -762,7 +1056,7 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
 
 McapReadSummary recover_mcap(const std::string& in, const std::string& out_path) {
   McapReadOptions options;
-  options.skip_corrupt_chunks = true;
+  options.recover = true;
   return rewrite_mcap(in, out_path, nullptr, options);
 }
 

@@ -10,7 +10,9 @@
 //   statistics, chunk and metadata indexes), summary offsets and the footer.
 // The reader scans the data section from the start (it does not trust the summary), verifies
 // every CRC, and on a file cut short returns everything up to the last complete record with a
-// note saying where the file ends; only real corruption is an error.
+// note saying where the file ends; only real corruption is an error. In recovery it does not
+// stop at corruption either: a damaged record is skipped and the next one found (McapReadOptions::
+// recover), so every intact chunk is kept.
 #pragma once
 
 #include <cstdint>
@@ -127,9 +129,14 @@ class McapWriter {
 
 struct McapReadOptions {
   bool verify_crcs = true;
-  // Skip a chunk whose CRC or decompression fails (counted in corrupt_chunks) instead of
-  // throwing; used by recovery.
-  bool skip_corrupt_chunks = false;
+  // Recovery: instead of throwing, skip every damaged record (a chunk whose CRC, sizes or
+  // compression fail, a record whose fields do not parse, a length that does not fit, a bad
+  // magic) and search on for the next record: a known opcode whose length fits and is followed
+  // by another record header. Schemas and channels come from the summary alone when its own CRC
+  // matches (so a damaged Channel record costs nothing in a file that was closed), messages
+  // whose channel is unknown are left out and counted. Only a file that does not start as MCAP
+  // (magic and Header record both wrong) is still an error.
+  bool recover = false;
 };
 
 struct McapReadSummary {
@@ -143,6 +150,14 @@ struct McapReadSummary {
   uint64_t corrupt_chunks = 0;
   bool complete = false;        // Data End, footer and closing magic were all found
   std::string truncation_note;  // where and how a file that is not complete ends
+  // Recovery only: records skipped as damaged (corrupt chunks included), messages left out
+  // because their channel is unknown, whether the summary's schemas and channels were used, and
+  // one line per damaged record or region (the first kMaxDamageNotes).
+  static constexpr std::size_t kMaxDamageNotes = 100;
+  uint64_t damaged_records = 0;
+  uint64_t orphan_messages = 0;
+  bool summary_used = false;
+  std::vector<std::string> damage;
 };
 
 // Callbacks for a reader that wants records as they come: a channel is always announced before
@@ -164,20 +179,24 @@ McapReadSummary read_mcap(const std::string& path,
 
 // The same for a file already in memory; `source_name` is used in messages.
 McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& source_name,
+                          const McapHandlers& handlers, const McapReadOptions& options = {});
+McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& source_name,
                           const std::function<void(const McapMessageView&)>& on_message,
                           const McapReadOptions& options = {});
 
 // Copies `in` to `out` message by message, letting `edit` change a message's times and data
-// (it may point m.data at its own storage, which must outlive the call). Schemas, channels and
-// metadata are copied as they are (plus `extra_metadata`). Reads as `options` say (e.g.
-// skipping corrupt chunks).
-using McapMessageEdit = std::function<void(const McapChannel& channel, McapMessageView& m)>;
+// (it may point m.data at its own storage, which must outlive the call) or leave it out (by
+// returning false). Schemas, channels and metadata are copied as they are (plus
+// `extra_metadata`, which replaces records of the same name). Reads as `options` say (e.g.
+// recovering).
+using McapMessageEdit = std::function<bool(const McapChannel& channel, McapMessageView& m)>;
 McapReadSummary rewrite_mcap(const std::string& in, const std::string& out,
                              const McapMessageEdit& edit, const McapReadOptions& options = {},
                              const std::vector<McapMetadata>& extra_metadata = {});
 
-// Rewrites whatever `in` holds (up to where it was cut, skipping corrupt chunks) as a complete
-// file at `out`. Returns the summary of what was read.
+// Rewrites whatever `in` holds (up to where it was cut, skipping damaged records) as a complete
+// file at `out`. Returns the summary of what was read. (A recording of `imukit record` also
+// needs its clocks refitted over what was kept: capture::recover_recording, session.hpp.)
 McapReadSummary recover_mcap(const std::string& in, const std::string& out);
 
 // CRC-32 (IEEE 802.3, zlib's), as MCAP uses.

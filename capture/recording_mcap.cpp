@@ -1,6 +1,9 @@
 #include "capture/recording_mcap.hpp"
 
 #include <fmt/core.h>
+#include <array>
+#include <cmath>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "capture/ros_messages.hpp"
@@ -12,6 +15,13 @@ namespace {
 constexpr std::string_view kEventSchema =
     R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
 constexpr std::string_view kImuPrefix = "/imu/";
+
+// A sample that is NaN or infinite would flow silently into every result computed from it.
+void require_finite(const std::array<double, 3>& v, const std::string& where, const char* what) {
+  if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) {
+    throw Error(fmt::format("{}: {} ({}, {}, {}) is not finite", where, what, v[0], v[1], v[2]));
+  }
+}
 
 }  // namespace
 
@@ -79,7 +89,11 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
   writer.close();
 }
 
-RecordingRead read_recording_mcap(const std::string& path) {
+namespace {
+
+// `read` runs the MCAP reader over the file or the bytes with the handlers given.
+RecordingRead read_recording(const std::string& path,
+                             const std::function<McapReadSummary(const McapHandlers&)>& read) {
   RecordingRead out;
   std::map<uint16_t, std::string> schema_names;
   std::map<uint16_t, std::string> imu_channels;  // channel -> stream name
@@ -108,11 +122,17 @@ RecordingRead read_recording_mcap(const std::string& path) {
   };
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = imu_channels.find(m.channel_id); it != imu_channels.end()) {
-      samples[it->second].push_back(decode_imu_cdr(
-          m.data, fmt::format("{}: message {} of {}", path, m.sequence, it->second)));
+      const std::string where = fmt::format("{}: message {} of {}", path, m.sequence, it->second);
+      ImuMessage msg = decode_imu_cdr(m.data, where);
+      require_finite(msg.angular_velocity, where, "angular velocity");
+      require_finite(msg.linear_acceleration, where, "linear acceleration");
+      samples[it->second].push_back(std::move(msg));
     } else if (const auto mt = mag_channels.find(m.channel_id); mt != mag_channels.end()) {
-      mag_samples[mt->second].push_back(decode_magnetic_field_cdr(
-          m.data, fmt::format("{}: message {} of {}/mag", path, m.sequence, mt->second)));
+      const std::string where =
+          fmt::format("{}: message {} of {}/mag", path, m.sequence, mt->second);
+      MagneticFieldMessage msg = decode_magnetic_field_cdr(m.data, where);
+      require_finite(msg.magnetic_field, where, "magnetic field");
+      mag_samples[mt->second].push_back(std::move(msg));
     } else if (event_channels.count(m.channel_id)) {
       const auto json = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
       if (json.is_discarded() || !json.is_object()) {
@@ -126,7 +146,7 @@ RecordingRead read_recording_mcap(const std::string& path) {
           {static_cast<TimeNs>(m.log_time), text("kind"), text("label")});
     }
   };
-  out.summary = read_mcap(path, handlers);
+  out.summary = read(handlers);
   // The recording's own metadata as is; other records (device info, session statistics) with
   // their record's name in front of each key.
   for (const auto& md : out.summary.metadata) {
@@ -165,6 +185,17 @@ RecordingRead read_recording_mcap(const std::string& path) {
     out.recording.streams[name] = std::move(s);
   }
   return out;
+}
+
+}  // namespace
+
+RecordingRead read_recording_mcap(const std::string& path) {
+  return read_recording(path, [&](const McapHandlers& h) { return read_mcap(path, h); });
+}
+
+RecordingRead read_recording_mcap(std::span<const uint8_t> bytes, const std::string& source_name) {
+  return read_recording(source_name,
+                        [&](const McapHandlers& h) { return read_mcap(bytes, source_name, h); });
 }
 
 }  // namespace imukit::capture

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <map>
+#include <span>
 #include <string>
 
 #include "capture/mcap.hpp"
@@ -39,5 +40,7 @@ struct RecordingRead {
 // with the record's name, e.g. "imukit.session.mock.samples_dropped"); other channels are
 // ignored.
 RecordingRead read_recording_mcap(const std::string& path);
+// The same for a file already in memory; `source_name` is used in messages.
+RecordingRead read_recording_mcap(std::span<const uint8_t> bytes, const std::string& source_name);
 
 }  // namespace imukit::capture

@@ -61,6 +61,8 @@ struct Device {
   RawImuMessage raw;
   TapDetector taps;
   std::optional<PoseGuide> guide;
+  std::chrono::steady_clock::time_point last_data = std::chrono::steady_clock::now();
+  std::string silent_reason;  // set when the no-data timeout stopped the device
 
   Device(SessionDevice s, std::size_t capacity) : spec(std::move(s)), samples(capacity) {}
 };
@@ -123,7 +125,7 @@ DeviceProgress progress_of(Device& d) {
     const std::lock_guard lock(d.mutex);
     p.codec_dropped = d.stats.samples_dropped;
     p.frames_corrupt = d.stats.frames_corrupt;
-    p.end_reason = d.end_reason;
+    p.end_reason = d.silent_reason.empty() ? d.end_reason : d.silent_reason;
   }
   p.backpressure = d.backpressure.load();
   p.queue_high_water = d.samples.high_water();
@@ -154,7 +156,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
   TimeNs t = s.host_time;
   if (s.has_device_time) {
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
-    t = d.clock.map(static_cast<uint64_t>(s.device_time));
+    t = d.clock.map_monotonic(static_cast<uint64_t>(s.device_time));
   }
   // Raw first: the offline refit maps the raw message and gives its time to the IMU message
   // that follows it.
@@ -206,6 +208,16 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
     if (d.guide) {
       const Eigen::Vector3d w(s.gyro[0], s.gyro[1], s.gyro[2]);
       if (const auto e = d.guide->feed(t, a, (s.channels & drivers::kHasGyro) ? &w : nullptr)) {
+        if (e->initial) {
+          // Where calibrate's initial static period starts (imukit.guide gives its length).
+          write_event(
+              writer, live.event_channel,
+              {e->still_since, "initial_still",
+               fmt::format("{}: still for {:g} s from here", d.spec.name,
+                           to_seconds(t - e->still_since))},
+              d.spec.name,
+              device_time ? std::optional(*device_time - (t - e->still_since)) : std::nullopt);
+        }
         const char* what =
             e->kind == PoseEvent::Kind::repeated_pose ? "orientation already held" : "new pose";
         write_event(writer, live.event_channel,
@@ -262,6 +274,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
   const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
   for (const Event& e : options.events) write_event(writer, event_channel, e);
+  if (options.guide) {
+    writer.write_metadata(
+        "imukit.guide", {{"guide", "multipos"},
+                         {"poses_wanted", std::to_string(options.guide->poses_wanted)},
+                         {"initial_still_s", fmt::format("{:g}", options.guide->initial_still_s)}});
+  }
   for (auto& d : devices) {
     d->imu_channel = writer.add_channel(imu_schema, "/imu/" + d->spec.name, "cdr");
     d->raw_channel = writer.add_channel(raw_schema, "/imu/" + d->spec.name + "/raw", "cdr");
@@ -322,12 +340,23 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     drivers::SyncPoint sync;
     for (;;) {
       bool busy = false;
+      const auto now = std::chrono::steady_clock::now();
       for (auto& d : devices) {
         for (int n = 0; n < 4096 && d->samples.pop(sample); ++n) {
           busy = true;
+          d->last_data = now;
           accept(*d, sample);
         }
         while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
+        if (options.no_data_timeout_s > 0 && d->silent_reason.empty() && !d->full &&
+            !d->ended.load(std::memory_order_acquire) &&
+            std::chrono::duration<double>(now - d->last_data).count() > options.no_data_timeout_s) {
+          const std::lock_guard lock(d->mutex);
+          d->silent_reason = fmt::format(
+              "no data for {:g} s{}", options.no_data_timeout_s,
+              d->written == 0 ? " since the start (check the baud rate and codec in the URI)" : "");
+          d->stop.store(true);
+        }
       }
       if (options.take_markers) {
         std::vector<Event> markers;
@@ -356,11 +385,15 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
       if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
         const bool limited =
             std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
-        report.stop_reason = limited ? "limit reached" : "every device ended";
+        const bool silent = std::all_of(devices.begin(), devices.end(),
+                                        [](const auto& d) { return !d->silent_reason.empty(); });
+        report.stop_reason =
+            limited  ? "limit reached"
+            : silent ? fmt::format("no data from any device for {:g} s", options.no_data_timeout_s)
+                     : "every device ended";
         break;
       }
       if (all_done) stop_all();
-      const auto now = std::chrono::steady_clock::now();
       if (options.progress && now - last_progress > std::chrono::milliseconds(250)) {
         last_progress = now;
         std::vector<DeviceProgress> p;
@@ -417,15 +450,32 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
 }
 
 namespace {
-// The device clock of a RawImu message in ns (the clock fits work in ns, like the pings).
-uint64_t device_ns(const RawImuMessage& raw) {
-  return static_cast<uint64_t>(drivers::ticks_to_ns(
-      static_cast<int64_t>(raw.device_ticks), static_cast<uint64_t>(std::llround(raw.tick_hz))));
-}
-}  // namespace
 
-std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
-                                                       const std::string& out) {
+// The device clock of a RawImu message in ns (the clock fits work in ns, like the pings), or
+// nothing when the message has no clock or its clock fields cannot be one (a rate outside
+// [1 Hz, 9 GHz], ticks that are not 0..2^63 or whose time in ns would not fit in int64: only a
+// damaged or crafted file holds those; such a message keeps the time it has).
+std::optional<uint64_t> device_ns(const RawImuMessage& raw) {
+  if (!(raw.channels & kRawHasDeviceClock)) return std::nullopt;
+  if (!(raw.tick_hz >= 1.0 && raw.tick_hz <= 9e9)) return std::nullopt;
+  const auto hz = static_cast<uint64_t>(std::llround(raw.tick_hz));
+  if (raw.device_ticks > static_cast<uint64_t>(INT64_MAX) || raw.device_ticks / hz >= 9'000'000'000)
+    return std::nullopt;
+  return static_cast<uint64_t>(drivers::ticks_to_ns(static_cast<int64_t>(raw.device_ticks), hz));
+}
+
+// An integer field of a JSON object, if it is one.
+std::optional<int64_t> json_int(const nlohmann::json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number_integer()) return std::nullopt;
+  return it->get<int64_t>();
+}
+
+// Re-times `in` into `out` as refit_recording_clocks says; `read` recovers a damaged file, and
+// then messages that do not decode are left out (counted in `undecodable`).
+std::map<std::string, ClockFit> refit(const std::string& in, const std::string& out,
+                                      const McapReadOptions& read, McapReadSummary* summary,
+                                      uint64_t* undecodable) {
   // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
   std::map<std::string, ClockMapper> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
@@ -433,6 +483,15 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
   const auto name_of = [](const std::string& topic, std::string_view suffix) {
     std::string name = topic.substr(5);  // after "/imu/"
     return name.substr(0, name.size() - suffix.size());
+  };
+  // Decodes a RawImu message; in recovery one that does not decode is left out.
+  const auto decode_raw = [&](std::span<const uint8_t> data) -> std::optional<RawImuMessage> {
+    try {
+      return decode_raw_imu_cdr(data, in);
+    } catch (const Error&) {
+      if (!read.recover) throw;
+      return std::nullopt;
+    }
   };
   McapHandlers handlers;
   handlers.on_channel = [&](const McapChannel& c) {
@@ -451,22 +510,23 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
   };
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = raw_channels.find(m.channel_id); it != raw_channels.end()) {
-      const RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
-      if (raw.channels & kRawHasDeviceClock) {
-        clocks.try_emplace(it->second, 1e9)
-            .first->second.add_sample(device_ns(raw), raw.host_receive_time);
+      const auto raw = decode_raw(m.data);
+      if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
+        clocks.try_emplace(it->second, 1e9).first->second.add_sample(*ns, raw->host_receive_time);
       }
     } else if (const auto s = sync_channels.find(m.channel_id); s != sync_channels.end()) {
       const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
-      if (j.is_object() && j.contains("device_rx_ns")) {
+      if (!j.is_object()) return;
+      const auto send = json_int(j, "host_send_ns"), receive = json_int(j, "host_receive_ns");
+      const auto rx = json_int(j, "device_rx_ns"), tx = json_int(j, "device_tx_ns");
+      if (send && receive && rx && tx) {
         clocks.try_emplace(s->second, 1e9)
-            .first->second.add_ping(
-                j.value("host_send_ns", TimeNs{0}), j.value("device_rx_ns", uint64_t{0}),
-                j.value("device_tx_ns", uint64_t{0}), j.value("host_receive_ns", TimeNs{0}));
+            .first->second.add_ping(*send, static_cast<uint64_t>(*rx), static_cast<uint64_t>(*tx),
+                                    *receive);
       }
     }
   };
-  read_mcap(in, handlers);
+  read_mcap(in, handlers, read);
   for (auto& [name, clock] : clocks) clock.flush();
 
   // The fits go into the file too, so `imukit info` can show them.
@@ -484,43 +544,83 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
                                           : std::string("unknown (no time-sync pings)")},
           {"pings", std::to_string(f.pings)}}});
   }
-  // Pass 2: re-time every raw message, and the IMU message that follows it.
-  std::map<std::string, TimeNs> last_mapped;
+  // Pass 2: re-time every raw message, and the IMU message that follows it. Both were written
+  // with the same (online) stamp; an IMU message whose raw message was lost with a damaged
+  // chunk moves by the correction of the device's last raw message.
+  struct Retimed {
+    TimeNs original = 0, mapped = 0;
+  };
+  std::map<std::string, Retimed> last_raw;
   std::vector<uint8_t> buffer;
-  rewrite_mcap(
+  uint64_t dropped = 0;
+  const McapReadSummary s = rewrite_mcap(
       in, out,
       [&](const McapChannel& c, McapMessageView& m) {
         if (const auto it = raw_channels.find(c.id); it != raw_channels.end()) {
-          RawImuMessage raw = decode_raw_imu_cdr(m.data, in);
+          auto raw = decode_raw(m.data);
+          if (!raw) return ++dropped, false;
           const auto clock = clocks.find(it->second);
-          if (!(raw.channels & kRawHasDeviceClock) || clock == clocks.end()) return;
-          raw.stamp = clock->second.map(device_ns(raw));
-          last_mapped[it->second] = raw.stamp;
-          buffer = encode_cdr(raw);
+          const auto ns = device_ns(*raw);
+          if (!ns || clock == clocks.end()) return true;
+          const TimeNs original = raw->stamp;
+          raw->stamp = clock->second.map(*ns);
+          last_raw[it->second] = {original, raw->stamp};
+          buffer = encode_cdr(*raw);
           m.data = buffer;
-          m.log_time = static_cast<uint64_t>(raw.stamp);
+          m.log_time = static_cast<uint64_t>(raw->stamp);
         } else if (event_channel && c.id == *event_channel) {
           const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
-          if (!j.is_object() || !j.contains("device_ns") || !j["device_ns"].is_number_integer())
-            return;
-          const auto clock = clocks.find(j.value("device", std::string()));
-          if (clock == clocks.end()) return;
-          m.log_time = static_cast<uint64_t>(clock->second.map(j["device_ns"].get<uint64_t>()));
+          if (!j.is_object()) return true;
+          const auto device = j.find("device");
+          const auto ns = json_int(j, "device_ns");
+          if (device == j.end() || !device->is_string() || !ns) return true;
+          const auto clock = clocks.find(device->get<std::string>());
+          if (clock == clocks.end()) return true;
+          m.log_time = static_cast<uint64_t>(clock->second.map(static_cast<uint64_t>(*ns)));
           m.publish_time = m.log_time;
         } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
-          const auto t = last_mapped.find(imu->second);
-          if (t == last_mapped.end()) return;
-          ImuMessage msg = decode_imu_cdr(m.data, in);
-          msg.stamp = t->second;
+          const auto t = last_raw.find(imu->second);
+          if (t == last_raw.end()) return true;
+          ImuMessage msg;
+          try {
+            msg = decode_imu_cdr(m.data, in);
+          } catch (const Error&) {
+            if (!read.recover) throw;
+            return ++dropped, false;
+          }
+          TimeNs stamp = t->second.mapped, correction = 0;
+          if (msg.stamp != t->second.original &&
+              (__builtin_sub_overflow(t->second.mapped, t->second.original, &correction) ||
+               __builtin_add_overflow(msg.stamp, correction, &stamp)))
+            stamp = msg.stamp;
+          msg.stamp = stamp;
           buffer = encode_cdr(msg);
           m.data = buffer;
-          m.log_time = static_cast<uint64_t>(t->second);
+          m.log_time = static_cast<uint64_t>(stamp);
         }
+        return true;
       },
-      McapReadOptions{}, fit_records);
+      read, fit_records);
+  if (summary) *summary = s;
+  if (undecodable) *undecodable = dropped;
   std::map<std::string, ClockFit> fits;
   for (const auto& [name, clock] : clocks) fits[name] = clock.fit();
   return fits;
+}
+
+}  // namespace
+
+std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
+                                                       const std::string& out) {
+  return refit(in, out, McapReadOptions{}, nullptr, nullptr);
+}
+
+RecoveredRecording recover_recording(const std::string& in, const std::string& out) {
+  RecoveredRecording r;
+  McapReadOptions read;
+  read.recover = true;
+  r.clocks = refit(in, out, read, &r.read, &r.undecodable_messages);
+  return r;
 }
 
 }  // namespace imukit::capture

@@ -54,7 +54,12 @@ struct SessionOptions {
   std::string path;  // output .mcap
   // Stop when every device has delivered this much host time (0: no limit).
   double duration_s = 0.0;
-  uint64_t max_samples = 0;                 // per device (0: no limit)
+  uint64_t max_samples = 0;  // per device (0: no limit)
+  // A device that delivers no sample for this long of wall-clock time (from the start, or since
+  // its last sample) is stopped with a reason saying so: a silent device (wrong baud rate or
+  // codec, a mock that drops everything) would otherwise keep a data-time limit from ever
+  // being reached. 0: wait forever.
+  double no_data_timeout_s = 0.0;
   std::size_t queue_capacity = 1 << 15;     // samples per device
   bool finalize = true;                     // offline clock fit and rewrite at the end
   const std::atomic<bool>* stop = nullptr;  // e.g. set by SIGINT/SIGTERM
@@ -92,5 +97,16 @@ SessionReport record_session(std::vector<SessionDevice> devices, const SessionOp
 // raw message re-timed. Returns the fits by device name.
 std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
                                                        const std::string& out);
+
+// A recording cut short by a crash (FILE.partial.mcap after kill -9 or a power cut) or damaged
+// on disk, rewritten as a complete file: every intact chunk is kept, damaged records are skipped
+// (McapReadOptions::recover), and the clocks are refitted over the samples kept, as at the end
+// of a normal recording. Messages that do not decode are left out.
+struct RecoveredRecording {
+  McapReadSummary read;  // what the damaged file held: truncation note, damage, counts
+  std::map<std::string, ClockFit> clocks;
+  uint64_t undecodable_messages = 0;
+};
+RecoveredRecording recover_recording(const std::string& in, const std::string& out);
 
 }  // namespace imukit::capture

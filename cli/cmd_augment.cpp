@@ -5,11 +5,13 @@
 #include <fmt/core.h>
 
 #include <memory>
+#include <optional>
 
 #include "augment/dataset.hpp"
 #include "augment/policy.hpp"
 #include "cli/command.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "sim/scene.hpp"
 
@@ -27,7 +29,7 @@ struct AugmentArgs {
   std::size_t stride = 25;
   std::size_t count = 0;
   std::size_t batch_size = 256;
-  int64_t seed = -1;
+  std::optional<uint64_t> seed;
   unsigned threads = 1;
   bool normalize = false;
   double identity_fraction = 0.0;
@@ -44,11 +46,11 @@ int list_sub_policies(const augment::Policy& p) {
 int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
   const augment::Policy policy = augment::read_policy(a.policy);
   if (a.list) return list_sub_policies(policy);
-  if (a.output.empty()) throw Error("augment: give the output folder with -o DIR");
+  if (a.output.empty()) throw UsageError("augment: give the output folder with -o DIR");
   if (a.scene.empty() == a.input.empty())
-    throw Error("augment: give either --scene SCENE.json or --input RECORDING");
+    throw UsageError("augment: give either --scene SCENE.json or --input RECORDING");
   if (!a.scene.empty() && !extra.empty())
-    throw Error("augment: unexpected arguments: " + extra.front());
+    throw UsageError("augment: unexpected argument " + quote_excerpt(extra.front()));
   augment::DatasetOptions o;
   o.window = a.window;
   o.stride = a.stride;
@@ -62,7 +64,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
   if (!a.scene.empty()) {
     sim::Scene scene = sim::read_scene(a.scene);
     for (const std::string& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
-    o.seed = a.seed >= 0 ? static_cast<uint64_t>(a.seed) : scene.seed;
+    o.seed = a.seed.value_or(scene.seed);
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
       // Labels are per sensor sample: ask the augmenter for the sample count and rate.
@@ -79,7 +81,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     std::vector<std::string> tokens{a.input};
     tokens.insert(tokens.end(), extra.begin(), extra.end());
     const std::vector<InputArg> inputs = parse_input_args(tokens);
-    if (inputs.size() != 1) throw Error("augment: give one --input recording");
+    if (inputs.size() != 1) throw UsageError("augment: give one --input recording");
     const Recording rec = load_recording(inputs.front());
     std::vector<std::string> names;
     std::vector<const ImuSeries*> streams;
@@ -93,7 +95,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
       streams.push_back(&series);
     }
     if (streams.empty()) throw Error(a.input + ": no stream with both accelerometer and gyroscope");
-    o.seed = a.seed >= 0 ? static_cast<uint64_t>(a.seed) : 0;
+    o.seed = a.seed.value_or(0);
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
       const ImuSeries& s = *streams.front();
@@ -131,21 +133,27 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("-o,--output", a->output, "Output folder");
           sub.add_option("--labels", a->labels,
                          "Label CSV: header 'label' (one row per sample) or 'start_s,end_s,label'");
-          sub.add_option("--window", a->window, "Samples per window (default 100)");
-          sub.add_option("--stride", a->stride, "Samples between window starts (default 25)");
+          sub.add_option("--window", a->window, "Samples per window (default 100)")
+              ->check(whole_in(2, 10'000'000, "samples"));
+          sub.add_option("--stride", a->stride, "Samples between window starts (default 25)")
+              ->check(whole_in(1, 10'000'000, "samples"));
           sub.add_option("--count", a->count,
                          "Windows to write (default: one pass over the windows; more repeat them "
-                         "under fresh draws)");
-          sub.add_option("--batch-size", a->batch_size,
-                         "Windows per sub-policy draw (default 256)");
-          sub.add_option("--seed", a->seed, "Seed (default: the scene's seed, or 0)");
+                         "under fresh draws)")
+              ->check(whole_in(0, 1'000'000'000'000, "windows"));
+          sub.add_option("--batch-size", a->batch_size, "Windows per sub-policy draw (default 256)")
+              ->check(whole_in(1, 10'000'000, "windows"));
+          sub.add_option("--seed", a->seed, "Seed (default: the scene's seed, or 0)")
+              ->check(seed_range());
           sub.add_option("--threads", a->threads,
-                         "Worker threads (0 = all cores); the output does not depend on it");
+                         "Worker threads (0 = all cores); the output does not depend on it")
+              ->check(whole_in(0, 1024));
           sub.add_flag("--normalize", a->normalize,
                        "z-score every channel (statistics in dataset.json); STDA jitter is then in "
                        "standard deviations");
           sub.add_option("--identity-fraction", a->identity_fraction,
-                         "Fraction of batches left unaugmented (the paper's comparison uses 0.5)");
+                         "Fraction of batches left unaugmented (the paper's comparison uses 0.5)")
+              ->check(real_in(0, 1, ""));
           sub.add_option("--method", a->method,
                          "Derivative method of the re-simulation: spline "
                          "(default) or fd (faster)")

@@ -5,13 +5,17 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/profile.hpp"
 #include "hwmodel/calibration.hpp"
 
@@ -24,26 +28,42 @@ struct CalibrateArgs {
   bool raw = false;
   bool no_gyro = false;
   double gravity = 9.80665;
-  double init_static_s = 50.0;
+  std::optional<double> init_static_s;
 };
 
 int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
-  if (inputs.empty()) throw Error("calibrate: name the input file(s)");
+  if (inputs.empty()) throw UsageError("calibrate: name the input file(s)");
+  check_updatable_file(args.output, "profile to create or update");  // before the work
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {
-    throw Error(
+    throw UsageError(
         fmt::format("calibrate: the inputs form {} recordings with different time stamps; "
                     "give one recording (files with equal time stamps are merged)",
                     runs.size()));
   }
-  const ImuSeries& s = runs.front().series;
+  ImuSeries s = std::move(runs.front().series);
   CalibrateOptions options;
   options.gravity = args.gravity;
   options.raw = args.raw;
   options.gyro = !args.no_gyro;
-  options.init_static_s = args.init_static_s;
-  const CalibrateResult r = calibrate_series(s, options);
+  if (args.init_static_s) {
+    options.init_static_s = *args.init_static_s;
+  } else if (const auto guided = guided_initial_still(runs.front())) {
+    // A guided capture says how long the device lay still and from when: start there.
+    options.init_static_s = guided->seconds;
+    const auto first = std::lower_bound(s.t.begin(), s.t.end(), guided->start);
+    const auto skip = static_cast<std::size_t>(first - s.t.begin());
+    fmt::print("initial static period: {:g} s from {:.3f} s, as the guided capture recorded\n",
+               guided->seconds, s.empty() ? 0.0 : to_seconds(guided->start - s.t.front()));
+    if (skip > 0) s = s.slice(skip, s.size() - skip).copy();
+  }
+  CalibrateResult r;
+  try {
+    r = calibrate_series(s, options);
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", runs.front().name, e.what()));  // which recording
+  }
   update_profile(args.output, r.update);
   fmt::print("wrote calibration sections to {}\n", args.output);
   if (!args.plot_dir.empty()) {
@@ -70,9 +90,12 @@ IMUKIT_REGISTER_COMMAND(
                   sub.add_flag("--raw", args->raw,
                                "the readings are ADC counts: the calibration maps counts to SI");
                   sub.add_flag("--no-gyro", args->no_gyro, "calibrate the accelerometer only");
-                  sub.add_option("--gravity", args->gravity, "local gravity, m/s^2");
+                  sub.add_option("--gravity", args->gravity, "local gravity, m/s^2")
+                      ->check(gravity_range());
                   sub.add_option("--init-static", args->init_static_s,
-                                 "length of the initial static period, s (default 50)");
+                                 "length of the initial static period, s (default: what a guided "
+                                 "capture recorded, else 50)")
+                      ->check(real_in(0, 3600, "s", LowEnd::open));
                   sub.footer(input_options_help() +
                              "\n\nExample (the imu_tk Xsens recording, raw counts):\n"
                              "  imukit calibrate xsens_acc.txt --columns t,ax,ay,az xsens_gyro.txt "

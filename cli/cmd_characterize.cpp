@@ -12,7 +12,9 @@
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/profile.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
@@ -33,9 +35,10 @@ struct CharacterizeArgs {
 
 int run_characterize(const CharacterizeArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
-  if (inputs.empty()) throw Error("characterize: name at least one input file");
+  if (inputs.empty()) throw UsageError("characterize: name at least one input file");
   if (args.output.empty())
-    throw Error("characterize: say where the profile goes with -o profile.json");
+    throw UsageError("characterize: say where the profile goes with -o profile.json");
+  check_updatable_file(args.output, "profile to create or update");  // before the work
   const auto runs = load_runs(inputs);
   CharacterizeOptions options;
   options.gravity = args.gravity;
@@ -68,6 +71,17 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
         r.noise_run, 1.0 / (acc ? acc->allan.tau0_s : gyr->allan.tau0_s), mx(acc, hwmodel::kWhite),
         mx(acc, hwmodel::kRandomWalk), mx(gyr, hwmodel::kWhite), mx(gyr, hwmodel::kRandomWalk));
     fmt::print("wrote Kalibr noise parameters to {}\n", args.kalibr);
+    // 0 tells Kalibr's filter the bias never wanders, which no real sensor does.
+    for (const auto& [name, triad] :
+         {std::pair{"accelerometer", &acc}, std::pair{"gyroscope", &gyr}}) {
+      if (*triad && mx(*triad, hwmodel::kRandomWalk) == 0.0) {
+        fmt::print(stderr,
+                   "imukit: warning: no {} random walk seen in {} (too short a recording?): "
+                   "Kalibr's {}_random_walk is 0, which says its bias never drifts; record for "
+                   "hours, or set a value from the datasheet\n",
+                   name, r.noise_run, name);
+      }
+    }
   }
   if (!args.plot_dir.empty()) {
     plot_noise(args.plot_dir, r);
@@ -92,12 +106,15 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--plot", args->plot_dir, "folder for SVG plots (gnuplot)");
           sub.add_option("--kalibr", args->kalibr, "also write Kalibr's imu.yaml here");
           sub.add_option("--gravity", args->gravity,
-                         "local gravity, m/s^2 (recorded in the profile)");
+                         "local gravity, m/s^2 (recorded in the profile)")
+              ->check(gravity_range());
           sub.add_option("--points-per-decade", args->points_per_decade,
-                         "tau grid density (default 10)");
+                         "tau grid density (default 10)")
+              ->check(whole_in(1, 100));
           sub.add_option("--fit-tau-min", args->fit_tau_min_s,
                          "fit the noise model only where tau >= this (s): leave out a sensor "
-                         "filter's or a vibration's mark");
+                         "filter's or a vibration's mark")
+              ->check(real_in(0, 1e7, "s"));
           sub.add_flag(
               "--level", args->level,
               "recordings were taken level with z up: also give the accelerometer turn-on bias");

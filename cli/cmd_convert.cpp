@@ -6,6 +6,7 @@
 
 #include "capture/mcap.hpp"
 #include "capture/recording_mcap.hpp"
+#include "capture/session.hpp"
 #include "cli/command.hpp"
 #include "cli/inputs.hpp"
 #include "core/error.hpp"
@@ -43,7 +44,7 @@ void write_npy_pair(const std::string& out, const ImuSeries& s) {
 
 const ImuSeries& only_stream(const Recording& r, const std::string& out) {
   if (r.streams.size() != 1) {
-    throw Error(
+    throw UsageError(
         fmt::format("convert: the input holds {} streams; write them to a folder "
                     "(-o DIR/) instead of the single file {}",
                     r.streams.size(), out));
@@ -53,22 +54,43 @@ const ImuSeries& only_stream(const Recording& r, const std::string& out) {
 
 int run_convert(const std::vector<std::string>& tokens, const std::string& out, bool recover) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
-  if (inputs.size() != 1) throw Error("convert: give exactly one input file (and -o OUT)");
+  if (inputs.size() != 1) throw UsageError("convert: give exactly one input file (and -o OUT)");
   if (recover) {
     if (fs::path(inputs.front().path).extension() != ".mcap" ||
         fs::path(out).extension() != ".mcap") {
-      throw Error("convert --recover: input and output must both be .mcap files");
+      throw UsageError("convert --recover: input and output must both be .mcap files");
     }
-    const capture::McapReadSummary s = capture::recover_mcap(inputs.front().path, out);
-    fmt::print(
-        "{}\nwrote {}: {} messages in {} chunks{}\n",
-        s.complete ? inputs.front().path + " was complete" : s.truncation_note, out, s.messages,
-        s.chunks,
-        s.corrupt_chunks ? fmt::format(" ({} corrupt chunks skipped)", s.corrupt_chunks) : "");
+    std::error_code ec;
+    if (fs::equivalent(inputs.front().path, out, ec)) {
+      throw Error(fmt::format("convert --recover: {} is the input; write the recovered file to a "
+                              "new name",
+                              out));
+    }
+    // Recordings of `imukit record` also get their clocks refitted over the samples kept.
+    const capture::RecoveredRecording r = capture::recover_recording(inputs.front().path, out);
+    const capture::McapReadSummary& s = r.read;
+    fmt::print("{}\n", s.complete ? inputs.front().path + " was complete" : s.truncation_note);
+    for (const std::string& d : s.damage) fmt::print("  damaged: {}\n", d);
+    if (s.damaged_records > s.damage.size())
+      fmt::print("  ... and {} more damaged records\n", s.damaged_records - s.damage.size());
+    if (s.orphan_messages)
+      fmt::print("  {} messages left out: the Channel record they belong to is damaged\n",
+                 s.orphan_messages);
+    if (r.undecodable_messages)
+      fmt::print("  {} messages left out: they do not decode\n", r.undecodable_messages);
+    fmt::print("wrote {}: {} messages of {} chunks{}\n", out,
+               s.messages - r.undecodable_messages, s.chunks,
+               s.damaged_records ? fmt::format("; {} damaged records skipped", s.damaged_records)
+                                 : "");
+    for (const auto& [device, fit] : r.clocks) {
+      fmt::print("  {}: clock refitted over {} packets ({:+.3f} ppm)\n", device, fit.packets,
+                 fit.skew_ppm);
+    }
     return 0;
   }
   const Recording r = load_recording(inputs.front());
-  for (const auto& [name, series] : r.streams) series.validate();
+  for (const auto& [name, series] : r.streams)
+    series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
   if (ext == ".mcap") {
     capture::write_recording_mcap(out, r);
@@ -90,7 +112,7 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
       fmt::print("wrote {} ({} samples, EuRoC CSV)\n", path, series.size());
     }
   } else {
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "convert: output '{}' must be OUT.mcap, OUT.csv (EuRoC), OUT.npy or a folder", out));
   }
   return 0;
@@ -111,7 +133,8 @@ IMUKIT_REGISTER_COMMAND(
               ->required();
           sub.add_flag(
               "--recover", *recover,
-              "rewrite an MCAP file cut short by a crash as a valid file (corrupt chunks skipped)");
+              "rewrite an MCAP file cut short by a crash or damaged as a valid file (damaged "
+              "records skipped, every intact chunk kept, clocks refitted over what was kept)");
           sub.allow_extras();
           sub.footer(
               input_options_help() +

@@ -21,6 +21,7 @@
 #include "capture/session.hpp"
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/profile.hpp"
@@ -184,10 +185,7 @@ CaptureOutcome capture_mock(const std::string& uri, const std::string& path, dou
 }
 
 std::string find_motion(const std::string& given) {
-  if (!given.empty()) {
-    if (!fs::exists(given)) throw Error("demo: --motion " + given + ": no such file");
-    return given;
-  }
+  if (!given.empty()) return given;  // read_bvh says what is wrong with it
   std::vector<fs::path> candidates;
   // Installed: <prefix>/bin/imukit and <prefix>/share/imukit/motion/.
   std::error_code ec;
@@ -237,32 +235,61 @@ void append(ImuSeries& to, const sim::SensorBlock& b) {
   to.gyro.rightCols(n) = b.angular_rate;
 }
 
-void plot_simulation(const fs::path& dir) {
-  const std::string m = (dir / (std::string(kSensor) + ".csv")).string();
-  const std::string t = (dir / (std::string(kSensor) + ".truth.csv")).string();
+// Left: the noiseless signal (lines) with the measured samples over it (points); at this scale
+// the hardware's error is far smaller than the motion, so the right column shows it alone
+// (measured - noiseless: noise, bias, scale and misalignment). The spikes in the specific force
+// are the bundled BVH's: its root translation has millimetre glitches, and a second derivative at
+// 120 Hz turns 2 mm into 30 m/s^2 (examples/motion/README.md).
+void plot_simulation(const fs::path& dir, const ImuSeries& measured, const ImuSeries& truth) {
+  const std::string dat = std::string(kSensor) + "_error.dat";
+  {
+    auto out = fmt::output_file((dir / dat).string());
+    out.print("# t_s  measured - noiseless: ax ay az [m/s^2] gx gy gz [rad/s]\n");
+    for (std::size_t i = 0; i < measured.size(); ++i) {
+      const auto c = static_cast<Eigen::Index>(i);
+      const Eigen::Vector3d da = measured.accel.col(c) - truth.accel.col(c);
+      const Eigen::Vector3d dg = measured.gyro.col(c) - truth.gyro.col(c);
+      out.print("{:.6f} {:.7g} {:.7g} {:.7g} {:.7g} {:.7g} {:.7g}\n",
+                to_seconds(measured.t[i] - measured.t.front()), da.x(), da.y(), da.z(), dg.x(),
+                dg.y(), dg.z());
+    }
+  }
+  const std::string m = std::string(kSensor) + ".csv";
+  const std::string t = std::string(kSensor) + ".truth.csv";
+  const char* colour[3] = {"#b2182b", "#1b7837", "#2166ac"};
+  const auto signals = [&](int first_column, const char* symbol) {
+    std::string p;
+    for (int ax = 0; ax < 3; ++ax) {
+      p += fmt::format(
+          "{}'{}' u (($1-t0)*1e-9):{} w l lw 1.5 lc rgb '{}' t '{}_{}', '{}' u (($1-t0)*1e-9):{} "
+          "w p pt 7 ps 0.2 lc rgb 'black' {}",
+          ax == 0 ? "" : ", ", t, first_column + ax, colour[ax], symbol, "xyz"[ax], m,
+          first_column + ax, ax == 2 ? "t 'measured'" : "notitle");
+    }
+    return p;
+  };
+  const auto errors = [&](int first_column, const char* symbol) {
+    std::string p;
+    for (int ax = 0; ax < 3; ++ax) {
+      p += fmt::format("{}'{}' u 1:{} w l lw 1 lc rgb '{}' t '{}_{}'", ax == 0 ? "" : ", ", dat,
+                       first_column + ax, colour[ax], symbol, "xyz"[ax]);
+    }
+    return p;
+  };
   const std::string script = fmt::format(
-      "set datafile separator ','\nset grid\nset key outside right\nset multiplot layout 2,1 title "
-      "'simulated left-wrist watch on a CMU walk: measured hardware model (points) and noiseless "
-      "(lines)'\n"
-      "set ylabel 'specific force [m/s^2]'\n"
-      "plot '{m}' u (($1-t0)*1e-9):5 every ::1 w p pt 7 ps 0.2 lc 1 t 'a_x', '{t}' u "
-      "(($1-t0)*1e-9):5 w l lc 1 notitle, "
-      "'{m}' u (($1-t0)*1e-9):6 w p pt 7 ps 0.2 lc 2 t 'a_y', '{t}' u (($1-t0)*1e-9):6 w l lc 2 "
-      "notitle, "
-      "'{m}' u (($1-t0)*1e-9):7 w p pt 7 ps 0.2 lc 3 t 'a_z', '{t}' u (($1-t0)*1e-9):7 w l lc 3 "
-      "notitle\n"
-      "set xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\n"
-      "plot '{m}' u (($1-t0)*1e-9):2 w p pt 7 ps 0.2 lc 1 t 'w_x', '{t}' u (($1-t0)*1e-9):2 w l lc "
-      "1 notitle, "
-      "'{m}' u (($1-t0)*1e-9):3 w p pt 7 ps 0.2 lc 2 t 'w_y', '{t}' u (($1-t0)*1e-9):3 w l lc 2 "
-      "notitle, "
-      "'{m}' u (($1-t0)*1e-9):4 w p pt 7 ps 0.2 lc 3 t 'w_z', '{t}' u (($1-t0)*1e-9):4 w l lc 3 "
-      "notitle\n"
+      "set grid\nset key outside right font ',9'\n"
+      "t0 = 0\nset datafile separator ','\nstats '{m}' u 1 every ::0::0 nooutput\nt0 = STATS_min\n"
+      "set multiplot layout 2,2 title 'simulated left-wrist watch on a CMU walk, measured hardware "
+      "model: signal (left) and its error (right)'\n"
+      "set ylabel 'specific force [m/s^2]'\nplot {a}\n"
+      "set datafile separator whitespace\nset ylabel 'measured - noiseless [m/s^2]'\nplot {ea}\n"
+      "set datafile separator ','\nset xlabel 'time [s]'\nset ylabel 'angular rate [rad/s]'\n"
+      "plot {g}\n"
+      "set datafile separator whitespace\nset ylabel 'measured - noiseless [rad/s]'\nplot {eg}\n"
       "unset multiplot\n",
-      fmt::arg("m", m), fmt::arg("t", t));
-  // t0: the first time stamp, so the axis starts at 0 s.
-  run_gnuplot(dir, kSensor,
-              "t0 = 0\nstats '" + m + "' u 1 every ::1::1 nooutput\nt0 = STATS_min\n" + script);
+      fmt::arg("m", m), fmt::arg("a", signals(5, "a")), fmt::arg("g", signals(2, "w")),
+      fmt::arg("ea", errors(2, "a")), fmt::arg("eg", errors(5, "w")));
+  run_gnuplot(dir, kSensor, script);
 }
 
 // ---- the comparison table ----------------------------------------------------------------
@@ -273,13 +300,22 @@ struct Row {
   std::string error;  // formatted
 };
 
-void print_rows(const std::string& title, const std::vector<Row>& rows) {
+// Prints the rows and returns them as report.json holds them: every number the table shows.
+Json print_rows(const std::string& title, const std::vector<Row>& rows) {
   fmt::print("  {}\n", title);
+  Json out = Json::array();
   for (const Row& r : rows) {
     fmt::print("    {:<34} true {:>+12.6g}   estimated {:>+12.6g}{}   {}\n", r.what, r.truth,
                r.estimate,
                r.sigma > 0 ? fmt::format(" +- {:<9.2g}", r.sigma) : std::string(13, ' '), r.error);
+    out.push_back({{"quantity", r.what},
+                   {"true", r.truth},
+                   {"estimated", r.estimate},
+                   {"standard_error", r.sigma > 0 ? Json(r.sigma) : Json(nullptr)},
+                   {"error", r.estimate - r.truth},
+                   {"summary", r.error}});
   }
+  return out;
 }
 
 int run_demo(const DemoArgs& args) {
@@ -292,6 +328,8 @@ int run_demo(const DemoArgs& args) {
     throw Error(fmt::format("demo: cannot create {}: {}; choose another folder with -o DIR",
                             out.string(), ec.message()));
   const std::string motion_path = find_motion(args.motion);
+  // Read now: a bad motion file is refused before minutes of capture, not after.
+  (void)sim::read_bvh(motion_path, sim::BvhOptions{});
   const fs::path plots = out / "plots";
   fs::create_directories(plots);
   std::vector<StepRecord> steps;
@@ -356,10 +394,11 @@ int run_demo(const DemoArgs& args) {
   capture::PoseGuideOptions guide;
   guide.poses_wanted = plan.poses;
   const uint64_t poses_seed = args.seed * 1000 + 999;
-  const CaptureOutcome poses = capture_mock(
-      mock_uri("poses", poses_seed,
-               fmt::format("&poses={}&hold_s={}&move_s={}", plan.poses, plan.hold_s, plan.move_s)),
-      poses_path, plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
+  const CaptureOutcome poses =
+      capture_mock(mock_uri("poses", poses_seed,
+                            fmt::format("&poses={}&hold_s={}&move_s={}&init_s={}", plan.poses,
+                                        plan.hold_s, plan.move_s, plan.hold_s)),
+                   poses_path, plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
   fmt::print("      {}: {} samples, {} distinct poses ({})\n", poses_path, poses.samples,
              poses.poses, poses.stop_reason);
   steps.push_back({"multi-position capture", seconds_since(t0), {"recordings/poses.mcap"}});
@@ -386,7 +425,8 @@ int run_demo(const DemoArgs& args) {
       acal.scale.asDiagonal() * acal.misalignment * Eigen::Vector3d(0, 0, g);
   // Each recording is its own power cycle (load_runs would merge files with equal time stamps).
   std::vector<LoadedRun> static_loaded;
-  for (const InputArg& in : static_inputs) static_loaded.push_back({in.path, load_imu_series(in)});
+  for (const InputArg& in : static_inputs)
+    static_loaded.push_back({in.path, load_imu_series(in), {}});
   CharacterizeOptions nopt;
   nopt.gravity = g;
   nopt.level = true;  // the static mock lies level, z up
@@ -467,7 +507,7 @@ int run_demo(const DemoArgs& args) {
                       cm.bias[ax], 0,
                       fmt::format("{:+.3g} {}", cm.bias[ax] - pose_bias[ax], unit)});
     }
-    print_rows(name, rows);
+    j["rows"] = print_rows(name, rows);
     j["true_calibration_bias_of_poses_run"] = vec(pose_bias);
     j["wire_lsb"] = lsb;
     comparison[name] = j;
@@ -501,7 +541,7 @@ int run_demo(const DemoArgs& args) {
   }
   write_euroc_csv((sim_dir / (std::string(kSensor) + ".csv")).string(), watch.view());
   write_euroc_csv((sim_dir / (std::string(kSensor) + ".truth.csv")).string(), watch_truth.view());
-  plot_simulation(sim_dir);
+  plot_simulation(sim_dir, watch, watch_truth);
   fmt::print("      {} samples at {:g} Hz ({:.2f} s) -> {}/{}.csv (+ .truth.csv, noiseless)\n",
              watch.size(), plan.rate_hz, watch.size() / plan.rate_hz, sim_dir.string(), kSensor);
   steps.push_back({"simulate",
@@ -593,7 +633,8 @@ IMUKIT_REGISTER_COMMAND(
                 sub.add_option("--motion", args->motion,
                                "a BVH file (metres, Y up) instead of the bundled CMU walk");
                 sub.add_option("--seed", args->seed,
-                               "seed of the mock devices, the simulation and the augmentation");
+                               "seed of the mock devices, the simulation and the augmentation")
+                    ->check(whole_in(0, 1'000'000'000'000));  // times 1000 for the mock seeds
                 sub.footer(
                     "\nSteps: (1) record a still mock smartwatch IMU with a known hardware model "
                     "for 2 h of\n"

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "cli/command.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "drivers/devices.hpp"
 #include "drivers/reader.hpp"
@@ -81,7 +82,7 @@ int read_device(const DevicesOptions& o) {
   const char* kinds[] = {"running", "stopped", "end of stream", "error"};
   fmt::print("  ended: {}{}\n", kinds[static_cast<int>(end.kind)],
              end.message.empty() ? "" : ": " + end.message);
-  return end.kind == drivers::EndKind::kError ? 1 : 0;
+  return end.kind == drivers::EndKind::kError ? kIo : kOk;
 }
 
 }  // namespace
@@ -98,7 +99,7 @@ IMUKIT_REGISTER_COMMAND(
               "--read", o->read_uri,
               "Read this device URI for a while and report samples, rate, drops and errors");
           sub.add_option("--seconds", o->seconds, "How long --read reads (default 2)")
-              ->check(CLI::PositiveNumber);
+              ->check(real_in(0, 86400, "s", LowEnd::open));
           sub.footer(
               "Device URIs (docs/devices.md): serial:/dev/ttyUSB0?baud=921600&codec=witmotion,\n"
               "hid:054c:09cc, usb:2639:0013?codec=xsens, file:capture.bin?codec=xsens,\n"

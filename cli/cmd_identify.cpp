@@ -16,6 +16,7 @@
 #include "cli/command.hpp"
 #include "cli/hwmodel_common.hpp"
 #include "cli/inputs.hpp"
+#include "cli/options.hpp"
 #include "core/column_text.hpp"
 #include "core/error.hpp"
 #include "core/so3.hpp"
@@ -45,6 +46,18 @@ struct IdentifyArgs {
   double max_time_offset = 1.0;
   double gravity = 9.80665;
   int threads = 1;
+  double max_clock_rate = 2e-4;
+  std::string correct = "none";
+  double knot_spacing = 0.3;
+  // The library's defaults (1.5 rad, 0.1 rad) in degrees.
+  double twist_prior_deg = 1.5 * 180.0 / std::numbers::pi;
+  double tilt_prior_deg = 0.1 * 180.0 / std::numbers::pi;
+  double correction_smoothness = 30.0;
+  double function_tolerance = 1e-12;
+  double accel_bias_prior = 0.0;
+  double gyro_bias_prior = 0.0;
+  std::string scene_out;
+  std::string sensor_name;
 };
 
 // --imu FILE [options] and --pose FILE [options], from the tokens CLI11 left over.
@@ -59,20 +72,22 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
   auto flush = [&] {
     if (role.empty()) return;
     const auto parsed = parse_input_args(group);
-    if (parsed.size() != 1) throw Error(fmt::format("identify: {} takes exactly one file", role));
+    if (parsed.size() != 1)
+      throw UsageError(fmt::format("identify: {} takes exactly one file", role));
     (role == "--imu" ? r.imu : r.pose) = parsed.front();
   };
   for (std::size_t i = 0; i < tokens.size(); ++i) {
     if (tokens[i] == "--imu" || tokens[i] == "--pose") {
       flush();
       role = tokens[i];
-      if (i + 1 >= tokens.size()) throw Error(fmt::format("identify: {} needs a file", role));
+      if (i + 1 >= tokens.size()) throw UsageError(fmt::format("identify: {} needs a file", role));
       if ((role == "--imu" ? r.imu : r.pose).has_value())
-        throw Error(fmt::format("identify: {} given twice", role));
+        throw UsageError(fmt::format("identify: {} given twice", role));
       group = {tokens[++i]};
       continue;
     }
-    if (role.empty()) throw Error(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
+    if (role.empty())
+      throw UsageError(fmt::format("identify: unexpected '{}' (see --help)", tokens[i]));
     group.push_back(tokens[i]);
   }
   flush();
@@ -81,15 +96,15 @@ RoleInputs split_inputs(const std::vector<std::string>& tokens) {
 
 sim::PoseTrack load_pose_track(const InputArg& in) {
   if (in.columns.empty()) {
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "{}: say where the pose is with --columns, e.g. --columns t,qw,qx,qy,qz,px,py,pz",
         in.path));
   }
-  const ColumnSpec spec = ColumnSpec::parse(in.columns, in.gaps, parse_time_unit(in.time_unit));
+  const ColumnSpec spec = column_spec(in);
   for (Column c : {Column::t, Column::qw, Column::qx, Column::qy, Column::qz, Column::px,
                    Column::py, Column::pz}) {
     if (!spec.has(c)) {
-      throw Error(
+      throw UsageError(
           fmt::format("{}: a pose track needs columns t, qw, qx, qy, qz, px, py, pz (missing {})",
                       in.path, column_name(c)));
     }
@@ -127,7 +142,7 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
     else if (n == "clock_rate")
       o.clock_rate = value;
     else {
-      throw Error(
+      throw UsageError(
           fmt::format("identify: {} '{}' is not one of rotation, position, accel_bias, gyro_bias, "
                       "accel_scale, gyro_scale, time_offset, clock_rate",
                       option, n));
@@ -137,9 +152,9 @@ void apply_names(const std::vector<std::string>& names, bool value, sim::Identif
 
 void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::filesystem::create_directories(dir);
-  const auto dat = (std::filesystem::path(dir) / "identify_signals.dat").string();
+  const std::string dat = "identify_signals.dat";  // beside the script (run_gnuplot)
   {
-    auto out = fmt::output_file(dat);
+    auto out = fmt::output_file((std::filesystem::path(dir) / dat).string());
     out.print(
         "# t_s  measured ax ay az gx gy gz  simulated-before ax ay az gx gy gz  simulated-after ax "
         "ay az gx gy gz\n");
@@ -156,16 +171,20 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   std::string script = fmt::format(
       "set multiplot layout 3,2 title 'measured vs simulated (identified placement, bias, time "
       "offset)'\n"
-      "set grid\nset key top right font ',9'\n");
+      "set grid\n");
   const char* axis = "xyz";
   for (int k = 0; k < 3; ++k) {
     for (int s = 0; s < 2; ++s) {  // accelerometer column 2+k, gyroscope 5+k
       const int col = 2 + 3 * s + k;
+      // One legend, above the first panel: inside a panel it covers the data.
+      const std::string key = k == 0 && s == 0   ? "set key above horizontal font ',9'\n"
+                              : k == 0 && s == 1 ? "unset key\n"
+                                                 : "";
       script += fmt::format(
-          "set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
+          "{}set ylabel '{}_{} [{}]'\n{}plot '{}' u 1:{} w l lc rgb '#999999' t 'measured', '' u "
           "1:{} w l lc 1 t "
           "'simulated, identified', '' u 1:{} w l lc 2 dt 2 t 'simulated, before'\n",
-          s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
+          key, s == 0 ? "a" : "w", axis[k], s == 0 ? "m/s^2" : "rad/s",
           k == 2 ? "set xlabel 't [s]'\n" : "", dat, col, col + 12, col + 6);
     }
   }
@@ -175,18 +194,31 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
 
 int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
   const RoleInputs in = split_inputs(tokens);
-  if (!in.imu) throw Error("identify: give the IMU recording with --imu FILE");
+  if (!in.imu) throw UsageError("identify: give the IMU recording with --imu FILE");
   if (in.pose.has_value() == !a.motion.empty())
-    throw Error(
+    throw UsageError(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
   ImuSeries imu = load_imu_series(*in.imu);
-  imu.validate();
+  imu.validate(in.imu->path);
+  if (imu.size() < 2) {
+    throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
+                            imu.size()));
+  }
 
   sim::IdentifyOptions o;
   o.threads = a.threads;
   o.max_time_offset_s = a.max_time_offset;
   o.segment_prior = a.segment_prior;
   o.gravity_world = Eigen::Vector3d(0, 0, -std::abs(a.gravity));
+  o.max_clock_rate = a.max_clock_rate;
+  o.correction = sim::parse_segment_correction(a.correct);
+  o.correction_knot_spacing_s = a.knot_spacing;
+  o.twist_prior_rad = a.twist_prior_deg * std::numbers::pi / 180.0;
+  o.tilt_prior_rad = a.tilt_prior_deg * std::numbers::pi / 180.0;
+  o.correction_smoothness_radps2 = a.correction_smoothness;
+  o.function_tolerance = a.function_tolerance;
+  o.accel_bias_prior_mps2 = a.accel_bias_prior;
+  o.gyro_bias_prior_radps = a.gyro_bias_prior;
   apply_names(a.fix, false, o, "--fix");
   apply_names(a.estimate, true, o, "--estimate");
   if (a.time_offset) {
@@ -199,7 +231,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   std::vector<std::string> warnings;
   if (in.pose) {
     if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
-      throw Error(
+      throw UsageError(
           "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
           "apply");
     sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(*in.pose), in.pose->path);
@@ -236,13 +268,15 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     if (!a.joint.empty()) {
       const int j = body.index_of(a.joint);
       if (!a.init.empty() && j != o.joint) {
-        throw Error(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'", a.init,
-                                body.joint(static_cast<std::size_t>(o.joint)).name, a.joint));
+        throw UsageError(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'",
+                                     a.init, body.joint(static_cast<std::size_t>(o.joint)).name,
+                                     a.joint));
       }
       o.joint = j;
     }
     if (o.joint < 0)
-      throw Error("identify --motion: name the sensor's joint with --joint (or --init PRESET)");
+      throw UsageError(
+          "identify --motion: name the sensor's joint with --joint (or --init PRESET)");
     for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
     o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
   }
@@ -270,17 +304,58 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     }
     fmt::print("{:<22} {:>14.6g} {:>12.3g}  {}\n", e.name, e.value * f, e.std_error * f, unit);
   }
+  if (o.clock_rate) fmt::print("time scale (1 + clock_rate): {:.6f}\n", 1.0 + r.clock_rate);
+  if (r.correction.dims > 0) {
+    const char* names[3] = {"twist", "tilt (anterior axis)", "tilt (normal axis)"};
+    const auto n = static_cast<double>(std::max<Eigen::Index>(1, r.correction_angles.cols()));
+    for (int d = 0; d < r.correction.dims; ++d) {
+      fmt::print(
+          "segment correction {}: RMS {:.2f} deg, max {:.2f} deg ({} knots every {:.3f} s)\n",
+          names[d],
+          std::sqrt(r.correction_angles.row(d).squaredNorm() / n) * 180.0 / std::numbers::pi,
+          r.correction_angles.row(d).cwiseAbs().maxCoeff() * 180.0 / std::numbers::pi,
+          r.correction.control.cols(), r.correction.knot_spacing_s);
+    }
+  }
   fmt::print(
       "residual RMS  accelerometer {:.4f} -> {:.4f} m/s^2, gyroscope {:.5f} -> {:.5f} rad/s "
       "(before -> after)\n",
       r.rms_before.accel, r.rms_after.accel, r.rms_before.gyro, r.rms_after.gyro);
+  fmt::print("fidelity per axis, before -> after:\n");
+  for (int k = 0; k < 3; ++k) {
+    fmt::print(
+        "  a{}: RMSE {:.3f} -> {:.3f} m/s^2, r {:.3f} -> {:.3f}   g{}: RMSE {:.4f} -> {:.4f} "
+        "rad/s, r {:.3f} -> {:.3f}\n",
+        "xyz"[k], r.fidelity_before.accel.rmse[k], r.fidelity_after.accel.rmse[k],
+        r.fidelity_before.accel.correlation[k], r.fidelity_after.accel.correlation[k], "xyz"[k],
+        r.fidelity_before.gyro.rmse[k], r.fidelity_after.gyro.rmse[k],
+        r.fidelity_before.gyro.correlation[k], r.fidelity_after.gyro.correlation[k]);
+  }
   {
     std::ofstream f(a.output);
-    if (!f) throw Error(a.output + ": cannot open for writing");
+    if (!f) throw IoError(a.output + ": cannot open for writing");
     f << sim::placement_json(r, body);
-    if (!f.flush()) throw Error(a.output + ": write failed");
+    if (!f.flush()) throw IoError(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
+  if (!a.scene_out.empty()) {
+    if (in.pose)
+      throw UsageError("identify --scene-out: needs a skeleton motion (--motion), not --pose");
+    // The fitted motion on the IMU's clock: frame k at first + k / rate with the mean rate, as
+    // many frames as IMU samples (the last on the last sample).
+    const double rate = 1e9 * static_cast<double>(imu.size() - 1) /
+                        static_cast<double>(imu.t.back() - imu.t.front());
+    const sim::Motion fitted =
+        sim::fitted_motion(body, *motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), rate);
+    sim::write_fitted_scene(a.scene_out, body, fitted, r,
+                            a.sensor_name.empty()
+                                ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
+                                : a.sensor_name,
+                            o.gravity_world);
+    fmt::print(
+        "wrote the fitted scene in {} (scene.json, motion.csv at {:.6g} Hz, placement.json)\n",
+        a.scene_out, rate);
+  }
   if (!a.plot_dir.empty()) {
     write_plot(a.plot_dir, r);
     fmt::print("plots in {}\n", a.plot_dir);
@@ -293,7 +368,7 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
                "motion that "
                "turns about more axes, or hold them with --fix\n",
                names);
-    return 2;
+    return kBadInput;  // the output is written, but the motion could not determine all asked
   }
   return 0;
 }
@@ -314,11 +389,13 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--joint", a->joint, "the joint (or segment) carrying the sensor");
           sub.add_option("--init", a->init,
                          "placement preset to start from (see imukit simulate --list-presets)");
-          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres");
+          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres")
+              ->check(bvh_scale_range());
           sub.add_option("--up", a->up, "up axis of the BVH file: y (default) or z")
               ->check(CLI::IsMember({"y", "z"}));
           sub.add_option("--height", a->height,
-                         "stature of the default humanoid for a quaternion CSV, m");
+                         "stature of the default humanoid for a quaternion CSV, m")
+              ->check(real_in(0.3, 3, "m"));
           sub.add_option("--fix", a->fix,
                          "hold at the initial value (comma list): rotation, position, accel_bias, "
                          "gyro_bias, time_offset")
@@ -331,16 +408,57 @@ IMUKIT_REGISTER_COMMAND(
                          "length) to fit")
               ->delimiter(',');
           sub.add_option("--segment-prior", a->segment_prior,
-                         "relative width of the segment-length prior (default 0.05)");
+                         "relative width of the segment-length prior (default 0.05)")
+              ->check(real_in(0, 10, "", LowEnd::open));
           sub.add_option("--time-offset", a->time_offset,
-                         "initial time offset, s (skips the cross-correlation)");
+                         "initial time offset, s (skips the cross-correlation)")
+              ->check(real_in(-86400, 86400, "s"));
           sub.add_option("--max-time-offset", a->max_time_offset,
-                         "search range of the cross-correlation, s (default 1)");
+                         "search range of the cross-correlation, s (default 1)")
+              ->check(real_in(0, 3600, "s", LowEnd::open));
           sub.add_option("--motion-start", a->motion_start,
-                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)");
-          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2");
+                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)")
+              ->check(real_in(-4e9, 4e9, "s"));
+          sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2")
+              ->check(gravity_range());
           sub.add_option("--threads", a->threads, "threads for the Jacobian (default 1)")
-              ->check(CLI::Range(1, 64));
+              ->check(whole_in(1, 64));
+          sub.add_option("--max-clock-rate", a->max_clock_rate,
+                         "bound of |clock_rate| with --estimate clock_rate (default 2e-4; streams "
+                         "aligned by duration need e.g. 0.1, which also searches it coarsely)")
+              ->check(real_in(0, 0.5, ""));
+          sub.add_option("--correct", a->correct,
+                         "smooth correction of the sensor segment's rotation: none (default), "
+                         "twist (about the segment's long axis) or rotation (twist + two tilts)")
+              ->check(CLI::IsMember({"none", "twist", "rotation"}));
+          sub.add_option("--knot-spacing", a->knot_spacing,
+                         "knot spacing of the correction's spline, s (default 0.3)")
+              ->check(real_in(0.01, 3600, "s"));
+          sub.add_option("--twist-prior", a->twist_prior_deg,
+                         "1-sigma prior of the twist angle, deg (default 85.94, 1.5 rad)")
+              ->check(real_in(0, 1e4, "deg", LowEnd::open));
+          sub.add_option("--tilt-prior", a->tilt_prior_deg,
+                         "1-sigma prior of the two tilt angles, deg (default 5.73, 0.1 rad)")
+              ->check(real_in(0, 1e4, "deg", LowEnd::open));
+          sub.add_option("--correction-smoothness", a->correction_smoothness,
+                         "1-sigma prior of the correction's angular acceleration at each knot, "
+                         "rad/s^2 (default 30)")
+              ->check(real_in(0, 1e6, "rad/s^2", LowEnd::open));
+          sub.add_option("--function-tolerance", a->function_tolerance,
+                         "stop when a step changes the cost by less than this fraction "
+                         "(default 1e-12; 1e-6 with a clock rate, docs/identification.md)")
+              ->check(real_in(0, 1, "", LowEnd::open));
+          sub.add_option("--accel-bias-prior", a->accel_bias_prior,
+                         "1-sigma Gaussian prior of the accelerometer bias, m/s^2 (0: none)")
+              ->check(real_in(0, 1e3, "m/s^2"));
+          sub.add_option("--gyro-bias-prior", a->gyro_bias_prior,
+                         "1-sigma Gaussian prior of the gyroscope bias, rad/s (0: none)")
+              ->check(real_in(0, 1e3, "rad/s"));
+          sub.add_option("--scene-out", a->scene_out,
+                         "folder for the fitted scene: scene.json, motion.csv (the fit baked into "
+                         "the motion, on the IMU's clock) and placement.json");
+          sub.add_option("--sensor-name", a->sensor_name,
+                         "the sensor's name in the fitted scene (default: the joint's name)");
           sub.add_option("--plot", a->plot_dir,
                          "folder for an SVG of measured against simulated signals (gnuplot)");
           sub.footer("--imu FILE and --pose FILE each take the per-input options after them.\n" +

@@ -50,7 +50,7 @@ void print_stream(const std::string& title, const ImuSeries& s) {
 
 int run_info(const std::vector<std::string>& tokens) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
-  if (inputs.empty()) throw Error("info: name at least one input file");
+  if (inputs.empty()) throw UsageError("info: name at least one input file");
   for (const InputArg& input : inputs) {
     const Recording r = load_recording(input);
     for (const auto& [name, series] : r.streams) {

@@ -2,6 +2,7 @@
 // stops (duration, sample count, Ctrl-C / SIGTERM, device loss) and the clock fit at the end.
 #include <fmt/core.h>
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -13,6 +14,7 @@
 
 #include "capture/session.hpp"
 #include "cli/command.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "drivers/transport.hpp"
 #include "drivers/uri.hpp"
@@ -29,10 +31,12 @@ struct RecordArgs {
   double duration_s = 0.0;
   uint64_t samples = 0;
   double rate_hz = 0.0;
+  double no_data_timeout_s = 10.0;
   bool no_refit = false;
   bool no_taps = false;
   std::string guide;
   int poses = 12;
+  double init_static_s = 10.0;
 };
 
 // Lines typed while recording become /events markers ("note", the text typed; an empty line is
@@ -70,16 +74,18 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   std::string line;
   for (const auto& d : devices) {
     if (!line.empty()) line += " | ";
-    line += fmt::format("{}: {} samples {:.1f} Hz, dropped {}, corrupt {}, queue max {}{}", d.name,
-                        d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.queue_high_water,
-                        d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
+    line +=
+        fmt::format("{}: {} samples {:.1f} Hz, dropped {}, corrupt {}, backlog max {}{}", d.name,
+                    d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.queue_high_water,
+                    d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
   }
   return line;
 }
 
 int run_record(const RecordArgs& args) {
   if (std::filesystem::path(args.output).extension() != ".mcap") {
-    throw Error(fmt::format("record: the output must be a .mcap file, got '{}'", args.output));
+    throw UsageError(fmt::format("record: the output must be a .mcap file, got {}",
+                                 quote_excerpt(args.output, 200)));
   }
   std::vector<capture::SessionDevice> devices;
   std::set<std::string> used;
@@ -95,6 +101,15 @@ int run_record(const RecordArgs& args) {
     d.device = drivers::open_device(text);
     devices.push_back(std::move(d));
   }
+  // A virtual-clock mock makes data as fast as the disk takes it: without a limit it would fill
+  // the disk before anyone reached for Ctrl-C. A guide is a limit only if it can complete.
+  const bool all_virtual = std::all_of(
+      devices.begin(), devices.end(),
+      [](const capture::SessionDevice& d) { return d.device.transport->virtual_time(); });
+  if (all_virtual && args.duration_s == 0 && args.samples == 0) {
+    throw UsageError(
+        "record: a virtual-clock mock runs as fast as it can: give --duration or --samples");
+  }
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   const bool tty = ::isatty(STDOUT_FILENO) != 0;
@@ -103,16 +118,22 @@ int run_record(const RecordArgs& args) {
   options.path = args.output;
   options.duration_s = args.duration_s;
   options.max_samples = args.samples;
+  options.no_data_timeout_s = args.no_data_timeout_s;
   options.finalize = !args.no_refit;
   options.stop = &g_stop;
   options.detect_taps = !args.no_taps;
   if (!args.guide.empty()) {
-    if (args.guide != "multipos") throw Error("--guide: the only guide is multipos");
+    if (args.guide != "multipos") throw UsageError("--guide: the only guide is multipos");
     capture::PoseGuideOptions guide;
     guide.poses_wanted = args.poses;
+    guide.initial_still_s = args.init_static_s;
     options.guide = guide;
     options.on_pose = [&](const std::string& device, const capture::PoseEvent& e) {
       if (tty) fmt::print("\n");
+      if (e.initial) {
+        fmt::print("{}: held still for {:g} s (the initial static period): done\n", device,
+                   args.init_static_s);
+      }
       if (e.kind == capture::PoseEvent::Kind::repeated_pose) {
         fmt::print("{}: this orientation is already recorded: turn to a new one\n", device);
       } else if (e.kind == capture::PoseEvent::Kind::done) {
@@ -148,19 +169,25 @@ int run_record(const RecordArgs& args) {
              args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s) : " until Ctrl-C");
   if (options.guide) {
     fmt::print(
-        "guided multi-position capture: hold the device still in {} different orientations, "
-        "2 s each\n",
-        args.poses);
+        "guided multi-position capture: first hold the device still for {:g} s (the initial "
+        "static period that `imukit calibrate` measures the stillness threshold on), then in {} "
+        "different orientations, 2 s each\n",
+        args.init_static_s, args.poses);
   }
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
   fmt::print("stopped: {}\n", report.stop_reason);
+  const std::size_t queue_capacity = capture::SessionOptions{}.queue_capacity;
+  std::string silent;
   for (const auto& d : report.devices) {
+    // The backlog is how far the writer fell behind the device (the queue between them): near
+    // the capacity, samples were about to be lost.
     fmt::print(
         "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
-        "the recorder {}, queue high-water {}; ended: {}\n",
+        "the recorder {}, largest backlog {} of {} samples; ended: {}\n",
         d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
-        d.queue_high_water, d.end_reason);
+        d.queue_high_water, queue_capacity, d.end_reason);
+    if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
     if (d.clock.packets > 1) {
       fmt::print(
           "  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} "
@@ -176,6 +203,8 @@ int run_record(const RecordArgs& args) {
     }
   }
   fmt::print("wrote {}\n", args.output);
+  if (!silent.empty())
+    throw IoError(fmt::format("record: no samples from {} (see the end reason above)", silent));
   return 0;
 }
 
@@ -191,16 +220,27 @@ IMUKIT_REGISTER_COMMAND(
                          "device URIs (see `imukit devices` and docs/devices.md)")
               ->required();
           sub.add_option("-o,--output", args->output, "output FILE.mcap")->required();
-          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data");
-          sub.add_option("--samples", args->samples, "stop each device after this many samples");
+          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data")
+              ->check(real_in(0, 1e7, "s", LowEnd::open));
+          sub.add_option("--samples", args->samples, "stop each device after this many samples")
+              ->check(whole_in(1, 1'000'000'000'000'000));
           sub.add_option("--rate", args->rate_hz,
-                         "output data rate to configure (Hz), for URIs without rate=");
+                         "output data rate to configure (Hz), for URIs without rate=")
+              ->check(sample_rate_range());
+          sub.add_option("--no-data-timeout", args->no_data_timeout_s,
+                         "stop a device that sends no sample for this long, s of wall-clock time "
+                         "(default 10)")
+              ->check(real_in(0, 86400, "s", LowEnd::open));
           sub.add_option(
               "--guide", args->guide,
               "multipos: guided multi-position capture for `imukit calibrate`: counts the "
               "distinct still poses and stops when there are --poses of them");
           sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
-              ->check(CLI::Range(1, 200));
+              ->check(whole_in(1, 200));
+          sub.add_option("--init-static", args->init_static_s,
+                         "--guide multipos: how long the device must first lie still, s (default "
+                         "10; `imukit calibrate` reads it from the recording)")
+              ->check(real_in(1, 3600, "s"));
           sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
           sub.add_flag(
               "--no-refit", args->no_refit,
@@ -217,8 +257,17 @@ IMUKIT_REGISTER_COMMAND(
               "Examples:\n"
               "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
               "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
-              "  imukit record 'mock:poses?clock=virtual' --guide multipos --poses 6 -o "
-              "poses.mcap\n\n"
+              "  imukit record 'mock:poses?clock=virtual&poses=12&profile=examples/profiles/"
+              "wrist_watch_imu.json' \\\n"
+              "      --guide multipos --poses 12 --duration 600 -o poses.mcap\n"
+              "  (a guided capture asks for --init-static s of stillness first, 10 by default; "
+              "`imukit calibrate`\n"
+              "  reads it from the recording)\n\n"
+              "Virtual-clock mocks need --duration or --samples: they run as fast as the disk "
+              "takes.\n"
+              "A device that sends nothing for --no-data-timeout s is stopped; a device that sent "
+              "no sample\n"
+              "makes the command fail (exit 3).\n\n"
               "Events (/events): sync taps found in the accelerometer (a sharp jerk), poses of "
               "--guide,\n"
               "and lines typed while recording (host time).\n");

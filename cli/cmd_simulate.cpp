@@ -4,13 +4,16 @@
 // chunk by chunk (constant memory for hours-long scenes).
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "capture/mcap.hpp"
 #include "capture/ros_messages.hpp"
 #include "cli/command.hpp"
+#include "cli/options.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/profile.hpp"
@@ -26,7 +29,7 @@ struct SimulateArgs {
   std::string output;
   std::string method;
   double rate_hz = 0.0;
-  int64_t seed = -1;
+  std::optional<uint64_t> seed;
   std::string bvh;
   double bvh_scale = 1.0;
   std::string up = "y";
@@ -34,7 +37,7 @@ struct SimulateArgs {
   std::string hardware;
   bool ground_truth = false;
   bool list_presets = false;
-  double gravity = 0.0;
+  std::optional<double> gravity;
 };
 
 // A CSV file written block by block: the header once, then rows in the EuRoC layout.
@@ -42,7 +45,7 @@ class StreamFile {
  public:
   StreamFile(const std::string& path, const std::string& header) : path_(path) {
     f_ = std::fopen(path.c_str(), "wb");
-    if (f_ == nullptr) throw Error(path + ": cannot open for writing");
+    if (f_ == nullptr) throw IoError(path + ": cannot open for writing");
     put(header + "\n");
   }
   ~StreamFile() {
@@ -52,12 +55,12 @@ class StreamFile {
   StreamFile& operator=(const StreamFile&) = delete;
   void put(const std::string& s) {
     if (std::fwrite(s.data(), 1, s.size(), f_) != s.size())
-      throw Error(path_ + ": write failed (disk full?)");
+      throw IoError(path_ + ": write failed (disk full?)");
   }
   void close() {
     if (f_ != nullptr && std::fclose(f_) != 0) {
       f_ = nullptr;
-      throw Error(path_ + ": write failed on close");
+      throw IoError(path_ + ": write failed on close");
     }
     f_ = nullptr;
   }
@@ -117,7 +120,7 @@ sim::Scene quick_scene(const SimulateArgs& a) {
   scene.frames = scene.motion->frame_count();
   scene.warnings = std::move(d.warnings);
   if (a.presets.empty())
-    throw Error("simulate --bvh: name at least one --preset (see --list-presets)");
+    throw UsageError("simulate --bvh: name at least one --preset (see --list-presets)");
   for (const std::string& name : a.presets) {
     sim::SceneSensor s;
     s.preset = name;
@@ -205,19 +208,21 @@ int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
 
 int run_simulate(const SimulateArgs& a) {
   if (a.list_presets) return list_presets();
-  if (a.output.empty()) throw Error("simulate: give the output folder with -o DIR");
+  if (a.output.empty()) throw UsageError("simulate: give the output folder with -o DIR");
   const std::filesystem::path out(a.output);
   if (a.scene.empty() == a.bvh.empty())
-    throw Error("simulate: give either SCENE.json or --bvh FILE");
+    throw UsageError("simulate: give either SCENE.json or --bvh FILE");
+  if (out.extension() != ".mcap" && std::filesystem::exists(out) &&
+      !std::filesystem::is_directory(out)) {
+    throw UsageError(fmt::format(
+        "simulate: -o {} is an existing file; give a folder (one CSV per sensor) or FILE.mcap",
+        a.output));
+  }
   sim::Scene scene = a.scene.empty() ? quick_scene(a) : sim::read_scene(a.scene);
   if (!a.method.empty()) scene.options.method = sim::parse_derivative_method(a.method);
-  if (a.rate_hz != 0.0) {
-    if (!(a.rate_hz > 0.0 && a.rate_hz <= 1e6))
-      throw Error("simulate: --rate must be in (0, 1e6] Hz");
-    scene.options.rate_hz = a.rate_hz;
-  }
-  if (a.seed >= 0) scene.seed = static_cast<uint64_t>(a.seed);
-  if (a.gravity != 0.0) scene.options.gravity_world = Eigen::Vector3d(0, 0, -std::abs(a.gravity));
+  if (a.rate_hz != 0.0) scene.options.rate_hz = a.rate_hz;
+  if (a.seed) scene.seed = *a.seed;
+  if (a.gravity) scene.options.gravity_world = Eigen::Vector3d(0, 0, -*a.gravity);
   if (a.ground_truth) scene.ground_truth = true;
   const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
   for (sim::SceneSensor& s : scene.sensors) {
@@ -225,7 +230,17 @@ int run_simulate(const SimulateArgs& a) {
       throw Error("simulate: sensor " + s.spec.name +
                   ": an EuRoC CSV needs both accelerometer and gyroscope");
     }
-    if (s.hardware) validate_hardware_model(*s.hardware, rate);
+    if (!s.hardware) continue;
+    try {
+      validate_hardware_model(*s.hardware, rate);
+    } catch (const Error& e) {
+      // Usually a sensor simulated at a motion capture's frame rate (60-120 Hz) with the
+      // bandwidth of a sensor sampling much faster: simulate at the sensor's own rate.
+      const double own = std::max(s.hardware->accelerometer.rate_hz, s.hardware->gyroscope.rate_hz);
+      throw Error(fmt::format(
+          "sensor {}: {}; simulate at a rate above twice the bandwidth with --rate{}", s.spec.name,
+          e.what(), own > 0 ? fmt::format(" (the profile's own rate: --rate {:g})", own) : ""));
+    }
   }
   for (const std::string& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);
   // What was simulated, so the outputs can be traced (gravity included, as DESIGN.md asks).
@@ -315,12 +330,15 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--method", a->method,
                          "Derivative method: fd (default), spline, or reference (comparison only)");
           sub.add_option("--rate", a->rate_hz,
-                         "Sensor sample rate in Hz (default: the motion's frame rate)");
-          sub.add_option("--seed", a->seed, "Seed of the hardware noise");
-          sub.add_option("--gravity", a->gravity, "Gravity magnitude in m/s^2 (default 9.80665)");
+                         "Sensor sample rate in Hz (default: the motion's frame rate)")
+              ->check(sample_rate_range());
+          sub.add_option("--seed", a->seed, "Seed of the hardware noise")->check(seed_range());
+          sub.add_option("--gravity", a->gravity, "Gravity magnitude in m/s^2 (default 9.80665)")
+              ->check(gravity_range());
           sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
           sub.add_option("--bvh-scale", a->bvh_scale,
-                         "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)");
+                         "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)")
+              ->check(bvh_scale_range());
           sub.add_option("--up", a->up, "Up axis of the BVH file: y (default) or z")
               ->check(CLI::IsMember({"y", "z"}));
           sub.add_option("--preset", a->presets,

@@ -3,7 +3,13 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 
@@ -15,8 +21,9 @@ namespace imukit::cli {
 std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
   std::vector<LoadedRun> runs;
   for (const InputArg& in : inputs) {
-    ImuSeries s = load_imu_series(in);
-    s.validate();
+    Recording context;
+    ImuSeries s = load_imu_series(in, &context);
+    s.validate(in.path);
     if (!runs.empty() && runs.back().series.t == s.t) {
       ImuSeries& dst = runs.back().series;
       auto take = [&](Eigen::Matrix3Xd& to, Eigen::Matrix3Xd& from, const char* what) {
@@ -32,26 +39,55 @@ std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
       take(dst.mag, s.mag, "magnetometer");
       continue;
     }
-    runs.push_back({in.path, std::move(s)});
+    runs.push_back({in.path, std::move(s), std::move(context)});
   }
   return runs;
+}
+
+std::optional<InitialStill> guided_initial_still(const LoadedRun& run) {
+  const auto it = run.context.metadata.find("imukit.guide.initial_still_s");
+  if (it == run.context.metadata.end()) return std::nullopt;
+  double seconds = 0.0;
+  const std::string& text = it->second;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+  if (ec != std::errc() || end != text.data() + text.size() || !(seconds > 0 && seconds <= 3600))
+    return std::nullopt;
+  for (const Event& e : run.context.events) {
+    if (e.kind == "initial_still") return InitialStill{seconds, e.t};
+  }
+  return std::nullopt;  // the capture stopped before the period was held
 }
 
 bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
                  const std::string& script) {
   const auto gp = dir / (name + ".gp");
   {
+    // The script first moves to its own folder (gnuplot's ARG0 is the script's path), so its
+    // data and SVG are found by name wherever `gnuplot DIR/NAME.gp` is run from.
     auto out = fmt::output_file(gp.string());
-    out.print("set terminal svg size 900,600 dynamic enhanced font 'sans,12'\nset output '{}'\n{}",
-              (dir / (name + ".svg")).string(), script);
+    out.print(
+        "# {name}.svg from the data beside this script; run `gnuplot {name}.gp` from anywhere.\n"
+        "last_slash(s, i) = i == 0 ? 0 : (s[i:i] eq '/' ? i : last_slash(s, i - 1))\n"
+        "script_dir_end = last_slash(ARG0, strlen(ARG0))\n"
+        "if (script_dir_end > 0) {{ cd ARG0[1:script_dir_end] }}\n"
+        "set terminal svg size 900,600 dynamic enhanced font 'sans,12'\nset output '{name}.svg'\n"
+        "{script}",
+        fmt::arg("name", name), fmt::arg("script", script));
   }
-  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+  // Run without a shell: a folder name is data, never a command.
+  const std::string path = gp.string();
+  char* argv[] = {const_cast<char*>("gnuplot"), const_cast<char*>(path.c_str()), nullptr};
+  pid_t pid = 0;
+  if (::posix_spawnp(&pid, "gnuplot", nullptr, nullptr, argv, environ) != 0) {
     fmt::print(stderr, "imukit: note: gnuplot not found; run `gnuplot {}` to draw the plot\n",
-               gp.string());
+               path);
     return false;
   }
-  const std::string cmd = fmt::format("gnuplot '{}'", gp.string());
-  if (std::system(cmd.c_str()) != 0) throw Error(fmt::format("gnuplot failed on {}", gp.string()));
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw Error(fmt::format("gnuplot failed on {}", path));
   return true;
 }
 
@@ -128,11 +164,14 @@ void print_triad(const char* name, const char* unit, const TriadNoise& tn) {
   }
 }
 
+// Axis colours of every imukit plot: x red, y green, z blue.
+constexpr const char* kAxisColour[3] = {"#d62728", "#2ca02c", "#1f77b4"};
+
 void plot_triad(const std::filesystem::path& dir, const std::string& name, const char* unit,
                 const TriadNoise& tn) {
-  const std::string dat = (dir / (name + "_allan.dat")).string();
+  const std::string dat = name + "_allan.dat";
   {
-    auto out = fmt::output_file(dat);
+    auto out = fmt::output_file((dir / dat).string());
     out.print(
         "# tau_s adev_x lo_x hi_x model_x adev_y lo_y hi_y model_y adev_z lo_z hi_z model_z\n");
     for (size_t k = 0; k < tn.allan.tau_s.size(); ++k) {
@@ -147,20 +186,44 @@ void plot_triad(const std::filesystem::path& dir, const std::string& name, const
       out.print("\n");
     }
   }
-  // Slope lines of the fitted N and K (x axis), and the fitted model per axis.
-  const auto& fx = tn.axes[0].fit;
-  std::string script = fmt::format(
-      "set logscale xy\nset grid\nset key bottom left\nset xlabel 'averaging time tau [s]'\n"
-      "set ylabel 'Allan deviation [{}]'\nset title '{}: overlapping Allan deviation, 1-sigma "
-      "intervals, fitted model'\n"
-      "N={:.9g}; K={:.9g}; B={:.9g}\n"
-      "plot '{d}' u 1:2:3:4 w yerrorbars lc 1 pt 7 ps 0.4 t 'x', '{d}' u 1:5 w l lc 1 t 'x model', "
-      "'{d}' u 1:6:7:8 w yerrorbars lc 2 pt 7 ps 0.4 t 'y', '{d}' u 1:9 w l lc 2 t 'y model', "
-      "'{d}' u 1:10:11:12 w yerrorbars lc 3 pt 7 ps 0.4 t 'z', '{d}' u 1:13 w l lc 3 t 'z model', "
-      "(N>0 ? N/sqrt(x) : 1/0) w l dt 2 lc 0 t 'x: N/sqrt(tau)', (K>0 ? K*sqrt(x/3) : 1/0) w l dt "
-      "3 lc 0 t 'x: K sqrt(tau/3)', "
-      "(B>0 ? 0.6643*B : 1/0) w l dt 4 lc 0 t 'x: 0.664 B'\n",
-      unit, name, fx.value[1], fx.value[3], fx.value[2], fmt::arg("d", dat));
+  // Per axis: the estimates with their intervals (open symbols of three shapes, so an axis
+  // under another still shows), the fitted model, and the slope line of each fitted term (only
+  // the terms detected: a line at 0 would be listed and not drawn).
+  // Open circle (largest, so an axis with the same values as another still rings it), triangle,
+  // square.
+  const int point_type[3] = {6, 8, 4};
+  const double point_size[3] = {0.9, 0.6, 0.6};
+  std::string plots;
+  const auto add = [&](const std::string& p) { plots += (plots.empty() ? "" : ", \\\n     ") + p; };
+  for (int ax = 0; ax < 3; ++ax) {
+    const int col = 2 + 4 * ax;
+    const char axis = "xyz"[ax];
+    add(fmt::format("'{}' u 1:{}:{}:{} w yerrorbars lc rgb '{}' pt {} ps {} t '{}'", dat, col,
+                    col + 1, col + 2, kAxisColour[ax], point_type[ax], point_size[ax], axis));
+    add(fmt::format("'{}' u 1:{} w l lc rgb '{}' lw 1.5 t '{} model'", dat, col + 3,
+                    kAxisColour[ax], axis));
+  }
+  for (int ax = 0; ax < 3; ++ax) {
+    const auto& f = tn.axes[size_t(ax)].fit;
+    const char axis = "xyz"[ax];
+    const char* c = kAxisColour[ax];
+    if (f.value[hwmodel::kWhite] > 0)
+      add(fmt::format("{:.9g}/sqrt(x) w l dt 2 lc rgb '{}' t '{}: N/sqrt(tau)'",
+                      f.value[hwmodel::kWhite], c, axis));
+    if (f.value[hwmodel::kBiasInstability] > 0)
+      add(fmt::format("0.6643*{:.9g} w l dt 4 lc rgb '{}' t '{}: 0.664 B'",
+                      f.value[hwmodel::kBiasInstability], c, axis));
+    if (f.value[hwmodel::kRandomWalk] > 0)
+      add(fmt::format("{:.9g}*sqrt(x/3) w l dt 3 lc rgb '{}' t '{}: K sqrt(tau/3)'",
+                      f.value[hwmodel::kRandomWalk], c, axis));
+  }
+  const std::string script = fmt::format(
+      "set logscale xy\nset format x '10^{{%L}}'\nset format y '10^{{%L}}'\nset grid\n"
+      "set key outside right top font ',10'\nset xlabel 'averaging time tau [s]'\n"
+      "set ylabel 'Allan deviation [{}]'\n"
+      "set title '{}: overlapping Allan deviation, 1-sigma intervals, fitted model'\n"
+      "plot {}\n",
+      unit, name, plots);
   run_gnuplot(dir, name + "_allan", script);
 }
 
@@ -198,6 +261,36 @@ void print_calibration(const char* name, const hwmodel::TriadCalibration& c, boo
   fmt::print("  T      [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(0, 0), c.T(0, 1), c.T(0, 2));
   fmt::print("         [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(1, 0), c.T(1, 1), c.T(1, 2));
   fmt::print("         [{:+.6f} {:+.6f} {:+.6f}]\n", c.T(2, 0), c.T(2, 1), c.T(2, 2));
+}
+
+// Why a calibration found too few poses, and what to do. Its stillness threshold is a multiple
+// of the initial period's variance, so an initial period that was not still makes the device
+// look still while it turns: the usual cause. A shorter initial period that finds enough poses
+// names the fix.
+std::string too_few_poses_hint(const ImuSeries& s, const hwmodel::CalibrationOptions& opt) {
+  for (double init = opt.detector.init_static_s / 2; init >= 1.0; init /= 2) {
+    hwmodel::StaticDetectorOptions d = opt.detector;
+    d.init_static_s = init;
+    for (int k = 1; k <= opt.max_threshold_factor; ++k) {
+      d.threshold_factor = double(k);
+      std::size_t found = 0;
+      try {
+        found = hwmodel::detect_static_intervals(s.t, s.accel, d).size();
+      } catch (const Error&) {
+        break;
+      }
+      if (int(found) >= opt.min_poses) {
+        return fmt::format(
+            "the device was not still for all of them (--init-static {:g} finds {} poses); the "
+            "initial static period sets the stillness threshold",
+            init, found);
+      }
+    }
+  }
+  return fmt::format(
+      "record the device first still for the initial static period, then still in {} or more "
+      "orientations: `imukit record URI --guide multipos --poses 12 -o poses.mcap` asks for both",
+      opt.min_poses);
 }
 
 }  // namespace
@@ -243,22 +336,25 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
     if (options.level && run.series.has_accel())
       r.accel_run_bias.push_back(run.series.accel.rowwise().mean() - level_reading);
   }
+  // The spread needs several power cycles: from one recording there is none to measure.
+  const auto spread_text = [](const TurnOnBias& t, std::size_t runs) {
+    if (runs < 2)
+      return std::string("spread not measured (needs recordings from 2 or more power cycles)");
+    return fmt::format("spread {:.3g} {:.3g} {:.3g}", t.spread.x(), t.spread.y(), t.spread.z());
+  };
   if (!r.gyro_run_bias.empty() && r.update.gyroscope) {
     const TurnOnBias& t = *(r.update.gyroscope->turn_on_bias = turn_on_bias(r.gyro_run_bias));
-    fmt::print(
-        "gyroscope turn-on bias over {} recording(s): mean {:.4g} {:.4g} {:.4g} rad/s, spread "
-        "{:.3g} {:.3g} {:.3g}\n",
-        r.gyro_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(), t.spread.x(), t.spread.y(),
-        t.spread.z());
+    fmt::print("gyroscope turn-on bias over {} recording(s): mean {:.4g} {:.4g} {:.4g} rad/s, {}\n",
+               r.gyro_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(),
+               spread_text(t, r.gyro_run_bias.size()));
   }
   if (!r.accel_run_bias.empty() && r.update.accelerometer) {
     const TurnOnBias& t = *(r.update.accelerometer->turn_on_bias = turn_on_bias(r.accel_run_bias));
     fmt::print(
         "accelerometer turn-on bias (level, z up) over {} recording(s): mean {:.4g} {:.4g} {:.4g} "
-        "m/s^2, "
-        "spread {:.3g} {:.3g} {:.3g}\n",
-        r.accel_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(), t.spread.x(), t.spread.y(),
-        t.spread.z());
+        "m/s^2, {}\n",
+        r.accel_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(),
+        spread_text(t, r.accel_run_bias.size()));
   }
   return r;
 }
@@ -282,11 +378,8 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
     out.fit = hwmodel::calibrate(s.t, s.accel, out.gyro ? s.gyro : Eigen::Matrix3Xd(3, 0), opt);
   } catch (const Error& e) {
     if (std::string(e.what()).find("static poses") == std::string::npos) throw;
-    // Too few poses: say how to record a usable calibration run.
-    throw Error(std::string(e.what()) +
-                "; record the device still in 9 or more orientations, e.g. `imukit record URI "
-                "--guide multipos "
-                "--poses 12 -o poses.mcap`, starting with it still for --init-static seconds");
+    throw Error(fmt::format("{} with the first {:g} s as the initial static period; {}", e.what(),
+                            options.init_static_s, too_few_poses_hint(s, opt)));
   }
   const hwmodel::CalibrationResult& r = out.fit;
   fmt::print("{} static poses (threshold {} x the initial static variance), fit in {:.3f} s\n",
@@ -317,9 +410,9 @@ void plot_calibration(const std::filesystem::path& dir, const ImuSeries& s,
                       const CalibrateResult& result) {
   std::filesystem::create_directories(dir);
   const hwmodel::CalibrationResult& r = result.fit;
-  const auto dat = (dir / "calibration_residuals.dat").string();
+  const std::string dat = "calibration_residuals.dat";
   {
-    auto out = fmt::output_file(dat);
+    auto out = fmt::output_file((dir / dat).string());
     out.print("# pose start_s norm_error_mps2 gyro_direction_error_deg(to next pose)\n");
     for (size_t i = 0; i < r.poses.size(); ++i) {
       out.print("{} {:.6f} {:.9g} {}\n", i, to_seconds(s.t[size_t(r.poses[i].begin)] - s.t.front()),

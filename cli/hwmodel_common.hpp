@@ -24,6 +24,7 @@ namespace imukit::cli {
 struct LoadedRun {
   std::string name;  // the first file's path
   ImuSeries series;
+  Recording context;  // the first file's metadata and events (MCAP), streams empty
 };
 
 // Loads every input; an input whose time stamps equal the previous run's adds its channels to
@@ -80,6 +81,15 @@ struct CalibrateOptions {
   bool gyro = true;  // calibrate the gyroscope too (when the recording has one)
   double init_static_s = 50.0;
 };
+
+// The initial static period a guided capture (`imukit record --guide multipos`) recorded: its
+// length (metadata imukit.guide.initial_still_s) and where it starts (the "initial_still"
+// event). nullopt for other recordings.
+struct InitialStill {
+  double seconds = 0.0;
+  TimeNs start = 0;
+};
+std::optional<InitialStill> guided_initial_still(const LoadedRun& run);
 
 struct CalibrateResult {
   hwmodel::CalibrationResult fit;

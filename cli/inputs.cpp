@@ -6,8 +6,10 @@
 #include <filesystem>
 
 #include "capture/recording_mcap.hpp"
+#include "cli/command.hpp"
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -19,20 +21,20 @@ double accel_factor(const std::string& unit) {
   if (unit == "m/s^2" || unit == "mps2") return 1.0;
   if (unit == "g") return kStandardGravity;
   if (unit == "mg") return kStandardGravity * 1e-3;
-  throw Error(fmt::format("--accel-unit '{}' is not one of m/s^2, g, mg", unit));
+  throw UsageError(fmt::format("--accel-unit '{}' is not one of m/s^2, g, mg", unit));
 }
 
 double gyro_factor(const std::string& unit) {
   if (unit == "rad/s" || unit == "radps") return 1.0;
   if (unit == "deg/s" || unit == "dps") return M_PI / 180.0;
-  throw Error(fmt::format("--gyro-unit '{}' is not one of rad/s, deg/s", unit));
+  throw UsageError(fmt::format("--gyro-unit '{}' is not one of rad/s, deg/s", unit));
 }
 
 double mag_factor(const std::string& unit) {
   if (unit == "T") return 1.0;
   if (unit == "uT") return 1e-6;
   if (unit == "gauss" || unit == "G") return 1e-4;
-  throw Error(fmt::format("--mag-unit '{}' is not one of T, uT, gauss", unit));
+  throw UsageError(fmt::format("--mag-unit '{}' is not one of T, uT, gauss", unit));
 }
 
 bool ends_with(const std::string& s, const std::string& suffix) {
@@ -43,12 +45,14 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 // MCAP files are recognised by their magic bytes, whatever their name.
 bool is_mcap(const std::string& path) {
   if (ends_with(path, ".mcap")) return true;
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
+  UniqueFile f;
+  try {
+    f = open_regular_file(path, "recording");
+  } catch (const IoError&) {
+    return false;  // the reader the name points to says what is wrong
+  }
   char magic[5] = {};
-  const bool yes = std::fread(magic, 1, 5, f) == 5 && std::string_view(magic, 5) == "\x89MCAP";
-  std::fclose(f);
-  return yes;
+  return std::fread(magic, 1, 5, f.get()) == 5 && std::string_view(magic, 5) == "\x89MCAP";
 }
 
 }  // namespace
@@ -70,7 +74,7 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
       value = token.substr(eq + 1);
       token.resize(eq);
     } else {
-      if (i + 1 >= tokens.size()) throw Error(fmt::format("option {} needs a value", token));
+      if (i + 1 >= tokens.size()) throw UsageError(fmt::format("option {} needs a value", token));
       value = tokens[++i];
     }
     InputArg& target = inputs.empty() ? defaults : inputs.back();
@@ -87,9 +91,17 @@ std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens) {
     else if (token == "--mag-unit")
       target.mag_unit = value;
     else
-      throw Error(fmt::format("unknown option {} (see --help)", token));
+      throw UsageError(fmt::format("unknown option {} (see --help)", token));
   }
   return inputs;
+}
+
+ColumnSpec column_spec(const InputArg& input) {
+  try {
+    return ColumnSpec::parse(input.columns, input.gaps, parse_time_unit(input.time_unit));
+  } catch (const Error& e) {
+    throw UsageError(e.what());
+  }
 }
 
 std::string input_options_help() {
@@ -109,8 +121,16 @@ std::string input_options_help() {
 }
 
 Recording load_recording(const InputArg& input) {
+  (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
   if (input.columns.empty() && is_mcap(input.path)) {
     capture::RecordingRead read = capture::read_recording_mcap(input.path);
+    if (read.recording.streams.empty()) {
+      // An empty file, or one cut before its first complete chunk: nothing to work on.
+      std::string why = read.summary.truncation_note;
+      if (why.rfind(input.path + ": ", 0) == 0) why.erase(0, input.path.size() + 2);
+      throw Error(fmt::format("{}: holds no IMU samples{}", input.path,
+                              read.summary.complete ? "" : " (" + why + ")"));
+    }
     if (!read.summary.complete) {
       fmt::print(stderr,
                  "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
@@ -123,23 +143,28 @@ Recording load_recording(const InputArg& input) {
   return r;
 }
 
-ImuSeries load_imu_series(const InputArg& input) {
+ImuSeries load_imu_series(const InputArg& input, Recording* context) {
+  (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
   if (input.columns.empty() && is_mcap(input.path)) {
     Recording r = load_recording(input);
     if (r.streams.size() != 1) {
       throw Error(fmt::format("{}: holds {} IMU streams; this command reads one", input.path,
                               r.streams.size()));
     }
-    return std::move(r.streams.begin()->second);
+    ImuSeries s = std::move(r.streams.begin()->second);
+    if (context != nullptr) {
+      r.streams.clear();
+      *context = std::move(r);
+    }
+    return s;
   }
   if (input.columns.empty()) {
     if (ends_with(input.path, ".csv")) return read_euroc_csv(input.path);
-    throw Error(fmt::format(
+    throw UsageError(fmt::format(
         "{}: say what its columns are with --columns, e.g. --columns t,ax,ay,az,gx,gy,gz",
         input.path));
   }
-  const ColumnSpec spec =
-      ColumnSpec::parse(input.columns, input.gaps, parse_time_unit(input.time_unit));
+  const ColumnSpec spec = column_spec(input);
   const ChannelScale scale{accel_factor(input.accel_unit), gyro_factor(input.gyro_unit),
                            mag_factor(input.mag_unit)};
   return to_imu_series(read_column_text(input.path, spec), scale);

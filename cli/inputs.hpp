@@ -26,11 +26,16 @@ struct InputArg {
 // an option without its value.
 std::vector<InputArg> parse_input_args(const std::vector<std::string>& tokens);
 
+// The input's --columns, --gaps and --time-unit as a ColumnSpec; a mistake in them is a usage
+// error (UsageError).
+ColumnSpec column_spec(const InputArg& input);
+
 // Help text describing the per-input options, for a subcommand's footer.
 std::string input_options_help();
 
 // Reads one input as an IMU stream in SI units (an MCAP file must hold exactly one stream).
-ImuSeries load_imu_series(const InputArg& input);
+// `context`, when given, receives the recording's metadata and events (MCAP only).
+ImuSeries load_imu_series(const InputArg& input, Recording* context = nullptr);
 
 // Reads one input as a Recording: an MCAP file as recorded (a file cut short is read up to its
 // last complete chunk, with a note on stderr), any other input as one stream named after the

@@ -29,6 +29,33 @@ int unit_digits(TimeUnit u) {
   return 9;
 }
 
+// ns as a decimal number of the file's unit (10^digits ns), exactly: 1500000 ns in ms is "1.5".
+std::string decimal_time(TimeNs t, int digits) {
+  // The magnitude in unsigned arithmetic, which INT64_MIN survives.
+  const uint64_t magnitude =
+      t < 0 ? uint64_t{0} - static_cast<uint64_t>(t) : static_cast<uint64_t>(t);
+  uint64_t scale = 1;
+  for (int i = 0; i < digits; ++i) scale *= 10;
+  std::string fraction = digits > 0 ? fmt::format("{:0{}}", magnitude % scale, digits) : "";
+  while (!fraction.empty() && fraction.back() == '0') fraction.pop_back();
+  return fmt::format("{}{}{}{}", t < 0 ? "-" : "", magnitude / scale, fraction.empty() ? "" : ".",
+                     fraction);
+}
+
+const char* time_unit_name(TimeUnit u) {
+  switch (u) {
+    case TimeUnit::s:
+      return "s";
+    case TimeUnit::ms:
+      return "ms";
+    case TimeUnit::us:
+      return "us";
+    case TimeUnit::ns:
+      return "ns";
+  }
+  return "s";
+}
+
 bool is_nan_token(std::string_view s) {
   if (s.size() != 3 && s.size() != 4) return false;
   if (s.size() == 4 && s[0] != '-' && s[0] != '+') return false;
@@ -92,12 +119,15 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
         const auto t = parse_scaled_integer(f.text, digits);
         if (!t) {
           throw Error(where(f.column),
-                      fmt::format("{}: '{}' is not a finite decimal time that fits in int64 ns",
-                                  describe(), f.text));
+                      fmt::format("{}: {} is not a finite decimal time that fits in int64 ns",
+                                  describe(), quote_excerpt(f.text, 24)));
         }
         if (!table.t.empty() && *t < table.t.back()) {
-          throw Error(where(f.column), fmt::format("{}: time goes backwards ({} after {})",
-                                                   describe(), f.text, to_seconds(table.t.back())));
+          throw Error(
+              where(f.column),
+              fmt::format("{}: time goes backwards ({} after {} on the row before, in {})",
+                          describe(), quote_excerpt(f.text, 24),
+                          decimal_time(table.t.back(), digits), time_unit_name(spec.time_unit)));
         }
         table.t.push_back(*t);
         continue;
@@ -115,10 +145,12 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
       } else {
         const auto parsed = parse_double(f.text);
         if (!parsed) {
-          throw Error(where(f.column), fmt::format("{}: '{}' is not a number", describe(), f.text));
+          throw Error(where(f.column),
+                      fmt::format("{}: {} is not a number", describe(), quote_excerpt(f.text, 24)));
         }
         if (std::isinf(*parsed)) {
-          throw Error(where(f.column), fmt::format("{}: infinite value '{}'", describe(), f.text));
+          throw Error(where(f.column),
+                      fmt::format("{}: infinite value {}", describe(), quote_excerpt(f.text, 24)));
         }
         value = *parsed;
       }

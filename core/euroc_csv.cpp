@@ -29,8 +29,8 @@ ImuSeries from_table(const ColumnTable& table) {
 
 void write_block(std::FILE* out, const std::string& name, const fmt::memory_buffer& buffer) {
   if (std::fwrite(buffer.data(), 1, buffer.size(), out) != buffer.size()) {
-    throw Error(InputLocation{name, {}, {}, {}},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{name, {}, {}, {}},
+                  std::string("write failed: ") + std::strerror(errno));
   }
 }
 
@@ -55,16 +55,16 @@ void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesVie
   }
   write_block(out, name, buffer);
   if (std::fflush(out) != 0) {
-    throw Error(InputLocation{name, {}, {}, {}},
-                std::string("write failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{name, {}, {}, {}},
+                  std::string("write failed: ") + std::strerror(errno));
   }
 }
 
 void write_euroc_csv(const std::string& path, const ImuSeriesView& series) {
   std::FILE* out = std::fopen(path.c_str(), "wb");
   if (!out) {
-    throw Error(InputLocation{path, {}, {}, {}},
-                std::string("cannot open for writing: ") + std::strerror(errno));
+    throw IoError(InputLocation{path, {}, {}, {}},
+                  std::string("cannot open for writing: ") + std::strerror(errno));
   }
   try {
     write_euroc_csv(out, path, series);
@@ -73,8 +73,8 @@ void write_euroc_csv(const std::string& path, const ImuSeriesView& series) {
     throw;
   }
   if (std::fclose(out) != 0) {
-    throw Error(InputLocation{path, {}, {}, {}},
-                std::string("close failed: ") + std::strerror(errno));
+    throw IoError(InputLocation{path, {}, {}, {}},
+                  std::string("close failed: ") + std::strerror(errno));
   }
 }
 

@@ -1,5 +1,7 @@
 #include "core/imu_series.hpp"
 
+#include <fmt/core.h>
+
 #include <cassert>
 
 #include "core/error.hpp"
@@ -24,10 +26,10 @@ ImuSeriesView::MapX map_range(const Vector& v, std::size_t begin, std::size_t co
   return {v.data() + begin, static_cast<Eigen::Index>(count)};
 }
 
-void check_columns(const char* name, Eigen::Index cols, std::size_t n) {
+void check_columns(std::string_view source, const char* name, Eigen::Index cols, std::size_t n) {
   if (cols != 0 && static_cast<std::size_t>(cols) != n) {
-    throw Error(std::string("ImuSeries: channel ") + name + " has " + std::to_string(cols) +
-                " samples but the series has " + std::to_string(n) + " timestamps");
+    throw Error(fmt::format("{}: channel {} has {} samples but the series has {} time stamps",
+                            source, name, cols, n));
   }
 }
 
@@ -45,15 +47,17 @@ ImuSeries ImuSeries::with_channels(std::size_t n, bool accel, bool gyro, bool ma
   return s;
 }
 
-void ImuSeries::validate() const {
-  check_columns("accel", accel.cols(), size());
-  check_columns("gyro", gyro.cols(), size());
-  check_columns("mag", mag.cols(), size());
-  check_columns("temperature", temperature_c.size(), size());
+void ImuSeries::validate(std::string_view source) const {
+  if (source.empty()) source = "ImuSeries";
+  check_columns(source, "accel", accel.cols(), size());
+  check_columns(source, "gyro", gyro.cols(), size());
+  check_columns(source, "mag", mag.cols(), size());
+  check_columns(source, "temperature", temperature_c.size(), size());
   for (std::size_t i = 1; i < t.size(); ++i) {
     if (t[i] < t[i - 1]) {
-      throw Error("ImuSeries: time goes backwards at sample " + std::to_string(i) + " (" +
-                  std::to_string(t[i - 1]) + " ns then " + std::to_string(t[i]) + " ns)");
+      throw Error(
+          fmt::format("{}: time goes backwards at sample {} ({} ns after {} ns, {} ns earlier)",
+                      source, i, t[i], t[i - 1], t[i - 1] - t[i]));
     }
   }
 }

@@ -11,6 +11,7 @@
 #include <map>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "core/time.hpp"
@@ -38,8 +39,8 @@ struct ImuSeries {
   bool has_temperature() const { return temperature_c.size() > 0; }
 
   // Throws imukit::Error unless every present channel has size() samples and times never
-  // decrease.
-  void validate() const;
+  // decrease; the message starts with `source` (a file, a stream) when given.
+  void validate(std::string_view source = {}) const;
 
   // Samples [begin, begin + count), without copying. Asserts the range is inside the series.
   ImuSeriesView slice(std::size_t begin, std::size_t count) const;

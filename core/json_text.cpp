@@ -62,6 +62,14 @@ std::string json_error_reason(std::string message) {
     const auto colon = message.find(": ");
     if (colon != std::string::npos) message.erase(0, colon + 2);
   }
+  // "...; last read: '<the bytes of the token>'": quoted as an excerpt, never raw.
+  const std::string_view tag = "; last read: '";
+  const auto last = message.find(tag);
+  if (last != std::string::npos && message.back() == '\'') {
+    const std::size_t start = last + tag.size();
+    const std::string token = message.substr(start, message.size() - 1 - start);
+    message = message.substr(0, last) + "; last read: " + quote_excerpt(token);
+  }
   return message;
 }
 

@@ -4,10 +4,10 @@
 #include <bit>
 #include <cerrno>
 #include <cstring>
-#include <fstream>
 #include <iterator>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit {
 
@@ -68,14 +68,15 @@ void write_raw(const std::string& path, NpyDtype dtype, const void* data, std::s
   head += dict;
 
   std::FILE* out = std::fopen(path.c_str(), "wb");
-  if (!out) throw Error(fmt::format("{}: cannot open for writing: {}", path, std::strerror(errno)));
+  if (!out)
+    throw IoError(fmt::format("{}: cannot open for writing: {}", path, std::strerror(errno)));
   const std::size_t bytes = count * item_size(dtype);
   const bool ok = std::fwrite(head.data(), 1, head.size(), out) == head.size() &&
                   (bytes == 0 || std::fwrite(data, 1, bytes, out) == bytes);
   const int saved = errno;
   const bool closed = std::fclose(out) == 0;
   if (!ok || !closed) {
-    throw Error(fmt::format("{}: write failed: {}", path, std::strerror(ok ? errno : saved)));
+    throw IoError(fmt::format("{}: write failed: {}", path, std::strerror(ok ? errno : saved)));
   }
 }
 
@@ -204,9 +205,7 @@ NpyArray parse_npy(std::span<const std::byte> file, const std::string& source) {
 }
 
 NpyArray read_npy(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(fmt::format("{}: cannot open for reading: {}", path, std::strerror(errno)));
-  std::vector<char> raw((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string raw = read_regular_file(path, kMaxNpyBytes, "NumPy array");
   const auto* begin = reinterpret_cast<const std::byte*>(raw.data());
   return parse_npy(std::span<const std::byte>(begin, raw.size()), path);
 }

@@ -4,7 +4,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <sstream>
 #include <system_error>
 #include <utility>
 
@@ -12,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/json_text.hpp"
 
 namespace imukit {
@@ -542,25 +542,20 @@ std::string format_text(const Json& root) {
 }
 
 std::string read_file_text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(InputLocation{path, {}, {}, {}}, "cannot open for reading");
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw Error(InputLocation{path, {}, {}, {}}, "read failed");
-  return std::move(buffer).str();
+  return read_regular_file(path, kMaxJsonBytes, "device profile");
 }
 
 void write_file_text(const std::string& path, const std::string& text) {
   const std::string temporary = path + ".tmp";
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(InputLocation{path, {}, {}, {}}, "cannot open for writing");
+    if (!out) throw IoError(InputLocation{path, {}, {}, {}}, "cannot open for writing");
     out.write(text.data(), static_cast<std::streamsize>(text.size()));
     out.flush();
     if (!out) {
       std::error_code ignored;
       std::filesystem::remove(temporary, ignored);
-      throw Error(InputLocation{path, {}, {}, {}}, "write failed");
+      throw IoError(InputLocation{path, {}, {}, {}}, "write failed (disk full?)");
     }
   }
   std::error_code ec;
@@ -568,7 +563,7 @@ void write_file_text(const std::string& path, const std::string& text) {
   if (ec) {
     std::error_code ignored;
     std::filesystem::remove(temporary, ignored);
-    throw Error(InputLocation{path, {}, {}, {}}, "cannot replace the file: " + ec.message());
+    throw IoError(InputLocation{path, {}, {}, {}}, "cannot replace the file: " + ec.message());
   }
 }
 
@@ -683,6 +678,9 @@ std::string merge_profile_text(std::string_view existing_text, const std::string
 }
 
 void update_profile(const std::string& path, const DeviceProfile& update) {
+  // The profile is read back before it is replaced: /dev/stdout or a folder would hang or fail
+  // obscurely.
+  check_updatable_file(path, "profile to create or update");
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) {
     write_profile(path, update);

@@ -1,15 +1,21 @@
 #include "core/text_parse.hpp"
 
+#include <fmt/core.h>
+
 #include <cerrno>
 #include <charconv>
 #include <cstring>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 
 namespace imukit {
 namespace {
 
 constexpr std::size_t kBlockSize = 1 << 20;
+// No numeric text has lines this long; a file that does is not text (or not one of ours), and
+// reading on would hold it all in memory.
+constexpr std::size_t kMaxLineBytes = std::size_t{16} << 20;
 
 // 128-bit integers hold 36 decimal digits exactly; __extension__ keeps -Wpedantic quiet.
 __extension__ typedef __int128 Int128;
@@ -25,11 +31,7 @@ std::string_view trim(std::string_view s) {
 }  // namespace
 
 LineReader::LineReader(const std::string& path) : source_name_(path) {
-  file_ = std::fopen(path.c_str(), "rb");
-  if (!file_) {
-    throw Error(InputLocation{path, {}, {}, {}},
-                std::string("cannot open for reading: ") + std::strerror(errno));
-  }
+  file_ = open_regular_file(path, "text input").release();
   buffer_.resize(kBlockSize);
 }
 
@@ -47,7 +49,13 @@ bool LineReader::refill() {
   if (begin_ > 0) std::memmove(buffer_.data(), buffer_.data() + begin_, pending);
   begin_ = 0;
   end_ = pending;
-  if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);
+  if (end_ == buffer_.size()) {
+    if (buffer_.size() >= kMaxLineBytes) {
+      throw Error(InputLocation{source_name_, line_number_ + 1, {}, {}},
+                  fmt::format("line longer than {} MiB: not a text file?", kMaxLineBytes >> 20));
+    }
+    buffer_.resize(buffer_.size() * 2);
+  }
   const std::size_t got = std::fread(buffer_.data() + end_, 1, buffer_.size() - end_, file_);
   if (got == 0) {
     if (std::ferror(file_)) {

@@ -276,8 +276,11 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   o.jitter_us = option_double(keys, "jitter_us", 0.0);
   o.stall_ms = option_double(keys, "stall_ms", 0.0);
   o.stall_at_s = option_double(keys, "stall_at_s", 1.0);
-  if (o.latency_us < 0 || o.jitter_us < 0 || o.stall_ms < 0 || o.stall_at_s < 0) {
-    throw Error("latency_us, jitter_us, stall_ms and stall_at_s must not be negative");
+  // Bounded so that every delay stays a representable count of ns: 1e7 us and ms (10 s and
+  // about 3 h) are far beyond any link.
+  if (!(o.latency_us >= 0 && o.latency_us <= 1e7) || !(o.jitter_us >= 0 && o.jitter_us <= 1e7) ||
+      !(o.stall_ms >= 0 && o.stall_ms <= 1e7) || !(o.stall_at_s >= 0 && o.stall_at_s <= 1e7)) {
+    throw Error("latency_us, jitter_us, stall_ms and stall_at_s must be in [0, 1e7]");
   }
   const int64_t disc = option_int(keys, "disconnect_after", 0);
   if (disc < 0) throw Error("disconnect_after: expected a sample count >= 0");
@@ -289,7 +292,7 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   const std::string profile = option_string(keys, "profile", "");
   if (!profile.empty()) o.hardware = to_hardware_model(read_profile(profile));
   const double gravity = option_double(keys, "gravity", 9.80665);
-  if (!(gravity > 0)) throw Error("gravity: expected a positive value in m/s^2");
+  if (!(gravity > 0 && gravity <= 100)) throw Error("gravity: expected (0, 100] m/s^2");
 
   std::shared_ptr<SignalSource> source;
   if (kind == "static") {
@@ -313,7 +316,11 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   } else if (kind == "poses") {
     const double hold = option_double(keys, "hold_s", 5.0);
     const double move = option_double(keys, "move_s", 2.0);
-    if (!(hold >= 0) || !(move > 0)) throw Error("hold_s must be >= 0 and move_s > 0");
+    // The first pose is held long enough for the initial still period `record --guide` asks
+    // for (10 s by default, plus the guide's stillness window).
+    const double init = option_double(keys, "init_s", 12.0);
+    if (!(hold >= 0 && hold <= 3600) || !(move > 0 && move <= 3600) || !(init >= 0 && init <= 3600))
+      throw Error("hold_s and init_s must be in [0, 3600] s, move_s in (0, 3600] s");
     const int64_t count = option_int(keys, "poses", 6);
     if (count < 1 || count > 26)
       throw Error("poses: expected 1 to 26 poses (6: the six faces; more: a tilt tour)");
@@ -324,7 +331,7 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
     } else {
       poses.resize(static_cast<std::size_t>(count));
     }
-    source = std::make_shared<PosesSource>(std::move(poses), hold, move, gravity);
+    source = std::make_shared<PosesSource>(std::move(poses), hold, move, gravity, init);
   } else {
     throw Error("mock:" + kind + ": unknown mock (known: static, poses)");
   }

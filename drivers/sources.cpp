@@ -20,8 +20,12 @@ void StaticSource::evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* spe
 }
 
 PosesSource::PosesSource(std::vector<Eigen::Quaterniond> q_world_sensor, double hold_s,
-                         double move_s, double gravity)
-    : poses_(std::move(q_world_sensor)), hold_s_(hold_s), move_s_(move_s), gravity_(gravity) {
+                         double move_s, double gravity, double first_hold_s)
+    : poses_(std::move(q_world_sensor)),
+      hold_s_(hold_s),
+      move_s_(move_s),
+      gravity_(gravity),
+      extra_first_s_(std::max(0.0, first_hold_s - hold_s)) {
   assert(!poses_.empty() && hold_s_ >= 0 && move_s_ > 0);
   for (auto& q : poses_) q.normalize();
 }
@@ -81,11 +85,12 @@ std::vector<Eigen::Quaterniond> PosesSource::tilt_tour(int count) {
 }
 
 double PosesSource::duration_s() const {
-  return static_cast<double>(poses_.size()) * hold_s_ +
+  return extra_first_s_ + static_cast<double>(poses_.size()) * hold_s_ +
          static_cast<double>(poses_.size() - 1) * move_s_;
 }
 
 Eigen::Quaterniond PosesSource::orientation(double t, int* held) const {
+  t = std::max(0.0, t - extra_first_s_);  // the first pose's longer hold
   const double cycle = hold_s_ + move_s_;
   const auto last = static_cast<int>(poses_.size()) - 1;
   int k = t <= 0 ? 0 : static_cast<int>(std::floor(t / cycle));
@@ -111,8 +116,9 @@ void PosesSource::evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* spec
   const double cycle = hold_s_ + move_s_;
   const auto last = static_cast<int>(poses_.size()) - 1;
   for (Eigen::Index i = 0; i < n; ++i) {
-    const double t = to_seconds(times[static_cast<std::size_t>(i)]);
-    const Eigen::Quaterniond q = orientation(t);
+    const double t_s = to_seconds(times[static_cast<std::size_t>(i)]);
+    const Eigen::Quaterniond q = orientation(t_s);
+    const double t = std::max(0.0, t_s - extra_first_s_);
     const Eigen::Matrix3d R_sensor_world = q.toRotationMatrix().transpose();
     if (specific_force) specific_force->col(i) = R_sensor_world * Eigen::Vector3d(0, 0, gravity_);
     if (angular_rate) {

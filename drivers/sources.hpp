@@ -30,8 +30,10 @@ class StaticSource : public SignalSource {
 // measures R_world_sensor^T w_world.
 class PosesSource : public SignalSource {
  public:
+  // The first pose is held max(hold_s, first_hold_s): a guided capture starts with a longer
+  // still period (PoseGuideOptions::initial_still_s).
   PosesSource(std::vector<Eigen::Quaterniond> q_world_sensor, double hold_s, double move_s,
-              double gravity = 9.80665);
+              double gravity = 9.80665, double first_hold_s = 0.0);
   // The six faces up, in the order +z, +x, +y, -z, -x, -y (the axis named points up).
   static std::vector<Eigen::Quaterniond> six_faces();
   // `count` (1..26) poses of a tilt tour over the 26 directions of a cube's faces, edges and
@@ -53,6 +55,7 @@ class PosesSource : public SignalSource {
   double hold_s_;
   double move_s_;
   double gravity_;
+  double extra_first_s_;  // how much longer the first pose is held
 };
 
 }  // namespace imukit::drivers

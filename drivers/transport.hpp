@@ -19,9 +19,9 @@
 namespace imukit::drivers {
 
 // A transport failed (open, configure, write). what() names the device and the OS message.
-class TransportError : public Error {
+class TransportError : public IoError {  // an I/O failure: the CLI's exit code 3
  public:
-  using Error::Error;
+  using IoError::IoError;
 };
 
 // The host's clock for receive times: CLOCK_REALTIME in ns (recordings are stamped since the Unix

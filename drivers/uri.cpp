@@ -86,7 +86,7 @@ std::vector<std::string> uri_keys(const std::string& scheme) {
   } else if (scheme == "mock") {
     keys.insert(keys.end(), {"seed", "profile", "drop", "flip", "drift_ppm", "latency_us",
                              "jitter_us", "stall_ms", "stall_at_s", "disconnect_after", "clock",
-                             "quat", "hold_s", "move_s", "poses", "gravity"});
+                             "quat", "hold_s", "move_s", "init_s", "poses", "gravity"});
   }
   return keys;
 }

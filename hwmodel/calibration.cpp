@@ -2,6 +2,7 @@
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <fmt/core.h>
 
 #include <Eigen/Dense>
 #include <algorithm>
@@ -124,14 +125,31 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
                                                     const Eigen::Matrix3Xd& accel,
                                                     const StaticDetectorOptions& opt) {
   const auto n = int64_t(t.size());
-  if (n < 2 || accel.cols() != n)
-    throw Error("static detector: time stamps and samples differ in count");
-  const double period = to_seconds(t.back() - t.front()) / double(n - 1);
+  if (accel.cols() != n)
+    throw Error("static detector: time stamps and accelerometer samples differ in count");
+  if (!(opt.init_static_s > 0 && opt.init_static_s <= 1e7) ||
+      !(opt.window_s > 0 && opt.window_s <= 1e4) || !(opt.min_interval_s >= 0) ||
+      !(opt.threshold_factor > 0 && std::isfinite(opt.threshold_factor))) {
+    throw Error(
+        "static detector: the initial static period, window and threshold must be "
+        "positive and finite");
+  }
+  const double span_s = n < 2 ? 0.0 : to_seconds(t.back() - t.front());
+  // Checked in seconds before any count is rounded from them (a count from 1e300 s overflows).
+  if (!(span_s > opt.init_static_s + opt.window_s)) {
+    throw Error(fmt::format(
+        "static detector: the recording ({} samples, {:.3g} s) is shorter than the initial static "
+        "period ({:g} s) plus a window ({:g} s)",
+        n, span_s, opt.init_static_s, opt.window_s));
+  }
+  const double period = span_s / double(n - 1);
   const int64_t half = std::max<int64_t>(1, int64_t(std::llround(0.5 * opt.window_s / period)));
-  const int64_t init_end = int64_t(std::llround(opt.init_static_s / period));
+  const int64_t init_end = std::max<int64_t>(2, int64_t(std::llround(opt.init_static_s / period)));
   if (init_end + 2 * half >= n) {
-    throw Error("static detector: recording shorter than the initial static period (" +
-                std::to_string(opt.init_static_s) + " s) plus a window");
+    throw Error(fmt::format(
+        "static detector: the recording ({} samples) is shorter than the initial static period "
+        "({:g} s) plus a window",
+        n, opt.init_static_s));
   }
   // Sliding sums of x and x^2 (mean removed first for precision) give each window's variance.
   const Eigen::Vector3d mu = accel.rowwise().mean();
@@ -161,12 +179,19 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
     const Eigen::Vector3d m = init.rowwise().mean();
     ref = (init.colwise() - m).array().square().sum() / double(init_end);
   }
-  const double threshold = opt.threshold_factor * ref;
+  // A noiseless signal (a simulation, a mock without a noise model) has an initial variance of
+  // zero, and its still windows differ from zero only by the sliding sums' round-off (about
+  // 1e-12 of the mean square): the floor sits above that and far below any real sensor's noise.
+  const double mean_square = c2[size_t(3 * n)] + c2[size_t(3 * n + 1)] + c2[size_t(3 * n + 2)];
+  const double floor = 1e-9 * mean_square / double(n);
+  const double threshold = opt.threshold_factor * std::max(ref, floor);
   const int64_t min_len = std::max<int64_t>(2, int64_t(std::llround(opt.min_interval_s / period)));
   std::vector<StaticInterval> out;
   int64_t start = -1;
   for (int64_t i = 0; i <= n; ++i) {
-    const bool still = i < n && var[size_t(i)] < threshold;
+    // <=: a noiseless (simulated, or coarsely quantised) signal has windows of zero variance,
+    // and so may its initial period.
+    const bool still = i < n && var[size_t(i)] <= threshold;
     if (still && start < 0) start = i;
     if (!still && start >= 0) {
       if (i - start >= min_len) out.push_back({start, i});
@@ -281,6 +306,15 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
   const auto n = int64_t(t.size());
   if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
     throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
+  }
+  // Ceres would chase a NaN or astronomically scaled model; gravity is a physical quantity.
+  if (!(options.gravity > 0 && options.gravity <= 1000))
+    throw Error(fmt::format("calibration: gravity {:g} m/s^2 is not plausible", options.gravity));
+  if (n < 2) {
+    throw Error(fmt::format(
+        "calibration: the recording has {} sample(s); a multi-position calibration needs the "
+        "initial static period and {} or more still poses",
+        n, options.min_poses));
   }
   CalibrationResult best;
   bool have = false;

@@ -4,9 +4,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 bash "$root/scripts/setup.sh" >&2
-if [ ! -f "$root/build/release/build.ninja" ]; then
-  cmake -S "$root" -B "$root/build/release" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-    -DIMUKIT_ASSERTIONS=ON >/dev/null
-fi
+# The configuration scripts/test.sh uses too (a no-op when it is already in place).
+bash "$root/scripts/configure_release.sh"
 cmake --build "$root/build/release" -j"${IMUKIT_JOBS:-2}" --target imukit >&2
 exec "$root/build/release/cli/imukit" "$@"

@@ -18,6 +18,7 @@ packages=(
   python3-scipy python3-pytest                   # dataset readers (loadmat), Python tests
   python3-torch python3-matplotlib               # imukit.har: HAR models, training, plots
   gnuplot-nox                                    # characterize/calibrate --plot (SVG)
+  zstd                                           # tests/cli/crash_test.py reads chunks itself
 )
 # node + npm run the MCAP project's own reader on our files (tests/capture/node); the machine
 # image may already have a newer node than Debian's, which is fine.

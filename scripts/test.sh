@@ -16,8 +16,7 @@ stamp "setup"
 bash scripts/setup.sh
 
 stamp "release build (gcc, assertions on, -Werror)"
-cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DIMUKIT_ASSERTIONS=ON \
-  -DIMUKIT_WERROR=ON >/dev/null
+bash scripts/configure_release.sh  # the one scripts/imukit.sh uses: the demo's build is reused
 cmake --build build/release -j"$jobs"
 stamp "format check (clang-format, .clang-format)"
 cmake --build build/release --target format-check

@@ -312,6 +312,35 @@ Eigen::Vector3d Body::forward_direction() const {
   return Eigen::Vector3d::UnitY();
 }
 
+Body body_from_joints(const std::vector<std::string>& names, const std::vector<int>& parents,
+                      const Eigen::Ref<const Eigen::Matrix3Xd>& offsets, const std::string& what) {
+  const std::size_t n = names.size();
+  if (n == 0) throw Error(what + ": a body needs at least one joint");
+  if (parents.size() != n || static_cast<std::size_t>(offsets.cols()) != n) {
+    throw Error(what + ": " + std::to_string(n) + " names, " + std::to_string(parents.size()) +
+                " parents and " + std::to_string(offsets.cols()) + " offsets (expected as many)");
+  }
+  const std::vector<std::string> canonical = canonicalize_joint_names(names);
+  Body b;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string at = what + ": joint " + std::to_string(i) + " ('" + names[i] + "')";
+    if (names[i].empty()) throw Error(what + ": joint " + std::to_string(i) + " has no name");
+    if (i == 0 && parents[i] != -1)
+      throw Error(at + ": the first joint is the root and has parent -1");
+    if (i > 0 && !(parents[i] >= 0 && static_cast<std::size_t>(parents[i]) < i)) {
+      throw Error(at + ": parent " + std::to_string(parents[i]) +
+                  " must be an earlier joint (parents come before children; one root)");
+    }
+    if (!offsets.col(static_cast<Eigen::Index>(i)).allFinite())
+      throw Error(at + ": the offset is not finite");
+    for (std::size_t k = 0; k < i; ++k) {
+      if (names[k] == names[i]) throw Error(at + ": duplicate joint name");
+    }
+    b.add_joint(canonical[i], parents[i], offsets.col(static_cast<Eigen::Index>(i)), names[i]);
+  }
+  return b;
+}
+
 Body Body::default_humanoid(double height_m) {
   if (!(height_m > 0.3 && height_m < 3.0)) {
     throw Error("default humanoid: height must be in (0.3, 3) m, got " + std::to_string(height_m));

@@ -66,6 +66,14 @@ class Body {
   std::vector<Joint> joints_;
 };
 
+// A body from explicit joints (scenes' "body": {"joints": [...]}, Python's Body.from_arrays):
+// names (canonicalised through the alias table like BVH names, the given spelling kept as the
+// source name), parent indices (-1 for the first joint only; each parent before its child) and
+// offsets (3 x joints, m, in the parent's frame at the neutral pose). Throws imukit::Error,
+// prefixed by `what`, naming the joint at fault.
+Body body_from_joints(const std::vector<std::string>& names, const std::vector<int>& parents,
+                      const Eigen::Ref<const Eigen::Matrix3Xd>& offsets, const std::string& what);
+
 // Every canonical joint name (the default humanoid has all of them).
 const std::vector<std::string>& canonical_joint_names();
 // The segment a canonical joint carries ("left_elbow" -> "left_forearm"); empty if none.

@@ -1,11 +1,12 @@
 #include "sim/bvh.hpp"
 
+#include <fmt/core.h>
+
 #include <cmath>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/text_parse.hpp"
 
 namespace imukit::sim {
@@ -61,12 +62,12 @@ class Tokenizer {
   void expect(std::string_view word) {
     const Token t = expect_any(std::string(word).c_str());
     if (t.text != word)
-      fail(t, "expected '" + std::string(word) + "', got '" + std::string(t.text) + "'");
+      fail(t, "expected '" + std::string(word) + "', got " + quote_excerpt(t.text, 24));
   }
   double number(const char* what) {
     const Token t = expect_any(what);
     const auto v = parse_double(t.text);
-    if (!v) fail(t, std::string("expected ") + what + ", got '" + std::string(t.text) + "'");
+    if (!v) fail(t, std::string("expected ") + what + ", got " + quote_excerpt(t.text, 24));
     if (!std::isfinite(*v)) fail(t, std::string(what) + " is not finite");
     return *v;
   }
@@ -106,13 +107,13 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
   j.name = std::string(name.text);
   j.parent = parent;
   for (const RawJoint& other : joints) {
-    if (other.name == j.name) tz.fail(name, "duplicate joint name '" + j.name + "'");
+    if (other.name == j.name) tz.fail(name, "duplicate joint name " + quote_excerpt(j.name));
   }
   tz.expect("{");
   tz.expect("OFFSET");
   for (int i = 0; i < 3; ++i) j.offset(i) = tz.number("an OFFSET value");
   const Token ch = tz.expect_any("CHANNELS");
-  if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got '" + std::string(ch.text) + "'");
+  if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got " + quote_excerpt(ch.text, 24));
   const Token nt = tz.expect_any("a channel count");
   const auto n = parse_double(nt.text);
   if (!n || *n != std::floor(*n) || *n < 0 || *n > 6) tz.fail(nt, "channel count must be 0..6");
@@ -134,9 +135,9 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
     else if (l == "zrotation")
       k = Channel::zrot;
     else
-      tz.fail(c, "unknown channel '" + std::string(c.text) + "'");
+      tz.fail(c, "unknown channel " + quote_excerpt(c.text, 24));
     for (Channel e : j.channels) {
-      if (e == k) tz.fail(c, "channel '" + std::string(c.text) + "' listed twice");
+      if (e == k) tz.fail(c, "channel " + quote_excerpt(c.text, 24) + " listed twice");
     }
     j.channels.push_back(k);
   }
@@ -156,7 +157,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
       tz.expect("}");
       joints[static_cast<std::size_t>(self)].end = e;
     } else {
-      tz.fail(t, "expected JOINT, End Site or '}', got '" + std::string(t.text) + "'");
+      tz.fail(t, "expected JOINT, End Site or '}', got " + quote_excerpt(t.text, 24));
     }
   }
 }
@@ -173,8 +174,10 @@ Eigen::Quaterniond axis_rotation(Channel c, double degrees) {
 
 BvhData parse_bvh(std::string_view text, const std::string& source_name,
                   const BvhOptions& options) {
-  if (!(std::isfinite(options.scale) && options.scale > 0.0)) {
-    throw Error(source_name + ": --bvh-scale must be finite and positive");
+  if (!(options.scale >= BvhLimits::min_scale && options.scale <= BvhLimits::max_scale)) {
+    throw Error(fmt::format("{}: the BVH scale must be in [{:g}, {:g}] m per unit, got {:g}",
+                            source_name, BvhLimits::min_scale, BvhLimits::max_scale,
+                            options.scale));
   }
   Tokenizer tz(text, source_name);
   tz.expect("HIERARCHY");
@@ -184,7 +187,7 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
   {
     const Token t = tz.expect_any("MOTION");
     if (t.text == "ROOT") tz.fail(t, "more than one ROOT is not supported");
-    if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got '" + std::string(t.text) + "'");
+    if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got " + quote_excerpt(t.text, 24));
   }
   tz.expect("Frames:");
   const Token ft = tz.expect_any("the frame count");
@@ -199,6 +202,12 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
   const auto dt = parse_double(dtt.text);
   if (!dt || !std::isfinite(*dt) || !(*dt > 0.0))
     tz.fail(dtt, "frame time must be a positive number");
+  // The same bound as a sensor rate: beyond it the frame times collapse onto each other.
+  if (!(*dt >= 1.0 / BvhLimits::max_rate_hz && *dt <= BvhLimits::max_frame_time_s)) {
+    tz.fail(dtt, fmt::format("frame time {:g} s is outside [{:g}, {:g}] s (rates up to {:g} Hz)",
+                             *dt, 1.0 / BvhLimits::max_rate_hz, BvhLimits::max_frame_time_s,
+                             BvhLimits::max_rate_hz));
+  }
 
   BvhData out;
   out.frame_time_s = *dt;
@@ -212,11 +221,24 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
     const Eigen::Vector3d s = v * options.scale;
     return options.up == UpAxis::y ? Eigen::Vector3d(s.x(), -s.z(), s.y()) : s;
   };
+  // Lengths and positions beyond this are not a body on the Earth's surface but a wrong
+  // scale or a corrupt file; refused where they are read (a token of the file or the option).
+  const double max_value = BvhLimits::max_length_m / options.scale;
+  const auto check_length = [&](const Eigen::Vector3d& v, const auto& what) {
+    if (v.cwiseAbs().maxCoeff() <= max_value) return;
+    throw Error(fmt::format(
+        "{}: {} ({:g} {:g} {:g}) is beyond {:g} m at scale {:g}: a wrong "
+        "scale or a corrupt file",
+        source_name, what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options.scale));
+  };
   std::vector<std::string> names;
   for (const RawJoint& j : raw) names.push_back(j.name);
   const std::vector<std::string> canon = canonicalize_joint_names(names);
   bool ignored_positions = false;
   for (std::size_t i = 0; i < raw.size(); ++i) {
+    check_length(raw[i].offset, [&] { return "the OFFSET of " + quote_excerpt(raw[i].name); });
+    if (raw[i].end)
+      check_length(*raw[i].end, [&] { return "the End Site of " + quote_excerpt(raw[i].name); });
     out.body.add_joint(canon[i], raw[i].parent,
                        raw[i].parent < 0 ? Eigen::Vector3d::Zero() : map_vec(raw[i].offset),
                        raw[i].name);
@@ -281,7 +303,10 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
         }
       }
       out.motion.rotation(f, i) = qC * q * qC.conjugate();
-      if (i == 0) out.motion.root_translation(f) = root_offset + map_vec(pos);
+      if (i == 0) {
+        check_length(pos, [&] { return fmt::format("the root position of frame {}", f); });
+        out.motion.root_translation(f) = root_offset + map_vec(pos);
+      }
     }
   }
   Token extra;
@@ -294,11 +319,8 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
 }
 
 BvhData read_bvh(const std::string& path, const BvhOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_bvh(s.str(), path, options);
+  const std::string text = read_regular_file(path, kMaxMotionBytes, "BVH motion");
+  return parse_bvh(text, path, options);
 }
 
 }  // namespace imukit::sim

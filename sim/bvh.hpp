@@ -28,6 +28,16 @@ namespace imukit::sim {
 
 enum class UpAxis { y, z };
 
+// What a BVH file and its options may say: the scale (metres per file unit) and the frame rate
+// are bounded like the CLI's options, and no length or root position may exceed
+// max_length_m once scaled.
+struct BvhLimits {
+  static constexpr double min_scale = 1e-5, max_scale = 100.0;
+  static constexpr double max_rate_hz = 1e6;
+  static constexpr double max_frame_time_s = 3600.0;
+  static constexpr double max_length_m = 1e4;
+};
+
 struct BvhOptions {
   double scale = 1.0;
   UpAxis up = UpAxis::y;
@@ -43,5 +53,15 @@ struct BvhData {
 BvhData parse_bvh(std::string_view text, const std::string& source_name,
                   const BvhOptions& options = {});
 BvhData read_bvh(const std::string& path, const BvhOptions& options = {});
+
+// A Body and Motion as BVH (bvh_write.cpp): lengths divided by options.scale, vectors and
+// rotations mapped back to Y up unless options.up == z (the inverse of the reader's mapping),
+// every joint with Zrotation Yrotation Xrotation channels (the root also Xposition Yposition
+// Zposition), angles unwrapped frame to frame so they stay continuous, 10 significant digits
+// (1e-8 degrees); leaves end in an End Site at Body::segment_end. Reading the file back with the
+// same options gives the body's offsets and the motion's rotations to 1e-9.
+std::string format_bvh(const Body& body, const Motion& motion, const BvhOptions& options = {});
+void write_bvh(const std::string& path, const Body& body, const Motion& motion,
+               const BvhOptions& options = {});
 
 }  // namespace imukit::sim

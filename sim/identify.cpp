@@ -9,12 +9,17 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/profile.hpp"
 #include "core/so3.hpp"
+#include "sim/placement.hpp"
+#include "sim/scene.hpp"
 #include "sim/simulator.hpp"
 
 namespace imukit::sim {
@@ -26,14 +31,16 @@ constexpr int kMaxSegments = 6;
 // central difference of it is exact; the rotational terms are smooth and the O(h^2) error is
 // ~1e-8 of their size. Within h of a frame the difference averages the two one-sided slopes.
 constexpr TimeNs kTimeStepNs = 100'000;
-constexpr double kMaxClockRate = 2e-4;  // bound of the clock-rate parameter (200 ppm)
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The coarse search tries at most this many clock rates (grid of +-max_clock_rate).
+constexpr int kMaxCoarseRates = 401;
 
 // Rows of the per-sample kinematics, all in the joint frame at the sample's motion time:
 // specific force of the joint origin (nominal segment lengths), angular rate, angular
-// acceleration, then per identified segment the change of that specific force per metre of
-// segment length (the rigid-body point acceleration is linear in the offsets).
-enum Row { kF = 0, kW = 3, kAlpha = 6, kS = 9 };
+// acceleration, gravity's part of the specific force (-R_world_joint^T g), then per identified
+// segment the change of that specific force per metre of segment length (the rigid-body point
+// acceleration is linear in the offsets).
+enum Row { kF = 0, kW = 3, kAlpha = 6, kG = 9, kS = 12 };
 
 // Joint kinematics at shifted sample times, from the spline simulator through its public API:
 // a sensor at the joint origin (specific force, rate, orientation) and two at unit offsets along
@@ -44,7 +51,7 @@ class KinematicsEvaluator {
  public:
   KinematicsEvaluator(const Body& body, MotionSource& motion, int joint, std::vector<int> segments,
                       const Eigen::Vector3d& gravity)
-      : motion_(motion), segments_(std::move(segments)) {
+      : motion_(motion), segments_(std::move(segments)), gravity_(gravity) {
     auto sensor = [&](int j, const Eigen::Vector3d& p, bool gyro, bool orientation) {
       SensorSpec s;
       s.name = std::to_string(specs_.size());  // (no "s" + ...: gcc 12 -Wrestrict false positive)
@@ -55,8 +62,7 @@ class KinematicsEvaluator {
       s.outputs.orientation = orientation;
       specs_.push_back(s);
     };
-    const bool seg = !segments_.empty();
-    sensor(joint, Eigen::Vector3d::Zero(), true, seg);
+    sensor(joint, Eigen::Vector3d::Zero(), true, true);
     sensor(joint, Eigen::Vector3d::UnitX(), false, false);
     sensor(joint, Eigen::Vector3d::UnitY(), false, false);
     for (int c : segments_) {
@@ -129,6 +135,8 @@ class KinematicsEvaluator {
       k.block<3, 1>(kF, i) = f;
       k.block<3, 1>(kW, i) = w;
       k.block<3, 1>(kAlpha, i) = alpha;
+      k.block<3, 1>(kG, i) =
+          -(o.q_world_sensor[static_cast<std::size_t>(i)].conjugate() * gravity_);
       for (std::size_t s = 0; s < segments_.size(); ++s) {
         const SensorBlock& a = blocks_[3 + 2 * s];
         const SensorBlock& b = blocks_[4 + 2 * s];
@@ -143,10 +151,50 @@ class KinematicsEvaluator {
 
   MotionSource& motion_;
   std::vector<int> segments_;
+  Eigen::Vector3d gravity_;
   std::vector<SensorSpec> specs_;
   std::unique_ptr<Simulator> sim_;
   std::vector<SensorBlock> blocks_;
 };
+
+// Uniform cubic B-spline weights of the four control points of a segment at u in [0, 1], and
+// their first and second derivatives in u.
+std::array<double, 12> bspline_weights(double u) {
+  const double u2 = u * u, u3 = u2 * u, v = 1.0 - u;
+  return {v * v * v / 6.0,
+          (3.0 * u3 - 6.0 * u2 + 4.0) / 6.0,
+          (-3.0 * u3 + 3.0 * u2 + 3.0 * u + 1.0) / 6.0,
+          u3 / 6.0,
+          -0.5 * v * v,
+          (3.0 * u2 - 4.0 * u) / 2.0,
+          (-3.0 * u2 + 2.0 * u + 1.0) / 2.0,
+          0.5 * u2,
+          v,
+          3.0 * u - 2.0,
+          -3.0 * u + 1.0,
+          u};
+}
+
+// Where IMU time t falls on a correction spline of `segments` knot intervals: the first control
+// point and the weights (value, d/dt, d2/dt2) of it and the next three. Outside [t0, t1] the
+// spline is held at its end value.
+struct SplineSpot {
+  int first = 0;
+  std::array<double, 12> w{};
+};
+SplineSpot spline_spot(TimeNs t0, double spacing, int segments, TimeNs t) {
+  const double x = to_seconds(t - t0) / spacing;
+  SplineSpot s;
+  const double xc = std::clamp(x, 0.0, static_cast<double>(segments));
+  s.first = std::clamp(static_cast<int>(std::floor(xc)), 0, segments - 1);
+  s.w = bspline_weights(xc - s.first);
+  const bool held = x < 0.0 || x > static_cast<double>(segments);
+  for (int m = 4; m < 12; ++m) {
+    auto& w = s.w[static_cast<std::size_t>(m)];
+    w = held ? 0.0 : w / (m < 8 ? spacing : spacing * spacing);
+  }
+  return s;
+}
 
 // What the cost functions read: the kinematics at the current time parameters.
 struct Context {
@@ -158,6 +206,10 @@ struct Context {
   std::vector<double> ell0;                          // nominal segment lengths
   double inv_sigma_a = 1.0, inv_sigma_g = 1.0;
   KinematicsEvaluator* eval = nullptr;
+  // Segment correction: its axes and, per sample, where it falls on the spline.
+  int dims = 0;
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+  std::vector<SplineSpot> spot;
 
   void update(double new_dt, double new_kappa) {
     std::vector<double> tau(base_s.size());
@@ -190,35 +242,95 @@ void to_sensor(const Context& c, const T* delta, const T u[3], T v[3]) {
   ceres::AngleAxisRotatePoint(nd, w, v);
 }
 
+// The sensor joint's specific force (origin), angular rate and angular acceleration in its frame.
+template <typename T>
+struct JointState {
+  T f[3], w[3], al[3];
+};
+
+// The frame turns by Q = Exp(a e) (R_world_joint' = R_world_joint Q): vectors are re-expressed
+// by Q^T; the turn's own body rate da e adds to the rate, and since d/dt (Q^T w) = Q^T dw -
+// (da e) x (Q^T w), the angular acceleration becomes Q^T alpha - da e x (Q^T w) + dda e.
+template <typename T>
+void turn_frame(const Eigen::Vector3d& e, const T& a, const T& da, const T& dda, JointState<T>& s) {
+  const T back[3] = {-a * e.x(), -a * e.y(), -a * e.z()};
+  T f[3], w[3], al[3];
+  ceres::AngleAxisRotatePoint(back, s.f, f);
+  ceres::AngleAxisRotatePoint(back, s.w, w);
+  ceres::AngleAxisRotatePoint(back, s.al, al);
+  const T ew[3] = {e.y() * w[2] - e.z() * w[1], e.z() * w[0] - e.x() * w[2],
+                   e.x() * w[1] - e.y() * w[0]};
+  for (int k = 0; k < 3; ++k) {
+    s.f[k] = f[k];
+    s.w[k] = w[k] + da * e[k];
+    s.al[k] = al[k] - da * ew[k] + dda * e[k];
+  }
+}
+
+// The joint's kinematics at sample i as the IMU's clock sees them. The IMU clock is the true
+// time: with tau = ... + (1 + kappa) t the motion's rates are d/dtau, so the true angular rate is
+// (1 + kappa) w_J, the true angular and linear accelerations (1 + kappa)^2 times the motion's,
+// while gravity's part of the specific force stays. Then the segment correction (ctrl: the
+// sample's four control points, or null).
+template <typename T>
+void joint_state(const Context& c, int i, const T* dt, const T* kappa, const T* ell, int segments,
+                 const T* const* ctrl, JointState<T>& s) {
+  const T shift = time_shift(c, i, dt, kappa);
+  const T sc = T(1.0) + kappa[0];
+  const T sc2 = sc * sc;
+  T f[3], g[3];
+  kin(c, i, kF, shift, f);
+  kin(c, i, kG, shift, g);
+  kin(c, i, kW, shift, s.w);
+  kin(c, i, kAlpha, shift, s.al);
+  for (int q = 0; q < segments; ++q) {
+    T S[3];
+    kin(c, i, kS + 3 * q, shift, S);
+    const T dl = ell[q] - c.ell0[static_cast<std::size_t>(q)];
+    for (int k = 0; k < 3; ++k) f[k] += S[k] * dl;
+  }
+  for (int k = 0; k < 3; ++k) {
+    s.f[k] = sc2 * (f[k] - g[k]) + g[k];
+    s.w[k] = sc * s.w[k];
+    s.al[k] = sc2 * s.al[k];
+  }
+  if (ctrl == nullptr) return;
+  const SplineSpot& sp = c.spot[static_cast<std::size_t>(i)];
+  // Q = Exp(a1 e1) Exp(a2 e2) Exp(a0 e0): the tilts first, the twist innermost, so that a
+  // constant twist is exactly a turn of the placement about e0 (see the re-centring in identify).
+  for (const int d : {1, 2, 0}) {
+    if (d >= c.dims) continue;
+    T a(0.0), da(0.0), dda(0.0);
+    for (std::size_t m = 0; m < 4; ++m) {
+      a += sp.w[m] * ctrl[m][d];
+      da += sp.w[4 + m] * ctrl[m][d];
+      dda += sp.w[8 + m] * ctrl[m][d];
+    }
+    turn_frame(c.axes.col(d), a, da, dda, s);
+  }
+}
+
 template <typename T>
 void gyro_model(const Context& c, int i, const T* rot, const T* bg, const T* sg, const T* dt,
-                const T* kappa, T out[3]) {
-  const T shift = time_shift(c, i, dt, kappa);
-  T w[3], v[3];
-  kin(c, i, kW, shift, w);
-  to_sensor(c, rot, w, v);
+                const T* kappa, const T* const* ctrl, T out[3]) {
+  JointState<T> s;
+  joint_state<T>(c, i, dt, kappa, nullptr, 0, ctrl, s);
+  T v[3];
+  to_sensor(c, rot, s.w, v);
   for (int k = 0; k < 3; ++k) out[k] = (T(1.0) + sg[k]) * v[k] + bg[k];
 }
 
 template <typename T>
 void accel_model(const Context& c, int i, const T* rot, const T* pos, const T* ba, const T* sa,
-                 const T* dt, const T* kappa, const T* ell, int segments, T out[3]) {
-  const T shift = time_shift(c, i, dt, kappa);
-  T f[3], w[3], al[3];
-  kin(c, i, kF, shift, f);
-  kin(c, i, kW, shift, w);
-  kin(c, i, kAlpha, shift, al);
-  for (int s = 0; s < segments; ++s) {
-    T S[3];
-    kin(c, i, kS + 3 * s, shift, S);
-    const T dl = ell[s] - c.ell0[static_cast<std::size_t>(s)];
-    for (int k = 0; k < 3; ++k) f[k] += S[k] * dl;
-  }
+                 const T* dt, const T* kappa, const T* ell, int segments, const T* const* ctrl,
+                 T out[3]) {
+  JointState<T> s;
+  joint_state<T>(c, i, dt, kappa, ell, segments, ctrl, s);
   T axp[3], wxp[3], wwxp[3], a[3], v[3];
-  ceres::CrossProduct(al, pos, axp);
-  ceres::CrossProduct(w, pos, wxp);
-  ceres::CrossProduct(w, wxp, wwxp);
-  for (int k = 0; k < 3; ++k) a[k] = f[k] + axp[k] + wwxp[k];
+  ceres::CrossProduct(s.al, pos, axp);
+  ceres::CrossProduct(s.w, pos, wxp);
+  ceres::CrossProduct(s.w, wxp, wwxp);
+  for (int k = 0; k < 3; ++k) a[k] = s.f[k] + axp[k] + wwxp[k];
   to_sensor(c, rot, a, v);
   for (int k = 0; k < 3; ++k) out[k] = (T(1.0) + sa[k]) * v[k] + ba[k];
 }
@@ -230,7 +342,7 @@ struct GyroCost {
   template <typename T>
   bool operator()(const T* rot, const T* bg, const T* sg, const T* dt, const T* kappa, T* r) const {
     T m[3];
-    gyro_model(*c, i, rot, bg, sg, dt, kappa, m);
+    gyro_model<T>(*c, i, rot, bg, sg, dt, kappa, nullptr, m);
     for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_g;
     return true;
   }
@@ -244,23 +356,66 @@ struct AccelCost {
   bool operator()(const T* rot, const T* pos, const T* ba, const T* sa, const T* dt, const T* kappa,
                   T* r) const {
     T m[3];
-    accel_model<T>(*c, i, rot, pos, ba, sa, dt, kappa, nullptr, 0, m);
+    accel_model<T>(*c, i, rot, pos, ba, sa, dt, kappa, nullptr, 0, nullptr, m);
     for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
     return true;
   }
 };
 
-// With segment lengths (a parameter block of run-time size).
-struct AccelSegmentCost {
+// With the segment correction (D angles per control point; the sample's four control points).
+template <int D>
+struct CorrectedGyroCost {
   const Context* c;
   int i;
+  Eigen::Vector3d meas;
+  template <typename T>
+  bool operator()(const T* rot, const T* bg, const T* sg, const T* dt, const T* kappa, const T* c0,
+                  const T* c1, const T* c2, const T* c3, T* r) const {
+    const T* ctrl[4] = {c0, c1, c2, c3};
+    T m[3];
+    gyro_model<T>(*c, i, rot, bg, sg, dt, kappa, ctrl, m);
+    for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_g;
+    return true;
+  }
+};
+template <int D>
+struct CorrectedAccelCost {
+  const Context* c;
+  int i;
+  Eigen::Vector3d meas;
+  template <typename T>
+  bool operator()(const T* rot, const T* pos, const T* ba, const T* sa, const T* dt, const T* kappa,
+                  const T* c0, const T* c1, const T* c2, const T* c3, T* r) const {
+    const T* ctrl[4] = {c0, c1, c2, c3};
+    T m[3];
+    accel_model<T>(*c, i, rot, pos, ba, sa, dt, kappa, nullptr, 0, ctrl, m);
+    for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
+    return true;
+  }
+};
+
+// With segment lengths and/or the segment correction (parameter blocks of run-time size):
+// gyro: rot, bg, sg, dt, kappa[, four control points]; accelerometer: rot, pos, ba, sa, dt,
+// kappa[, lengths][, four control points].
+struct GeneralCost {
+  const Context* c;
+  int i;
+  bool gyro;
   int segments;
+  bool corrected;
   Eigen::Vector3d meas;
   template <typename T>
   bool operator()(T const* const* p, T* r) const {
     T m[3];
-    accel_model<T>(*c, i, p[0], p[1], p[2], p[3], p[4], p[5], p[6], segments, m);
-    for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
+    if (gyro) {
+      gyro_model<T>(*c, i, p[0], p[1], p[2], p[3], p[4], corrected ? p + 5 : nullptr, m);
+      for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_g;
+    } else {
+      const int next = segments > 0 ? 7 : 6;
+      accel_model<T>(*c, i, p[0], p[1], p[2], p[3], p[4], p[5], segments > 0 ? p[6] : nullptr,
+                     segments, corrected ? p + next : nullptr, m);
+      for (int k = 0; k < 3; ++k) r[k] = (m[k] - meas[k]) * c->inv_sigma_a;
+    }
     return true;
   }
 };
@@ -272,6 +427,37 @@ struct SegmentPrior {
   template <typename T>
   bool operator()(T const* const* p, T* r) const {
     r[0] = (p[0][s] - nominal) / sigma;
+    return true;
+  }
+};
+
+// A zero-mean Gaussian prior on a 3-vector (the biases).
+struct VectorPrior {
+  double inv_sigma;
+  template <typename T>
+  bool operator()(const T* b, T* r) const {
+    for (int k = 0; k < 3; ++k) r[k] = b[k] * inv_sigma;
+    return true;
+  }
+};
+
+// Priors of the segment correction: each control point's angles (magnitude), each knot's
+// angular acceleration (second difference of neighbouring control points / spacing^2).
+template <int D>
+struct CorrectionMagnitudePrior {
+  std::array<double, 3> inv_sigma;
+  template <typename T>
+  bool operator()(const T* c, T* r) const {
+    for (int d = 0; d < D; ++d) r[d] = c[d] * inv_sigma[static_cast<std::size_t>(d)];
+    return true;
+  }
+};
+template <int D>
+struct CorrectionSmoothnessPrior {
+  double inv;  // 1 / (spacing^2 sigma)
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* c, T* r) const {
+    for (int d = 0; d < D; ++d) r[d] = (a[d] - 2.0 * b[d] + c[d]) * inv;
     return true;
   }
 };
@@ -296,10 +482,20 @@ double robust_sigma(std::vector<double> v) {
   return std::max(1.4826 * *mid, 1e-12);  // |r| values: MAD about the (zero) model
 }
 
-// Coarse time offset: Pearson correlation of |w| measured against |w| of the joint, both on a
-// grid of the IMU's period, over lags within +-max_offset; parabolic refinement of the peak.
-double coarse_offset(const Body& body, MotionSource& motion, const IdentifyOptions& o,
-                     const ImuSeries& imu, double h, double* peak_r) {
+struct CoarseTiming {
+  double offset_s = 0.0;  // at IMU time t_ref_s (s after motion_start)
+  double clock_rate = 0.0;
+  double t_ref_s = 0.0;
+  double peak_r = -2.0;
+};
+
+// Coarse timing: Pearson correlation of |w| measured against |w| of the joint, both on a grid
+// of the IMU's period, over lags within +-max_offset; parabolic refinement of the peak. With a
+// clock-rate range above 1e-3 (streams aligned by duration) also over a grid of clock rates
+// fine enough that the drift over half the recording stays within half an IMU period: motion
+// time tau = t + lag + rate (t - t_ref), the simulated |w| interpolated linearly.
+CoarseTiming coarse_timing(const Body& body, MotionSource& motion, const IdentifyOptions& o,
+                           const ImuSeries& imu, double h) {
   const double rate = motion.rate_hz();
   const auto frames = *motion.frame_count();
   const double T = static_cast<double>(frames - 1) / rate;
@@ -353,38 +549,74 @@ double coarse_offset(const Body& body, MotionSource& motion, const IdentifyOptio
     const Eigen::Vector3d g = (1 - u) * imu.gyro.col(ck) + u * imu.gyro.col(ck + 1);
     meas[static_cast<std::size_t>(j - jm0)] = g.norm();  // NaN propagates
   }
+  CoarseTiming best;
+  best.t_ref_s = 0.5 * static_cast<double>(jm0 + jm1) * h;
+  // Clock rates to try: 0 only, unless the range is wide.
+  std::vector<double> rates{0.0};
+  if (o.clock_rate && o.max_clock_rate > 1e-3) {
+    const double span = std::max(h, static_cast<double>(jm1 - jm0) * h);
+    const int half = std::min((kMaxCoarseRates - 1) / 2,
+                              static_cast<int>(std::ceil(o.max_clock_rate / (h / span))));
+    rates.clear();
+    for (int q = -half; q <= half; ++q) rates.push_back(o.max_clock_rate * q / half);
+  }
   const auto L = static_cast<int64_t>(std::ceil(o.max_time_offset_s / h));
-  std::vector<double> r(static_cast<std::size_t>(2 * L + 1), -2.0);
-  for (int64_t lag = -L; lag <= L; ++lag) {
-    double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-    for (int64_t j = jm0; j <= jm1; ++j) {
-      const int64_t js = j + lag;
-      if (js < 0 || js >= M) continue;
-      const double x = meas[static_cast<std::size_t>(j - jm0)];
-      const double y = sim[static_cast<std::size_t>(js)];
-      if (!std::isfinite(x) || !std::isfinite(y)) continue;
-      n += 1;
-      sx += x;
-      sy += y;
-      sxx += x * x;
-      syy += y * y;
-      sxy += x * y;
+  std::vector<double> r(static_cast<std::size_t>(2 * L + 1));
+  std::vector<double> best_r;
+  for (const double kappa : rates) {
+    std::fill(r.begin(), r.end(), -2.0);
+    for (int64_t lag = -L; lag <= L; ++lag) {
+      double n = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+      for (int64_t j = jm0; j <= jm1; ++j) {
+        double y = kNaN;
+        if (kappa == 0.0) {
+          const int64_t js = j + lag;
+          if (js < 0 || js >= M) continue;
+          y = sim[static_cast<std::size_t>(js)];
+        } else {
+          const double x =
+              static_cast<double>(j + lag) + kappa * (static_cast<double>(j) - best.t_ref_s / h);
+          if (!(x >= 0.0) || x > static_cast<double>(M - 1)) continue;
+          const auto js = static_cast<int64_t>(x);
+          const double u = x - static_cast<double>(js);
+          const double ya = sim[static_cast<std::size_t>(js)];
+          y = u == 0.0 ? ya
+                       : (1 - u) * ya + u * sim[static_cast<std::size_t>(std::min(js + 1, M - 1))];
+        }
+        const double xm = meas[static_cast<std::size_t>(j - jm0)];
+        if (!std::isfinite(xm) || !std::isfinite(y)) continue;
+        n += 1;
+        sx += xm;
+        sy += y;
+        sxx += xm * xm;
+        syy += y * y;
+        sxy += xm * y;
+      }
+      if (n < 10) continue;
+      const double vx = sxx - sx * sx / n, vy = syy - sy * sy / n;
+      if (vx > 0 && vy > 0)
+        r[static_cast<std::size_t>(lag + L)] = (sxy - sx * sy / n) / std::sqrt(vx * vy);
     }
-    if (n < 10) continue;
-    const double vx = sxx - sx * sx / n, vy = syy - sy * sy / n;
-    if (vx > 0 && vy > 0)
-      r[static_cast<std::size_t>(lag + L)] = (sxy - sx * sy / n) / std::sqrt(vx * vy);
+    const auto at = static_cast<int64_t>(std::max_element(r.begin(), r.end()) - r.begin());
+    if (r[static_cast<std::size_t>(at)] <= best.peak_r) continue;
+    double frac = 0.0;
+    if (at > 0 && at < 2 * L) {
+      const double a = r[static_cast<std::size_t>(at - 1)], b = r[static_cast<std::size_t>(at)],
+                   c = r[static_cast<std::size_t>(at + 1)];
+      const double den = a - 2 * b + c;
+      if (den < 0) frac = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
+    }
+    best.peak_r = r[static_cast<std::size_t>(at)];
+    best.offset_s = (static_cast<double>(at - L) + frac) * h;
+    best.clock_rate = kappa;
   }
-  const auto best = static_cast<int64_t>(std::max_element(r.begin(), r.end()) - r.begin());
-  *peak_r = r[static_cast<std::size_t>(best)];
-  double frac = 0.0;
-  if (best > 0 && best < 2 * L) {
-    const double a = r[static_cast<std::size_t>(best - 1)], b = r[static_cast<std::size_t>(best)],
-                 c = r[static_cast<std::size_t>(best + 1)];
-    const double den = a - 2 * b + c;
-    if (den < 0) frac = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
+  if (best.peak_r < -1.0) {  // no lag had 10 samples of both (or any variation in them)
+    throw Error(fmt::format(
+        "identify: the IMU recording and the motion do not overlap by 10 samples at any time "
+        "offset within +-{:g} s (or one of them does not move); check --motion-start",
+        o.max_time_offset_s));
   }
-  return (static_cast<double>(best - L) + frac) * h;
+  return best;
 }
 
 // Wahba's problem: R minimising sum w |u - R v|^2 (u in the joint frame, v in the sensor frame).
@@ -399,21 +631,31 @@ struct Params {
   std::array<double, 3> rot{}, pos{}, ba{}, bg{}, sa{}, sg{};
   double dt = 0.0, kappa = 0.0;
   std::vector<double> ell;
+  std::vector<double> ctrl;  // control points of the correction, dims per knot
 };
 
 struct Predicted {
   Eigen::Matrix3Xd accel, gyro;
 };
 
-Predicted predict(const Context& c, const Params& p) {
+// correction: false gives the model without it (the "before" figures).
+Predicted predict(const Context& c, const Params& p, bool correction = true) {
   const auto n = static_cast<Eigen::Index>(c.base_s.size());
   Predicted out{Eigen::Matrix3Xd(3, n), Eigen::Matrix3Xd(3, n)};
   for (Eigen::Index i = 0; i < n; ++i) {
     const int ii = static_cast<int>(i);
+    const double* ctrl[4] = {nullptr, nullptr, nullptr, nullptr};
+    const bool corrected = correction && c.dims > 0;
+    if (corrected) {
+      const int f = c.spot[static_cast<std::size_t>(i)].first;
+      for (int m = 0; m < 4; ++m)
+        ctrl[m] = p.ctrl.data() + static_cast<std::size_t>((f + m) * c.dims);
+    }
     double a[3], g[3];
     accel_model(c, ii, p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt, &p.kappa,
-                p.ell.data(), static_cast<int>(p.ell.size()), a);
-    gyro_model(c, ii, p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa, g);
+                p.ell.data(), static_cast<int>(p.ell.size()), corrected ? ctrl : nullptr, a);
+    gyro_model(c, ii, p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+               corrected ? ctrl : nullptr, g);
     out.accel.col(i) = Eigen::Vector3d(a[0], a[1], a[2]);
     out.gyro.col(i) = Eigen::Vector3d(g[0], g[1], g[2]);
   }
@@ -425,7 +667,85 @@ double rms(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
                    static_cast<double>(std::max<Eigen::Index>(1, a.size())));
 }
 
+AxisFidelity axis_fidelity(const Eigen::Matrix3Xd& measured, const Eigen::Matrix3Xd& simulated) {
+  AxisFidelity f;
+  const auto n = static_cast<double>(measured.cols());
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::ArrayXd x = measured.row(k).transpose().array();
+    const Eigen::ArrayXd y = simulated.row(k).transpose().array();
+    f.rmse[k] = n > 0 ? std::sqrt((x - y).square().sum() / n) : kNaN;
+    const Eigen::ArrayXd dx = x - x.mean(), dy = y - y.mean();
+    const double den = std::sqrt(dx.square().sum() * dy.square().sum());
+    f.correlation[k] = den > 0.0 ? (dx * dy).sum() / den : kNaN;
+  }
+  return f;
+}
+
 }  // namespace
+
+std::string_view to_string(SegmentCorrection c) {
+  switch (c) {
+    case SegmentCorrection::none:
+      return "none";
+    case SegmentCorrection::twist:
+      return "twist";
+    case SegmentCorrection::rotation:
+      return "rotation";
+  }
+  return "none";
+}
+
+SegmentCorrection parse_segment_correction(std::string_view name) {
+  if (name == "none") return SegmentCorrection::none;
+  if (name == "twist") return SegmentCorrection::twist;
+  if (name == "rotation") return SegmentCorrection::rotation;
+  throw Error(fmt::format("unknown segment correction '{}' (none, twist or rotation)", name));
+}
+
+TimeNs CorrectionSpline::t1_ns() const {
+  const auto segments = static_cast<double>(std::max<Eigen::Index>(1, control.cols() - 3));
+  return t0_ns + from_seconds(segments * knot_spacing_s);
+}
+
+namespace {
+Eigen::Vector3d spline_row(const CorrectionSpline& c, TimeNs t, int derivative) {
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  if (c.dims == 0 || c.control.cols() < 4) return v;
+  const SplineSpot s =
+      spline_spot(c.t0_ns, c.knot_spacing_s, static_cast<int>(c.control.cols()) - 3, t);
+  for (int d = 0; d < c.dims; ++d) {
+    for (int m = 0; m < 4; ++m)
+      v[d] += s.w[static_cast<std::size_t>(4 * derivative + m)] * c.control(d, s.first + m);
+  }
+  return v;
+}
+}  // namespace
+
+Eigen::Vector3d CorrectionSpline::angles(TimeNs t) const { return spline_row(*this, t, 0); }
+Eigen::Vector3d CorrectionSpline::rates(TimeNs t) const { return spline_row(*this, t, 1); }
+Eigen::Vector3d CorrectionSpline::accelerations(TimeNs t) const { return spline_row(*this, t, 2); }
+
+Eigen::Quaterniond CorrectionSpline::rotation(TimeNs t) const {
+  const Eigen::Vector3d a = angles(t);
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  for (const int d : {1, 2, 0}) {
+    if (d < dims) q = q * so3_exp(a[d] * axes.col(d));
+  }
+  return q.normalized();
+}
+
+Fidelity fidelity(const Eigen::Matrix3Xd& measured_accel, const Eigen::Matrix3Xd& measured_gyro,
+                  const Eigen::Matrix3Xd& simulated_accel, const Eigen::Matrix3Xd& simulated_gyro) {
+  if (measured_accel.cols() != simulated_accel.cols() ||
+      measured_gyro.cols() != simulated_gyro.cols() ||
+      measured_accel.cols() != measured_gyro.cols())
+    throw Error("fidelity: measured and simulated signals differ in length");
+  Fidelity f;
+  f.accel = axis_fidelity(measured_accel, simulated_accel);
+  f.gyro = axis_fidelity(measured_gyro, simulated_gyro);
+  f.samples = measured_accel.cols();
+  return f;
+}
 
 IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries& imu,
                         const IdentifyOptions& o) {
@@ -456,11 +776,58 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(o.huber_sigmas > 0) || !(o.max_time_offset_s >= 0) || !(o.segment_prior > 0))
     throw Error(
         "identify: huber_sigmas, segment_prior must be positive, max_time_offset_s non-negative");
+  // Offsets become ns (int64): beyond a day they are not an offset but a wrong clock.
+  if (!(std::abs(o.time_offset_init_s) <= 86400.0) || !(o.max_time_offset_s <= 86400.0))
+    throw Error("identify: time offsets must be finite and within a day (86400 s)");
+  if (!(o.accel_bias_prior_mps2 >= 0) || !(o.gyro_bias_prior_radps >= 0))
+    throw Error("identify: the bias priors must be non-negative (0: none)");
+  if (!(o.function_tolerance > 0 && o.function_tolerance < 1))
+    throw Error(fmt::format("identify: function_tolerance must be in (0, 1), got {}",
+                            o.function_tolerance));
+  if (!(o.max_clock_rate >= 0 && o.max_clock_rate <= 0.5))
+    throw Error(
+        fmt::format("identify: max_clock_rate must be in [0, 0.5], got {}", o.max_clock_rate));
+  const int dims = o.correction == SegmentCorrection::none    ? 0
+                   : o.correction == SegmentCorrection::twist ? 1
+                                                              : 3;
+  if (dims > 0) {
+    if (!(o.correction_knot_spacing_s > 0 && std::isfinite(o.correction_knot_spacing_s)) ||
+        !(o.twist_prior_rad > 0) || !(o.tilt_prior_rad > 0) ||
+        !(o.correction_smoothness_radps2 > 0))
+      throw Error("identify: the correction's knot spacing and priors must be positive and finite");
+    if (body.segment_end(o.joint).norm() < 1e-6) {
+      throw Error(fmt::format(
+          "identify: joint '{}' has no segment (no child or end site): no long axis to correct "
+          "the twist about",
+          body.joint(static_cast<std::size_t>(o.joint)).name));
+    }
+  }
 
   const double mrate = motion.rate_hz();
   const int64_t frames = *motion.frame_count();
   const double T = static_cast<double>(frames - 1) / mrate;
   if (frames < 8) throw Error("identify: the motion needs at least 8 frames");
+  // The sensor's chain must be finite everywhere (else the kinematics would be NaN somewhere
+  // in the middle of the fit): read it in chunks and name the first bad frame.
+  {
+    MotionChunk chunk;
+    constexpr int64_t kChunk = 4096;
+    for (int64_t f0 = 0; f0 < frames; f0 += kChunk) {
+      const int64_t count = std::min(kChunk, frames - f0);
+      motion.read(f0, count, chain, chunk);
+      for (int64_t f = 0; f < count; ++f) {
+        if (!chunk.root_translation.col(f).allFinite())
+          throw Error(fmt::format(
+              "identify: the motion's root translation at frame {} is not finite", f0 + f));
+        for (std::size_t k = 0; k < chain.size(); ++k) {
+          if (!chunk.rotation(f, k).coeffs().allFinite())
+            throw Error(fmt::format(
+                "identify: the motion's rotation of joint '{}' at frame {} is non-finite",
+                body.joint(static_cast<std::size_t>(chain[k])).name, f0 + f));
+        }
+      }
+    }
+  }
   // IMU period: the median sample spacing.
   std::vector<TimeNs> d(imu.size() - 1);
   for (std::size_t i = 0; i + 1 < imu.size(); ++i) d[i] = imu.t[i + 1] - imu.t[i];
@@ -469,30 +836,61 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(h_imu > 0)) throw Error("identify: the IMU time stamps do not increase");
 
   IdentifyResult res;
-  double peak_r = 1.0;
-  double dt0 = o.time_offset_init_s;
+  res.motion_start_ns = o.motion_start_ns;
+  CoarseTiming coarse;
+  coarse.offset_s = o.time_offset_init_s;
   if (o.time_offset && o.coarse_time_offset) {
-    dt0 = coarse_offset(body, motion, o, imu, h_imu, &peak_r);
-    if (peak_r < 0.3) {
+    coarse = coarse_timing(body, motion, o, imu, h_imu);
+    if (coarse.peak_r < 0.3) {
       throw Error(fmt::format(
           "identify: the time offset is unobservable: measured and simulated angular-rate "
           "magnitudes do "
           "not correlate within +-{} s (best r = {:.2f}); give the offset and hold it fixed",
-          o.max_time_offset_s, peak_r));
+          o.max_time_offset_s, coarse.peak_r));
     }
   }
-  res.coarse_time_offset_s = dt0;
+  const double kappa0 = coarse.clock_rate;
+  res.coarse_clock_rate = kappa0;
+  // The range the fine fit may move the clock rate in: around the coarse grid's value (two
+  // grid steps) when it searched, else the whole bound.
+  double kappa_lo = 0.0, kappa_hi = 0.0;
+  if (o.clock_rate) {
+    const bool searched = o.time_offset && o.coarse_time_offset && o.max_clock_rate > 1e-3;
+    const double span = to_seconds(imu.t.back() - imu.t.front());
+    const double step = searched ? std::max(2.0 * o.max_clock_rate / (kMaxCoarseRates - 1),
+                                            h_imu / std::max(span, h_imu))
+                                 : o.max_clock_rate;
+    kappa_lo = std::max(-o.max_clock_rate, kappa0 - 2.0 * step);
+    kappa_hi = std::min(o.max_clock_rate, kappa0 + 2.0 * step);
+  }
 
-  // The samples used: every time the fine fit may reach (offset window, clock rate) must lie
-  // inside the motion and outside the invalid intervals.
+  // The samples used: every time the fine fit may reach (offset window, clock-rate range, and
+  // offset 0 / rate 0 for the "before" figures) must lie inside the motion and outside the
+  // invalid intervals. The coarse offset is referred to the coarse step's reference time; the
+  // first pass finds the samples' span with it, whose middle becomes t_ref.
   const double window = o.time_offset ? 3.0 * h_imu + 3.0 / mrate : 0.0;
-  const double dlo = std::min(0.0, dt0 - window), dhi = std::max(0.0, dt0 + window);
   const double edge = 2.0 / mrate + 2e-9 * static_cast<double>(kTimeStepNs);
+  // The motion times a sample may be read at: the fit's range of offsets and clock rates, and
+  // with `before` also offset 0 and rate 0 (the "before" figures; they only need the sample
+  // inside the motion, while the fit's range must also stay clear of the invalid intervals).
+  auto reach = [&](double b, double rel, double dt_c, double& lo, double& hi, bool before) {
+    double dlo = dt_c - window, dhi = dt_c + window, klo = kappa_lo, khi = kappa_hi;
+    if (before) {
+      dlo = std::min(0.0, dlo);
+      dhi = std::max(0.0, dhi);
+      klo = std::min(0.0, klo);
+      khi = std::max(0.0, khi);
+    }
+    lo = b + dlo + std::min(klo * rel, khi * rel);
+    hi = b + dhi + std::max(klo * rel, khi * rel);
+  };
   TimeNs first = 0, last = 0;
   bool any = false;
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
-    if (b + dlo >= edge && b + dhi <= T - edge) {
+    double lo = 0, hi = 0;
+    reach(b, b - coarse.t_ref_s, coarse.offset_s, lo, hi, true);
+    if (lo >= edge && hi <= T - edge) {
       if (!any) first = imu.t[i];
       last = imu.t[i];
       any = true;
@@ -500,17 +898,22 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   }
   if (!any) throw Error("identify: the IMU recording does not overlap the motion");
   res.t_ref_ns = first + (last - first) / 2;
-  const double kmax = o.clock_rate ? kMaxClockRate : 0.0;
+  // The coarse offset referred to t_ref.
+  const double dt0 =
+      coarse.offset_s + kappa0 * (to_seconds(res.t_ref_ns - o.motion_start_ns) - coarse.t_ref_s);
+  res.coarse_time_offset_s = dt0;
   Context ctx;
   std::vector<std::size_t> used;
   const TimeNs guard = from_seconds(3.0 / mrate);
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
     const double rel = to_seconds(imu.t[i] - res.t_ref_ns);
-    const double lo = b + dlo - kmax * std::abs(rel), hi = b + dhi + kmax * std::abs(rel);
+    double lo = 0, hi = 0;
+    reach(b, rel, dt0, lo, hi, true);
     bool ok = lo >= edge && hi <= T - edge &&
               imu.accel.col(static_cast<Eigen::Index>(i)).allFinite() &&
               imu.gyro.col(static_cast<Eigen::Index>(i)).allFinite();
+    reach(b, rel, dt0, lo, hi, false);
     for (const auto& [ga, gb] : o.invalid_motion) {
       if (ok && from_seconds(hi) >= ga - guard && from_seconds(lo) <= gb + guard) ok = false;
     }
@@ -522,6 +925,19 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   }
   res.samples_used = static_cast<int64_t>(used.size());
   res.samples_excluded = static_cast<int64_t>(imu.size() - used.size());
+  {
+    int64_t nonfinite = 0;
+    for (std::size_t i = 0; i < imu.size(); ++i) {
+      nonfinite += imu.accel.col(static_cast<Eigen::Index>(i)).allFinite() &&
+                           imu.gyro.col(static_cast<Eigen::Index>(i)).allFinite()
+                       ? 0
+                       : 1;
+    }
+    if (nonfinite > 0) {
+      res.warnings.push_back(fmt::format(
+          "{} IMU samples have non-finite values and are left out of the fit", nonfinite));
+    }
+  }
   if (used.size() < 50) {
     throw Error(
         fmt::format("identify: only {} IMU samples fall inside the motion (outside gaps); need 50",
@@ -542,49 +958,145 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   ctx.eval = &eval;
   ctx.ell0 = ell0;
 
-  // Before: the initial placement, no bias, no time offset.
+  // The segment correction's spline over the whole recording (so the fitted motion has it
+  // everywhere), knots as close to the asked spacing as divide the span evenly.
   Params p;
+  int knots = 0;
+  if (dims > 0) {
+    CorrectionSpline& cs = res.correction;
+    cs.dims = dims;
+    const Eigen::Matrix3d F = anatomical_frame(body, o.joint);  // L, A, N
+    cs.axes = F;
+    cs.t0_ns = imu.t.front();
+    const double span = to_seconds(imu.t.back() - imu.t.front());
+    const int segments =
+        std::max(1, static_cast<int>(std::lround(span / o.correction_knot_spacing_s)));
+    cs.knot_spacing_s = span / segments;
+    knots = segments + 3;
+    cs.control = Eigen::MatrixXd::Zero(dims, knots);
+    ctx.dims = dims;
+    ctx.axes = F;
+    for (std::size_t i = 0; i < used.size(); ++i)
+      ctx.spot.push_back(spline_spot(cs.t0_ns, cs.knot_spacing_s, segments, res.t[i]));
+    p.ctrl.assign(static_cast<std::size_t>(dims * knots), 0.0);
+  }
+
+  // Before: the initial position, no bias, no time offset or rate, no correction; the rotation
+  // the initial one or, from data, Wahba's at offset 0.
   p.pos = {o.init.p_joint_sensor.x(), o.init.p_joint_sensor.y(), o.init.p_joint_sensor.z()};
   p.ell = ell0;
   ctx.R0 = o.init.q_joint_sensor.normalized().toRotationMatrix();
-  ctx.update(0.0, 0.0);
-  {
-    const Predicted b = predict(ctx, p);
-    res.accel_before = b.accel;
-    res.gyro_before = b.gyro;
-    res.rms_before = {rms(b.accel, res.accel), rms(b.gyro, res.gyro)};
-  }
-
-  p.dt = dt0;
-  ctx.update(dt0, 0.0);
-  if (o.rotation && o.init_rotation_from_data) {
-    // Gyro vectors dominate when the motion rotates; gravity (in f) settles the rest.
+  // Gyro vectors dominate when the motion rotates; gravity (in f) settles the rest.
+  auto wahba_rotation = [&] {
     Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
     for (Eigen::Index i = 0; i < n; ++i) {
       B += ctx.value.block<3, 1>(kW, i) * res.gyro.col(i).transpose();
       B += 0.01 * ctx.value.block<3, 1>(kF, i) * res.accel.col(i).transpose();
     }
-    ctx.R0 = wahba(B);
+    return wahba(B);
+  };
+  const bool rotation_from_data = o.rotation && o.init_rotation_from_data;
+  ctx.update(0.0, 0.0);
+  if (rotation_from_data) ctx.R0 = wahba_rotation();
+  {
+    const Predicted b = predict(ctx, p, false);
+    res.accel_before = b.accel;
+    res.gyro_before = b.gyro;
+    res.rms_before = {rms(b.accel, res.accel), rms(b.gyro, res.gyro)};
+    res.fidelity_before = fidelity(res.accel, res.gyro, b.accel, b.gyro);
   }
+
+  p.dt = dt0;
+  p.kappa = kappa0;
+  ctx.update(dt0, kappa0);
+  if (rotation_from_data) ctx.R0 = wahba_rotation();
+
+  // The parameter blocks: the sensor's (reported), segment lengths, the correction's control
+  // points (not reported one by one).
+  struct Block {
+    double* data;
+    int size;
+    bool free;
+    std::string name, unit;
+    bool reported;
+  };
+  const int S = static_cast<int>(o.segments.size());
+  std::vector<Block> blocks = {{p.rot.data(), 3, o.rotation, "rotation", "rad", true},
+                               {p.pos.data(), 3, o.position, "position", "m", true},
+                               {p.ba.data(), 3, o.accel_bias, "accel_bias", "m/s^2", true},
+                               {p.bg.data(), 3, o.gyro_bias, "gyro_bias", "rad/s", true},
+                               {p.sa.data(), 3, o.accel_scale, "accel_scale", "1", true},
+                               {p.sg.data(), 3, o.gyro_scale, "gyro_scale", "1", true},
+                               {&p.dt, 1, o.time_offset, "time_offset", "s", true},
+                               {&p.kappa, 1, o.clock_rate, "clock_rate", "1", true}};
+  if (S > 0) blocks.push_back({p.ell.data(), S, true, "segment_length", "m", true});
+  for (int k = 0; k < knots; ++k)
+    blocks.push_back({p.ctrl.data() + static_cast<std::size_t>(k * dims), dims, true, "correction",
+                      "rad", false});
 
   // Problem: one gyro and one accelerometer residual block per sample.
   TimeCallback callback(ctx, &p.dt, &p.kappa);
   ceres::Problem::Options po;
   po.evaluation_callback = &callback;
   ceres::Problem problem(po);
-  const int S = static_cast<int>(o.segments.size());
-  std::vector<double*> blocks = {p.rot.data(), p.pos.data(), p.ba.data(), p.bg.data(),
-                                 p.sa.data(),  p.sg.data(),  &p.dt,       &p.kappa};
-  std::vector<int> sizes = {3, 3, 3, 3, 3, 3, 1, 1};
-  const std::vector<bool> free = {o.rotation,    o.position,   o.accel_bias,  o.gyro_bias,
-                                  o.accel_scale, o.gyro_scale, o.time_offset, o.clock_rate};
-  const std::vector<std::string> block_names = {"rotation",    "position",    "accel_bias",
-                                                "gyro_bias",   "accel_scale", "gyro_scale",
-                                                "time_offset", "clock_rate"};
-  const std::vector<std::string> block_units = {"rad", "m", "m/s^2", "rad/s", "1", "1", "s", "1"};
   const double huber = o.huber_sigmas * std::sqrt(3.0);
   for (Eigen::Index i = 0; i < n; ++i) {
     const int ii = static_cast<int>(i);
+    if (dims > 0) {
+      // The sample's four control points.
+      const int f0 = ctx.spot[static_cast<std::size_t>(i)].first;
+      std::vector<double*> ctrl;
+      for (int m = 0; m < 4; ++m)
+        ctrl.push_back(p.ctrl.data() + static_cast<std::size_t>((f0 + m) * dims));
+      const Eigen::Vector3d g = res.gyro.col(i), a = res.accel.col(i);
+      if (S == 0 && dims == 1) {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedGyroCost<1>, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+                new CorrectedGyroCost<1>{&ctx, ii, g}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedAccelCost<1>, 3, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+                new CorrectedAccelCost<1>{&ctx, ii, a}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
+            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        continue;
+      }
+      if (S == 0 && dims == 3) {
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedGyroCost<3>, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
+                new CorrectedGyroCost<3>{&ctx, ii, g}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectedAccelCost<3>, 3, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
+                new CorrectedAccelCost<3>{&ctx, ii, a}),
+            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
+            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+        continue;
+      }
+      for (const bool gyro : {true, false}) {
+        auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(new GeneralCost{
+            &ctx, ii, gyro, gyro ? 0 : S, true, gyro ? res.gyro.col(i) : res.accel.col(i)});
+        std::vector<double*> ps =
+            gyro ? std::vector<double*>{p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa}
+                 : std::vector<double*>{p.rot.data(), p.pos.data(), p.ba.data(),
+                                        p.sa.data(),  &p.dt,        &p.kappa};
+        for (int b : gyro ? std::vector<int>{3, 3, 3, 1, 1} : std::vector<int>{3, 3, 3, 3, 1, 1})
+          cf->AddParameterBlock(b);
+        if (!gyro && S > 0) {
+          cf->AddParameterBlock(S);
+          ps.push_back(p.ell.data());
+        }
+        for (double* c : ctrl) {
+          cf->AddParameterBlock(dims);
+          ps.push_back(c);
+        }
+        cf->SetNumResiduals(3);
+        problem.AddResidualBlock(cf, new ceres::HuberLoss(huber), ps);
+      }
+      continue;
+    }
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GyroCost, 3, 3, 3, 3, 1, 1>(
                                  new GyroCost{&ctx, ii, res.gyro.col(i)}),
                              new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(),
@@ -595,8 +1107,8 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
                                new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(),
                                p.sa.data(), &p.dt, &p.kappa);
     } else {
-      auto* cf = new ceres::DynamicAutoDiffCostFunction<AccelSegmentCost, 8>(
-          new AccelSegmentCost{&ctx, ii, S, res.accel.col(i)});
+      auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(
+          new GeneralCost{&ctx, ii, false, S, false, res.accel.col(i)});
       for (int b : {3, 3, 3, 3, 1, 1}) cf->AddParameterBlock(b);
       cf->AddParameterBlock(S);
       cf->SetNumResiduals(3);
@@ -605,30 +1117,60 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
           {p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt, &p.kappa, p.ell.data()});
     }
   }
-  if (S > 0) {
-    blocks.push_back(p.ell.data());
-    sizes.push_back(S);
-    for (int s = 0; s < S; ++s) {
-      auto* cf = new ceres::DynamicAutoDiffCostFunction<SegmentPrior, 8>(
-          new SegmentPrior{s, S, ell0[static_cast<std::size_t>(s)],
-                           o.segment_prior * ell0[static_cast<std::size_t>(s)]});
-      cf->AddParameterBlock(S);
-      cf->SetNumResiduals(1);
-      problem.AddResidualBlock(cf, nullptr, std::vector<double*>{p.ell.data()});
+  for (int s = 0; s < S; ++s) {
+    auto* cf = new ceres::DynamicAutoDiffCostFunction<SegmentPrior, 8>(
+        new SegmentPrior{s, S, ell0[static_cast<std::size_t>(s)],
+                         o.segment_prior * ell0[static_cast<std::size_t>(s)]});
+    cf->AddParameterBlock(S);
+    cf->SetNumResiduals(1);
+    problem.AddResidualBlock(cf, nullptr, std::vector<double*>{p.ell.data()});
+  }
+  for (const auto& [sigma, block] : {std::pair{o.accel_bias_prior_mps2, p.ba.data()},
+                                     std::pair{o.gyro_bias_prior_radps, p.bg.data()}}) {
+    if (sigma > 0.0) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<VectorPrior, 3, 3>(new VectorPrior{1.0 / sigma}), nullptr,
+          block);
     }
   }
-  std::vector<bool> is_free = free;
-  if (S > 0) is_free.push_back(true);
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    if (!is_free[b]) problem.SetParameterBlockConstant(blocks[b]);
+  if (dims > 0) {
+    const std::array<double, 3> inv_mag = {1.0 / o.twist_prior_rad, 1.0 / o.tilt_prior_rad,
+                                           1.0 / o.tilt_prior_rad};
+    const double h2 = res.correction.knot_spacing_s * res.correction.knot_spacing_s;
+    const double inv_smooth = 1.0 / (h2 * o.correction_smoothness_radps2);
+    auto point = [&](int k) { return p.ctrl.data() + static_cast<std::size_t>(k * dims); };
+    for (int k = 0; k < knots; ++k) {
+      if (dims == 1)
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<1>, 1, 1>(
+                                     new CorrectionMagnitudePrior<1>{inv_mag}),
+                                 nullptr, point(k));
+      else
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<3>, 3, 3>(
+                                     new CorrectionMagnitudePrior<3>{inv_mag}),
+                                 nullptr, point(k));
+      if (k == 0 || k + 1 == knots) continue;
+      if (dims == 1)
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<1>, 1, 1, 1, 1>(
+                new CorrectionSmoothnessPrior<1>{inv_smooth}),
+            nullptr, point(k - 1), point(k), point(k + 1));
+      else
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<3>, 3, 3, 3, 3>(
+                new CorrectionSmoothnessPrior<3>{inv_smooth}),
+            nullptr, point(k - 1), point(k), point(k + 1));
+    }
+  }
+  for (const Block& b : blocks) {
+    if (!b.free) problem.SetParameterBlockConstant(b.data);
   }
   if (o.time_offset) {
     problem.SetParameterLowerBound(&p.dt, 0, dt0 - window);
     problem.SetParameterUpperBound(&p.dt, 0, dt0 + window);
   }
   if (o.clock_rate) {
-    problem.SetParameterLowerBound(&p.kappa, 0, -kMaxClockRate);
-    problem.SetParameterUpperBound(&p.kappa, 0, kMaxClockRate);
+    problem.SetParameterLowerBound(&p.kappa, 0, kappa_lo);
+    problem.SetParameterUpperBound(&p.kappa, 0, kappa_hi);
   }
 
   // Residual scale from the current residuals (robust), so the Huber threshold means sigmas.
@@ -651,40 +1193,59 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = o.max_iterations;
   so.num_threads = std::max(1, o.threads);
-  so.function_tolerance = 1e-12;
+  so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = 1e-12;
   so.gradient_tolerance = 1e-14;
   ceres::Solver::Summary summary;
   for (int stage = 0; stage < 2; ++stage) {
     reweight();
     ceres::Solve(so, &problem, &summary);
-    res.iterations += static_cast<int>(summary.iterations.size()) - 1;
+    // iterations[0] is the initial evaluation; a solve that fails at once has none at all.
+    res.iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   }
   res.converged = summary.termination_type == ceres::CONVERGENCE;
   res.solver_summary = summary.BriefReport();
+  if (dims > 0 && o.rotation && o.position) {
+    // A constant twist and a turn of the placement about the long axis e0 give the same
+    // signals (the twist is the innermost factor of Q); the weak prior alone splits them
+    // arbitrarily. Re-centre: the correction's twist averages zero over the samples used, its
+    // mean moves into the placement (R_joint_sensor and p_joint_sensor turned about e0).
+    double mean = 0.0;
+    for (const SplineSpot& sp : ctx.spot) {
+      for (std::size_t m = 0; m < 4; ++m)
+        mean += sp.w[m] * p.ctrl[static_cast<std::size_t>((sp.first + static_cast<int>(m)) * dims)];
+    }
+    mean /= static_cast<double>(ctx.spot.size());
+    for (int k = 0; k < knots; ++k) p.ctrl[static_cast<std::size_t>(k * dims)] -= mean;
+    const Eigen::Matrix3d turn = so3_exp(mean * ctx.axes.col(0)).toRotationMatrix();
+    ctx.R0 = turn * ctx.R0;  // R_joint_sensor = R0 Exp(delta): delta is kept
+    const Eigen::Vector3d pos = turn * Eigen::Vector3d(p.pos[0], p.pos[1], p.pos[2]);
+    p.pos = {pos.x(), pos.y(), pos.z()};
+  }
   ctx.update(p.dt, p.kappa);  // the last evaluation may have been a rejected step
 
-  // Observability: the Jacobian of the free parameters, columns scaled to unit norm.
+  // Observability: the Jacobian of the free parameters (the correction's too, so that a
+  // reported parameter traded against it is seen), columns scaled to unit norm.
   std::vector<double*> free_blocks;
-  std::vector<std::string> col_name, col_unit;
-  std::vector<std::pair<std::size_t, int>> col_of;  // (block, component)
+  struct Column {
+    std::string name, unit;
+    bool reported;
+  };
+  std::vector<Column> cols;
   const char* axis = "xyz";
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    if (!is_free[b]) continue;
-    free_blocks.push_back(blocks[b]);
-    for (int k = 0; k < sizes[b]; ++k) {
-      std::string nm = b < block_names.size() ? block_names[b] : "segment_length";
-      if (b >= block_names.size())
-        nm += "." +
-              body.joint(static_cast<std::size_t>(o.segments[static_cast<std::size_t>(k)])).name;
-      else if (sizes[b] == 3)
-        nm += std::string(".") + axis[k];
-      col_name.push_back(nm);
-      col_unit.push_back(b < block_units.size() ? block_units[b] : "m");
-      col_of.emplace_back(b, k);
-    }
+  auto component_name = [&](const Block& b, int k) {
+    if (b.name == "segment_length")
+      return b.name + "." +
+             body.joint(static_cast<std::size_t>(o.segments[static_cast<std::size_t>(k)])).name;
+    if (b.size == 3 && b.reported) return b.name + "." + axis[k];
+    return b.name;
+  };
+  for (const Block& b : blocks) {
+    if (!b.free) continue;
+    free_blocks.push_back(b.data);
+    for (int k = 0; k < b.size; ++k) cols.push_back({component_name(b, k), b.unit, b.reported});
   }
-  const auto np = static_cast<Eigen::Index>(col_name.size());
+  const auto np = static_cast<Eigen::Index>(cols.size());
   std::vector<char> unobservable(static_cast<std::size_t>(np), 0);
   int null_dims = 0;
   if (np > 0) {
@@ -734,7 +1295,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     }
   }
 
-  // Covariance of the free parameters (pseudo-inverse over the observable directions).
+  // Covariance of the reported free parameters (pseudo-inverse over the observable directions).
   Eigen::VectorXd stderr_col = Eigen::VectorXd::Constant(np, kNaN);
   if (np > 0) {
     ceres::Covariance::Options co;
@@ -743,15 +1304,18 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     co.num_threads = std::max(1, o.threads);
     ceres::Covariance cov(co);
     std::vector<std::pair<const double*, const double*>> pairs;
-    for (double* b : free_blocks) pairs.emplace_back(b, b);
+    for (const Block& b : blocks)
+      if (b.free && b.reported) pairs.emplace_back(b.data, b.data);
     if (cov.Compute(pairs, &problem)) {
       Eigen::Index col = 0;
-      for (std::size_t fb = 0; fb < free_blocks.size(); ++fb) {
-        std::size_t b = 0;
-        while (blocks[b] != free_blocks[fb]) ++b;
-        Eigen::MatrixXd C(sizes[b], sizes[b]);
-        cov.GetCovarianceBlock(free_blocks[fb], free_blocks[fb], C.data());
-        for (int k = 0; k < sizes[b]; ++k) stderr_col[col++] = std::sqrt(std::max(0.0, C(k, k)));
+      for (const Block& b : blocks) {
+        if (!b.free) continue;
+        if (b.reported) {
+          Eigen::MatrixXd C(b.size, b.size);
+          cov.GetCovarianceBlock(b.data, b.data, C.data());
+          for (int k = 0; k < b.size; ++k) stderr_col[col + k] = std::sqrt(std::max(0.0, C(k, k)));
+        }
+        col += b.size;
       }
     }
   }
@@ -770,25 +1334,28 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   for (int s = 0; s < S; ++s)
     res.segment_lengths.emplace_back(o.segments[static_cast<std::size_t>(s)],
                                      p.ell[static_cast<std::size_t>(s)]);
+  if (dims > 0) {
+    for (int k = 0; k < knots; ++k)
+      for (int dd = 0; dd < dims; ++dd)
+        res.correction.control(dd, k) = p.ctrl[static_cast<std::size_t>(k * dims + dd)];
+    res.correction_angles.resize(dims, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+      res.correction_angles.col(i) =
+          res.correction.angles(res.t[static_cast<std::size_t>(i)]).head(dims);
+  }
   const Eigen::Vector3d rot_vec = so3_log(res.placement.q_joint_sensor);
-  auto value_of = [&](std::size_t b, int k) -> double {
-    if (b == 0) return rot_vec[k];
-    return blocks[b][k];
-  };
   Eigen::Index col = 0;
-  for (std::size_t b = 0; b < blocks.size(); ++b) {
-    for (int k = 0; k < sizes[b]; ++k) {
+  for (const Block& b : blocks) {
+    if (!b.reported) {
+      if (b.free) col += b.size;
+      continue;
+    }
+    for (int k = 0; k < b.size; ++k) {
       ParameterEstimate e;
-      e.name =
-          b < block_names.size()
-              ? block_names[b]
-              : "segment_length." +
-                    body.joint(static_cast<std::size_t>(o.segments[static_cast<std::size_t>(k)]))
-                        .name;
-      if (b < block_names.size() && sizes[b] == 3) e.name += std::string(".") + axis[k];
-      e.unit = b < block_units.size() ? block_units[b] : "m";
-      e.value = value_of(b, k);
-      e.estimated = is_free[b];
+      e.name = component_name(b, k);
+      e.unit = b.unit;
+      e.value = b.name == "rotation" ? rot_vec[k] : b.data[k];
+      e.estimated = b.free;
       e.std_error = 0.0;
       if (e.estimated) {
         e.std_error = stderr_col[col];
@@ -835,15 +1402,36 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
                       ax, res.gyro_scale[k]));
     }
   }
+  if (o.clock_rate && std::isfinite(res.clock_rate) &&
+      std::abs(res.clock_rate) >= o.max_clock_rate * (1 - 1e-9)) {
+    res.warnings.push_back(fmt::format(
+        "clock_rate = {:.6g} is at its bound +-{:.6g}: the clock rate may lie beyond it (raise "
+        "the maximum clock rate)",
+        res.clock_rate, o.max_clock_rate));
+  }
   if (!res.converged) res.warnings.push_back("the solver did not converge: " + res.solver_summary);
   const Predicted after = predict(ctx, p);
   res.accel_after = after.accel;
   res.gyro_after = after.gyro;
   res.rms_after = {rms(after.accel, res.accel), rms(after.gyro, res.gyro)};
+  res.fidelity_after = fidelity(res.accel, res.gyro, after.accel, after.gyro);
   res.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
   return res;
 }
+
+namespace {
+nlohmann::json fidelity_json(const Fidelity& f) {
+  using nlohmann::json;
+  auto num = [](double v) -> json { return std::isfinite(v) ? json(v) : json(nullptr); };
+  auto vec = [&](const Eigen::Vector3d& v) {
+    return json::array({num(v.x()), num(v.y()), num(v.z())});
+  };
+  return {{"samples", f.samples},
+          {"accel", {{"rmse_mps2", vec(f.accel.rmse)}, {"correlation", vec(f.accel.correlation)}}},
+          {"gyro", {{"rmse_radps", vec(f.gyro.rmse)}, {"correlation", vec(f.gyro.correlation)}}}};
+}
+}  // namespace
 
 std::string placement_json(const IdentifyResult& r, const Body& body) {
   using nlohmann::json;
@@ -864,12 +1452,42 @@ std::string placement_json(const IdentifyResult& r, const Body& body) {
   j["timing"] = {{"time_offset_s", num(r.time_offset_s)},
                  {"coarse_time_offset_s", num(r.coarse_time_offset_s)},
                  {"clock_rate", num(r.clock_rate)},
-                 {"t_ref_ns", r.t_ref_ns}};
+                 {"coarse_clock_rate", num(r.coarse_clock_rate)},
+                 {"t_ref_ns", r.t_ref_ns},
+                 {"motion_start_ns", r.motion_start_ns}};
   json segs = json::array();
   for (const auto& [joint, len] : r.segment_lengths)
     segs.push_back(
         {{"joint", body.joint(static_cast<std::size_t>(joint)).name}, {"length_m", num(len)}});
   j["segments"] = segs;
+  {
+    const CorrectionSpline& c = r.correction;
+    json corr = {{"kind", c.dims == 0 ? "none" : c.dims == 1 ? "twist" : "rotation"}};
+    if (c.dims > 0) {
+      json axes = json::array();
+      for (int d = 0; d < c.dims; ++d) axes.push_back(vec(c.axes.col(d)));
+      json control = json::array();
+      for (int d = 0; d < c.dims; ++d) {
+        json row = json::array();
+        for (Eigen::Index k = 0; k < c.control.cols(); ++k) row.push_back(num(c.control(d, k)));
+        control.push_back(row);
+      }
+      corr["axes_joint"] = axes;
+      corr["t0_ns"] = c.t0_ns;
+      corr["knot_spacing_s"] = num(c.knot_spacing_s);
+      corr["control_rad"] = control;
+      json rms_angle = json::array();
+      for (int d = 0; d < c.dims; ++d) {
+        const double v = r.correction_angles.cols() > 0
+                             ? std::sqrt(r.correction_angles.row(d).squaredNorm() /
+                                         static_cast<double>(r.correction_angles.cols()))
+                             : kNaN;
+        rms_angle.push_back(num(v));
+      }
+      corr["rms_angle_rad"] = rms_angle;
+    }
+    j["correction"] = corr;
+  }
   json params = json::array();
   for (const ParameterEstimate& e : r.parameters) {
     params.push_back({{"name", e.name},
@@ -888,12 +1506,116 @@ std::string placement_json(const IdentifyResult& r, const Body& body) {
                {{"accel_mps2", num(r.rms_before.accel)}, {"gyro_radps", num(r.rms_before.gyro)}}},
               {"rms_after",
                {{"accel_mps2", num(r.rms_after.accel)}, {"gyro_radps", num(r.rms_after.gyro)}}},
+              {"fidelity_before", fidelity_json(r.fidelity_before)},
+              {"fidelity_after", fidelity_json(r.fidelity_after)},
               {"sigma_accel_mps2", num(r.sigma_accel)},
               {"sigma_gyro_radps", num(r.sigma_gyro)},
               {"iterations", r.iterations},
               {"converged", r.converged},
               {"seconds", num(r.seconds)}};
   return j.dump(2) + "\n";
+}
+
+Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResult& r,
+                     TimeNs first_ns, int64_t frames, double rate_hz) {
+  require_simulatable(motion, "fitted_motion");
+  if (!motion.frame_count()) throw Error("fitted_motion: the motion must have a finite length");
+  if (frames < 2) throw Error("fitted_motion: at least 2 frames are needed");
+  if (!(rate_hz > 0.0 && std::isfinite(rate_hz)))
+    throw Error("fitted_motion: the frame rate must be positive");
+  if (!std::isfinite(r.time_offset_s) || !std::isfinite(r.clock_rate))
+    throw Error("fitted_motion: the time offset or clock rate was not identified");
+  const int joint = r.placement.joint;
+  if (r.correction.dims > 0 && (joint < 0 || static_cast<std::size_t>(joint) >= body.size()))
+    throw Error("fitted_motion: the result's joint is not a joint of the body");
+  // Motion time of each new frame (held inside the motion; the spline is read up to its last
+  // frame).
+  const int64_t last = (*motion.frame_count() - 1) * kNsPerSecond;
+  const auto end_ns = static_cast<TimeNs>(std::floor(static_cast<double>(last) / motion.rate_hz()));
+  std::vector<TimeNs> tau(static_cast<std::size_t>(frames));
+  std::vector<TimeNs> t_imu(static_cast<std::size_t>(frames));
+  for (int64_t k = 0; k < frames; ++k) {
+    const TimeNs t = first_ns + std::llround(static_cast<double>(k) * 1e9 / rate_hz);
+    const double s = to_seconds(t - r.motion_start_ns) + r.time_offset_s +
+                     r.clock_rate * to_seconds(t - r.t_ref_ns);
+    tau[static_cast<std::size_t>(k)] = std::clamp<TimeNs>(std::llround(s * 1e9), 0, end_ns);
+    t_imu[static_cast<std::size_t>(k)] = t;
+  }
+  Motion out = spline_resample(body, motion, tau, rate_hz);
+  if (r.correction.dims == 0) return out;
+  const std::vector<int> children = body.children(joint);
+  for (int64_t k = 0; k < frames; ++k) {
+    const Eigen::Quaterniond Q = r.correction.rotation(t_imu[static_cast<std::size_t>(k)]);
+    Eigen::Quaterniond& q = out.rotation(k, static_cast<std::size_t>(joint));
+    q = (q * Q).normalized();
+    for (int c : children) {
+      Eigen::Quaterniond& qc = out.rotation(k, static_cast<std::size_t>(c));
+      qc = (Q.conjugate() * qc).normalized();
+    }
+  }
+  // Sign continuity after the products (the same rotations).
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    for (int64_t k = 1; k < frames; ++k) {
+      if (out.rotation(k, j).coeffs().dot(out.rotation(k - 1, j).coeffs()) < 0.0)
+        out.rotation(k, j).coeffs() *= -1.0;
+    }
+  }
+  return out;
+}
+
+void write_fitted_scene(const std::string& dir, const Body& body, const Motion& fitted,
+                        const IdentifyResult& r, const std::string& sensor_name,
+                        const Eigen::Vector3d& gravity_world) {
+  using nlohmann::json;
+  const Placement& pl = r.placement;
+  if (pl.joint < 0 || static_cast<std::size_t>(pl.joint) >= body.size())
+    throw Error("write_fitted_scene: the result's joint is not a joint of the body");
+  if (!pl.p_joint_sensor.allFinite() || !pl.q_joint_sensor.coeffs().allFinite() ||
+      !r.accel_bias.allFinite() || !r.gyro_bias.allFinite() || !r.accel_scale.allFinite() ||
+      !r.gyro_scale.allFinite()) {
+    std::string names;
+    for (const std::string& n : r.unobservable) names += (names.empty() ? "" : ", ") + n;
+    throw Error("write_fitted_scene: not every placement and hardware parameter was identified (" +
+                names + "); no scene is written");
+  }
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path d(dir);
+  write_quaternion_csv((d / "motion.csv").string(), body, fitted);
+  DeviceProfile hw;
+  hw.device = DeviceInfo{"", "", "", sensor_name};
+  Calibration ca, cg;
+  ca.scale = Eigen::Vector3d::Ones() + r.accel_scale;
+  ca.bias = r.accel_bias;
+  cg.scale = Eigen::Vector3d::Ones() + r.gyro_scale;
+  cg.bias = r.gyro_bias;
+  hw.accelerometer = SensorProfile{};
+  hw.accelerometer->calibration = ca;
+  hw.gyroscope = GyroscopeProfile{};
+  hw.gyroscope->calibration = cg;
+  const Eigen::Quaterniond& q = pl.q_joint_sensor;
+  json sensor = {
+      {"name", sensor_name},
+      {"segment", body.joint(static_cast<std::size_t>(pl.joint)).name},
+      {"position_m", {pl.p_joint_sensor.x(), pl.p_joint_sensor.y(), pl.p_joint_sensor.z()}},
+      {"rotation", {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}}}},
+      {"hardware", json::parse(format_profile(hw))}};
+  json scene = {{"schema", "imukit.scene/1"},
+                {"body", json::parse(body_json(body))},
+                {"motion", {{"quaternion_csv", "motion.csv"}}},
+                {"simulation",
+                 {{"method", "spline"},
+                  {"rate_hz", fitted.rate_hz()},
+                  {"gravity", {gravity_world.x(), gravity_world.y(), gravity_world.z()}}}},
+                {"sensors", json::array({sensor})}};
+  auto write = [&](const std::string& name, const std::string& text) {
+    const std::string path = (d / name).string();
+    std::ofstream f(path);
+    if (!f) throw Error(path + ": cannot open for writing");
+    f << text;
+    if (!f.flush()) throw Error(path + ": write failed");
+  };
+  write("scene.json", scene.dump(2) + "\n");
+  write("placement.json", placement_json(r, body));
 }
 
 PoseMotion pose_track_motion(const PoseTrack& track, const std::string& source) {

@@ -22,6 +22,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,49 @@
 #include "sim/placement.hpp"
 
 namespace imukit::sim {
+
+// A smooth correction of the sensor segment's rotation (docs/identification.md, "Segment
+// correction"): the segment's frame turns by Q(t) = Exp(a1 e1) Exp(a2 e2) Exp(a0 e0), e0 the
+// segment's long axis (the twist that keypoints cannot see), e1, e2 across it; each angle a cubic
+// B-spline over IMU time with uniform knots. The fitted twist averages zero over the samples
+// used (its mean is a turn of the placement about e0, and is reported there).
+enum class SegmentCorrection {
+  none,
+  twist,     // a0 only
+  rotation,  // a0, a1, a2 (the two tilts held small by their prior)
+};
+std::string_view to_string(SegmentCorrection c);
+// "none", "twist" or "rotation"; throws imukit::Error otherwise.
+SegmentCorrection parse_segment_correction(std::string_view name);
+
+struct CorrectionSpline {
+  int dims = 0;                                      // 0 (none), 1 (twist) or 3 (rotation)
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // e0, e1, e2 in the joint frame (columns)
+  TimeNs t0_ns = 0;              // IMU time of the first knot
+  double knot_spacing_s = 0.0;   // spacing of the uniform knots
+  Eigen::MatrixXd control;       // dims x (segments + 3) control points, rad
+  TimeNs t1_ns() const;          // IMU time of the last knot
+  // Angles (a0, a1, a2) and their first two time derivatives at IMU time t (held at the end
+  // values outside [t0, t1]); zero where dims says there is no such angle.
+  Eigen::Vector3d angles(TimeNs t) const;
+  Eigen::Vector3d rates(TimeNs t) const;
+  Eigen::Vector3d accelerations(TimeNs t) const;
+  // Q(t), the turn of the segment's frame: R_world_joint' = R_world_joint Q(t).
+  Eigen::Quaterniond rotation(TimeNs t) const;
+};
+
+// How well a simulated signal reproduces a measured one, per axis: RMSE (SI units) and Pearson
+// correlation (NaN for an axis whose measured or simulated signal is constant).
+struct AxisFidelity {
+  Eigen::Vector3d rmse = Eigen::Vector3d::Zero();
+  Eigen::Vector3d correlation = Eigen::Vector3d::Zero();
+};
+struct Fidelity {
+  AxisFidelity accel, gyro;
+  int64_t samples = 0;
+};
+Fidelity fidelity(const Eigen::Matrix3Xd& measured_accel, const Eigen::Matrix3Xd& measured_gyro,
+                  const Eigen::Matrix3Xd& simulated_accel, const Eigen::Matrix3Xd& simulated_gyro);
 
 struct IdentifyOptions {
   int joint = -1;  // body index of the joint carrying the sensor (required)
@@ -47,11 +91,19 @@ struct IdentifyOptions {
   bool accel_scale = false;
   bool gyro_scale = false;
   bool time_offset = true;
-  bool clock_rate = false;
+  bool clock_rate = false;  // the time scale between the streams: (1 + clock_rate)
+  // Bound of |clock_rate|: 2e-4 suits two real clocks; streams aligned by duration (a camera's
+  // effective frame rate, e.g. UTD-MHAD) need percent. Above 1e-3 the coarse step also searches
+  // the clock rate on a grid (the drift over the recording then exceeds the offset search).
+  double max_clock_rate = 2e-4;
   // Joints on the sensor's chain whose offset from their parent (the parent segment's length)
   // is estimated, each with a Gaussian prior of relative width segment_prior (at most 6).
   std::vector<int> segments;
   double segment_prior = 0.05;
+  // Gaussian priors (1 sigma per axis) on the biases; 0: none. Short recordings against a motion
+  // with model error (keypoints) otherwise let the constant biases soak up that error.
+  double accel_bias_prior_mps2 = 0.0;
+  double gyro_bias_prior_radps = 0.0;
 
   // Clocks: motion frame 0 is at motion_start_ns on the IMU clock.
   TimeNs motion_start_ns = 0;
@@ -62,9 +114,24 @@ struct IdentifyOptions {
   // of a pose track): IMU samples that would read them are left out.
   std::vector<std::pair<TimeNs, TimeNs>> invalid_motion;
 
+  // Smooth correction of the sensor segment's rotation (CorrectionSpline); each knot's angles
+  // have a Gaussian prior (twist_prior_rad for a0, tilt_prior_rad for a1, a2) and each knot's
+  // angular acceleration (second difference of the control points / spacing^2) one of
+  // correction_smoothness_radps2.
+  SegmentCorrection correction = SegmentCorrection::none;
+  double correction_knot_spacing_s = 0.3;
+  double twist_prior_rad = 1.5;
+  double tilt_prior_rad = 0.1;
+  double correction_smoothness_radps2 = 30.0;
+
   Eigen::Vector3d gravity_world = Eigen::Vector3d(0.0, 0.0, -9.80665);
   double huber_sigmas = 3.0;  // Huber threshold, in residual standard deviations
   int max_iterations = 100;
+  // Levenberg-Marquardt stops when a step changes the cost by less than this fraction. The
+  // spline's angular rate jumps slightly at every motion frame, so with a clock rate the cost is
+  // a fine staircase in it and the solver crawls at the 1e-7 level: 1e-6 (Ceres' default) costs
+  // nothing measurable in accuracy there (docs/identification.md) and is 3-5x faster.
+  double function_tolerance = 1e-12;
   int threads = 1;
   // Singular values of the column-scaled Jacobian below this fraction of the largest mark
   // directions the data do not determine.
@@ -95,15 +162,23 @@ struct IdentifyResult {
   double time_offset_s = 0.0;                           // see the model above
   double coarse_time_offset_s = 0.0;                    // from the cross-correlation
   double clock_rate = 0.0;                              // dimensionless (1e-6 = 1 ppm)
+  double coarse_clock_rate = 0.0;                       // from the coarse search (or 0)
+  TimeNs motion_start_ns = 0;                           // options.motion_start_ns
   TimeNs t_ref_ns = 0;                                  // IMU time the clock rate is referred to
   std::vector<std::pair<int, double>> segment_lengths;  // (joint, identified length m)
 
   std::vector<ParameterEstimate> parameters;
   std::vector<std::string> unobservable;  // names of parameters the data do not determine
 
-  // Residual RMS of the model against the measurement over the samples used: before = the
-  // initial placement, zero bias/scale, time offset 0 (motion_start only); after = identified.
+  CorrectionSpline correction;        // dims 0 unless options.correction
+  Eigen::MatrixXd correction_angles;  // dims x samples used: the angles at each sample, rad
+
+  // Residual RMS and per-axis fidelity of the model against the measurement over the samples
+  // used: before = the motion as given (the initial position, the initial rotation or, with
+  // init_rotation_from_data, Wahba's at time offset 0; zero bias/scale, no time offset or clock
+  // rate, no correction); after = identified.
   TriadRms rms_before, rms_after;
+  Fidelity fidelity_before, fidelity_after;
   double sigma_accel = 0.0, sigma_gyro = 0.0;  // robust residual std used to weight the fit
   int64_t samples_used = 0;
   int64_t samples_excluded = 0;  // outside the motion or in invalid_motion
@@ -128,8 +203,29 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
                         const IdentifyOptions& options);
 
 // The identification as JSON ("imukit.placement/1", docs/formats.md): the sensor entry in the
-// scene layout plus hardware bias/scale, timing, uncertainties and fit statistics.
+// scene layout plus hardware bias/scale, timing, the segment correction, uncertainties, fit
+// statistics and fidelity.
 std::string placement_json(const IdentifyResult& result, const Body& body);
+
+// The fit baked into a motion, so that simulating the identified placement on it reproduces the
+// fitted model (docs/identification.md, "The fitted motion"): frame k is IMU time
+// first_ns + k / rate_hz; it holds the input motion at the fitted motion time of that instant
+// (time offset and clock rate; held at the motion's ends beyond them) with the segment
+// correction applied to the sensor's joint (R_parent_joint Q) and undone on its children
+// (Q^T R_joint_child, so they keep their world orientation).
+Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResult& result,
+                     TimeNs first_ns, int64_t frames, double rate_hz);
+
+// A scene folder that `imukit simulate`, read_scene and PPDA's Augmenter load (docs/formats.md,
+// "Fitted scenes"): `motion.csv` (the fitted motion, joint-quaternion CSV), `scene.json` (the
+// body's joints, that motion, spline simulation at the motion's rate with gravity_world, one
+// sensor `sensor_name` at the identified placement with the fitted biases and scale errors as
+// its hardware, calibration section: reading = (1 + s) true + b) and `placement.json`
+// (placement_json). Creates dir. Throws imukit::Error when a placement or hardware parameter
+// was not identifiable (NaN) or a file cannot be written.
+void write_fitted_scene(const std::string& dir, const Body& body, const Motion& fitted,
+                        const IdentifyResult& result, const std::string& sensor_name,
+                        const Eigen::Vector3d& gravity_world);
 
 // A rigid body's pose track (optical motion capture): world orientation and position per row,
 // NaN where the tracker lost the body.

@@ -3,13 +3,15 @@
 #include <algorithm>
 #include <cassert>
 #include <cmath>
-#include <fstream>
+#include <cstdio>
 #include <numbers>
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/rng.hpp"
 #include "core/text_parse.hpp"
+#include "core/time.hpp"
 
 namespace imukit::sim {
 
@@ -214,16 +216,18 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       const int comp = c == 'w' ? 0 : c == 'x' ? 1 : c == 'y' ? 2 : c == 'z' ? 3 : -1;
       const auto j = body.find(name.substr(0, name.size() - 3));
       if (comp < 0 || !j) {
-        throw Error(at(fields[i].column), "column '" + name + "' names no joint of the body");
+        throw Error(at(fields[i].column),
+                    "column " + quote_excerpt(name) + " names no joint of the body");
       }
       if (have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)]) {
-        throw Error(at(fields[i].column), "column '" + name + "' repeats a joint component");
+        throw Error(at(fields[i].column),
+                    "column " + quote_excerpt(name) + " repeats a joint component");
       }
       have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)] = true;
       role[i] = 10 + 4 * *j + comp;
     } else {
-      throw Error(at(fields[i].column),
-                  "unknown column '" + name + "' (expected t, root_x..z or <joint>_qw..qz)");
+      throw Error(at(fields[i].column), "unknown column " + quote_excerpt(name) +
+                                            " (expected t, root_x..z or <joint>_qw..qz)");
     }
   }
   for (std::size_t j = 0; j < body.size(); ++j) {
@@ -246,7 +250,7 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     for (std::size_t i = 0; i < width; ++i) {
       const auto v = parse_double(fields[i].text);
       if (!v)
-        throw Error(at(fields[i].column), "not a number: '" + std::string(fields[i].text) + "'");
+        throw Error(at(fields[i].column), "not a number: " + quote_excerpt(fields[i].text, 24));
       if (!std::isfinite(*v)) {
         throw Error(at(fields[i].column),
                     "frame " + std::to_string(times.size()) + ": value is not finite");
@@ -266,6 +270,14 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     }
     const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
     if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
+    // The frame rates a BVH may state, too: a step of 1e20 s made the simulator's sample times
+    // overflow int64 ns (found by fuzzing), one of 1e-12 s puts every frame at the same ns.
+    if (!(dt >= 1e-6 && dt <= 3600.0)) {
+      std::ostringstream what;
+      what << "t steps by " << dt
+           << " s per frame: motions are read at 1 frame per hour to 1e6 frames per second";
+      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt}, what.str());
+    }
     for (int64_t f = 1; f < frames; ++f) {
       const double step =
           times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
@@ -305,11 +317,40 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
 
 Motion read_quaternion_csv(const std::string& path, const Body& body, std::optional<double> rate_hz,
                            std::vector<std::string>* warnings) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_quaternion_csv(s.str(), path, body, rate_hz, warnings);
+  const std::string text = read_regular_file(path, kMaxMotionBytes, "joint-quaternion CSV");
+  return parse_quaternion_csv(text, path, body, rate_hz, warnings);
+}
+
+std::string format_quaternion_csv(const Body& body, const Motion& motion) {
+  if (motion.joint_count() != body.size())
+    throw Error("quaternion CSV: the motion has " + std::to_string(motion.joint_count()) +
+                " joints, the body " + std::to_string(body.size()));
+  std::string out = "t,root_x,root_y,root_z";
+  for (const Joint& j : body.joints()) {
+    for (const char* c : {"_qw", "_qx", "_qy", "_qz"}) out.append(",").append(j.name).append(c);
+  }
+  out += "\n";
+  char buf[32];
+  const auto put = [&](double v) {
+    std::snprintf(buf, sizeof buf, ",%.17g", v);
+    out += buf;
+  };
+  for (int64_t f = 0; f < motion.frames(); ++f) {
+    std::snprintf(buf, sizeof buf, "%.17g", to_seconds(sample_time(0, f, motion.rate_hz())));
+    out += buf;
+    for (int k = 0; k < 3; ++k) put(motion.root_translation(f)(k));
+    for (std::size_t j = 0; j < body.size(); ++j) {
+      const Eigen::Quaterniond& q = motion.rotation(f, j);
+      put(q.w()), put(q.x()), put(q.y()), put(q.z());
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+void write_quaternion_csv(const std::string& path, const Body& body, const Motion& motion) {
+  const std::string text = format_quaternion_csv(body, motion);
+  write_text_file(path, text);
 }
 
 }  // namespace imukit::sim

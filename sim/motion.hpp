@@ -150,4 +150,10 @@ Motion read_quaternion_csv(const std::string& path, const Body& body,
                            std::optional<double> rate_hz = std::nullopt,
                            std::vector<std::string>* warnings = nullptr);
 
+// The same layout written out (t = frame / rate in s, root_x..z, then every joint's
+// <name>_qw.._qz with the body's canonical names), 17 significant digits so reading it back
+// gives the same doubles.
+std::string format_quaternion_csv(const Body& body, const Motion& motion);
+void write_quaternion_csv(const std::string& path, const Body& body, const Motion& motion);
+
 }  // namespace imukit::sim

@@ -1,17 +1,18 @@
 #include "sim/scene.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <exception>
 #include <filesystem>
-#include <fstream>
 #include <mutex>
 #include <nlohmann/json.hpp>
-#include <sstream>
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/input_file.hpp"
 #include "core/json_text.hpp"
 #include "core/profile.hpp"
 #include "core/rng.hpp"
@@ -100,11 +101,62 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
   fail(source, path, "expected quaternion_wxyz or euler");
 }
 
+// "body": {"joints": [{"name": N, "parent": P or null, "offset_m": [x, y, z],
+// "end_offset_m": [x, y, z]}]}: parents by name, each before its children.
+Body body_of_joints(const json& joints, const std::string& source) {
+  if (!joints.is_array() || joints.empty())
+    fail(source, "body.joints", "expected a non-empty array of joints");
+  std::vector<std::string> names;
+  std::vector<int> parents;
+  Eigen::Matrix3Xd offsets(3, static_cast<Eigen::Index>(joints.size()));
+  std::vector<std::optional<Eigen::Vector3d>> ends;
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const std::string path = "body.joints[" + std::to_string(i) + "]";
+    const json& j = joints[i];
+    only_keys(j, {"name", "parent", "offset_m", "end_offset_m"}, source, path);
+    if (!j.contains("name")) fail(source, path + ".name", "missing");
+    names.push_back(string_of(j["name"], source, path + ".name"));
+    int parent = -1;
+    if (j.contains("parent") && !j["parent"].is_null()) {
+      const std::string p = string_of(j["parent"], source, path + ".parent");
+      for (std::size_t k = 0; k < i; ++k) {
+        if (names[k] == p) parent = static_cast<int>(k);
+      }
+      if (parent < 0) fail(source, path + ".parent", "'" + p + "' is not an earlier joint");
+    } else if (i > 0) {
+      fail(source, path + ".parent", "missing (only the first joint is the root)");
+    }
+    parents.push_back(parent);
+    if (!j.contains("offset_m")) fail(source, path + ".offset_m", "missing");
+    offsets.col(static_cast<Eigen::Index>(i)) = vec3(j["offset_m"], source, path + ".offset_m");
+    ends.push_back(j.contains("end_offset_m")
+                       ? std::optional(vec3(j["end_offset_m"], source, path + ".end_offset_m"))
+                       : std::nullopt);
+  }
+  Body body;
+  try {
+    body = body_from_joints(names, parents, offsets, "body.joints");
+  } catch (const Error& e) {
+    throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, e.what());
+  }
+  for (std::size_t i = 0; i < ends.size(); ++i) body.joint(i).end_offset = ends[i];
+  return body;
+}
+
 }  // namespace
 
 namespace {
 Scene parse_scene_impl(std::string_view text, const std::string& source,
                        const std::string& base_dir);
+
+// Seeds are whole numbers in [0, 2^53]: JSON numbers are doubles, and beyond 2^53 not every
+// whole number is one.
+uint64_t seed_of(const json& j, const std::string& source, const std::string& path) {
+  const double seed = number(j, source, path);
+  if (!(seed >= 0 && seed == std::floor(seed) && seed <= 9007199254740992.0))
+    fail(source, path, fmt::format("expected a whole number in [0, 2^53], got {:g}", seed));
+  return static_cast<uint64_t>(seed);
+}
 }  // namespace
 
 Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
@@ -152,9 +204,14 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     if (body_from_motion)
       fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
     const json& b = root["body"];
-    only_keys(b, {"default_humanoid"}, source, "body");
-    if (!b.contains("default_humanoid")) fail(source, "body", "expected default_humanoid");
-    const json& h = b["default_humanoid"];
+    only_keys(b, {"default_humanoid", "joints"}, source, "body");
+    if (b.contains("default_humanoid") == b.contains("joints"))
+      fail(source, "body", "expected one of default_humanoid or joints");
+  }
+  if (root.contains("body") && root["body"].contains("joints")) {
+    scene.body = body_of_joints(root["body"]["joints"], source);
+  } else if (root.contains("body")) {
+    const json& h = root["body"]["default_humanoid"];
     only_keys(h, {"height_m"}, source, "body.default_humanoid");
     try {
       scene.body = Body::default_humanoid(
@@ -181,10 +238,14 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     ProceduralMotionOptions po;
     if (p.contains("rate_hz"))
       po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
-    if (p.contains("seed"))
-      po.seed = static_cast<uint64_t>(number(p["seed"], source, "motion.procedural.seed"));
-    if (p.contains("amplitude_rad"))
+    if (!(po.rate_hz >= 1 && po.rate_hz <= 1e6))
+      fail(source, "motion.procedural.rate_hz", "must be a whole number of Hz in [1, 1e6]");
+    if (p.contains("seed")) po.seed = seed_of(p["seed"], source, "motion.procedural.seed");
+    if (p.contains("amplitude_rad")) {
       po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
+      if (!(po.amplitude_rad >= 0 && po.amplitude_rad <= 10))
+        fail(source, "motion.procedural.amplitude_rad", "must be in [0, 10] rad");
+    }
     if (!p.contains("duration_s")) fail(source, "motion.procedural.duration_s", "missing");
     const double dur = number(p["duration_s"], source, "motion.procedural.duration_s");
     if (!(dur > 0.0 && dur < 1e7))
@@ -222,8 +283,11 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
       if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
         fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
     }
-    if (s.contains("gravity"))
+    if (s.contains("gravity")) {
       scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+      if (!(scene.options.gravity_world.norm() <= 100.0))
+        fail(source, "simulation.gravity", "expected at most 100 m/s^2 (the Earth's is 9.81)");
+    }
     if (s.contains("magnetic_field")) {
       scene.options.magnetic_field_world =
           vec3(s["magnetic_field"], source, "simulation.magnetic_field");
@@ -233,12 +297,7 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
              "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
                  std::to_string(scene.options.magnetic_field_world.norm()) + " T");
     }
-    if (s.contains("seed")) {
-      const double seed = number(s["seed"], source, "simulation.seed");
-      if (seed < 0 || seed != std::floor(seed) || seed > 9e15)
-        fail(source, "simulation.seed", "expected a whole number >= 0");
-      scene.seed = static_cast<uint64_t>(seed);
-    }
+    if (s.contains("seed")) scene.seed = seed_of(s["seed"], source, "simulation.seed");
     if (s.contains("chunk_frames")) {
       const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
       if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
@@ -338,12 +397,24 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
 }
 }  // namespace
 
+std::string body_json(const Body& body) {
+  json joints = json::array();
+  for (const Joint& j : body.joints()) {
+    json o;
+    o["name"] = j.name;
+    o["parent"] =
+        j.parent < 0 ? json(nullptr) : json(body.joint(static_cast<std::size_t>(j.parent)).name);
+    const Eigen::Vector3d& v = j.offset_parent_joint;
+    o["offset_m"] = {v.x(), v.y(), v.z()};
+    if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
+    joints.push_back(o);
+  }
+  return json{{"joints", joints}}.dump();
+}
+
 Scene read_scene(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path + ": cannot open");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return parse_scene(s.str(), path, std::filesystem::path(path).parent_path().string());
+  const std::string text = read_regular_file(path, kMaxJsonBytes, "scene");
+  return parse_scene(text, path, std::filesystem::path(path).parent_path().string());
 }
 
 namespace {

@@ -50,6 +50,10 @@ Scene parse_scene(std::string_view text, const std::string& source_name,
                   const std::string& base_dir);
 Scene read_scene(const std::string& path);
 
+// The body as a scene's "body" object, {"joints": [{"name", "parent", "offset_m",
+// "end_offset_m"}]} (docs/formats.md), as JSON text that parse_scene reads back to the same body.
+std::string body_json(const Body& body);
+
 // Streams the scene: for each chunk and sensor, sink(sensor, measured, truth) where truth is
 // the noiseless block (null unless ground_truth) and measured the block after the sensor's
 // hardware model (the truth itself for an ideal sensor). Memory stays constant. A sensor whose

@@ -170,6 +170,29 @@ LagrangeWeights lagrange(const std::array<double, 4>& tau, int n, double u) {
   return L;
 }
 
+// The frames the spline's cubic on interval [fi, fi + 1] of an N-frame motion goes through:
+// fi-1 .. fi+2, shifted inwards at the motion's ends (3 frames when it has only 3), and their
+// positions relative to fi.
+struct SplineStencil {
+  int64_t s0 = 0;
+  int n = 0;
+  std::array<double, 4> tau{};
+};
+SplineStencil spline_stencil(int64_t fi, int64_t N) {
+  int64_t s0 = std::max<int64_t>(0, fi - 1);
+  int64_t s1 = std::min<int64_t>(N - 1, fi + 2);
+  if (s1 - s0 < 3 && N >= 4) {
+    if (s0 == 0) s1 = 3;
+    if (s1 == N - 1) s0 = N - 4;
+  }
+  SplineStencil st;
+  st.s0 = s0;
+  st.n = static_cast<int>(s1 - s0 + 1);
+  for (int m = 0; m < st.n; ++m)
+    st.tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
+  return st;
+}
+
 // The rotation vector equivalent to phi (phi + 2 pi k phi/|phi|) nearest to ref. log() returns
 // angles up to pi; chart coordinates of frames two or three steps away from the chart's centre
 // can legitimately exceed pi (fast spins at low frame rates), so they are unwrapped against the
@@ -1138,16 +1161,10 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     for (std::size_t i = 0; i < times.size(); ++i) {
       if (ws.on_frame[i] != 0) continue;
       const int64_t fi = pos[i].frame;
-      int64_t s0 = std::max<int64_t>(0, fi - 1);
-      int64_t s1 = std::min<int64_t>(N - 1, fi + 2);
-      if (s1 - s0 < 3 && N >= 4) {
-        if (s0 == 0) s1 = 3;
-        if (s1 == N - 1) s0 = N - 4;
-      }
-      const int n = static_cast<int>(s1 - s0 + 1);
-      std::array<double, 4> tau{};
-      for (int m = 0; m < n; ++m)
-        tau[static_cast<std::size_t>(m)] = static_cast<double>(s0 + m - fi);
+      const SplineStencil st = spline_stencil(fi, N);
+      const int64_t s0 = st.s0;
+      const int n = st.n;
+      const std::array<double, 4>& tau = st.tau;
       const double u = pos[i].frac;
       if (i == 0 || u != last_u || n != last_L.n || tau != last_tau) {
         last_L = lagrange(tau, n, u);
@@ -1534,6 +1551,66 @@ void Simulator::run(MotionSource& motion,
     evaluate(source, times, blocks);
     for (std::size_t s = 0; s < blocks.size(); ++s) sink(s, blocks[s]);
   }
+}
+
+Motion spline_resample(const Body& body, MotionSource& motion, std::span<const TimeNs> times,
+                       double rate_hz) {
+  require_simulatable(motion, "spline_resample");
+  if (!motion.frame_count()) throw Error("spline_resample: the motion must have a finite length");
+  if (!(rate_hz > 0.0 && std::isfinite(rate_hz)))
+    throw Error("spline_resample: the new frame rate must be positive");
+  if (motion.joint_count() != body.size()) {
+    throw Error("spline_resample: the motion has " + std::to_string(motion.joint_count()) +
+                " joints, the body " + std::to_string(body.size()));
+  }
+  const auto F = static_cast<int64_t>(times.size());
+  const int64_t N = *motion.frame_count();
+  Motion out(rate_hz, body.size(), F);
+  if (F == 0) return out;
+  // World orientations from the simulator itself (one orientation-only sensor per joint), so the
+  // rotations are exactly the spline's; relative ones by q_parent^* q_child.
+  std::vector<SensorSpec> specs(body.size());
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    specs[j].name = std::to_string(j);
+    specs[j].placement.joint = static_cast<int>(j);
+    specs[j].outputs = {false, false, true, false};
+  }
+  SimulationOptions so;
+  so.method = DerivativeMethod::spline;
+  Simulator sim(body, specs, so);
+  std::vector<SensorBlock> blocks;
+  sim.evaluate(motion, times, blocks);
+  for (std::size_t j = 0; j < body.size(); ++j) {
+    const int p = body.joint(j).parent;
+    for (int64_t f = 0; f < F; ++f) {
+      const auto i = static_cast<std::size_t>(f);
+      Quaterniond q = p < 0 ? blocks[j].q_world_sensor[i]
+                            : blocks[static_cast<std::size_t>(p)].q_world_sensor[i].conjugate() *
+                                  blocks[j].q_world_sensor[i];
+      // Keep the sign continuous from frame to frame (the same rotations either way).
+      if (f > 0 && q.coeffs().dot(out.rotation(f - 1, j).coeffs()) < 0.0) q.coeffs() *= -1.0;
+      out.rotation(f, j) = q.normalized();
+    }
+  }
+  // The root translation: the spline's cubic through the stencil's frames, as evaluate() has it.
+  const double rate = motion.rate_hz();
+  const int64_t lo = std::max<int64_t>(0, frame_position(times.front(), rate).frame - 2);
+  const int64_t hi = std::min<int64_t>(N, frame_position(times.back(), rate).frame + 4);
+  MotionChunk chunk;
+  const std::array<int, 1> root{0};
+  motion.read(lo, hi - lo, root, chunk);
+  for (int64_t f = 0; f < F; ++f) {
+    FramePosition fp = frame_position(times[static_cast<std::size_t>(f)], rate);
+    if (fp.frame == N - 1 && fp.frac == 0.0) fp = {N - 2, 1.0};
+    const SplineStencil st = spline_stencil(fp.frame, N);
+    const LagrangeWeights L = lagrange(st.tau, st.n, fp.frac);
+    Vector3d p = Vector3d::Zero();
+    for (int m = 0; m < st.n; ++m)
+      p += L.w[static_cast<std::size_t>(m)] * chunk.root_translation.col(st.s0 + m - lo);
+    out.root_translation(f) = p;
+  }
+  out.validate_and_normalize(&body);
+  return out;
 }
 
 SimulatedSensorSource::SimulatedSensorSource(const Body& body, const SensorSpec& sensor,

@@ -147,6 +147,14 @@ class Simulator {
   std::unique_ptr<Workspace> ws_;
 };
 
+// The motion the `spline` method differentiates, sampled at any times (ns since frame 0,
+// increasing, inside the motion): every joint's rotation relative to its parent and the root
+// translation (the spline's cubic through the stencil's frames), as a Motion of times.size()
+// frames at rate_hz (the spacing the caller gives the new frames). The root must be joint 0.
+// Identification bakes a fitted time warp and rotation correction into a motion with it.
+Motion spline_resample(const Body& body, MotionSource& motion, std::span<const TimeNs> times,
+                       double rate_hz);
+
 // One simulated sensor as a core SignalSource (what mock devices and the hardware model
 // consume): true specific force and angular rate at any times inside the motion.
 class SimulatedSensorSource : public SignalSource {

@@ -282,6 +282,23 @@ void bind_sim(py::module_& m) {
           "default_humanoid",
           [](double h) { return std::make_shared<Body>(Body::default_humanoid(h)); },
           py::arg("height_m") = 1.75, "The 21-joint T-pose humanoid of the given stature.")
+      .def_static(
+          "from_arrays",
+          [](const std::vector<std::string>& names, const std::vector<int>& parents,
+             py::handle offsets) {
+            const auto o = read_f64(offsets, "offsets");
+            if (o.ndim() != 2 || o.shape(1) != 3 ||
+                static_cast<std::size_t>(o.shape(0)) != names.size()) {
+              throw py::value_error("offsets: expected shape (" + std::to_string(names.size()) +
+                                    ", 3), got " + shape_string(o));
+            }
+            return std::make_shared<Body>(sim::body_from_joints(
+                names, parents, Eigen::Map<const Eigen::Matrix3Xd>(o.data(), 3, o.shape(0)),
+                "Body.from_arrays"));
+          },
+          py::arg("names"), py::arg("parents"), py::arg("offsets"),
+          "A body from joint names, parent indices (-1 for the root, parents before children) and "
+          "offsets (joints, 3) from each parent in the parent's frame at the neutral pose (m).")
       .def("__len__", &Body::size)
       .def_property_readonly("joint_names",
                              [](const Body& b) {

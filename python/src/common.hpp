@@ -21,8 +21,10 @@ namespace py = pybind11;
 
 void bind_io(py::module_& m);
 void bind_sim(py::module_& m);
+void bind_keypoints(py::module_& m);
 void bind_hwmodel(py::module_& m);
 void bind_augment(py::module_& m);
+void bind_identify(py::module_& m);
 
 // "float32", "int64", ... for messages.
 inline std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }

@@ -60,6 +60,8 @@ PYBIND11_MODULE(_imukit, m) {
 
   bind_io(m);
   bind_sim(m);
+  bind_keypoints(m);
   bind_hwmodel(m);
   bind_augment(m);
+  bind_identify(m);
 }

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
 
 #include "core/rng.hpp"
 
@@ -144,6 +147,126 @@ TEST(ClockMapper, ADayAt100HzStaysExact) {
         << i;
   }
   EXPECT_NEAR(mapper.fit().skew_ppm, 35.0, 1e-3);
+}
+
+// Issue 16, item 9: a device sending blocks of 8 samples. The first block anchors the map on its
+// arrival, 7 ms of buffering after its first sample; once the block's last sample enters the fit,
+// map() puts sample 8 about 6 ms before sample 7 (what made --no-refit and crashed recordings
+// unreadable). The online map slews instead: its times never go back, every interval stays
+// within 10 % of the device's own, and after the first 0.1 s they follow the fit. The offline
+// fit over the whole minute is the reference.
+TEST(ClockMapper, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
+  const Link link;
+  Rng rng(8);
+  ClockMapper online(link.tick_hz), offline(link.tick_hz);
+  const int64_t samples = 60'000;
+  std::vector<uint64_t> ticks;
+  std::vector<TimeNs> slewed, fitted;
+  for (int64_t first = 0; first < samples; first += 8) {
+    const TimeNs received =
+        link.host_at(link.true_time(first + 7) + link.latency_s + link.jitter(rng));
+    for (int64_t i = first; i < first + 8; ++i) {
+      const uint64_t tick = link.ticks_at(link.true_time(i));
+      online.add_sample(tick, received);
+      offline.add_sample(tick, received);
+      ticks.push_back(tick);
+      slewed.push_back(online.map_monotonic(tick));
+      fitted.push_back(online.map(tick));
+    }
+  }
+  offline.flush();
+  // The defect, with map(): sample 8 lands 6 ms (+- jitter) before sample 7.
+  EXPECT_LT(fitted[8] - fitted[7], -5'000'000);
+  // The online map: never back, each interval within 10 % of the device's own (its ticks apart,
+  // 1 ns of rounding).
+  TimeNs min_step = INT64_MAX, max_step = 0;
+  for (std::size_t i = 1; i < slewed.size(); ++i) {
+    const TimeNs step = slewed[i] - slewed[i - 1];
+    const auto device_ns = static_cast<TimeNs>(ticks[i] - ticks[i - 1]) * 1000;  // 1 MHz ticks
+    ASSERT_GE(step, device_ns * 9 / 10 - 1) << "an interval shrank by more than 10 % at " << i;
+    ASSERT_LE(step, device_ns * 11 / 10 + 1) << "an interval grew by more than 10 % at " << i;
+    min_step = std::min(min_step, step);
+    max_step = std::max(max_step, step);
+  }
+  // Against the offline fit: the first block's 7 ms (plus jitter) is slewed away within 0.1 s;
+  // from then on the online times are the online fit's.
+  double first_error = 0.0, worst_after = 0.0, worst_after_10s = 0.0, worst_vs_fit = 0.0;
+  for (std::size_t i = 0; i < slewed.size(); ++i) {
+    const double err = to_seconds(slewed[i] - offline.map(ticks[i]));
+    if (i == 0) first_error = err;
+    if (i >= 100) {
+      worst_after = std::max(worst_after, std::abs(err));
+      worst_vs_fit = std::max(worst_vs_fit, std::abs(to_seconds(slewed[i] - fitted[i])));
+    }
+    if (i >= 10'000) worst_after_10s = std::max(worst_after_10s, std::abs(err));
+  }
+  EXPECT_NEAR(first_error, 0.007, 0.0011);
+  EXPECT_LT(worst_vs_fit, 20e-6);
+  EXPECT_LT(worst_after, 100e-6);
+  EXPECT_LT(worst_after_10s, 30e-6);
+  std::printf("online - offline: %.1f us at the start, %.1f us after 0.1 s, %.1f us after 10 s; "
+              "slewed - online fit after 0.1 s: %.1f us; intervals %.1f..%.1f us\n",
+              first_error * 1e6, worst_after * 1e6, worst_after_10s * 1e6, worst_vs_fit * 1e6,
+              static_cast<double>(min_step) * 1e-3, static_cast<double>(max_step) * 1e-3);
+}
+
+// The first time-sync ping lowers the fit by the link latency (2 ms) at once; the online times
+// slew through it at 10 % (20 ms of device time) instead of stepping back.
+TEST(ClockMapper, APingThatMovesTheFitIsSlewedThrough) {
+  Link link;
+  link.drift_ppm = 0;
+  ClockMapper mapper(link.tick_hz);
+  TimeNs previous = 0;
+  int64_t caught_up_at = -1;
+  for (int64_t i = 0; i < 2000; ++i) {
+    const double t = link.true_time(i);
+    const uint64_t tick = link.ticks_at(t);
+    mapper.add_sample(tick, link.host_at(t + link.latency_s));
+    if (i == 500) {  // a symmetric ping: 2 ms each way, the device answers at once
+      mapper.add_ping(link.host_at(t), link.ticks_at(t + link.latency_s),
+                      link.ticks_at(t + link.latency_s), link.host_at(t + 2 * link.latency_s));
+    }
+    const TimeNs now = mapper.map_monotonic(tick);
+    if (i > 0) {
+      ASSERT_GE(now - previous, 899'999) << i;
+      ASSERT_LE(now - previous, 1'000'001) << i;
+    }
+    if (i > 500 && caught_up_at < 0 && std::llabs(now - mapper.map(tick)) <= 1) caught_up_at = i;
+    previous = now;
+  }
+  // 2 ms at 0.1 ms per 1 ms sample: caught up 20 samples after the ping.
+  EXPECT_NEAR(static_cast<double>(caught_up_at), 520.0, 1.0);
+  EXPECT_EQ(mapper.map(link.ticks_at(1.0)), link.host_at(1.0));  // the latency is removed
+}
+
+// What a damaged or crafted file can feed the clock fit during recovery: receive times 2^63 ns
+// apart, ticks going back, a host clock stepping back. Nothing overflows (UBSan checks), such
+// packets are counted and left out, and the map neither runs backwards nor wraps.
+TEST(ClockMapper, GarbageTimesAreLeftOutAndTheMapNeverOverflowsOrRunsBack) {
+  ClockMapper m(1e9);
+  m.add_packet(1'000'000, INT64_MAX - 5);
+  m.add_packet(2'000'000, INT64_MIN);    // 2^64 ns before the first: rejected
+  m.add_packet(500'000, INT64_MAX - 4);  // tick going back: rejected
+  m.add_packet(3'000'000, INT64_MAX);
+  EXPECT_EQ(m.fit().rejected, 2u);
+  EXPECT_EQ(m.fit().packets, 2u);
+  EXPECT_EQ(m.map(UINT64_MAX / 2), INT64_MAX);  // far past the int64 range: saturated
+  m.add_ping(INT64_MIN, 0, UINT64_MAX, INT64_MAX);  // a ping from nowhere: ignored
+  EXPECT_FALSE(m.fit().ping_corrected);
+
+  // The host clock steps back 10 s between two packets: the envelope would slope down, so the
+  // fit falls back to the nominal rate and time still moves forward with the ticks.
+  ClockMapper stepped(1e6);
+  stepped.add_packet(0, 100'000'000'000);
+  stepped.add_packet(1'000'000, 91'000'000'000);
+  stepped.add_packet(2'000'000, 92'000'000'000);
+  TimeNs last = INT64_MIN;
+  for (uint64_t tick = 0; tick <= 3'000'000; tick += 100'000) {
+    const TimeNs t = stepped.map(tick);
+    EXPECT_GE(t, last) << tick;
+    last = t;
+  }
+  EXPECT_EQ(stepped.map(1'000'000) - stepped.map(0), 1'000'000'000);
 }
 
 }  // namespace

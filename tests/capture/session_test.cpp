@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 #include <algorithm>
+#include <cstdio>
+#include <fstream>
 
+#include "capture/recording_mcap.hpp"
 #include "capture/ros_messages.hpp"
 #include "drivers/imukit_codec.hpp"
 #include "drivers/mock_device.hpp"
@@ -127,12 +130,107 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
               hi * 1e6, d.clock.latency_correction_s * 1e6, d.clock.skew_ppm);
 }
 
+// Issue 16, item 9. A recording without the final refit (record --no-refit, or the live file
+// when the recorder is killed) carries the online times: they never go back, so the IMU stream
+// reads as a valid series. Cut at three moments as kill -9 would leave it, recover_recording
+// keeps exactly the samples of the complete chunks and refits the clock over them: the times
+// land on the true sample times as closely as the full recording's refit does.
+TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
+  testing::TempDir dir;
+  const auto mock = drivers::make_mock_device("static", {{"rate", "1000"},
+                                                         {"drift_ppm", "200"},
+                                                         {"latency_us", "2000"},
+                                                         {"jitter_us", "1000"},
+                                                         {"seed", "9"},
+                                                         {"clock", "virtual"},
+                                                         {"disconnect_after", "20000"}});
+  const TimeNs epoch = mock->now();
+  std::vector<SessionDevice> devices;
+  drivers::ImukitCodecOptions codec;
+  codec.rate_hz = 1000;
+  devices.push_back(
+      {"mock",
+       "mock:static",
+       {std::make_unique<Borrowed>(*mock), std::make_unique<drivers::ImukitCodec>(codec)},
+       std::nullopt});
+  SessionOptions options;
+  options.path = (dir / "live.mcap").string();
+  options.finalize = false;
+  const SessionReport report = record_session(std::move(devices), options);
+  ASSERT_EQ(report.devices.size(), 1u);
+  ASSERT_EQ(report.devices[0].samples, 20'000u);
+
+  // The online times: never back; the IMU stream is a valid series.
+  const auto online = raw_rows(options.path, "mock");
+  ASSERT_EQ(online.size(), 20'000u);
+  for (std::size_t i = 1; i < online.size(); ++i) ASSERT_GE(online[i].stamp, online[i - 1].stamp);
+  const RecordingRead live = read_recording_mcap(options.path);
+  ASSERT_EQ(live.recording.streams.at("mock").size(), 20'000u);
+  EXPECT_NO_THROW(live.recording.streams.at("mock").validate());
+
+  const std::string bytes = testing::read_file(options.path);
+  const std::string cut = (dir / "cut.mcap").string();
+  const std::string fixed = (dir / "fixed.mcap").string();
+  for (const double fraction : {0.001, 0.37, 0.93}) {
+    const auto size = static_cast<std::size_t>(fraction * static_cast<double>(bytes.size()));
+    {
+      std::ofstream out(cut, std::ios::binary | std::ios::trunc);
+      out.write(bytes.data(), static_cast<std::streamsize>(size));
+    }
+    // What the cut file holds, by the plain reader: the samples of its complete chunks.
+    uint64_t kept = 0;
+    const McapReadSummary plain = read_mcap(cut, [&](const McapMessageView&) { ++kept; });
+    ASSERT_FALSE(plain.complete);
+    const RecoveredRecording r = recover_recording(cut, fixed);
+    EXPECT_EQ(r.read.messages, kept) << fraction;
+    EXPECT_EQ(r.read.damaged_records, 0u) << fraction;
+    const auto rows = raw_rows(fixed, "mock");  // also checks the file is complete
+    const RecordingRead back = read_recording_mcap(fixed);
+    const std::size_t imu =
+        back.recording.streams.count("mock") ? back.recording.streams.at("mock").size() : 0;
+    EXPECT_EQ(rows.size(), imu) << fraction;
+    if (fraction < 0.01) {  // killed before the first chunk was complete: nothing to keep
+      EXPECT_EQ(rows.size(), 0u);
+      continue;
+    }
+    // Every kept sample is a prefix of the recording, the series is valid, and each time is
+    // within 100 us of the true sample time (the fit over what was kept, pings included).
+    EXPECT_GT(rows.size(), static_cast<std::size_t>(fraction * 20'000 * 0.9)) << fraction;
+    EXPECT_NO_THROW(back.recording.streams.at("mock").validate());
+    double lo = 1e9, hi = -1e9;
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      ASSERT_EQ(rows[i].index, online[i].index);
+      const double true_s = static_cast<double>(rows[i].device_ns) * 1e-9 / (1 + 200e-6);
+      const double err = to_seconds(rows[i].stamp - epoch) - true_s;
+      lo = std::min(lo, err);
+      hi = std::max(hi, err);
+    }
+    // The latency comes from the fastest ping kept; with exponential jitter of mean 1 ms the
+    // fastest of n pings is late by 1 ms / n on average, and by more than 5 ms / n with
+    // probability e^-5: that is the bound (7 pings at 37 %, 18 at 93 %, one per second).
+    ASSERT_EQ(r.clocks.count("mock"), 1u);
+    const std::size_t pings = r.clocks.at("mock").pings;
+    ASSERT_GE(pings, 5u) << fraction;
+    const double bound = 5e-3 / static_cast<double>(pings);
+    EXPECT_NEAR(lo, 0.0, bound) << fraction;
+    EXPECT_NEAR(hi, 0.0, bound) << fraction;
+    EXPECT_LT(hi - lo, 10e-6) << fraction;  // one offset for all: the skew is fitted
+    EXPECT_NEAR(r.clocks.at("mock").skew_ppm, 200.0, 5.0) << fraction;
+    EXPECT_EQ(back.recording.metadata.count("imukit.clock.mock.skew_ppm"), 1u);
+    std::printf(
+        "cut at %.0f %%: kept %zu samples and %zu pings, refitted times %.1f..%.1f us from "
+        "the truth\n",
+        fraction * 100, rows.size(), pings, lo * 1e6, hi * 1e6);
+  }
+}
+
 TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
   testing::TempDir dir;
   std::vector<SessionDevice> devices;
-  devices.push_back({"watch", "mock:poses",
-                     drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2"),
-                     std::nullopt});
+  devices.push_back(
+      {"watch", "mock:poses",
+       drivers::open_device("mock:poses?clock=virtual&rate=200&hold_s=4&move_s=2&init_s=4"),
+       std::nullopt});
   SessionOptions options;
   options.path = (dir / "poses.mcap").string();
   PoseGuideOptions guide;

@@ -70,10 +70,10 @@ with tempfile.TemporaryDirectory() as tmp:
           f"bad input gives one line naming file:line:column ({r.stderr.strip()})")
 
     r = run("info", bad)
-    check(r.returncode == 1 and "--columns" in r.stderr, "a file without a column map says how to give one")
+    check(r.returncode == 2 and "--columns" in r.stderr, "a file without a column map says how to give one (usage, exit 2)")
     r = run("convert", out_csv, "-o", os.path.join(tmp, "x.bin"))
-    check(r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1 and "OUT.mcap" in r.stderr,
-          "unknown output format is a one-line error")
+    check(r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1 and "OUT.mcap" in r.stderr,
+          "unknown output format is a one-line usage error (exit 2)")
 
     # MCAP round trip: CSV -> MCAP -> CSV keeps every value bit for bit.
     out_mcap = os.path.join(tmp, "imu0.mcap")

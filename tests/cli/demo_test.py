@@ -33,6 +33,7 @@ with tempfile.TemporaryDirectory() as tmp:
     out = os.path.join(tmp, "demo")
     args = [IMUKIT, "demo", "-o", out] + (["--quick"] if QUICK else [])
     r = subprocess.run(args, capture_output=True, text=True)
+    demo_stdout = r.stdout
     print(r.stdout)
     check(r.returncode == 0, f"imukit demo exits 0 ({r.stderr.strip()[-400:]})")
     if r.returncode != 0:
@@ -148,6 +149,24 @@ with tempfile.TemporaryDirectory() as tmp:
     Xp, Xs = np.load(os.path.join(out, "ppda", "X.npy")), np.load(os.path.join(out, "stda", "X.npy"))
     check(Xp.shape == Xs.shape and not np.array_equal(Xp, Xs), "PPDA and STDA are different data of the same shape")
 
+    # report.json holds the printed comparison: every row's truth, estimate and standard error, and
+    # they are the profiles' numbers (issue 16: it held only the poses run's bias).
+    for sensor in ["accelerometer", "gyroscope"]:
+        rows = {row["quantity"]: row for row in report["comparison"][sensor]["rows"]}
+        unit = "m/s^2" if sensor == "accelerometer" else "rad/s"
+        for ax, a in enumerate("xyz"):
+            row = rows.get(f"white noise N {a} [{unit}/sqrt(Hz)]")
+            ok = row is not None and row["true"] == truth[sensor]["noise"]["noise_density"][ax] \
+                and row["estimated"] == est[sensor]["noise"]["noise_density"][ax] \
+                and row["standard_error"] == est[sensor]["noise"]["noise_density_sigma"][ax] \
+                and abs(row["error"] - (row["estimated"] - row["true"])) <= 1e-15 * abs(row["true"]) \
+                and row["summary"] in demo_stdout
+            check(ok, f"report.json: {sensor} white noise {a}: true, estimated, standard error as printed")
+            row = rows.get(f"scale {a} (forward model)")
+            check(row is not None and row["estimated"] == est[sensor]["calibration"]["scale"][ax]
+                  and row["standard_error"] is None, f"report.json: {sensor} scale {a} as in profile.json")
+        check(len(rows) == 21, f"report.json: {sensor}: all 21 printed rows ({len(rows)})")
+
     # Plots (SVG from gnuplot, when installed).
     if subprocess.run(["sh", "-c", "command -v gnuplot"], capture_output=True).returncode == 0:
         for p in ["plots/accelerometer_allan.svg", "plots/gyroscope_allan.svg", "plots/calibration_residuals.svg",
@@ -155,6 +174,19 @@ with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(out, p)
             ok = os.path.isfile(path) and "<svg" in open(path).read(4096)
             check(ok, f"{p} is an SVG")
+        # The scripts run from anywhere (they move to their own folder) and redraw the same plot.
+        svg = os.path.join(out, "plots", "gyroscope_allan.svg")
+        os.remove(svg)
+        g = subprocess.run(["gnuplot", os.path.join(out, "plots", "gyroscope_allan.gp")], cwd="/",
+                           capture_output=True, text=True)
+        check(g.returncode == 0 and os.path.isfile(svg), f"plots/gyroscope_allan.gp runs from / ({g.stderr.strip()})")
+        # Allan plots: reference lines for every axis with a fitted term, none for a term not fitted,
+        # powers of ten on the axes.
+        gp = open(os.path.join(out, "plots", "gyroscope_allan.gp")).read()
+        fitted_k = [est["gyroscope"]["noise"]["random_walk"][ax] > 0 for ax in range(3)]
+        check(all(f"{a}: N/sqrt(tau)" in gp for a in "xyz") and "10^{%L}" in gp
+              and all((f"{a}: K sqrt(tau/3)" in gp) == fitted_k[ax] for ax, a in enumerate("xyz")),
+              "the gyroscope Allan plot draws N for x, y and z, K only where fitted, powers of ten")
     else:
         print("skip: gnuplot not installed, plots not drawn")
 

@@ -110,6 +110,25 @@ with tempfile.TemporaryDirectory() as tmp:
     check(os.path.exists(os.path.join(plots, "identify_signals.gp")), "gnuplot script written")
     check(np.sqrt(np.mean((sig[:, 13:16] - sig[:, 1:4]) ** 2)) < 0.05, "plotted simulated accelerometer matches")
 
+    # 1b. The same with a twist correction and a wide clock-rate range: there is no twist and
+    # no time scale in the truth, so both come out near zero and the placement is unchanged.
+    placement2 = os.path.join(tmp, "placement_twist.json")
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--init", "left_wrist_watch",
+            "--motion-start", "0", "--correct", "twist", "--estimate", "clock_rate", "--max-clock-rate", "0.05",
+            "--function-tolerance", "1e-6", "-o", placement2)
+    check(r.returncode == 0, "identify --correct twist --estimate clock_rate succeeds")
+    j2 = json.load(open(placement2))
+    q2 = np.array(j2["sensor"]["rotation"]["quaternion_wxyz"])
+    check(j2["correction"]["kind"] == "twist" and j2["correction"]["rms_angle_rad"][0] < np.radians(0.5),
+          f"no twist found where there is none ({np.degrees(j2['correction']['rms_angle_rad'][0]):.3f} deg RMS)")
+    check(abs(j2["timing"]["clock_rate"]) < 1e-4, f"no time scale found ({j2['timing']['clock_rate']:.2e})")
+    check(angle_between(q2, q_true) < 0.5, f"rotation within 0.5 deg with the correction ({angle_between(q2, q_true):.3f})")
+    fa = j2["fit"]["fidelity_after"]
+    check(min(fa["gyro"]["correlation"]) > 0.999 and len(fa["accel"]["rmse_mps2"]) == 3,
+          "per-axis fidelity in the JSON")
+    check("segment correction twist" in r.stdout and "fidelity per axis" in r.stdout and "time scale" in r.stdout,
+          "the correction, time scale and fidelity are printed")
+
     # 2. BROAD, the command of issue 8 on a 50 s excerpt.
     trial = os.path.join(DATA, "broad", "02_undisturbed_slow_rotation_B.csv")
     if QUICK:
@@ -146,5 +165,11 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "no_such_joint" in r.stderr, "unknown joint")
     r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--fix", "elbow_room", "-o", placement)
     check(r.returncode != 0 and "elbow_room" in r.stderr, "unknown --fix name")
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--correct", "spin", "-o", placement)
+    check(r.returncode != 0 and "spin" in r.stderr, "unknown --correct kind")
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--correct", "twist",
+            "--knot-spacing", "-1", "-o", placement)
+    check(r.returncode != 0 and "knot-spacing" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+          "a negative knot spacing is one clear line")
 
 sys.exit(check.finish())

@@ -98,7 +98,20 @@ TEST(ColumnText, MalformedLinesNameFileLineAndColumn) {
   expect_error([&] { parse_column_text("0,1,2,3\n1,NaN,2,3\n", "bad.csv", spec); },
                {"bad.csv:2:3", "NaN is not allowed"});
   expect_error([&] { parse_column_text("5,1,2,3\n4,1,2,3\n", "bad.csv", spec); },
-               {"bad.csv:2:1", "time goes backwards"});
+               {"bad.csv:2:1", "time goes backwards ('4' after 5 on the row before, in s)"});
+  // Both times in the file's own unit (it used to print the earlier one in s whatever the unit).
+  expect_error(
+      [&] {
+        parse_column_text("1500,1,2,3\n1250.5,1,2,3\n", "ms.csv",
+                          ColumnSpec::parse("t,ax,ay,az", {}, TimeUnit::ms));
+      },
+      {"ms.csv:2:1", "('1250.5' after 1500 on the row before, in ms)"});
+  // Bytes of the file are quoted escaped and short, never raw.
+  expect_error(
+      [&] {
+        parse_column_text("0,1,2,3\n1,\x01\x02zzzzzzzzzzzzzzzzzzzzzzzzzz,2,3\n", "bad.csv", spec);
+      },
+      {"'\\x01\\x02zzzzzzzzzzzzzzzzzzzzzz...' (28 bytes) is not a number"});
   expect_error([&] { parse_column_text("0,1,2,3\nx1,1,2,3\n", "bad.csv", spec); },
                {"bad.csv:2:1", "'x1'"});
   expect_error([&] { parse_column_text("0,1,2,3\n1,1,2,\n", "bad.csv", spec); },

@@ -218,7 +218,7 @@ void expect_held_samples_read_gravity(const MockRun& r, const PosesSource& src, 
 TEST(MockDevice, PosesUriHoldsEachFaceUp) {
   // 6 holds of 0.5 s and 5 moves of 0.25 s: 4.25 s at 200 Hz.
   const MockRun r =
-      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&clock=virtual&disconnect_after=840");
+      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&init_s=0&clock=virtual&disconnect_after=840");
   ASSERT_EQ(r.samples.size(), 840u);
   int checked = 0;
   expect_held_samples_read_gravity(r, PosesSource(PosesSource::six_faces(), 0.5, 0.25),
@@ -268,7 +268,8 @@ TEST(MockDevice, PosesKeySelectsTheTiltTour) {
   // 9 holds of 0.5 s and 8 moves of 0.25 s at 200 Hz: 1300 samples; the held directions follow
   // the tour.
   const MockRun r =
-      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&poses=9&clock=virtual&disconnect_after=1300");
+      run("mock:poses?rate=200&hold_s=0.5&move_s=0.25&init_s=0&poses=9&clock=virtual&"
+          "disconnect_after=1300");
   ASSERT_EQ(r.samples.size(), 1300u);
   std::set<int> seen;
   expect_held_samples_read_gravity(r, PosesSource(PosesSource::tilt_tour(9), 0.5, 0.25),

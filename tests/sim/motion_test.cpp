@@ -65,6 +65,28 @@ TEST(Motion, NonFiniteValuesNameFrameAndJoint) {
   }
 }
 
+// Found by fuzzing (fuzz/quaternion_csv_fuzz.cpp, issue 16): a t column stepping by 3.3e20 s gave
+// a rate of 3e-21 Hz and the simulator looped forever on sample times beyond int64 ns; a step
+// of 1e-12 s would put every frame at the same ns. The rate from t is bounded like a BVH's.
+TEST(Motion, AbsurdFrameStepsInTheTimeColumnAreRejected) {
+  for (const char* t1 : {"333333333333333333333", "1e-12", "7200"}) {
+    const std::string text = std::string("t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n") +
+                             t1 + ",1,0,0,0\n";
+    try {
+      parse_quaternion_csv(text, "steps.csv", small_body());
+      ADD_FAILURE() << "accepted a step of " << t1 << " s";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("steps.csv: t steps by"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("1 frame per hour to 1e6 frames per second"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_NO_THROW(parse_quaternion_csv(
+      "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n3600,1,0,0,0\n", "hour.csv",
+      small_body()));
+}
+
 TEST(Motion, CsvErrorsAreClear) {
   EXPECT_THROW(parse_quaternion_csv("", "e.csv", small_body()), Error);
   EXPECT_THROW(parse_quaternion_csv("t,knee_qw\n", "e.csv", small_body()), Error);

@@ -1,0 +1,117 @@
+#include "core/input_file.hpp"
+
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "core/error.hpp"
+
+namespace imukit {
+namespace {
+
+[[noreturn]] void fail(const std::string& path, const std::string& what) {
+  throw IoError(InputLocation{path, {}, {}, {}}, what);
+}
+
+std::string kind_of(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a pipe (FIFO)";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+void check_regular(const std::string& path, mode_t mode, std::string_view what) {
+  if (S_ISREG(mode)) return;
+  fail(path, fmt::format("is {}, not a file; give the {} as a regular file", kind_of(mode), what));
+}
+
+std::string size_text(std::size_t bytes) {
+  if (bytes < (std::size_t{1} << 20)) return fmt::format("{} bytes", bytes);
+  return fmt::format("{:.1f} MiB", static_cast<double>(bytes) / double(1 << 20));
+}
+
+}  // namespace
+
+UniqueFile open_regular_file(const std::string& path, std::string_view what) {
+  // O_NONBLOCK: opening a FIFO or a terminal must not wait for a writer before we can refuse it.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) fail(path, std::string("cannot open for reading: ") + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int saved = errno;
+    ::close(fd);
+    fail(path, std::string("cannot read: ") + std::strerror(saved));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    check_regular(path, st.st_mode, what);
+  }
+  const int flags = ::fcntl(fd, F_GETFL);
+  if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
+  std::FILE* f = ::fdopen(fd, "rb");
+  if (f == nullptr) {
+    ::close(fd);
+    fail(path, std::string("cannot open for reading: ") + std::strerror(errno));
+  }
+  return UniqueFile(f);
+}
+
+std::string read_regular_file(const std::string& path, std::size_t max_bytes,
+                              std::string_view what) {
+  const UniqueFile f = open_regular_file(path, what);
+  struct stat st {};
+  if (::fstat(::fileno(f.get()), &st) == 0 && static_cast<uint64_t>(st.st_size) > max_bytes) {
+    fail(path,
+         fmt::format("{} is more than a {} may hold ({})",
+                     size_text(static_cast<std::size_t>(st.st_size)), what, size_text(max_bytes)));
+  }
+  std::string text;
+  text.resize(static_cast<std::size_t>(st.st_size));
+  std::size_t got = 0;
+  for (;;) {
+    if (got == text.size()) {
+      // The file grew since fstat (or reports no size): read on, within the limit.
+      if (text.size() > max_bytes)
+        fail(path, fmt::format("more than a {} may hold ({})", what, size_text(max_bytes)));
+      text.resize(std::max<std::size_t>(4096, text.size() * 2));
+    }
+    const std::size_t n = std::fread(text.data() + got, 1, text.size() - got, f.get());
+    got += n;
+    if (n == 0) {
+      if (std::ferror(f.get())) fail(path, std::string("read failed: ") + std::strerror(errno));
+      break;
+    }
+  }
+  if (got > max_bytes)
+    fail(path, fmt::format("more than a {} may hold ({})", what, size_text(max_bytes)));
+  text.resize(got);
+  return text;
+}
+
+void check_updatable_file(const std::string& path, std::string_view what) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return;  // absent (or unreachable: the write will say)
+  check_regular(path, st.st_mode, what);
+}
+
+void write_text_file(const std::string& path, std::string_view text) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr)
+    throw IoError(fmt::format("{}: cannot open for writing: {}", path, std::strerror(errno)));
+  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+  const int saved = errno;
+  const bool closed = std::fclose(f) == 0;
+  if (!written || !closed) {
+    throw IoError(
+        fmt::format("{}: write failed: {}", path, std::strerror(written ? errno : saved)));
+  }
+}
+
+}  // namespace imukit

@@ -1,0 +1,130 @@
+"""The HAR evaluation's experiments, one command each (docs/har.md):
+
+    python3 -m imukit.har one-at-a-time  --utd-mhad DIR --scenes DIR --out DIR [--jobs 2] ...
+    python3 -m imukit.har fewer-subjects --utd-mhad DIR --scenes DIR --out DIR ...
+    python3 -m imukit.har sim-only       --utd-mhad DIR --scenes DIR --out DIR ...
+    python3 -m imukit.har report         --out DIR
+
+Each writes DIR/<experiment>.json (every finished run, appended as it ends: rerun the same
+command to continue a killed experiment), DIR/<experiment>.md (tables) and DIR/<experiment>.png.
+"""
+import argparse
+import os
+import sys
+
+from . import experiments, recordings as rec_format, report, utd_mhad
+
+
+def _data(args):
+    subjects = None
+    if args.recordings:
+        R = rec_format.read_recordings(args.recordings)
+        source = {"recordings": os.path.abspath(args.recordings)}
+    else:
+        if args.subjects:
+            subjects = [int(s.lstrip("s")) for s in args.subjects.split(",")]
+        R = utd_mhad.load(args.utd_mhad, scenes=args.scenes, subjects=subjects)
+        source = {"utd_mhad": os.path.abspath(args.utd_mhad),
+                  "scenes": os.path.abspath(args.scenes) if args.scenes else None}
+    if args.subjects and args.recordings:
+        keep = set(args.subjects.split(","))
+        R.recordings = [r for r in R.recordings if r.subject in keep]
+    source["recordings_count"] = len(R)
+    source["subjects"] = R.subjects
+    return R, source
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(prog="python3 -m imukit.har", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = ap.add_subparsers(dest="command", required=True)
+    common = argparse.ArgumentParser(add_help=False)
+    src = common.add_mutually_exclusive_group()
+    src.add_argument("--utd-mhad", help="UTD-MHAD folder (Inertial/, Skeleton/)")
+    src.add_argument("--recordings", help="a labelled-recordings folder (imukit.recordings/1)")
+    common.add_argument("--scenes", help="fitted scenes, one folder per UTD-MHAD trial (<a_s_t>/scene.json)")
+    common.add_argument("--subjects", help="only these subjects (comma separated, e.g. s1,s2,s3)")
+    common.add_argument("--out", required=True, help="results folder")
+    common.add_argument("--models", default="deepconvlstm,attend")
+    common.add_argument("--arms", help="comma separated arms (default: the experiment's)")
+    common.add_argument("--window", type=int, default=50)
+    common.add_argument("--stride", type=int, default=25)
+    common.add_argument("--epochs", type=int, default=30)
+    common.add_argument("--patience", type=int, default=10)
+    common.add_argument("--batch-size", type=int, default=64)
+    common.add_argument("--policy", default="paper")
+    common.add_argument("--tiny", action="store_true", help="tiny models (smoke tests)")
+    common.add_argument("--jobs", type=int, default=2, help="worker processes, one torch thread each")
+    one = sub.add_parser("one-at-a-time", parents=[common])
+    one.add_argument("--seeds", type=int, default=3)
+    one.add_argument("--options-all", action="store_true",
+                     help="every grid option of each method (default: the middle option)")
+    few = sub.add_parser("fewer-subjects", parents=[common])
+    few.add_argument("--sizes", default="1,2,4,6")
+    few.add_argument("--combinations", type=int, default=10)
+    sim = sub.add_parser("sim-only", parents=[common])
+    sim.add_argument("--seeds", type=int, default=1)
+    fid = sub.add_parser("fidelity", parents=[common],
+                         help="the identity re-simulation of every window against the real one")
+    rep = sub.add_parser("report")
+    rep.add_argument("--out", required=True)
+    args = ap.parse_args(argv)
+
+    if args.command == "report":
+        import json
+        for name in ("one_at_a_time", "fewer_subjects", "sim_only"):
+            path = os.path.join(args.out, f"{name}.json")
+            if os.path.exists(path):
+                with open(path, encoding="utf-8") as f:
+                    print(report.write(json.load(f), args.out))
+        return 0
+
+    if not (args.utd_mhad or args.recordings):
+        ap.error("give --utd-mhad or --recordings")
+    R, source = _data(args)
+    if args.command == "fidelity":
+        import json
+        result = dict(experiments.window_fidelity(R, args.window, args.stride, args.policy), data=source)
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "fidelity_windows.json"), "w", encoding="utf-8") as f:
+            json.dump(result, f, indent=1)
+            f.write("\n")
+        print(json.dumps(result, indent=1))
+        return 0
+    settings = experiments.Settings(window=args.window, stride=args.stride, epochs=args.epochs,
+                                     patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
+                                     policy=args.policy)
+    models = args.models.split(",")
+    subjects = R.subjects
+    if args.command == "one-at-a-time":
+        arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.ONE_AT_A_TIME_ARMS,
+                                       options_all=args.options_all)
+        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds)
+        name = "one_at_a_time"
+    elif args.command == "fewer-subjects":
+        arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.FEWER_SUBJECTS_ARMS)
+        sizes = [int(n) for n in args.sizes.split(",")]
+        if max(sizes) > len(subjects) - 2:
+            ap.error(f"at most {len(subjects) - 2} training subjects (one is tested, one validates)")
+        runs = experiments.fewer_subjects_runs(subjects, arms, models, sizes, args.combinations)
+        name = "fewer_subjects"
+    else:
+        arms = ["baseline", "sim:identity"]
+        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds)
+        name = "sim_only"
+    missing = experiments.check_scenes(R, arms)
+    source["recordings_without_scene"] = missing
+    os.makedirs(args.out, exist_ok=True)
+    store = experiments.ResultStore(os.path.join(args.out, f"{name}.json"), name, settings, source)
+    for other in ("one_at_a_time", "sim_only", "fewer_subjects"):
+        if other != name:
+            experiments.reuse(runs, store, os.path.join(args.out, f"{other}.json"),
+                              log=lambda s: print(s, flush=True))
+    experiments.execute(runs, store, R, settings, jobs=args.jobs,
+                        log=lambda s: print(s, flush=True))
+    print(report.write(store.doc, args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

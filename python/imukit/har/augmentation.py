@@ -1,0 +1,198 @@
+"""Online augmentation of training mini-batches, as in the paper: per mini-batch ONE sub-policy
+of a policy (imukit's `paper` grid by default) is drawn with its probability, and the whole
+batch is augmented under it.
+
+- STDA: the sub-policy's signal-transform counterparts (`Policy.stda_counterparts`:
+  amplitude -> magnitude scaling/warping, speed -> time scaling/warping, placement -> rotation
+  U[-180, 180] deg, hardware -> jittering) through `imukit.stda` on the real windows. Magnitude,
+  time and rotation act on the windows in SI units (a rotation turns the accelerometer and
+  gyroscope vectors together, which it cannot do to z-scored channels); jittering is added after
+  standardisation, its sigma in standard deviations, as in the paper.
+- PPDA: each window's recording is re-simulated from its fitted scene (`imukit.Augmenter`,
+  one per recording, built once) under the sub-policy: the window of the scene that corresponds
+  to the real window (start + time offset), with the motion's amplitude or speed, the sensor's
+  placement or its hardware changed. The batch's windows are grouped by recording, one
+  `Augmenter.apply` call per recording, written straight into the batch buffer.
+
+Both kinds share the draws that decide which batches are augmented (`SubPolicySampler`), so two
+arms with the same seed augment the same batches: the same number of augmented windows.
+"""
+import time
+
+import numpy as np
+import torch
+
+import imukit
+
+
+class SubPolicySampler:
+    """Draws one sub-policy index per mini-batch from fixed probabilities. The draw is an inverse
+    CDF of one uniform number from the run's own stream, so arms whose probability vectors put
+    the same mass on the identity (index `identity`) augment exactly the same batches."""
+
+    def __init__(self, probabilities, seed):
+        p = np.asarray(probabilities, np.float64)
+        if p.ndim != 1 or np.any(p < 0) or not p.sum() > 0:
+            raise ValueError("probabilities must be a non-negative vector with a positive sum")
+        self.p = p / p.sum()
+        self._cdf = np.cumsum(self.p)
+        self._rng = np.random.default_rng([seed, 0x5B9])
+
+    def draw(self):
+        u = self._rng.random()
+        return int(min(np.searchsorted(self._cdf, u, side="right"), len(self.p) - 1)), None
+
+
+class GumbelPolicy:
+    """Learned sub-policy probabilities (AutoAugHAR-style differentiable search): the loop holds
+    logits over the sub-policies; each batch draws k with the Gumbel-max trick (an exact sample of
+    softmax(logits)) and carries the relaxed one-hot's k-th entry as a multiplicative gate of
+    value 1 on the batch (straight-through), so the loss reaches the logits. Every `every`
+    batches the logits take one step on the gradient of the validation loss after a virtual SGD
+    step of the model (DARTS' second-order term, by the finite difference of two gradients;
+    see Trainer._policy_step)."""
+
+    def __init__(self, count, seed, lr=0.01, temperature=1.0, every=4):
+        self.logits = torch.zeros(count, requires_grad=True)
+        self.optimizer = torch.optim.Adam([self.logits], lr=lr)
+        self.temperature = temperature
+        self.every = every
+        self._gen = torch.Generator().manual_seed(int(seed) * 7919 + 17)
+
+    @property
+    def probabilities(self):
+        return torch.softmax(self.logits.detach(), 0).numpy()
+
+    def draw(self):
+        """(k, gumbel noise): k = argmax(logits + noise), an exact sample of softmax(logits)."""
+        u = torch.rand(self.logits.shape, generator=self._gen).clamp_(1e-12, 1.0 - 1e-12)
+        noise = -torch.log(-torch.log(u))
+        return int(torch.argmax(self.logits.detach() + noise)), noise
+
+    def gate(self, k, noise):
+        """The straight-through gate of draw k: value 1, gradient that of the relaxed one-hot's
+        k-th entry softmax((logits + noise) / temperature)[k] (a fresh graph per call)."""
+        soft = torch.softmax((self.logits + noise) / self.temperature, 0)
+        return soft[k] - soft[k].detach() + 1.0
+
+
+class PpdaSource:
+    """The fitted scenes of the recordings, one imukit.Augmenter each (built on first use)."""
+
+    def __init__(self, recordings, window, method="spline"):
+        self.recordings = recordings
+        self.window = window
+        self.method = method
+        self._augmenters = {}
+
+    def augmenter(self, i):
+        a = self._augmenters.get(i)
+        if a is None:
+            r = self.recordings[i]
+            if r.scene is None:
+                raise ValueError(f"recording {r.id}: no fitted scene for PPDA")
+            scene = imukit.read_scene(r.scene.path)
+            a = imukit.Augmenter(scene, window=self.window, method=self.method)
+            if abs(a.rate_hz - r.rate_hz) > 1e-9 * r.rate_hz:
+                raise ValueError(f"{r.scene.path}: the scene samples at {a.rate_hz:g} Hz, recording "
+                                 f"{r.id} at {r.rate_hz:g} Hz")
+            names = a.sensor_names
+            missing = [s for s in r.scene.sensors if s not in names]
+            if missing:
+                raise ValueError(f"{r.scene.path}: no sensor {missing} (the scene has {names})")
+            cols = np.concatenate([np.arange(6) + 6 * names.index(s) for s in r.scene.sensors])
+            offset = int(round(r.scene.time_offset_s * r.rate_hz))
+            bias = None if r.scene.bias is None else np.asarray(r.scene.bias, np.float32).reshape(-1)
+            a = (a, None if np.array_equal(cols, np.arange(a.channels)) else cols, offset, bias)
+            self._augmenters[i] = a
+        return a
+
+    def has_scene(self, i):
+        return self.recordings[i].scene is not None
+
+    def scene_starts(self, i, starts):
+        """The scene's sample index of each real window start (kept inside the scene)."""
+        a, _, offset, _ = self.augmenter(i)
+        return np.clip(starts + offset, 0, a.sample_count - self.window).astype(np.int64)
+
+    def apply(self, sub, recording, start, rng, policy, out):
+        """Simulates windows (recording[k], start[k]) under `sub` into out (N, T, C) float32,
+        C-contiguous; the windows of one recording must be consecutive."""
+        n = len(recording)
+        cut = np.flatnonzero(np.diff(recording)) + 1
+        for a0, a1 in zip(np.r_[0, cut], np.r_[cut, n]):
+            i = int(recording[a0])
+            aug, cols, _, bias = self.augmenter(i)
+            starts = self.scene_starts(i, start[a0:a1])
+            if cols is None:
+                aug.apply(sub, starts, rng, policy=policy, out=out[a0:a1], threads=1)
+            else:
+                out[a0:a1] = aug.apply(sub, starts, rng, policy=policy, threads=1)[:, :, cols]
+            if bias is not None:
+                out[a0:a1] += bias
+        return out
+
+
+class BatchAugmenter:
+    """Makes the standardised training batch for one sub-policy of `policy`: kind "none" (real
+    windows), "stda" or "ppda". Times the imukit calls (`imukit_seconds`)."""
+
+    def __init__(self, kind, policy, windows, standardize, ppda=None, resimulate_identity=False):
+        if kind not in ("none", "stda", "ppda"):
+            raise ValueError(f"unknown augmentation kind '{kind}'")
+        if kind == "ppda" and ppda is None:
+            raise ValueError("PPDA needs the recordings' fitted scenes (a PpdaSource)")
+        self.kind = kind
+        self.policy = policy
+        self.windows = windows
+        self.standardize = standardize
+        self.ppda = ppda
+        # sim-only training: even the identity sub-policy's windows are re-simulated
+        self.resimulate_identity = resimulate_identity
+        self.imukit_seconds = 0.0
+        self.unfitted_windows = 0  # PPDA windows left real for want of a fitted scene
+        self.augmented_windows = 0
+        self._specs = {}
+
+    def _stda_specs(self, k):
+        s = self._specs.get(k)
+        if s is None:
+            specs = self.policy.stda_counterparts(k, normalized=True)
+            s = ([x for x in specs if x.method != "jittering"], [x for x in specs if x.method == "jittering"])
+            self._specs[k] = s
+        return s
+
+    def batch(self, k, index, seed):
+        """(X standardised float32 (B, T, C), y int64) for the windows `index` under sub-policy k.
+        The PPDA path reorders the windows by recording; y follows."""
+        w = self.windows
+        if self.kind == "none" or (self.policy[k].is_identity and not self.resimulate_identity):
+            return self.standardize(w.X[index]), w.y[index]
+        if self.kind == "stda":
+            raw, jitter = self._stda_specs(k)
+            X = w.X[index]
+            rng = imukit.Rng(seed)
+            t0 = time.perf_counter()
+            for spec in raw:
+                imukit.stda(X, spec, rng, out=X)
+            self.imukit_seconds += time.perf_counter() - t0
+            X = self.standardize(X, out=X)
+            t0 = time.perf_counter()
+            for spec in jitter:
+                imukit.stda(X, spec, rng, out=X)
+            self.imukit_seconds += time.perf_counter() - t0
+            self.augmented_windows += len(index)
+            return X, w.y[index]
+        # Windows of recordings without a fitted scene (a failed fit) stay real, at the end.
+        rec = w.recording[index]
+        fitted = np.array([self.ppda.has_scene(i) for i in rec])
+        index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
+        n = int(fitted.sum())
+        X = np.empty((len(index),) + w.X.shape[1:], np.float32)
+        t0 = time.perf_counter()
+        self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n])
+        self.imukit_seconds += time.perf_counter() - t0
+        X[n:] = w.X[index[n:]]
+        self.unfitted_windows += len(index) - n
+        self.augmented_windows += n
+        return self.standardize(X, out=X), w.y[index]

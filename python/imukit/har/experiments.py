@@ -1,0 +1,332 @@
+"""The experiments of the HAR evaluation (docs/har.md): arms, splits, resumable runs.
+
+An *arm* says how training mini-batches are augmented:
+
+| arm | meaning |
+|---|---|
+| `baseline` | real windows only |
+| `stda:<method>:<option>`, `ppda:<method>:<option>` | one-at-a-time: half of the mini-batches under one sub-policy of the `paper` grid, the other half unaugmented; `<option>` is the grid option of the method's group (1-8; 1 for placement) |
+| `stda:all`, `ppda:all` | one of the 810 sub-policies per mini-batch, uniformly |
+| `stda:all:learned`, `ppda:all:learned` | the same with learned probabilities (GumbelPolicy) |
+| `sim:identity` | sim-only: every window re-simulated from its fitted scene, nothing else changed |
+
+A *run* is (arm, model, test subject, validation subject, training subjects, seed); its result is
+appended to the experiment's JSON as soon as it ends, so a killed experiment continues where it
+stopped. Runs are spread over `jobs` worker processes of one torch thread each.
+"""
+import dataclasses
+import itertools
+import json
+import multiprocessing
+import os
+import time
+
+import numpy as np
+
+import imukit
+
+from . import augmentation, train, windows as windowing
+
+# The six method pairs of the paper (Table I): the STDA method, the PPDA method, the sub-policy
+# group and its option in the `paper` grid (index = ((a * 9 + s) * 2 + p) * 5 + h), and the
+# option used when none is given: the middle of each grid, chosen before any run.
+PAIRS = {
+    "amplitude_scaling": ("magnitude scaling", "amplitude scaling", "a", range(1, 5), 2),
+    "amplitude_warping": ("magnitude warping", "amplitude warping", "a", range(5, 9), 5),
+    "speed_scaling": ("time scaling", "speed scaling", "s", range(1, 5), 3),
+    "speed_warping": ("time warping", "speed warping", "s", range(5, 9), 5),
+    "placement": ("rotation", "placement", "p", range(1, 2), 1),
+    "hardware": ("jittering", "hardware", "h", range(1, 5), 2),
+}
+_GROUP_STRIDE = {"a": 90, "s": 10, "p": 5, "h": 1}
+
+
+def grid_index(method, option):
+    group, options = PAIRS[method][2], PAIRS[method][3]
+    if option not in options:
+        raise ValueError(f"{method}: option {option} is not one of {list(options)}")
+    return _GROUP_STRIDE[group] * option
+
+
+@dataclasses.dataclass(frozen=True)
+class Arm:
+    name: str
+    kind: str                   # none | stda | ppda
+    probabilities: tuple = ()   # over the policy's sub-policies; () for none
+    learned: bool = False
+    resimulate_identity: bool = False
+
+    @property
+    def label(self):
+        parts = self.name.split(":")
+        if self.name == "baseline":
+            return "baseline (no augmentation)"
+        if self.name == "sim:identity":
+            return "sim-only (re-simulated windows)"
+        if parts[1] == "all":
+            return f"{parts[0].upper()} all 810{' learned' if self.learned else ' uniform'}"
+        stda_name, ppda_name = PAIRS[parts[1]][:2]
+        return f"{parts[0].upper()} {stda_name if parts[0] == 'stda' else ppda_name}"
+
+
+def parse_arm(name, policy_size=810):
+    parts = name.split(":")
+    if name == "baseline":
+        return Arm(name, "none")
+    if name == "sim:identity":
+        p = np.zeros(policy_size)
+        p[0] = 1.0
+        return Arm(name, "ppda", tuple(p), resimulate_identity=True)
+    if len(parts) >= 2 and parts[0] in ("stda", "ppda"):
+        if parts[1] == "all" and len(parts) in (2, 3):
+            if len(parts) == 3 and parts[2] != "learned":
+                raise ValueError(f"arm '{name}': expected {parts[0]}:all or {parts[0]}:all:learned")
+            return Arm(name, parts[0], tuple(np.full(policy_size, 1.0 / policy_size)),
+                       learned=len(parts) == 3)
+        if parts[1] in PAIRS and len(parts) in (2, 3):
+            option = int(parts[2]) if len(parts) == 3 else PAIRS[parts[1]][4]
+            p = np.zeros(policy_size)
+            p[0] = 0.5
+            p[grid_index(parts[1], option)] = 0.5
+            return Arm(f"{parts[0]}:{parts[1]}:{option}", parts[0], tuple(p))
+    raise ValueError(f"unknown arm '{name}' (baseline, stda|ppda:<method>[:<option>], stda|ppda:all[:learned], "
+                     f"sim:identity; methods: {', '.join(PAIRS)})")
+
+
+ONE_AT_A_TIME_ARMS = (["baseline"] + [f"stda:{m}" for m in PAIRS] + [f"ppda:{m}" for m in PAIRS])
+FEWER_SUBJECTS_ARMS = ["baseline", "stda:all", "ppda:all", "ppda:all:learned"]
+
+
+@dataclasses.dataclass
+class Settings:
+    """What every run of an experiment shares (recorded in the JSON; a resumed experiment must
+    have the same)."""
+    window: int = 50
+    stride: int = 25
+    epochs: int = 30
+    patience: int = 10
+    batch_size: int = 64
+    tiny: bool = False
+    policy: str = "paper"
+    learn_every: int = 4
+    learn_lr: float = 0.01
+
+
+def run_key(run):
+    return "|".join([run["arm"], run["model"], f"test={run['test']}", f"val={run['val']}",
+                     "train=" + ",".join(run["train"]), f"seed={run['seed']}"])
+
+
+# ---- one run, in a worker process ----------------------------------------------------------
+
+_STATE = {}
+
+
+def _init_worker(recordings, settings):
+    train.set_threads(1)
+    _STATE.clear()
+    _STATE.update(recordings=recordings, settings=settings,
+                  windows=windowing.make_windows(recordings, settings.window, settings.stride),
+                  policy=imukit.read_policy(settings.policy), ppda=None)
+    _STATE["subject"] = np.array([recordings[i].subject for i in _STATE["windows"].recording])
+
+
+def run_one(run):
+    """Trains and tests one run (a dict: arm, model, test, val, train, seed); returns it with
+    its results."""
+    R, s, W, policy = _STATE["recordings"], _STATE["settings"], _STATE["windows"], _STATE["policy"]
+    subject = _STATE["subject"]
+    arm = parse_arm(run["arm"], len(policy))
+    tr = W.subset(np.isin(subject, run["train"]))
+    va = W.subset(subject == run["val"])
+    te = W.subset(subject == run["test"])
+    standardize = windowing.Standardizer.fit(tr.X)
+    ppda = None
+    if arm.kind == "ppda":
+        if _STATE["ppda"] is None:
+            _STATE["ppda"] = augmentation.PpdaSource(R, s.window)
+        ppda = _STATE["ppda"]
+    augmenter = augmentation.BatchAugmenter(arm.kind, policy, tr, standardize, ppda=ppda,
+                                            resimulate_identity=arm.resimulate_identity)
+    if arm.learned:
+        sampler = augmentation.GumbelPolicy(len(policy), run["seed"], lr=s.learn_lr, every=s.learn_every)
+    else:
+        p = arm.probabilities if arm.kind != "none" else np.eye(1, len(policy))[0]
+        sampler = augmentation.SubPolicySampler(p, run["seed"])
+    config = train.TrainConfig(model=run["model"], tiny=s.tiny, epochs=s.epochs, patience=s.patience,
+                               batch_size=s.batch_size, seed=run["seed"], threads=1)
+    trainer = train.Trainer(config, len(R.classes), R.channels, augmenter, sampler)
+    result = trainer.fit(tr, standardize(va.X), va.y, standardize(te.X), te.y)
+    result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)
+    result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
+    result["unfitted_windows"] = augmenter.unfitted_windows
+    return dict(run, **result)
+
+
+# ---- experiments -----------------------------------------------------------------------------
+
+def loso_splits(subjects):
+    """Leave-one-subject-out: test subject i, validation subject i + 1 (cyclic), training the rest."""
+    out = []
+    for i, t in enumerate(subjects):
+        v = subjects[(i + 1) % len(subjects)]
+        out.append((t, v, [s for s in subjects if s not in (t, v)]))
+    return out
+
+
+def one_at_a_time_runs(subjects, arms, models, seeds):
+    return [{"arm": a, "model": m, "test": t, "val": v, "train": tr, "seed": s}
+            for m in models for s in range(seeds) for (t, v, tr) in loso_splits(subjects) for a in arms]
+
+
+def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
+    """For n training subjects: up to `combinations` splits; split j tests subject j mod S,
+    validates on the next one and trains on a random n-subset of the other S - 2 (all of them for
+    n = S - 2: the first `combinations` LOSO folds). Seed 0 for every run (the spread is over
+    subject subsets)."""
+    rng = np.random.default_rng(20250601)
+    runs = []
+    for n in sizes:
+        splits = []
+        if n == len(subjects) - 2:
+            splits = loso_splits(subjects)[:combinations]
+        else:
+            for j in range(combinations):
+                t, v = subjects[j % len(subjects)], subjects[(j + 1) % len(subjects)]
+                pool = [s for s in subjects if s not in (t, v)]
+                splits.append((t, v, sorted(rng.choice(pool, size=n, replace=False).tolist())))
+        for m in models:
+            for (t, v, tr) in splits:
+                for a in arms:
+                    runs.append({"arm": a, "model": m, "test": t, "val": v, "train": tr, "seed": seed,
+                                 "n_train": n})
+    return runs
+
+
+class ResultStore:
+    """The experiment's JSON: settings plus one entry per finished run, rewritten atomically
+    after each run."""
+
+    def __init__(self, path, experiment, settings, data):
+        self.path = path
+        self.doc = {"schema": "imukit.har/1", "experiment": experiment,
+                    "settings": dataclasses.asdict(settings), "data": data, "runs": []}
+        if os.path.exists(path):
+            with open(path, encoding="utf-8") as f:
+                old = json.load(f)
+            if old.get("settings") != self.doc["settings"] or old.get("experiment") != experiment:
+                raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
+                                 "use another --out or delete it")
+            self.doc["runs"] = old.get("runs", [])
+            self.doc["wall_seconds"] = old.get("wall_seconds", 0.0)
+        self.done = {run_key(r) for r in self.doc["runs"]}
+
+    def add(self, result):
+        self.doc["runs"].append(result)
+        self.done.add(run_key(result))
+        self.save()
+
+    def save(self):
+        tmp = self.path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(self.doc, f, indent=1)
+            f.write("\n")
+        os.replace(tmp, self.path)
+
+
+def reuse(runs, store, other_path, log=print):
+    """Copies into `store` the runs another experiment's JSON (same settings) already has: the
+    same arm, model, split and seed give the same result (fewer-subjects' 6-subject baseline is
+    the one-at-a-time baseline)."""
+    if not os.path.exists(other_path):
+        return 0
+    with open(other_path, encoding="utf-8") as f:
+        other = json.load(f)
+    if other.get("settings") != store.doc["settings"]:
+        return 0
+    have = {run_key(r): r for r in other.get("runs", [])}
+    copied = 0
+    for run in runs:
+        k = run_key(run)
+        if k in have and k not in store.done:
+            store.add(dict(have[k], **run, reused_from=os.path.basename(other_path)))
+            copied += 1
+    if copied:
+        log(f"{copied} run(s) taken from {other_path}")
+    return copied
+
+
+def execute(runs, store, recordings, settings, jobs=1, log=print):
+    """Runs what the store does not have yet, `jobs` at a time; returns the wall time."""
+    pending = [r for r in runs if run_key(r) not in store.done]
+    log(f"{len(runs) - len(pending)} of {len(runs)} runs already done, {len(pending)} to go, {jobs} job(s)")
+    t0 = time.perf_counter()
+    wall0 = store.doc.get("wall_seconds", 0.0)
+
+    def finished(i, r):
+        store.doc["wall_seconds"] = wall0 + time.perf_counter() - t0
+        store.add(r)
+        log(f"[{i + 1}/{len(pending)}] {run_key(r)}: test F1 {r['test_f1']:.4f} (val {r['val_f1']:.4f}, "
+            f"epoch {r['best_epoch']}/{r['epochs_run']}, {r['seconds']:.0f} s, imukit {100 * r['imukit_share']:.1f} %)")
+
+    if jobs <= 1 or len(pending) <= 1:
+        _init_worker(recordings, settings)
+        for i, run in enumerate(pending):
+            finished(i, run_one(run))
+    else:
+        ctx = multiprocessing.get_context("fork")
+        with ctx.Pool(jobs, initializer=_init_worker, initargs=(recordings, settings),
+                      maxtasksperchild=None) as pool:
+            for i, r in enumerate(pool.imap_unordered(run_one, pending)):
+                finished(i, r)
+    return time.perf_counter() - t0
+
+
+def expand_arms(arms, options_all=False):
+    out = []
+    for a in arms:
+        parts = a.split(":")
+        if options_all and len(parts) == 2 and parts[1] in PAIRS:
+            out += [f"{a}:{o}" for o in PAIRS[parts[1]][3]]
+        else:
+            out.append(parse_arm(a).name)
+    return list(dict.fromkeys(out))
+
+
+def check_scenes(recordings, arms):
+    """The recordings without a fitted scene (their PPDA windows stay real); an error when no
+    recording has one and a PPDA arm is asked for."""
+    missing = [r.id for r in recordings.recordings if r.scene is None]
+    if any(parse_arm(a).kind == "ppda" for a in arms) and len(missing) == len(recordings):
+        raise ValueError("PPDA arms need fitted scenes and no recording has one: give --scenes")
+    return missing
+
+
+def window_fidelity(recordings, window, stride, policy="paper"):
+    """How close PPDA's starting point is to the real data: every window of a recording with a
+    fitted scene re-simulated under the identity sub-policy (fitted biases added) against the
+    real window, in SI units. Per sensor kind: the per-window, per-axis correlation (median and
+    quartiles), the per-window RMSE (median) beside the real signal's standard deviation, and how
+    many re-simulated windows peak above the largest real value of the whole dataset."""
+    W = windowing.make_windows(recordings, window, stride)
+    fitted = np.array([recordings[i].scene is not None for i in W.recording])
+    Wf = W.subset(fitted)
+    X = np.empty_like(Wf.X)
+    augmentation.PpdaSource(recordings, window).apply(0, Wf.recording, Wf.start, 1,
+                                                      imukit.read_policy(policy), X)
+    out = {"windows": int(len(W)), "fitted_windows": int(fitted.sum())}
+    for name, lo in (("accel", 0), ("gyro", 3)):
+        real, sim = Wf.X[..., lo:lo + 3], X[..., lo:lo + 3]
+        rc = real - real.mean(axis=1, keepdims=True)
+        sc = sim - sim.mean(axis=1, keepdims=True)
+        den = np.sqrt((rc ** 2).sum(axis=1) * (sc ** 2).sum(axis=1))
+        ok = den > 1e-12
+        r = ((rc * sc).sum(axis=1)[ok] / den[ok])
+        rmse = np.sqrt(np.mean((real - sim) ** 2, axis=(1, 2)))
+        q1, med, q3 = np.percentile(r, [25, 50, 75])
+        out[name] = {"correlation": {"median": float(med), "q1": float(q1), "q3": float(q3)},
+                     "rmse_median": float(np.median(rmse)), "real_std": float(real.std()),
+                     "real_max_abs": float(np.abs(W.X[..., lo:lo + 3]).max()),
+                     "windows_peaking_above_real_max": int((np.abs(sim).max(axis=(1, 2)) >
+                                                            np.abs(W.X[..., lo:lo + 3]).max()).sum())}
+    return out

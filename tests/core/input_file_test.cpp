@@ -1,0 +1,108 @@
+#include "core/input_file.hpp"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <fstream>
+#include <string>
+
+#include "core/column_text.hpp"
+#include "core/error.hpp"
+#include "core/npy.hpp"
+#include "core/profile.hpp"
+#include "tests/support/test_data.hpp"
+
+namespace imukit {
+namespace {
+
+// Runs `fn`, expects an IoError whose message contains every one of `parts`.
+template <typename Fn>
+void expect_io_error(Fn fn, std::initializer_list<std::string> parts) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected an imukit::IoError";
+  } catch (const IoError& e) {
+    for (const std::string& p : parts) {
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << p << "'";
+    }
+  }
+}
+
+void write(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+TEST(InputFile, ReadsARegularFileWhole) {
+  testing::TempDir dir;
+  const std::string text = std::string("a\0b\n", 4) + std::string(5000, 'x');
+  write(dir / "f.bin", text);
+  EXPECT_EQ(read_regular_file((dir / "f.bin").string(), 1 << 20, "test input"), text);
+  EXPECT_EQ(read_regular_file((dir / "f.bin").string(), text.size(), "test input"), text);
+}
+
+TEST(InputFile, RefusesDevicesPipesAndFoldersWithoutReadingOrBlocking) {
+  testing::TempDir dir;
+  // /dev/zero never ends; a FIFO without a writer would block a plain open forever; a folder
+  // opens on Linux and reads as an I/O error later. Each is refused by name, at once.
+  expect_io_error([] { read_regular_file("/dev/zero", kMaxJsonBytes, "scene"); },
+                  {"/dev/zero", "character device", "scene"});
+  const auto fifo = dir / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expect_io_error([&] { read_regular_file(fifo.string(), kMaxJsonBytes, "policy"); },
+                  {"fifo", "pipe (FIFO)"});
+  expect_io_error([&] { (void)open_regular_file(dir.path().string(), "recording"); },
+                  {"is a folder, not a file"});
+  expect_io_error([&] { (void)open_regular_file((dir / "missing").string(), "recording"); },
+                  {"missing", "cannot open for reading", "No such file"});
+}
+
+TEST(InputFile, EnforcesTheSizeLimitOfWholeFileReaders) {
+  testing::TempDir dir;
+  write(dir / "big.json", std::string(1000, ' '));
+  expect_io_error([&] { read_regular_file((dir / "big.json").string(), 999, "device profile"); },
+                  {"big.json", "1000 bytes is more than a device profile may hold (999 bytes)"});
+}
+
+TEST(InputFile, EveryReaderGoesThroughIt) {
+  testing::TempDir dir;
+  const auto fifo = dir / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {std::string("/dev/zero"), fifo.string(), dir.path().string()}) {
+    SCOPED_TRACE(path);
+    EXPECT_THROW(read_profile(path), IoError);
+    EXPECT_THROW(read_npy(path), IoError);
+    EXPECT_THROW(read_column_text(path, ColumnSpec::parse("t,ax,ay,az")), IoError);
+  }
+  // The profile updater reads its output back first: a device or folder there is refused
+  // before anything is written (it used to hang on -o /dev/stdout into a pipe).
+  EXPECT_THROW(update_profile("/dev/zero", DeviceProfile{}), IoError);
+  EXPECT_THROW(update_profile(fifo.string(), DeviceProfile{}), IoError);
+  EXPECT_THROW(update_profile(dir.path().string(), DeviceProfile{}), IoError);
+}
+
+TEST(InputFile, TextLinesAreBoundedSoABinaryFileCannotFillMemory) {
+  testing::TempDir dir;
+  write(dir / "one_line.txt", std::string((std::size_t{16} << 20) + 10, '1'));
+  try {
+    read_column_text((dir / "one_line.txt").string(), ColumnSpec::parse("t,ax,ay,az"));
+    ADD_FAILURE() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("one_line.txt:1: line longer than 16 MiB"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(Messages, QuoteExcerptEscapesAndElides) {
+  EXPECT_EQ(quote_excerpt("abc"), "'abc'");
+  EXPECT_EQ(quote_excerpt(std::string("a\0b\n\x7f\xff", 6)), "'a\\x00b\\n\\x7F\\xFF'");
+  EXPECT_EQ(quote_excerpt("it's"), "'it\\'s'");
+  EXPECT_EQ(quote_excerpt("caf\xc3\xa9"), "'caf\xc3\xa9'");  // valid UTF-8 stays
+  EXPECT_EQ(quote_excerpt("\xc3(", 8), "'\\xC3('");          // a broken sequence does not
+  EXPECT_EQ(quote_excerpt("root:x:0:0:root:/root:/bin/bash", 10), "'root:x:0:0...' (31 bytes)");
+  EXPECT_EQ(escape_unprintable("file \x1b[31mred\n"), "file \\x1B[31mred\\n");
+}
+
+}  // namespace
+}  // namespace imukit

@@ -1,0 +1,446 @@
+#!/usr/bin/env python3
+"""imukit.har: the labelled-recordings format, windowing, the models, online STDA/PPDA, the learned
+policy's gradient, the experiments' bookkeeping, and a smoke run on UTD-MHAD (2 subjects,
+2 epochs, tiny models) that must learn better than chance.
+
+usage: har_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+"""
+import contextlib
+import io
+import json
+import os
+import tempfile
+import unittest
+
+import numpy as np
+import torch
+
+import imukit
+from imukit.har import (augmentation, experiments, models, recordings as rf, report, train, utd_mhad,
+                        windows)
+from imukit.har.__main__ import main as har_main
+from support import data_file, main
+
+BVH = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+PAPER = imukit.read_policy("paper")
+
+
+def load_json(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def write_scene(folder, presets, rate_hz=50):
+    """A scene on the bundled 2 s walk (CMU 131_01) with one sensor per preset, named as the preset."""
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, "scene.json")
+    with open(path, "w") as f:
+        json.dump({"schema": "imukit.scene/1",
+                   "motion": {"bvh": os.path.abspath(BVH), "scale": 1},
+                   "simulation": {"rate_hz": rate_hz, "method": "spline"},
+                   "sensors": [{"name": p, "preset": p} for p in presets]}, f)
+    return path
+
+
+def synthetic_recordings(folder, subjects=("s1", "s2", "s3"), trials=2):
+    """Recordings simulated from BVH scenes: class 0 a watch on the right wrist, class 1 on the
+    left; each recording is its scene's own simulation plus per-subject sensor noise, so PPDA's
+    identity re-simulation reproduces the noiseless part."""
+    recs = []
+    for si, s in enumerate(subjects):
+        for label, preset in enumerate(("right_wrist_watch", "left_wrist_watch")):
+            for t in range(trials):
+                rid = f"{s}_c{label}_t{t}"
+                path = write_scene(os.path.join(folder, "scenes", rid), [preset])
+                sim = imukit.read_scene(path).simulate()[preset]
+                x = np.concatenate([sim.accel, sim.gyro], axis=1)
+                x += np.random.default_rng(si * 10 + t).normal(0, 0.05, x.shape)
+                recs.append(rf.Recording(id=rid, subject=s, samples=x,
+                                         labels=np.full(len(x), label, np.int64), rate_hz=50.0,
+                                         sensors=["wrist"], scene=rf.SceneRef(path, [preset])))
+    R = rf.Recordings("synthetic", ["right wrist", "left wrist"], recs)
+    rf.write_recordings(folder, R)
+    return R
+
+
+class Models(unittest.TestCase):
+    def test_parameter_counts_equal_the_papers_table(self):
+        # Oishi et al., Table II: (channels, classes) of REALDISP, REALWORLD, MM-Fit.
+        expected = {(12, 34): (658274, 522916), (42, 8): (1637960, 1256842), (18, 11): (851915, 667405)}
+        for (C, K), (dcl, aad) in expected.items():
+            self.assertEqual(models.parameter_count(models.build_model("deepconvlstm", C, K)), dcl)
+            self.assertEqual(models.parameter_count(models.build_model("attend", C, K)), aad)
+
+    def test_shapes_and_the_attention_starts_as_identity(self):
+        torch.manual_seed(0)
+        for name in models.MODELS:
+            m = models.build_model(name, 6, 27).eval()
+            self.assertEqual(tuple(m(torch.randn(4, 50, 6)).shape), (4, 27))
+        sa = models.AttendAndDiscriminate(6, 27).attention.eval()
+        x = torch.randn(10, 64, 6)
+        self.assertTrue(torch.equal(sa(x), x))  # gamma = 0 at initialisation
+        with self.assertRaisesRegex(ValueError, "unknown model 'lstm'"):
+            models.build_model("lstm", 6, 2)
+
+
+class Metrics(unittest.TestCase):
+    def test_macro_f1_by_hand(self):
+        # class 0: tp 1 fp 1 fn 1 -> 0.5; class 1: tp 2 fp 1 fn 1 -> 2/3; class 2: fn 1 -> 0; class 3
+        # only predicted: 0. scikit-learn's macro average over the union of labels.
+        self.assertAlmostEqual(train.macro_f1([0, 0, 1, 1, 2, 1], [0, 1, 1, 1, 0, 3]), (0.5 + 2 / 3) / 4)
+        self.assertEqual(train.macro_f1([1, 2, 2], [1, 2, 2]), 1.0)
+
+    def test_wilcoxon_on_eight_folds_all_better_is_exact(self):
+        # All 8 paired differences positive: exact two-sided p = 2 / 2^8.
+        p, n, d = report.wilcoxon([0.6, 0.7, 0.5, 0.8, 0.65, 0.72, 0.58, 0.61],
+                                  [0.5, 0.6, 0.45, 0.7, 0.6, 0.7, 0.5, 0.6])
+        self.assertEqual(n, 8)
+        self.assertAlmostEqual(p, 2 / 256, places=12)
+        self.assertAlmostEqual(d, 0.06375, places=12)
+
+
+class Format(unittest.TestCase):
+    def test_round_trip_and_per_sample_labels(self):
+        with tempfile.TemporaryDirectory() as d:
+            x = np.random.default_rng(0).normal(size=(40, 6))
+            lab = np.r_[np.full(20, 1), np.full(10, -1), np.full(10, 0)].astype(np.int64)
+            R = rf.Recordings("t", ["a", "b"], [
+                rf.Recording("r0", "p1", x, lab, 50.0, ["wrist"],
+                             rf.SceneRef(os.path.join(d, "sc", "scene.json"), ["watch"], 0.25)),
+                rf.Recording("r1", "p2", x[:30], np.full(30, 1, np.int64), 50.0, ["wrist"])])
+            rf.write_recordings(d, R)
+            doc = load_json(os.path.join(d, "recordings.json"))
+            self.assertEqual(doc["recordings"][1]["label"], 1)           # one label per trial
+            self.assertEqual(doc["recordings"][0]["labels"], "r0.labels.npy")
+            self.assertEqual(doc["recordings"][0]["scene"]["file"], os.path.join("sc", "scene.json"))
+            back = rf.read_recordings(d)
+            self.assertEqual(back.subjects, ["p1", "p2"])
+            np.testing.assert_array_equal(back[0].samples, x)
+            np.testing.assert_array_equal(back[0].labels, lab)
+            self.assertEqual(back[0].scene.time_offset_s, 0.25)
+            self.assertEqual(back[0].scene.path, os.path.join(d, "sc", "scene.json"))
+            self.assertIsNone(back[1].scene)
+
+    def test_a_utd_mhad_fitted_scene_folder(self):
+        with tempfile.TemporaryDirectory() as d:
+            self.assertIsNone(utd_mhad.scene_ref(d, "right_wrist"))
+            write_scene(d, ["right_wrist_watch"])
+            with open(os.path.join(d, "placement.json"), "w") as f:
+                json.dump({"schema": "imukit.placement/1", "timing": {"time_offset_s": 0.3},
+                           "accelerometer": {"bias_mps2": [0.1, 0.2, 0.3]},
+                           "gyroscope": {"bias_radps": [0.01, 0.02, 0.03]}}, f)
+            ref = utd_mhad.scene_ref(d, "right_wrist")
+            # The scene's only sensor; the batch's motion is on the IMU's clock: no offset.
+            self.assertEqual(ref.sensors, ["right_wrist_watch"])
+            self.assertEqual(ref.time_offset_s, 0.0)
+            np.testing.assert_array_equal(ref.bias, [[0.1, 0.2, 0.3, 0.01, 0.02, 0.03]])
+            write_scene(d, ["right_wrist_watch", "left_wrist_watch"])
+            with self.assertRaisesRegex(ValueError, "no sensor named 'right_wrist' among"):
+                utd_mhad.scene_ref(d, "right_wrist")
+
+    def test_errors_name_the_file_and_the_place(self):
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            np.save(os.path.join(d, "b.npy"), np.zeros((10, 5)))
+            bad = np.zeros((10, 6))
+            bad[3, 4] = np.nan
+            np.save(os.path.join(d, "nan.npy"), bad)
+            index = os.path.join(d, "recordings.json")
+
+            def expect(entry, pattern, top=None):
+                doc = {"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x", "y"], "recordings": [entry]}
+                doc.update(top or {})
+                with open(index, "w") as f:
+                    json.dump(doc, f)
+                with self.assertRaisesRegex(rf.FormatError, pattern):
+                    rf.read_recordings(d)
+
+            ok = {"id": "a", "subject": "s", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            expect(dict(ok, label=2), r"recordings\.json: recordings\[0\]\.label: 2 is not a class index 0\.\.1")
+            expect(dict(ok, samples="b.npy"), r"recordings\[0\] .*b\.npy\): 5 channels for sensors \['w'\]")
+            expect(dict(ok, samples="nan.npy"), r"nan\.npy\): sample 3 channel 4 is nan")
+            expect(dict(ok, samples="gone.npy"), r"recordings\[0\]\.samples: .*gone\.npy")
+            expect(dict(ok, colour=1), r"recordings\[0\]: unknown key 'colour'")
+            expect({k: v for k, v in ok.items() if k != "label"}, r"give either 'label'")
+            expect(ok, r"schema: expected \"imukit.recordings/1\"", {"schema": "imukit.dataset/1"})
+            expect(ok, r"units: samples are stored in m/s\^2 and rad/s", {"units": {"accelerometer": "g"}})
+            with open(index, "w") as f:
+                f.write('{"schema": \n oops')
+            with self.assertRaisesRegex(rf.FormatError, r"recordings\.json:2:2: Expecting value"):
+                rf.read_recordings(d)
+
+
+class Windowing(unittest.TestCase):
+    def test_windows_are_slices_with_majority_labels(self):
+        x = np.arange(120, dtype=np.float64).reshape(20, 6)
+        lab = np.array([0] * 6 + [1] * 4 + [-1] * 6 + [1] * 4, np.int64)
+        R = rf.Recordings("t", ["a", "b"], [rf.Recording("r", "s", x, lab, 50.0, ["w"])])
+        W = windows.make_windows(R, 8, 4)
+        # starts 0, 4, 8, 12 (16 + 8 > 20); labels: 0 (6 of 8), 1 (4 of 8 vs 2: 1), 1 (2 of 2
+        # labelled, the rest -1), 1 (start 12: samples 12..19, four 1s)
+        np.testing.assert_array_equal(W.start, [0, 4, 8, 12])
+        np.testing.assert_array_equal(W.y, [0, 1, 1, 1])
+        np.testing.assert_array_equal(W.X[2], x[8:16].astype(np.float32))
+        self.assertEqual(W.X.dtype, np.float32)
+
+    def test_the_standardizer_uses_the_training_windows_only(self):
+        rng = np.random.default_rng(1)
+        train_x = rng.normal(3.0, 2.0, size=(50, 10, 6)).astype(np.float32)
+        val_x = rng.normal(-5.0, 0.5, size=(20, 10, 6)).astype(np.float32)
+        st = windows.Standardizer.fit(train_x)
+        z = st(train_x)
+        np.testing.assert_allclose(z.reshape(-1, 6).mean(0), 0, atol=1e-5)
+        np.testing.assert_allclose(z.reshape(-1, 6).std(0), 1, atol=1e-5)
+        # Validation windows are mapped with the training statistics (their mean about
+        # (-5 - 3) / 2), not their own.
+        flat = train_x.reshape(-1, 6).astype(np.float64)
+        expected = (val_x.reshape(-1, 6).mean(0) - flat.mean(0)) / flat.std(0)
+        np.testing.assert_allclose(st(val_x).reshape(-1, 6).mean(0), expected, rtol=1e-5)
+        np.testing.assert_allclose(expected, -4.0, atol=0.4)
+
+
+class Augmentation(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.R = synthetic_recordings(cls.tmp.name)
+        cls.W = windows.make_windows(cls.R, 50, 25)
+        cls.st = windows.Standardizer.fit(cls.W.X)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def test_stda_rotation_turns_each_sensor_vector_in_si_units(self):
+        aug = augmentation.BatchAugmenter("stda", PAPER, self.W, self.st)
+        index = np.arange(len(self.W))
+        k = experiments.grid_index("placement", 1)
+        X, y = aug.batch(k, index, seed=3)
+        raw = X * self.st.std + self.st.mean  # back to m/s^2 and rad/s
+        for block in (slice(0, 3), slice(3, 6)):
+            np.testing.assert_allclose(np.linalg.norm(raw[..., block], axis=-1),
+                                       np.linalg.norm(self.W.X[index][..., block], axis=-1), rtol=1e-4, atol=1e-4)
+        self.assertGreater(np.abs(raw - self.W.X[index]).max(), 1.0)
+        np.testing.assert_array_equal(y, self.W.y[index])
+        self.assertGreater(aug.imukit_seconds, 0.0)
+
+    def test_stda_jitter_is_in_standard_deviations(self):
+        aug = augmentation.BatchAugmenter("stda", PAPER, self.W, self.st)
+        index = np.arange(len(self.W))
+        X, _ = aug.batch(experiments.grid_index("hardware", 4), index, seed=5)   # sigma 0.2
+        noise = X - self.st(self.W.X[index])
+        self.assertAlmostEqual(float(noise.std()), 0.2, delta=0.01)
+
+    def test_ppda_identity_reproduces_the_recording_and_placement_keeps_the_norms(self):
+        src = augmentation.PpdaSource(self.R, 50)
+        aug = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src, resimulate_identity=True)
+        index = np.arange(len(self.W))[::-1].copy()   # scrambled: the batch is regrouped by recording
+        X, y = aug.batch(0, index, seed=1)
+        raw = X * self.st.std + self.st.mean
+        order = index[np.argsort(self.W.recording[index], kind="stable")]
+        np.testing.assert_array_equal(y, self.W.y[order])
+        # The recordings are the scenes' simulations plus 0.05 noise: the re-simulation is the
+        # noiseless part.
+        resid = raw - self.W.X[order]
+        self.assertAlmostEqual(float(resid.std()), 0.05, delta=0.005)
+        # Placement: the sensor turns where it sits, every sample keeps its vectors' norms.
+        Xp, _ = aug.batch(experiments.grid_index("placement", 1), index, seed=2)
+        rawp = Xp * self.st.std + self.st.mean
+        for block in (slice(0, 3), slice(3, 6)):
+            np.testing.assert_allclose(np.linalg.norm(rawp[..., block], axis=-1),
+                                       np.linalg.norm(raw[..., block], axis=-1), rtol=1e-4, atol=1e-3)
+        self.assertGreater(np.abs(rawp - raw).max(), 1.0)
+        # A recording without a fitted scene keeps its real windows (listed last in the batch).
+        scene = self.R[0].scene
+        try:
+            self.R.recordings[0].scene = None
+            X0, y0 = aug.batch(0, index, seed=1)
+            real = self.W.recording[index] == 0
+            self.assertEqual(aug.unfitted_windows, int(real.sum()))
+            np.testing.assert_allclose(X0[-int(real.sum()):], self.st(self.W.X[index[real]]), atol=1e-6)
+        finally:
+            self.R.recordings[0].scene = scene
+
+    def test_window_fidelity_of_a_scene_that_made_the_recording(self):
+        f = experiments.window_fidelity(self.R, 50, 25)
+        self.assertEqual(f["fitted_windows"], len(self.W))
+        for kind in ("accel", "gyro"):
+            # The recordings are the scenes' simulations plus N(0, 0.05^2) per sample.
+            self.assertAlmostEqual(f[kind]["rmse_median"], 0.05, delta=0.005)
+            self.assertGreater(f[kind]["correlation"]["q1"], 0.9)
+            self.assertEqual(f[kind]["windows_peaking_above_real_max"], 0)
+
+    def test_ppda_time_offset_and_scene_sensor_selection(self):
+        with tempfile.TemporaryDirectory() as d:
+            path = write_scene(d, ["left_wrist_watch", "right_wrist_watch"])
+            sim = imukit.read_scene(path).simulate()["right_wrist_watch"]
+            x = np.concatenate([sim.accel, sim.gyro], axis=1)
+            # The recording starts 0.4 s (20 samples) into the scene's motion.
+            R = rf.Recordings("t", ["a"], [rf.Recording("r", "s", x[20:], np.zeros(80, np.int64), 50.0, ["w"],
+                                                        rf.SceneRef(path, ["right_wrist_watch"], 0.4))])
+            src = augmentation.PpdaSource(R, 50)
+            out = np.empty((2, 50, 6), np.float32)
+            src.apply(0, np.array([0, 0]), np.array([0, 30]), 1, PAPER, out)
+            np.testing.assert_allclose(out[0], x[20:70], atol=2e-5)
+            np.testing.assert_allclose(out[1], x[50:100], atol=2e-5)   # 30 + 20 = 50: the last window
+            # The fitted biases are added to every re-simulated sample.
+            R.recordings[0].scene.bias = np.array([[0.1, -0.2, 0.3, 0.01, 0.02, -0.03]])
+            src = augmentation.PpdaSource(R, 50)
+            src.apply(0, np.array([0]), np.array([0]), 1, PAPER, out[:1])
+            np.testing.assert_allclose(out[0] - x[20:70], np.broadcast_to(R[0].scene.bias, (50, 6)), atol=2e-5)
+            bad = rf.Recordings("t", ["a"], [rf.Recording("r", "s", x, np.zeros(100, np.int64), 50.0, ["w"],
+                                                          rf.SceneRef(path, ["chest"]))])
+            with self.assertRaisesRegex(ValueError, r"no sensor \['chest'\]"):
+                augmentation.PpdaSource(bad, 50).augmenter(0)
+            slow = rf.Recordings("t", ["a"], [rf.Recording("r", "s", x, np.zeros(100, np.int64), 100.0, ["w"],
+                                                           rf.SceneRef(path, ["left_wrist_watch"]))])
+            with self.assertRaisesRegex(ValueError, "samples at 50 Hz, recording r at 100 Hz"):
+                augmentation.PpdaSource(slow, 50).augmenter(0)
+
+    def test_arms_with_the_same_identity_mass_augment_the_same_batches(self):
+        a = experiments.parse_arm("stda:amplitude_scaling")
+        b = experiments.parse_arm("ppda:hardware:4")
+        sa, sb = augmentation.SubPolicySampler(a.probabilities, 7), augmentation.SubPolicySampler(b.probabilities, 7)
+        da = [sa.draw()[0] == 0 for _ in range(400)]
+        db = [sb.draw()[0] == 0 for _ in range(400)]
+        self.assertEqual(da, db)
+        self.assertAlmostEqual(np.mean(da), 0.5, delta=0.075)
+        self.assertEqual(a.name, "stda:amplitude_scaling:2")
+        self.assertEqual(PAPER.describe()[experiments.grid_index("speed_scaling", 3)],
+                         "amplitude=identity speed=scaling([0.75,1.5]) placement=identity hardware=identity")
+        with self.assertRaisesRegex(ValueError, "unknown arm 'ppda:twist'"):
+            experiments.parse_arm("ppda:twist")
+
+
+class LearnedPolicy(unittest.TestCase):
+    def test_gumbel_draws_follow_the_softmax_and_the_gate_is_straight_through(self):
+        g = augmentation.GumbelPolicy(3, seed=4)
+        with torch.no_grad():
+            g.logits.copy_(torch.tensor([0.0, np.log(3.0), -50.0]))
+        counts = np.bincount([g.draw()[0] for _ in range(4000)], minlength=3)
+        self.assertAlmostEqual(counts[1] / 4000, 0.75, delta=3 * np.sqrt(0.75 * 0.25 / 4000))
+        self.assertEqual(counts[2], 0)
+        k, noise = g.draw()
+        gate = g.gate(k, noise)
+        self.assertEqual(float(gate), 1.0)
+        gate.backward()
+        soft = torch.softmax(g.logits.detach() + noise, 0)
+        expected = soft[k] * (torch.eye(3)[k] - soft)
+        np.testing.assert_allclose(g.logits.grad.numpy(), expected.numpy(), atol=1e-6)
+
+    def test_the_finite_difference_hypergradient_matches_exact_second_order_autograd(self):
+        torch.manual_seed(0)
+        torch.set_default_dtype(torch.float64)
+        try:
+            model = torch.nn.Sequential(torch.nn.Linear(5, 4), torch.nn.Tanh(), torch.nn.Linear(4, 3))
+            logits = torch.randn(6, requires_grad=True)
+            noise = torch.randn(6)
+            X, y = torch.randn(16, 5), torch.randint(0, 3, (16,))
+            Xv, yv = torch.randn(16, 5), torch.randint(0, 3, (16,))
+            k, xi = 2, 0.1
+
+            def train_input():
+                soft = torch.softmax(logits + noise, 0)
+                return X * (soft[k] - soft[k].detach() + 1.0)
+
+            params = list(model.parameters())
+            loss = torch.nn.functional.cross_entropy(model(train_input()), y)
+            grads = torch.autograd.grad(loss, params)
+            approx = train.policy_hypergradient(model, train_input, y, logits, grads, Xv, yv, xi)
+            # Exact: differentiate L_val(w - xi grad_w L_train(w, a)) through the gradient.
+            loss = torch.nn.functional.cross_entropy(model(train_input()), y)
+            g = torch.autograd.grad(loss, params, create_graph=True)
+            w1 = [p - xi * gi for p, gi in zip(params, g)]
+            h = torch.tanh(Xv @ w1[0].T + w1[1])
+            lv = torch.nn.functional.cross_entropy(h @ w1[2].T + w1[3], yv)
+            exact = torch.autograd.grad(lv, logits)[0]
+            self.assertGreater(float(exact.abs().max()), 1e-6)
+            np.testing.assert_allclose(approx.numpy(), exact.numpy(), rtol=2e-3, atol=1e-9)
+            # The weights are restored.
+            self.assertEqual(float(sum((p - q).abs().sum() for p, q in zip(params, model.parameters()))), 0.0)
+        finally:
+            torch.set_default_dtype(torch.float32)
+
+
+class Experiments(unittest.TestCase):
+    def test_splits(self):
+        subjects = [f"s{i}" for i in range(1, 9)]
+        loso = experiments.loso_splits(subjects)
+        self.assertEqual(len(loso), 8)
+        self.assertEqual(loso[7], ("s8", "s1", ["s2", "s3", "s4", "s5", "s6", "s7"]))
+        runs = experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], [1, 2, 4, 6], 10)
+        by_n = {n: [r for r in runs if r["n_train"] == n] for n in (1, 2, 4, 6)}
+        self.assertEqual([len(by_n[n]) for n in (1, 2, 4, 6)], [10, 10, 10, 8])
+        four = experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], [1, 6], 4)
+        self.assertEqual([r["test"] for r in four], ["s1", "s2", "s3", "s4"] * 2)
+        for r in runs:
+            self.assertEqual(len(r["train"]), r["n_train"])
+            self.assertNotIn(r["test"], r["train"])
+            self.assertNotIn(r["val"], r["train"])
+            self.assertNotEqual(r["test"], r["val"])
+
+    def test_command_end_to_end_and_resume(self):
+        with tempfile.TemporaryDirectory() as d:
+            synthetic_recordings(os.path.join(d, "rec"))
+            out = os.path.join(d, "out")
+            argv = ["one-at-a-time", "--recordings", os.path.join(d, "rec"), "--out", out, "--tiny",
+                    "--epochs", "1", "--seeds", "1", "--models", "deepconvlstm", "--jobs", "1",
+                    "--arms", "baseline,stda:placement,ppda:placement,ppda:all:learned"]
+            with contextlib.redirect_stdout(io.StringIO()):
+                har_main(argv)
+            doc = load_json(os.path.join(out, "one_at_a_time.json"))
+            self.assertEqual(len(doc["runs"]), 3 * 4)
+            ppda = [r for r in doc["runs"] if r["arm"] == "ppda:placement:1"]
+            self.assertTrue(all(r["augmented_windows"] > 0 and r["imukit_seconds"] > 0 for r in ppda))
+            learned = [r for r in doc["runs"] if r["arm"] == "ppda:all:learned"]
+            self.assertTrue(all(len(r["learned_top"]) == 10 for r in learned))
+            with open(os.path.join(out, "one_at_a_time.md"), encoding="utf-8") as f:
+                md = f.read()
+            self.assertIn("| rotation / placement |", md)
+            self.assertTrue(os.path.getsize(os.path.join(out, "one_at_a_time.png")) > 1000)
+            # A killed run continues: drop two results, run again with two jobs.
+            doc["runs"] = doc["runs"][:-2]
+            with open(os.path.join(out, "one_at_a_time.json"), "w", encoding="utf-8") as f:
+                json.dump(doc, f)
+            log = io.StringIO()
+            with contextlib.redirect_stdout(log):
+                har_main(argv[:-3] + ["2"] + argv[-2:])
+            self.assertIn("10 of 12 runs already done, 2 to go, 2 job(s)", log.getvalue())
+            self.assertEqual(len(load_json(os.path.join(out, "one_at_a_time.json"))["runs"]), 12)
+            # sim-only shares the baseline runs (same arm, split, seed and settings).
+            log = io.StringIO()
+            with contextlib.redirect_stdout(log):
+                har_main(["sim-only"] + argv[1:argv.index("--seeds")] + argv[argv.index("--seeds") + 2:-2])
+            self.assertIn("3 run(s) taken from", log.getvalue())
+            sim = load_json(os.path.join(out, "sim_only.json"))
+            self.assertEqual(sorted(r["arm"] for r in sim["runs"]), ["baseline"] * 3 + ["sim:identity"] * 3)
+            self.assertTrue(all(r["augmented_windows"] > 0 for r in sim["runs"] if r["arm"] == "sim:identity"))
+            with self.assertRaisesRegex(ValueError, "written with other settings"):
+                with contextlib.redirect_stdout(io.StringIO()):
+                    har_main(argv[:argv.index("--epochs") + 1] + ["2"] + argv[argv.index("--epochs") + 2:])
+
+
+class UtdMhadSmoke(unittest.TestCase):
+    """The pipeline on real data, small: subject 1 trains, subject 2 validates and tests."""
+
+    def test_two_subjects_two_epochs_tiny_models_learn_better_than_chance(self):
+        root = os.path.dirname(data_file("utd_mhad", "README.md"))
+        R = utd_mhad.load(root, subjects=[1, 2])
+        self.assertEqual(len(R), 215)
+        self.assertEqual(R.subjects, ["s1", "s2"])
+        self.assertEqual(R[0].sensors, ["right_wrist"])
+        settings = experiments.Settings(window=50, stride=25, epochs=2, patience=0, batch_size=16, tiny=True)
+        experiments._init_worker(R, settings)
+        for model, arm in (("deepconvlstm", "baseline"), ("attend", "stda:speed_warping")):
+            r = experiments.run_one({"arm": arm, "model": model, "test": "s2", "val": "s2",
+                                     "train": ["s1"], "seed": 0})
+            chance = 1.0 / 27
+            self.assertGreater(r["train_acc"], 2 * chance, (model, arm, r["train_acc"]))
+            self.assertEqual(r["epochs_run"], 2)
+            self.assertEqual(r["windows"], {"train": 651, "val": 504, "test": 504})
+            if arm != "baseline":
+                self.assertGreater(r["augmented_windows"], 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,127 @@
+// Bad input the simulator's readers and identification refuse with a clear error instead of
+// undefined behaviour, a hang or absurd output (issue 16).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/error.hpp"
+#include "sim/bvh.hpp"
+#include "sim/identify.hpp"
+#include "sim/scene.hpp"
+
+namespace imukit::sim {
+namespace {
+
+template <typename Fn>
+void expect_error(Fn fn, std::initializer_list<std::string> parts) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected an imukit::Error";
+  } catch (const Error& e) {
+    for (const std::string& p : parts) {
+      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << p << "'";
+    }
+  }
+}
+
+std::string bvh(const std::string& frame_time, const std::string& frames,
+                const std::string& offset = "0 1 0") {
+  return "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition "
+         "Zrotation Yrotation Xrotation\n  JOINT Spine\n  {\n    OFFSET " +
+         offset +
+         "\n    CHANNELS 3 Zrotation Yrotation Xrotation\n    End Site\n    {\n      OFFSET 0 1 "
+         "0\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: " +
+         frame_time + "\n" + frames;
+}
+
+const std::string kFrames = "0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n";
+
+TEST(BadInput, BvhFrameRateIsBoundedLikeASensorRate) {
+  // 1e-12 s gave rows all at t = 0 and values near 1e20; 1e-18 s never finished.
+  for (const std::string dt : {"1e-12", "1e-18", "1e300", "0.0000001"}) {
+    SCOPED_TRACE(dt);
+    expect_error([&] { parse_bvh(bvh(dt, kFrames), "f.bvh"); },
+                 {"f.bvh:18:13: frame time", "is outside [1e-06, 3600] s"});
+  }
+  EXPECT_NO_THROW(parse_bvh(bvh("0.000001", kFrames), "f.bvh"));
+}
+
+TEST(BadInput, BvhScaleAndLengthsMustBePhysical) {
+  expect_error([&] { parse_bvh(bvh("0.01", kFrames), "f.bvh", {.scale = 1e300}); },
+               {"f.bvh: the BVH scale must be in [1e-05, 100]"});
+  expect_error([&] { parse_bvh(bvh("0.01", kFrames), "f.bvh", {.scale = std::nan("")}); },
+               {"BVH scale"});
+  expect_error([&] { parse_bvh(bvh("0.01", "1e300 0 0 0 0 0 0 0 0\n" + kFrames), "f.bvh"); },
+               {"the root position of frame 0", "beyond 10000 m"});
+  expect_error([&] { parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh"); },
+               {"the OFFSET of 'Spine'", "beyond 10000 m at scale 1"});
+  // The same file in centimetres is fine.
+  EXPECT_NO_THROW(parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh", {.scale = 0.01}));
+}
+
+TEST(BadInput, BvhTokensAreQuotedShortAndEscaped) {
+  // The first line of /etc/passwd used to be printed whole as the token found.
+  expect_error([] { parse_bvh("root:x:0:0:root:/root:/bin/bash\n", "passwd"); },
+               {"passwd:1:1: expected 'HIERARCHY', got 'root:x:0:0:root:/root:/b...' (31 bytes)"});
+  expect_error([] { parse_bvh("\x01\x02\xff", "bin"); }, {"got '\\x01\\x02\\xFF'"});
+}
+
+std::string procedural_scene(const std::string& motion_extra, const std::string& simulation) {
+  return R"({"schema": "imukit.scene/1", "motion": {"procedural": {"rate_hz": 100,
+    "duration_s": 1)" +
+         motion_extra + R"(}}, "simulation": {)" + simulation +
+         R"(}, "sensors": [{"preset": "left_wrist_watch"}]})";
+}
+
+TEST(BadInput, SceneSeedsAreWholeNumbersInRange) {
+  // "seed": -1 was cast to uint64 (undefined behaviour under UBSan).
+  expect_error([] { parse_scene(procedural_scene(R"(, "seed": -1)", ""), "s.json", ""); },
+               {"s.json: motion.procedural.seed: expected a whole number in [0, 2^53], got -1"});
+  expect_error([] { parse_scene(procedural_scene("", R"("seed": 1.5)"), "s.json", ""); },
+               {"simulation.seed"});
+  expect_error([] { parse_scene(procedural_scene("", R"("seed": 1e300)"), "s.json", ""); },
+               {"simulation.seed"});
+  const Scene ok =
+      parse_scene(procedural_scene(R"(, "seed": 9007199254740992)", R"("seed": 0)"), "s.json", "");
+  EXPECT_EQ(ok.seed, 0u);
+}
+
+TEST(BadInput, SceneMagnitudesMustBePhysical) {
+  expect_error(
+      [] { parse_scene(procedural_scene("", R"("gravity": [0, 0, -1e300])"), "s.json", ""); },
+      {"simulation.gravity", "at most 100 m/s^2"});
+  expect_error(
+      [] {
+        parse_scene(R"({"schema": "imukit.scene/1", "motion": {"procedural": {"rate_hz": 1e300,
+          "duration_s": 1}}, "sensors": [{"preset": "left_wrist_watch"}]})",
+                    "s.json", "");
+      },
+      {"motion.procedural.rate_hz"});
+  expect_error(
+      [] { parse_scene(procedural_scene(R"(, "amplitude_rad": 1e300)", ""), "s.json", ""); },
+      {"motion.procedural.amplitude_rad"});
+}
+
+TEST(BadInput, IdentifyRefusesANonFiniteTimeOffset) {
+  // A NaN offset overflowed an int64 conversion (UBSan) and printed INT64_MIN.
+  const Body body = Body::default_humanoid();
+  Motion motion(100.0, body.size(), 200);
+  for (int64_t f = 0; f < 200; ++f) motion.root_translation(f) = Eigen::Vector3d(0, 0, 1);
+  ImuSeries imu = ImuSeries::with_channels(100, true, true);
+  for (std::size_t i = 0; i < imu.size(); ++i) imu.t[i] = static_cast<TimeNs>(i) * 10'000'000;
+  imu.accel.setZero();
+  imu.gyro.setZero();
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), 1e300, -1e300}) {
+    IdentifyOptions o;
+    o.joint = 0;
+    o.coarse_time_offset = false;
+    o.time_offset_init_s = bad;
+    expect_error([&] { identify(body, motion, imu, o); }, {"time offsets must be finite"});
+  }
+}
+
+}  // namespace
+}  // namespace imukit::sim
