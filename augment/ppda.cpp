@@ -14,6 +14,7 @@
 
 #include "core/error.hpp"
 #include "core/hardware_model.hpp"
+#include "core/isa.hpp"
 #include "core/lane_math.hpp"
 #include "core/so3.hpp"
 #include "core/time.hpp"
@@ -86,10 +87,8 @@ double uniform_in(Rng& rng, double lo, double hi) {
 // itself, and near it sin(s h) / |v| -> s / w stays accurate. The hot loop of amplitude
 // augmentation, so built from core/lane_math's branch-free functions: it vectorises.
 // (core's scale_rotation does the same through so3_log and so3_exp.)
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void scale_angles(double* __restrict q, const double* __restrict s, std::size_t n) {
+[[gnu::always_inline]] inline void scale_angles_kernel(double* __restrict q,
+                                                       const double* __restrict s, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
     const double sign = q[4 * i + 3] < 0.0 ? -1.0 : 1.0;
     const double x = sign * q[4 * i], y = sign * q[4 * i + 1], z = sign * q[4 * i + 2];
@@ -103,6 +102,10 @@ void scale_angles(double* __restrict q, const double* __restrict s, std::size_t 
     q[4 * i + 3] = sc.cos;
   }
 }
+// Built for the baseline, AVX2 and AVX-512 (core/isa.hpp): the loop vectorises to the machine's
+// width, with the same bits in every variant.
+IMUKIT_ISA_VARIANTS(void, scale_angles, scale_angles_kernel,
+                    (double* q, const double* s, std::size_t n), (q, s, n))
 
 // The window's rotations of one joint: for window frame j, the 4-point Lagrange combination
 // (weights w[4j..4j+3]) of the source rotations s0[j] .. s0[j]+3, each sign-aligned with the
@@ -140,12 +143,9 @@ constexpr std::size_t kInterpolationTile = 64;
   }
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
-void interpolate_rotations(const double* src, std::size_t stride, const int64_t* ref,
-                           const int64_t* s0, const double* w, const double* exact, double* dst,
-                           std::size_t n) {
+[[gnu::always_inline]] inline void interpolate_rotations_kernel(
+    const double* src, std::size_t stride, const int64_t* ref, const int64_t* s0, const double* w,
+    const double* exact, double* dst, std::size_t n) {
   // Unchanged timing: every frame is a source frame, in order, so the rotations are copied.
   bool copy = true;
   for (std::size_t j = 0; j < n && copy; ++j)
@@ -173,6 +173,87 @@ void interpolate_rotations(const double* src, std::size_t stride, const int64_t*
     interpolate_tile(st, rf, w + 4 * j0, exact + j0, dst + 4 * j0, m);
   }
 }
+IMUKIT_ISA_VARIANTS(void, interpolate_rotations, interpolate_rotations_kernel,
+                    (const double* src, std::size_t stride, const int64_t* ref, const int64_t* s0,
+                     const double* w, const double* exact, double* dst, std::size_t n),
+                    (src, stride, ref, s0, w, exact, dst, n))
+
+// A sensor's signals from its carriers' simulated blocks (x y z per sample): the specific force
+// at its position, f0 + sum_k p_k (f_k - f0) (affine in the position; force_along[k] null where
+// p_k = 0), and the angular rate, both turned into the sensor's axes, plus the drawn biases and
+// white noise (6 standard normals per sample, scaled by sigma) when noise is given.
+struct SensorSignalArgs {
+  std::size_t n = 0;
+  const double* force = nullptr;
+  const double* force_along[3] = {};
+  double offset[3] = {};
+  const double* rate = nullptr;
+  double R_sensor_joint[9] = {};  // row-major
+  const double* noise = nullptr;
+  double bias[6] = {};  // accelerometer, gyroscope
+  double sigma[2] = {};
+  double* f = nullptr;
+  double* w = nullptr;
+};
+
+[[gnu::always_inline]] inline void sensor_signal_kernel(const SensorSignalArgs& a) {
+  const double* M = a.R_sensor_joint;
+  const double* __restrict f0 = a.force;
+  const double* __restrict rate = a.rate;
+  double* __restrict f = a.f;
+  double* __restrict w = a.w;
+  for (std::size_t i = 0; i < 3 * a.n; ++i) f[i] = f0[i];
+  for (int k = 0; k < 3; ++k) {
+    const double* __restrict fk = a.force_along[k];
+    if (fk == nullptr) continue;
+    for (std::size_t i = 0; i < 3 * a.n; ++i) f[i] += a.offset[k] * (fk[i] - f0[i]);
+  }
+  for (std::size_t i = 0; i < a.n; ++i) {
+    const double x = f[3 * i], y = f[3 * i + 1], z = f[3 * i + 2];
+    const double u = rate[3 * i], v = rate[3 * i + 1], t = rate[3 * i + 2];
+    for (int r = 0; r < 3; ++r) {
+      f[3 * i + r] = (M[3 * r] * x + M[3 * r + 1] * y) + M[3 * r + 2] * z;
+      w[3 * i + r] = (M[3 * r] * u + M[3 * r + 1] * v) + M[3 * r + 2] * t;
+    }
+  }
+  if (a.noise == nullptr) return;
+  const double* __restrict nz = a.noise;
+  for (std::size_t i = 0; i < a.n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      f[3 * i + k] += a.bias[k] + a.sigma[0] * nz[6 * i + k];
+      w[3 * i + k] += a.bias[3 + k] + a.sigma[1] * nz[6 * i + 3 + k];
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, sensor_signal, sensor_signal_kernel, (const SensorSignalArgs& a), (a))
+
+// n samples of one sensor (f, w: x y z per sample) into its 6 channels of a batch whose rows are
+// `stride` values apart: doubles into out_d, or floats into out_f.
+[[gnu::always_inline]] inline void write_channels_kernel(const double* __restrict f,
+                                                         const double* __restrict w, std::size_t n,
+                                                         std::size_t stride,
+                                                         double* __restrict out_d,
+                                                         float* __restrict out_f) {
+  if (out_d != nullptr) {
+    for (std::size_t i = 0; i < n; ++i) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        out_d[i * stride + k] = f[3 * i + k];
+        out_d[i * stride + 3 + k] = w[3 * i + k];
+      }
+    }
+    return;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      out_f[i * stride + k] = static_cast<float>(f[3 * i + k]);
+      out_f[i * stride + 3 + k] = static_cast<float>(w[3 * i + k]);
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, write_channels, write_channels_kernel,
+                    (const double* f, const double* w, std::size_t n, std::size_t stride,
+                     double* out_d, float* out_f),
+                    (f, w, n, stride, out_d, out_f))
 
 }  // namespace
 
@@ -203,6 +284,8 @@ struct PpdaAugmenter::Impl {
     std::vector<double> scale;
     std::vector<int64_t> ref, s0;  // per window frame (interpolate_rotations)
     std::vector<double> weights, exact;
+    Eigen::Matrix3Xd f, w;      // one sensor's signals
+    std::vector<double> noise;  // its white-noise draws
     // The amplitude spline is linear in its knot values: column m holds the curve through the
     // unit knot vector e_m at the window frames, so a joint's curve is one matrix-vector product.
     int basis_knots = -1;
@@ -387,6 +470,15 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   const double* translation = nullptr;
   if (direct_motion != nullptr) {
     translation = direct_motion->translation_data() + 3 * lo;
+    // Every joint's span of the motion, requested now: a window is somewhere else in a motion
+    // larger than the caches, and waiting for each line as the interpolation reaches it was a
+    // third of its time.
+    const std::size_t bytes = static_cast<std::size_t>(hi - lo) * 4 * sizeof(double);
+    for (std::size_t k = 0; k < J; ++k) {
+      const auto* p = reinterpret_cast<const char*>(
+          direct_motion->rotation_data(static_cast<std::size_t>(plan.joints[k])) + lo);
+      for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b, 0, 2);
+    }
   } else {
     motion->read(lo, hi - lo, plan.joints, wk.chunk);
     stride = 4 * J;
@@ -528,19 +620,23 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     const std::size_t cidx = carriers.fixed ? s : carriers.index.at(pl.joint);
     const sim::SensorBlock& b0 = wk.blocks[carriers.fixed ? s : 4 * cidx];
     const Matrix3d R_sensor_joint = pl.q_joint_sensor.normalized().toRotationMatrix().transpose();
-    // Specific force at p: f0 + sum_k p_k (f_k - f0) (affine in the position), in joint axes.
-    Eigen::Matrix3Xd f(3, static_cast<Eigen::Index>(T)), w(3, static_cast<Eigen::Index>(T));
-    if (carriers.fixed) f = b0.specific_force;
+    SensorSignalArgs sig;
+    sig.n = T;
+    sig.force = b0.specific_force.data();
+    sig.rate = b0.angular_rate.data();
     for (int k = 0; k < 3 && !carriers.fixed; ++k) {
       const double pk = pl.p_joint_sensor[k];
-      if (k == 0) f = b0.specific_force;
-      if (pk != 0.0)
-        f += pk * (wk.blocks[4 * cidx + 1 + static_cast<std::size_t>(k)].specific_force -
-                   b0.specific_force);
+      if (pk == 0.0) continue;
+      sig.offset[k] = pk;
+      sig.force_along[k] =
+          wk.blocks[4 * cidx + 1 + static_cast<std::size_t>(k)].specific_force.data();
     }
-    f = R_sensor_joint * f;
-    w = R_sensor_joint * b0.angular_rate;
-
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) sig.R_sensor_joint[3 * r + k] = R_sensor_joint(r, k);
+    wk.f.resize(3, static_cast<Eigen::Index>(T));
+    wk.w.resize(3, static_cast<Eigen::Index>(T));
+    sig.f = wk.f.data();
+    sig.w = wk.w.data();
     const HardwareOp& hw = sub.hardware;
     if (hw.kind == HardwareOp::Kind::ranges) {
       Vector3d ba, bg;
@@ -550,16 +646,17 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
         log->accel_bias.push_back(ba);
         log->gyro_bias.push_back(bg);
       }
-      std::vector<double> nz(6 * T);
-      rng.fill_normal(nz);
-      for (std::size_t i = 0; i < T; ++i) {
-        const auto ii = static_cast<Eigen::Index>(i);
-        for (int k = 0; k < 3; ++k) {
-          f(k, ii) += ba[k] + hw.accel_noise * nz[6 * i + static_cast<std::size_t>(k)];
-          w(k, ii) += bg[k] + hw.gyro_noise * nz[6 * i + 3 + static_cast<std::size_t>(k)];
-        }
-      }
-    } else if (hw.kind == HardwareOp::Kind::profile) {
+      wk.noise.resize(6 * T);
+      rng.fill_normal(wk.noise);
+      sig.noise = wk.noise.data();
+      for (int k = 0; k < 3; ++k) sig.bias[k] = ba[k], sig.bias[3 + k] = bg[k];
+      sig.sigma[0] = hw.accel_noise;
+      sig.sigma[1] = hw.gyro_noise;
+    }
+    sensor_signal(sig);
+    Eigen::Matrix3Xd& f = wk.f;
+    Eigen::Matrix3Xd& w = wk.w;
+    if (hw.kind == HardwareOp::Kind::profile) {
       HardwareModel model = to_hardware_model(*hw.profile);
       const auto perturb = [&](TriadModel& t, const std::optional<SensorProfile>& sp) {
         // Noise parameters drawn from their stated 1-sigma uncertainties (kept >= 0).
@@ -590,19 +687,8 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       gen.apply_gyroscope(w, truth);
       gen.apply_accelerometer(f);
     }
-    for (std::size_t i = 0; i < T; ++i) {
-      const auto ii = static_cast<Eigen::Index>(i);
-      const std::size_t o = i * C + 6 * s;
-      for (int k = 0; k < 3; ++k) {
-        if (out_d != nullptr) {
-          out_d[o + static_cast<std::size_t>(k)] = f(k, ii);
-          out_d[o + 3 + static_cast<std::size_t>(k)] = w(k, ii);
-        } else {
-          out_f[o + static_cast<std::size_t>(k)] = static_cast<float>(f(k, ii));
-          out_f[o + 3 + static_cast<std::size_t>(k)] = static_cast<float>(w(k, ii));
-        }
-      }
-    }
+    write_channels(f.data(), w.data(), T, C, out_d != nullptr ? out_d + 6 * s : nullptr,
+                   out_f != nullptr ? out_f + 6 * s : nullptr);
   }
 }
 

@@ -5,6 +5,8 @@
 //    the whole grid, and under identity; on 1 and 2 threads. Baseline in the same run: the plain
 //    simulator evaluating the same 256 windows (spline method, all 9 sensors, no augmentation).
 //    The reference simulator needs 0.24 s for the simulation alone (seed-summary section 2).
+//    The one-thread batches and the baseline run once per instruction-set variant of the kernels,
+//    with the speed-ups over the baseline variant printed at the end (bench/isa_compare.hpp).
 //  * STDA: each method on a 256 x 100 x 12 float batch.
 #include <benchmark/benchmark.h>
 
@@ -14,6 +16,7 @@
 #include "augment/policy.hpp"
 #include "augment/ppda.hpp"
 #include "augment/stda.hpp"
+#include "bench/isa_compare.hpp"
 #include "sim/placement.hpp"
 #include "sim/scene.hpp"
 
@@ -88,13 +91,9 @@ void BM_PpdaBatch(benchmark::State& state) {
 }
 BENCHMARK(BM_PpdaBatch)
     ->ArgNames({"threads", "policy", "fd"})
-    ->Args({1, 0, 0})
-    ->Args({1, 1, 0})
     ->Args({1, 2, 0})
     ->Args({2, 1, 0})
     ->Args({2, 2, 0})
-    ->Args({1, 0, 1})
-    ->Args({1, 1, 1})
     ->Args({2, 1, 1})
     ->Args({1, 10 + 720, 1})  // amplitude warping only
     ->Args({1, 10 + 80, 1})   // speed warping only
@@ -126,11 +125,6 @@ void BM_SimulatorSameWindows(benchmark::State& state) {
   }
   report(state);
 }
-BENCHMARK(BM_SimulatorSameWindows)
-    ->ArgName("fd")
-    ->DenseRange(0, 1)
-    ->Unit(benchmark::kMillisecond)
-    ->UseRealTime();
 
 void BM_Stda(benchmark::State& state) {
   const auto method = static_cast<StdaMethod>(state.range(0));
@@ -160,6 +154,26 @@ void BM_Stda(benchmark::State& state) {
 }
 BENCHMARK(BM_Stda)->DenseRange(1, 6)->Unit(benchmark::kMicrosecond);
 
+// Once per instruction-set variant of the kernels (bench/isa_compare.hpp): the baseline
+// simulation, identity and the heaviest sub-policy on one thread.
+void register_per_isa_benchmarks() {
+  imukit::bench::register_per_isa("BM_PpdaBatch", BM_PpdaBatch, [](auto* b) {
+    b->ArgNames({"threads", "policy", "fd"})
+        ->Args({1, 0, 0})
+        ->Args({1, 1, 0})
+        ->Args({1, 0, 1})
+        ->Args({1, 1, 1})
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  });
+  imukit::bench::register_per_isa("BM_SimulatorSameWindows", BM_SimulatorSameWindows, [](auto* b) {
+    b->ArgName("fd")->DenseRange(0, 1)->Unit(benchmark::kMillisecond)->UseRealTime();
+  });
+}
+
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  register_per_isa_benchmarks();
+  return imukit::bench::run_with_isa_ratios(argc, argv);
+}

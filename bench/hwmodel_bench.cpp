@@ -1,6 +1,7 @@
 // hwmodel benchmarks (docs/benchmarks.md, section "hwmodel"):
 // - Allan deviation of 6 axes x 7.2 M samples (10 h at 200 Hz), 10 tau per decade up to n/4,
-//   with one and two threads, ADEV only and all three deviations;
+//   with one and two threads, ADEV only and all three deviations; ADEV on one thread once per
+//   instruction-set variant of the lane kernels, with the speed-ups over the baseline variant;
 // - the memory bandwidth of this machine for the same access pattern (plain streaming reads),
 //   to say how close the Allan sweep comes to it;
 // - the noise-model fit (GLS) of one axis, and the multi-position calibration of the imu_tk
@@ -23,7 +24,9 @@
 #include <thread>
 #include <vector>
 
+#include "bench/isa_compare.hpp"
 #include "core/column_text.hpp"
+#include "core/isa.hpp"
 #include "core/npy.hpp"
 #include "core/rng.hpp"
 #include "hwmodel/allan.hpp"
@@ -80,7 +83,6 @@ void BM_AllanDeviation6Axes(benchmark::State& state) {
 }
 BENCHMARK(BM_AllanDeviation6Axes)
     ->ArgNames({"threads", "mdev_hdev"})
-    ->Args({1, 0})
     ->Args({2, 0})
     ->Args({2, 1})
     ->Unit(benchmark::kMillisecond)
@@ -102,14 +104,9 @@ BENCHMARK(BM_AllanDeviationOneAxis)->Unit(benchmark::kMillisecond)->Iterations(3
 
 // Streaming read of a buffer the size of the Allan sweep's cumulative sums (6 x (n+1) doubles),
 // with one or two threads: the bandwidth the sweep is bound by. The sum runs in 24 independent
-// lanes (whole vector registers, in the AVX-512 / AVX2 / baseline variant the CPU supports, as
-// the Allan kernels): a single scalar chain would measure the adder's latency instead.
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define IMUKIT_BENCH_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define IMUKIT_BENCH_CLONES
-#endif
-IMUKIT_BENCH_CLONES double stream_sum(const double* p, size_t count) {
+// lanes (whole vector registers, in the instruction-set variant the Allan kernels run,
+// core/isa.hpp): a single scalar chain would measure the adder's latency instead.
+[[gnu::always_inline]] inline double stream_sum_kernel(const double* p, size_t count) {
   constexpr size_t kLanes = 24;
   double lanes[kLanes] = {};
   for (size_t i = 0; i + kLanes <= count; i += kLanes)
@@ -118,6 +115,8 @@ IMUKIT_BENCH_CLONES double stream_sum(const double* p, size_t count) {
   for (double v : lanes) s += v;
   return s;
 }
+IMUKIT_ISA_VARIANTS(double, stream_sum, stream_sum_kernel, (const double* p, size_t count),
+                    (p, count))
 
 std::vector<double>& bandwidth_buffer() {
   static std::vector<double> buf(size_t(6 * (kSamples + 1)), 1.0);
@@ -325,9 +324,16 @@ int compare_with_numpy() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return compare_with_numpy();
+  // ADEV of the 6 axes on one thread, once per instruction-set variant of the lane kernels, with
+  // the speed-ups over the baseline variant (bench/isa_compare.hpp).
+  imukit::bench::register_per_isa("BM_AllanDeviation6Axes", BM_AllanDeviation6Axes, [](auto* b) {
+    b->ArgNames({"threads", "mdev_hdev"})
+        ->Args({1, 0})
+        ->Unit(benchmark::kMillisecond)
+        ->Iterations(3)
+        ->UseRealTime();
+  });
+  const int status = imukit::bench::run_with_isa_ratios(argc, argv);
+  const int numpy = compare_with_numpy();
+  return status != 0 ? status : numpy;
 }

@@ -2,7 +2,8 @@
 //  * the run time vs error table of the three derivative methods at 25/50/100/200 Hz on a smooth
 //    synthetic arm motion with analytic truth (printed before the timings);
 //  * throughput on the reference's 12-joint body with 2 wrist sensors at 100 Hz, and on the
-//    21-joint default humanoid with 9 sensors;
+//    21-joint default humanoid with 9 sensors, once per instruction-set variant of the kernels
+//    with the speed-ups over the baseline variant (bench/isa_compare.hpp);
 //  * plan pruning: one wrist sensor on a 25-joint body vs on the 6-joint chain it needs, and
 //    accelerometer only;
 //  * peak memory of a 60-minute 100 Hz scene, streamed (`--memory-streamed`) or with the motion
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <numbers>
 
+#include "bench/isa_compare.hpp"
 #include "sim/scene.hpp"
 #include "sim/simulator.hpp"
 
@@ -195,12 +197,6 @@ void BM_Reference12Joints2Wrists100Hz3min(benchmark::State& state) {
             {sensor("RWR", 4, Vector3d(0.25, 0, 0.03)), sensor("LWR", 7, Vector3d(-0.25, 0, 0.03))},
             static_cast<DerivativeMethod>(state.range(0)), 18000);
 }
-BENCHMARK(BM_Reference12Joints2Wrists100Hz3min)
-    ->Arg(0)
-    ->Arg(1)
-    ->Arg(2)
-    ->ArgName("method_fd0_spline1_reference2")
-    ->Unit(benchmark::kMillisecond);
 
 void BM_FullBody9Sensors100Hz3min(benchmark::State& state) {
   const Body b = Body::default_humanoid();
@@ -215,12 +211,22 @@ void BM_FullBody9Sensors100Hz3min(benchmark::State& state) {
   }
   run_whole(state, b, s, static_cast<DerivativeMethod>(state.range(0)), 18000);
 }
-BENCHMARK(BM_FullBody9Sensors100Hz3min)
-    ->Arg(0)
-    ->Arg(1)
-    ->Arg(2)
-    ->ArgName("method_fd0_spline1_reference2")
-    ->Unit(benchmark::kMillisecond);
+
+// The throughput benchmarks run once per instruction-set variant of the kernels (baseline, AVX2,
+// AVX-512 as supported), with each variant's speed-up over the baseline printed at the end.
+void register_throughput_benchmarks() {
+  const auto methods = [](benchmark::internal::Benchmark* b) {
+    b->Arg(0)
+        ->Arg(1)
+        ->Arg(2)
+        ->ArgName("method_fd0_spline1_reference2")
+        ->Unit(benchmark::kMillisecond);
+  };
+  imukit::bench::register_per_isa("BM_Reference12Joints2Wrists100Hz3min",
+                                  BM_Reference12Joints2Wrists100Hz3min, methods);
+  imukit::bench::register_per_isa("BM_FullBody9Sensors100Hz3min", BM_FullBody9Sensors100Hz3min,
+                                  methods);
+}
 
 // --- plan pruning -----------------------------------------------------------------------------
 
@@ -326,9 +332,6 @@ int main(int argc, char** argv) {
     }
   }
   print_accuracy_table();
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-  return 0;
+  register_throughput_benchmarks();
+  return imukit::bench::run_with_isa_ratios(argc, argv);
 }

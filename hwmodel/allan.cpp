@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/isa.hpp"
 #include "hwmodel/chi_square.hpp"
 
 namespace imukit::hwmodel {
@@ -150,15 +151,10 @@ template <int Order, bool Prefetch>
 }
 
 // The small factors' kernel (one chunk) and a large factor's strided sweep (see above), built
-// for AVX-512, AVX2 and the baseline, the variant picked at load time from the CPU (function
-// multi-versioning; no -march in the build). The arithmetic and its order are the same in each,
-// so are the results. The kernels are forced inline into each variant, which compiles them
-// for its own instruction set.
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define IMUKIT_SIMD_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define IMUKIT_SIMD_CLONES
-#endif
+// for the baseline, AVX2 and AVX-512 with IMUKIT_ISA_VARIANTS (core/isa.hpp), the variant
+// picked at run time from the CPU. The arithmetic and its order are the same in each, so are the
+// results. The kernels are inlined into each variant, which compiles them for its own
+// instruction set.
 
 template <int Order>
 [[gnu::always_inline]] inline void lane_chunk(const double* S, int64_t m, int axes, int64_t j0,
@@ -187,9 +183,10 @@ template <int Order>
 // instead of six; about 10 % less time for the factors whose other two streams come from L3).
 // Each factor's lanes add the same terms in the same order as the single kernel, so the numbers
 // are the same.
-IMUKIT_SIMD_CLONES void chunk_pair_order2(const double* __restrict S, int64_t ma, int64_t mb,
-                                          int axes, int64_t j0, int64_t j1,
-                                          double* __restrict acc_a, double* __restrict acc_b) {
+[[gnu::always_inline]] inline void chunk_pair_order2_kernel(const double* __restrict S, int64_t ma,
+                                                            int64_t mb, int axes, int64_t j0,
+                                                            int64_t j1, double* __restrict acc_a,
+                                                            double* __restrict acc_b) {
   double la[kLanes] = {}, lb[kLanes] = {};
   const int64_t lag_a = ma * axes, lag_b = mb * axes, f1 = j1 * axes;
   int64_t f = j0 * axes;
@@ -213,23 +210,22 @@ IMUKIT_SIMD_CLONES void chunk_pair_order2(const double* __restrict S, int64_t ma
   fold_lanes(la, axes, acc_a);
   fold_lanes(lb, axes, acc_b);
 }
-
-IMUKIT_SIMD_CLONES void chunk_order2(const double* S, int64_t m, int axes, int64_t j0, int64_t j1,
-                                     double* acc) {
-  lane_chunk<2>(S, m, axes, j0, j1, acc);
-}
-IMUKIT_SIMD_CLONES void chunk_order3(const double* S, int64_t m, int axes, int64_t j0, int64_t j1,
-                                     double* acc) {
-  lane_chunk<3>(S, m, axes, j0, j1, acc);
-}
-IMUKIT_SIMD_CLONES void strided_order2(const double* S, int64_t n, int64_t m, int axes,
-                                       double* out) {
-  lane_strided<2>(S, n, m, axes, out);
-}
-IMUKIT_SIMD_CLONES void strided_order3(const double* S, int64_t n, int64_t m, int axes,
-                                       double* out) {
-  lane_strided<3>(S, n, m, axes, out);
-}
+IMUKIT_ISA_VARIANTS(void, chunk_pair_order2, chunk_pair_order2_kernel,
+                    (const double* S, int64_t ma, int64_t mb, int axes, int64_t j0, int64_t j1,
+                     double* acc_a, double* acc_b),
+                    (S, ma, mb, axes, j0, j1, acc_a, acc_b))
+IMUKIT_ISA_VARIANTS(void, chunk_order2, lane_chunk<2>,
+                    (const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc),
+                    (S, m, axes, j0, j1, acc))
+IMUKIT_ISA_VARIANTS(void, chunk_order3, lane_chunk<3>,
+                    (const double* S, int64_t m, int axes, int64_t j0, int64_t j1, double* acc),
+                    (S, m, axes, j0, j1, acc))
+IMUKIT_ISA_VARIANTS(void, strided_order2, lane_strided<2>,
+                    (const double* S, int64_t n, int64_t m, int axes, double* out),
+                    (S, n, m, axes, out))
+IMUKIT_ISA_VARIANTS(void, strided_order3, lane_strided<3>,
+                    (const double* S, int64_t n, int64_t m, int axes, double* out),
+                    (S, n, m, axes, out))
 
 using SumFn = void (*)(const double*, int64_t, int64_t, int, double*);
 using ChunkFn = void (*)(const double*, int64_t, int, int64_t, int64_t, double*);

@@ -2,13 +2,15 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cassert>
 #include <cmath>
-#include <cstring>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/isa.hpp"
 #include "core/so3.hpp"
 
 namespace imukit::sim {
@@ -31,8 +33,8 @@ struct FramePosition {
 inline FramePosition frame_position(TimeNs t, double rate_hz) {
   if (rate_hz >= 1.0 && rate_hz <= 1e6 && t >= 0) {
     const auto whole = static_cast<int64_t>(rate_hz);
-    if (static_cast<double>(whole) == rate_hz && t < std::numeric_limits<int64_t>::max() / whole) {
-      const int64_t num = t * whole;
+    int64_t num = 0;
+    if (static_cast<double>(whole) == rate_hz && !__builtin_mul_overflow(t, whole, &num)) {
       return {num / kNsPerSecond, static_cast<double>(num % kNsPerSecond) * 1e-9};
     }
   }
@@ -307,20 +309,276 @@ SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sen
 
 namespace {
 
+// ---- Kernels -----------------------------------------------------------------------------------
+//
+// The loops over frames (fd, reference) and over samples (the spline on frames) in
+// structure-of-arrays form, so that they vectorise. Each is built for the baseline, AVX2 and
+// AVX-512 (IMUKIT_ISA_VARIANTS, core/isa.hpp) and calls nothing out of line: everything it uses
+// is inlined into each variant, so no call crosses from AVX code into SSE code (the 12x of issue
+// 17 on Intel). What needs a libm or Eigen call (so3_log for the rare large angle, the frames at
+// the motion's ends, orientation outputs) runs between kernel calls, in ordinary code.
+//
+// The kernels take every array as a separate __restrict pointer: gcc 12 does not vectorise these
+// loops when the arrays are offsets of one local pointer.
+
+// log(a^* b) lane by lane (see small_angle_log): out x, y, z and the flag `large`.
+[[gnu::always_inline]] inline void relative_log_lanes(
+    const double* __restrict aw, const double* __restrict ax, const double* __restrict ay,
+    const double* __restrict az, const double* __restrict bw, const double* __restrict bx,
+    const double* __restrict by, const double* __restrict bz, double* __restrict px,
+    double* __restrict py, double* __restrict pz, double* __restrict large, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    // a^* b, as multiply(a.conjugate(), b).
+    const double cw = aw[i], cx = -ax[i], cy = -ay[i], cz = -az[i];
+    const SmallAngleLog d = small_angle_log(cw * bw[i] - cx * bx[i] - cy * by[i] - cz * bz[i],
+                                            (cw * bx[i] + cx * bw[i]) + (cy * bz[i] - cz * by[i]),
+                                            (cw * by[i] + cy * bw[i]) + (cz * bx[i] - cx * bz[i]),
+                                            (cw * bz[i] + cz * bw[i]) + (cx * by[i] - cy * bx[i]));
+    px[i] = d.x;
+    py[i] = d.y;
+    pz[i] = d.z;
+    large[i] = d.large;
+  }
+}
+
+// 1 if some of n flags (0 or 1) is set, else 0: an integer OR of their bits, which vectorises
+// (a floating-point max or sum would have to run in order).
+[[gnu::always_inline]] inline double any_flag(const double* __restrict flags, std::size_t n) {
+  uint64_t any = 0;
+  for (std::size_t i = 0; i < n; ++i) any |= std::bit_cast<uint64_t>(flags[i]);
+  return any != 0 ? 1.0 : 0.0;
+}
+
+// fd's SO(3) increments d[f] = log(q[f]^* q[f+1]) for f in [first, first + n) of a joint whose
+// world rotations are the arrays w, x, y, z `frames` apart from q; into inc (x, y, z and the
+// flag, `frames` apart). Returns 1 if some increment needs so3_log.
+[[gnu::always_inline]] inline double increments_kernel(const double* q, std::size_t frames,
+                                                       std::size_t first, std::size_t n,
+                                                       double* inc) {
+  const double* W = q + first;
+  const double* X = W + frames;
+  const double* Y = W + 2 * frames;
+  const double* Z = W + 3 * frames;
+  double* D = inc + first;
+  relative_log_lanes(W, X, Y, Z, W + 1, X + 1, Y + 1, Z + 1, D, D + frames, D + 2 * frames,
+                     D + 3 * frames, n);
+  return any_flag(D + 3 * frames, n);
+}
+IMUKIT_ISA_VARIANTS(double, increments, increments_kernel,
+                    (const double* q, std::size_t frames, std::size_t first, std::size_t n,
+                     double* inc),
+                    (q, frames, first, n, inc))
+
+// Forward kinematics of the grid methods over every loaded frame: joint by joint over tiles of
+// frames (the same formulas as multiply() and rotate(), so the same bits as a quaternion at a
+// time); only the sensor joints' world rotations and positions are kept.
+struct ForwardKinematicsArgs {
+  std::size_t joints = 0;
+  std::size_t frames = 0;
+  // Per plan joint: its local rotation at the first loaded frame (x, y, z, w as Eigen stores
+  // them), the next frame `stride` doubles on.
+  const double* const* rotations = nullptr;
+  std::size_t stride = 4;
+  const double* translation = nullptr;  // root translation, x y z per frame
+  const int* parent = nullptr;          // per plan joint
+  const double* offsets = nullptr;      // per plan joint, x y z from its parent
+  const char* offset_is_zero = nullptr;
+  const int* kept = nullptr;  // per plan joint: its slot in `pose`, or -1
+  bool positions = false;
+  double* tile = nullptr;  // scratch: 7 arrays of kFkTile per plan joint
+  double* pose = nullptr;  // per kept slot: w, x, y, z, px, py, pz arrays of `frames`
+};
+constexpr std::size_t kFkTile = 256;
+
+[[gnu::always_inline]] inline void forward_kinematics_kernel(const ForwardKinematicsArgs& a) {
+  constexpr std::size_t T = kFkTile;
+  const std::size_t F = a.frames;
+  const std::size_t stride = a.stride;
+  for (std::size_t f0 = 0; f0 < F; f0 += T) {
+    const std::size_t n = std::min(T, F - f0);
+    for (std::size_t k = 0; k < a.joints; ++k) {
+      double* base = a.tile + k * 7 * T;
+      double* __restrict qw_ = base;
+      double* __restrict qx_ = base + T;
+      double* __restrict qy_ = base + 2 * T;
+      double* __restrict qz_ = base + 3 * T;
+      double* __restrict px_ = base + 4 * T;
+      double* __restrict py_ = base + 5 * T;
+      double* __restrict pz_ = base + 6 * T;
+      const double* __restrict src = a.rotations[k] + f0 * stride;
+      if (f0 + n < F) {
+        // The next tile of this joint's rotations: fetched while this tile is computed (the
+        // motion streams from memory; waiting for it was a fifth of the time).
+        const auto* next = reinterpret_cast<const char*>(src + n * stride);
+        const std::size_t bytes = std::min(T, F - f0 - n) * stride * sizeof(double);
+        for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(next + b);
+      }
+      const int p = a.parent[k];
+      if (p < 0) {
+        for (std::size_t i = 0; i < n; ++i) {
+          qx_[i] = src[i * stride];
+          qy_[i] = src[i * stride + 1];
+          qz_[i] = src[i * stride + 2];
+          qw_[i] = src[i * stride + 3];
+        }
+        if (a.positions) {
+          const double* __restrict tr = a.translation + 3 * f0;
+          for (std::size_t i = 0; i < n; ++i) {
+            px_[i] = tr[3 * i];
+            py_[i] = tr[3 * i + 1];
+            pz_[i] = tr[3 * i + 2];
+          }
+        }
+      } else {
+        const double* pbase = a.tile + static_cast<std::size_t>(p) * 7 * T;
+        const double* __restrict aw = pbase;
+        const double* __restrict ax = pbase + T;
+        const double* __restrict ay = pbase + 2 * T;
+        const double* __restrict az = pbase + 3 * T;
+        const double* __restrict apx = pbase + 4 * T;
+        const double* __restrict apy = pbase + 5 * T;
+        const double* __restrict apz = pbase + 6 * T;
+        for (std::size_t i = 0; i < n; ++i) {
+          const double bx = src[i * stride], by = src[i * stride + 1], bz = src[i * stride + 2],
+                       bw = src[i * stride + 3];
+          qw_[i] = aw[i] * bw - ax[i] * bx - ay[i] * by - az[i] * bz;
+          qx_[i] = (aw[i] * bx + ax[i] * bw) + (ay[i] * bz - az[i] * by);
+          qy_[i] = (aw[i] * by + ay[i] * bw) + (az[i] * bx - ax[i] * bz);
+          qz_[i] = (aw[i] * bz + az[i] * bw) + (ax[i] * by - ay[i] * bx);
+        }
+        if (a.positions && a.offset_is_zero[k] != 0) {
+          // A joint at its parent's origin: rotating a zero offset adds exactly nothing.
+          for (std::size_t i = 0; i < n; ++i) {
+            px_[i] = apx[i];
+            py_[i] = apy[i];
+            pz_[i] = apz[i];
+          }
+        } else if (a.positions) {
+          const double vx = a.offsets[3 * k], vy = a.offsets[3 * k + 1], vz = a.offsets[3 * k + 2];
+          for (std::size_t i = 0; i < n; ++i) {
+            double ox, oy, oz;
+            rotate_into(aw[i], ax[i], ay[i], az[i], vx, vy, vz, ox, oy, oz);
+            px_[i] = apx[i] + ox;
+            py_[i] = apy[i] + oy;
+            pz_[i] = apz[i] + oz;
+          }
+        }
+      }
+      if (a.kept[k] >= 0) {
+        double* out = a.pose + static_cast<std::size_t>(a.kept[k]) * 7 * F + f0;
+        const std::size_t arrays = a.positions ? 7 : 4;
+        for (std::size_t r = 0; r < arrays; ++r) {
+          double* __restrict dst = out + r * F;
+          const double* __restrict from = base + r * T;
+          for (std::size_t i = 0; i < n; ++i) dst[i] = from[i];
+        }
+      }
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, forward_kinematics, forward_kinematics_kernel,
+                    (const ForwardKinematicsArgs& a), (a))
+
+// A sensor's position p_world_j + R_world_j p_j_s on loaded frames [first, first + n), from its
+// joint's pose arrays (`frames` apart), into 3 arrays `frames` apart.
+[[gnu::always_inline]] inline void sensor_position_lanes(
+    const double* __restrict W, const double* __restrict X, const double* __restrict Y,
+    const double* __restrict Z, const double* __restrict PX, const double* __restrict PY,
+    const double* __restrict PZ, double rx, double ry, double rz, double* __restrict ox,
+    double* __restrict oy, double* __restrict oz, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    double vx, vy, vz;
+    rotate_into(W[i], X[i], Y[i], Z[i], rx, ry, rz, vx, vy, vz);
+    ox[i] = PX[i] + vx;
+    oy[i] = PY[i] + vy;
+    oz[i] = PZ[i] + vz;
+  }
+}
+[[gnu::always_inline]] inline void sensor_positions_kernel(const double* pose, std::size_t frames,
+                                                           const double* p_js, std::size_t first,
+                                                           std::size_t n, double* out) {
+  const double* q = pose + first;
+  double* o = out + first;
+  sensor_position_lanes(q, q + frames, q + 2 * frames, q + 3 * frames, q + 4 * frames,
+                        q + 5 * frames, q + 6 * frames, p_js[0], p_js[1], p_js[2], o, o + frames,
+                        o + 2 * frames, n);
+}
+IMUKIT_ISA_VARIANTS(void, sensor_positions, sensor_positions_kernel,
+                    (const double* pose, std::size_t frames, const double* p_js, std::size_t first,
+                     std::size_t n, double* out),
+                    (pose, frames, p_js, first, n, out))
+
+// fd on interior frames (the full stencil inside the motion): specific force from the second
+// difference of the sensor positions, angular rate from the neighbouring increments, both in
+// sensor axes.
+struct FdInteriorArgs {
+  const double* pose = nullptr;        // the sensor joint's pose arrays (`frames` apart)
+  const double* position = nullptr;    // sensor positions (3 arrays); null: no accelerometer
+  const double* increments = nullptr;  // the joint's increments (3 arrays); null: no gyroscope
+  std::size_t frames = 0;
+  std::size_t first = 0, count = 0;  // loaded frames first .. first + count - 1
+  double R_sensor_joint[9] = {};     // row-major
+  double gravity[3] = {};
+  double rate = 0.0;
+  double* force = nullptr;  // x y z per frame from `first` on
+  double* angular_rate = nullptr;
+};
+
+[[gnu::always_inline]] inline void fd_interior_kernel(const FdInteriorArgs& a) {
+  const std::size_t F = a.frames;
+  const double* M = a.R_sensor_joint;
+  // R_sensor_joint v, in the order Eigen's fixed-size product sums (the same bits as before).
+  const auto to_sensor = [M](double vx, double vy, double vz, double* __restrict out) {
+    out[0] = (M[0] * vx + M[1] * vy) + M[2] * vz;
+    out[1] = (M[3] * vx + M[4] * vy) + M[5] * vz;
+    out[2] = (M[6] * vx + M[7] * vy) + M[8] * vz;
+  };
+  if (a.position != nullptr) {
+    const double rate2 = a.rate * a.rate;
+    const double* __restrict W = a.pose + a.first;
+    const double* __restrict X = W + F;
+    const double* __restrict Y = W + 2 * F;
+    const double* __restrict Z = W + 3 * F;
+    const double* __restrict px = a.position + a.first;
+    const double* __restrict py = px + F;
+    const double* __restrict pz = px + 2 * F;
+    double* __restrict out = a.force;
+    for (std::size_t i = 0; i < a.count; ++i) {
+      // In differences, so a still point gives exactly 0.
+      const double ax = ((px[i + 1] - px[i]) - (px[i] - px[i - 1])) * rate2;
+      const double ay = ((py[i + 1] - py[i]) - (py[i] - py[i - 1])) * rate2;
+      const double az = ((pz[i + 1] - pz[i]) - (pz[i] - pz[i - 1])) * rate2;
+      double vx, vy, vz;  // rotate_inverse(q_world_joint, a - g)
+      rotate_into(W[i], -X[i], -Y[i], -Z[i], ax - a.gravity[0], ay - a.gravity[1],
+                  az - a.gravity[2], vx, vy, vz);
+      to_sensor(vx, vy, vz, out + 3 * i);
+    }
+  }
+  if (a.increments != nullptr) {
+    const double half_rate = 0.5 * a.rate;
+    const double* __restrict dx = a.increments + a.first;
+    const double* __restrict dy = dx + F;
+    const double* __restrict dz = dx + 2 * F;
+    double* __restrict out = a.angular_rate;
+    for (std::size_t i = 0; i < a.count; ++i) {
+      to_sensor((dx[i - 1] + dx[i]) * half_rate, (dy[i - 1] + dy[i]) * half_rate,
+                (dz[i - 1] + dz[i]) * half_rate, out + 3 * i);
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, fd_interior, fd_interior_kernel, (const FdInteriorArgs& a), (a))
+
 // The spline on motion frames, in structure-of-arrays form.
 //
 // A sample exactly on frame f with the full interior stencil f-1 .. f+2 (every sample of a
 // sensor at the motion's rate, or at a whole fraction of it, and every PPDA window) needs no
 // exp: there the chart coordinate psi is 0, so a joint's local body rate and acceleration are the
 // stencil's derivative weights applied to its three neighbours' chart coordinates log(q_f^* q_m),
-// and the chain is propagated with quaternions. Lanes are samples: the local rotations are
-// gathered per tile, then the kernels below run over plain arrays and vectorise (the small-angle
-// log has no branch; the rare larger angles are redone through so3_log). Same formulas as the
-// per-sample path, so the two agree to rounding; which path a sample takes depends only on its
-// own frame position, never on the other samples of the call.
-//
-// The kernels take every array as a separate __restrict parameter: gcc 12 does not vectorise
-// these loops when the arrays are offsets of one local pointer.
+// and the chain is propagated with quaternions. Lanes are samples, in tiles: the local rotations
+// are gathered per tile, then the kernels below run over plain arrays and vectorise (the
+// small-angle log has no branch; the rare larger angles are redone through so3_log between the
+// kernels). Same formulas as the per-sample path, so the two agree to rounding; which path a
+// sample takes depends only on its own frame position, never on the other samples of the call.
 struct OnFrameInputs {
   const SimulationPlan* plan = nullptr;
   const std::vector<Vector3d>* offsets = nullptr;  // per plan joint, from its plan parent
@@ -348,42 +606,112 @@ constexpr std::size_t kJointArrays = 13;
 constexpr std::size_t kStencilRow = kOnFrameTile + 4;
 constexpr std::size_t kStencilArrays = 34;
 
-// log(a^* b) lane by lane (see small_angle_log): out x, y, z and the flag `large`.
-[[gnu::always_inline]] inline void relative_log_lanes(
-    const double* __restrict aw, const double* __restrict ax, const double* __restrict ay,
-    const double* __restrict az, const double* __restrict bw, const double* __restrict bx,
-    const double* __restrict by, const double* __restrict bz, double* __restrict px,
-    double* __restrict py, double* __restrict pz, double* __restrict large, std::size_t n) {
+// n consecutive quaternions as Eigen stores them (x, y, z, w) into the arrays w, x, y, z.
+[[gnu::always_inline]] inline void transpose_quaternions(const double* __restrict q,
+                                                         double* __restrict w, double* __restrict x,
+                                                         double* __restrict y, double* __restrict z,
+                                                         std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
-    // a^* b, as multiply(a.conjugate(), b).
-    const double cw = aw[i], cx = -ax[i], cy = -ay[i], cz = -az[i];
-    const SmallAngleLog d = small_angle_log(cw * bw[i] - cx * bx[i] - cy * by[i] - cz * bz[i],
-                                            (cw * bx[i] + cx * bw[i]) + (cy * bz[i] - cz * by[i]),
-                                            (cw * by[i] + cy * bw[i]) + (cz * bx[i] - cx * bz[i]),
-                                            (cw * bz[i] + cz * bw[i]) + (cx * by[i] - cy * bx[i]));
-    px[i] = d.x;
-    py[i] = d.y;
-    pz[i] = d.z;
-    large[i] = d.large;
+    w[i] = q[4 * i + 3];
+    x[i] = q[4 * i];
+    y[i] = q[4 * i + 1];
+    z[i] = q[4 * i + 2];
   }
 }
 
-// One joint's world rotation, angular rate and acceleration and its origin's acceleration, from
-// its stencil (st: the local rotations and chart coordinates of kStencilArrays) and its parent's
-// arrays (pa, kJointArrays; unused for the root, whose origin acceleration is filled in later).
-// d*, e*: the derivative weights of the neighbours times rate and rate^2; o: the joint's offset
-// in its parent's axes.
-// The chart coordinates are psi_-1 = -back, psi_1 = fwd, psi_2 = fwd2 (psi_0 = 0 drops out; the
-// sign of back is in the weights d[0], e[0]); each points at 3 rows (x, y, z) of kStencilRow, as
-// does lq, the local rotation at f (w, x, y, z).
+// One joint's stencil for a tile of n samples on frames fr (frames of the motion; its rotations
+// from frame lo on at rot, `stride` doubles apart): the local rotations gathered into rows and
+// their logs. `run`: the frames are consecutive. Returns 1 if some log needs so3_log.
+[[gnu::always_inline]] inline double stencil_logs_kernel(const double* rot, std::size_t stride,
+                                                         int64_t lo, const int64_t* fr,
+                                                         std::size_t n, bool run, double* st) {
+  constexpr std::size_t R = kStencilRow;
+  const auto gather = [&](std::size_t row, std::size_t col, int64_t f) {
+    const double* q = rot + static_cast<std::size_t>(f - lo) * stride;
+    st[row * R + col] = q[3];
+    st[(row + 1) * R + col] = q[0];
+    st[(row + 2) * R + col] = q[1];
+    st[(row + 3) * R + col] = q[2];
+  };
+  const auto logs = [&](const double* a, const double* b, std::size_t row, std::size_t m) {
+    relative_log_lanes(a, a + R, a + 2 * R, a + 3 * R, b, b + R, b + 2 * R, b + 3 * R, st + row * R,
+                       st + (row + 1) * R, st + (row + 2) * R, st + (25 + (row - 16) / 3) * R, m);
+  };
+  if (run) {
+    // A tile of consecutive frames shares its rotations and steps between samples: n + 3
+    // frames and n + 1 steps instead of 4 n and 2 n. Consecutive quaternions (an in-memory
+    // Motion) are transposed with a fixed stride, which vectorises.
+    if (stride == 4) {
+      transpose_quaternions(rot + static_cast<std::size_t>(fr[0] - 1 - lo) * 4, st, st + R,
+                            st + 2 * R, st + 3 * R, n + 3);
+    } else {
+      for (std::size_t i = 0; i < n + 3; ++i) gather(0, i, fr[0] - 1 + static_cast<int64_t>(i));
+    }
+    // The next tile's rotations of this joint, fetched while this tile is computed (the motion
+    // streams from memory: waiting for it was a quarter of this kernel's time).
+    // (Integer arithmetic: the address may lie past the motion's end; a prefetch never faults.)
+    const std::uintptr_t next =
+        reinterpret_cast<std::uintptr_t>(rot) +
+        static_cast<std::uintptr_t>(fr[0] - lo + static_cast<int64_t>(n) + 2) * stride *
+            sizeof(double);
+    for (std::size_t b = 0; b < n * stride * sizeof(double); b += 64)
+      __builtin_prefetch(reinterpret_cast<const void*>(next + b));
+    logs(st, st + 1, 16, n + 1);  // steps from frame f-1 on
+    logs(st + 1, st + 3, 22, n);  // f to f+2
+    const double a = any_flag(st + 25 * R, n + 1), b = any_flag(st + 27 * R, n);
+    return a > b ? a : b;
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t m = 0; m < 4; ++m) gather(4 * m, i, fr[i] - 1 + static_cast<int64_t>(m));
+  logs(st, st + 4 * R, 16, n);           // f-1 to f
+  logs(st + 4 * R, st + 8 * R, 19, n);   // f to f+1
+  logs(st + 4 * R, st + 12 * R, 22, n);  // f to f+2
+  double any = 0.0;
+  for (std::size_t r = 25; r < 28; ++r) {
+    const double v = any_flag(st + r * R, n);
+    any = v > any ? v : any;
+  }
+  return any;
+}
+IMUKIT_ISA_VARIANTS(double, stencil_logs, stencil_logs_kernel,
+                    (const double* rot, std::size_t stride, int64_t lo, const int64_t* fr,
+                     std::size_t n, bool run, double* st),
+                    (rot, stride, lo, fr, n, run, st))
+
+// One joint's world rotation, angular rate and acceleration and its origin's acceleration over a
+// tile, from its stencil's rows and its parent's arrays (pa, kJointArrays; null for the root,
+// whose origin acceleration comes from the root translation instead).
+// d, e: the derivative weights of the neighbours times rate and rate^2; o: the joint's offset
+// in its parent's axes. The chart coordinates are psi_-1 = -back, psi_1 = fwd, psi_2 = fwd2
+// (psi_0 = 0 drops out; the sign of back is in the weights d[0], e[0]); each points at 3 rows
+// (x, y, z) of kStencilRow, as does lq, the local rotation at f (w, x, y, z).
+struct JointTileArgs {
+  const double* lq = nullptr;
+  const double* back = nullptr;
+  const double* fwd = nullptr;
+  const double* fwd2 = nullptr;
+  const double* pa = nullptr;
+  double* jt = nullptr;
+  std::size_t n = 0;
+  double d[3] = {}, e[3] = {};
+  double o[3] = {};
+  // Root only: the translation (x y z per frame from frame lo), the tile's frames, and the
+  // stencil's second-derivative weights of frames f-1, f+1, f+2.
+  const double* translation = nullptr;
+  int64_t lo = 0;
+  const int64_t* fr = nullptr;
+  double ddw[3] = {};
+  double rate2 = 0.0;
+};
+
 template <bool Root>
 [[gnu::always_inline]] inline void joint_lanes(
     const double* __restrict lq, const double* __restrict back, const double* __restrict fwd,
     const double* __restrict fwd2, const double* __restrict pa, double* __restrict jt,
-    std::size_t n, const double (&d)[3], const double (&e)[3], const Vector3d& o) {
+    std::size_t n, const double (&d)[3], const double (&e)[3], const double (&o)[3]) {
   constexpr std::size_t T = kOnFrameTile;
   constexpr std::size_t R = kStencilRow;
-  const double ox = o.x(), oy = o.y(), oz = o.z();
+  const double ox = o[0], oy = o[1], oz = o[2];
   for (std::size_t i = 0; i < n; ++i) {
     const double wbx = (d[0] * back[i] + d[1] * fwd[i]) + d[2] * fwd2[i];
     const double wby = (d[0] * back[R + i] + d[1] * fwd[R + i]) + d[2] * fwd2[R + i];
@@ -434,14 +762,47 @@ template <bool Root>
   }
 }
 
-// A sensor's specific force and angular rate (into so: 6 arrays) from its joint's arrays.
-[[gnu::always_inline]] inline void sensor_lanes(const double* __restrict jt, double* __restrict so,
-                                                std::size_t n, const Quaterniond& q_js,
-                                                const Vector3d& p_js, const Vector3d& g) {
+[[gnu::always_inline]] inline void joint_tile_kernel(const JointTileArgs& a) {
+  if (a.pa != nullptr) {
+    joint_lanes<false>(a.lq, a.back, a.fwd, a.fwd2, a.pa, a.jt, a.n, a.d, a.e, a.o);
+    return;
+  }
+  joint_lanes<true>(a.lq, a.back, a.fwd, a.fwd2, nullptr, a.jt, a.n, a.d, a.e, a.o);
+  // The root translation's second derivative, in differences from frame f (a still root stays
+  // exactly still).
   constexpr std::size_t T = kOnFrameTile;
-  const double sw = q_js.w(), sx = q_js.x(), sy = q_js.y(), sz = q_js.z();
-  const double rx = p_js.x(), ry = p_js.y(), rz = p_js.z();
-  const double gx = g.x(), gy = g.y(), gz = g.z();
+  for (std::size_t i = 0; i < a.n; ++i) {
+    const double* t0 = a.translation + 3 * (a.fr[i] - a.lo);
+    for (int c = 0; c < 3; ++c) {
+      const double v = (a.ddw[0] * (t0[c - 3] - t0[c]) + a.ddw[1] * (t0[c + 3] - t0[c])) +
+                       a.ddw[2] * (t0[c + 6] - t0[c]);
+      a.jt[(10 + static_cast<std::size_t>(c)) * T + i] = v * a.rate2;
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, joint_tile, joint_tile_kernel, (const JointTileArgs& a), (a))
+
+// A sensor's specific force and angular rate over a tile (into so: 6 arrays) from its joint's
+// arrays, copied to the samples' columns of the outputs (x y z per sample; null: not wanted).
+struct SensorTileArgs {
+  const double* jt = nullptr;
+  double* so = nullptr;
+  std::size_t n = 0;
+  double q_js[4] = {};  // w x y z
+  double p_js[3] = {};
+  double gravity[3] = {};
+  const std::size_t* samples = nullptr;
+  double* force = nullptr;
+  double* angular_rate = nullptr;
+};
+
+[[gnu::always_inline]] inline void sensor_lanes(const double* __restrict jt, double* __restrict so,
+                                                std::size_t n, const double (&q_js)[4],
+                                                const double (&p_js)[3], const double (&g)[3]) {
+  constexpr std::size_t T = kOnFrameTile;
+  const double sw = q_js[0], sx = q_js[1], sy = q_js[2], sz = q_js[3];
+  const double rx = p_js[0], ry = p_js[1], rz = p_js[2];
+  const double gx = g[0], gy = g[1], gz = g[2];
   for (std::size_t i = 0; i < n; ++i) {
     const double kw = jt[i], kx = jt[T + i], ky = jt[2 * T + i], kz = jt[3 * T + i];
     const double wx = jt[4 * T + i], wy = jt[5 * T + i], wz = jt[6 * T + i];
@@ -463,9 +824,39 @@ template <bool Root>
   }
 }
 
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
+// n samples of x, y, z arrays interleaved into dst (x y z per sample).
+[[gnu::always_inline]] inline void interleave3(const double* __restrict x,
+                                               const double* __restrict y,
+                                               const double* __restrict z, double* __restrict dst,
+                                               std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    dst[3 * i] = x[i];
+    dst[3 * i + 1] = y[i];
+    dst[3 * i + 2] = z[i];
+  }
+}
+
+[[gnu::always_inline]] inline void sensor_tile_kernel(const SensorTileArgs& a) {
+  constexpr std::size_t T = kOnFrameTile;
+  sensor_lanes(a.jt, a.so, a.n, a.q_js, a.p_js, a.gravity);
+  const double* so = a.so;
+  if (a.samples[a.n - 1] - a.samples[0] == a.n - 1) {  // consecutive columns
+    const std::size_t c0 = 3 * a.samples[0];
+    if (a.force != nullptr) interleave3(so, so + T, so + 2 * T, a.force + c0, a.n);
+    if (a.angular_rate != nullptr)
+      interleave3(so + 3 * T, so + 4 * T, so + 5 * T, a.angular_rate + c0, a.n);
+    return;
+  }
+  for (std::size_t i = 0; i < a.n; ++i) {
+    const std::size_t col = a.samples[i];
+    for (std::size_t x = 0; x < 3; ++x) {
+      if (a.force != nullptr) a.force[3 * col + x] = so[x * T + i];
+      if (a.angular_rate != nullptr) a.angular_rate[3 * col + x] = so[(3 + x) * T + i];
+    }
+  }
+}
+IMUKIT_ISA_VARIANTS(void, sensor_tile, sensor_tile_kernel, (const SensorTileArgs& a), (a))
+
 void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samples,
                       std::span<const int64_t> frames, std::vector<double>& scratch,
                       std::vector<SensorBlock>& out) {
@@ -476,113 +867,82 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
   // The stencil's derivative weights at u = 0 (nodes -1, 0, 1, 2), as the per-sample path has
   // them; node 0 (psi = 0) drops out.
   const LagrangeWeights L = lagrange({-1.0, 0.0, 1.0, 2.0}, 4, 0.0);
+  JointTileArgs ja;
   // psi_-1 is minus the backward step, so its weights change sign (exactly).
-  const double d[3] = {-(L.dw[0] * rate), L.dw[2] * rate, L.dw[3] * rate};
-  const double e[3] = {-(L.ddw[0] * rate2), L.ddw[2] * rate2, L.ddw[3] * rate2};
+  ja.d[0] = -(L.dw[0] * rate), ja.d[1] = L.dw[2] * rate, ja.d[2] = L.dw[3] * rate;
+  ja.e[0] = -(L.ddw[0] * rate2), ja.e[1] = L.ddw[2] * rate2, ja.e[2] = L.ddw[3] * rate2;
+  ja.ddw[0] = L.ddw[0], ja.ddw[1] = L.ddw[2], ja.ddw[2] = L.ddw[3];
+  ja.rate2 = rate2;
+  ja.translation = in.translation;
+  ja.lo = in.lo;
   constexpr std::size_t R = kStencilRow;
   scratch.resize(J * kJointArrays * T + kStencilArrays * R);
   double* const st = scratch.data() + J * kJointArrays * T;
   const auto joint_arrays = [&](std::size_t k) { return scratch.data() + k * kJointArrays * T; };
+  const auto quat = [&](std::size_t row, std::size_t col) {
+    return Quaterniond(st[row * R + col], st[(row + 1) * R + col], st[(row + 2) * R + col],
+                       st[(row + 3) * R + col]);
+  };
+  const auto put = [&](std::size_t row, std::size_t col, const Vector3d& v) {
+    for (std::size_t x = 0; x < 3; ++x) st[(row + x) * R + col] = v[static_cast<Eigen::Index>(x)];
+  };
   for (std::size_t t0 = 0; t0 < samples.size(); t0 += T) {
     const std::size_t n = std::min(T, samples.size() - t0);
     const int64_t* fr = frames.data() + t0;
+    const bool run = fr[n - 1] - fr[0] == static_cast<int64_t>(n) - 1;
     for (std::size_t k = 0; k < J; ++k) {
-      // A tile of consecutive frames shares its rotations and steps between samples: n + 3
-      // frames and n + 1 steps instead of 4 n and 2 n.
-      const bool run = fr[n - 1] - fr[0] == static_cast<int64_t>(n) - 1;
-      const double* rot = (*in.rotations)[k];
-      const auto gather = [&](std::size_t row, std::size_t col, int64_t f) {
-        const double* q = rot + static_cast<std::size_t>(f - in.lo) * in.rotation_stride;
-        st[row * R + col] = q[3];
-        st[(row + 1) * R + col] = q[0];
-        st[(row + 2) * R + col] = q[1];
-        st[(row + 3) * R + col] = q[2];
-      };
-      const auto quat = [&](std::size_t row, std::size_t col) {
-        return Quaterniond(st[row * R + col], st[(row + 1) * R + col], st[(row + 2) * R + col],
-                           st[(row + 3) * R + col]);
-      };
-      const auto put = [&](std::size_t row, std::size_t col, const Vector3d& v) {
-        for (std::size_t x = 0; x < 3; ++x)
-          st[(row + x) * R + col] = v[static_cast<Eigen::Index>(x)];
-      };
-      const auto logs = [&](const double* a, const double* b, std::size_t row, std::size_t m) {
-        relative_log_lanes(a, a + R, a + 2 * R, a + 3 * R, b, b + R, b + 2 * R, b + 3 * R,
-                           st + row * R, st + (row + 1) * R, st + (row + 2) * R,
-                           st + (25 + (row - 16) / 3) * R, m);
-      };
-      const double *lq, *back, *fwd;
+      const double large =
+          stencil_logs((*in.rotations)[k], in.rotation_stride, in.lo, fr, n, run, st);
       if (run) {
-        for (std::size_t i = 0; i < n + 3; ++i) gather(0, i, fr[0] - 1 + static_cast<int64_t>(i));
-        logs(st, st + 1, 16, n + 1);  // steps from frame f-1 on
-        logs(st + 1, st + 3, 22, n);  // f to f+2
-        for (std::size_t i = 0; i < n + 1; ++i) {
+        for (std::size_t i = 0; i < n + 1 && large != 0.0; ++i) {
           if (st[25 * R + i] != 0.0) put(16, i, relative_log(quat(0, i), quat(0, i + 1)));
         }
-        for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t i = 0; i < n && large != 0.0; ++i) {
           if (st[27 * R + i] == 0.0) continue;
           const Vector3d fw(st[16 * R + i + 1], st[17 * R + i + 1], st[18 * R + i + 1]);
           put(22, i, unwrap_near(relative_log(quat(0, i + 1), quat(0, i + 3)), 2.0 * fw));
         }
-        lq = st + 1;
-        back = st + 16 * R;
-        fwd = st + 16 * R + 1;
+        ja.lq = st + 1;
+        ja.back = st + 16 * R;
+        ja.fwd = st + 16 * R + 1;
       } else {
-        for (std::size_t i = 0; i < n; ++i)
-          for (std::size_t m = 0; m < 4; ++m) gather(4 * m, i, fr[i] - 1 + static_cast<int64_t>(m));
-        logs(st, st + 4 * R, 16, n);           // f-1 to f
-        logs(st + 4 * R, st + 8 * R, 19, n);   // f to f+1
-        logs(st + 4 * R, st + 12 * R, 22, n);  // f to f+2
-        for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t i = 0; i < n && large != 0.0; ++i) {
           if (st[25 * R + i] + st[26 * R + i] + st[27 * R + i] == 0.0) continue;
           put(16, i, relative_log(quat(0, i), quat(4, i)));
           const Vector3d fw = relative_log(quat(4, i), quat(8, i));
           put(19, i, fw);
           put(22, i, unwrap_near(relative_log(quat(4, i), quat(12, i)), 2.0 * fw));
         }
-        lq = st + 4 * R;
-        back = st + 16 * R;
-        fwd = st + 19 * R;
+        ja.lq = st + 4 * R;
+        ja.back = st + 16 * R;
+        ja.fwd = st + 19 * R;
       }
-      const double* fwd2 = st + 22 * R;
+      ja.fwd2 = st + 22 * R;
       const int p = plan.parent[k];
-      double* jt = joint_arrays(k);
-      if (p < 0) {
-        joint_lanes<true>(lq, back, fwd, fwd2, nullptr, jt, n, d, e, Vector3d::Zero());
-        // The root translation's second derivative, in differences from frame f (a still root
-        // stays exactly still).
-        for (std::size_t i = 0; i < n; ++i) {
-          const auto tr = [&](int64_t f) {
-            return Eigen::Map<const Vector3d>(in.translation + 3 * (f - in.lo));
-          };
-          const Vector3d t0v = tr(fr[i]);
-          const Vector3d ta = L.ddw[0] * (tr(fr[i] - 1) - t0v) + L.ddw[2] * (tr(fr[i] + 1) - t0v) +
-                              L.ddw[3] * (tr(fr[i] + 2) - t0v);
-          jt[10 * T + i] = ta.x() * rate2;
-          jt[11 * T + i] = ta.y() * rate2;
-          jt[12 * T + i] = ta.z() * rate2;
-        }
-      } else {
-        joint_lanes<false>(lq, back, fwd, fwd2, joint_arrays(static_cast<std::size_t>(p)), jt, n, d,
-                           e, (*in.offsets)[k]);
-      }
+      ja.pa = p < 0 ? nullptr : joint_arrays(static_cast<std::size_t>(p));
+      ja.jt = joint_arrays(k);
+      ja.n = n;
+      ja.fr = fr;
+      const Vector3d& o = (*in.offsets)[k];
+      ja.o[0] = o.x(), ja.o[1] = o.y(), ja.o[2] = o.z();
+      joint_tile(ja);
     }
-    // The sensors: computed into the tile, then copied to the samples' columns.
-    double* so = st + 28 * R;
+    // The sensors: computed into the tile and copied to the samples' columns.
+    SensorTileArgs sa;
+    sa.so = st + 28 * R;
+    sa.n = n;
+    sa.samples = samples.data() + t0;
+    for (int c = 0; c < 3; ++c) sa.gravity[c] = in.gravity_world[c];
     for (std::size_t s = 0; s < in.sensors->size(); ++s) {
       const SensorSpec& spec = (*in.sensors)[s];
       const double* jt = joint_arrays(static_cast<std::size_t>(plan.sensor_joint[s]));
-      sensor_lanes(jt, so, n, spec.placement.q_joint_sensor, spec.placement.p_joint_sensor,
-                   in.gravity_world);
-      double* of = spec.outputs.accelerometer ? out[s].specific_force.data() : nullptr;
-      double* ow = spec.outputs.gyroscope ? out[s].angular_rate.data() : nullptr;
-      for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t col = samples[t0 + i];
-        for (std::size_t x = 0; x < 3; ++x) {
-          if (of != nullptr) of[3 * col + x] = so[x * T + i];
-          if (ow != nullptr) ow[3 * col + x] = so[(3 + x) * T + i];
-        }
-      }
+      const Quaterniond& q_js = spec.placement.q_joint_sensor;
+      sa.jt = jt;
+      sa.q_js[0] = q_js.w(), sa.q_js[1] = q_js.x(), sa.q_js[2] = q_js.y(), sa.q_js[3] = q_js.z();
+      for (int c = 0; c < 3; ++c) sa.p_js[c] = spec.placement.p_joint_sensor[c];
+      sa.force = spec.outputs.accelerometer ? out[s].specific_force.data() : nullptr;
+      sa.angular_rate = spec.outputs.gyroscope ? out[s].angular_rate.data() : nullptr;
+      sensor_tile(sa);
       if (!spec.outputs.orientation && !spec.outputs.magnetometer) continue;
       for (std::size_t i = 0; i < n; ++i) {
         const std::size_t col = samples[t0 + i];
@@ -603,20 +963,22 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
 
 struct Simulator::Workspace {
   MotionChunk chunk;
-  std::vector<Quaterniond> q_world;  // loaded frames x plan joints
-  std::vector<Vector3d> p_world;
+  // Grid methods: per sensor joint (kept_slot), world w, x, y, z and position x, y, z arrays over
+  // the loaded frames; the forward kinematics' tile scratch and its per-joint source pointers.
+  std::vector<double> pose;
+  std::vector<double> fk_tile;
+  std::vector<const double*> fk_rotations;
   // fd, per rate joint over the loaded frames: SO(3) increments d[f] = log(R[f]^T R[f+1]).
   std::vector<double> increments;  // per rate joint: x, y, z arrays and a too-large flag
   // Grid methods, per sensor: derivative values per grid frame, positions per loaded frame.
   Eigen::Matrix3Xd grid_f, grid_w;
-  std::vector<Vector3d> sensor_p;
-  std::vector<char> offset_is_zero;   // per plan joint
-  std::vector<char> is_sensor_joint;  // per plan joint
-  std::vector<int> rate_slot;         // per plan joint: its index among the rate joints, or -1
+  std::vector<double> sensor_position;  // x, y, z arrays
+  std::vector<double> offset_xyz;       // per plan joint, from its plan parent
+  std::vector<char> offset_is_zero;     // per plan joint
+  std::vector<int> kept_slot;           // per plan joint: its slot in `pose`, or -1
+  int kept_joints = 0;
+  std::vector<int> rate_slot;  // per plan joint: its index among the rate joints, or -1
   int rate_joints = 0;
-  std::vector<double> rate_soa;  // fd: per rate joint, world w, x, y, z over the loaded frames
-  std::vector<double> soa;       // forward kinematics scratch: per joint w x y z px py pz
-  std::vector<Quaterniond> sensor_q;
   // Spline: per plan joint, the interval whose chart coordinates are cached.
   std::vector<int64_t> chart_interval;
   std::vector<std::array<Vector3d, 4>> chart_psi;
@@ -651,8 +1013,9 @@ Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, Simulati
   }
   for (std::size_t k = 0; k < plan_.joints.size(); ++k) {
     ws_->rate_slot.push_back(plan_.needs_rate[k] ? ws_->rate_joints++ : -1);
-    ws_->is_sensor_joint.push_back(std::find(plan_.sensor_joint.begin(), plan_.sensor_joint.end(),
-                                             static_cast<int>(k)) != plan_.sensor_joint.end());
+    const bool sensor_joint = std::find(plan_.sensor_joint.begin(), plan_.sensor_joint.end(),
+                                        static_cast<int>(k)) != plan_.sensor_joint.end();
+    ws_->kept_slot.push_back(sensor_joint ? ws_->kept_joints++ : -1);
     ws_->offset_is_zero.push_back(
         plan_.parent[k] < 0 ||
         body.joint(static_cast<std::size_t>(plan_.joints[k])).offset_parent_joint.isZero(0.0));
@@ -660,6 +1023,8 @@ Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, Simulati
         plan_.parent[k] < 0
             ? Vector3d::Zero()
             : body.joint(static_cast<std::size_t>(plan_.joints[k])).offset_parent_joint);
+    ws_->offset_xyz.insert(ws_->offset_xyz.end(), offsets_.back().data(),
+                           offsets_.back().data() + 3);
   }
 }
 
@@ -695,13 +1060,6 @@ TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
   return sample_time(0, n, options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz());
 }
 
-// Built for AVX-512, AVX2 and the baseline, picked at load time (no -march in the build): the
-// frame tiles' loops vectorise to the machine's width. Arithmetic and its order are the same in
-// each variant (no FMA contraction), so the samples are too. gcc only: clang 14 does not emit the
-// plain symbol of a cloned function that other translation units call, so they fail to link.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target_clones("avx512f", "avx2", "default")))
-#endif
 void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
                          std::vector<SensorBlock>& out) {
   require_simulatable(motion, "simulation");
@@ -750,14 +1108,19 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       ws.on_frame_frames.push_back(pos[i].frame);
     }
   }
-  // Grid methods and the spline's on-frame samples read an in-memory Motion in place (a copy
-  // was an eighth of fd's run time); other sources, and samples between frames, through a chunk.
+  // An in-memory Motion is read in place (a copy was an eighth of fd's run time); other sources
+  // through a chunk.
   const auto* direct = dynamic_cast<const Motion*>(&motion);
-  if (direct == nullptr || (spline && ws.on_frame_samples.size() < times.size()))
-    motion.read(lo, hi - lo, plan_.joints, ws.chunk);
+  if (direct == nullptr) motion.read(lo, hi - lo, plan_.joints, ws.chunk);
   const MotionChunk& c = ws.chunk;
   const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& {
-    return c.rotation(f - lo, k);
+    return direct != nullptr ? direct->rotation_data(static_cast<std::size_t>(plan_.joints[k]))[f]
+                             : c.rotation(f - lo, k);
+  };
+  const double* translation =
+      direct != nullptr ? direct->translation_data() + 3 * lo : c.root_translation.data();
+  const auto root_translation = [translation, lo](int64_t f) {
+    return Eigen::Map<const Vector3d>(translation + 3 * (f - lo));
   };
 
   if (spline) {
@@ -789,8 +1152,7 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       }
       in.rotations = &ws.on_frame_rotations;
       in.rotation_stride = direct != nullptr ? 4 : 4 * J;
-      in.translation =
-          direct != nullptr ? direct->translation_data() + 3 * lo : c.root_translation.data();
+      in.translation = translation;
       in.rate = rate;
       in.gravity_world = options_.gravity_world;
       in.magnetic_field_world = B_world;
@@ -869,10 +1231,10 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
           // to 0 only up to rounding, differences make a still root exactly still.
           // (Positions and velocities are not needed: a sensor's acceleration follows from the
           // chain's rates and the root's acceleration.)
-          const Vector3d t0 = c.root_translation.col(fi - lo);
+          const Vector3d t0 = root_translation(fi);
           Vector3d ta = Vector3d::Zero();
           for (int m = 0; m < n; ++m)
-            ta += L.ddw[static_cast<std::size_t>(m)] * (c.root_translation.col(s0 + m - lo) - t0);
+            ta += L.ddw[static_cast<std::size_t>(m)] * (root_translation(s0 + m) - t0);
           ws.R[k] = Rl;
           ws.a[k] = ta * (rate * rate);
           ws.w[k] = Rl * E.w_body;
@@ -907,128 +1269,44 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     return;
   }
 
-  // Grid methods: forward kinematics on every loaded frame, joint by joint over tiles of frames
-  // in structure-of-arrays form so that the compiler vectorises across frames (the same
-  // formulas as multiply() and rotate(), so the same bits); only the sensor joints' world
-  // rotations and positions are kept, per frame. The loops after it work on plain arrays through
-  // raw pointers: no allocation per sample and no bounds-checked dynamic Eigen blocks (release
-  // builds keep assertions on). Together 2x faster than a quaternion-at-a-time loop.
+  // Grid methods: forward kinematics on every loaded frame (kernel forward_kinematics), keeping
+  // the sensor joints' world rotations and positions per frame as arrays (pose); the SO(3)
+  // increments (fd) and the interior frames' samples in kernels too; the ends of the motion,
+  // the reference method and orientation outputs quaternion by quaternion.
   const std::size_t Fz = static_cast<std::size_t>(F);
-  ws.q_world.resize(Fz * J);
-  if (plan_.needs_position) ws.p_world.resize(Fz * J);
-  // fd: the world rotations of joints that carry a gyroscope, per joint as w, x, y, z arrays
-  // over the loaded frames, for the increments below.
-  const bool use_rate_soa = options_.method == DerivativeMethod::fd;
-  const int n_rate = ws.rate_joints;
-  if (use_rate_soa) ws.rate_soa.resize(static_cast<std::size_t>(n_rate) * 4 * Fz);
-  {
-    constexpr std::size_t kTile = 256;
-    ws.soa.resize(J * 7 * kTile);
-    const bool pos_needed = plan_.needs_position;
-    const double* tr =
-        direct != nullptr ? direct->translation_data() + 3 * lo : c.root_translation.data();
-    for (std::size_t f0 = 0; f0 < Fz; f0 += kTile) {
-      const std::size_t n = std::min(kTile, Fz - f0);
-      for (std::size_t k = 0; k < J; ++k) {
-        double* base = ws.soa.data() + k * 7 * kTile;
-        double* __restrict qw_ = base;
-        double* __restrict qx_ = base + kTile;
-        double* __restrict qy_ = base + 2 * kTile;
-        double* __restrict qz_ = base + 3 * kTile;
-        double* __restrict px_ = base + 4 * kTile;
-        double* __restrict py_ = base + 5 * kTile;
-        double* __restrict pz_ = base + 6 * kTile;
-        // The local rotations, Eigen's coefficient order x, y, z, w: in place in a Motion
-        // (consecutive frames) or in the chunk (frame-major, J per frame).
-        const double* __restrict src =
-            direct != nullptr
-                ? (direct->rotation_data(static_cast<std::size_t>(plan_.joints[k])) + lo + f0)
-                      ->coeffs()
-                      .data()
-                : c.rotations[f0 * J + k].coeffs().data();
-        const std::size_t stride = direct != nullptr ? 4 : 4 * J;
-        if (direct != nullptr && f0 + n < Fz) {
-          // The next tile of this joint's rotations, 32 bytes a frame: fetched while this tile
-          // is computed (the motion streams from memory; waiting for it was a fifth of the time).
-          const auto* next = reinterpret_cast<const char*>(src + n * stride);
-          const std::size_t bytes = std::min(kTile, Fz - f0 - n) * 4 * sizeof(double);
-          for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(next + b);
-        }
-        const int p = plan_.parent[k];
-        if (p < 0) {
-          for (std::size_t i = 0; i < n; ++i) {
-            qx_[i] = src[i * stride];
-            qy_[i] = src[i * stride + 1];
-            qz_[i] = src[i * stride + 2];
-            qw_[i] = src[i * stride + 3];
-          }
-          if (pos_needed) {
-            for (std::size_t i = 0; i < n; ++i) {
-              px_[i] = tr[3 * (f0 + i)];
-              py_[i] = tr[3 * (f0 + i) + 1];
-              pz_[i] = tr[3 * (f0 + i) + 2];
-            }
-          }
-        } else {
-          const double* pbase = ws.soa.data() + static_cast<std::size_t>(p) * 7 * kTile;
-          const double* __restrict aw = pbase;
-          const double* __restrict ax = pbase + kTile;
-          const double* __restrict ay = pbase + 2 * kTile;
-          const double* __restrict az = pbase + 3 * kTile;
-          const double* __restrict apx = pbase + 4 * kTile;
-          const double* __restrict apy = pbase + 5 * kTile;
-          const double* __restrict apz = pbase + 6 * kTile;
-          for (std::size_t i = 0; i < n; ++i) {
-            const double bx = src[i * stride], by = src[i * stride + 1], bz = src[i * stride + 2],
-                         bw = src[i * stride + 3];
-            qw_[i] = aw[i] * bw - ax[i] * bx - ay[i] * by - az[i] * bz;
-            qx_[i] = (aw[i] * bx + ax[i] * bw) + (ay[i] * bz - az[i] * by);
-            qy_[i] = (aw[i] * by + ay[i] * bw) + (az[i] * bx - ax[i] * bz);
-            qz_[i] = (aw[i] * bz + az[i] * bw) + (ax[i] * by - ay[i] * bx);
-          }
-          if (pos_needed && ws.offset_is_zero[k] != 0) {
-            // A joint at its parent's origin: rotating a zero offset adds exactly nothing.
-            for (std::size_t i = 0; i < n; ++i) {
-              px_[i] = apx[i];
-              py_[i] = apy[i];
-              pz_[i] = apz[i];
-            }
-          } else if (pos_needed) {
-            const double vx = offsets_[k].x(), vy = offsets_[k].y(), vz = offsets_[k].z();
-            for (std::size_t i = 0; i < n; ++i) {
-              // rotate(parent, offset), spelled out.
-              const double ux = ax[i], uy = ay[i], uz = az[i], w = aw[i];
-              const double tx = 2.0 * (uy * vz - uz * vy);
-              const double ty = 2.0 * (uz * vx - ux * vz);
-              const double tz = 2.0 * (ux * vy - uy * vx);
-              px_[i] = apx[i] + (vx + w * tx + (uy * tz - uz * ty));
-              py_[i] = apy[i] + (vy + w * ty + (uz * tx - ux * tz));
-              pz_[i] = apz[i] + (vz + w * tz + (ux * ty - uy * tx));
-            }
-          }
-        }
-        if (use_rate_soa && ws.rate_slot[k] >= 0) {
-          double* R = ws.rate_soa.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz + f0;
-          std::memcpy(R, qw_, n * sizeof(double));
-          std::memcpy(R + Fz, qx_, n * sizeof(double));
-          std::memcpy(R + 2 * Fz, qy_, n * sizeof(double));
-          std::memcpy(R + 3 * Fz, qz_, n * sizeof(double));
-        }
-        if (ws.is_sensor_joint[k] != 0) {
-          Quaterniond* qo = ws.q_world.data() + f0 * J + k;
-          for (std::size_t i = 0; i < n; ++i)
-            qo[i * J] = Quaterniond(qw_[i], qx_[i], qy_[i], qz_[i]);
-          if (pos_needed) {
-            Vector3d* po = ws.p_world.data() + f0 * J + k;
-            for (std::size_t i = 0; i < n; ++i) po[i * J] = Vector3d(px_[i], py_[i], pz_[i]);
-          }
-        }
-      }
-    }
+  ws.pose.resize(static_cast<std::size_t>(ws.kept_joints) * 7 * Fz);
+  ws.fk_tile.resize(J * 7 * kFkTile);
+  ws.fk_rotations.resize(J);
+  for (std::size_t k = 0; k < J; ++k) {
+    ws.fk_rotations[k] =
+        direct != nullptr ? (direct->rotation_data(static_cast<std::size_t>(plan_.joints[k])) + lo)
+                                ->coeffs()
+                                .data()
+                          : c.rotations[k].coeffs().data();
   }
-  const Quaterniond* qwp = ws.q_world.data();
-  const auto qw = [qwp, lo, J](int64_t f, std::size_t k) -> const Quaterniond& {
-    return qwp[static_cast<std::size_t>(f - lo) * J + k];
+  {
+    ForwardKinematicsArgs fk;
+    fk.joints = J;
+    fk.frames = Fz;
+    fk.rotations = ws.fk_rotations.data();
+    fk.stride = direct != nullptr ? 4 : 4 * J;
+    fk.translation = translation;
+    fk.parent = plan_.parent.data();
+    fk.offsets = ws.offset_xyz.data();
+    fk.offset_is_zero = ws.offset_is_zero.data();
+    fk.kept = ws.kept_slot.data();
+    fk.positions = plan_.needs_position;
+    fk.tile = ws.fk_tile.data();
+    fk.pose = ws.pose.data();
+    forward_kinematics(fk);
+  }
+  // Sensor joint k's pose arrays, and its world rotation at frame f.
+  const auto pose = [&](std::size_t k) {
+    return ws.pose.data() + static_cast<std::size_t>(ws.kept_slot[k]) * 7 * Fz;
+  };
+  const auto qw = [&](int64_t f, std::size_t k) {
+    const double* q = pose(k) + (f - lo);
+    return Quaterniond(q[0], q[Fz], q[2 * Fz], q[3 * Fz]);
   };
   // Frames whose derivatives the samples need (the interpolation uses frame i and i + 1).
   const int64_t g0 = imin;
@@ -1036,37 +1314,25 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
   const auto G = static_cast<Eigen::Index>(g1 - g0 + 1);
   // fd: SO(3) increments d[f] = log(R[f]^T R[f+1]) (the body-frame rotation from frame f to
   // f + 1) of every joint that carries a gyroscope, once per joint however many sensors share
-  // it, for f in [d0, d1]: each interior rate uses d[g-1] and d[g].
+  // it, for f in [d0, d1]: each interior rate uses d[g-1] and d[g]. By the branch-free
+  // small-angle series; the rare larger increments (flagged) through so3_log afterwards.
   const int64_t d0 = std::max<int64_t>(lo, g0 - 1);
   const int64_t d1 = std::min<int64_t>(g1, N - 2);
-  if (use_rate_soa) {
-    // log(q[f]^* q[f+1]) over the joint's rotations in structure-of-arrays form by the
-    // branch-free small-angle series, so that it vectorises; the rare larger increments
-    // (flagged) are redone through so3_log afterwards.
-    ws.increments.resize(static_cast<std::size_t>(n_rate) * 4 * Fz);
+  const bool fd = options_.method == DerivativeMethod::fd;
+  if (fd) {
+    ws.increments.resize(static_cast<std::size_t>(ws.rate_joints) * 4 * Fz);
     for (std::size_t k = 0; k < J; ++k) {
-      if (ws.rate_slot[k] < 0) continue;
-      const std::size_t slot = static_cast<std::size_t>(ws.rate_slot[k]);
-      const double* __restrict W = ws.rate_soa.data() + slot * 4 * Fz;
-      const double* __restrict X = W + Fz;
-      const double* __restrict Y = W + 2 * Fz;
-      const double* __restrict Z = W + 3 * Fz;
-      double* __restrict DX = ws.increments.data() + slot * 4 * Fz;
-      double* __restrict DY = DX + Fz;
-      double* __restrict DZ = DX + 2 * Fz;
-      double* __restrict big = DX + 3 * Fz;
+      if (ws.rate_slot[k] < 0 || d1 < d0) continue;
+      double* D = ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz;
       const auto a = static_cast<std::size_t>(d0 - lo), b = static_cast<std::size_t>(d1 - lo);
-      if (b >= a) {
-        relative_log_lanes(W + a, X + a, Y + a, Z + a, W + a + 1, X + a + 1, Y + a + 1, Z + a + 1,
-                           DX + a, DY + a, DZ + a, big + a, b - a + 1);
-      }
+      if (increments(pose(k), Fz, a, b - a + 1, D) == 0.0) continue;
       for (std::size_t f = a; f <= b; ++f) {
-        if (big[f] == 0.0) continue;
-        const Vector3d d = relative_log(qw(static_cast<int64_t>(f) + lo, k),
-                                        qw(static_cast<int64_t>(f) + lo + 1, k));
-        DX[f] = d.x();
-        DY[f] = d.y();
-        DZ[f] = d.z();
+        if (D[3 * Fz + f] == 0.0) continue;
+        const auto ff = static_cast<int64_t>(f) + lo;
+        const Vector3d d = relative_log(qw(ff, k), qw(ff + 1, k));
+        D[f] = d.x();
+        D[Fz + f] = d.y();
+        D[2 * Fz + f] = d.z();
       }
     }
   }
@@ -1091,21 +1357,26 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     const auto k = static_cast<std::size_t>(plan_.sensor_joint[s]);
     const Placement& pl = sensors_[s].placement;
     const SensorOutputs& o = sensors_[s].outputs;
-    ws.grid_f.resize(3, o.accelerometer ? G : 0);
-    ws.grid_w.resize(3, o.gyroscope ? G : 0);
-    double* gf = ws.grid_f.data();
-    double* gw = ws.grid_w.data();
+    // One sample per frame from g0 on (the sensor at the motion's rate): the grid values are
+    // the samples, written in place.
+    const bool direct_out = on_grid && !o.orientation && !o.magnetometer;
+    // The last frame computed: the last sample's when they are written in place.
+    const int64_t gl = direct_out ? g0 + static_cast<int64_t>(times.size()) - 1 : g1;
+    if (!direct_out) {
+      ws.grid_f.resize(3, o.accelerometer ? G : 0);
+      ws.grid_w.resize(3, o.gyroscope ? G : 0);
+    }
+    double* gf = direct_out ? out[s].specific_force.data() : ws.grid_f.data();
+    double* gw = direct_out ? out[s].angular_rate.data() : ws.grid_w.data();
     // Sensor positions on every loaded frame.
     if (o.accelerometer) {
-      ws.sensor_p.resize(Fz);
-      const Vector3d* pwp = ws.p_world.data();
-      for (std::size_t f = 0; f < Fz; ++f) {
-        ws.sensor_p[f] = pwp[f * J + k] + rotate(qwp[f * J + k], pl.p_joint_sensor);
-      }
+      ws.sensor_position.resize(3 * Fz);
+      sensor_positions(pose(k), Fz, pl.p_joint_sensor.data(), 0, Fz, ws.sensor_position.data());
     }
-    const Vector3d* sp = ws.sensor_p.data();
-    const auto P = [sp, lo](int64_t f) -> const Vector3d& {
-      return sp[static_cast<std::size_t>(f - lo)];
+    const double* sp = ws.sensor_position.data();
+    const auto P = [sp, lo, Fz](int64_t f) {
+      const double* x = sp + (f - lo);
+      return Vector3d(x[0], x[Fz], x[2 * Fz]);
     };
     const Matrix3d R_sensor_joint = pl.q_joint_sensor.toRotationMatrix().transpose();
     const auto store = [](double* dst, const Vector3d& v) {
@@ -1113,32 +1384,48 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
       dst[1] = v.y();
       dst[2] = v.z();
     };
-    if (options_.method == DerivativeMethod::fd) {
-      for (int64_t g = g0; g <= g1; ++g) {
+    if (fd) {
+      // Interior frames in the kernel, then the frames at the motion's ends (if loaded).
+      const int64_t ia = std::max<int64_t>(g0, 1), ib = std::min<int64_t>(gl, N - 2);
+      if (ib >= ia) {
+        FdInteriorArgs fa;
+        fa.pose = pose(k);
+        fa.position = o.accelerometer ? sp : nullptr;
+        fa.increments =
+            o.gyroscope ? ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz
+                        : nullptr;
+        fa.frames = Fz;
+        fa.first = static_cast<std::size_t>(ia - lo);
+        fa.count = static_cast<std::size_t>(ib - ia + 1);
+        for (int r = 0; r < 3; ++r) {
+          for (int cc = 0; cc < 3; ++cc) fa.R_sensor_joint[3 * r + cc] = R_sensor_joint(r, cc);
+          fa.gravity[r] = gravity[r];
+        }
+        fa.rate = rate;
+        fa.force = gf + 3 * (ia - g0);
+        fa.angular_rate = gw + 3 * (ia - g0);
+        fd_interior(fa);
+      }
+      const int64_t ends[2] = {g0, gl};
+      for (int e = 0; e < (gl == g0 ? 1 : 2); ++e) {
+        const int64_t g = ends[e];
+        if (g > 0 && g < N - 1) continue;
         const auto col = static_cast<std::size_t>(g - g0);
-        const bool interior = g > 0 && g < N - 1;
         if (o.accelerometer) {
-          Vector3d acc;
-          if (interior) {
-            // In differences, so a still point gives exactly 0.
-            acc = ((P(g + 1) - P(g)) - (P(g) - P(g - 1))) * rate2;
-          } else if (N >= 4) {  // one-sided, second order: (2 p0 - 5 p1 + 4 p2 - p3) / h^2
+          Vector3d acc = Vector3d::Zero();
+          if (N >= 4) {  // one-sided, second order: (2 p0 - 5 p1 + 4 p2 - p3) / h^2
             const int64_t d = g == 0 ? 1 : -1;
             acc = (2.0 * (P(g) - P(g + d)) - 3.0 * (P(g + d) - P(g + 2 * d)) +
                    (P(g + 2 * d) - P(g + 3 * d))) *
                   rate2;
           } else if (N == 3) {
             acc = ((P(2) - P(1)) - (P(1) - P(0))) * rate2;
-          } else {
-            acc = Vector3d::Zero();
           }
           store(gf + 3 * col, R_sensor_joint * rotate_inverse(qw(g, k), acc - gravity));
         }
         if (o.gyroscope) {
           Vector3d w;
-          if (interior) {
-            w = (increment(g - 1, k) + increment(g, k)) * (0.5 * rate);
-          } else if (N >= 3) {
+          if (N >= 3) {
             // Chart at the end frame: psi_1, psi_2 of the two neighbours inwards,
             // w = (4 psi_1 - psi_2) / (2 h) (one-sided, second order).
             const int64_t d = g == 0 ? 1 : -1;
@@ -1153,7 +1440,7 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
         }
       }
     } else {  // reference
-      for (int64_t g = g0; g <= g1; ++g) {
+      for (int64_t g = g0; g <= gl; ++g) {
         const auto col = static_cast<std::size_t>(g - g0);
         const Quaterniond qs = multiply(qw(g, k), pl.q_joint_sensor);
         if (o.accelerometer) {
@@ -1187,18 +1474,11 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
         }
       }
     }
-    // Samples: on the grid exactly, between frames linear interpolation of the frame values.
+    if (direct_out) continue;
+    // Samples between frames: linear interpolation of the frame values.
     double* of = out[s].specific_force.data();
     double* ow = out[s].angular_rate.data();
     double* om = out[s].magnetic_field.data();
-    if (on_grid && !o.orientation && !o.magnetometer) {
-      // One sample per frame from g0 on (the sensor at the motion's rate): the grid values are
-      // the samples.
-      const std::size_t bytes = 3 * times.size() * sizeof(double);
-      if (o.accelerometer) std::memcpy(of, gf, bytes);
-      if (o.gyroscope) std::memcpy(ow, gw, bytes);
-      continue;
-    }
     for (std::size_t i = 0; i < times.size(); ++i) {
       const auto a = static_cast<std::size_t>(pos[i].frame - g0);
       const double u = pos[i].frac;
@@ -1253,6 +1533,8 @@ void Simulator::run(MotionSource& motion,
   // The wrapper only when it changes something: evaluate() reads an in-memory Motion in place.
   MotionSource& source = count && *count == N ? motion : static_cast<MotionSource&>(limited);
   const int64_t total = sample_count(motion, N);
+  const double motion_rate = motion.rate_hz();
+  const double rate = options_.rate_hz > 0.0 ? options_.rate_hz : motion_rate;
   std::vector<TimeNs> times;
   std::vector<SensorBlock> blocks;
   int64_t n = 0;
@@ -1260,8 +1542,8 @@ void Simulator::run(MotionSource& motion,
   while (n < total) {
     times.clear();
     while (n < total) {
-      const TimeNs t = sample_time_ns(motion, n);
-      if (frame_position(t, motion.rate_hz()).frame >= chunk_end && !times.empty()) break;
+      const TimeNs t = sample_time(0, n, rate);
+      if (frame_position(t, motion_rate).frame >= chunk_end && !times.empty()) break;
       times.push_back(t);
       ++n;
     }

@@ -6,10 +6,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/isa.hpp"
 #include "core/profile.hpp"
 #include "core/so3.hpp"
 #include "sim/placement.hpp"
@@ -433,6 +435,43 @@ TEST(Ppda, SameSeedSameBatchForAnyThreadCountAndCallsVary) {
   EXPECT_EQ(a, b);
   aug.apply(sub, starts, r1, c, 2);  // r1 advanced: a fresh batch
   EXPECT_NE(a, c);
+}
+
+// Every instruction-set variant of the kernels (core/isa.hpp) gives the same batch, bit for bit,
+// with the default spline and with fd, and so does every thread count under each variant.
+TEST(Ppda, EveryInstructionSetVariantGivesTheSameBatch) {
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_ankle_clip", "waist_belt"});
+  const Policy policy = builtin_policy("imukit");
+  const Isa saved = active_isa();
+  for (const sim::DerivativeMethod method :
+       {sim::DerivativeMethod::spline, sim::DerivativeMethod::fd}) {
+    PpdaOptions po;
+    po.method = method;
+    PpdaAugmenter aug(scene, po);
+    const std::vector<int64_t> starts = aug.window_starts(70);
+    const std::size_t n = starts.size() * aug.window() * aug.channels();
+    // The heaviest sub-policy (warping, warping, rotation, noise), amplitude warping alone and
+    // a placement shift (carriers at four points per joint).
+    for (const std::size_t k : {policy.sub_policies.size() - 1, std::size_t{720}, std::size_t{5}}) {
+      std::vector<float> first;
+      for (const Isa isa : supported_isas()) {
+        set_active_isa(isa);
+        for (const unsigned threads : {1u, 2u}) {
+          std::vector<float> out(n);
+          Rng rng(77);
+          aug.apply(policy, k, starts, rng, out, threads);
+          if (first.empty()) {
+            first = out;
+          } else {
+            EXPECT_EQ(std::memcmp(out.data(), first.data(), n * sizeof(float)), 0)
+                << policy.sub_policies[k].describe() << ", " << to_string(isa) << ", " << threads
+                << " threads";
+          }
+        }
+      }
+      set_active_isa(saved);
+    }
+  }
 }
 
 TEST(Ppda, BadInputIsRejected) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/isa.hpp"
 #include "core/rng.hpp"
 #include "tests/support/allan_reference.hpp"
 
@@ -167,6 +168,34 @@ TEST(AllanDeviation, ResultDoesNotDependOnThreadCountOrAxisGrouping) {
   const AllanResult r5 = allan_deviation(t, y.topRows(5), one);
   EXPECT_TRUE(r5.allan.deviation.isApprox(r1.allan.deviation.topRows(5), 1e-13));
   EXPECT_TRUE(r5.hadamard.deviation.isApprox(r1.hadamard.deviation.topRows(5), 1e-13));
+}
+
+// The lane kernels run in baseline, AVX2 and AVX-512 variants (core/isa.hpp): the same numbers,
+// bit for bit, for the small factors' shared pass and the large factors' strided sweeps.
+TEST(AllanDeviation, EveryInstructionSetVariantGivesTheSameBits) {
+  const int64_t n = 60000;
+  Rng rng(8);
+  Eigen::MatrixXd y(6, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (int a = 0; a < 6; ++a) y(a, i) = 0.1 * double(a) + rng.normal();
+  AllanOptions opt;
+  opt.threads = 1;
+  opt.shared_factor_limit = 64;  // factors above 64 take the strided sweep
+  const auto t = uniform_times(n, 200.0);
+  const Isa saved = active_isa();
+  std::vector<AllanResult> results;
+  for (const Isa isa : supported_isas()) {
+    set_active_isa(isa);
+    results.push_back(allan_deviation(t, y, opt));
+  }
+  set_active_isa(saved);
+  ASSERT_GT(results.front().factors.back(), 64);
+  for (std::size_t v = 1; v < results.size(); ++v) {
+    EXPECT_EQ(results[v].allan.deviation, results[0].allan.deviation)
+        << to_string(supported_isas()[v]);
+    EXPECT_EQ(results[v].hadamard.deviation, results[0].hadamard.deviation);
+    EXPECT_EQ(results[v].modified.deviation, results[0].modified.deviation);
+  }
 }
 
 TEST(AllanDeviation, MatchesClosedFormForWhiteNoise) {

@@ -6,12 +6,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/isa.hpp"
 #include "core/so3.hpp"
 #include "core/text_parse.hpp"
 #include "sim/bvh.hpp"
@@ -431,6 +433,91 @@ TEST(Simulator, SplineOnFramesAgreesWithThePerSamplePath) {
         ASSERT_LT(x[s].q_world_sensor[i].angularDistance(y[s].q_world_sensor[i]), 1e-13);
         // Same sign convention as well as the same rotation.
         ASSERT_GT(x[s].q_world_sensor[i].coeffs().dot(y[s].q_world_sensor[i].coeffs()), 0.0);
+      }
+    }
+  }
+}
+
+// The kernels run in baseline, AVX2 and AVX-512 variants (core/isa.hpp) with the same
+// arithmetic in the same order: every variant must give the same samples, bit for bit, for
+// every method, on and off the frames, for increments large enough to need so3_log, from an
+// in-memory motion and from a streamed source.
+TEST(Simulator, EveryInstructionSetVariantGivesTheSameBits) {
+  const Body body = Body::default_humanoid();
+  ProceduralMotionOptions po;
+  po.rate_hz = 100.0;
+  po.frames = 600;
+  po.seed = 5;
+  po.amplitude_rad = 0.6;
+  ProceduralMotion pm(body.size(), po);
+  Motion m = pm.materialize(600);
+  const auto head = static_cast<std::size_t>(body.index_of("head"));
+  const auto right = static_cast<std::size_t>(body.index_of("right_elbow"));
+  for (int64_t f = 0; f < m.frames(); ++f) {
+    m.rotation(f, head) = so3_exp(Vector3d(0.0, 0.4, 2.9) * static_cast<double>(f));
+    m.rotation(f, right) = so3_exp(Vector3d(0.3, 0.05, 0.0) * static_cast<double>(f));
+    if (f % 5 == 2) m.rotation(f, right).coeffs() *= -1.0;
+  }
+  std::vector<SensorSpec> sensors;
+  for (const char* preset :
+       {"left_wrist_watch", "right_wrist_watch", "left_earbud", "right_ankle_clip", "waist_belt"}) {
+    SensorSpec s;
+    s.name = preset;
+    s.placement = resolve_preset(placement_preset(preset), body);
+    sensors.push_back(s);
+  }
+  sensors[1].outputs = {true, true, true, true};
+  sensors[2].outputs.accelerometer = false;
+  sensors[3].outputs.gyroscope = false;
+  const auto same = [](const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
+    return a.size() == b.size() &&
+           std::memcmp(a.data(), b.data(), static_cast<std::size_t>(a.size()) * 8) == 0;
+  };
+  const Isa saved = active_isa();
+  for (const DerivativeMethod method :
+       {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
+    for (const double rate_hz : {0.0, 50.0, 73.0}) {
+      SimulationOptions opt;
+      opt.method = method;
+      opt.rate_hz = rate_hz;
+      opt.chunk_frames = 150;
+      std::vector<std::vector<SensorBlock>> runs;
+      for (const Isa isa : supported_isas()) {
+        set_active_isa(isa);
+        Simulator sim(body, sensors, opt);
+        std::vector<SensorBlock> all(sensors.size());
+        const auto keep = [&](std::size_t s, const SensorBlock& b) {
+          SensorBlock& a = all[s];
+          a.t.insert(a.t.end(), b.t.begin(), b.t.end());
+          for (auto [dst, src] : {std::pair{&a.specific_force, &b.specific_force},
+                                  std::pair{&a.angular_rate, &b.angular_rate},
+                                  std::pair{&a.magnetic_field, &b.magnetic_field}}) {
+            dst->conservativeResize(3, dst->cols() + src->cols());
+            dst->rightCols(src->cols()) = *src;
+          }
+          a.q_world_sensor.insert(a.q_world_sensor.end(), b.q_world_sensor.begin(),
+                                  b.q_world_sensor.end());
+        };
+        sim.run(m, keep);
+        ProceduralMotion streamed(body.size(), po);  // read through chunks, not in place
+        sim.run(streamed, keep, 400);
+        runs.push_back(std::move(all));
+      }
+      set_active_isa(saved);
+      ASSERT_FALSE(runs.empty());
+      for (std::size_t v = 1; v < runs.size(); ++v) {
+        for (std::size_t s = 0; s < sensors.size(); ++s) {
+          const std::string what = std::string(to_string(method)) + " at " +
+                                   std::to_string(rate_hz) + " Hz, " + sensors[s].name + ", " +
+                                   std::string(to_string(supported_isas()[v]));
+          ASSERT_GT(runs[0][s].t.size(), 400u) << what;
+          EXPECT_TRUE(same(runs[v][s].specific_force, runs[0][s].specific_force)) << what;
+          EXPECT_TRUE(same(runs[v][s].angular_rate, runs[0][s].angular_rate)) << what;
+          EXPECT_TRUE(same(runs[v][s].magnetic_field, runs[0][s].magnetic_field)) << what;
+          ASSERT_EQ(runs[v][s].q_world_sensor.size(), runs[0][s].q_world_sensor.size());
+          for (std::size_t i = 0; i < runs[0][s].q_world_sensor.size(); ++i)
+            ASSERT_EQ(runs[v][s].q_world_sensor[i].coeffs(), runs[0][s].q_world_sensor[i].coeffs());
+        }
       }
     }
   }
