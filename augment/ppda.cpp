@@ -181,10 +181,7 @@ IMUKIT_ISA_VARIANTS(void, interpolate_rotations, interpolate_rotations_kernel,
 // A sensor's signals from its carriers' simulated blocks (x y z per sample): the specific force
 // at its position, f0 + sum_k p_k (f_k - f0) (affine in the position; force_along[k] null where
 // p_k = 0), and the angular rate, both turned into the sensor's axes, plus the drawn biases and
-// white noise (6 standard normals per sample, scaled by sigma) when noise is given. The result
-// goes into f and w (x y z per sample), or, when out_f or out_d is given, straight into the
-// sensor's 6 channels of a batch whose rows are out_stride values apart (one pass over the
-// samples instead of three; the same operations in the same order, so the same bits).
+// white noise (6 standard normals per sample, scaled by sigma) when noise is given.
 struct SensorSignalArgs {
   std::size_t n = 0;
   const double* force = nullptr;
@@ -195,80 +192,36 @@ struct SensorSignalArgs {
   const double* noise = nullptr;
   double bias[6] = {};  // accelerometer, gyroscope
   double sigma[2] = {};
-  double* f = nullptr;  // also the scratch of the position's force when out_f or out_d is given
+  double* f = nullptr;
   double* w = nullptr;
-  std::size_t out_stride = 0;
-  float* out_f = nullptr;
-  double* out_d = nullptr;
 };
 
 [[gnu::always_inline]] inline void sensor_signal_kernel(const SensorSignalArgs& a) {
-  double M[9];
-  for (int k = 0; k < 9; ++k) M[k] = a.R_sensor_joint[k];
+  const double* M = a.R_sensor_joint;
   const double* __restrict f0 = a.force;
   const double* __restrict rate = a.rate;
   double* __restrict f = a.f;
   double* __restrict w = a.w;
-  const std::size_t n = a.n;
-  // The force at the sensor's position (f0 itself when the sensor sits on its carrier).
-  const double* __restrict fp = f0;
-  if (a.force_along[0] != nullptr || a.force_along[1] != nullptr || a.force_along[2] != nullptr) {
-    for (std::size_t i = 0; i < 3 * n; ++i) f[i] = f0[i];
-    for (int k = 0; k < 3; ++k) {
-      const double* __restrict fk = a.force_along[k];
-      if (fk == nullptr) continue;
-      const double pk = a.offset[k];
-      for (std::size_t i = 0; i < 3 * n; ++i) f[i] += pk * (fk[i] - f0[i]);
-    }
-    fp = f;
+  for (std::size_t i = 0; i < 3 * a.n; ++i) f[i] = f0[i];
+  for (int k = 0; k < 3; ++k) {
+    const double* __restrict fk = a.force_along[k];
+    if (fk == nullptr) continue;
+    for (std::size_t i = 0; i < 3 * a.n; ++i) f[i] += a.offset[k] * (fk[i] - f0[i]);
   }
-  const double* __restrict nz = a.noise;
-  const double ba0 = a.bias[0], ba1 = a.bias[1], ba2 = a.bias[2];
-  const double bg0 = a.bias[3], bg1 = a.bias[4], bg2 = a.bias[5];
-  const double sa = a.sigma[0], sg = a.sigma[1];
-  float* __restrict of = a.out_f;
-  double* __restrict od = a.out_d;
-  const std::size_t stride = a.out_stride;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double x = fp[3 * i], y = fp[3 * i + 1], z = fp[3 * i + 2];
+  for (std::size_t i = 0; i < a.n; ++i) {
+    const double x = f[3 * i], y = f[3 * i + 1], z = f[3 * i + 2];
     const double u = rate[3 * i], v = rate[3 * i + 1], t = rate[3 * i + 2];
-    double fx = (M[0] * x + M[1] * y) + M[2] * z;
-    double fy = (M[3] * x + M[4] * y) + M[5] * z;
-    double fz = (M[6] * x + M[7] * y) + M[8] * z;
-    double wx = (M[0] * u + M[1] * v) + M[2] * t;
-    double wy = (M[3] * u + M[4] * v) + M[5] * t;
-    double wz = (M[6] * u + M[7] * v) + M[8] * t;
-    if (nz != nullptr) {
-      fx += ba0 + sa * nz[6 * i];
-      fy += ba1 + sa * nz[6 * i + 1];
-      fz += ba2 + sa * nz[6 * i + 2];
-      wx += bg0 + sg * nz[6 * i + 3];
-      wy += bg1 + sg * nz[6 * i + 4];
-      wz += bg2 + sg * nz[6 * i + 5];
+    for (int r = 0; r < 3; ++r) {
+      f[3 * i + r] = (M[3 * r] * x + M[3 * r + 1] * y) + M[3 * r + 2] * z;
+      w[3 * i + r] = (M[3 * r] * u + M[3 * r + 1] * v) + M[3 * r + 2] * t;
     }
-    if (of != nullptr) {
-      float* o = of + i * stride;
-      o[0] = static_cast<float>(fx);
-      o[1] = static_cast<float>(fy);
-      o[2] = static_cast<float>(fz);
-      o[3] = static_cast<float>(wx);
-      o[4] = static_cast<float>(wy);
-      o[5] = static_cast<float>(wz);
-    } else if (od != nullptr) {
-      double* o = od + i * stride;
-      o[0] = fx;
-      o[1] = fy;
-      o[2] = fz;
-      o[3] = wx;
-      o[4] = wy;
-      o[5] = wz;
-    } else {
-      f[3 * i] = fx;
-      f[3 * i + 1] = fy;
-      f[3 * i + 2] = fz;
-      w[3 * i] = wx;
-      w[3 * i + 1] = wy;
-      w[3 * i + 2] = wz;
+  }
+  if (a.noise == nullptr) return;
+  const double* __restrict nz = a.noise;
+  for (std::size_t i = 0; i < a.n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      f[3 * i + k] += a.bias[k] + a.sigma[0] * nz[6 * i + k];
+      w[3 * i + k] += a.bias[3 + k] + a.sigma[1] * nz[6 * i + 3 + k];
     }
   }
 }
@@ -700,18 +653,10 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       sig.sigma[0] = hw.accel_noise;
       sig.sigma[1] = hw.gyro_noise;
     }
-    if (hw.kind != HardwareOp::Kind::profile) {
-      // Nothing follows the signals: written into the batch in the same pass.
-      sig.out_stride = C;
-      sig.out_f = out_f != nullptr ? out_f + 6 * s : nullptr;
-      sig.out_d = out_d != nullptr ? out_d + 6 * s : nullptr;
-      sensor_signal(sig);
-      continue;
-    }
     sensor_signal(sig);
     Eigen::Matrix3Xd& f = wk.f;
     Eigen::Matrix3Xd& w = wk.w;
-    {
+    if (hw.kind == HardwareOp::Kind::profile) {
       HardwareModel model = to_hardware_model(*hw.profile);
       const auto perturb = [&](TriadModel& t, const std::optional<SensorProfile>& sp) {
         // Noise parameters drawn from their stated 1-sigma uncertainties (kept >= 0).
