@@ -16,6 +16,7 @@
 #include "core/error.hpp"
 #include "core/input_file.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
 #include "hwmodel/noise_fit.hpp"
@@ -27,7 +28,7 @@ struct CharacterizeArgs {
   std::string output;
   std::string plot_dir;
   std::string kalibr;
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   int points_per_decade = 10;
   bool level = false;
   double fit_tau_min_s = 0.0;

@@ -15,6 +15,7 @@
 #include "cli/inputs.hpp"
 #include "core/imu_series.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
 #include "hwmodel/noise_fit.hpp"
@@ -39,7 +40,7 @@ bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
 // ---- characterize -------------------------------------------------------------------------
 
 struct CharacterizeOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   int points_per_decade = 10;
   double fit_tau_min_s = 0.0;
   // Recordings were taken level with z up: also give the accelerometer turn-on bias, as the
@@ -76,7 +77,7 @@ void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& resu
 // ---- calibrate ----------------------------------------------------------------------------
 
 struct CalibrateOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   bool raw = false;  // readings are ADC counts
   bool gyro = true;  // calibrate the gyroscope too (when the recording has one)
   double init_static_s = 50.0;

@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/imu_series.hpp"
+#include "core/units.hpp"
 
 namespace imukit::hwmodel {
 
@@ -83,7 +84,7 @@ struct TriadCalibration {
 };
 
 struct CalibrationOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   StaticDetectorOptions detector;
   int max_threshold_factor = 10;  // k searched over 1..max (integers)
   int min_poses = 9;
