@@ -77,13 +77,6 @@ class Codec {
 // Codec options as given in a device URI's query (docs/devices.md lists the keys per codec).
 using CodecOptions = std::map<std::string, std::string>;
 
-// The codec called `name` (imukit, xsens, witmotion, dualshock4, dualsense, text) configured
-// from options. Throws imukit::Error for an unknown name or a bad option value, naming both.
-std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& options);
-
-// Names make_codec() knows, for help texts.
-std::vector<std::string> codec_names();
-
 // Option helpers shared by the codecs and the URI parser: parse a number or fail with an error
 // that names the key and the text.
 double option_double(const CodecOptions& options, const std::string& key, double fallback);
