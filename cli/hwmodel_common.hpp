@@ -18,6 +18,7 @@
 #include "core/units.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
+#include "hwmodel/characterize.hpp"
 #include "hwmodel/noise_fit.hpp"
 
 namespace imukit::cli {
@@ -50,19 +51,9 @@ struct CharacterizeOptions {
   std::optional<Eigen::Vector3d> level_reading;
 };
 
-struct AxisNoise {
-  hwmodel::NoiseFit fit;
-  hwmodel::SlopeReadings slopes;
-};
-
-struct TriadNoise {
-  hwmodel::AllanResult allan;
-  std::array<AxisNoise, 3> axes;
-};
-
 struct CharacterizeResult {
   std::string noise_run;  // the (longest) recording the noise came from
-  std::optional<TriadNoise> accel, gyro;
+  std::optional<hwmodel::TriadNoise> accel, gyro;
   std::vector<Eigen::Vector3d> accel_run_bias, gyro_run_bias;  // per recording, in input order
   DeviceProfile update;  // the noise and turn_on_bias sections
 };

@@ -208,9 +208,9 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
   return out;
 }
 
-TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& runs) {
-  TurnOnBiasStats s;
-  s.runs = static_cast<int>(runs.size());
+TurnOnBias turn_on_bias_stats(const std::vector<Eigen::Vector3d>& runs) {
+  TurnOnBias s;
+  s.runs = static_cast<int64_t>(runs.size());
   if (runs.empty()) return s;
   for (const auto& r : runs) s.mean += r;
   s.mean /= static_cast<double>(runs.size());
