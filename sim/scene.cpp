@@ -424,19 +424,6 @@ void apply_hardware(ImuErrorGenerator& gen, SensorBlock& b) {
   if (b.magnetic_field.cols() > 0) gen.apply_magnetometer(b.magnetic_field);
 }
 
-// The first `frames` frames of a source, so the simulator sees the limit as the motion's end.
-struct LimitedMotion : MotionSource {
-  MotionSource& inner;
-  int64_t frames;
-  LimitedMotion(MotionSource& m, int64_t n) : inner(m), frames(n) {}
-  double rate_hz() const override { return inner.rate_hz(); }
-  std::size_t joint_count() const override { return inner.joint_count(); }
-  std::optional<int64_t> frame_count() const override { return frames; }
-  void read(int64_t first, int64_t n, std::span<const int> joints, MotionChunk& out) override {
-    inner.read(first, n, joints, out);
-  }
-};
-
 // The child stream (of the sensor's Rng(seed).child(s)) its clock's jitter draws from; the
 // hardware generator takes its one draw from the sensor's stream itself, so jitter leaves the
 // noise unchanged.
@@ -549,14 +536,8 @@ void run_scene(Scene& scene, const SceneSink& sink) {
   }
   if (clocked) {
     require_simulatable(*scene.motion, "simulation");
-    const std::optional<int64_t> count = scene.motion->frame_count();
-    if (!count && !scene.frames)
-      throw Error("simulation: an endless motion source needs a frame limit");
-    int64_t frames = count.value_or(*scene.frames);
-    if (scene.frames) frames = std::min(frames, *scene.frames);
-    if (frames < 2)
-      throw Error("simulation: at least 2 frames are needed, got " + std::to_string(frames));
-    run_scene_clocked(scene, sink, rate, frames, gens);
+    run_scene_clocked(scene, sink, rate,
+                      frames_to_simulate(*scene.motion, scene.frames, "simulation"), gens);
     return;
   }
   std::vector<SensorSpec> specs;
