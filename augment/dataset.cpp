@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/npy.hpp"
+#include "core/sampling.hpp"
 #include "core/text_parse.hpp"
 
 namespace imukit::augment {
@@ -326,10 +327,7 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   if (streams.empty() || stream_names.size() != streams.size())
     throw Error("augment: give one name per stream");
   const std::size_t n = streams[0]->size();
-  if (n < 2) throw Error("augment: the recording has fewer than 2 samples");
-  const double span_s = static_cast<double>(streams[0]->t.back() - streams[0]->t.front()) * 1e-9;
-  if (!(span_s > 0.0)) throw Error("augment: the recording's times do not advance");
-  const double rate = static_cast<double>(n - 1) / span_s;
+  const double rate = measured_rate_hz(streams[0]->t, "augment: the recording");
   const std::vector<int64_t> base = window_starts(n, options.window, options.stride);
   if (base.empty())
     throw Error(fmt::format("augment: the recording ({} samples) is shorter than a window of {}", n,

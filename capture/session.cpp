@@ -12,7 +12,7 @@
 #include "capture/ros_messages.hpp"
 #include "capture/spsc_queue.hpp"
 #include "core/error.hpp"
-#include "drivers/imukit_codec.hpp"
+#include "drivers/codec.hpp"
 #include "drivers/reader.hpp"
 #include "drivers/sample.hpp"
 
@@ -69,7 +69,6 @@ struct Device {
 
 void reader_thread(Device& d, bool wait_when_full) {
   drivers::ReaderOptions options;
-  auto* imukit = dynamic_cast<drivers::ImukitCodec*>(d.spec.device.codec.get());
   std::size_t syncs_forwarded = 0;
   const drivers::EndReason end = drivers::DeviceReader::run(
       *d.spec.device.transport, *d.spec.device.codec, options, d.stop,
@@ -84,12 +83,10 @@ void reader_thread(Device& d, bool wait_when_full) {
           }
         }
         batch.clear();
-        if (imukit) {
-          const auto& points = imukit->sync_points();
-          while (syncs_forwarded < points.size() &&
-                 d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
-            ++syncs_forwarded;
-          }
+        const std::span<const drivers::SyncPoint> points = d.spec.device.codec->sync_points();
+        while (syncs_forwarded < points.size() &&
+               d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
+          ++syncs_forwarded;
         }
         const std::lock_guard lock(d.mutex);
         d.stats = d.spec.device.codec->stats();

@@ -13,6 +13,7 @@
 #include "cli/inputs.hpp"
 #include "cli/options.hpp"
 #include "core/error.hpp"
+#include "core/sampling.hpp"
 #include "sim/scene.hpp"
 
 namespace imukit::cli {
@@ -99,9 +100,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
       const ImuSeries& s = *streams.front();
-      const double span = static_cast<double>(s.t.back() - s.t.front()) * 1e-9;
-      labels = augment::read_labels(a.labels, s.size(),
-                                    span > 0 ? static_cast<double>(s.size() - 1) / span : 1.0);
+      labels = augment::read_labels(a.labels, s.size(), measured_rate_hz(s.t, a.input));
     }
     d = augment::generate_dataset(names, streams, policy, labels, o);
     d.info.source = a.input;

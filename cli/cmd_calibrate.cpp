@@ -17,6 +17,7 @@
 #include "core/error.hpp"
 #include "core/input_file.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "hwmodel/calibration.hpp"
 
 namespace imukit::cli {
@@ -27,7 +28,7 @@ struct CalibrateArgs {
   std::string plot_dir;
   bool raw = false;
   bool no_gyro = false;
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   std::optional<double> init_static_s;
 };
 

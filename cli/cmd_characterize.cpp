@@ -16,6 +16,7 @@
 #include "core/error.hpp"
 #include "core/input_file.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
 #include "hwmodel/noise_fit.hpp"
@@ -27,7 +28,7 @@ struct CharacterizeArgs {
   std::string output;
   std::string plot_dir;
   std::string kalibr;
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   int points_per_decade = 10;
   bool level = false;
   double fit_tau_min_s = 0.0;
@@ -46,15 +47,15 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   options.fit_tau_min_s = args.fit_tau_min_s;
   options.level = args.level;
   const CharacterizeResult r = characterize_runs(runs, options);
-  const std::optional<TriadNoise>& acc = r.accel;
-  const std::optional<TriadNoise>& gyr = r.gyro;
+  const std::optional<hwmodel::TriadNoise>& acc = r.accel;
+  const std::optional<hwmodel::TriadNoise>& gyr = r.gyro;
   update_profile(args.output, r.update);
   fmt::print("wrote noise sections to {}\n", args.output);
 
   if (!args.kalibr.empty()) {
     // Kalibr's imu.yaml holds continuous-time densities (its own discretisation uses the rate);
     // one value per sensor, so the largest axis is taken (conservative for a filter).
-    auto mx = [](const std::optional<TriadNoise>& t, int term) {
+    auto mx = [](const std::optional<hwmodel::TriadNoise>& t, int term) {
       double v = 0;
       if (t)
         for (const auto& a : t->axes) v = std::max(v, a.fit.value[size_t(term)]);

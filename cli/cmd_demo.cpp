@@ -25,6 +25,7 @@
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "drivers/mock_device.hpp"
 #include "drivers/uri.hpp"
 #include "sim/bvh.hpp"
@@ -87,7 +88,7 @@ DeviceProfile demo_truth(double rate_hz) {
   using V = Eigen::Vector3d;
   DeviceProfile p;
   p.device = DeviceInfo{"imukit", "mock (demo truth: smartwatch-class MEMS IMU)", "", "demo watch"};
-  p.gravity = 9.80665;
+  p.gravity = kStandardGravity;
   auto triad = [&](V n, V b, V k, V tob_mean, V tob_spread, V scale, Eigen::Matrix3d mis,
                    double range, double resolution) {
     SensorProfile s;
@@ -118,7 +119,7 @@ DeviceProfile demo_truth(double rate_hz) {
   mg << 1.0, -0.003, 0.002, 0.001, 1.0, -0.002, 0.004, 0.001, 1.0;  // defines the body frame
   p.accelerometer = triad(V(0.0018, 0.0018, 0.0021), V(0.0004, 0.0004, 0.0005), V(3e-5, 3e-5, 4e-5),
                           V(0.05, -0.08, 0.11), V(0.12, 0.12, 0.2), V(1.004, 0.997, 1.002), ma,
-                          16 * 9.80665, 16 * 9.80665 / 32768);
+                          16 * kStandardGravity, 16 * kStandardGravity / 32768);
   GyroscopeProfile g;
   static_cast<SensorProfile&>(g) = triad(
       V(1.2e-4, 1.2e-4, 1.4e-4), V(3e-5, 3e-5, 4e-5), V(2e-6, 2e-6, 3e-6), V(0.004, -0.006, 0.002),

@@ -20,6 +20,7 @@
 #include "core/column_text.hpp"
 #include "core/error.hpp"
 #include "core/so3.hpp"
+#include "core/units.hpp"
 #include "sim/bvh.hpp"
 #include "sim/identify.hpp"
 #include "sim/motion.hpp"
@@ -44,7 +45,7 @@ struct IdentifyArgs {
   std::optional<double> time_offset;
   std::optional<double> motion_start;
   double max_time_offset = 1.0;
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   int threads = 1;
   double max_clock_rate = 2e-4;
   std::string correct = "none";

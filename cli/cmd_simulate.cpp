@@ -17,6 +17,7 @@
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "sim/bvh.hpp"
 #include "sim/placement.hpp"
 #include "sim/scene.hpp"
@@ -333,7 +334,8 @@ IMUKIT_REGISTER_COMMAND(
                          "Sensor sample rate in Hz (default: the motion's frame rate)")
               ->check(sample_rate_range());
           sub.add_option("--seed", a->seed, "Seed of the hardware noise")->check(seed_range());
-          sub.add_option("--gravity", a->gravity, "Gravity magnitude in m/s^2 (default 9.80665)")
+          sub.add_option("--gravity", a->gravity,
+                         fmt::format("Gravity magnitude in m/s^2 (default {})", kStandardGravity))
               ->check(gravity_range());
           sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
           sub.add_option("--bvh-scale", a->bvh_scale,

@@ -93,52 +93,7 @@ bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
 
 namespace {
 
-TriadNoise characterize_triad(const ImuSeries& s, const Eigen::Matrix3Xd& x, int ppd,
-                              double tau_min) {
-  TriadNoise out;
-  hwmodel::AllanOptions opt;
-  opt.points_per_decade = ppd;
-  out.allan = hwmodel::allan_deviation(s.t, x, opt);
-  const auto& a = out.allan.allan;
-  for (int ax = 0; ax < 3; ++ax) {
-    std::vector<double> dev, lo, hi;
-    for (Eigen::Index k = 0; k < a.deviation.cols(); ++k) {
-      dev.push_back(a.deviation(ax, k));
-      lo.push_back(a.lower(ax, k));
-      hi.push_back(a.upper(ax, k));
-    }
-    hwmodel::NoiseFitOptions fo;
-    fo.tau_min_s = tau_min;
-    out.axes[size_t(ax)].fit = hwmodel::fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors,
-                                                            int64_t(s.size()), fo);
-    out.axes[size_t(ax)].slopes = hwmodel::read_slopes(out.allan.tau_s, dev, lo, hi);
-  }
-  return out;
-}
-
-NoiseEstimate to_estimate(const TriadNoise& tn) {
-  NoiseEstimate e;
-  Eigen::Vector3d n, ns, b, bs, k, ks;
-  for (int ax = 0; ax < 3; ++ax) {
-    const auto& f = tn.axes[size_t(ax)].fit;
-    n(ax) = f.value[hwmodel::kWhite], ns(ax) = f.sigma[hwmodel::kWhite];
-    b(ax) = f.value[hwmodel::kBiasInstability], bs(ax) = f.sigma[hwmodel::kBiasInstability];
-    k(ax) = f.value[hwmodel::kRandomWalk], ks(ax) = f.sigma[hwmodel::kRandomWalk];
-  }
-  e.noise_density = n, e.noise_density_sigma = ns;
-  e.bias_instability = b, e.bias_instability_sigma = bs;
-  e.random_walk = k, e.random_walk_sigma = ks;
-  AllanCurve c;
-  c.tau_s = tn.allan.tau_s;
-  for (int ax = 0; ax < 3; ++ax) {
-    for (Eigen::Index q = 0; q < tn.allan.allan.deviation.cols(); ++q)
-      c.adev[size_t(ax)].push_back(tn.allan.allan.deviation(ax, q));
-  }
-  e.allan = c;
-  return e;
-}
-
-void print_triad(const char* name, const char* unit, const TriadNoise& tn) {
+void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& tn) {
   fmt::print("{} ({} samples, tau0 {:.6g} s measured from the time stamps{})\n", name,
              tn.allan.sampling.samples, tn.allan.tau0_s,
              tn.allan.uniform ? "" : "; NOT uniformly sampled: jitter above 1 % of the period");
@@ -168,7 +123,7 @@ void print_triad(const char* name, const char* unit, const TriadNoise& tn) {
 constexpr const char* kAxisColour[3] = {"#d62728", "#2ca02c", "#1f77b4"};
 
 void plot_triad(const std::filesystem::path& dir, const std::string& name, const char* unit,
-                const TriadNoise& tn) {
+                const hwmodel::TriadNoise& tn) {
   const std::string dat = name + "_allan.dat";
   {
     auto out = fmt::output_file((dir / dat).string());
@@ -225,26 +180,6 @@ void plot_triad(const std::filesystem::path& dir, const std::string& name, const
       "plot {}\n",
       unit, name, plots);
   run_gnuplot(dir, name + "_allan", script);
-}
-
-TurnOnBias turn_on_bias(const std::vector<Eigen::Vector3d>& per_run) {
-  const auto st = hwmodel::turn_on_bias_stats(per_run);
-  TurnOnBias t;
-  t.mean = st.mean;
-  t.spread = st.spread;
-  t.runs = st.runs;
-  return t;
-}
-
-Calibration to_profile(const hwmodel::TriadCalibration& c, bool raw, double rms, double max,
-                       int64_t count) {
-  Calibration p;
-  p.scale = c.forward_scale();
-  p.misalignment = c.forward_misalignment();
-  p.bias = c.bias;
-  p.raw_counts = raw;
-  p.residual = CalibrationResidual{rms, max, count};
-  return p;
 }
 
 void print_calibration(const char* name, const hwmodel::TriadCalibration& c, bool raw,
@@ -307,17 +242,18 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
   r.noise_run = longest->name;
   fmt::print("noise from {} ({} recordings given)\n", longest->name, runs.size());
   r.update.gravity = options.gravity;
+  const hwmodel::TriadNoiseOptions noise_options{options.points_per_decade, options.fit_tau_min_s};
   if (s.has_accel()) {
-    r.accel = characterize_triad(s, s.accel, options.points_per_decade, options.fit_tau_min_s);
+    r.accel = hwmodel::characterize_triad(s.t, s.accel, noise_options);
     print_triad("accelerometer", "m/s^2", *r.accel);
     r.update.accelerometer = SensorProfile{};
-    r.update.accelerometer->noise = to_estimate(*r.accel);
+    r.update.accelerometer->noise = hwmodel::noise_estimate(*r.accel);
   }
   if (s.has_gyro()) {
-    r.gyro = characterize_triad(s, s.gyro, options.points_per_decade, options.fit_tau_min_s);
+    r.gyro = hwmodel::characterize_triad(s.t, s.gyro, noise_options);
     print_triad("gyroscope", "rad/s", *r.gyro);
     r.update.gyroscope = GyroscopeProfile{};
-    r.update.gyroscope->noise = to_estimate(*r.gyro);
+    r.update.gyroscope->noise = hwmodel::noise_estimate(*r.gyro);
   }
   if (!r.accel && !r.gyro)
     throw Error("characterize: the inputs hold neither accelerometer nor gyroscope data");
@@ -343,13 +279,15 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
     return fmt::format("spread {:.3g} {:.3g} {:.3g}", t.spread.x(), t.spread.y(), t.spread.z());
   };
   if (!r.gyro_run_bias.empty() && r.update.gyroscope) {
-    const TurnOnBias& t = *(r.update.gyroscope->turn_on_bias = turn_on_bias(r.gyro_run_bias));
+    const TurnOnBias& t =
+        *(r.update.gyroscope->turn_on_bias = hwmodel::turn_on_bias_stats(r.gyro_run_bias));
     fmt::print("gyroscope turn-on bias over {} recording(s): mean {:.4g} {:.4g} {:.4g} rad/s, {}\n",
                r.gyro_run_bias.size(), t.mean.x(), t.mean.y(), t.mean.z(),
                spread_text(t, r.gyro_run_bias.size()));
   }
   if (!r.accel_run_bias.empty() && r.update.accelerometer) {
-    const TurnOnBias& t = *(r.update.accelerometer->turn_on_bias = turn_on_bias(r.accel_run_bias));
+    const TurnOnBias& t =
+        *(r.update.accelerometer->turn_on_bias = hwmodel::turn_on_bias_stats(r.accel_run_bias));
     fmt::print(
         "accelerometer turn-on bias (level, z up) over {} recording(s): mean {:.4g} {:.4g} {:.4g} "
         "m/s^2, {}\n",
@@ -393,16 +331,7 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
         "  residual gravity direction between consecutive poses: rms {:.4f} deg, max {:.4f} deg\n",
         r.gyro_rms_rad * 180 / M_PI, r.gyro_max_rad * 180 / M_PI);
   }
-  out.update.gravity = options.gravity;
-  out.update.accelerometer = SensorProfile{};
-  out.update.accelerometer->calibration = to_profile(r.accel, options.raw, r.accel_rms, r.accel_max,
-                                                     int64_t(r.accel_norm_error.size()));
-  if (out.gyro) {
-    out.update.gyroscope = GyroscopeProfile{};
-    out.update.gyroscope->calibration =
-        to_profile(r.gyro, options.raw, r.gyro_rms_rad, r.gyro_max_rad,
-                   int64_t(r.gyro_direction_error_rad.size()));
-  }
+  out.update = hwmodel::calibration_profile(r, options.raw, out.gyro, options.gravity);
   return out;
 }
 

@@ -15,8 +15,10 @@
 #include "cli/inputs.hpp"
 #include "core/imu_series.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "hwmodel/allan.hpp"
 #include "hwmodel/calibration.hpp"
+#include "hwmodel/characterize.hpp"
 #include "hwmodel/noise_fit.hpp"
 
 namespace imukit::cli {
@@ -39,7 +41,7 @@ bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
 // ---- characterize -------------------------------------------------------------------------
 
 struct CharacterizeOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   int points_per_decade = 10;
   double fit_tau_min_s = 0.0;
   // Recordings were taken level with z up: also give the accelerometer turn-on bias, as the
@@ -49,19 +51,9 @@ struct CharacterizeOptions {
   std::optional<Eigen::Vector3d> level_reading;
 };
 
-struct AxisNoise {
-  hwmodel::NoiseFit fit;
-  hwmodel::SlopeReadings slopes;
-};
-
-struct TriadNoise {
-  hwmodel::AllanResult allan;
-  std::array<AxisNoise, 3> axes;
-};
-
 struct CharacterizeResult {
   std::string noise_run;  // the (longest) recording the noise came from
-  std::optional<TriadNoise> accel, gyro;
+  std::optional<hwmodel::TriadNoise> accel, gyro;
   std::vector<Eigen::Vector3d> accel_run_bias, gyro_run_bias;  // per recording, in input order
   DeviceProfile update;  // the noise and turn_on_bias sections
 };
@@ -76,7 +68,7 @@ void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& resu
 // ---- calibrate ----------------------------------------------------------------------------
 
 struct CalibrateOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   bool raw = false;  // readings are ADC counts
   bool gyro = true;  // calibrate the gyroscope too (when the recording has one)
   double init_static_s = 50.0;

@@ -10,13 +10,12 @@
 #include "core/error.hpp"
 #include "core/euroc_csv.hpp"
 #include "core/input_file.hpp"
+#include "core/units.hpp"
 
 namespace imukit::cli {
 namespace {
 
-// The unit g is standard gravity g_n = 9.80665 m/s^2 by definition (not the local --gravity).
-constexpr double kStandardGravity = 9.80665;
-
+// The unit g is standard gravity g_n by definition (not the local --gravity).
 double accel_factor(const std::string& unit) {
   if (unit == "m/s^2" || unit == "mps2") return 1.0;
   if (unit == "g") return kStandardGravity;
@@ -114,7 +113,9 @@ std::string input_options_help() {
          "rest)\n"
          "  --time-unit U      s (default), ms, us or ns\n"
          "  --gaps COLS        columns that may hold NaN or be empty, e.g. qw,qx,qy,qz\n"
-         "  --accel-unit U     m/s^2 (default), g (= 9.80665 m/s^2) or mg\n"
+         "  --accel-unit U     m/s^2 (default), g (= " +
+         fmt::format("{}", kStandardGravity) +
+         " m/s^2) or mg\n"
          "  --gyro-unit U      rad/s (default) or deg/s\n"
          "  --mag-unit U       uT (default), T or gauss\n"
          "Details: docs/formats.md, section 'Column-mapped text'.";

@@ -1,10 +1,35 @@
 #include "core/sampling.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
+#include "core/error.hpp"
+
 namespace imukit {
+namespace {
+
+// t.back() - t.front() in ns, after the checks mean_period_s and measured_rate_hz share.
+TimeNs checked_span(std::span<const TimeNs> t, std::string_view what) {
+  if (t.size() < 2) throw Error(fmt::format("{}: fewer than 2 samples", what));
+  const TimeNs span = t.back() - t.front();
+  if (span <= 0) throw Error(fmt::format("{}: the time stamps do not advance", what));
+  return span;
+}
+
+}  // namespace
+
+double mean_period_s(std::span<const TimeNs> t, std::string_view what) {
+  const TimeNs span = checked_span(t, what);
+  return to_seconds(span) / static_cast<double>(t.size() - 1);
+}
+
+double measured_rate_hz(std::span<const TimeNs> t, std::string_view what) {
+  const TimeNs span = checked_span(t, what);
+  return static_cast<double>(t.size() - 1) / (static_cast<double>(span) * 1e-9);
+}
 
 bool SamplingStats::is_uniform(double tolerance) const {
   if (samples < 3) return true;

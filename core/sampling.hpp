@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string_view>
 
 #include "core/time.hpp"
 
@@ -29,5 +30,14 @@ struct SamplingStats {
 
 // Needs non-decreasing times; fewer than 2 samples give zero periods and rates.
 SamplingStats analyze_sampling(std::span<const TimeNs> t);
+
+// The mean period (t.back() - t.front()) / (n - 1) in s and the measured rate
+// (n - 1) / (t.back() - t.front()) in Hz of n time stamps, each computed exactly as written (the
+// rate is not 1 / period: the two round differently). Wherever a stream's rate is measured, it
+// is one of these, so degenerate input fails the same way everywhere: imukit::Error
+// "<what>: fewer than 2 samples" or "<what>: the time stamps do not advance".
+// (analyze_sampling keeps its own mean_rate_hz = 1 / mean_period_s, zero for such input.)
+double mean_period_s(std::span<const TimeNs> t, std::string_view what);
+double measured_rate_hz(std::span<const TimeNs> t, std::string_view what);
 
 }  // namespace imukit

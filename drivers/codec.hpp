@@ -17,6 +17,15 @@
 
 namespace imukit::drivers {
 
+// One time-sync exchange (a Ping answered by a Pong): the four stamps capture/ fits the clock
+// map from.
+struct SyncPoint {
+  TimeNs host_send = 0;     // host clock when the Ping was queued
+  TimeNs host_receive = 0;  // host clock when the Pong arrived
+  TimeNs device_rx = 0;     // device clock (unwrapped, ns) when the Ping arrived
+  TimeNs device_tx = 0;     // device clock when the Pong left
+};
+
 struct FeatureRequest {
   uint8_t report_id = 0;
   std::size_t size = 0;  // bytes, report ID included
@@ -42,6 +51,10 @@ class Codec {
   // Bytes received but not yet decided on (an unfinished frame or line).
   virtual std::size_t bytes_pending() const { return 0; }
 
+  // Time-sync exchanges so far, in arrival order; empty for devices without a sync protocol.
+  // capture/ fits the device-to-host clock map from them. Valid until the next feed() or tick().
+  virtual std::span<const SyncPoint> sync_points() const { return {}; }
+
   virtual std::vector<FeatureRequest> feature_requests() const { return {}; }
   virtual void on_feature_report(uint8_t /*id*/, std::span<const uint8_t> /*report*/) {}
 
@@ -63,13 +76,6 @@ class Codec {
 
 // Codec options as given in a device URI's query (docs/devices.md lists the keys per codec).
 using CodecOptions = std::map<std::string, std::string>;
-
-// The codec called `name` (imukit, xsens, witmotion, dualshock4, dualsense, text) configured
-// from options. Throws imukit::Error for an unknown name or a bad option value, naming both.
-std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& options);
-
-// Names make_codec() knows, for help texts.
-std::vector<std::string> codec_names();
 
 // Option helpers shared by the codecs and the URI parser: parse a number or fail with an error
 // that names the key and the text.

@@ -12,7 +12,7 @@ namespace imukit::drivers {
 struct KnownDevice {
   uint16_t vid;
   uint16_t pid;
-  const char* codec;  // make_codec() name
+  const char* codec;  // make_codec() name (drivers/codecs.hpp)
   const char* name;
   bool hid;  // HID device (else a serial port)
 };

@@ -30,13 +30,6 @@ struct ImukitCodecOptions {
   TimeNs retry_ns = 500'000'000;           // repeat an unanswered GetDeviceInfo / Start after this
 };
 
-struct SyncPoint {
-  TimeNs host_send = 0;     // host clock when the Ping was queued
-  TimeNs host_receive = 0;  // host clock when the Pong arrived
-  TimeNs device_rx = 0;     // device clock (unwrapped, ns) when the Ping arrived
-  TimeNs device_tx = 0;     // device clock when the Pong left
-};
-
 class ImukitCodec : public Codec {
  public:
   explicit ImukitCodec(ImukitCodecOptions options = {});
@@ -48,7 +41,7 @@ class ImukitCodec : public Codec {
   std::size_t bytes_pending() const override { return decoder_.pending(); }
 
   const std::optional<proto::DeviceInfo>& device_info() const { return info_; }
-  const std::vector<SyncPoint>& sync_points() const { return sync_; }
+  std::span<const SyncPoint> sync_points() const override { return sync_; }
   const std::vector<proto::Nack>& nacks() const { return nacks_; }
   const proto::DecoderStats& frame_stats() const { return decoder_.stats(); }
   // Log lines the device sent.

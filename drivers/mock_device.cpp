@@ -9,12 +9,12 @@
 
 #include "core/error.hpp"
 #include "core/profile.hpp"
+#include "core/units.hpp"
 #include "drivers/codec.hpp"
 #include "drivers/sources.hpp"
 
 namespace imukit::drivers {
 namespace {
-constexpr double kG = 9.80665;
 constexpr TimeNs kStepNs = 1'000'000;  // virtual-time step: 1 ms
 }  // namespace
 
@@ -41,8 +41,8 @@ MockDevice::MockDevice(std::shared_ptr<SignalSource> source, MockOptions options
   a.kind = proto::SensorKind::kAccelerometer;
   a.axes = 3;
   a.range_count = 1;
-  a.ranges[0].full_scale = static_cast<float>(opt_.accel_range_g * kG);
-  a.ranges[0].scale = static_cast<float>(opt_.accel_range_g * kG / 32768.0);
+  a.ranges[0].full_scale = static_cast<float>(opt_.accel_range_g * kStandardGravity);
+  a.ranges[0].scale = static_cast<float>(opt_.accel_range_g * kStandardGravity / 32768.0);
   proto::SensorInfo& g = info_.sensors[1];
   g.kind = proto::SensorKind::kGyroscope;
   g.axes = 3;
@@ -291,7 +291,7 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   o.virtual_time = clock == "virtual";
   const std::string profile = option_string(keys, "profile", "");
   if (!profile.empty()) o.hardware = to_hardware_model(read_profile(profile));
-  const double gravity = option_double(keys, "gravity", 9.80665);
+  const double gravity = option_double(keys, "gravity", kStandardGravity);
   if (!(gravity > 0 && gravity <= 100)) throw Error("gravity: expected (0, 100] m/s^2");
 
   std::shared_ptr<SignalSource> source;

@@ -4,7 +4,7 @@
 #include <numbers>
 
 #include "core/error.hpp"
-#include "drivers/witmotion_codec.hpp"  // kStandardGravity
+#include "core/units.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -10,13 +10,14 @@
 #include <vector>
 
 #include "core/signal_source.hpp"
+#include "core/units.hpp"
 
 namespace imukit::drivers {
 
 class StaticSource : public SignalSource {
  public:
   explicit StaticSource(const Eigen::Quaterniond& q_world_sensor = Eigen::Quaterniond::Identity(),
-                        double gravity = 9.80665);
+                        double gravity = kStandardGravity);
   void evaluate(std::span<const TimeNs> times, Eigen::Matrix3Xd* specific_force,
                 Eigen::Matrix3Xd* angular_rate) override;
 
@@ -33,7 +34,7 @@ class PosesSource : public SignalSource {
   // The first pose is held max(hold_s, first_hold_s): a guided capture starts with a longer
   // still period (PoseGuideOptions::initial_still_s).
   PosesSource(std::vector<Eigen::Quaterniond> q_world_sensor, double hold_s, double move_s,
-              double gravity = 9.80665, double first_hold_s = 0.0);
+              double gravity = kStandardGravity, double first_hold_s = 0.0);
   // The six faces up, in the order +z, +x, +y, -z, -x, -y (the axis named points up).
   static std::vector<Eigen::Quaterniond> six_faces();
   // `count` (1..26) poses of a tilt tour over the 26 directions of a cube's faces, edges and

@@ -7,6 +7,7 @@
 #include <charconv>
 
 #include "core/error.hpp"
+#include "drivers/codecs.hpp"
 #include "drivers/devices.hpp"
 #include "drivers/hid_transport.hpp"
 #include "drivers/mock_device.hpp"

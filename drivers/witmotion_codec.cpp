@@ -4,6 +4,7 @@
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -17,8 +17,6 @@
 
 namespace imukit::drivers {
 
-inline constexpr double kStandardGravity = 9.80665;
-
 std::vector<uint8_t> witmotion_command(uint8_t reg, uint16_t value);
 // Unlock (FF AA 69 88 B5), RRATE (register 0x03) for the nearest supported rate, save
 // (FF AA 00 00 00). Throws imukit::Error for a rate the device cannot do.

@@ -59,7 +59,7 @@ struct GyroResidual {
     // sample by sample with the exact exponential of each (constant) rate step.
     T q[4] = {T(1), T(0), T(0), T(0)};
     for (size_t k = 0; k < dt_.size(); ++k) {
-      const auto col = gyro_->col(begin_ + int64_t(k));
+      const auto col = gyro_->col(begin_ + static_cast<int64_t>(k));
       const T x[3] = {T(col.x()), T(col.y()), T(col.z())};
       T w[3];
       gyro_model(m, s, b, x, w);
@@ -103,10 +103,10 @@ int jacobian_rank(ceres::Problem& problem, const std::vector<double>& reference,
   problem.Evaluate(ceres::Problem::EvaluateOptions(), nullptr, nullptr, nullptr, &crs);
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
   for (int r = 0; r < crs.num_rows; ++r)
-    for (int k = crs.rows[size_t(r)]; k < crs.rows[size_t(r) + 1]; ++k)
-      J(r, crs.cols[size_t(k)]) = crs.values[size_t(k)];
-  for (Eigen::Index c = 0; c < J.cols() && size_t(c) < reference.size(); ++c)
-    J.col(c) *= reference[size_t(c)];
+    for (int k = crs.rows[static_cast<size_t>(r)]; k < crs.rows[static_cast<size_t>(r) + 1]; ++k)
+      J(r, crs.cols[static_cast<size_t>(k)]) = crs.values[static_cast<size_t>(k)];
+  for (Eigen::Index c = 0; c < J.cols() && static_cast<size_t>(c) < reference.size(); ++c)
+    J.col(c) *= reference[static_cast<size_t>(c)];
   *cols_out = crs.num_cols;
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(J);
   const Eigen::VectorXd sv = svd.singularValues();
@@ -124,7 +124,7 @@ Eigen::Vector3d interval_mean(const Eigen::Matrix3Xd& x, const StaticInterval& i
 std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
                                                     const Eigen::Matrix3Xd& accel,
                                                     const StaticDetectorOptions& opt) {
-  const auto n = int64_t(t.size());
+  const auto n = static_cast<int64_t>(t.size());
   if (accel.cols() != n)
     throw Error("static detector: time stamps and accelerometer samples differ in count");
   if (!(opt.init_static_s > 0 && opt.init_static_s <= 1e7) ||
@@ -142,9 +142,11 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
         "period ({:g} s) plus a window ({:g} s)",
         n, span_s, opt.init_static_s, opt.window_s));
   }
-  const double period = span_s / double(n - 1);
-  const int64_t half = std::max<int64_t>(1, int64_t(std::llround(0.5 * opt.window_s / period)));
-  const int64_t init_end = std::max<int64_t>(2, int64_t(std::llround(opt.init_static_s / period)));
+  const double period = span_s / static_cast<double>(n - 1);
+  const int64_t half =
+      std::max<int64_t>(1, static_cast<int64_t>(std::llround(0.5 * opt.window_s / period)));
+  const int64_t init_end =
+      std::max<int64_t>(2, static_cast<int64_t>(std::llround(opt.init_static_s / period)));
   if (init_end + 2 * half >= n) {
     throw Error(fmt::format(
         "static detector: the recording ({} samples) is shorter than the initial static period "
@@ -153,45 +155,50 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
   }
   // Sliding sums of x and x^2 (mean removed first for precision) give each window's variance.
   const Eigen::Vector3d mu = accel.rowwise().mean();
-  std::vector<double> c1(size_t(3 * (n + 1)), 0.0), c2(size_t(3 * (n + 1)), 0.0);
+  std::vector<double> c1(static_cast<size_t>(3 * (n + 1)), 0.0),
+      c2(static_cast<size_t>(3 * (n + 1)), 0.0);
   for (int64_t i = 0; i < n; ++i)
     for (int a = 0; a < 3; ++a) {
       const double v = accel(a, i) - mu(a);
-      c1[size_t(3 * (i + 1) + a)] = c1[size_t(3 * i + a)] + v;
-      c2[size_t(3 * (i + 1) + a)] = c2[size_t(3 * i + a)] + v * v;
+      c1[static_cast<size_t>(3 * (i + 1) + a)] = c1[static_cast<size_t>(3 * i + a)] + v;
+      c2[static_cast<size_t>(3 * (i + 1) + a)] = c2[static_cast<size_t>(3 * i + a)] + v * v;
     }
-  std::vector<double> var(size_t(n), 0.0);
+  std::vector<double> var(static_cast<size_t>(n), 0.0);
   for (int64_t i = 0; i < n; ++i) {
     const int64_t lo = std::max<int64_t>(0, i - half), hi = std::min(n, i + half + 1);
-    const double cnt = double(hi - lo);
+    const double cnt = static_cast<double>(hi - lo);
     double s = 0.0;
     for (int a = 0; a < 3; ++a) {
-      const double m1 = (c1[size_t(3 * hi + a)] - c1[size_t(3 * lo + a)]) / cnt;
-      const double m2 = (c2[size_t(3 * hi + a)] - c2[size_t(3 * lo + a)]) / cnt;
+      const double m1 =
+          (c1[static_cast<size_t>(3 * hi + a)] - c1[static_cast<size_t>(3 * lo + a)]) / cnt;
+      const double m2 =
+          (c2[static_cast<size_t>(3 * hi + a)] - c2[static_cast<size_t>(3 * lo + a)]) / cnt;
       s += std::max(0.0, m2 - m1 * m1);
     }
-    var[size_t(i)] = s;
+    var[static_cast<size_t>(i)] = s;
   }
   // Reference: the accelerometer's total variance over the initial static period.
   double ref = 0.0;
   {
     const Eigen::Matrix3Xd init = accel.leftCols(init_end);
     const Eigen::Vector3d m = init.rowwise().mean();
-    ref = (init.colwise() - m).array().square().sum() / double(init_end);
+    ref = (init.colwise() - m).array().square().sum() / static_cast<double>(init_end);
   }
   // A noiseless signal (a simulation, a mock without a noise model) has an initial variance of
   // zero, and its still windows differ from zero only by the sliding sums' round-off (about
   // 1e-12 of the mean square): the floor sits above that and far below any real sensor's noise.
-  const double mean_square = c2[size_t(3 * n)] + c2[size_t(3 * n + 1)] + c2[size_t(3 * n + 2)];
-  const double floor = 1e-9 * mean_square / double(n);
+  const double mean_square = c2[static_cast<size_t>(3 * n)] + c2[static_cast<size_t>(3 * n + 1)] +
+                             c2[static_cast<size_t>(3 * n + 2)];
+  const double floor = 1e-9 * mean_square / static_cast<double>(n);
   const double threshold = opt.threshold_factor * std::max(ref, floor);
-  const int64_t min_len = std::max<int64_t>(2, int64_t(std::llround(opt.min_interval_s / period)));
+  const int64_t min_len =
+      std::max<int64_t>(2, static_cast<int64_t>(std::llround(opt.min_interval_s / period)));
   std::vector<StaticInterval> out;
   int64_t start = -1;
   for (int64_t i = 0; i <= n; ++i) {
     // <=: a noiseless (simulated, or coarsely quantised) signal has windows of zero variance,
     // and so may its initial period.
-    const bool still = i < n && var[size_t(i)] <= threshold;
+    const bool still = i < n && var[static_cast<size_t>(i)] <= threshold;
     if (still && start < 0) start = i;
     if (!still && start >= 0) {
       if (i - start >= min_len) out.push_back({start, i});
@@ -201,15 +208,15 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
   return out;
 }
 
-TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& runs) {
-  TurnOnBiasStats s;
-  s.runs = int(runs.size());
+TurnOnBias turn_on_bias_stats(const std::vector<Eigen::Vector3d>& runs) {
+  TurnOnBias s;
+  s.runs = static_cast<int64_t>(runs.size());
   if (runs.empty()) return s;
   for (const auto& r : runs) s.mean += r;
-  s.mean /= double(runs.size());
+  s.mean /= static_cast<double>(runs.size());
   if (runs.size() > 1) {
     for (const auto& r : runs) s.spread += (r - s.mean).cwiseAbs2();
-    s.spread = (s.spread / double(runs.size() - 1)).cwiseSqrt();
+    s.spread = (s.spread / static_cast<double>(runs.size() - 1)).cwiseSqrt();
   }
   return s;
 }
@@ -295,7 +302,7 @@ void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& 
     ss += e * e;
     mx = std::max(mx, std::abs(e));
   }
-  rms = means.empty() ? 0.0 : std::sqrt(ss / double(means.size()));
+  rms = means.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(means.size()));
 }
 
 }  // namespace
@@ -303,7 +310,7 @@ void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& 
 CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
                             const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  const auto n = int64_t(t.size());
+  const auto n = static_cast<int64_t>(t.size());
   if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
     throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
   }
@@ -322,9 +329,9 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
   // Threshold search (the paper's k): keep the factor whose accelerometer fit fits best.
   for (int k = 1; k <= options.max_threshold_factor; ++k) {
     StaticDetectorOptions d = options.detector;
-    d.threshold_factor = double(k);
+    d.threshold_factor = static_cast<double>(k);
     const auto iv = detect_static_intervals(t, accel, d);
-    if (int(iv.size()) < options.min_poses) {
+    if (static_cast<int>(iv.size()) < options.min_poses) {
       last_error = "only " + std::to_string(iv.size()) + " static poses found (at least " +
                    std::to_string(options.min_poses) + " are needed)";
       continue;
@@ -340,7 +347,7 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
     CalibrationResult r;
     r.accel = c;
     r.poses = iv;
-    r.threshold_factor = double(k);
+    r.threshold_factor = static_cast<double>(k);
     norm_errors(c, means, options.gravity, r.accel_norm_error, r.accel_rms, r.accel_max);
     if (!have || r.accel_rms < best.accel_rms) best = std::move(r), have = true;
   }
@@ -361,7 +368,8 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
       const int64_t from = (iv[p].begin + iv[p].end) / 2,
                     to = (iv[p + 1].begin + iv[p + 1].end) / 2;
       std::vector<double> dt;
-      for (int64_t q = from; q < to; ++q) dt.push_back(to_seconds(t[size_t(q + 1)] - t[size_t(q)]));
+      for (int64_t q = from; q < to; ++q)
+        dt.push_back(to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]));
       problem.AddResidualBlock(
           new ceres::AutoDiffCostFunction<GyroResidual, 3, 6, 3, 3>(
               new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1])),
@@ -375,7 +383,8 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
         const double angle = std::acos(std::clamp(dirs[p].dot(dirs[p + 1]), -1.0, 1.0));
         Eigen::Vector3d integ = Eigen::Vector3d::Zero();
         for (int64_t q = iv[p].end; q < iv[p + 1].begin; ++q)
-          integ += (gyro.col(q) - b0) * to_seconds(t[size_t(q + 1)] - t[size_t(q)]);
+          integ += (gyro.col(q) - b0) *
+                   to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]);
         if (angle > 0.3) num += angle, den += integ.norm();
       }
       if (den > 0 && num > 0) {
@@ -425,8 +434,8 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
       ss += ang * ang;
       best.gyro_max_rad = std::max(best.gyro_max_rad, ang);
     }
-    best.gyro_rms_rad =
-        std::sqrt(ss / double(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
+    best.gyro_rms_rad = std::sqrt(
+        ss / static_cast<double>(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
   }
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return best;

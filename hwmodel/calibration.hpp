@@ -25,6 +25,8 @@
 #include <vector>
 
 #include "core/imu_series.hpp"
+#include "core/profile.hpp"
+#include "core/units.hpp"
 
 namespace imukit::hwmodel {
 
@@ -49,13 +51,9 @@ std::vector<StaticInterval> detect_static_intervals(std::span<const TimeNs> t,
 // Per-axis mean (and standard deviation) of a channel over a sample range.
 Eigen::Vector3d interval_mean(const Eigen::Matrix3Xd& x, const StaticInterval& iv);
 
-// Turn-on bias across recordings (power cycles): each row of per_run_bias is one run's bias.
-struct TurnOnBiasStats {
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  Eigen::Vector3d spread = Eigen::Vector3d::Zero();  // sample standard deviation (n - 1)
-  int runs = 0;
-};
-TurnOnBiasStats turn_on_bias_stats(const std::vector<Eigen::Vector3d>& per_run_bias);
+// Turn-on bias across recordings (power cycles), as a profile states it: the mean of the runs'
+// biases, their sample standard deviation (n - 1; zero from fewer than 2 runs) and the run count.
+TurnOnBias turn_on_bias_stats(const std::vector<Eigen::Vector3d>& per_run_bias);
 
 // Gyro turn-on bias of a static recording: the mean rate. Accelerometer: the mean minus the
 // specific force expected for a known orientation, f = R_world_sensor^T (0, 0, g).
@@ -83,7 +81,7 @@ struct TriadCalibration {
 };
 
 struct CalibrationOptions {
-  double gravity = 9.80665;
+  double gravity = kStandardGravity;
   StaticDetectorOptions detector;
   int max_threshold_factor = 10;  // k searched over 1..max (integers)
   int min_poses = 9;

@@ -31,26 +31,26 @@ double basis(int term, double tau) {
 Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
   const Eigen::Index n = A.cols();
   Eigen::VectorXd x = Eigen::VectorXd::Zero(n);
-  std::vector<bool> passive(size_t(n), false);
+  std::vector<bool> passive(static_cast<size_t>(n), false);
   const double tol = 1e-12 * A.norm() * std::max(1.0, b.norm());
-  for (int outer = 0; outer < 3 * int(n) + 10; ++outer) {
+  for (int outer = 0; outer < 3 * static_cast<int>(n) + 10; ++outer) {
     const Eigen::VectorXd w = A.transpose() * (b - A * x);
     Eigen::Index t = -1;
     double best = tol;
     for (Eigen::Index j = 0; j < n; ++j) {
-      if (!passive[size_t(j)] && w(j) > best) best = w(j), t = j;
+      if (!passive[static_cast<size_t>(j)] && w(j) > best) best = w(j), t = j;
     }
     if (t < 0) break;
-    passive[size_t(t)] = true;
-    for (int inner = 0; inner < 3 * int(n) + 10; ++inner) {
+    passive[static_cast<size_t>(t)] = true;
+    for (int inner = 0; inner < 3 * static_cast<int>(n) + 10; ++inner) {
       std::vector<Eigen::Index> idx;
       for (Eigen::Index j = 0; j < n; ++j)
-        if (passive[size_t(j)]) idx.push_back(j);
-      Eigen::MatrixXd Ap(A.rows(), Eigen::Index(idx.size()));
-      for (size_t k = 0; k < idx.size(); ++k) Ap.col(Eigen::Index(k)) = A.col(idx[k]);
+        if (passive[static_cast<size_t>(j)]) idx.push_back(j);
+      Eigen::MatrixXd Ap(A.rows(), static_cast<Eigen::Index>(idx.size()));
+      for (size_t k = 0; k < idx.size(); ++k) Ap.col(static_cast<Eigen::Index>(k)) = A.col(idx[k]);
       const Eigen::VectorXd sp = Ap.colPivHouseholderQr().solve(b);
       Eigen::VectorXd s = Eigen::VectorXd::Zero(n);
-      for (size_t k = 0; k < idx.size(); ++k) s(idx[k]) = sp(Eigen::Index(k));
+      for (size_t k = 0; k < idx.size(); ++k) s(idx[k]) = sp(static_cast<Eigen::Index>(k));
       bool feasible = true;
       for (Eigen::Index j : idx) feasible = feasible && s(j) > 0.0;
       if (feasible) {
@@ -66,7 +66,7 @@ Eigen::VectorXd nnls(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
       for (Eigen::Index j : idx) {
         if (x(j) <= 1e-15 * std::max(1.0, x.cwiseAbs().maxCoeff())) {
           x(j) = 0.0;
-          passive[size_t(j)] = false;
+          passive[static_cast<size_t>(j)] = false;
         }
       }
     }
@@ -123,14 +123,14 @@ Eigen::MatrixXd active_covariance(const Eigen::MatrixXd& Aw, const std::vector<E
                                   double inflation) {
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(Aw.cols(), Aw.cols());
   if (act.empty()) return cov;
-  Eigen::MatrixXd Aa(Aw.rows(), Eigen::Index(act.size()));
-  for (size_t k = 0; k < act.size(); ++k) Aa.col(Eigen::Index(k)) = Aw.col(act[k]);
+  Eigen::MatrixXd Aa(Aw.rows(), static_cast<Eigen::Index>(act.size()));
+  for (size_t k = 0; k < act.size(); ++k) Aa.col(static_cast<Eigen::Index>(k)) = Aw.col(act[k]);
   const Eigen::MatrixXd info = Aa.transpose() * Aa;
   const Eigen::MatrixXd inv =
       info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
   for (size_t i = 0; i < act.size(); ++i)
     for (size_t j = 0; j < act.size(); ++j)
-      cov(act[i], act[j]) = inv(Eigen::Index(i), Eigen::Index(j));
+      cov(act[i], act[j]) = inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
   return cov * inflation;
 }
 
@@ -140,7 +140,7 @@ Eigen::MatrixXd active_covariance(const Eigen::MatrixXd& Aw, const std::vector<E
 void set_terms(NoiseFit& fit, const std::vector<int>& terms, const Eigen::VectorXd& x2,
                const Eigen::MatrixXd& cov, double z) {
   for (Eigen::Index c = 0; c < x2.size(); ++c) {
-    const auto t = size_t(terms[size_t(c)]);
+    const auto t = static_cast<size_t>(terms[static_cast<size_t>(c)]);
     const double sq = std::max(0.0, x2(c));
     const double sd_sq = std::sqrt(std::max(0.0, cov(c, c)));
     fit.value[t] = std::sqrt(sq);
@@ -160,10 +160,11 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, doubl
   // Scale of each term's gacv so that its Allan variance equals the model's term.
   double g[4] = {};
   for (int term = 0; term < 4; ++term) {
-    const double model = c[size_t(term)] * c[size_t(term)] * basis(term, tau0);
+    const double model =
+        c[static_cast<size_t>(term)] * c[static_cast<size_t>(term)] * basis(term, tau0);
     g[term] = model / unit_avar(term, 1.0);
   }
-  const double a = double(m1), b = double(m2);
+  const double a = static_cast<double>(m1), b = static_cast<double>(m2);
   const double w[3] = {1.0, -2.0, 1.0};
   // Cross-covariance of the (unnormalised) second differences z1_j, z2_{j+l}, in S units.
   auto cross = [&](double l) {
@@ -178,7 +179,8 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, doubl
     return total;
   };
   auto overlap = [&](double l) {
-    return std::max(0.0, std::min(double(M1), double(M2) - l) - std::max(0.0, -l));
+    return std::max(
+        0.0, std::min(static_cast<double>(M1), static_cast<double>(M2) - l) - std::max(0.0, -l));
   };
   auto f = [&](double l) {
     const double x = cross(l);
@@ -186,7 +188,7 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, doubl
   };
   // Sum of f over integer lags in [-(M1-1), M2-1]: exactly near zero, then a trapezoid rule on
   // nodes spaced max(1, m/16) out to 6 max(m1, m2), then geometrically spaced nodes.
-  const double mmax = double(std::max(m1, m2));
+  const double mmax = static_cast<double>(std::max(m1, m2));
   auto side = [&](double sign, double end) {
     double sum = 0.0;
     double l = 0.0;
@@ -209,9 +211,10 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& c, doubl
     }
     return sum;
   };
-  const double total = f(0.0) + side(1.0, double(M2 - 1)) + side(-1.0, double(M1 - 1));
+  const double total =
+      f(0.0) + side(1.0, static_cast<double>(M2 - 1)) + side(-1.0, static_cast<double>(M1 - 1));
   // Var-cov of averages of squares of jointly Gaussian terms: Cov(z1^2, z2^2) = 2 C12^2.
-  return 2.0 * total / (4.0 * a * a * b * b * double(M1) * double(M2));
+  return 2.0 * total / (4.0 * a * a * b * b * static_cast<double>(M1) * static_cast<double>(M2));
 }
 
 const char* noise_term_name(int term) {
@@ -221,7 +224,8 @@ const char* noise_term_name(int term) {
 
 double model_allan_variance(const std::array<double, kNoiseTerms>& c, double tau_s) {
   double v = 0.0;
-  for (int i = 0; i < kNoiseTerms; ++i) v += c[size_t(i)] * c[size_t(i)] * basis(i, tau_s);
+  for (int i = 0; i < kNoiseTerms; ++i)
+    v += c[static_cast<size_t>(i)] * c[static_cast<size_t>(i)] * basis(i, tau_s);
   return v;
 }
 
@@ -246,7 +250,7 @@ std::vector<size_t> usable_points(const std::vector<double>& tau_s, const std::v
 std::vector<int> selected_terms(const NoiseFitOptions& options) {
   std::vector<int> terms;
   for (int i = 0; i < kNoiseTerms; ++i)
-    if (options.terms[size_t(i)]) terms.push_back(i);
+    if (options.terms[static_cast<size_t>(i)]) terms.push_back(i);
   if (terms.empty()) throw Error("noise fit: no term selected");
   return terms;
 }
@@ -262,13 +266,14 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
       usable_points(tau_s, adev, options, [&](size_t k) { return edf[k] >= 1.0; });
   const std::vector<int> terms = selected_terms(options);
 
-  const auto rows = Eigen::Index(use.size());
-  const auto cols = Eigen::Index(terms.size());
+  const auto rows = static_cast<Eigen::Index>(use.size());
+  const auto cols = static_cast<Eigen::Index>(terms.size());
   Eigen::MatrixXd basis_m(rows, cols);
   Eigen::VectorXd avar(rows), nu(rows);
   for (Eigen::Index r = 0; r < rows; ++r) {
-    const size_t k = use[size_t(r)];
-    for (Eigen::Index c = 0; c < cols; ++c) basis_m(r, c) = basis(terms[size_t(c)], tau_s[k]);
+    const size_t k = use[static_cast<size_t>(r)];
+    for (Eigen::Index c = 0; c < cols; ++c)
+      basis_m(r, c) = basis(terms[static_cast<size_t>(c)], tau_s[k]);
     avar(r) = adev[k] * adev[k];
     nu(r) = edf[k];
   }
@@ -301,15 +306,15 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
   }
 
   NoiseFit fit;
-  fit.points = int(rows);
+  fit.points = static_cast<int>(rows);
   std::vector<Eigen::Index> act;
   for (Eigen::Index c = 0; c < cols; ++c)
     if (x2(c) > 0.0) act.push_back(c);
-  const int dof = int(rows) - int(act.size());
+  const int dof = static_cast<int>(rows) - static_cast<int>(act.size());
   fit.chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
   // Grid density in points per decade over the fitted span, against one per octave.
   const double decades = std::log10(tau_s[use.back()] / tau_s[use.front()]);
-  const double ppd = decades > 0 ? double(rows - 1) / decades : 1.0;
+  const double ppd = decades > 0 ? static_cast<double>(rows - 1) / decades : 1.0;
   const double octave_ppd = 1.0 / std::log10(2.0);
   const double corr = options.correct_for_correlation ? std::max(1.0, ppd / octave_ppd) : 1.0;
   fit.covariance_inflation = corr * std::max(1.0, fit.chi2_per_dof);
@@ -353,7 +358,7 @@ SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<doub
   out.quantization = read(-1.0, [&](size_t k) { return adev[k] * tau[k] / std::sqrt(3.0); });
   out.ramp = read(1.0, [&](size_t k) { return adev[k] * std::sqrt(2.0) / tau[k]; });
   const auto it = std::min_element(adev.begin(), adev.end());
-  const auto k = size_t(it - adev.begin());
+  const auto k = static_cast<size_t>(it - adev.begin());
   out.bias_instability.found = true;
   out.bias_instability.tau_s = tau[k];
   out.bias_instability.slope = slope[k];
@@ -375,27 +380,28 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   const std::vector<size_t> use =
       usable_points(tau_s, adev, options, [&](size_t k) { return n + 1 - 2 * factors[k] >= 2; });
   const std::vector<int> terms = selected_terms(options);
-  const double tau0 = tau_s[use.front()] / double(factors[use.front()]);
+  const double tau0 = tau_s[use.front()] / static_cast<double>(factors[use.front()]);
 
   // Start from the independent-points fit (edf of white FM is enough for a first model).
   std::vector<double> t1, a1, e1;
   for (size_t k : use) {
     t1.push_back(tau_s[k]);
     a1.push_back(adev[k]);
-    e1.push_back(std::max(1.0, double(n + 1 - 2 * factors[k]) / double(factors[k])));
+    e1.push_back(std::max(
+        1.0, static_cast<double>(n + 1 - 2 * factors[k]) / static_cast<double>(factors[k])));
   }
   NoiseFitOptions first = options;
   first.correct_for_correlation = false;
   NoiseFit fit = fit_noise_model(t1, a1, e1, first);
 
-  const auto rows = Eigen::Index(use.size());
-  const auto cols = Eigen::Index(terms.size());
+  const auto rows = static_cast<Eigen::Index>(use.size());
+  const auto cols = static_cast<Eigen::Index>(terms.size());
   Eigen::MatrixXd basis_m(rows, cols);
   Eigen::VectorXd avar(rows);
   for (Eigen::Index r = 0; r < rows; ++r) {
     for (Eigen::Index c = 0; c < cols; ++c)
-      basis_m(r, c) = basis(terms[size_t(c)], tau_s[use[size_t(r)]]);
-    avar(r) = adev[use[size_t(r)]] * adev[use[size_t(r)]];
+      basis_m(r, c) = basis(terms[static_cast<size_t>(c)], tau_s[use[static_cast<size_t>(r)]]);
+    avar(r) = adev[use[static_cast<size_t>(r)]] * adev[use[static_cast<size_t>(r)]];
   }
   Eigen::VectorXd x2(cols);
   Eigen::MatrixXd Aw;
@@ -409,8 +415,9 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
     Eigen::MatrixXd sigma(rows, rows);
     for (Eigen::Index i = 0; i < rows; ++i)
       for (Eigen::Index j = 0; j <= i; ++j)
-        sigma(i, j) = sigma(j, i) = allan_variance_covariance(
-            model, tau0, n, factors[use[size_t(i)]], factors[use[size_t(j)]]);
+        sigma(i, j) = sigma(j, i) =
+            allan_variance_covariance(model, tau0, n, factors[use[static_cast<size_t>(i)]],
+                                      factors[use[static_cast<size_t>(j)]]);
     const Whitener whiten(sigma);
     Aw = whiten(basis_m);
     const Eigen::VectorXd bw = whiten(avar);
@@ -426,14 +433,15 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
       if (scale(c) > 0) Aw.col(c) *= scale(c);
     }
     for (Eigen::Index c = 0; c < cols; ++c)
-      fit.value[size_t(terms[size_t(c)])] = std::sqrt(std::max(0.0, x2(c)));
+      fit.value[static_cast<size_t>(terms[static_cast<size_t>(c)])] =
+          std::sqrt(std::max(0.0, x2(c)));
   }
 
   std::vector<Eigen::Index> act;
   for (Eigen::Index c = 0; c < cols; ++c)
     if (x2(c) > 0.0) act.push_back(c);
-  const int dof = int(rows) - int(act.size());
-  fit.points = int(rows);
+  const int dof = static_cast<int>(rows) - static_cast<int>(act.size());
+  fit.points = static_cast<int>(rows);
   fit.chi2_per_dof = dof > 0 ? chi2 / dof : 0.0;
   fit.covariance_inflation = std::max(1.0, fit.chi2_per_dof);
   const Eigen::MatrixXd cov = active_covariance(Aw, act, fit.covariance_inflation);
@@ -463,26 +471,30 @@ NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector
     int weakest = -1;
     double weakest_score = 1e300;
     int selected = 0;
-    for (int t = 0; t < kNoiseTerms; ++t) selected += opt.terms[size_t(t)];
+    for (int t = 0; t < kNoiseTerms; ++t) selected += opt.terms[static_cast<size_t>(t)];
     for (int t = 0; t < kNoiseTerms; ++t) {
-      if (!opt.terms[size_t(t)] || !fit.active[size_t(t)] || fit.lower[size_t(t)] > 0.0) continue;
+      if (!opt.terms[static_cast<size_t>(t)] || !fit.active[static_cast<size_t>(t)] ||
+          fit.lower[static_cast<size_t>(t)] > 0.0)
+        continue;
       const double score =
-          fit.sigma[size_t(t)] > 0 ? fit.value[size_t(t)] / fit.sigma[size_t(t)] : 0.0;
+          fit.sigma[static_cast<size_t>(t)] > 0
+              ? fit.value[static_cast<size_t>(t)] / fit.sigma[static_cast<size_t>(t)]
+              : 0.0;
       if (score < weakest_score) weakest_score = score, weakest = t;
     }
     if (weakest < 0 || selected <= 1) break;
-    dropped[size_t(weakest)] = true;
-    dropped_upper[size_t(weakest)] = fit.upper[size_t(weakest)];
-    opt.terms[size_t(weakest)] = false;
+    dropped[static_cast<size_t>(weakest)] = true;
+    dropped_upper[static_cast<size_t>(weakest)] = fit.upper[static_cast<size_t>(weakest)];
+    opt.terms[static_cast<size_t>(weakest)] = false;
     fit = gls_once(tau_s, adev, factors, n, opt);
   }
   for (int t = 0; t < kNoiseTerms; ++t) {
-    if (dropped[size_t(t)]) {
-      fit.value[size_t(t)] = 0.0;
-      fit.sigma[size_t(t)] = 0.0;
-      fit.lower[size_t(t)] = 0.0;
-      fit.upper[size_t(t)] = dropped_upper[size_t(t)];
-      fit.active[size_t(t)] = false;
+    if (dropped[static_cast<size_t>(t)]) {
+      fit.value[static_cast<size_t>(t)] = 0.0;
+      fit.sigma[static_cast<size_t>(t)] = 0.0;
+      fit.lower[static_cast<size_t>(t)] = 0.0;
+      fit.upper[static_cast<size_t>(t)] = dropped_upper[static_cast<size_t>(t)];
+      fit.active[static_cast<size_t>(t)] = false;
     }
   }
   return fit;

@@ -17,6 +17,7 @@
 
 #include "core/error.hpp"
 #include "core/profile.hpp"
+#include "core/sampling.hpp"
 #include "core/so3.hpp"
 #include "sim/placement.hpp"
 #include "sim/scene.hpp"
@@ -829,10 +830,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     }
   }
   // IMU period: the median sample spacing.
-  std::vector<TimeNs> d(imu.size() - 1);
-  for (std::size_t i = 0; i + 1 < imu.size(); ++i) d[i] = imu.t[i + 1] - imu.t[i];
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
-  const double h_imu = to_seconds(d[d.size() / 2]);
+  const double h_imu = analyze_sampling(imu.t).median_period_s;
   if (!(h_imu > 0)) throw Error("identify: the IMU time stamps do not increase");
 
   IdentifyResult res;

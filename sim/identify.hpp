@@ -28,6 +28,7 @@
 
 #include "core/imu_series.hpp"
 #include "core/time.hpp"
+#include "core/units.hpp"
 #include "sim/body.hpp"
 #include "sim/motion.hpp"
 #include "sim/placement.hpp"
@@ -124,7 +125,7 @@ struct IdentifyOptions {
   double tilt_prior_rad = 0.1;
   double correction_smoothness_radps2 = 30.0;
 
-  Eigen::Vector3d gravity_world = Eigen::Vector3d(0.0, 0.0, -9.80665);
+  Eigen::Vector3d gravity_world = kStandardGravityWorld;
   double huber_sigmas = 3.0;  // Huber threshold, in residual standard deviations
   int max_iterations = 100;
   // Levenberg-Marquardt stops when a step changes the cost by less than this fraction. The

@@ -353,4 +353,17 @@ void write_quaternion_csv(const std::string& path, const Body& body, const Motio
   write_text_file(path, text);
 }
 
+int64_t frames_to_simulate(const MotionSource& motion, std::optional<int64_t> limit,
+                           std::string_view what) {
+  const std::optional<int64_t> count = motion.frame_count();
+  if (!count && !limit)
+    throw Error(std::string(what) + ": an endless motion source needs a frame limit");
+  int64_t frames = count.value_or(*limit);
+  if (limit) frames = std::min(frames, *limit);
+  if (frames < 2)
+    throw Error(std::string(what) + ": at least 2 frames are needed, got " +
+                std::to_string(frames));
+  return frames;
+}
+
 }  // namespace imukit::sim

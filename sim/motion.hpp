@@ -21,6 +21,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "sim/body.hpp"
@@ -53,6 +54,29 @@ class MotionSource {
   virtual void read(int64_t first, int64_t count, std::span<const int> joints,
                     MotionChunk& out) = 0;
 };
+
+// The first `frames` frames of a source (which it reads through, without a copy), so that a
+// simulator sees the limit as the motion's end.
+class LimitedMotion : public MotionSource {
+ public:
+  LimitedMotion(MotionSource& inner, int64_t frames) : inner_(inner), frames_(frames) {}
+  double rate_hz() const override { return inner_.rate_hz(); }
+  std::size_t joint_count() const override { return inner_.joint_count(); }
+  std::optional<int64_t> frame_count() const override { return frames_; }
+  void read(int64_t first, int64_t count, std::span<const int> joints, MotionChunk& out) override {
+    inner_.read(first, count, joints, out);
+  }
+
+ private:
+  MotionSource& inner_;
+  int64_t frames_;
+};
+
+// Frames a run simulates: the source's count capped by `limit` (required for an endless source).
+// Throws imukit::Error "<what>: an endless motion source needs a frame limit" or
+// "<what>: at least 2 frames are needed, got N".
+int64_t frames_to_simulate(const MotionSource& motion, std::optional<int64_t> limit,
+                           std::string_view what);
 
 class Motion : public MotionSource {
  public:

@@ -3,17 +3,14 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <filesystem>
-#include <mutex>
 #include <nlohmann/json.hpp>
-#include <thread>
 
 #include "core/error.hpp"
 #include "core/input_file.hpp"
 #include "core/json_text.hpp"
+#include "core/parallel.hpp"
 #include "core/profile.hpp"
 #include "core/rng.hpp"
 #include "sim/bvh.hpp"
@@ -427,19 +424,6 @@ void apply_hardware(ImuErrorGenerator& gen, SensorBlock& b) {
   if (b.magnetic_field.cols() > 0) gen.apply_magnetometer(b.magnetic_field);
 }
 
-// The first `frames` frames of a source, so the simulator sees the limit as the motion's end.
-struct LimitedMotion : MotionSource {
-  MotionSource& inner;
-  int64_t frames;
-  LimitedMotion(MotionSource& m, int64_t n) : inner(m), frames(n) {}
-  double rate_hz() const override { return inner.rate_hz(); }
-  std::size_t joint_count() const override { return inner.joint_count(); }
-  std::optional<int64_t> frame_count() const override { return frames; }
-  void read(int64_t first, int64_t n, std::span<const int> joints, MotionChunk& out) override {
-    inner.read(first, n, joints, out);
-  }
-};
-
 // The child stream (of the sensor's Rng(seed).child(s)) its clock's jitter draws from; the
 // hardware generator takes its one draw from the sensor's stream itself, so jitter leaves the
 // noise unchanged.
@@ -552,14 +536,8 @@ void run_scene(Scene& scene, const SceneSink& sink) {
   }
   if (clocked) {
     require_simulatable(*scene.motion, "simulation");
-    const std::optional<int64_t> count = scene.motion->frame_count();
-    if (!count && !scene.frames)
-      throw Error("simulation: an endless motion source needs a frame limit");
-    int64_t frames = count.value_or(*scene.frames);
-    if (scene.frames) frames = std::min(frames, *scene.frames);
-    if (frames < 2)
-      throw Error("simulation: at least 2 frames are needed, got " + std::to_string(frames));
-    run_scene_clocked(scene, sink, rate, frames, gens);
+    run_scene_clocked(scene, sink, rate,
+                      frames_to_simulate(*scene.motion, scene.frames, "simulation"), gens);
     return;
   }
   std::vector<SensorSpec> specs;
@@ -583,51 +561,33 @@ void run_scene(Scene& scene, const SceneSink& sink) {
 std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
                                                    const std::vector<BatchJob>& jobs, uint64_t seed,
                                                    unsigned threads) {
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::vector<ImuSeries>> result(jobs.size());
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr error;
-  std::mutex error_mutex;
   const Rng base(seed);
-  const auto worker = [&] {
-    for (;;) {
-      const std::size_t i = next.fetch_add(1);
-      if (i >= jobs.size()) return;
-      try {
-        const BatchJob& job = jobs[i];
-        std::vector<SensorSpec> specs;
-        for (const SceneSensor& s : job.sensors) specs.push_back(s.spec);
-        Simulator sim(body, specs, job.options);
-        const double rate = job.options.rate_hz > 0.0 ? job.options.rate_hz : job.motion->rate_hz();
-        Rng job_rng = base.child(i);
-        std::vector<SensorBlock> blocks;
-        std::vector<TimeNs> times;
-        const int64_t n = sim.sample_count(*job.motion, job.motion->frames());
-        for (int64_t k = 0; k < n; ++k) times.push_back(sim.sample_time_ns(*job.motion, k));
-        sim.evaluate(*job.motion, times, blocks);
-        std::vector<ImuSeries> out(specs.size());
-        for (std::size_t s = 0; s < specs.size(); ++s) {
-          if (job.sensors[s].hardware) {
-            ImuErrorGenerator gen(*job.sensors[s].hardware, rate, job_rng);
-            apply_hardware(gen, blocks[s]);
-          }
-          out[s].t = std::move(blocks[s].t);
-          out[s].accel = std::move(blocks[s].specific_force);
-          out[s].gyro = std::move(blocks[s].angular_rate);
-          out[s].mag = std::move(blocks[s].magnetic_field);
-        }
-        result[i] = std::move(out);
-      } catch (...) {
-        const std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
+  parallel_for(jobs.size(), threads, [&](std::size_t i, unsigned /*worker*/) {
+    const BatchJob& job = jobs[i];
+    std::vector<SensorSpec> specs;
+    for (const SceneSensor& s : job.sensors) specs.push_back(s.spec);
+    Simulator sim(body, specs, job.options);
+    const double rate = job.options.rate_hz > 0.0 ? job.options.rate_hz : job.motion->rate_hz();
+    Rng job_rng = base.child(i);
+    std::vector<SensorBlock> blocks;
+    std::vector<TimeNs> times;
+    const int64_t n = sim.sample_count(*job.motion, job.motion->frames());
+    for (int64_t k = 0; k < n; ++k) times.push_back(sim.sample_time_ns(*job.motion, k));
+    sim.evaluate(*job.motion, times, blocks);
+    std::vector<ImuSeries> out(specs.size());
+    for (std::size_t s = 0; s < specs.size(); ++s) {
+      if (job.sensors[s].hardware) {
+        ImuErrorGenerator gen(*job.sensors[s].hardware, rate, job_rng);
+        apply_hardware(gen, blocks[s]);
       }
+      out[s].t = std::move(blocks[s].t);
+      out[s].accel = std::move(blocks[s].specific_force);
+      out[s].gyro = std::move(blocks[s].angular_rate);
+      out[s].mag = std::move(blocks[s].magnetic_field);
     }
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (std::thread& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+    result[i] = std::move(out);
+  });
   return result;
 }
 

@@ -75,7 +75,8 @@ struct BatchJob {
 // Simulates every job on `threads` worker threads (0 = hardware concurrency) over `body`. Job i's
 // hardware noise comes from Rng(seed).child(i), so the result is the same for any thread count.
 // result[i][s] is job i's sensor s (accelerometer, gyroscope and magnetometer as requested;
-// job clocks are ideal: batch jobs sample at the nominal rate).
+// job clocks are ideal: batch jobs sample at the nominal rate). When jobs fail, no further job
+// starts and the error of the lowest failing job is thrown (core/parallel.hpp).
 std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
                                                    const std::vector<BatchJob>& jobs, uint64_t seed,
                                                    unsigned threads = 0);

@@ -4,6 +4,7 @@
 
 #include "core/error.hpp"
 #include "core/imu_series.hpp"
+#include "core/units.hpp"
 #include "python/src/common.hpp"
 #include "sim/body.hpp"
 #include "sim/identify.hpp"
@@ -283,7 +284,7 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           "write_scene",
           [](const H& h, const std::string& dir, sim::MotionSource& motion,
              std::optional<std::string> sensor_name, py::handle gravity) {
-            Eigen::Vector3d g = sim::kStandardGravity;
+            Eigen::Vector3d g = kStandardGravityWorld;
             if (!gravity.is_none()) g = Eigen::Vector3d(0, 0, -std::abs(gravity.cast<double>()));
             const std::string name = sensor_name.value_or(
                 h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name);

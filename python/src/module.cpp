@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 
 #include "core/error.hpp"
+#include "core/units.hpp"
 #include "python/src/common.hpp"
 
 namespace imukit::python {
@@ -36,6 +37,8 @@ PYBIND11_MODULE(_imukit, m) {
   using namespace imukit::python;
   m.doc() = "imukit: capture, characterize, simulate and augment wearable IMUs (docs/python.md)";
   m.attr("__version__") = IMUKIT_VERSION;
+  // Standard gravity g_n in m/s^2 (core/units.hpp): the unit "g" and the default |gravity|.
+  m.attr("STANDARD_GRAVITY") = imukit::kStandardGravity;
 
   // Created once per interpreter and never freed: the translator may run until exit.
   error_type = PyErr_NewExceptionWithDoc(

@@ -122,5 +122,18 @@ with tempfile.TemporaryDirectory() as tmp:
     check(r.returncode != 0 and "window" in r.stderr, "a window longer than the scene is refused")
     r = run("augment", "--policy", "paper", "-o", os.path.join(tmp, "x"))
     check(r.returncode != 0 and "--scene" in r.stderr, "no input is refused")
+    # A recording whose times do not advance has no measured rate: the label file is not mapped
+    # at a made-up rate, the same error as the dataset's (core/sampling.hpp measured_rate_hz).
+    still = os.path.join(tmp, "still.csv")
+    with open(os.path.join(sim_out, "watch.csv")) as f:
+        head = [f.readline(), f.readline()]
+    with open(still, "w") as f:
+        f.writelines([head[0], head[1], head[1]])
+    seg = os.path.join(tmp, "segments.csv")
+    with open(seg, "w") as f:
+        f.write("start_s,end_s,label\n0,1,3\n")
+    r = run("augment", "--input", still, "--labels", seg, "-o", os.path.join(tmp, "x"))
+    check(r.returncode == 1 and "still.csv: the time stamps do not advance" in r.stderr,
+          "a recording whose times do not advance is refused before its labels are mapped")
 
 check.finish()

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/rng.hpp"
 
 namespace imukit {
@@ -83,6 +85,36 @@ TEST(AnalyzeSampling, MedianAndGapsAgreeWithSortedPeriodsOnEveryPath) {
       EXPECT_EQ(s.gaps, gaps);
       EXPECT_EQ(s.repeated, repeated);
     }
+  }
+}
+
+TEST(MeasuredRate, IsTheFormulaAsWrittenBitForBit) {
+  // 1001 stamps 10 ms apart with 7 ns of offset at the end: 1000 / 10.000000007 s.
+  std::vector<TimeNs> t;
+  for (TimeNs i = 0; i <= 1000; ++i) t.push_back(1'700'000'000'000'000'000 + i * 10'000'000);
+  t.back() += 7;
+  const TimeNs span = t.back() - t.front();
+  EXPECT_EQ(measured_rate_hz(t, "x"), 1000.0 / (static_cast<double>(span) * 1e-9));
+  EXPECT_EQ(mean_period_s(t, "x"), static_cast<double>(span) * 1e-9 / 1000.0);
+  EXPECT_NEAR(measured_rate_hz(t, "x"), 100.0, 1e-6);
+  // analyze_sampling's mean period is the same number.
+  EXPECT_EQ(analyze_sampling(t).mean_period_s, mean_period_s(t, "x"));
+}
+
+TEST(MeasuredRate, DegenerateInputIsAnErrorNamingTheStream) {
+  const auto message = [](std::vector<TimeNs> t, bool rate) {
+    try {
+      (void)(rate ? measured_rate_hz(t, "rec.csv") : mean_period_s(t, "rec.csv"));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  for (bool rate : {true, false}) {
+    EXPECT_EQ(message({}, rate), "rec.csv: fewer than 2 samples");
+    EXPECT_EQ(message({5}, rate), "rec.csv: fewer than 2 samples");
+    EXPECT_EQ(message({5, 5, 5}, rate), "rec.csv: the time stamps do not advance");
+    EXPECT_EQ(message({9, 7}, rate), "rec.csv: the time stamps do not advance");
   }
 }
 

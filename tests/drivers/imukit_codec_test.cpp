@@ -160,6 +160,10 @@ TEST(ImukitCodec, SendsInfoRequestThenConfigureAndStartAndPings) {
   EXPECT_EQ(codec.sync_points()[0].host_receive, 77);
   EXPECT_EQ(codec.sync_points()[0].device_rx, 1'000'000'000);
   EXPECT_EQ(codec.sync_points()[0].device_tx, ticks_to_ns(32769, 32768));
+  // capture/ reads them through the Codec interface, without knowing the codec's type.
+  const Codec& base = codec;
+  ASSERT_EQ(base.sync_points().size(), 1u);
+  EXPECT_EQ(base.sync_points().data(), codec.sync_points().data());
 }
 
 TEST(ImukitCodec, RepeatsAnUnansweredInfoRequest) {

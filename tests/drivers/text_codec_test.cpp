@@ -33,6 +33,14 @@ TEST(TextCodec, ReadsCsvAndWhitespaceWithStatedUnits) {
   testing::expect_byte_accounting(codec);
 }
 
+TEST(TextCodec, HasNoTimeSyncPoints) {
+  TextCodec codec(text_codec_options({}));
+  std::vector<Sample> out;
+  codec.feed(bytes("10,0,0,1,0,0,0\n20,0,0,1,0,0,0\n"), 7, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_TRUE(static_cast<const Codec&>(codec).sync_points().empty());
+}
+
 TEST(TextCodec, RejectsBadUnitNames) {
   EXPECT_THROW(text_codec_options({{"time_unit", "min"}}), Error);
   EXPECT_THROW(text_codec_options({{"accel_unit", "G"}}), Error);

@@ -161,9 +161,10 @@ TEST(Calibration, ForwardModelInvertsTheCorrection) {
 }
 
 TEST(TurnOnBias, MeanAndSpreadAcrossRuns) {
-  const TurnOnBiasStats s = turn_on_bias_stats(
+  const TurnOnBias s = turn_on_bias_stats(
       {Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(3, 2, 1), Eigen::Vector3d(2, 2, 2)});
-  EXPECT_EQ(s.runs, 3);
+  ASSERT_TRUE(s.runs.has_value());
+  EXPECT_EQ(*s.runs, 3);
   EXPECT_TRUE(s.mean.isApprox(Eigen::Vector3d(2, 2, 2)));
   EXPECT_NEAR(s.spread(0), 1.0, 1e-15);
   EXPECT_NEAR(s.spread(1), 0.0, 1e-15);

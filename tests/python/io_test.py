@@ -21,6 +21,14 @@ def sample_series(n=50, seed=1):
     return t, r.normal(size=(n, 3)) + [0, 0, 9.81], r.normal(size=(n, 3)) * 0.1
 
 
+class Units(unittest.TestCase):
+    def test_standard_gravity_is_the_defined_value(self):
+        # Exact: g_n = 9.80665 m/s^2 by definition (core/units.hpp), the unit "g" of the readers.
+        self.assertEqual(imukit.STANDARD_GRAVITY, 9.80665)
+        from imukit.datasets import utd_mhad
+        self.assertEqual(utd_mhad.STANDARD_GRAVITY, 9.80665)
+
+
 class SeriesViews(unittest.TestCase):
     def test_channels_are_views_of_the_series_memory(self):
         t, a, g = sample_series()

@@ -16,6 +16,38 @@ Body small_body() {
   return b;
 }
 
+TEST(Motion, LimitedMotionEndsAtItsLimitAndReadsThrough) {
+  Motion m(50.0, 2, 10);
+  m.rotation(3, 1) = Eigen::Quaterniond(0.0, 1.0, 0.0, 0.0);
+  LimitedMotion limited(m, 4);
+  EXPECT_EQ(limited.frame_count(), 4);
+  EXPECT_EQ(limited.rate_hz(), 50.0);
+  EXPECT_EQ(limited.joint_count(), 2u);
+  MotionChunk chunk;
+  const int joints[] = {1};
+  limited.read(3, 1, joints, chunk);
+  MotionChunk direct;
+  m.read(3, 1, joints, direct);
+  ASSERT_EQ(chunk.frames, 1);
+  EXPECT_EQ(chunk.rotation(0, 0).coeffs(), direct.rotation(0, 0).coeffs());
+  EXPECT_EQ(chunk.rotation(0, 0).coeffs(), Eigen::Vector4d(1.0, 0.0, 0.0, 0.0));  // x, y, z, w
+}
+
+TEST(Motion, FramesToSimulateCapsByTheLimitAndNamesTheCaller) {
+  const Motion m(50.0, 2, 10);
+  EXPECT_EQ(frames_to_simulate(m, std::nullopt, "x"), 10);
+  EXPECT_EQ(frames_to_simulate(m, 4, "x"), 4);
+  EXPECT_EQ(frames_to_simulate(m, 40, "x"), 10);
+  try {
+    (void)frames_to_simulate(m, 1, "simulation");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "simulation: at least 2 frames are needed, got 1");
+  }
+  const Motion empty(50.0, 2, 0);
+  EXPECT_THROW((void)frames_to_simulate(empty, std::nullopt, "x"), Error);
+}
+
 TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
   const std::string text =
       "t,root_x,root_y,root_z,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n"

@@ -135,6 +135,32 @@ TEST(Scene, BatchIsTheSameForAnyThreadCount) {
   EXPECT_NE(one[1][0].accel, one[3][0].accel);
 }
 
+TEST(Scene, BatchThrowsTheErrorOfTheLowestFailingJob) {
+  const Body body = Body::default_humanoid();
+  ProceduralMotionOptions po;
+  po.frames = 50;
+  auto motion = std::make_shared<Motion>(ProceduralMotion(body.size(), po).materialize(50));
+  std::vector<BatchJob> jobs(40);
+  for (std::size_t i = 0; i < jobs.size(); ++i) {
+    jobs[i].motion = motion;
+    SceneSensor s;
+    s.spec.name = "w";
+    s.spec.placement = resolve_preset(placement_preset("left_wrist_watch"), body);
+    // Jobs 3 and 30 name a joint the body does not have: each fails with its own joint index.
+    if (i == 3) s.spec.placement.joint = 997;
+    if (i == 30) s.spec.placement.joint = 998;
+    jobs[i].sensors = {s};
+  }
+  for (unsigned threads : {1u, 2u, 4u}) {
+    try {
+      (void)simulate_batch(body, jobs, 7, threads);
+      ADD_FAILURE() << "no error with " << threads << " threads";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("997"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // --- device clock error and jitter ------------------------------------------------------------
 
 // One left-wrist sensor on the default humanoid over `seconds` of procedural motion at 100 Hz,

@@ -15,7 +15,8 @@ import re
 
 import numpy as np
 
-STANDARD_GRAVITY = 9.80665  # m/s^2 per g (the dataset's accelerometer unit)
+from .._imukit import STANDARD_GRAVITY  # m/s^2 per g (the dataset's accelerometer unit)
+
 IMU_RATE_HZ = 50.0
 
 # Kinect v1 joint order of Skeleton_joint_order.txt (the `kinect_v1_20` topology).

@@ -1,0 +1,20 @@
+// The codecs imukit knows, by name: the factory the device URIs (drivers/uri.hpp) and tools use.
+// A new codec is registered here (docs/adding_a_codec.md); codec.hpp keeps only the interface.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/codec.hpp"
+
+namespace imukit::drivers {
+
+// The codec called `name` (imukit, xsens, witmotion, dualshock4, dualsense, text) configured
+// from options. Throws imukit::Error for an unknown name or a bad option value, naming both.
+std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& options);
+
+// Names make_codec() knows, for help texts.
+std::vector<std::string> codec_names();
+
+}  // namespace imukit::drivers

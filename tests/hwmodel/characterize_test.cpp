@@ -1,0 +1,62 @@
+#include "hwmodel/characterize.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/rng.hpp"
+
+namespace imukit::hwmodel {
+namespace {
+
+TEST(Characterize, WhiteNoiseTriadGivesItsDensityAndNoOtherTerm) {
+  // 20 000 s at 10 Hz of white noise with density N = sigma / sqrt(rate) per axis.
+  const double rate = 10.0;
+  const int64_t n = 200'000;
+  const Eigen::Vector3d density(2e-3, 3e-3, 5e-3);
+  Rng rng(11);
+  std::vector<TimeNs> t(static_cast<std::size_t>(n));
+  Eigen::Matrix3Xd x(3, n);
+  for (int64_t i = 0; i < n; ++i) {
+    t[static_cast<std::size_t>(i)] = i * 100'000'000;
+    for (int a = 0; a < 3; ++a) x(a, i) = density(a) * std::sqrt(rate) * rng.normal();
+  }
+  const TriadNoise noise = characterize_triad(t, x);
+  const NoiseEstimate e = noise_estimate(noise);
+  for (int a = 0; a < 3; ++a) {
+    const NoiseFit& f = noise.axes[static_cast<std::size_t>(a)].fit;
+    // The profile section holds the fit's numbers unchanged.
+    EXPECT_EQ((*e.noise_density)(a), f.value[kWhite]);
+    EXPECT_EQ((*e.noise_density_sigma)(a), f.sigma[kWhite]);
+    // The truth within 3 sigma of the fit (and the sigma a fraction of a percent).
+    EXPECT_NEAR(f.value[kWhite], density(a), 3 * f.sigma[kWhite]) << "axis " << a;
+    EXPECT_LT(f.sigma[kWhite], 0.01 * density(a));
+    EXPECT_FALSE(f.active[kBiasInstability]);
+    EXPECT_FALSE(f.active[kRandomWalk]);
+    EXPECT_EQ((*e.bias_instability)(a), 0.0);
+    EXPECT_EQ((*e.random_walk)(a), 0.0);
+  }
+  ASSERT_TRUE(e.allan.has_value());
+  EXPECT_EQ(e.allan->tau_s, noise.allan.tau_s);
+  EXPECT_EQ(e.allan->adev[2].size(), noise.allan.tau_s.size());
+}
+
+TEST(Characterize, CalibrationSectionIsTheForwardModel) {
+  TriadCalibration c;
+  c.T << 1.0, 0.01, -0.02, 0.0, 1.0, 0.03, 0.0, 0.0, 1.0;
+  c.scale = Eigen::Vector3d(0.5, 0.25, 2.0);
+  c.bias = Eigen::Vector3d(1.0, -2.0, 3.0);
+  const Calibration p = calibration_section(c, true, 0.01, 0.03, 12);
+  EXPECT_EQ(p.scale, c.forward_scale());
+  EXPECT_EQ(p.misalignment, c.forward_misalignment());
+  EXPECT_EQ(p.bias, c.bias);
+  EXPECT_TRUE(p.raw_counts);
+  ASSERT_TRUE(p.residual.has_value());
+  EXPECT_EQ(p.residual->rms, 0.01);
+  EXPECT_EQ(p.residual->max, 0.03);
+  EXPECT_EQ(p.residual->count, 12);
+}
+
+}  // namespace
+}  // namespace imukit::hwmodel
