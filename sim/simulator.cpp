@@ -1513,23 +1513,9 @@ void Simulator::run(MotionSource& motion,
                     std::optional<int64_t> frame_limit) {
   require_simulatable(motion, "simulation");
   const std::optional<int64_t> count = motion.frame_count();
-  if (!count && !frame_limit)
-    throw Error("simulation: an endless motion source needs a frame limit");
-  int64_t N = count.value_or(frame_limit.value_or(0));
-  if (frame_limit) N = std::min(N, *frame_limit);
-  if (N < 2) throw Error("simulation: at least 2 frames are needed, got " + std::to_string(N));
+  const int64_t N = frames_to_simulate(motion, frame_limit, "simulation");
   // A bounded view of the source, so evaluate() sees the limit as the motion's end.
-  struct Limited : MotionSource {
-    MotionSource& inner;
-    int64_t frames;
-    Limited(MotionSource& m, int64_t n) : inner(m), frames(n) {}
-    double rate_hz() const override { return inner.rate_hz(); }
-    std::size_t joint_count() const override { return inner.joint_count(); }
-    std::optional<int64_t> frame_count() const override { return frames; }
-    void read(int64_t first, int64_t n, std::span<const int> joints, MotionChunk& out) override {
-      inner.read(first, n, joints, out);
-    }
-  } limited(motion, N);
+  LimitedMotion limited(motion, N);
   // The wrapper only when it changes something: evaluate() reads an in-memory Motion in place.
   MotionSource& source = count && *count == N ? motion : static_cast<MotionSource&>(limited);
   const int64_t total = sample_count(motion, N);

@@ -45,6 +45,7 @@
 
 #include "core/signal_source.hpp"
 #include "core/time.hpp"
+#include "core/units.hpp"
 #include "sim/body.hpp"
 #include "sim/motion.hpp"
 #include "sim/placement.hpp"
@@ -56,7 +57,6 @@ std::string_view to_string(DerivativeMethod method);
 // "fd", "spline" or "reference"; throws imukit::Error otherwise.
 DerivativeMethod parse_derivative_method(std::string_view name);
 
-inline const Eigen::Vector3d kStandardGravity(0.0, 0.0, -9.80665);
 // The default Earth magnetic field in the world frame (T): a mid-latitude northern-hemisphere
 // field, 20 uT horizontal along world +y (the subject faces magnetic north in the neutral pose)
 // and 44 uT down (|B| = 48.3 uT, inclination 65.6 deg). Scenes may set their own.
@@ -77,7 +77,7 @@ struct SensorSpec {
 
 struct SimulationOptions {
   DerivativeMethod method = DerivativeMethod::fd;
-  Eigen::Vector3d gravity_world = kStandardGravity;
+  Eigen::Vector3d gravity_world = kStandardGravityWorld;
   Eigen::Vector3d magnetic_field_world = kDefaultEarthMagneticField;  // T
   double rate_hz = 0.0;         // sensor sample rate; 0 = the motion's frame rate
   int64_t chunk_frames = 4096;  // motion frames per streamed chunk

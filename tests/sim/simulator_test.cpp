@@ -85,7 +85,7 @@ TEST(Simulator, ConstantSpinGivesCentripetalPlusGravityAndRateExactlyWithSpline)
       // fd's one-sided end stencils have a larger constant: the bound below is for the interior.
       if (method == DerivativeMethod::fd && (i == 0 || i + 1 == t.size())) continue;
       const Quaterniond q(Eigen::AngleAxisd(kSpinRate * to_seconds(t[i]), kSpinAxis));
-      const Vector3d f = w_body.cross(w_body.cross(r)) - q.conjugate() * kStandardGravity;
+      const Vector3d f = w_body.cross(w_body.cross(r)) - q.conjugate() * kStandardGravityWorld;
       worst_f = std::max(
           worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
       worst_w = std::max(
@@ -220,7 +220,7 @@ struct SineTruth {
     const Quaterniond q = rotation(t);
     const Vector3d wb = axis * dth, ab = axis * ddth;                // body frame (fixed axis)
     const Vector3d acc_child = ab.cross(r) + wb.cross(wb.cross(r));  // child frame
-    f = acc_child - (root * q).conjugate() * kStandardGravity;
+    f = acc_child - (root * q).conjugate() * kStandardGravityWorld;
     w = wb;
     (void)th;
   }
@@ -248,7 +248,8 @@ std::pair<double, double> sine_errors(DerivativeMethod method, double rate,
     if (t < 0.5 || t > 2.5) continue;  // interior: the end stencils have their own constants
     Vector3d f, w;
     T.truth(t, f, w);
-    const Vector3d g = f + (T.root * T.rotation(t)).conjugate() * kStandardGravity;  // motion part
+    const Vector3d g =
+        f + (T.root * T.rotation(t)).conjugate() * kStandardGravityWorld;  // motion part
     ef += (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).squaredNorm();
     ew += (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - w).squaredNorm();
     sf += g.squaredNorm();
@@ -338,7 +339,7 @@ TEST(Simulator, SplineIsExactOnMotionsItRepresents) {
     const Vector3d dw1 = w0.cross(R1 * axis * dangle(t)) + R1 * axis * ddangle(t);
     const Vector3d o = R0 * offset, rr = R1 * r;
     const Vector3d a = ddtrans(t) + w0.cross(w0.cross(o)) + dw1.cross(rr) + w1.cross(w1.cross(rr));
-    const Vector3d f = R1.transpose() * (a - kStandardGravity);
+    const Vector3d f = R1.transpose() * (a - kStandardGravityWorld);
     const Vector3d w = R1.transpose() * w1;
     worst_f = std::max(
         worst_f, (out[0].specific_force.col(static_cast<Eigen::Index>(i)) - f).norm() / f.norm());
