@@ -4,18 +4,17 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <cstring>
 #include <map>
 #include <set>
-#include <thread>
 
 #include "core/error.hpp"
 #include "core/hardware_model.hpp"
 #include "core/isa.hpp"
 #include "core/lane_math.hpp"
+#include "core/parallel.hpp"
 #include "core/so3.hpp"
 #include "core/time.hpp"
 
@@ -753,34 +752,20 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
                                 : make_carriers(carrier_joints(m.body, m.sensors, sub));
   const Rng root(rng.next_u64());
   if (log != nullptr) log->assign(starts.size(), PpdaWindowLog{});
-  if (threads == 0) threads = std::max(1u, std::thread::hardware_concurrency());
-  threads = static_cast<unsigned>(
-      std::min<std::size_t>(threads, std::max<std::size_t>(1, starts.size())));
-  std::atomic<std::size_t> next{0};
-  std::vector<std::exception_ptr> errors(threads);
-  const auto work = [&](unsigned t) {
-    try {
-      Impl::Worker wk;
-      wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
-      for (std::size_t k = next++; k < starts.size(); k = next++) {
-        Rng r = root.child(k);
-        m.simulate_window(sub, carriers, starts[k], r, wk, nullptr, out.data() + k * T * C,
-                          log != nullptr ? &(*log)[k] : nullptr);
-      }
-    } catch (...) {
-      errors[t] = std::current_exception();
-      next = starts.size();
+  // Window k draws from root.child(k) and writes its own rows: the batch does not depend on the
+  // thread count. Each worker keeps its own simulator and scratch, made on its first window.
+  const unsigned count = thread_count(threads, starts.size());
+  std::vector<std::unique_ptr<Impl::Worker>> workers(count);
+  parallel_for(starts.size(), count, [&](std::size_t k, unsigned w) {
+    std::unique_ptr<Impl::Worker>& wk = workers[w];
+    if (!wk) {
+      wk = std::make_unique<Impl::Worker>();
+      wk->simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
     }
-  };
-  if (threads == 1) {
-    work(0);
-  } else {
-    std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work, t);
-    for (std::thread& th : pool) th.join();
-  }
-  for (const std::exception_ptr& e : errors)
-    if (e) std::rethrow_exception(e);
+    Rng r = root.child(k);
+    m.simulate_window(sub, carriers, starts[k], r, *wk, nullptr, out.data() + k * T * C,
+                      log != nullptr ? &(*log)[k] : nullptr);
+  });
 }
 
 void PpdaAugmenter::apply(const Policy& policy, std::size_t sub_policy,

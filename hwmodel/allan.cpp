@@ -1,7 +1,6 @@
 #include "hwmodel/allan.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <cstdint>
@@ -10,10 +9,10 @@
 #include <map>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "core/error.hpp"
 #include "core/isa.hpp"
+#include "core/parallel.hpp"
 #include "hwmodel/chi_square.hpp"
 
 namespace imukit::hwmodel {
@@ -773,20 +772,9 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       });
     }
   }
-  std::atomic<size_t> next{0};
-  auto worker = [&] {
-    for (size_t i = next.fetch_add(1); i < tasks.size(); i = next.fetch_add(1)) tasks[i]();
-  };
-  unsigned threads =
-      options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  threads = unsigned(std::max<size_t>(1, std::min<size_t>(threads, tasks.size())));
-  if (threads <= 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (unsigned i = 0; i < threads; ++i) pool.emplace_back(worker);
-    for (auto& th : pool) th.join();
-  }
+  // Every task writes its own slots, so the result does not depend on the thread count; a task
+  // that throws (bad_alloc) stops the rest and is rethrown here.
+  parallel_for(tasks.size(), options.threads, [&](std::size_t i, unsigned) { tasks[i](); });
   // Small factors: add the chunks' partial sums in chunk order.
   if (options.modified) {
     for (size_t q = 0; q < small.size(); ++q) {
