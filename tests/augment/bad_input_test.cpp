@@ -9,22 +9,12 @@
 #include "core/error.hpp"
 #include "sim/motion.hpp"
 #include "sim/placement.hpp"
+#include "tests/support/expect_error.hpp"
 
 namespace imukit::augment {
 namespace {
 
-template <typename Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected an imukit::Error";
-  } catch (const Error& e) {
-    for (const std::string& p : parts) {
-      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << p << "'";
-    }
-  }
-}
+using imukit::testing::expect_error;
 
 std::string policy_with(const std::string& sub_policy) {
   return R"({"schema": "imukit.policy/1", "sub_policies": [)" + sub_policy + "]}";

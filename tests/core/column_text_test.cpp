@@ -4,24 +4,14 @@
 #include <cmath>
 
 #include "core/error.hpp"
+#include "tests/support/expect_error.hpp"
 #include "tests/support/test_data.hpp"
 
 namespace imukit {
 namespace {
 
 // Runs `fn`, expects an imukit::Error whose message contains every one of `parts`.
-template <typename Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected an imukit::Error";
-  } catch (const Error& e) {
-    for (const std::string& p : parts) {
-      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << p << "'";
-    }
-  }
-}
+using imukit::testing::expect_error;
 
 TEST(ColumnSpec, ParsesNamesSkipsAndRepeats) {
   const ColumnSpec s = ColumnSpec::parse("t,_,ax,ay,az,_3,gx,gy,gz,_*", "ax", TimeUnit::ms);

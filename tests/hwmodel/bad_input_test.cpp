@@ -10,22 +10,12 @@
 #include "core/error.hpp"
 #include "core/time.hpp"
 #include "hwmodel/calibration.hpp"
+#include "tests/support/expect_error.hpp"
 
 namespace imukit::hwmodel {
 namespace {
 
-template <typename Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected an imukit::Error";
-  } catch (const Error& e) {
-    for (const std::string& p : parts) {
-      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << p << "'";
-    }
-  }
-}
+using imukit::testing::expect_error;
 
 // `n` samples at 100 Hz of a noiseless accelerometer that holds each of `faces` (gravity along
 // +z, +x, +y, -z, -x, -y, then tilted between them) for 5 s, 10 s for the first, with a 1 s turn

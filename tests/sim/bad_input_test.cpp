@@ -10,22 +10,12 @@
 #include "sim/bvh.hpp"
 #include "sim/identify.hpp"
 #include "sim/scene.hpp"
+#include "tests/support/expect_error.hpp"
 
 namespace imukit::sim {
 namespace {
 
-template <typename Fn>
-void expect_error(Fn fn, std::initializer_list<std::string> parts) {
-  try {
-    fn();
-    ADD_FAILURE() << "expected an imukit::Error";
-  } catch (const Error& e) {
-    for (const std::string& p : parts) {
-      EXPECT_NE(std::string(e.what()).find(p), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << p << "'";
-    }
-  }
-}
+using imukit::testing::expect_error;
 
 std::string bvh(const std::string& frame_time, const std::string& frames,
                 const std::string& offset = "0 1 0") {
