@@ -542,12 +542,17 @@ struct FdInteriorArgs {
     const double* __restrict px = a.position + a.first;
     const double* __restrict py = px + F;
     const double* __restrict pz = px + 2 * F;
+    // The frames before (interior frames: first >= 1), as pointers of their own: px[i - 1] with
+    // an unsigned i = 0 is an overflowing pointer offset (UBSan), whatever the address it gives.
+    const double* __restrict px_prev = px - 1;
+    const double* __restrict py_prev = py - 1;
+    const double* __restrict pz_prev = pz - 1;
     double* __restrict out = a.force;
     for (std::size_t i = 0; i < a.count; ++i) {
       // In differences, so a still point gives exactly 0.
-      const double ax = ((px[i + 1] - px[i]) - (px[i] - px[i - 1])) * rate2;
-      const double ay = ((py[i + 1] - py[i]) - (py[i] - py[i - 1])) * rate2;
-      const double az = ((pz[i + 1] - pz[i]) - (pz[i] - pz[i - 1])) * rate2;
+      const double ax = ((px[i + 1] - px[i]) - (px[i] - px_prev[i])) * rate2;
+      const double ay = ((py[i + 1] - py[i]) - (py[i] - py_prev[i])) * rate2;
+      const double az = ((pz[i + 1] - pz[i]) - (pz[i] - pz_prev[i])) * rate2;
       double vx, vy, vz;  // rotate_inverse(q_world_joint, a - g)
       rotate_into(W[i], -X[i], -Y[i], -Z[i], ax - a.gravity[0], ay - a.gravity[1],
                   az - a.gravity[2], vx, vy, vz);
@@ -559,10 +564,13 @@ struct FdInteriorArgs {
     const double* __restrict dx = a.increments + a.first;
     const double* __restrict dy = dx + F;
     const double* __restrict dz = dx + 2 * F;
+    const double* __restrict dx_prev = dx - 1;
+    const double* __restrict dy_prev = dy - 1;
+    const double* __restrict dz_prev = dz - 1;
     double* __restrict out = a.angular_rate;
     for (std::size_t i = 0; i < a.count; ++i) {
-      to_sensor((dx[i - 1] + dx[i]) * half_rate, (dy[i - 1] + dy[i]) * half_rate,
-                (dz[i - 1] + dz[i]) * half_rate, out + 3 * i);
+      to_sensor((dx_prev[i] + dx[i]) * half_rate, (dy_prev[i] + dy[i]) * half_rate,
+                (dz_prev[i] + dz[i]) * half_rate, out + 3 * i);
     }
   }
 }
@@ -1402,8 +1410,9 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
           fa.gravity[r] = gravity[r];
         }
         fa.rate = rate;
-        fa.force = gf + 3 * (ia - g0);
-        fa.angular_rate = gw + 3 * (ia - g0);
+        // An output not requested has no storage (null): no offset into it (UB even unused).
+        fa.force = o.accelerometer ? gf + 3 * (ia - g0) : nullptr;
+        fa.angular_rate = o.gyroscope ? gw + 3 * (ia - g0) : nullptr;
         fd_interior(fa);
       }
       const int64_t ends[2] = {g0, gl};
