@@ -30,6 +30,20 @@ class Borrowed : public drivers::ByteTransport {
   drivers::MockDevice& mock_;
 };
 
+// The session's only device: `mock` read through its imukit codec at 1 kHz (the test keeps the
+// mock to ask it for its clock).
+std::vector<SessionDevice> one_kilohertz_mock(drivers::MockDevice& mock) {
+  drivers::ImukitCodecOptions codec;
+  codec.rate_hz = 1000;
+  std::vector<SessionDevice> devices;
+  devices.push_back(
+      {"mock",
+       "mock:static",
+       {std::make_unique<Borrowed>(mock), std::make_unique<drivers::ImukitCodec>(codec)},
+       std::nullopt});
+  return devices;
+}
+
 struct RawRow {
   uint64_t index;
   uint64_t device_ns;
@@ -71,14 +85,7 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
                                                          {"clock", "virtual"},
                                                          {"disconnect_after", "60000"}});
   const TimeNs epoch = mock->now();
-  std::vector<SessionDevice> devices;
-  drivers::ImukitCodecOptions codec;
-  codec.rate_hz = 1000;
-  devices.push_back(
-      {"mock",
-       "mock:static",
-       {std::make_unique<Borrowed>(*mock), std::make_unique<drivers::ImukitCodec>(codec)},
-       std::nullopt});
+  std::vector<SessionDevice> devices = one_kilohertz_mock(*mock);
   SessionOptions options;
   options.path = (dir / "rec.mcap").string();
   const SessionReport report = record_session(std::move(devices), options);
@@ -145,14 +152,7 @@ TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
                                                          {"clock", "virtual"},
                                                          {"disconnect_after", "20000"}});
   const TimeNs epoch = mock->now();
-  std::vector<SessionDevice> devices;
-  drivers::ImukitCodecOptions codec;
-  codec.rate_hz = 1000;
-  devices.push_back(
-      {"mock",
-       "mock:static",
-       {std::make_unique<Borrowed>(*mock), std::make_unique<drivers::ImukitCodec>(codec)},
-       std::nullopt});
+  std::vector<SessionDevice> devices = one_kilohertz_mock(*mock);
   SessionOptions options;
   options.path = (dir / "live.mcap").string();
   options.finalize = false;
