@@ -319,302 +319,371 @@ Json print_rows(const std::string& title, const std::vector<Row>& rows) {
   return out;
 }
 
-int run_demo(const DemoArgs& args) {
-  const Clock::time_point t_start = Clock::now();
-  const Plan plan = make_plan(args.quick);
-  const fs::path out(args.output);
-  std::error_code ec;
-  fs::create_directories(out / "recordings", ec);
-  if (ec)
-    throw Error(fmt::format("demo: cannot create {}: {}; choose another folder with -o DIR",
-                            out.string(), ec.message()));
-  const std::string motion_path = find_motion(args.motion);
-  // Read now: a bad motion file is refused before minutes of capture, not after.
-  (void)sim::read_bvh(motion_path, sim::BvhOptions{});
-  const fs::path plots = out / "plots";
-  fs::create_directories(plots);
+// The rows of one sensor's comparison: the estimate of every quantity beside its truth. lsb: the
+// wire's resolution; pose_bias: the mock's true bias in the poses run.
+std::vector<Row> comparison_rows(const SensorProfile& t, const SensorProfile& m, const char* unit,
+                                 double lsb, double rate_hz, const Eigen::Vector3d& pose_bias) {
+  std::vector<Row> rows;
+  // White noise: the wire's int16 rounding adds LSB^2/12 to the per-sample variance, so the
+  // density the data carry is sqrt(N^2 + LSB^2 / (12 rate)); shown for reference.
+  for (int ax = 0; ax < 3; ++ax) {
+    const double n_true = (*t.noise->noise_density)[ax], n_est = (*m.noise->noise_density)[ax];
+    const double n_eff = std::sqrt(n_true * n_true + lsb * lsb / (12 * rate_hz));
+    rows.push_back({fmt::format("white noise N {} [{}/sqrt(Hz)]", "xyz"[ax], unit), n_true, n_est,
+                    (*m.noise->noise_density_sigma)[ax],
+                    fmt::format("{:+.2f} % ({:+.2f} % against N with the wire's rounding)",
+                                100 * (n_est / n_true - 1), 100 * (n_est / n_eff - 1))});
+  }
+  const auto& tob_t = *t.turn_on_bias;
+  const auto& tob_m = *m.turn_on_bias;
+  const double runs = double(tob_m.runs.value_or(1));
+  for (int ax = 0; ax < 3; ++ax) {
+    const double se = tob_m.spread[ax] / std::sqrt(runs);  // standard error of the mean
+    rows.push_back({fmt::format("turn-on bias mean {} [{}]", "xyz"[ax], unit), tob_t.mean[ax],
+                    tob_m.mean[ax], se,
+                    fmt::format("{:+.2f} standard errors ({} power cycles)",
+                                (tob_m.mean[ax] - tob_t.mean[ax]) / se, int(runs))});
+  }
+  for (int ax = 0; ax < 3; ++ax) {
+    rows.push_back({fmt::format("turn-on bias spread {} [{}]", "xyz"[ax], unit), tob_t.spread[ax],
+                    tob_m.spread[ax], 0,
+                    fmt::format("{:+.0f} % (from {} draws)",
+                                100 * (tob_m.spread[ax] / tob_t.spread[ax] - 1), int(runs))});
+  }
+  const Calibration& ct = *t.calibration;
+  const Calibration& cm = *m.calibration;
+  for (int ax = 0; ax < 3; ++ax) {
+    rows.push_back({fmt::format("scale {} (forward model)", "xyz"[ax]), ct.scale[ax], cm.scale[ax],
+                    0, fmt::format("{:+.4f} %", 100 * (cm.scale[ax] / ct.scale[ax] - 1))});
+  }
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      if (r == c) continue;
+      rows.push_back({fmt::format("misalignment {}{} [deg]", "xyz"[r], "xyz"[c]),
+                      ct.misalignment(r, c) * 180 / M_PI, cm.misalignment(r, c) * 180 / M_PI, 0,
+                      fmt::format("{:+.4f} deg",
+                                  (cm.misalignment(r, c) - ct.misalignment(r, c)) * 180 / M_PI)});
+    }
+  }
+  for (int ax = 0; ax < 3; ++ax) {
+    rows.push_back({fmt::format("bias of the poses run {} [{}]", "xyz"[ax], unit), pose_bias[ax],
+                    cm.bias[ax], 0, fmt::format("{:+.3g} {}", cm.bias[ax] - pose_bias[ax], unit)});
+  }
+  return rows;
+}
+
+// ---- the demo's steps ----------------------------------------------------------------------
+
+// Step 1's recordings: the inputs of the characterization and report.json's static_runs.
+struct StaticCaptures {
+  std::vector<InputArg> inputs;
+  Json runs = Json::array();
+};
+
+// Step 3's outcome.
+struct Estimates {
+  DeviceProfile measured;            // the estimated hardware model, read back from profile.json
+  std::size_t static_intervals = 0;  // the calibration's still intervals in the poses run
+};
+
+// Step 4's outcome: the watch simulated with the measured model (which step 5 uses again).
+struct SimulatedWatch {
+  HardwareModel model;
+  ImuSeries series;
+};
+
+// One run of the demo: what its steps share, one member per numbered step.
+struct DemoRun {
+  const DemoArgs& args;
+  Plan plan;
+  fs::path out, plots;
+  std::string motion_path;
+  DeviceProfile truth;  // the mock's hardware model
+  std::string truth_path, profile_path;
+  double g = 0.0;
   std::vector<StepRecord> steps;
   Json report;
-  report["schema"] = "imukit.demo/1";
-  report["quick"] = args.quick;
-  report["seed"] = args.seed;
 
-  fmt::print(
-      "imukit demo{}: mock smartwatch IMU -> capture -> calibrate and characterize -> simulate -> "
-      "augment\n"
-      "output folder: {}\n\n",
-      args.quick ? " --quick (every step shortened)" : "", out.string());
+  // Checks the output folder and the motion, starts the report and writes the truth.
+  explicit DemoRun(const DemoArgs& a) : args(a), plan(make_plan(a.quick)), out(a.output) {
+    std::error_code ec;
+    fs::create_directories(out / "recordings", ec);
+    if (ec)
+      throw Error(fmt::format("demo: cannot create {}: {}; choose another folder with -o DIR",
+                              out.string(), ec.message()));
+    motion_path = find_motion(args.motion);
+    // Read now: a bad motion file is refused before minutes of capture, not after.
+    (void)sim::read_bvh(motion_path, sim::BvhOptions{});
+    plots = out / "plots";
+    fs::create_directories(plots);
+    report["schema"] = "imukit.demo/1";
+    report["quick"] = args.quick;
+    report["seed"] = args.seed;
 
-  // The truth: the mock's hardware model.
-  const DeviceProfile truth = demo_truth(plan.rate_hz);
-  const std::string truth_path = (out / "truth_profile.json").string();
-  write_profile(truth_path, truth);
-  const double g = *truth.gravity;
-  auto mock_uri = [&](const std::string& kind, uint64_t seed, const std::string& extra) {
+    fmt::print(
+        "imukit demo{}: mock smartwatch IMU -> capture -> calibrate and characterize -> simulate "
+        "-> augment\n"
+        "output folder: {}\n\n",
+        args.quick ? " --quick (every step shortened)" : "", out.string());
+
+    truth = demo_truth(plan.rate_hz);
+    truth_path = (out / "truth_profile.json").string();
+    write_profile(truth_path, truth);
+    g = *truth.gravity;
+    profile_path = (out / "profile.json").string();
+  }
+
+  std::string mock_uri(const std::string& kind, uint64_t seed, const std::string& extra) const {
     // A realistic link: the device clock runs 30 ppm fast, bytes arrive 2 ms late +- 0.5 ms.
     return fmt::format(
         "mock:{}?rate={}&clock=virtual&seed={}&drift_ppm=30&latency_us=2000&jitter_us=500&profile={"
         "}{}",
         kind, plan.rate_hz, seed, truth_path, extra);
-  };
+  }
+  std::string poses_path() const { return (out / "recordings" / "poses.mcap").string(); }
+  uint64_t poses_seed() const { return args.seed * 1000 + 999; }
 
   // 1. Static capture: the long noise recording, then short power cycles for the turn-on bias.
-  fmt::print(
-      "[1/5] static capture: {:g} h of virtual time at {:g} Hz, then {} more power cycles of {:g} "
-      "s\n",
-      plan.long_static_s / 3600, plan.rate_hz, plan.power_cycles - 1, plan.short_static_s);
-  std::fflush(stdout);
-  Clock::time_point t0 = Clock::now();
-  std::vector<InputArg> static_inputs;
-  Json static_runs = Json::array();
-  for (int k = 0; k < plan.power_cycles; ++k) {
-    const uint64_t seed = args.seed * 1000 + uint64_t(k);
-    const std::string path = (out / "recordings" / fmt::format("static_{:02}.mcap", k)).string();
-    const double duration = k == 0 ? plan.long_static_s : plan.short_static_s;
-    const CaptureOutcome c =
-        capture_mock(mock_uri("static", seed, ""), path, duration, std::nullopt);
-    static_inputs.push_back(input(path));
-    static_runs.push_back({{"file", fs::relative(path, out).string()},
-                           {"seed", seed},
-                           {"samples", c.samples},
-                           {"true_accelerometer_bias", vec(c.truth.accelerometer_bias)},
-                           {"true_gyroscope_bias", vec(c.truth.gyroscope_bias)}});
-    if (k == 0) fmt::print("      {}: {} samples ({})\n", path, c.samples, c.stop_reason);
+  StaticCaptures capture_static() {
+    fmt::print(
+        "[1/5] static capture: {:g} h of virtual time at {:g} Hz, then {} more power cycles of "
+        "{:g} s\n",
+        plan.long_static_s / 3600, plan.rate_hz, plan.power_cycles - 1, plan.short_static_s);
+    std::fflush(stdout);
+    const Clock::time_point t0 = Clock::now();
+    StaticCaptures s;
+    for (int k = 0; k < plan.power_cycles; ++k) {
+      const uint64_t seed = args.seed * 1000 + uint64_t(k);
+      const std::string path = (out / "recordings" / fmt::format("static_{:02}.mcap", k)).string();
+      const double duration = k == 0 ? plan.long_static_s : plan.short_static_s;
+      const CaptureOutcome c =
+          capture_mock(mock_uri("static", seed, ""), path, duration, std::nullopt);
+      s.inputs.push_back(input(path));
+      s.runs.push_back({{"file", fs::relative(path, out).string()},
+                        {"seed", seed},
+                        {"samples", c.samples},
+                        {"true_accelerometer_bias", vec(c.truth.accelerometer_bias)},
+                        {"true_gyroscope_bias", vec(c.truth.gyroscope_bias)}});
+      if (k == 0) fmt::print("      {}: {} samples ({})\n", path, c.samples, c.stop_reason);
+    }
+    fmt::print("      {} more recordings: {}/recordings/static_01..{:02}.mcap\n",
+               plan.power_cycles - 1, out.string(), plan.power_cycles - 1);
+    steps.push_back({"static capture", seconds_since(t0), {"recordings/static_*.mcap"}});
+    return s;
   }
-  fmt::print("      {} more recordings: {}/recordings/static_01..{:02}.mcap\n",
-             plan.power_cycles - 1, out.string(), plan.power_cycles - 1);
-  steps.push_back({"static capture", seconds_since(t0), {"recordings/static_*.mcap"}});
 
   // 2. Guided multi-position capture.
-  fmt::print(
-      "[2/5] guided multi-position capture: {} poses held {:g} s, {:g} s to turn between them\n",
-      plan.poses, plan.hold_s, plan.move_s);
-  std::fflush(stdout);
-  t0 = Clock::now();
-  const std::string poses_path = (out / "recordings" / "poses.mcap").string();
-  capture::PoseGuideOptions guide;
-  guide.poses_wanted = plan.poses;
-  const uint64_t poses_seed = args.seed * 1000 + 999;
-  const CaptureOutcome poses =
-      capture_mock(mock_uri("poses", poses_seed,
-                            fmt::format("&poses={}&hold_s={}&move_s={}&init_s={}", plan.poses,
-                                        plan.hold_s, plan.move_s, plan.hold_s)),
-                   poses_path, plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
-  fmt::print("      {}: {} samples, {} distinct poses ({})\n", poses_path, poses.samples,
-             poses.poses, poses.stop_reason);
-  steps.push_back({"multi-position capture", seconds_since(t0), {"recordings/poses.mcap"}});
+  CaptureOutcome capture_poses() {
+    fmt::print(
+        "[2/5] guided multi-position capture: {} poses held {:g} s, {:g} s to turn between them\n",
+        plan.poses, plan.hold_s, plan.move_s);
+    std::fflush(stdout);
+    const Clock::time_point t0 = Clock::now();
+    capture::PoseGuideOptions guide;
+    guide.poses_wanted = plan.poses;
+    const CaptureOutcome poses =
+        capture_mock(mock_uri("poses", poses_seed(),
+                              fmt::format("&poses={}&hold_s={}&move_s={}&init_s={}", plan.poses,
+                                          plan.hold_s, plan.move_s, plan.hold_s)),
+                     poses_path(), plan.poses * (plan.hold_s + plan.move_s) + 5.0, guide);
+    fmt::print("      {}: {} samples, {} distinct poses ({})\n", poses_path(), poses.samples,
+               poses.poses, poses.stop_reason);
+    steps.push_back({"multi-position capture", seconds_since(t0), {"recordings/poses.mcap"}});
+    return poses;
+  }
 
   // 3. Calibrate (first: its scale and misalignment say what a still, level accelerometer
   // reads, which the accelerometer's turn-on bias is measured against), then characterize.
-  fmt::print(
-      "[3/5] calibrate (multi-position, Ceres) and characterize (Allan deviation, noise fit, "
-      "turn-on bias)\n");
-  std::fflush(stdout);
-  t0 = Clock::now();
-  const std::string profile_path = (out / "profile.json").string();
-  if (fs::exists(profile_path))
-    fs::remove(profile_path);  // a fresh profile, not a merge with an old run's
-  const auto pose_runs = load_runs({input(poses_path)});
-  CalibrateOptions copt;
-  copt.gravity = g;
-  copt.init_static_s = plan.hold_s - 1.0;  // the first pose is the initial static period
-  const CalibrateResult cal = calibrate_series(pose_runs.front().series, copt);
-  plot_calibration(plots, pose_runs.front().series, cal);
-  update_profile(profile_path, cal.update);
-  const Calibration& acal = *cal.update.accelerometer->calibration;
-  const Eigen::Vector3d level_reading =
-      acal.scale.asDiagonal() * acal.misalignment * Eigen::Vector3d(0, 0, g);
-  // Each recording is its own power cycle (load_runs would merge files with equal time stamps).
-  std::vector<LoadedRun> static_loaded;
-  for (const InputArg& in : static_inputs)
-    static_loaded.push_back({in.path, load_imu_series(in), {}});
-  CharacterizeOptions nopt;
-  nopt.gravity = g;
-  nopt.level = true;  // the static mock lies level, z up
-  nopt.level_reading = level_reading;
-  const CharacterizeResult ch = characterize_runs(static_loaded, nopt);
-  plot_noise(plots, ch);
-  update_profile(profile_path, ch.update);
-  for (std::size_t k = 0; k < ch.gyro_run_bias.size() && k < static_runs.size(); ++k) {
-    static_runs[k]["measured_gyroscope_bias"] = vec(ch.gyro_run_bias[k]);
-    static_runs[k]["measured_accelerometer_bias"] = vec(ch.accel_run_bias[k]);
+  // Adds each static run's measured biases to its entry in `statics.runs`.
+  Estimates calibrate_and_characterize(StaticCaptures& statics) {
+    fmt::print(
+        "[3/5] calibrate (multi-position, Ceres) and characterize (Allan deviation, noise fit, "
+        "turn-on bias)\n");
+    std::fflush(stdout);
+    const Clock::time_point t0 = Clock::now();
+    if (fs::exists(profile_path))
+      fs::remove(profile_path);  // a fresh profile, not a merge with an old run's
+    const auto pose_runs = load_runs({input(poses_path())});
+    CalibrateOptions copt;
+    copt.gravity = g;
+    copt.init_static_s = plan.hold_s - 1.0;  // the first pose is the initial static period
+    const CalibrateResult cal = calibrate_series(pose_runs.front().series, copt);
+    plot_calibration(plots, pose_runs.front().series, cal);
+    update_profile(profile_path, cal.update);
+    const Calibration& acal = *cal.update.accelerometer->calibration;
+    const Eigen::Vector3d level_reading =
+        acal.scale.asDiagonal() * acal.misalignment * Eigen::Vector3d(0, 0, g);
+    // Each recording is its own power cycle (load_runs would merge files with equal time stamps).
+    std::vector<LoadedRun> static_loaded;
+    for (const InputArg& in : statics.inputs)
+      static_loaded.push_back({in.path, load_imu_series(in), {}});
+    CharacterizeOptions nopt;
+    nopt.gravity = g;
+    nopt.level = true;  // the static mock lies level, z up
+    nopt.level_reading = level_reading;
+    const CharacterizeResult ch = characterize_runs(static_loaded, nopt);
+    plot_noise(plots, ch);
+    update_profile(profile_path, ch.update);
+    for (std::size_t k = 0; k < ch.gyro_run_bias.size() && k < statics.runs.size(); ++k) {
+      statics.runs[k]["measured_gyroscope_bias"] = vec(ch.gyro_run_bias[k]);
+      statics.runs[k]["measured_accelerometer_bias"] = vec(ch.accel_run_bias[k]);
+    }
+    steps.push_back({"calibrate + characterize",
+                     seconds_since(t0),
+                     {"profile.json", "plots/accelerometer_allan.svg", "plots/gyroscope_allan.svg",
+                      "plots/calibration_residuals.svg"}});
+    return {read_profile(profile_path), cal.fit.poses.size()};
   }
-  steps.push_back({"calibrate + characterize",
-                   seconds_since(t0),
-                   {"profile.json", "plots/accelerometer_allan.svg", "plots/gyroscope_allan.svg",
-                    "plots/calibration_residuals.svg"}});
 
-  // The estimates beside the truth.
-  const DeviceProfile measured = read_profile(profile_path);
-  fmt::print("\nestimated hardware model ({}) beside the mock's truth ({}):\n", profile_path,
-             truth_path);
-  Json comparison;
-  for (int sensor = 0; sensor < 2; ++sensor) {
-    const SensorProfile& t =
-        sensor == 0 ? *truth.accelerometer : static_cast<const SensorProfile&>(*truth.gyroscope);
-    const SensorProfile& m = sensor == 0 ? *measured.accelerometer
-                                         : static_cast<const SensorProfile&>(*measured.gyroscope);
-    const char* name = sensor == 0 ? "accelerometer" : "gyroscope";
-    const char* unit = sensor == 0 ? "m/s^2" : "rad/s";
-    std::vector<Row> rows;
-    Json j;
-    // White noise: the wire's int16 rounding adds LSB^2/12 to the per-sample variance, so the
-    // density the data carry is sqrt(N^2 + LSB^2 / (12 rate)); shown for reference.
-    const double lsb = sensor == 0 ? 16 * g / 32768 : 2000 * M_PI / 180 / 32768;
-    for (int ax = 0; ax < 3; ++ax) {
-      const double n_true = (*t.noise->noise_density)[ax], n_est = (*m.noise->noise_density)[ax];
-      const double n_eff = std::sqrt(n_true * n_true + lsb * lsb / (12 * plan.rate_hz));
-      rows.push_back({fmt::format("white noise N {} [{}/sqrt(Hz)]", "xyz"[ax], unit), n_true, n_est,
-                      (*m.noise->noise_density_sigma)[ax],
-                      fmt::format("{:+.2f} % ({:+.2f} % against N with the wire's rounding)",
-                                  100 * (n_est / n_true - 1), 100 * (n_est / n_eff - 1))});
+  // The estimates beside the truth: printed, and returned as report.json's comparison.
+  Json compare_with_truth(const DeviceProfile& measured, const CaptureOutcome& poses) const {
+    fmt::print("\nestimated hardware model ({}) beside the mock's truth ({}):\n", profile_path,
+               truth_path);
+    Json comparison;
+    for (int sensor = 0; sensor < 2; ++sensor) {
+      const SensorProfile& t =
+          sensor == 0 ? *truth.accelerometer : static_cast<const SensorProfile&>(*truth.gyroscope);
+      const SensorProfile& m = sensor == 0 ? *measured.accelerometer
+                                           : static_cast<const SensorProfile&>(*measured.gyroscope);
+      const char* name = sensor == 0 ? "accelerometer" : "gyroscope";
+      const char* unit = sensor == 0 ? "m/s^2" : "rad/s";
+      const double lsb = sensor == 0 ? 16 * g / 32768 : 2000 * M_PI / 180 / 32768;
+      const Eigen::Vector3d pose_bias =
+          sensor == 0 ? poses.truth.accelerometer_bias : poses.truth.gyroscope_bias;
+      Json j;
+      j["rows"] = print_rows(name, comparison_rows(t, m, unit, lsb, plan.rate_hz, pose_bias));
+      j["true_calibration_bias_of_poses_run"] = vec(pose_bias);
+      j["wire_lsb"] = lsb;
+      comparison[name] = j;
     }
-    const auto& tob_t = *t.turn_on_bias;
-    const auto& tob_m = *m.turn_on_bias;
-    const double runs = double(tob_m.runs.value_or(1));
-    for (int ax = 0; ax < 3; ++ax) {
-      const double se = tob_m.spread[ax] / std::sqrt(runs);  // standard error of the mean
-      rows.push_back({fmt::format("turn-on bias mean {} [{}]", "xyz"[ax], unit), tob_t.mean[ax],
-                      tob_m.mean[ax], se,
-                      fmt::format("{:+.2f} standard errors ({} power cycles)",
-                                  (tob_m.mean[ax] - tob_t.mean[ax]) / se, int(runs))});
-    }
-    for (int ax = 0; ax < 3; ++ax) {
-      rows.push_back({fmt::format("turn-on bias spread {} [{}]", "xyz"[ax], unit), tob_t.spread[ax],
-                      tob_m.spread[ax], 0,
-                      fmt::format("{:+.0f} % (from {} draws)",
-                                  100 * (tob_m.spread[ax] / tob_t.spread[ax] - 1), int(runs))});
-    }
-    const Calibration& ct = *t.calibration;
-    const Calibration& cm = *m.calibration;
-    for (int ax = 0; ax < 3; ++ax) {
-      rows.push_back({fmt::format("scale {} (forward model)", "xyz"[ax]), ct.scale[ax],
-                      cm.scale[ax], 0,
-                      fmt::format("{:+.4f} %", 100 * (cm.scale[ax] / ct.scale[ax] - 1))});
-    }
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        if (r == c) continue;
-        rows.push_back({fmt::format("misalignment {}{} [deg]", "xyz"[r], "xyz"[c]),
-                        ct.misalignment(r, c) * 180 / M_PI, cm.misalignment(r, c) * 180 / M_PI, 0,
-                        fmt::format("{:+.4f} deg",
-                                    (cm.misalignment(r, c) - ct.misalignment(r, c)) * 180 / M_PI)});
-      }
-    }
-    const Eigen::Vector3d pose_bias =
-        sensor == 0 ? poses.truth.accelerometer_bias : poses.truth.gyroscope_bias;
-    for (int ax = 0; ax < 3; ++ax) {
-      rows.push_back({fmt::format("bias of the poses run {} [{}]", "xyz"[ax], unit), pose_bias[ax],
-                      cm.bias[ax], 0,
-                      fmt::format("{:+.3g} {}", cm.bias[ax] - pose_bias[ax], unit)});
-    }
-    j["rows"] = print_rows(name, rows);
-    j["true_calibration_bias_of_poses_run"] = vec(pose_bias);
-    j["wire_lsb"] = lsb;
-    comparison[name] = j;
+    return comparison;
   }
-  report["comparison"] = comparison;
-  report["static_runs"] = static_runs;
-  report["poses_run"] = {{"file", "recordings/poses.mcap"},
-                         {"seed", poses_seed},
-                         {"samples", poses.samples},
-                         {"distinct_poses", poses.poses},
-                         {"static_intervals", cal.fit.poses.size()},
-                         {"true_accelerometer_bias", vec(poses.truth.accelerometer_bias)},
-                         {"true_gyroscope_bias", vec(poses.truth.gyroscope_bias)}};
+
+  // report.json's poses_run.
+  Json poses_run(const CaptureOutcome& poses, std::size_t static_intervals) const {
+    return {{"file", "recordings/poses.mcap"},
+            {"seed", poses_seed()},
+            {"samples", poses.samples},
+            {"distinct_poses", poses.poses},
+            {"static_intervals", static_intervals},
+            {"true_accelerometer_bias", vec(poses.truth.accelerometer_bias)},
+            {"true_gyroscope_bias", vec(poses.truth.gyroscope_bias)}};
+  }
 
   // 4. Simulate the watch on the bundled walk with the measured hardware model.
-  fmt::print("\n[4/5] simulate a left-wrist watch with the measured hardware model on {}\n",
-             motion_path);
-  std::fflush(stdout);
-  t0 = Clock::now();
-  const HardwareModel measured_model = to_hardware_model(measured);
-  const fs::path sim_dir = out / "simulate";
-  fs::create_directories(sim_dir);
-  ImuSeries watch, watch_truth;
-  {
-    sim::Scene scene = make_scene(motion_path, measured_model, plan.rate_hz, args.seed);
-    for (const std::string& w : scene.warnings) fmt::print("      warning: {}\n", w);
-    sim::run_scene(scene, [&](std::size_t, const sim::SensorBlock& m, const sim::SensorBlock* t) {
-      append(watch, m);
-      if (t != nullptr) append(watch_truth, *t);
-    });
+  SimulatedWatch simulate_watch(const DeviceProfile& measured) {
+    fmt::print("\n[4/5] simulate a left-wrist watch with the measured hardware model on {}\n",
+               motion_path);
+    std::fflush(stdout);
+    const Clock::time_point t0 = Clock::now();
+    SimulatedWatch watch{to_hardware_model(measured), {}};
+    const fs::path sim_dir = out / "simulate";
+    fs::create_directories(sim_dir);
+    ImuSeries watch_truth;
+    {
+      sim::Scene scene = make_scene(motion_path, watch.model, plan.rate_hz, args.seed);
+      for (const std::string& w : scene.warnings) fmt::print("      warning: {}\n", w);
+      sim::run_scene(scene, [&](std::size_t, const sim::SensorBlock& m, const sim::SensorBlock* t) {
+        append(watch.series, m);
+        if (t != nullptr) append(watch_truth, *t);
+      });
+    }
+    write_euroc_csv((sim_dir / (std::string(kSensor) + ".csv")).string(), watch.series.view());
+    write_euroc_csv((sim_dir / (std::string(kSensor) + ".truth.csv")).string(), watch_truth.view());
+    plot_simulation(sim_dir, watch.series, watch_truth);
+    fmt::print("      {} samples at {:g} Hz ({:.2f} s) -> {}/{}.csv (+ .truth.csv, noiseless)\n",
+               watch.series.size(), plan.rate_hz, watch.series.size() / plan.rate_hz,
+               sim_dir.string(), kSensor);
+    steps.push_back({"simulate",
+                     seconds_since(t0),
+                     {"simulate/left_wrist_watch.csv", "simulate/left_wrist_watch.truth.csv",
+                      "simulate/left_wrist_watch.svg"}});
+    report["simulation"] = {{"motion", motion_path},
+                            {"sensor", kSensor},
+                            {"rate_hz", plan.rate_hz},
+                            {"samples", watch.series.size()},
+                            {"method", "spline"}};
+    return watch;
   }
-  write_euroc_csv((sim_dir / (std::string(kSensor) + ".csv")).string(), watch.view());
-  write_euroc_csv((sim_dir / (std::string(kSensor) + ".truth.csv")).string(), watch_truth.view());
-  plot_simulation(sim_dir, watch, watch_truth);
-  fmt::print("      {} samples at {:g} Hz ({:.2f} s) -> {}/{}.csv (+ .truth.csv, noiseless)\n",
-             watch.size(), plan.rate_hz, watch.size() / plan.rate_hz, sim_dir.string(), kSensor);
-  steps.push_back({"simulate",
-                   seconds_since(t0),
-                   {"simulate/left_wrist_watch.csv", "simulate/left_wrist_watch.truth.csv",
-                    "simulate/left_wrist_watch.svg"}});
-  report["simulation"] = {{"motion", motion_path},
-                          {"sensor", kSensor},
-                          {"rate_hz", plan.rate_hz},
-                          {"samples", watch.size()},
-                          {"method", "spline"}};
 
   // 5. A small PPDA dataset (the motion, placement and hardware varied, then simulated again)
   // and its STDA counterpart (the simulated signal itself transformed), same policy and seed.
-  fmt::print("[5/5] augment: {} windows of PPDA and of STDA (policy 'imukit')\n", plan.windows);
-  std::fflush(stdout);
-  t0 = Clock::now();
-  const augment::Policy policy = augment::builtin_policy("imukit");
-  augment::DatasetOptions dopt;
-  dopt.window = 100;  // 0.5 s at 200 Hz
-  dopt.stride = 25;
-  dopt.count = plan.windows;
-  dopt.batch_size = 32;
-  dopt.seed = args.seed;
-  dopt.threads = 0;  // the output does not depend on the thread count
-  const std::vector<int64_t> labels(watch.size(), 0);  // one activity: walking (label 0)
-  Json datasets;
-  {
-    const sim::Scene scene = make_scene(motion_path, measured_model, plan.rate_hz, args.seed);
-    const augment::Dataset ppda = augment::generate_dataset(scene, policy, labels, dopt);
-    augment::write_dataset((out / "ppda").string(), ppda.X, ppda.shape, ppda.y, ppda.sub_policy,
-                           ppda.info);
-    const augment::Dataset stda =
-        augment::generate_dataset({kSensor}, {&watch}, policy, labels, dopt);
-    augment::write_dataset((out / "stda").string(), stda.X, stda.shape, stda.y, stda.sub_policy,
-                           stda.info);
-    fmt::print(
-        "      {}/ppda and {}/stda: X.npy ({} windows x {} samples x {} channels), y.npy, "
-        "dataset.json\n",
-        out.string(), out.string(), ppda.y.size(), dopt.window,
-        ppda.X.size() / std::max<std::size_t>(1, ppda.y.size() * dopt.window));
-    datasets = {{"ppda", "ppda"}, {"stda", "stda"}, {"windows", ppda.y.size()}};
+  void write_datasets(const SimulatedWatch& watch) {
+    fmt::print("[5/5] augment: {} windows of PPDA and of STDA (policy 'imukit')\n", plan.windows);
+    std::fflush(stdout);
+    const Clock::time_point t0 = Clock::now();
+    const augment::Policy policy = augment::builtin_policy("imukit");
+    augment::DatasetOptions dopt;
+    dopt.window = 100;  // 0.5 s at 200 Hz
+    dopt.stride = 25;
+    dopt.count = plan.windows;
+    dopt.batch_size = 32;
+    dopt.seed = args.seed;
+    dopt.threads = 0;  // the output does not depend on the thread count
+    const std::vector<int64_t> labels(watch.series.size(), 0);  // one activity: walking (label 0)
+    Json datasets;
+    {
+      const sim::Scene scene = make_scene(motion_path, watch.model, plan.rate_hz, args.seed);
+      const augment::Dataset ppda = augment::generate_dataset(scene, policy, labels, dopt);
+      augment::write_dataset((out / "ppda").string(), ppda.X, ppda.shape, ppda.y, ppda.sub_policy,
+                             ppda.info);
+      const augment::Dataset stda =
+          augment::generate_dataset({kSensor}, {&watch.series}, policy, labels, dopt);
+      augment::write_dataset((out / "stda").string(), stda.X, stda.shape, stda.y, stda.sub_policy,
+                             stda.info);
+      fmt::print(
+          "      {}/ppda and {}/stda: X.npy ({} windows x {} samples x {} channels), y.npy, "
+          "dataset.json\n",
+          out.string(), out.string(), ppda.y.size(), dopt.window,
+          ppda.X.size() / std::max<std::size_t>(1, ppda.y.size() * dopt.window));
+      datasets = {{"ppda", "ppda"}, {"stda", "stda"}, {"windows", ppda.y.size()}};
+    }
+    steps.push_back({"augment",
+                     seconds_since(t0),
+                     {"ppda/X.npy", "ppda/y.npy", "ppda/dataset.json", "stda/X.npy", "stda/y.npy",
+                      "stda/dataset.json"}});
+    report["datasets"] = datasets;
   }
-  steps.push_back({"augment",
-                   seconds_since(t0),
-                   {"ppda/X.npy", "ppda/y.npy", "ppda/dataset.json", "stda/X.npy", "stda/y.npy",
-                    "stda/dataset.json"}});
-  report["datasets"] = datasets;
 
-  // The report.
-  const double total = seconds_since(t_start);
-  fmt::print("\nreport ({} in {:.1f} s):\n", out.string(), total);
-  Json jsteps = Json::array();
-  for (const StepRecord& s : steps) {
-    std::string outputs;
-    for (const auto& o : s.outputs) outputs += (outputs.empty() ? "" : ", ") + o;
-    fmt::print("  {:<26} {:>7.2f} s   {}\n", s.name, s.seconds, outputs);
-    jsteps.push_back({{"name", s.name}, {"seconds", s.seconds}, {"outputs", s.outputs}});
+  // The report: the steps' times printed, and report.json written.
+  void write_report(Clock::time_point t_start) {
+    const double total = seconds_since(t_start);
+    fmt::print("\nreport ({} in {:.1f} s):\n", out.string(), total);
+    Json jsteps = Json::array();
+    for (const StepRecord& s : steps) {
+      std::string outputs;
+      for (const auto& o : s.outputs) outputs += (outputs.empty() ? "" : ", ") + o;
+      fmt::print("  {:<26} {:>7.2f} s   {}\n", s.name, s.seconds, outputs);
+      jsteps.push_back({{"name", s.name}, {"seconds", s.seconds}, {"outputs", s.outputs}});
+    }
+    report["steps"] = jsteps;
+    report["total_seconds"] = total;
+    report["truth_profile"] = "truth_profile.json";
+    report["profile"] = "profile.json";
+    {
+      auto f = fmt::output_file((out / "report.json").string());
+      f.print("{}\n", report.dump(2));
+    }
+    fmt::print(
+        "  numbers of this report: {}/report.json; plots: {}/\n"
+        "  next: `imukit info {}/recordings/poses.mcap`, open the .mcap files in Foxglove, or load "
+        "{}/ppda/X.npy with numpy\n",
+        out.string(), plots.string(), out.string(), out.string());
   }
-  report["steps"] = jsteps;
-  report["total_seconds"] = total;
-  report["truth_profile"] = "truth_profile.json";
-  report["profile"] = "profile.json";
-  {
-    auto f = fmt::output_file((out / "report.json").string());
-    f.print("{}\n", report.dump(2));
-  }
-  fmt::print(
-      "  numbers of this report: {}/report.json; plots: {}/\n"
-      "  next: `imukit info {}/recordings/poses.mcap`, open the .mcap files in Foxglove, or load "
-      "{}/ppda/X.npy with numpy\n",
-      out.string(), plots.string(), out.string(), out.string());
+};
+
+int run_demo(const DemoArgs& args) {
+  const Clock::time_point t_start = Clock::now();
+  DemoRun run(args);
+  StaticCaptures statics = run.capture_static();
+  const CaptureOutcome poses = run.capture_poses();
+  const Estimates estimates = run.calibrate_and_characterize(statics);
+  run.report["comparison"] = run.compare_with_truth(estimates.measured, poses);
+  run.report["static_runs"] = statics.runs;
+  run.report["poses_run"] = run.poses_run(poses, estimates.static_intervals);
+  const SimulatedWatch watch = run.simulate_watch(estimates.measured);
+  run.write_datasets(watch);
+  run.write_report(t_start);
   return 0;
 }
 

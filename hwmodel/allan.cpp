@@ -598,9 +598,16 @@ int alpha_from_avar_slope(double mu) {
   return int(std::clamp(a, -2.0, 0.0));
 }
 
-AllanResult allan_deviation(std::span<const TimeNs> t,
-                            const Eigen::Ref<const Eigen::MatrixXd>& samples,
-                            const AllanOptions& options) {
+namespace {
+
+// The variance of each computed deviation, axes x factors.
+using Variances = std::map<Deviation, Eigen::MatrixXd>;
+
+// Checks the input against the options, measures the sampling and picks the averaging factors
+// and their taus.
+AllanResult grid_and_sampling(std::span<const TimeNs> t,
+                              const Eigen::Ref<const Eigen::MatrixXd>& samples,
+                              const AllanOptions& options) {
   const auto n = int64_t(samples.cols());
   const int axes = int(samples.rows());
   if (axes < 1 || axes > 16) throw Error("Allan deviation: between 1 and 16 axes are supported");
@@ -629,13 +636,18 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
     throw Error("Allan deviation: maximum averaging factor above n/3");
   }
   for (int64_t m : r.factors) r.tau_s.push_back(double(m) * r.tau0_s);
+  return r;
+}
 
-  // Cumulative sums of the mean-free samples, Kahan-compensated.
+// S: the cumulative sums of the mean-free samples, Kahan-compensated, axes x (n+1), sample-major.
+std::unique_ptr<double[]> cumulative_sums(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
+  const auto n = int64_t(samples.cols());
+  const int axes = int(samples.rows());
   const Eigen::VectorXd mean = axis_means(samples);
   if (!mean.allFinite()) throw Error("Allan deviation: the samples contain NaN or infinity");
   // Not value-initialised: every entry is written below, and zeroing 345 MB first (6 axes of
   // 7.2 M samples) would cost a full extra pass over memory.
-  const std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
+  std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
   double* const S = S_storage.get();
   bool finite = true;
   switch (axes) {
@@ -653,164 +665,224 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       break;
   }
   if (!finite) throw Error("Allan deviation: the cumulative sums of the samples overflow");
+  return S_storage;
+}
 
-  std::vector<Deviation> kinds;
-  if (options.allan) kinds.push_back(Deviation::kAllan);
-  if (options.modified) kinds.push_back(Deviation::kModifiedAllan);
-  if (options.hadamard) kinds.push_back(Deviation::kHadamard);
-  const size_t grid = r.factors.size();
-  std::map<Deviation, Eigen::MatrixXd> variance;
-  for (Deviation d : kinds) variance[d] = Eigen::MatrixXd::Zero(axes, Eigen::Index(grid));
+// What the variance tasks read: S (see cumulative_sums) and its size.
+struct Sums {
+  const double* S;
+  int64_t n;
+  int axes;
+};
 
-  // Work items: the small factors of ADEV and HDEV together, in fixed groups of chunks, and
-  // those of MDEV likewise; each larger factor alone. Threads take the next item from a
-  // counter, the most expensive first.
+constexpr int64_t kChunksPerGroup = 64;
+
+// How the sums are split into work items: the small factors of ADEV and HDEV together, in fixed
+// groups of chunks, and those of MDEV likewise; each larger factor alone.
+struct WorkPlan {
   // shared: ADEV/HDEV factors of the shared pass (see kSharedWindowBytes); small: MDEV's factors
   // of its group pass (its sliding sum restarts at each group with an O(m) direct sum, so its
-  // limit stays at kSmallFactor).
-  const int64_t shared_limit = options.shared_factor_limit > 0 ? options.shared_factor_limit
-                                                               : default_shared_factor_limit(axes);
-  const int64_t small_limit = std::min(kSmallFactor, shared_limit);
+  // limit stays at kSmallFactor). Both hold indices into the factors.
+  int64_t shared_limit = 0, small_limit = 0;
   std::vector<size_t> shared, small;
-  for (size_t k = 0; k < grid; ++k) {
-    if (r.factors[k] <= shared_limit) shared.push_back(k);
-    if (r.factors[k] <= small_limit) small.push_back(k);
-  }
   std::vector<int> orders;  // 2: ADEV, 3: HDEV
-  if (options.allan) orders.push_back(2);
-  if (options.hadamard) orders.push_back(3);
-  const int64_t n_chunks = (n + kChunk - 1) / kChunk;
-  constexpr int64_t kChunksPerGroup = 64;
-  const int64_t groups = (n_chunks + kChunksPerGroup - 1) / kChunksPerGroup;
+  int64_t n_chunks = 0, groups = 0;
+};
+
+WorkPlan plan_work(const std::vector<int64_t>& factors, const AllanOptions& options, int axes,
+                   int64_t n) {
+  WorkPlan p;
+  p.shared_limit = options.shared_factor_limit > 0 ? options.shared_factor_limit
+                                                   : default_shared_factor_limit(axes);
+  p.small_limit = std::min(kSmallFactor, p.shared_limit);
+  for (size_t k = 0; k < factors.size(); ++k) {
+    if (factors[k] <= p.shared_limit) p.shared.push_back(k);
+    if (factors[k] <= p.small_limit) p.small.push_back(k);
+  }
+  if (options.allan) p.orders.push_back(2);
+  if (options.hadamard) p.orders.push_back(3);
+  p.n_chunks = (n + kChunk - 1) / kChunk;
+  p.groups = (p.n_chunks + kChunksPerGroup - 1) / kChunksPerGroup;
+  return p;
+}
+
+// The per-chunk sums of the grouped passes, each task writing its own slots.
+struct Partials {
   // partial[order slot][chunk][shared index * axes + a]
-  std::vector<std::vector<double>> partial(
-      orders.size(), std::vector<double>(size_t(n_chunks) * shared.size() * size_t(axes), 0.0));
-  std::vector<std::function<void()>> tasks;
-  for (size_t k = grid; k-- > 0;) {
-    const int64_t m = r.factors[k];
-    if (options.modified && m > small_limit) {
-      tasks.emplace_back([&, k, m] {
+  std::vector<std::vector<double>> partial;
+  // modified[chunk][small index * axes + a]
+  std::vector<double> modified;
+
+  Partials(const WorkPlan& p, bool with_modified, int axes)
+      : partial(p.orders.size(),
+                std::vector<double>(size_t(p.n_chunks) * p.shared.size() * size_t(axes), 0.0)),
+        modified(with_modified ? size_t(p.n_chunks) * p.small.size() * size_t(axes) : 0, 0.0) {}
+};
+
+using Tasks = std::vector<std::function<void()>>;
+
+// Each factor above the group passes' limits alone, the largest (most expensive) first: MDEV's,
+// then ADEV's and HDEV's strided sweeps.
+void large_factor_tasks(Sums s, const std::vector<int64_t>& factors, const WorkPlan& plan,
+                        const AllanOptions& options, Variances& variance, Tasks& tasks) {
+  for (size_t k = factors.size(); k-- > 0;) {
+    const int64_t m = factors[k];
+    if (options.modified && m > plan.small_limit) {
+      tasks.emplace_back([s, &variance, k, m] {
         double out[16];
-        pick_modified(axes)(S, n, m, axes, out);
+        pick_modified(s.axes)(s.S, s.n, m, s.axes, out);
         const double md = double(m);
-        const double scale = 1.0 / (2.0 * md * md * md * md * double(n + 2 - 3 * m));
-        for (int a = 0; a < axes; ++a)
+        const double scale = 1.0 / (2.0 * md * md * md * md * double(s.n + 2 - 3 * m));
+        for (int a = 0; a < s.axes; ++a)
           variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(k)) = out[a] * scale;
       });
     }
-    for (size_t o = 0; o < orders.size() && m > shared_limit; ++o) {
-      tasks.emplace_back([&, k, m, o] {
+    for (size_t o = 0; o < plan.orders.size() && m > plan.shared_limit; ++o) {
+      tasks.emplace_back([s, &plan, &variance, k, m, o] {
         double out[16];
-        const int order = orders[o];
-        pick_strided(order, axes)(S, n, m, axes, out);
-        const int64_t terms = n + 1 - order * m;
+        const int order = plan.orders[o];
+        pick_strided(order, s.axes)(s.S, s.n, m, s.axes, out);
+        const int64_t terms = s.n + 1 - order * m;
         const double scale =
             1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
         const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
-        for (int a = 0; a < axes; ++a) variance.at(d)(a, Eigen::Index(k)) = out[a] * scale;
+        for (int a = 0; a < s.axes; ++a) variance.at(d)(a, Eigen::Index(k)) = out[a] * scale;
       });
     }
   }
-  // MDEV's small factors: per group, W of each factor summed directly at the group's first j,
-  // then slid chunk by chunk, every small factor on one chunk before the next (as above).
-  std::vector<double> partial_modified(
-      options.modified ? size_t(n_chunks) * small.size() * size_t(axes) : 0, 0.0);
-  if (!small.empty() && options.modified) {
-    for (int64_t g = 0; g < groups; ++g) {
-      tasks.emplace_back([&, g] {
-        const auto [start, run] = pick_modified_span(axes);
-        std::vector<double> w(small.size() * size_t(axes)), wc(small.size() * size_t(axes));
-        const int64_t g0 = g * kChunksPerGroup * kChunk;
+}
+
+// MDEV's small factors: per group, W of each factor summed directly at the group's first j,
+// then slid chunk by chunk, every small factor on one chunk before the next.
+void modified_group_tasks(Sums s, const std::vector<int64_t>& factors, const WorkPlan& plan,
+                          Partials& partials, Tasks& tasks) {
+  for (int64_t g = 0; g < plan.groups; ++g) {
+    tasks.emplace_back([s, &factors, &plan, &partials, g] {
+      const auto& small = plan.small;
+      const int axes = s.axes;
+      const int64_t n = s.n;
+      const auto [start, run] = pick_modified_span(axes);
+      std::vector<double> w(small.size() * size_t(axes)), wc(small.size() * size_t(axes));
+      const int64_t g0 = g * kChunksPerGroup * kChunk;
+      for (size_t q = 0; q < small.size(); ++q) {
+        const int64_t m = factors[small[q]];
+        if (g0 < n + 2 - 3 * m)
+          start(s.S, m, axes, g0, &w[q * size_t(axes)], &wc[q * size_t(axes)]);
+      }
+      for (int64_t c = g * kChunksPerGroup; c < std::min(plan.n_chunks, (g + 1) * kChunksPerGroup);
+           ++c) {
+        const int64_t j0 = c * kChunk;
         for (size_t q = 0; q < small.size(); ++q) {
-          const int64_t m = r.factors[small[q]];
-          if (g0 < n + 2 - 3 * m)
-            start(S, m, axes, g0, &w[q * size_t(axes)], &wc[q * size_t(axes)]);
+          const int64_t m = factors[small[q]];
+          const int64_t terms = n + 2 - 3 * m;
+          const int64_t j1 = std::min(j0 + kChunk, terms);
+          if (j1 <= j0) continue;
+          run(s.S, m, axes, j0, j1, terms, &w[q * size_t(axes)], &wc[q * size_t(axes)],
+              &partials.modified[(size_t(c) * small.size() + q) * size_t(axes)]);
         }
-        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup);
-             ++c) {
-          const int64_t j0 = c * kChunk;
-          for (size_t q = 0; q < small.size(); ++q) {
-            const int64_t m = r.factors[small[q]];
-            const int64_t terms = n + 2 - 3 * m;
+      }
+    });
+  }
+}
+
+// ADEV's and HDEV's shared factors: per group of chunks, every shared factor on one chunk
+// before the next (see kSharedWindowBytes).
+void shared_group_tasks(Sums s, const std::vector<int64_t>& factors, const WorkPlan& plan,
+                        Partials& partials, Tasks& tasks) {
+  for (int64_t g = 0; g < plan.groups; ++g) {
+    tasks.emplace_back([s, &factors, &plan, &partials, g] {
+      const auto& shared = plan.shared;
+      const auto& orders = plan.orders;
+      const int axes = s.axes;
+      const int64_t n = s.n;
+      for (int64_t c = g * kChunksPerGroup; c < std::min(plan.n_chunks, (g + 1) * kChunksPerGroup);
+           ++c) {
+        const int64_t j0 = c * kChunk;
+        for (size_t o = 0; o < orders.size(); ++o) {
+          const ChunkFn fn = pick_chunk(orders[o], axes);
+          // ADEV's factors two at a time (see chunk_pair_order2), while both have a full chunk.
+          const bool pairs = orders[o] == 2 && lane_kernels_serve(axes);
+          for (size_t q = 0; q < shared.size(); ++q) {
+            const int64_t m = factors[shared[q]];
+            const int64_t terms = n + 1 - orders[o] * m;
             const int64_t j1 = std::min(j0 + kChunk, terms);
             if (j1 <= j0) continue;
-            run(S, m, axes, j0, j1, terms, &w[q * size_t(axes)], &wc[q * size_t(axes)],
-                &partial_modified[(size_t(c) * small.size() + q) * size_t(axes)]);
-          }
-        }
-      });
-    }
-  }
-  if (!shared.empty() && !orders.empty()) {
-    for (int64_t g = 0; g < groups; ++g) {
-      tasks.emplace_back([&, g] {
-        for (int64_t c = g * kChunksPerGroup; c < std::min(n_chunks, (g + 1) * kChunksPerGroup);
-             ++c) {
-          const int64_t j0 = c * kChunk;
-          for (size_t o = 0; o < orders.size(); ++o) {
-            const ChunkFn fn = pick_chunk(orders[o], axes);
-            // ADEV's factors two at a time (see chunk_pair_order2), while both have a full chunk.
-            const bool pairs = orders[o] == 2 && lane_kernels_serve(axes);
-            for (size_t q = 0; q < shared.size(); ++q) {
-              const int64_t m = r.factors[shared[q]];
-              const int64_t terms = n + 1 - orders[o] * m;
-              const int64_t j1 = std::min(j0 + kChunk, terms);
-              if (j1 <= j0) continue;
-              double* const acc = &partial[o][(size_t(c) * shared.size() + q) * size_t(axes)];
-              if (pairs && q + 1 < shared.size()) {
-                const int64_t mb = r.factors[shared[q + 1]];
-                if (std::min(j0 + kChunk, n + 1 - 2 * mb) == j1) {
-                  chunk_pair_order2(S, m, mb, axes, j0, j1, acc, acc + axes);
-                  ++q;
-                  continue;
-                }
+            double* const acc =
+                &partials.partial[o][(size_t(c) * shared.size() + q) * size_t(axes)];
+            if (pairs && q + 1 < shared.size()) {
+              const int64_t mb = factors[shared[q + 1]];
+              if (std::min(j0 + kChunk, n + 1 - 2 * mb) == j1) {
+                chunk_pair_order2(s.S, m, mb, axes, j0, j1, acc, acc + axes);
+                ++q;
+                continue;
               }
-              fn(S, m, axes, j0, j1, acc);
             }
+            fn(s.S, m, axes, j0, j1, acc);
           }
         }
-      });
-    }
+      }
+    });
   }
-  // Every task writes its own slots, so the result does not depend on the thread count; a task
-  // that throws (bad_alloc) stops the rest and is rethrown here.
-  parallel_for(tasks.size(), options.threads, [&](std::size_t i, unsigned) { tasks[i](); });
-  // Small factors: add the chunks' partial sums in chunk order.
+}
+
+// Every work item of the pass, the most expensive first (threads take the next item from a
+// counter). Each writes its own slots of `variance` or `partials`, which must outlive the tasks.
+Tasks variance_tasks(Sums s, const std::vector<int64_t>& factors, const WorkPlan& plan,
+                     const AllanOptions& options, Partials& partials, Variances& variance) {
+  Tasks tasks;
+  large_factor_tasks(s, factors, plan, options, variance, tasks);
+  if (!plan.small.empty() && options.modified)
+    modified_group_tasks(s, factors, plan, partials, tasks);
+  if (!plan.shared.empty() && !plan.orders.empty())
+    shared_group_tasks(s, factors, plan, partials, tasks);
+  return tasks;
+}
+
+// The grouped passes' variances: the chunks' partial sums added in chunk order.
+void add_partials(Sums s, const std::vector<int64_t>& factors, const WorkPlan& plan,
+                  const Partials& partials, const AllanOptions& options, Variances& variance) {
+  const auto& small = plan.small;
+  const auto& shared = plan.shared;
+  const int axes = s.axes;
+  const int64_t n = s.n;
+  const int64_t n_chunks = plan.n_chunks;
   if (options.modified) {
     for (size_t q = 0; q < small.size(); ++q) {
-      const double md = double(r.factors[small[q]]);
-      const double scale =
-          1.0 / (2.0 * md * md * md * md * double(n + 2 - 3 * r.factors[small[q]]));
+      const double md = double(factors[small[q]]);
+      const double scale = 1.0 / (2.0 * md * md * md * md * double(n + 2 - 3 * factors[small[q]]));
       for (int a = 0; a < axes; ++a) {
         double total = 0.0;
         for (int64_t c = 0; c < n_chunks; ++c)
-          total += partial_modified[(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
+          total += partials.modified[(size_t(c) * small.size() + q) * size_t(axes) + size_t(a)];
         variance.at(Deviation::kModifiedAllan)(a, Eigen::Index(small[q])) = total * scale;
       }
     }
   }
-  for (size_t o = 0; o < orders.size(); ++o) {
-    const int order = orders[o];
+  for (size_t o = 0; o < plan.orders.size(); ++o) {
+    const int order = plan.orders[o];
     const Deviation d = order == 2 ? Deviation::kAllan : Deviation::kHadamard;
     for (size_t q = 0; q < shared.size(); ++q) {
-      const int64_t m = r.factors[shared[q]];
+      const int64_t m = factors[shared[q]];
       const int64_t terms = n + 1 - order * m;
       const double scale = 1.0 / ((order == 2 ? 2.0 : 6.0) * double(m) * double(m) * double(terms));
       for (int a = 0; a < axes; ++a) {
         double total = 0.0;
         for (int64_t c = 0; c < n_chunks; ++c)
-          total += partial[o][(size_t(c) * shared.size() + q) * size_t(axes) + size_t(a)];
+          total += partials.partial[o][(size_t(c) * shared.size() + q) * size_t(axes) + size_t(a)];
         variance.at(d)(a, Eigen::Index(shared[q])) = total * scale;
       }
     }
   }
+}
 
-  // Noise type per (axis, tau) from the local log-log slope of the variance (ADEV's when
-  // computed), over neighbours within +-0.25 decade.
-  const Eigen::MatrixXd& slope_source =
-      options.allan ? variance.at(Deviation::kAllan) : variance.at(kinds.front());
+// Noise type per (axis, tau) from the local log-log slope of the variance, over neighbours
+// within +-0.25 decade (or options.alpha everywhere when given).
+Eigen::MatrixXi noise_types(const Eigen::MatrixXd& slope_source, const std::vector<double>& tau_s,
+                            const AllanOptions& options) {
+  const auto axes = slope_source.rows();
+  const size_t grid = tau_s.size();
   Eigen::MatrixXi alpha(axes, Eigen::Index(grid));
-  for (int a = 0; a < axes; ++a) {
+  for (Eigen::Index a = 0; a < axes; ++a) {
     for (size_t k = 0; k < grid; ++k) {
       if (options.alpha) {
         alpha(a, Eigen::Index(k)) = *options.alpha;
@@ -818,9 +890,9 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       }
       double sx = 0, sy = 0, sxx = 0, sxy = 0;
       int cnt = 0;
-      const double lk = std::log10(r.tau_s[k]);
+      const double lk = std::log10(tau_s[k]);
       for (size_t q = 0; q < grid; ++q) {
-        const double lq = std::log10(r.tau_s[q]);
+        const double lq = std::log10(tau_s[q]);
         const double v = slope_source(a, Eigen::Index(q));
         if (std::abs(lq - lk) <= 0.25 + 1e-12 && v > 0.0 && std::isfinite(v)) {
           const double y = std::log10(v);
@@ -849,7 +921,14 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       }
     }
   }
+  return alpha;
+}
 
+// The deviation curves of r (their terms, edf and confidence intervals) from the variances.
+void fill_curves(AllanResult& r, const std::vector<Deviation>& kinds, const Variances& variance,
+                 const Eigen::MatrixXi& alpha, int64_t n, const AllanOptions& options) {
+  const auto axes = alpha.rows();
+  const size_t grid = r.factors.size();
   for (Deviation d : kinds) {
     DeviationCurve& c = d == Deviation::kAllan           ? r.allan
                         : d == Deviation::kModifiedAllan ? r.modified
@@ -864,7 +943,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
     for (size_t k = 0; k < grid; ++k) {
       c.terms.push_back(estimator_terms(d, n, r.factors[k]));
       std::map<int, double> edf_cache;
-      for (int a = 0; a < axes; ++a) {
+      for (Eigen::Index a = 0; a < axes; ++a) {
         const int al = alpha(a, Eigen::Index(k));
         auto it = edf_cache.find(al);
         if (it == edf_cache.end()) {
@@ -879,6 +958,40 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       }
     }
   }
+}
+
+}  // namespace
+
+AllanResult allan_deviation(std::span<const TimeNs> t,
+                            const Eigen::Ref<const Eigen::MatrixXd>& samples,
+                            const AllanOptions& options) {
+  AllanResult r = grid_and_sampling(t, samples, options);
+  const auto n = int64_t(samples.cols());
+  const int axes = int(samples.rows());
+  const std::unique_ptr<double[]> S = cumulative_sums(samples);
+  const Sums sums{S.get(), n, axes};
+
+  std::vector<Deviation> kinds;
+  if (options.allan) kinds.push_back(Deviation::kAllan);
+  if (options.modified) kinds.push_back(Deviation::kModifiedAllan);
+  if (options.hadamard) kinds.push_back(Deviation::kHadamard);
+  Variances variance;
+  for (Deviation d : kinds)
+    variance[d] = Eigen::MatrixXd::Zero(axes, Eigen::Index(r.factors.size()));
+
+  const WorkPlan plan = plan_work(r.factors, options, axes, n);
+  Partials partials(plan, options.modified, axes);
+  const Tasks tasks = variance_tasks(sums, r.factors, plan, options, partials, variance);
+  // Every task writes its own slots, so the result does not depend on the thread count; a task
+  // that throws (bad_alloc) stops the rest and is rethrown here.
+  parallel_for(tasks.size(), options.threads, [&](std::size_t i, unsigned) { tasks[i](); });
+  add_partials(sums, r.factors, plan, partials, options, variance);
+
+  // ADEV's slopes when computed.
+  const Eigen::MatrixXd& slope_source =
+      options.allan ? variance.at(Deviation::kAllan) : variance.at(kinds.front());
+  const Eigen::MatrixXi alpha = noise_types(slope_source, r.tau_s, options);
+  fill_curves(r, kinds, variance, alpha, n, options);
   return r;
 }
 
