@@ -15,13 +15,11 @@
 #include "core/isa.hpp"
 #include "core/lane_math.hpp"
 #include "core/parallel.hpp"
-#include "core/so3.hpp"
 #include "core/time.hpp"
 
 namespace imukit::augment {
 
 using Eigen::Matrix3d;
-using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
 namespace {
@@ -72,12 +70,6 @@ std::array<double, 4> lagrange4(double x, int64_t s0) {
     w[static_cast<std::size_t>(m)] = v;
   }
   return w;
-}
-
-// U[lo, hi) that accepts lo == hi (returns lo) and always takes one draw.
-double uniform_in(Rng& rng, double lo, double hi) {
-  const double u = rng.uniform();
-  return lo == hi ? lo : lo + (hi - lo) * u;
 }
 
 // q_k <- exp(s_k log q_k) for n unit quaternions stored as Eigen keeps them (x, y, z, w): the
@@ -404,7 +396,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       break;
     }
     case WarpMethod::scaling: {
-      const double b = uniform_in(rng, sub.speed.lo, sub.speed.hi);
+      const double b = rng.uniform_in(sub.speed.lo, sub.speed.hi);
       if (log != nullptr) log->speed_scale = b;
       const double c = 0.5 * static_cast<double>(T - 1);
       for (int64_t j = 0; j < F; ++j) {
@@ -573,48 +565,17 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   // 5. Placement per sensor, then hardware, then the output (ax ay az gx gy gz per sensor).
   const std::size_t S = sensors.size();
   const std::size_t C = 6 * S;
-  const double kPi = M_PI;
   const SubjectPlacements* subject = nullptr;  // one subject's placements for the whole window
   if (sub.placement.enabled && !sub.placement.swap_subjects.empty())
     subject = &sub.placement.swap_subjects[rng.uniform_index(sub.placement.swap_subjects.size())];
   for (std::size_t s = 0; s < S; ++s) {
     sim::Placement pl = sensors[s].spec.placement;
     std::string preset = sensors[s].preset;
-    const PlacementOp& op = sub.placement;
     if (subject != nullptr) {
       for (const sim::PlacementPreset& p : subject->sensors)
         if (p.name == sensors[s].spec.name) pl = sim::resolve_preset(p, body);
     }
-    if (op.enabled) {
-      if (!op.swap_presets.empty() && std::find(op.swap_presets.begin(), op.swap_presets.end(),
-                                                preset) != op.swap_presets.end()) {
-        preset = op.swap_presets[rng.uniform_index(op.swap_presets.size())];
-        pl = sim::resolve_preset(sim::placement_preset(preset), body);
-      }
-      if (op.shift && !preset.empty()) {
-        const sim::PlacementPreset& pp = sim::placement_preset(preset);
-        const Matrix3d lan = sim::anatomical_frame(body, pl.joint);
-        Vector3d d;
-        for (int k = 0; k < 3; ++k)
-          d[k] = uniform_in(rng, -pp.position_range_m[k], pp.position_range_m[k]);
-        pl.p_joint_sensor += lan * d;
-      }
-      if (op.long_axis_range_rad > 0.0) {
-        const Vector3d L = sim::anatomical_frame(body, pl.joint).col(0);
-        const Quaterniond r =
-            so3_exp(L * uniform_in(rng, -op.long_axis_range_rad, op.long_axis_range_rad));
-        pl.q_joint_sensor = r * pl.q_joint_sensor;
-        pl.p_joint_sensor = r * pl.p_joint_sensor;
-      }
-      if (op.flip && rng.uniform() < 0.5)
-        pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, kPi));
-      Quaterniond off = Quaterniond::Identity();
-      for (int k = 0; k < 3; ++k) {
-        const double a = uniform_in(rng, -op.rotation_range_rad[k], op.rotation_range_rad[k]);
-        off = off * so3_exp(Vector3d::Unit(k) * a);
-      }
-      pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
-    }
+    if (sub.placement.enabled) pl = sim::vary_placement(pl, preset, sub.placement, body, rng);
     if (log != nullptr) log->placements.push_back(pl);
     const std::size_t cidx = carriers.fixed ? s : carriers.index.at(pl.joint);
     const sim::SensorBlock& b0 = wk.blocks[carriers.fixed ? s : 4 * cidx];
@@ -639,8 +600,8 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     const HardwareOp& hw = sub.hardware;
     if (hw.kind == HardwareOp::Kind::ranges) {
       Vector3d ba, bg;
-      for (int k = 0; k < 3; ++k) ba[k] = uniform_in(rng, -hw.accel_bias, hw.accel_bias);
-      for (int k = 0; k < 3; ++k) bg[k] = uniform_in(rng, -hw.gyro_bias, hw.gyro_bias);
+      for (int k = 0; k < 3; ++k) ba[k] = rng.uniform_in(-hw.accel_bias, hw.accel_bias);
+      for (int k = 0; k < 3; ++k) bg[k] = rng.uniform_in(-hw.gyro_bias, hw.gyro_bias);
       if (log != nullptr) {
         log->accel_bias.push_back(ba);
         log->gyro_bias.push_back(bg);
@@ -706,11 +667,6 @@ Carriers make_fixed_carriers(const std::vector<sim::SceneSensor>& sensors) {
   return c;
 }
 
-bool keeps_positions(const PlacementOp& op) {
-  return !op.enabled || (op.swap_presets.empty() && op.swap_subjects.empty() && !op.shift &&
-                         op.long_axis_range_rad == 0.0);
-}
-
 // The joints a sub-policy may put a sensor on.
 std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::SceneSensor>& sensors,
                              const SubPolicy& sub) {
@@ -747,7 +703,7 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
       throw Error(fmt::format("augment: window start {} outside 0 .. {}", s,
                               m.samples - static_cast<int64_t>(T)));
   }
-  const Carriers carriers = keeps_positions(sub.placement)
+  const Carriers carriers = sub.placement.keeps_positions()
                                 ? make_fixed_carriers(m.sensors)
                                 : make_carriers(carrier_joints(m.body, m.sensors, sub));
   const Rng root(rng.next_u64());
@@ -787,7 +743,7 @@ void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
   if (start < 0 || start + static_cast<int64_t>(T) > m.samples)
     throw Error(fmt::format("augment: window start {} outside 0 .. {}", start,
                             m.samples - static_cast<int64_t>(T)));
-  const Carriers carriers = keeps_positions(sub.placement)
+  const Carriers carriers = sub.placement.keeps_positions()
                                 ? make_fixed_carriers(m.sensors)
                                 : make_carriers(carrier_joints(m.body, m.sensors, sub));
   Impl::Worker wk;
