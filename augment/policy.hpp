@@ -108,8 +108,9 @@ struct HardwareOp {
   double gyro_noise = 0.0;   // rad/s
   double gyro_bias = 0.0;    // rad/s
   // profile: the device's HardwareModel (noise densities, bias instability, random walk, turn-on
-  // bias mean and spread, bandwidth...), with the noise parameters drawn per window from their
-  // stated 1-sigma uncertainties, and scale and misalignment perturbed by these 1-sigma spreads.
+  // bias mean and spread, bandwidth...), drawn per window and sensor by draw_hardware_model
+  // (core/profile.hpp): the noise parameters from their stated 1-sigma uncertainties, scale and
+  // misalignment perturbed by these 1-sigma spreads.
   std::optional<DeviceProfile> profile;
   std::string profile_path;   // as written in the JSON (for describe / round trips)
   double scale_spread = 0.0;  // relative

@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <set>
 
@@ -15,6 +16,7 @@
 #include "core/isa.hpp"
 #include "core/lane_math.hpp"
 #include "core/parallel.hpp"
+#include "core/profile.hpp"
 #include "core/time.hpp"
 
 namespace imukit::augment {
@@ -617,31 +619,14 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     Eigen::Matrix3Xd& f = wk.f;
     Eigen::Matrix3Xd& w = wk.w;
     if (hw.kind == HardwareOp::Kind::profile) {
-      HardwareModel model = to_hardware_model(*hw.profile);
-      const auto perturb = [&](TriadModel& t, const std::optional<SensorProfile>& sp) {
-        // Noise parameters drawn from their stated 1-sigma uncertainties (kept >= 0).
-        if (sp && sp->noise) {
-          const NoiseEstimate& ne = *sp->noise;
-          const auto draw = [&](Vector3d& v, const std::optional<Vector3d>& sig) {
-            if (!sig) return;
-            for (int k = 0; k < 3; ++k) v[k] = std::max(0.0, v[k] + (*sig)[k] * rng.normal());
-          };
-          draw(t.noise_density, ne.noise_density_sigma);
-          draw(t.bias_instability, ne.bias_instability_sigma);
-          draw(t.random_walk, ne.random_walk_sigma);
-        }
-        for (int k = 0; k < 3; ++k) t.scale[k] *= 1.0 + hw.scale_spread * rng.normal();
-        for (int r = 0; r < 3; ++r)
-          for (int k = 0; k < 3; ++k)
-            if (r != k) t.misalignment(r, k) += hw.misalignment_spread_rad * rng.normal();
+      HardwareModel model = draw_hardware_model(
+          *hw.profile, HardwareSpread{hw.scale_spread, hw.misalignment_spread_rad}, rng);
+      for (TriadModel* t : {static_cast<TriadModel*>(&model.accelerometer),
+                            static_cast<TriadModel*>(&model.gyroscope)}) {
         // A low-pass at or beyond the dataset's Nyquist frequency changes nothing at this rate.
-        if (t.bandwidth_hz >= 0.5 * rate) t.bandwidth_hz = 0.0;
-        t.rate_hz = 0.0;
-      };
-      perturb(model.accelerometer, hw.profile->accelerometer);
-      std::optional<SensorProfile> gp;
-      if (hw.profile->gyroscope) gp = static_cast<const SensorProfile&>(*hw.profile->gyroscope);
-      perturb(model.gyroscope, gp);
+        if (t->bandwidth_hz >= 0.5 * rate) t->bandwidth_hz = 0.0;
+        t->rate_hz = 0.0;
+      }
       ImuErrorGenerator gen(model, rate, rng);
       const Eigen::Matrix3Xd truth = f;
       gen.apply_gyroscope(w, truth);
