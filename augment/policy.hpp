@@ -85,18 +85,16 @@ struct SubjectPlacements {
   bool operator==(const SubjectPlacements& other) const { return scene_path == other.scene_path; }
 };
 
-struct PlacementOp {
+// The variation itself (rotation ranges, long-axis turn, flip, shift, preset swap) is sim's
+// PlacementVariation, applied by sim::vary_placement; the subject swap needs the policy's
+// subjects and stays here.
+struct PlacementOp : sim::PlacementVariation {
   bool enabled = false;
-  Eigen::Vector3d rotation_range_rad = Eigen::Vector3d::Zero();  // U[-r, r] about sensor x, y, z
-  double long_axis_range_rad = 0.0;  // extra U[-r, r] about the segment's long axis (0 = off)
-  bool flip = false;                 // 180 degrees about the sensor's z axis with probability 1/2
-  // Shift within the preset's position range (SceneSensor::preset; sensors without one stay).
-  bool shift = false;
-  // Swap: each sensor whose preset is in this list is moved to a preset drawn uniformly from it.
-  std::vector<std::string> swap_presets;
   // Swap between subjects: per window one subject is drawn uniformly, and each sensor it has (by
   // name) takes its placement, position and orientation. Before the other placement changes.
   std::vector<SubjectPlacements> swap_subjects;
+  // No sensor changes position (disabled, or no swap of either kind, no shift, no long-axis turn).
+  bool keeps_positions() const { return !enabled || (keeps_position() && swap_subjects.empty()); }
   bool operator==(const PlacementOp&) const = default;
 };
 
@@ -110,8 +108,9 @@ struct HardwareOp {
   double gyro_noise = 0.0;   // rad/s
   double gyro_bias = 0.0;    // rad/s
   // profile: the device's HardwareModel (noise densities, bias instability, random walk, turn-on
-  // bias mean and spread, bandwidth...), with the noise parameters drawn per window from their
-  // stated 1-sigma uncertainties, and scale and misalignment perturbed by these 1-sigma spreads.
+  // bias mean and spread, bandwidth...), drawn per window and sensor by draw_hardware_model
+  // (core/profile.hpp): the noise parameters from their stated 1-sigma uncertainties, scale and
+  // misalignment perturbed by these 1-sigma spreads.
   std::optional<DeviceProfile> profile;
   std::string profile_path;   // as written in the JSON (for describe / round trips)
   double scale_spread = 0.0;  // relative

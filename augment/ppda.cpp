@@ -7,6 +7,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <map>
 #include <set>
 
@@ -15,13 +16,12 @@
 #include "core/isa.hpp"
 #include "core/lane_math.hpp"
 #include "core/parallel.hpp"
-#include "core/so3.hpp"
+#include "core/profile.hpp"
 #include "core/time.hpp"
 
 namespace imukit::augment {
 
 using Eigen::Matrix3d;
-using Eigen::Quaterniond;
 using Eigen::Vector3d;
 
 namespace {
@@ -72,12 +72,6 @@ std::array<double, 4> lagrange4(double x, int64_t s0) {
     w[static_cast<std::size_t>(m)] = v;
   }
   return w;
-}
-
-// U[lo, hi) that accepts lo == hi (returns lo) and always takes one draw.
-double uniform_in(Rng& rng, double lo, double hi) {
-  const double u = rng.uniform();
-  return lo == hi ? lo : lo + (hi - lo) * u;
 }
 
 // q_k <- exp(s_k log q_k) for n unit quaternions stored as Eigen keeps them (x, y, z, w): the
@@ -254,6 +248,34 @@ IMUKIT_ISA_VARIANTS(void, write_channels, write_channels_kernel,
                      double* out_d, float* out_f),
                     (f, w, n, stride, out_d, out_f))
 
+// 5b. The kernel's arguments for sensor s at placement pl from its carriers' simulated blocks,
+// its signals going to f and w (sized here); hardware errors are added by the caller.
+SensorSignalArgs carrier_signals(const Carriers& carriers,
+                                 const std::vector<sim::SensorBlock>& blocks, std::size_t s,
+                                 const sim::Placement& pl, std::size_t T, Eigen::Matrix3Xd& f,
+                                 Eigen::Matrix3Xd& w) {
+  const std::size_t cidx = carriers.fixed ? s : carriers.index.at(pl.joint);
+  const sim::SensorBlock& b0 = blocks[carriers.fixed ? s : 4 * cidx];
+  const Matrix3d R_sensor_joint = pl.q_joint_sensor.normalized().toRotationMatrix().transpose();
+  SensorSignalArgs sig;
+  sig.n = T;
+  sig.force = b0.specific_force.data();
+  sig.rate = b0.angular_rate.data();
+  for (int k = 0; k < 3 && !carriers.fixed; ++k) {
+    const double pk = pl.p_joint_sensor[k];
+    if (pk == 0.0) continue;
+    sig.offset[k] = pk;
+    sig.force_along[k] = blocks[4 * cidx + 1 + static_cast<std::size_t>(k)].specific_force.data();
+  }
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) sig.R_sensor_joint[3 * r + k] = R_sensor_joint(r, k);
+  f.resize(3, static_cast<Eigen::Index>(T));
+  w.resize(3, static_cast<Eigen::Index>(T));
+  sig.f = f.data();
+  sig.w = w.data();
+  return sig;
+}
+
 }  // namespace
 
 struct PpdaAugmenter::Impl {
@@ -299,6 +321,27 @@ struct PpdaAugmenter::Impl {
 
   void simulate_window(const SubPolicy& sub, const Carriers& carriers, int64_t start, Rng& rng,
                        Worker& wk, double* out_d, float* out_f, PpdaWindowLog* log) const;
+  // simulate_window's phases.
+  struct WindowTiming {
+    int64_t first_frame = 0;  // identity speed: the window's first source frame
+    int64_t F = 0;            // frames of the window's motion
+  };
+  WindowTiming retime(const SpeedOp& speed, int64_t start, Rng& rng, Worker& wk,
+                      PpdaWindowLog* log) const;
+  sim::Motion& window_motion(Worker& wk, int64_t F) const;
+  void warp_amplitude(const AmplitudeOp& amplitude, Worker& wk, sim::Motion& wm, int64_t F,
+                      Rng& rng, PpdaWindowLog* log) const;
+  void simulate_carriers(const SpeedOp& speed, int64_t start, int64_t first_frame, Worker& wk,
+                         sim::Motion& wm) const;
+  sim::Placement sensor_placement(std::size_t s, const PlacementOp& op,
+                                  const SubjectPlacements* subject, Rng& rng) const;
+  void apply_hardware(const HardwareOp& hw, SensorSignalArgs& sig, Worker& wk, Rng& rng,
+                      PpdaWindowLog* log) const;
+
+  // Throws imukit::Error unless a window starting at `start` lies inside the motion's samples.
+  void check_start(int64_t start) const;
+  // The carriers a sub-policy needs (make_fixed_carriers when it keeps every sensor's position).
+  Carriers carriers_for(const SubPolicy& sub) const;
 };
 
 PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
@@ -360,20 +403,44 @@ std::vector<int64_t> PpdaAugmenter::window_starts(std::size_t stride) const {
   return starts;
 }
 
+// One window, phase after phase; the draws come in this order: speed, amplitude (joint after
+// joint), the subject swap, then per sensor its placement and its hardware.
 void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& carriers,
                                           int64_t start, Rng& rng, Worker& wk, double* out_d,
                                           float* out_f, PpdaWindowLog* log) const {
   const std::size_t T = options.window;
+  if (log != nullptr) *log = PpdaWindowLog{};
+  if (log != nullptr) log->start = start;
+  const WindowTiming timing = retime(sub.speed, start, rng, wk, log);
+  sim::Motion& wm = window_motion(wk, timing.F);
+  warp_amplitude(sub.amplitude, wk, wm, timing.F, rng, log);
+  simulate_carriers(sub.speed, start, timing.first_frame, wk, wm);
+
+  // 5. Placement per sensor, then hardware, then the output (ax ay az gx gy gz per sensor).
+  const std::size_t S = sensors.size();
+  const std::size_t C = 6 * S;
+  const SubjectPlacements* subject = nullptr;  // one subject's placements for the whole window
+  if (sub.placement.enabled && !sub.placement.swap_subjects.empty())
+    subject = &sub.placement.swap_subjects[rng.uniform_index(sub.placement.swap_subjects.size())];
+  for (std::size_t s = 0; s < S; ++s) {
+    const sim::Placement pl = sensor_placement(s, sub.placement, subject, rng);
+    if (log != nullptr) log->placements.push_back(pl);
+    SensorSignalArgs sig = carrier_signals(carriers, wk.blocks, s, pl, T, wk.f, wk.w);
+    apply_hardware(sub.hardware, sig, wk, rng, log);
+    write_channels(wk.f.data(), wk.w.data(), T, C, out_d != nullptr ? out_d + 6 * s : nullptr,
+                   out_f != nullptr ? out_f + 6 * s : nullptr);
+  }
+}
+
+// 1. Speed: the source frame position x (wk.x) of each window frame and its output position u
+// (wk.u) in samples from the window's first sample.
+PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& speed, int64_t start,
+                                                              Rng& rng, Worker& wk,
+                                                              PpdaWindowLog* log) const {
+  const std::size_t T = options.window;
   const double dt = 1.0 / rate;
   const double h = 1.0 / motion_rate;
   int64_t F = window_frames();
-  const sim::SimulationPlan& plan = wk.simulator->plan();
-  const std::size_t J = plan.joints.size();
-  if (log != nullptr) *log = PpdaWindowLog{};
-  if (log != nullptr) log->start = start;
-
-  // 1. Speed: the source frame position x of each window frame and its output position u in
-  // samples from the window's first sample.
   const TimeNs t_start_ns = sample_time(0, start, rate);
   const double t_start = static_cast<double>(t_start_ns) * 1e-9;
   // Identity: the window's motion is the source's own frames first_frame .. first_frame + F - 1,
@@ -381,7 +448,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   // simulator sees the same frames around every sample, and the same one-sided stencils and end
   // conditions at the true ends, as when it simulates the whole motion.
   int64_t first_frame = 0;
-  if (sub.speed.method == WarpMethod::identity) {
+  if (speed.method == WarpMethod::identity) {
     const TimeNs t_end_ns = sample_time(0, start + static_cast<int64_t>(T) - 1, rate);
     int64_t f1 = sim::Simulator::frame_at(t_end_ns, motion_rate);
     if (sample_time(0, f1, motion_rate) < t_end_ns) ++f1;
@@ -392,7 +459,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   wk.x.resize(static_cast<std::size_t>(F));
   for (int64_t j = 0; j < F; ++j)
     wk.u[static_cast<std::size_t>(j)] = static_cast<double>(j - kMargin) * h / dt;
-  switch (sub.speed.method) {
+  switch (speed.method) {
     case WarpMethod::identity: {
       const TimeNs t_first = sample_time(0, first_frame, motion_rate);
       for (int64_t j = 0; j < F; ++j) {
@@ -404,7 +471,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       break;
     }
     case WarpMethod::scaling: {
-      const double b = uniform_in(rng, sub.speed.lo, sub.speed.hi);
+      const double b = rng.uniform_in(speed.lo, speed.hi);
       if (log != nullptr) log->speed_scale = b;
       const double c = 0.5 * static_cast<double>(T - 1);
       for (int64_t j = 0; j < F; ++j) {
@@ -414,10 +481,10 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       break;
     }
     case WarpMethod::warping: {
-      std::vector<double> uu(static_cast<std::size_t>(sub.speed.knots + 1));
+      std::vector<double> uu(static_cast<std::size_t>(speed.knots + 1));
       for (double& v : uu) v = rng.uniform();
       if (log != nullptr) log->speed_u = uu;
-      const Interpolant warp = time_warp_interpolant(uu, sub.speed.ratio, T);
+      const Interpolant warp = time_warp_interpolant(uu, speed.ratio, T);
       Eigen::Map<Eigen::RowVectorXd> xm(wk.x.data(), F);
       warp.evaluate(wk.u, xm);
       for (double& v : wk.x) v = (t_start + v * dt) * motion_rate;
@@ -439,10 +506,15 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   if (x1 > last) shift = last - x1;
   if (shift != 0.0)
     for (double& v : wk.x) v = std::clamp(v + shift, 0.0, last);
+  return {first_frame, F};
+}
 
-  // 2. The window's motion: plan joints at the source positions, 4-point Lagrange interpolation
-  // of sign-aligned quaternion components, renormalised (O(h^4) from the geodesic cubic at
-  // motion rates) -- exact copies where a position falls on a frame.
+// 2. The window's motion: plan joints at the source positions, 4-point Lagrange interpolation
+// of sign-aligned quaternion components, renormalised (O(h^4) from the geodesic cubic at
+// motion rates) -- exact copies where a position falls on a frame.
+sim::Motion& PpdaAugmenter::Impl::window_motion(Worker& wk, int64_t F) const {
+  const sim::SimulationPlan& plan = wk.simulator->plan();
+  const std::size_t J = plan.joints.size();
   const auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
   const auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
   assert(hi - lo >= 4);  // the constructor asks for more frames than a window's span
@@ -508,56 +580,69 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
       p += wk.weights[4 * u + static_cast<std::size_t>(m)] * tr(wk.s0[u] + m);
     wm.root_translation(j) = p;
   }
+  return wm;
+}
 
-  // 3. Amplitude: q' = exp(s log q) for the chosen joints' relative rotations.
-  if (sub.amplitude.method != WarpMethod::identity) {
-    std::vector<int> chosen;
-    if (sub.amplitude.joints.empty()) {
-      for (std::size_t k = 0; k < J; ++k)
-        if (body.joint(static_cast<std::size_t>(plan.joints[k])).parent >= 0)
-          chosen.push_back(plan.joints[k]);
-    } else {
-      for (const std::string& name : sub.amplitude.joints) {
-        const int b = body.index_of(name);
-        if (std::find(plan.joints.begin(), plan.joints.end(), b) != plan.joints.end())
-          chosen.push_back(b);
-      }
-    }
-    wk.scale.resize(static_cast<std::size_t>(F));
-    for (int joint : chosen) {
-      if (sub.amplitude.method == WarpMethod::scaling) {
-        const double a = rng.normal(1.0, sub.amplitude.sigma);
-        if (log != nullptr) log->amplitude.push_back(a);
-        std::fill(wk.scale.begin(), wk.scale.end(), a);
-      } else {
-        const int nk = sub.amplitude.knots + 2;
-        if (wk.basis_knots != sub.amplitude.knots || wk.basis_u != wk.u) {
-          wk.basis.resize(F, nk);
-          std::vector<double> e(static_cast<std::size_t>(nk));
-          for (int m = 0; m < nk; ++m) {
-            std::fill(e.begin(), e.end(), 0.0);
-            e[static_cast<std::size_t>(m)] = 1.0;
-            const Interpolant curve = warp_curve_interpolant(e, T);
-            Eigen::RowVectorXd col(F);
-            curve.evaluate(wk.u, col);
-            wk.basis.col(m) = col.transpose();
-          }
-          wk.basis_knots = sub.amplitude.knots;
-          wk.basis_u = wk.u;
-        }
-        Eigen::VectorXd kv(nk);
-        for (int m = 0; m < nk; ++m) kv[m] = rng.normal(1.0, sub.amplitude.sigma);
-        if (log != nullptr) log->amplitude.insert(log->amplitude.end(), kv.begin(), kv.end());
-        Eigen::Map<Eigen::VectorXd>(wk.scale.data(), F) = wk.basis * kv;
-      }
-      scale_angles(wm.rotation(0, static_cast<std::size_t>(joint)).coeffs().data(), wk.scale.data(),
-                   static_cast<std::size_t>(F));
+// 3. Amplitude: q' = exp(s log q) for the chosen joints' relative rotations.
+void PpdaAugmenter::Impl::warp_amplitude(const AmplitudeOp& amplitude, Worker& wk, sim::Motion& wm,
+                                         int64_t F, Rng& rng, PpdaWindowLog* log) const {
+  if (amplitude.method == WarpMethod::identity) return;
+  const std::size_t T = options.window;
+  const sim::SimulationPlan& plan = wk.simulator->plan();
+  const std::size_t J = plan.joints.size();
+  std::vector<int> chosen;
+  if (amplitude.joints.empty()) {
+    for (std::size_t k = 0; k < J; ++k)
+      if (body.joint(static_cast<std::size_t>(plan.joints[k])).parent >= 0)
+        chosen.push_back(plan.joints[k]);
+  } else {
+    for (const std::string& name : amplitude.joints) {
+      const int b = body.index_of(name);
+      if (std::find(plan.joints.begin(), plan.joints.end(), b) != plan.joints.end())
+        chosen.push_back(b);
     }
   }
+  wk.scale.resize(static_cast<std::size_t>(F));
+  for (int joint : chosen) {
+    if (amplitude.method == WarpMethod::scaling) {
+      const double a = rng.normal(1.0, amplitude.sigma);
+      if (log != nullptr) log->amplitude.push_back(a);
+      std::fill(wk.scale.begin(), wk.scale.end(), a);
+    } else {
+      const int nk = amplitude.knots + 2;
+      if (wk.basis_knots != amplitude.knots || wk.basis_u != wk.u) {
+        wk.basis.resize(F, nk);
+        std::vector<double> e(static_cast<std::size_t>(nk));
+        for (int m = 0; m < nk; ++m) {
+          std::fill(e.begin(), e.end(), 0.0);
+          e[static_cast<std::size_t>(m)] = 1.0;
+          const Interpolant curve = warp_curve_interpolant(e, T);
+          Eigen::RowVectorXd col(F);
+          curve.evaluate(wk.u, col);
+          wk.basis.col(m) = col.transpose();
+        }
+        wk.basis_knots = amplitude.knots;
+        wk.basis_u = wk.u;
+      }
+      Eigen::VectorXd kv(nk);
+      for (int m = 0; m < nk; ++m) kv[m] = rng.normal(1.0, amplitude.sigma);
+      if (log != nullptr) log->amplitude.insert(log->amplitude.end(), kv.begin(), kv.end());
+      Eigen::Map<Eigen::VectorXd>(wk.scale.data(), F) = wk.basis * kv;
+    }
+    scale_angles(wm.rotation(0, static_cast<std::size_t>(joint)).coeffs().data(), wk.scale.data(),
+                 static_cast<std::size_t>(F));
+  }
+}
 
-  // 4. Simulate the carriers at the output sample times.
+// 4. Simulate the carriers at the output sample times.
+void PpdaAugmenter::Impl::simulate_carriers(const SpeedOp& speed, int64_t start,
+                                            int64_t first_frame, Worker& wk,
+                                            sim::Motion& wm) const {
+  const std::size_t T = options.window;
+  const double dt = 1.0 / rate;
+  const double h = 1.0 / motion_rate;
   wk.times.resize(T);
-  if (sub.speed.method == WarpMethod::identity) {
+  if (speed.method == WarpMethod::identity) {
     // The plain simulation's sample times, counted from the window's first frame.
     const TimeNs t_first = sample_time(0, first_frame, motion_rate);
     for (std::size_t i = 0; i < T; ++i)
@@ -569,125 +654,60 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     }
   }
   wk.simulator->evaluate(wm, wk.times, wk.blocks);
+}
 
-  // 5. Placement per sensor, then hardware, then the output (ax ay az gx gy gz per sensor).
-  const std::size_t S = sensors.size();
-  const std::size_t C = 6 * S;
-  const double kPi = M_PI;
-  const SubjectPlacements* subject = nullptr;  // one subject's placements for the whole window
-  if (sub.placement.enabled && !sub.placement.swap_subjects.empty())
-    subject = &sub.placement.swap_subjects[rng.uniform_index(sub.placement.swap_subjects.size())];
-  for (std::size_t s = 0; s < S; ++s) {
-    sim::Placement pl = sensors[s].spec.placement;
-    std::string preset = sensors[s].preset;
-    const PlacementOp& op = sub.placement;
-    if (subject != nullptr) {
-      for (const sim::PlacementPreset& p : subject->sensors)
-        if (p.name == sensors[s].spec.name) pl = sim::resolve_preset(p, body);
+// 5a. Sensor s's placement in this window: the subject's (when one was drawn and has the
+// sensor), then varied by the sub-policy (sim::vary_placement).
+sim::Placement PpdaAugmenter::Impl::sensor_placement(std::size_t s, const PlacementOp& op,
+                                                     const SubjectPlacements* subject,
+                                                     Rng& rng) const {
+  sim::Placement pl = sensors[s].spec.placement;
+  std::string preset = sensors[s].preset;
+  if (subject != nullptr) {
+    for (const sim::PlacementPreset& p : subject->sensors)
+      if (p.name == sensors[s].spec.name) pl = sim::resolve_preset(p, body);
+  }
+  if (op.enabled) pl = sim::vary_placement(pl, preset, op, body, rng);
+  return pl;
+}
+
+// 5c. The sensor's signals with its hardware errors: ranges draws its biases and white noise
+// into sig (added in sensor_signal's pass); profile draws a model of the device and runs its
+// error generator on the signals afterwards.
+void PpdaAugmenter::Impl::apply_hardware(const HardwareOp& hw, SensorSignalArgs& sig, Worker& wk,
+                                         Rng& rng, PpdaWindowLog* log) const {
+  const std::size_t T = sig.n;
+  if (hw.kind == HardwareOp::Kind::ranges) {
+    Vector3d ba, bg;
+    for (int k = 0; k < 3; ++k) ba[k] = rng.uniform_in(-hw.accel_bias, hw.accel_bias);
+    for (int k = 0; k < 3; ++k) bg[k] = rng.uniform_in(-hw.gyro_bias, hw.gyro_bias);
+    if (log != nullptr) {
+      log->accel_bias.push_back(ba);
+      log->gyro_bias.push_back(bg);
     }
-    if (op.enabled) {
-      if (!op.swap_presets.empty() && std::find(op.swap_presets.begin(), op.swap_presets.end(),
-                                                preset) != op.swap_presets.end()) {
-        preset = op.swap_presets[rng.uniform_index(op.swap_presets.size())];
-        pl = sim::resolve_preset(sim::placement_preset(preset), body);
-      }
-      if (op.shift && !preset.empty()) {
-        const sim::PlacementPreset& pp = sim::placement_preset(preset);
-        const Matrix3d lan = sim::anatomical_frame(body, pl.joint);
-        Vector3d d;
-        for (int k = 0; k < 3; ++k)
-          d[k] = uniform_in(rng, -pp.position_range_m[k], pp.position_range_m[k]);
-        pl.p_joint_sensor += lan * d;
-      }
-      if (op.long_axis_range_rad > 0.0) {
-        const Vector3d L = sim::anatomical_frame(body, pl.joint).col(0);
-        const Quaterniond r =
-            so3_exp(L * uniform_in(rng, -op.long_axis_range_rad, op.long_axis_range_rad));
-        pl.q_joint_sensor = r * pl.q_joint_sensor;
-        pl.p_joint_sensor = r * pl.p_joint_sensor;
-      }
-      if (op.flip && rng.uniform() < 0.5)
-        pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, kPi));
-      Quaterniond off = Quaterniond::Identity();
-      for (int k = 0; k < 3; ++k) {
-        const double a = uniform_in(rng, -op.rotation_range_rad[k], op.rotation_range_rad[k]);
-        off = off * so3_exp(Vector3d::Unit(k) * a);
-      }
-      pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
+    wk.noise.resize(6 * T);
+    rng.fill_normal(wk.noise);
+    sig.noise = wk.noise.data();
+    for (int k = 0; k < 3; ++k) sig.bias[k] = ba[k], sig.bias[3 + k] = bg[k];
+    sig.sigma[0] = hw.accel_noise;
+    sig.sigma[1] = hw.gyro_noise;
+  }
+  sensor_signal(sig);
+  Eigen::Matrix3Xd& f = wk.f;
+  Eigen::Matrix3Xd& w = wk.w;
+  if (hw.kind == HardwareOp::Kind::profile) {
+    HardwareModel model = draw_hardware_model(
+        *hw.profile, HardwareSpread{hw.scale_spread, hw.misalignment_spread_rad}, rng);
+    for (TriadModel* t : {static_cast<TriadModel*>(&model.accelerometer),
+                          static_cast<TriadModel*>(&model.gyroscope)}) {
+      // A low-pass at or beyond the dataset's Nyquist frequency changes nothing at this rate.
+      if (t->bandwidth_hz >= 0.5 * rate) t->bandwidth_hz = 0.0;
+      t->rate_hz = 0.0;
     }
-    if (log != nullptr) log->placements.push_back(pl);
-    const std::size_t cidx = carriers.fixed ? s : carriers.index.at(pl.joint);
-    const sim::SensorBlock& b0 = wk.blocks[carriers.fixed ? s : 4 * cidx];
-    const Matrix3d R_sensor_joint = pl.q_joint_sensor.normalized().toRotationMatrix().transpose();
-    SensorSignalArgs sig;
-    sig.n = T;
-    sig.force = b0.specific_force.data();
-    sig.rate = b0.angular_rate.data();
-    for (int k = 0; k < 3 && !carriers.fixed; ++k) {
-      const double pk = pl.p_joint_sensor[k];
-      if (pk == 0.0) continue;
-      sig.offset[k] = pk;
-      sig.force_along[k] =
-          wk.blocks[4 * cidx + 1 + static_cast<std::size_t>(k)].specific_force.data();
-    }
-    for (int r = 0; r < 3; ++r)
-      for (int k = 0; k < 3; ++k) sig.R_sensor_joint[3 * r + k] = R_sensor_joint(r, k);
-    wk.f.resize(3, static_cast<Eigen::Index>(T));
-    wk.w.resize(3, static_cast<Eigen::Index>(T));
-    sig.f = wk.f.data();
-    sig.w = wk.w.data();
-    const HardwareOp& hw = sub.hardware;
-    if (hw.kind == HardwareOp::Kind::ranges) {
-      Vector3d ba, bg;
-      for (int k = 0; k < 3; ++k) ba[k] = uniform_in(rng, -hw.accel_bias, hw.accel_bias);
-      for (int k = 0; k < 3; ++k) bg[k] = uniform_in(rng, -hw.gyro_bias, hw.gyro_bias);
-      if (log != nullptr) {
-        log->accel_bias.push_back(ba);
-        log->gyro_bias.push_back(bg);
-      }
-      wk.noise.resize(6 * T);
-      rng.fill_normal(wk.noise);
-      sig.noise = wk.noise.data();
-      for (int k = 0; k < 3; ++k) sig.bias[k] = ba[k], sig.bias[3 + k] = bg[k];
-      sig.sigma[0] = hw.accel_noise;
-      sig.sigma[1] = hw.gyro_noise;
-    }
-    sensor_signal(sig);
-    Eigen::Matrix3Xd& f = wk.f;
-    Eigen::Matrix3Xd& w = wk.w;
-    if (hw.kind == HardwareOp::Kind::profile) {
-      HardwareModel model = to_hardware_model(*hw.profile);
-      const auto perturb = [&](TriadModel& t, const std::optional<SensorProfile>& sp) {
-        // Noise parameters drawn from their stated 1-sigma uncertainties (kept >= 0).
-        if (sp && sp->noise) {
-          const NoiseEstimate& ne = *sp->noise;
-          const auto draw = [&](Vector3d& v, const std::optional<Vector3d>& sig) {
-            if (!sig) return;
-            for (int k = 0; k < 3; ++k) v[k] = std::max(0.0, v[k] + (*sig)[k] * rng.normal());
-          };
-          draw(t.noise_density, ne.noise_density_sigma);
-          draw(t.bias_instability, ne.bias_instability_sigma);
-          draw(t.random_walk, ne.random_walk_sigma);
-        }
-        for (int k = 0; k < 3; ++k) t.scale[k] *= 1.0 + hw.scale_spread * rng.normal();
-        for (int r = 0; r < 3; ++r)
-          for (int k = 0; k < 3; ++k)
-            if (r != k) t.misalignment(r, k) += hw.misalignment_spread_rad * rng.normal();
-        // A low-pass at or beyond the dataset's Nyquist frequency changes nothing at this rate.
-        if (t.bandwidth_hz >= 0.5 * rate) t.bandwidth_hz = 0.0;
-        t.rate_hz = 0.0;
-      };
-      perturb(model.accelerometer, hw.profile->accelerometer);
-      std::optional<SensorProfile> gp;
-      if (hw.profile->gyroscope) gp = static_cast<const SensorProfile&>(*hw.profile->gyroscope);
-      perturb(model.gyroscope, gp);
-      ImuErrorGenerator gen(model, rate, rng);
-      const Eigen::Matrix3Xd truth = f;
-      gen.apply_gyroscope(w, truth);
-      gen.apply_accelerometer(f);
-    }
-    write_channels(f.data(), w.data(), T, C, out_d != nullptr ? out_d + 6 * s : nullptr,
-                   out_f != nullptr ? out_f + 6 * s : nullptr);
+    ImuErrorGenerator gen(model, rate, rng);
+    const Eigen::Matrix3Xd truth = f;
+    gen.apply_gyroscope(w, truth);
+    gen.apply_accelerometer(f);
   }
 }
 
@@ -704,11 +724,6 @@ Carriers make_fixed_carriers(const std::vector<sim::SceneSensor>& sensors) {
     c.specs.push_back(s);
   }
   return c;
-}
-
-bool keeps_positions(const PlacementOp& op) {
-  return !op.enabled || (op.swap_presets.empty() && op.swap_subjects.empty() && !op.shift &&
-                         op.long_axis_range_rad == 0.0);
 }
 
 // The joints a sub-policy may put a sensor on.
@@ -734,6 +749,17 @@ std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::Scene
 
 }  // namespace
 
+void PpdaAugmenter::Impl::check_start(int64_t start) const {
+  const auto T = static_cast<int64_t>(options.window);
+  if (start < 0 || start + T > samples)
+    throw Error(fmt::format("augment: window start {} outside 0 .. {}", start, samples - T));
+}
+
+Carriers PpdaAugmenter::Impl::carriers_for(const SubPolicy& sub) const {
+  return sub.placement.keeps_positions() ? make_fixed_carriers(sensors)
+                                         : make_carriers(carrier_joints(body, sensors, sub));
+}
+
 void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng,
                           std::span<float> out, unsigned threads, std::vector<PpdaWindowLog>* log) {
   Impl& m = *impl_;
@@ -742,14 +768,8 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
     throw Error(fmt::format("augment: output of {} floats for {} windows x {} x {}", out.size(),
                             starts.size(), T, C));
   }
-  for (int64_t s : starts) {
-    if (s < 0 || s + static_cast<int64_t>(T) > m.samples)
-      throw Error(fmt::format("augment: window start {} outside 0 .. {}", s,
-                              m.samples - static_cast<int64_t>(T)));
-  }
-  const Carriers carriers = keeps_positions(sub.placement)
-                                ? make_fixed_carriers(m.sensors)
-                                : make_carriers(carrier_joints(m.body, m.sensors, sub));
+  for (int64_t s : starts) m.check_start(s);
+  const Carriers carriers = m.carriers_for(sub);
   const Rng root(rng.next_u64());
   if (log != nullptr) log->assign(starts.size(), PpdaWindowLog{});
   // Window k draws from root.child(k) and writes its own rows: the batch does not depend on the
@@ -784,12 +804,8 @@ void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
   const std::size_t T = m.options.window, C = channels();
   if (out.size() != T * C)
     throw Error(fmt::format("augment: output of {} values for {} x {}", out.size(), T, C));
-  if (start < 0 || start + static_cast<int64_t>(T) > m.samples)
-    throw Error(fmt::format("augment: window start {} outside 0 .. {}", start,
-                            m.samples - static_cast<int64_t>(T)));
-  const Carriers carriers = keeps_positions(sub.placement)
-                                ? make_fixed_carriers(m.sensors)
-                                : make_carriers(carrier_joints(m.body, m.sensors, sub));
+  m.check_start(start);
+  const Carriers carriers = m.carriers_for(sub);
   Impl::Worker wk;
   wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
   m.simulate_window(sub, carriers, start, rng, wk, out.data(), nullptr, log);

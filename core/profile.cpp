@@ -1,5 +1,6 @@
 #include "core/profile.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -709,6 +710,37 @@ HardwareModel to_hardware_model(const DeviceProfile& profile) {
     model.clock.error_ppm = profile.clock->error_ppm.value_or(0.0);
     model.clock.jitter_s = profile.clock->jitter_s.value_or(0.0);
   }
+  return model;
+}
+
+namespace {
+
+// draw_hardware_model's draws for one triad (sp: its profile section, null when absent).
+void draw_triad(TriadModel& t, const SensorProfile* sp, const HardwareSpread& spread, Rng& rng) {
+  if (sp != nullptr && sp->noise) {
+    const NoiseEstimate& ne = *sp->noise;
+    const auto draw = [&](Eigen::Vector3d& v, const std::optional<Eigen::Vector3d>& sigma) {
+      if (!sigma) return;
+      for (int k = 0; k < 3; ++k) v[k] = std::max(0.0, v[k] + (*sigma)[k] * rng.normal());
+    };
+    draw(t.noise_density, ne.noise_density_sigma);
+    draw(t.bias_instability, ne.bias_instability_sigma);
+    draw(t.random_walk, ne.random_walk_sigma);
+  }
+  for (int k = 0; k < 3; ++k) t.scale[k] *= 1.0 + spread.scale * rng.normal();
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k)
+      if (r != k) t.misalignment(r, k) += spread.misalignment_rad * rng.normal();
+}
+
+}  // namespace
+
+HardwareModel draw_hardware_model(const DeviceProfile& profile, const HardwareSpread& spread,
+                                  Rng& rng) {
+  HardwareModel model = to_hardware_model(profile);
+  draw_triad(model.accelerometer, profile.accelerometer ? &*profile.accelerometer : nullptr, spread,
+             rng);
+  draw_triad(model.gyroscope, profile.gyroscope ? &*profile.gyroscope : nullptr, spread, rng);
   return model;
 }
 

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/hardware_model.hpp"
+#include "core/rng.hpp"
 
 namespace imukit {
 
@@ -152,5 +153,23 @@ void update_profile(const std::string& path, const DeviceProfile& update);
 // keep the ideal defaults. Throws imukit::Error for a calibration of raw counts (an SI model
 // cannot reproduce counts).
 HardwareModel to_hardware_model(const DeviceProfile& profile);
+
+// Spreads of a drawn hardware model: the relative 1-sigma of each axis' scale and the 1-sigma of
+// each off-diagonal misalignment angle (rad).
+struct HardwareSpread {
+  double scale = 0.0;
+  double misalignment_rad = 0.0;
+  bool operator==(const HardwareSpread&) const = default;
+};
+
+// One plausible unit of the device a profile describes (PPDA's hardware group): to_hardware_model
+// (profile) with, per triad, accelerometer then gyroscope, noise density, bias instability and
+// random walk drawn from their stated 1-sigma uncertainties (3 normal draws per stated sigma
+// vector, kept >= 0; none where no sigma is stated), then each axis' scale multiplied by
+// 1 + spread.scale n and each off-diagonal misalignment angle moved by spread.misalignment_rad n
+// (n ~ N(0, 1): 3 + 6 draws per triad, taken even at zero spread). The magnetometer and the
+// clock stay to_hardware_model's. Throws like to_hardware_model.
+HardwareModel draw_hardware_model(const DeviceProfile& profile, const HardwareSpread& spread,
+                                  Rng& rng);
 
 }  // namespace imukit

@@ -253,6 +253,11 @@ double Rng::uniform(double lo, double hi) {
   return v < hi ? v : std::nextafter(hi, lo);
 }
 
+double Rng::uniform_in(double lo, double hi) {
+  const double u = uniform();
+  return lo == hi ? lo : lo + (hi - lo) * u;
+}
+
 uint64_t Rng::uniform_index(uint64_t n) {
   assert(n > 0);
   // Lemire, "Fast random integer generation in an interval" (ACM TOMACS 2019): the high word of

@@ -27,6 +27,10 @@ class Rng {
   double uniform();
   // Uniform on [lo, hi).
   double uniform(double lo, double hi);
+  // lo + (hi - lo) u from one uniform() draw, taken even when lo == hi (which returns lo), so a
+  // zero range consumes the same draws as any other (augmentation ranges rely on it). Unlike
+  // uniform(lo, hi) it accepts lo == hi and does not clamp the result below hi.
+  double uniform_in(double lo, double hi);
   // Uniform integer on [0, n), n > 0, without modulo bias.
   uint64_t uniform_index(uint64_t n);
   // Standard normal N(0, 1).

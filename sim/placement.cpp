@@ -1,9 +1,11 @@
 #include "sim/placement.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 #include "core/error.hpp"
+#include "core/so3.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -139,6 +141,45 @@ PlacementPreset describe_placement(const Placement& placement, const Body& body,
   preset.sensor_x_lan = F.transpose() * R.col(0);
   preset.sensor_z_lan = F.transpose() * R.col(2);
   return preset;
+}
+
+bool PlacementVariation::keeps_position() const {
+  return swap_presets.empty() && !shift && long_axis_range_rad == 0.0;
+}
+
+Placement vary_placement(Placement pl, std::string& preset, const PlacementVariation& v,
+                         const Body& body, Rng& rng) {
+  using Eigen::Quaterniond;
+  using Eigen::Vector3d;
+  if (!v.swap_presets.empty() &&
+      std::find(v.swap_presets.begin(), v.swap_presets.end(), preset) != v.swap_presets.end()) {
+    preset = v.swap_presets[rng.uniform_index(v.swap_presets.size())];
+    pl = resolve_preset(placement_preset(preset), body);
+  }
+  if (v.shift && !preset.empty()) {
+    const PlacementPreset& pp = placement_preset(preset);
+    const Eigen::Matrix3d lan = anatomical_frame(body, pl.joint);
+    Vector3d d;
+    for (int k = 0; k < 3; ++k)
+      d[k] = rng.uniform_in(-pp.position_range_m[k], pp.position_range_m[k]);
+    pl.p_joint_sensor += lan * d;
+  }
+  if (v.long_axis_range_rad > 0.0) {
+    const Vector3d L = anatomical_frame(body, pl.joint).col(0);
+    const Quaterniond r =
+        so3_exp(L * rng.uniform_in(-v.long_axis_range_rad, v.long_axis_range_rad));
+    pl.q_joint_sensor = r * pl.q_joint_sensor;
+    pl.p_joint_sensor = r * pl.p_joint_sensor;
+  }
+  if (v.flip && rng.uniform() < 0.5)
+    pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, std::numbers::pi));
+  Quaterniond off = Quaterniond::Identity();
+  for (int k = 0; k < 3; ++k) {
+    const double a = rng.uniform_in(-v.rotation_range_rad[k], v.rotation_range_rad[k]);
+    off = off * so3_exp(Vector3d::Unit(k) * a);
+  }
+  pl.q_joint_sensor = (pl.q_joint_sensor * off).normalized();
+  return pl;
 }
 
 Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::string_view order,

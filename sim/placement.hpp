@@ -22,6 +22,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/rng.hpp"
 #include "sim/body.hpp"
 
 namespace imukit::sim {
@@ -63,6 +64,30 @@ Placement resolve_preset(const PlacementPreset& preset, const Body& body);
 // watch 80 % down one subject's forearm sits 80 % down another's. Throws imukit::Error for a
 // segment of zero length (no long axis to measure along).
 PlacementPreset describe_placement(const Placement& placement, const Body& body, std::string name);
+
+// How a placement varies for augmentation (PPDA's placement group, seed-summary section 2),
+// applied by vary_placement in this order: swap to a preset drawn from swap_presets (when the
+// sensor's preset is one of them), shift within the preset's position range (L, A, N), rotation
+// about the segment's long axis L, flip (180 deg about the sensor's z, probability 1/2), rotation
+// about the sensor's x, y, z (three draws always). Rotations are composed, never added as angles:
+// q_joint_sensor' = R_L q_joint_sensor R_flip Rx Ry Rz.
+struct PlacementVariation {
+  Eigen::Vector3d rotation_range_rad = Eigen::Vector3d::Zero();  // U[-r, r] about sensor x, y, z
+  double long_axis_range_rad = 0.0;  // extra U[-r, r] about the segment's long axis (0 = off)
+  bool flip = false;                 // 180 degrees about the sensor's z axis with probability 1/2
+  // Shift within the preset's position range (sensors without a preset stay).
+  bool shift = false;
+  // Swap: a sensor whose preset is in this list is moved to a preset drawn uniformly from it.
+  std::vector<std::string> swap_presets;
+  // True when the variation never moves a sensor's position: no swap, no shift, no long-axis turn.
+  bool keeps_position() const;
+  bool operator==(const PlacementVariation&) const = default;
+};
+
+// `placement` varied by `v`, drawing from rng in the order above. `preset` is the sensor's preset
+// name ("" for none); it is updated when the sensor is swapped to another preset.
+Placement vary_placement(Placement placement, std::string& preset, const PlacementVariation& v,
+                         const Body& body, Rng& rng);
 
 // Euler angles -> quaternion with the convention spelled out (DESIGN.md): `order` a permutation
 // or repetition of three axes from "XYZ" ("ZYX", "ZXZ", ...), intrinsic (each rotation about the

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "core/error.hpp"
 #include "tests/support/test_data.hpp"
@@ -530,6 +531,149 @@ TEST(Profile, ClockSectionRoundTripsMergesAndReachesTheHardwareModel) {
   EXPECT_THROW(validate_hardware_model(bad, 100.0), Error);
   bad.clock.jitter_s = 0.9e-3;
   EXPECT_NO_THROW(validate_hardware_model(bad, 100.0));
+}
+
+// draw_hardware_model: one plausible unit of the device a profile describes.
+void expect_same_triad(const TriadModel& a, const TriadModel& b, const char* what) {
+  EXPECT_EQ(a.noise_density, b.noise_density) << what;
+  EXPECT_EQ(a.bias_instability, b.bias_instability) << what;
+  EXPECT_EQ(a.random_walk, b.random_walk) << what;
+  EXPECT_EQ(a.bias_instability_tau_min_s, b.bias_instability_tau_min_s) << what;
+  EXPECT_EQ(a.bias_instability_tau_max_s, b.bias_instability_tau_max_s) << what;
+  EXPECT_EQ(a.turn_on_bias_mean, b.turn_on_bias_mean) << what;
+  EXPECT_EQ(a.turn_on_bias_spread, b.turn_on_bias_spread) << what;
+  EXPECT_EQ(a.scale, b.scale) << what;
+  EXPECT_EQ(a.misalignment, b.misalignment) << what;
+  EXPECT_EQ(a.range, b.range) << what;
+  EXPECT_EQ(a.resolution, b.resolution) << what;
+  EXPECT_EQ(a.bandwidth_hz, b.bandwidth_hz) << what;
+  EXPECT_EQ(a.rate_hz, b.rate_hz) << what;
+}
+
+TEST(DrawHardwareModel, WithoutSpreadOrUncertaintyItIsTheNominalModelExactly) {
+  DeviceProfile p = full_profile();
+  p.magnetometer->calibration.reset();  // raw counts have no SI model
+  // No sigmas stated: nothing to draw from; the spreads' 9 draws per triad still happen.
+  p.accelerometer->noise->noise_density_sigma.reset();
+  p.accelerometer->noise->bias_instability_sigma.reset();
+  p.accelerometer->noise->random_walk_sigma.reset();
+  const HardwareModel nominal = to_hardware_model(p);
+  Rng rng(17), ref(17);
+  const HardwareModel m = draw_hardware_model(p, HardwareSpread{}, rng);
+  expect_same_triad(m.accelerometer, nominal.accelerometer, "accelerometer");
+  expect_same_triad(m.gyroscope, nominal.gyroscope, "gyroscope");
+  EXPECT_EQ(m.gyroscope.g_sensitivity, nominal.gyroscope.g_sensitivity);
+  expect_same_triad(m.magnetometer, nominal.magnetometer, "magnetometer");
+  EXPECT_EQ(m.magnetometer.hard_iron, nominal.magnetometer.hard_iron);
+  EXPECT_EQ(m.magnetometer.soft_iron, nominal.magnetometer.soft_iron);
+  EXPECT_EQ(m.clock.error_ppm, nominal.clock.error_ppm);
+  EXPECT_EQ(m.clock.jitter_s, nominal.clock.jitter_s);
+  for (int i = 0; i < 2 * (3 + 6); ++i) ref.normal();
+  EXPECT_EQ(rng.next_u64(), ref.next_u64());
+
+  // Stated sigmas of zero: 3 draws per stated vector too, and still the nominal numbers.
+  p.accelerometer->noise->noise_density_sigma = Eigen::Vector3d::Zero();
+  p.accelerometer->noise->random_walk_sigma = Eigen::Vector3d::Zero();
+  Rng rng2(17), ref2(17);
+  const HardwareModel z = draw_hardware_model(p, HardwareSpread{}, rng2);
+  expect_same_triad(z.accelerometer, nominal.accelerometer, "accelerometer, zero sigmas");
+  expect_same_triad(z.gyroscope, nominal.gyroscope, "gyroscope, zero sigmas");
+  for (int i = 0; i < 2 * 3 + 2 * (3 + 6); ++i) ref2.normal();
+  EXPECT_EQ(rng2.next_u64(), ref2.next_u64());
+
+  // A profile without accelerometer and gyroscope sections: the ideal model, 18 draws.
+  Rng rng3(2), ref3(2);
+  const HardwareModel ideal = draw_hardware_model(DeviceProfile{}, HardwareSpread{}, rng3);
+  expect_same_triad(ideal.accelerometer, TriadModel{}, "ideal accelerometer");
+  expect_same_triad(ideal.gyroscope, TriadModel{}, "ideal gyroscope");
+  for (int i = 0; i < 2 * (3 + 6); ++i) ref3.normal();
+  EXPECT_EQ(rng3.next_u64(), ref3.next_u64());
+}
+
+TEST(DrawHardwareModel, DrawsSpreadAsTheProfileStates) {
+  DeviceProfile p;
+  SensorProfile acc;
+  acc.noise = NoiseEstimate{};
+  acc.noise->noise_density = Eigen::Vector3d(2e-3, 3e-3, 4e-3);
+  acc.noise->noise_density_sigma = Eigen::Vector3d(1e-4, 2e-4, 5e-5);  // >= 20 sigma from 0
+  acc.noise->bias_instability = Eigen::Vector3d(5e-4, 5e-4, 5e-4);
+  acc.noise->bias_instability_sigma = Eigen::Vector3d(2e-5, 2e-5, 1e-5);
+  p.accelerometer = acc;
+  GyroscopeProfile gyro;
+  gyro.noise = NoiseEstimate{};
+  gyro.noise->random_walk = Eigen::Vector3d(1e-5, 1e-5, 1e-5);
+  gyro.noise->random_walk_sigma = Eigen::Vector3d(1e-6, 5e-7, 2e-7);
+  p.gyroscope = gyro;
+  const HardwareSpread spread{0.01, 0.002};
+  const HardwareModel nominal = to_hardware_model(p);
+  // N draws: each sample standard deviation is within 5 % of the stated sigma (its own relative
+  // standard error is 1/sqrt(2 N) = 1.1 %: 4.5 of those), each mean within 4 sigma / sqrt(N).
+  constexpr int N = 4000;
+  Rng rng(99);
+  std::vector<HardwareModel> draws;
+  for (int i = 0; i < N; ++i) draws.push_back(draw_hardware_model(p, spread, rng));
+  const auto check = [&](const char* what, double nominal_value, double sigma, auto value) {
+    double sum = 0.0, sum2 = 0.0;
+    for (const HardwareModel& m : draws) {
+      const double d = value(m) - nominal_value;
+      sum += d;
+      sum2 += d * d;
+    }
+    const double mean = sum / N;
+    const double sd = std::sqrt((sum2 - N * mean * mean) / (N - 1));
+    EXPECT_NEAR(mean, 0.0, 4.0 * sigma / std::sqrt(double{N})) << what;
+    EXPECT_NEAR(sd / sigma, 1.0, 0.05) << what;
+  };
+  for (int k = 0; k < 3; ++k) {
+    check("accelerometer noise density", nominal.accelerometer.noise_density[k],
+          (*acc.noise->noise_density_sigma)[k],
+          [k](const HardwareModel& m) { return m.accelerometer.noise_density[k]; });
+    check("accelerometer bias instability", nominal.accelerometer.bias_instability[k],
+          (*acc.noise->bias_instability_sigma)[k],
+          [k](const HardwareModel& m) { return m.accelerometer.bias_instability[k]; });
+    check("gyroscope random walk", nominal.gyroscope.random_walk[k],
+          (*gyro.noise->random_walk_sigma)[k],
+          [k](const HardwareModel& m) { return m.gyroscope.random_walk[k]; });
+    check("accelerometer scale", 1.0, spread.scale,
+          [k](const HardwareModel& m) { return m.accelerometer.scale[k]; });
+    check("gyroscope scale", 1.0, spread.scale,
+          [k](const HardwareModel& m) { return m.gyroscope.scale[k]; });
+    for (int r = 0; r < 3; ++r) {
+      if (r == k) continue;
+      check("accelerometer misalignment", 0.0, spread.misalignment_rad,
+            [r, k](const HardwareModel& m) { return m.accelerometer.misalignment(r, k); });
+      check("gyroscope misalignment", 0.0, spread.misalignment_rad,
+            [r, k](const HardwareModel& m) { return m.gyroscope.misalignment(r, k); });
+    }
+  }
+  for (const HardwareModel& m : draws) {
+    // What is not drawn stays: the unit diagonal, and a random walk without stated sigma.
+    EXPECT_EQ(m.accelerometer.misalignment.diagonal(), Eigen::Vector3d::Ones());
+    EXPECT_EQ(m.gyroscope.misalignment.diagonal(), Eigen::Vector3d::Ones());
+    EXPECT_EQ(m.accelerometer.random_walk, Eigen::Vector3d::Zero());
+    EXPECT_EQ(m.gyroscope.noise_density, Eigen::Vector3d::Zero());
+  }
+}
+
+TEST(DrawHardwareModel, NegativeDrawsAreClampedToZero) {
+  DeviceProfile p;
+  SensorProfile acc;
+  acc.noise = NoiseEstimate{};
+  acc.noise->noise_density = Eigen::Vector3d::Zero();
+  acc.noise->noise_density_sigma = Eigen::Vector3d::Constant(1e-3);
+  p.accelerometer = acc;
+  Rng rng(4);
+  int zeros = 0;
+  constexpr int N = 2000;
+  for (int i = 0; i < N; ++i) {
+    const HardwareModel m = draw_hardware_model(p, HardwareSpread{}, rng);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_GE(m.accelerometer.noise_density[k], 0.0);
+      zeros += m.accelerometer.noise_density[k] == 0.0 ? 1 : 0;
+    }
+  }
+  // Half of the 3 N draws are negative: Binomial(6000, 1/2) has sigma 39; 5 sigma.
+  EXPECT_NEAR(zeros, 3 * N / 2, 194);
 }
 
 }  // namespace

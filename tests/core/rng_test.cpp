@@ -169,6 +169,22 @@ TEST(Rng, UniformOnAnIntervalStaysHalfOpen) {
   for (int i = 0; i < 1000; ++i) ASSERT_EQ(rng.uniform(lo, hi), lo);
 }
 
+TEST(Rng, UniformInTakesOneDrawAlwaysAndAcceptsAnEmptyRange) {
+  Rng rng(8), ref(8);
+  for (int i = 0; i < 1000; ++i) {
+    const double u = ref.uniform();
+    ASSERT_EQ(rng.uniform_in(-0.3, 0.7), -0.3 + (0.7 - -0.3) * u);  // the formula, bit for bit
+  }
+  // lo == hi: lo itself, and the draw is still taken (a zero range keeps later draws in place).
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_EQ(rng.uniform_in(2.5, 2.5), 2.5);
+    ASSERT_EQ(rng.uniform_in(-0.0, -0.0), 0.0);
+    ref.uniform();
+    ref.uniform();
+  }
+  EXPECT_EQ(rng.next_u64(), ref.next_u64());
+}
+
 TEST(Rng, UniformIndexHasNoModuloBias) {
   Rng rng(99);
   // n = 3 * 2^62: with x % n, values below 2^62 would come up with probability 1/2 (they are hit

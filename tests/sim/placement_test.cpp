@@ -2,7 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <numbers>
+#include <string>
 
 #include "core/error.hpp"
 
@@ -109,6 +111,161 @@ TEST(Placement, EulerConventionsAreExplicit) {
   EXPECT_NEAR(q.y(), -0.18930785741199999, 1e-15);
   EXPECT_THROW(euler_to_quaternion(a, "XXY", true, false), Error);
   EXPECT_THROW(euler_to_quaternion(a, "XY", true, false), Error);
+}
+
+// vary_placement (PPDA's placement group). Draws, in order: swap (one index), shift (3), long
+// axis (1), flip (1), rotations about sensor x, y, z (3, always).
+Eigen::Matrix3d rotation_about(const Eigen::Vector3d& axis, double angle) {
+  return Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+}
+
+TEST(VaryPlacement, EqualsTheRotationsComposedByHandInTheStatedOrder) {
+  const Body b = Body::default_humanoid(1.75);
+  const std::string name = "left_wrist_watch";
+  const Placement p0 = resolve_preset(placement_preset(name), b);
+  PlacementVariation v;
+  v.rotation_range_rad = Eigen::Vector3d(0.3, 0.2, 0.5);
+  v.long_axis_range_rad = 0.4;
+  v.flip = true;
+  v.shift = true;
+  int flipped = 0;
+  for (uint64_t seed = 1; seed <= 40; ++seed) {
+    Rng rng(seed), ref(seed);
+    std::string preset = name;
+    const Placement p = vary_placement(p0, preset, v, b, rng);
+    EXPECT_EQ(preset, name);
+    // By hand from a second generator of the same seed.
+    const Eigen::Vector3d range = placement_preset(name).position_range_m;
+    const Eigen::Matrix3d lan = anatomical_frame(b, p0.joint);
+    Eigen::Vector3d d;
+    for (int k = 0; k < 3; ++k) d[k] = -range[k] + 2.0 * range[k] * ref.uniform();
+    const Eigen::Matrix3d RL = rotation_about(lan.col(0), -0.4 + 0.8 * ref.uniform());
+    const bool flip = ref.uniform() < 0.5;
+    flipped += flip ? 1 : 0;
+    Eigen::Matrix3d R = RL * p0.q_joint_sensor.toRotationMatrix();
+    if (flip) R = R * rotation_about(Eigen::Vector3d::UnitZ(), std::numbers::pi);
+    for (int k = 0; k < 3; ++k) {
+      const double r = v.rotation_range_rad[k];
+      R = R * rotation_about(Eigen::Vector3d::Unit(k), -r + 2.0 * r * ref.uniform());
+    }
+    EXPECT_LT((p.q_joint_sensor.toRotationMatrix() - R).norm(), 1e-14) << seed;
+    EXPECT_NEAR(p.q_joint_sensor.norm(), 1.0, 1e-15) << seed;
+    EXPECT_LT((p.p_joint_sensor - RL * (p0.p_joint_sensor + lan * d)).norm(), 1e-15) << seed;
+    EXPECT_EQ(p.joint, p0.joint);
+    EXPECT_EQ(rng.next_u64(), ref.next_u64()) << seed;  // the same number of draws
+  }
+  EXPECT_GT(flipped, 5);  // both branches seen (P(<= 5 of 40) < 1e-6)
+  EXPECT_LT(flipped, 35);
+}
+
+TEST(VaryPlacement, ShiftStaysInsideThePresetsRangeAndCoversIt) {
+  const Body b = Body::default_humanoid(1.75);
+  for (const char* name : {"left_wrist_watch", "right_front_pocket_phone", "chest_strap"}) {
+    const PlacementPreset& pp = placement_preset(name);
+    const Placement p0 = resolve_preset(pp, b);
+    const Eigen::Matrix3d lan = anatomical_frame(b, p0.joint);
+    PlacementVariation v;
+    v.shift = true;
+    Rng rng(7);
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero(), hi = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 2000; ++i) {
+      std::string preset = name;
+      const Placement p = vary_placement(p0, preset, v, b, rng);
+      // The shift in (L, A, N); lan is orthonormal.
+      const Eigen::Vector3d d = lan.transpose() * (p.p_joint_sensor - p0.p_joint_sensor);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LE(std::abs(d[k]), pp.position_range_m[k] * (1.0 + 1e-12) + 1e-15) << name;
+        lo[k] = std::min(lo[k], d[k]);
+        hi[k] = std::max(hi[k], d[k]);
+      }
+      // Zero rotation ranges: the orientation stays (up to renormalisation).
+      EXPECT_LT((p.q_joint_sensor.coeffs() - p0.q_joint_sensor.coeffs()).norm(), 1e-15) << name;
+    }
+    // Uniform over the range: 2000 draws reach within 1 % of both ends (miss chance 2e-9).
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_LT(lo[k], -0.99 * pp.position_range_m[k]) << name << " axis " << k;
+      EXPECT_GT(hi[k], 0.99 * pp.position_range_m[k]) << name << " axis " << k;
+    }
+  }
+  // A sensor without a preset is not shifted, and the shift then draws nothing.
+  const Placement p0 = resolve_preset(placement_preset("left_wrist_watch"), b);
+  PlacementVariation v;
+  v.shift = true;
+  Rng rng(3), ref(3);
+  std::string none;
+  const Placement p = vary_placement(p0, none, v, b, rng);
+  EXPECT_EQ(p.p_joint_sensor, p0.p_joint_sensor);
+  for (int k = 0; k < 3; ++k) ref.uniform();  // only the three rotation draws
+  EXPECT_EQ(rng.next_u64(), ref.next_u64());
+}
+
+TEST(VaryPlacement, FlipIsAHalfTurnAboutTheSensorsZHalfOfTheTime) {
+  const Body b = Body::default_humanoid(1.75);
+  const Placement p0 = resolve_preset(placement_preset("right_wrist_watch"), b);
+  const Eigen::Matrix3d R0 = p0.q_joint_sensor.toRotationMatrix();
+  PlacementVariation v;
+  v.flip = true;
+  Rng rng(11);
+  int flips = 0;
+  const int n = 4000;
+  for (int i = 0; i < n; ++i) {
+    std::string preset = "right_wrist_watch";
+    const Placement p = vary_placement(p0, preset, v, b, rng);
+    const Eigen::Matrix3d R = p.q_joint_sensor.toRotationMatrix();
+    EXPECT_EQ(p.p_joint_sensor, p0.p_joint_sensor);
+    // Sensor z keeps its direction; x and y are either kept or both reversed.
+    EXPECT_LT((R.col(2) - R0.col(2)).norm(), 1e-15);
+    const bool flipped = R.col(0).dot(R0.col(0)) < 0.0;
+    const double sign = flipped ? -1.0 : 1.0;
+    EXPECT_LT((R.col(0) - sign * R0.col(0)).norm(), 1e-15);
+    EXPECT_LT((R.col(1) - sign * R0.col(1)).norm(), 1e-15);
+    flips += flipped ? 1 : 0;
+  }
+  // Binomial(4000, 1/2): sigma = 31.6; 5 sigma.
+  EXPECT_NEAR(flips, n / 2, 160);
+}
+
+TEST(VaryPlacement, SwapRenamesThePresetAndResolvesIt) {
+  const Body b = Body::default_humanoid(1.75);
+  PlacementVariation v;
+  v.swap_presets = {"left_wrist_watch", "right_wrist_watch", "right_front_pocket_phone"};
+  EXPECT_FALSE(v.keeps_position());
+  const Placement p0 = resolve_preset(placement_preset("left_wrist_watch"), b);
+  std::map<std::string, int> seen;
+  Rng rng(5);
+  for (int i = 0; i < 300; ++i) {
+    std::string preset = "left_wrist_watch";
+    const Placement p = vary_placement(p0, preset, v, b, rng);
+    ++seen[preset];
+    const Placement want = resolve_preset(placement_preset(preset), b);
+    EXPECT_EQ(p.joint, want.joint) << preset;
+    EXPECT_EQ(p.p_joint_sensor, want.p_joint_sensor) << preset;
+    EXPECT_LT((p.q_joint_sensor.coeffs() - want.q_joint_sensor.coeffs()).norm(), 1e-15) << preset;
+  }
+  EXPECT_EQ(seen.size(), 3u);
+  for (const auto& [name, count] : seen) EXPECT_GT(count, 60) << name;  // 100 expected
+  // A preset not in the list (or none) is not swapped: no index draw.
+  Rng rng2(5), ref(5);
+  std::string other = "chest_strap";
+  const Placement chest = resolve_preset(placement_preset(other), b);
+  const Placement p = vary_placement(chest, other, v, b, rng2);
+  EXPECT_EQ(other, "chest_strap");
+  EXPECT_EQ(p.p_joint_sensor, chest.p_joint_sensor);
+  for (int k = 0; k < 3; ++k) ref.uniform();
+  EXPECT_EQ(rng2.next_u64(), ref.next_u64());
+}
+
+TEST(VaryPlacement, KeepsPositionOnlyWithoutSwapShiftOrLongAxisTurn) {
+  PlacementVariation v;
+  v.rotation_range_rad = Eigen::Vector3d::Constant(1.0);
+  v.flip = true;
+  EXPECT_TRUE(v.keeps_position());
+  PlacementVariation shift = v;
+  shift.shift = true;
+  EXPECT_FALSE(shift.keeps_position());
+  PlacementVariation turn = v;
+  turn.long_axis_range_rad = 0.1;
+  EXPECT_FALSE(turn.keeps_position());
 }
 
 }  // namespace
