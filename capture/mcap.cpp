@@ -551,11 +551,52 @@ RecordHead decode_head(const uint8_t* p) {
   return h;
 }
 
+// One record of the data section, parsed but not yet handed on.
+struct Parsed {
+  uint64_t consumed = 0;    // bytes of the body its fields took (a longer body may be damage)
+  uint32_t crc_before = 0;  // the data section CRC of the bytes before the record
+  std::optional<McapSchema> schema;
+  std::optional<McapChannel> channel;
+  std::optional<McapMessageView> message;
+  std::optional<McapMetadata> metadata;
+  std::optional<std::pair<std::string, std::string>> header;  // profile, library
+  std::optional<uint32_t> data_end_crc;
+  bool chunk = false;  // its records are in `plain`
+  std::span<const uint8_t> plain;
+};
+
+// One pass over a source: magic, then one record at a time (its head, or a resync in recovery;
+// its verification; handing it on), until the footer or the end of the bytes.
 struct Scan {
+  // What a step of the record loop came to.
+  enum class Step { record, skipped, ended };
+
+  Scan(Source& file, const std::string& path, const McapHandlers& handlers,
+       const McapReadOptions& options)
+      : options(options), handlers(handlers), file(file), path(path) {}
+
   McapReadSummary summary;
   const McapReadOptions& options;
   const McapHandlers& handlers;
   std::map<uint16_t, std::size_t> channel_slot;
+  Source& file;
+  const std::string& path;
+  std::vector<uint8_t> buf;
+  std::vector<uint8_t> head;
+  std::vector<uint8_t> peek;
+  std::vector<uint8_t> uncompressed;
+  uint32_t data_crc = 0;
+  bool crc_meaningful = true;  // nothing skipped yet, so the data section CRC can be checked
+  bool data_ended = false;
+  // In recovery, where to search from when the header at the current position is unreadable:
+  // the end of the last record's fields, which is before the current position when that
+  // record's length claimed more than its fields hold (a damaged length).
+  uint64_t resume = 8;
+  // In recovery, whether the record at the current position must prove itself by being followed
+  // by another record header: after damage, and after a record whose fields did not account
+  // for its whole length or cannot be checked (a message outside a chunk, summary records).
+  bool suspect = false;
+  bool after_damage = false;  // the last record was skipped as damaged (already noted)
 
   void add_schema(McapSchema s) {
     for (const auto& have : summary.schemas) {
@@ -623,376 +664,407 @@ struct Scan {
     }
     return std::nullopt;
   }
-};
 
-// One record of the data section, parsed but not yet handed on.
-struct Parsed {
-  uint64_t consumed = 0;  // bytes of the body its fields took (a longer body may be damage)
-  std::optional<McapSchema> schema;
-  std::optional<McapChannel> channel;
-  std::optional<McapMessageView> message;
-  std::optional<McapMetadata> metadata;
-  std::optional<std::pair<std::string, std::string>> header;  // profile, library
-  std::optional<uint32_t> data_end_crc;
-  bool chunk = false;  // its records are in `plain`
-  std::span<const uint8_t> plain;
-};
-
-McapReadSummary read_source(Source& file, const std::string& path, const McapHandlers& handlers,
-                            const McapReadOptions& options) {
-  Scan scan{McapReadSummary{}, options, handlers, {}};
-  McapReadSummary& out = scan.summary;
-  const bool recover = options.recover;
-  std::vector<uint8_t> buf;
-  std::vector<uint8_t> head;
-  std::vector<uint8_t> uncompressed;
-  const auto at = [&](uint64_t offset) {
+  InputLocation at(uint64_t offset) const {
     return InputLocation{path, {}, {}, static_cast<int64_t>(offset)};
-  };
-  const auto truncated = [&](const std::string& what) {
-    out.complete = false;
-    out.truncation_note = fmt::format(
+  }
+  // Ends the scan short of the footer; `what` says where the bytes ran out.
+  void end_truncated(const std::string& what) {
+    summary.complete = false;
+    summary.truncation_note = fmt::format(
         "{}: the file ends at byte {} {}; kept the {} messages of the {} complete chunks before it",
-        path, file.size(), what, out.messages, out.chunks);
-    return out;
-  };
+        path, file.size(), what, summary.messages, summary.chunks);
+  }
 
   // Recovery's view of record boundaries: a header is a known opcode with a length that fits in
   // the file; a candidate found by searching must also be followed by a header (or the end of
   // the file, or a record the end cuts short).
-  std::vector<uint8_t> peek;
-  const auto head_at = [&](uint64_t p) -> std::optional<RecordHead> {
+  std::optional<RecordHead> head_at(uint64_t p) {
     if (p > file.size() || file.size() - p < 9) return std::nullopt;
     file.seek(p);
     file.read(9, peek);
     return decode_head(peek.data());
-  };
-  const auto fits = [&](const RecordHead& h, uint64_t p) {
+  }
+  bool fits(const RecordHead& h, uint64_t p) const {
     return known_opcode(h.op) && h.len <= kMaxRecordBytes && h.len <= file.size() - p - 9;
-  };
-  const auto followed = [&](uint64_t p, const RecordHead& h) {
+  }
+  bool followed(uint64_t p, const RecordHead& h) {
     const uint64_t next = p + 9 + h.len;
     if (next == file.size() || h.op == kFooter) return true;
     const auto n = head_at(next);
     return !n || (known_opcode(n->op) && n->len <= kMaxRecordBytes);
-  };
-  // The first record start at or after `from`, searched a window at a time.
-  const auto resync = [&](uint64_t from) -> std::optional<uint64_t> {
-    constexpr uint64_t kWindow = uint64_t{1} << 16;
-    std::vector<uint8_t> window;
-    for (uint64_t base = from; base < file.size() && file.size() - base >= 9; base += kWindow) {
-      const uint64_t n = std::min(kWindow + 8, file.size() - base);
-      file.seek(base);
-      file.read(n, window);
-      for (uint64_t i = 0; i < kWindow && i + 9 <= n; ++i) {
-        const RecordHead h = decode_head(&window[static_cast<std::size_t>(i)]);
-        if (fits(h, base + i) && followed(base + i, h)) return base + i;
-      }
-    }
-    return std::nullopt;
-  };
-  // Recovery trusts the summary's schemas and channels when the summary CRC checks out: a
-  // damaged Channel record in the data section then costs no messages.
-  const auto use_summary = [&] {
-    constexpr uint64_t kFooterBytes = 9 + 20;
-    if (file.size() < 8 + kFooterBytes + 8) return;
-    const uint64_t footer_at = file.size() - 8 - kFooterBytes;
-    file.seek(footer_at);
-    file.read(kFooterBytes + 8, buf);
-    ByteReader f(buf, path, footer_at);
-    const RecordHead h{f.u8(), f.u64()};
-    const uint64_t summary_start = f.u64();
-    (void)f.u64();  // summary offset start
-    const uint32_t summary_crc = f.u32();
-    if (h.op != kFooter || h.len != 20 || std::memcmp(&buf[kFooterBytes], kMagic, 8) != 0 ||
-        summary_start < 8 || summary_start >= footer_at || summary_crc == 0 ||
-        footer_at - summary_start > kMaxRecordBytes) {
-      return;
-    }
-    // The CRC covers the summary, the summary offsets and the footer up to the CRC itself.
-    const uint64_t covered = footer_at + 1 + 8 + 16 - summary_start;
-    file.seek(summary_start);
-    file.read(covered, buf);
-    if (mcap_crc32(buf) != summary_crc) {
-      scan.note_damage(
-          fmt::format("byte {}: the summary's CRC-32 does not match; not used", summary_start));
-      return;
-    }
-    ByteReader r(std::span<const uint8_t>(buf).first(footer_at - summary_start), path,
-                 summary_start);
-    try {
-      while (!r.done()) {
-        const uint8_t op = r.u8();
-        const uint64_t len = r.u64();
-        ByteReader body(r.bytes(len, "summary record"), path, r.file_offset() - len);
-        if (op == kSchema) scan.add_schema(parse_schema(body));
-        if (op == kChannel) scan.add_channel(parse_channel(body));
-      }
-    } catch (const Error&) {
-      // The CRC matched, so the writer made it so; what was read before stays.
-    }
-    out.summary_used = true;
-  };
+  }
+  std::optional<uint64_t> resync(uint64_t from);
+  void use_summary();
 
+  // The phases of the scan, in order.
+  bool check_magic();
+  Step next_head(uint64_t record_start, RecordHead& head_out);
+  bool verify(uint64_t record_start, const RecordHead& h, Parsed& p);
+  std::string read_chunk(ByteReader& r, uint64_t record_start, Parsed& p);
+  Step hand_on(uint64_t record_start, uint8_t op, Parsed& p);
+};
+
+// The first record start at or after `from`, searched a window at a time.
+std::optional<uint64_t> Scan::resync(uint64_t from) {
+  constexpr uint64_t kWindow = uint64_t{1} << 16;
+  std::vector<uint8_t> window;
+  for (uint64_t base = from; base < file.size() && file.size() - base >= 9; base += kWindow) {
+    const uint64_t n = std::min(kWindow + 8, file.size() - base);
+    file.seek(base);
+    file.read(n, window);
+    for (uint64_t i = 0; i < kWindow && i + 9 <= n; ++i) {
+      const RecordHead h = decode_head(&window[static_cast<std::size_t>(i)]);
+      if (fits(h, base + i) && followed(base + i, h)) return base + i;
+    }
+  }
+  return std::nullopt;
+}
+
+// Recovery trusts the summary's schemas and channels when the summary CRC checks out: a
+// damaged Channel record in the data section then costs no messages.
+void Scan::use_summary() {
+  constexpr uint64_t kFooterBytes = 9 + 20;
+  if (file.size() < 8 + kFooterBytes + 8) return;
+  const uint64_t footer_at = file.size() - 8 - kFooterBytes;
+  file.seek(footer_at);
+  file.read(kFooterBytes + 8, buf);
+  ByteReader f(buf, path, footer_at);
+  const RecordHead h{f.u8(), f.u64()};
+  const uint64_t summary_start = f.u64();
+  (void)f.u64();  // summary offset start
+  const uint32_t summary_crc = f.u32();
+  if (h.op != kFooter || h.len != 20 || std::memcmp(&buf[kFooterBytes], kMagic, 8) != 0 ||
+      summary_start < 8 || summary_start >= footer_at || summary_crc == 0 ||
+      footer_at - summary_start > kMaxRecordBytes) {
+    return;
+  }
+  // The CRC covers the summary, the summary offsets and the footer up to the CRC itself.
+  const uint64_t covered = footer_at + 1 + 8 + 16 - summary_start;
+  file.seek(summary_start);
+  file.read(covered, buf);
+  if (mcap_crc32(buf) != summary_crc) {
+    note_damage(
+        fmt::format("byte {}: the summary's CRC-32 does not match; not used", summary_start));
+    return;
+  }
+  ByteReader r(std::span<const uint8_t>(buf).first(footer_at - summary_start), path, summary_start);
+  try {
+    while (!r.done()) {
+      const uint8_t op = r.u8();
+      const uint64_t len = r.u64();
+      ByteReader body(r.bytes(len, "summary record"), path, r.file_offset() - len);
+      if (op == kSchema) add_schema(parse_schema(body));
+      if (op == kChannel) add_channel(parse_channel(body));
+    }
+  } catch (const Error&) {
+    // The CRC matched, so the writer made it so; what was read before stays.
+  }
+  summary.summary_used = true;
+}
+
+// Reads the magic; false when the file ends inside it (the scan has ended).
+bool Scan::check_magic() {
   if (file.size() < 8) {
-    if (file.size() == 0) return truncated("before the magic (empty file)");
+    if (file.size() == 0) {
+      end_truncated("before the magic (empty file)");
+      return false;
+    }
     file.read(file.size(), buf);
     if (std::memcmp(buf.data(), kMagic, buf.size()) != 0) {
       throw Error(at(0), "not an MCAP file (bad magic)");
     }
-    return truncated("inside the magic");
+    end_truncated("inside the magic");
+    return false;
   }
   file.read(8, buf);
-  uint32_t data_crc = mcap_crc32(buf);
-  bool crc_meaningful = true;  // nothing skipped yet, so the data section CRC can be checked
+  data_crc = mcap_crc32(buf);
   if (std::memcmp(buf.data(), kMagic, 8) != 0) {
     // Recovery reads on when a Header record follows: only the magic was hit.
-    const auto h = recover ? head_at(8) : std::nullopt;
+    const auto h = options.recover ? head_at(8) : std::nullopt;
     if (!h || h->op != kHeader || !fits(*h, 8)) throw Error(at(0), "not an MCAP file (bad magic)");
-    scan.note_damage("byte 0: bad magic; read on from the Header record at byte 8");
+    note_damage("byte 0: bad magic; read on from the Header record at byte 8");
     crc_meaningful = false;
   }
-  if (recover) use_summary();
-  file.seek(8);
+  return true;
+}
 
-  bool data_ended = false;
-  // In recovery, where to search from when the header at the current position is unreadable:
-  // the end of the last record's fields, which is before the current position when that
-  // record's length claimed more than its fields hold (a damaged length).
-  uint64_t resume = 8;
-  // In recovery, whether the record at the current position must prove itself by being followed
-  // by another record header: after damage, and after a record whose fields did not account
-  // for its whole length or cannot be checked (a message outside a chunk, summary records).
-  bool suspect = false;
-  bool after_damage = false;  // the last record was skipped as damaged (already noted)
+// The head of the record at `record_start` (the current position), left in `head_out` with the
+// position just after it; in recovery, an unreadable head is skipped to the next record found.
+Scan::Step Scan::next_head(uint64_t record_start, RecordHead& head_out) {
+  const bool recover = options.recover;
+  if (file.remaining() == 0) {
+    end_truncated(data_ended ? "before the footer" : "after a complete record, before Data End");
+    return Step::ended;
+  }
+  std::optional<RecordHead> h;
+  if (file.remaining() >= 9) {
+    file.read(9, head);
+    h = decode_head(head.data());
+  }
+  bool unreadable = false;
+  if (!h) {
+    if (!recover) {
+      end_truncated(fmt::format("inside a record header at byte {}", record_start));
+      return Step::ended;
+    }
+    unreadable = true;
+  } else if (h->len > kMaxRecordBytes) {
+    if (!recover) {
+      throw Error(at(record_start),
+                  fmt::format("record of {} bytes is larger than any imukit writes", h->len));
+    }
+    unreadable = true;
+  } else if (h->len > file.remaining()) {
+    if (!recover) {
+      end_truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}", h->op,
+                                record_start));
+      return Step::ended;
+    }
+    unreadable = true;
+  } else if (recover && !known_opcode(h->op)) {
+    unreadable = true;
+  } else if (recover && suspect) {
+    unreadable = !followed(record_start, *h);
+    file.seek(record_start + 9);
+  }
+  if (!unreadable) {
+    head_out = *h;
+    return Step::record;
+  }
+  const auto next = resync(resume < record_start ? resume : record_start + 1);
+  if (!next) {
+    // Nothing readable follows: the end of a file cut short (or damaged to its end).
+    if (h && known_opcode(h->op) && h->len <= kMaxRecordBytes &&
+        h->len > file.size() - record_start - 9) {
+      end_truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}", h->op,
+                                record_start));
+    } else {
+      end_truncated(fmt::format("after byte {}, with no complete record from there", record_start));
+    }
+    return Step::ended;
+  }
+  if (!after_damage) {
+    note_damage(*next > record_start
+                    ? fmt::format("byte {}: no readable record; {} bytes skipped to the record at "
+                                  "byte {}",
+                                  record_start, *next - record_start, *next)
+                    : fmt::format("byte {}: no readable record; read on from the record found at "
+                                  "byte {}, inside the one before",
+                                  record_start, *next));
+  }
+  crc_meaningful = false;
+  file.seek(*next);
+  resume = *next;
+  suspect = false;  // a record found by resync() is followed by another
+  after_damage = false;
+  return Step::skipped;
+}
+
+// Reads and parses the body of the record whose head `h` was just read, checking what can be
+// checked (lengths, a chunk's sizes and CRC). False when the record was skipped as damaged
+// (recovery only: without it, damage throws).
+bool Scan::verify(uint64_t record_start, const RecordHead& h, Parsed& p) {
+  const bool recover = options.recover;
+  const uint8_t op = h.op;
+  file.read(h.len, buf);
+  // The data section CRC covers every byte before the Data End record.
+  p.crc_before = data_crc;
+  if (!data_ended && op != kDataEnd) data_crc = mcap_crc32(buf, mcap_crc32(head, data_crc));
+
+  std::string problem;
+  try {
+    ByteReader r(buf, path, record_start + 9);
+    switch (op) {
+      case kHeader: {
+        std::string profile = r.string("header profile");
+        p.header.emplace(std::move(profile), r.string("header library"));
+        break;
+      }
+      case kSchema:
+        p.schema = parse_schema(r);
+        break;
+      case kChannel:
+        p.channel = parse_channel(r);
+        break;
+      case kMessage:
+        p.message = parse_message(r);
+        break;
+      case kMetadata: {
+        McapMetadata m;
+        m.name = r.string("metadata name");
+        m.entries = get_map(r);
+        p.metadata = std::move(m);
+        break;
+      }
+      case kMessageIndex: {  // not used, but its fields delimit it for recovery
+        (void)r.u16();
+        r.skip(r.u32(), "message index entries");
+        break;
+      }
+      case kChunk:
+        problem = read_chunk(r, record_start, p);
+        break;
+      case kDataEnd:
+        p.data_end_crc = r.u32();
+        break;
+      case kFooter:
+        (void)r.u64();
+        (void)r.u64();
+        (void)r.u32();
+        break;
+      default:
+        r.skip(r.remaining(), "record");  // summary records and unknown opcodes
+        break;
+    }
+    p.consumed = r.position();
+  } catch (const Error& e) {
+    if (!recover) throw;
+    problem = e.what();
+  }
+  if (!problem.empty()) {
+    note_damage(fmt::format("{} record skipped ({})", record_name(op), problem));
+    crc_meaningful = false;
+    // Go on right after it if a record that is followed by another starts there (its length
+    // was sound), else search from just after its start (its length was what the damage hit).
+    resume = record_start + 1;
+    suspect = true;
+    after_damage = true;
+    return false;
+  }
+  after_damage = false;
+  resume = record_start + 9 + p.consumed;
+  // Verified: a chunk that passed its CRC, or a record whose self-delimiting fields used
+  // exactly its length.
+  const bool self_delimited = op == kHeader || op == kSchema || op == kChannel || op == kMetadata ||
+                              op == kMessageIndex || op == kDataEnd || op == kFooter ||
+                              op == kChunk;
+  suspect = !(self_delimited && p.consumed == h.len);
+  return true;
+}
+
+// The fields of a Chunk record after its opcode and length: its records, uncompressed, go to
+// `p.plain`. Returns what is wrong with the chunk (empty when nothing is); without recovery,
+// throws instead.
+std::string Scan::read_chunk(ByteReader& r, uint64_t record_start, Parsed& p) {
+  std::string problem;
+  (void)r.u64();  // start time
+  (void)r.u64();  // end time
+  const uint64_t uncompressed_size = r.u64();
+  const uint32_t uncompressed_crc = r.u32();
+  const std::string compression = r.string("chunk compression");
+  const uint64_t records_len = r.u64();
+  const auto records = r.bytes(records_len, "chunk records");
+  if (uncompressed_size > kMaxChunkBytes) {
+    problem = fmt::format("declares {} uncompressed bytes (more than {})", uncompressed_size,
+                          kMaxChunkBytes);
+  } else if (compression.empty()) {
+    if (records.size() != uncompressed_size)
+      problem = "uncompressed size does not match its records";
+    p.plain = records;
+  } else if (compression == "zstd" &&
+             ZSTD_getFrameContentSize(records.data(), records.size()) != uncompressed_size) {
+    // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
+    // checking first means a lying header never decides how much memory is allocated.
+    problem = "uncompressed size does not match its zstd frame";
+  } else if (compression == "zstd") {
+    uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
+    const std::size_t n =
+        ZSTD_decompress(uncompressed.data(), uncompressed.size(), records.data(), records.size());
+    if (ZSTD_isError(n))
+      problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
+    else if (n != uncompressed_size)
+      problem = "decompressed size does not match the chunk header";
+    p.plain = std::span<const uint8_t>(uncompressed.data(),
+                                       std::min<std::size_t>(n, uncompressed.size()));
+  } else {
+    problem = fmt::format("unsupported compression '{}'", compression);
+  }
+  if (problem.empty() && options.verify_crcs && uncompressed_crc != 0 &&
+      mcap_crc32(p.plain) != uncompressed_crc) {
+    problem = "CRC-32 of its records does not match";
+  }
+  if (!problem.empty()) {
+    if (!options.recover) throw Error(at(record_start), "corrupt chunk: " + problem);
+    ++summary.corrupt_chunks;
+    problem = fmt::format("{}: corrupt chunk: {}", at(record_start).to_string(), problem);
+  }
+  p.chunk = true;
+  return problem;
+}
+
+// Hands a verified record on: to the summary, to the handlers, or (Data End, Footer) to the
+// checks that end the data section and the file.
+Scan::Step Scan::hand_on(uint64_t record_start, uint8_t op, Parsed& p) {
+  if (p.header) {
+    summary.profile = std::move(p.header->first);
+    summary.library = std::move(p.header->second);
+  } else if (p.schema) {
+    // A summary whose CRC matches lists every schema and channel; the data section's copies
+    // have no CRC of their own (a damaged id would parse as another schema).
+    if (!data_ended && !summary.summary_used) add_schema(std::move(*p.schema));
+  } else if (p.channel) {
+    if (!data_ended && !summary.summary_used) add_channel(std::move(*p.channel));
+  } else if (p.message) {
+    message(*p.message, path, record_start);
+  } else if (p.metadata) {
+    if (!data_ended) summary.metadata.push_back(std::move(*p.metadata));
+  } else if (p.chunk) {
+    const auto damaged =
+        chunk_records(p.plain, path + " (chunk at byte " + std::to_string(record_start) + ")", 0);
+    if (damaged) {
+      note_damage(fmt::format("Chunk records cut short ({})", *damaged));
+    } else {
+      ++summary.chunks;
+    }
+  } else if (p.data_end_crc) {
+    const uint32_t stored = *p.data_end_crc;
+    if (options.verify_crcs && stored != 0 && stored != p.crc_before && crc_meaningful) {
+      const std::string what = fmt::format(
+          "data section CRC-32 0x{:08x} does not match the stored 0x{:08x}", p.crc_before, stored);
+      if (!options.recover) throw Error(at(record_start), what);
+      // Every chunk passed its own CRC: the damage is in a record outside the chunks.
+      note_damage(fmt::format("{}: {} (a record outside the chunks is damaged{})",
+                              at(record_start).to_string(), what,
+                              summary.summary_used ? "; schemas and channels came from the "
+                                                     "summary, whose CRC matches"
+                                                   : ""));
+    }
+    data_ended = true;
+  } else if (op == kFooter) {
+    if (file.remaining() < 8) {
+      end_truncated("inside the closing magic");
+      return Step::ended;
+    }
+    file.read(8, buf);
+    if (std::memcmp(buf.data(), kMagic, 8) != 0) {
+      if (!options.recover)
+        throw Error(at(file.position() - 8), "bad closing magic after the footer");
+      note_damage(fmt::format("byte {}: bad closing magic", file.position() - 8));
+      end_truncated("after a footer without its closing magic");
+      return Step::ended;
+    }
+    summary.complete = true;
+    return Step::ended;
+  }
+  return Step::record;
+}
+
+McapReadSummary read_source(Source& file, const std::string& path, const McapHandlers& handlers,
+                            const McapReadOptions& options) {
+  Scan scan(file, path, handlers, options);
+  if (!scan.check_magic()) return scan.summary;
+  if (options.recover) scan.use_summary();
+  file.seek(8);
   while (true) {
     const uint64_t record_start = file.position();
-    if (file.remaining() == 0) {
-      return truncated(data_ended ? "before the footer"
-                                  : "after a complete record, before Data End");
-    }
-    std::optional<RecordHead> h;
-    if (file.remaining() >= 9) {
-      file.read(9, head);
-      h = decode_head(head.data());
-    }
-    bool unreadable = false;
-    if (!h) {
-      if (!recover)
-        return truncated(fmt::format("inside a record header at byte {}", record_start));
-      unreadable = true;
-    } else if (h->len > kMaxRecordBytes) {
-      if (!recover) {
-        throw Error(at(record_start),
-                    fmt::format("record of {} bytes is larger than any imukit writes", h->len));
-      }
-      unreadable = true;
-    } else if (h->len > file.remaining()) {
-      if (!recover) {
-        return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}",
-                                     h->op, record_start));
-      }
-      unreadable = true;
-    } else if (recover && !known_opcode(h->op)) {
-      unreadable = true;
-    } else if (recover && suspect) {
-      unreadable = !followed(record_start, *h);
-      file.seek(record_start + 9);
-    }
-    if (unreadable) {
-      const auto next = resync(resume < record_start ? resume : record_start + 1);
-      if (!next) {
-        // Nothing readable follows: the end of a file cut short (or damaged to its end).
-        if (h && known_opcode(h->op) && h->len <= kMaxRecordBytes &&
-            h->len > file.size() - record_start - 9)
-          return truncated(fmt::format("inside a record (opcode 0x{:02x}) that started at byte {}",
-                                       h->op, record_start));
-        return truncated(
-            fmt::format("after byte {}, with no complete record from there", record_start));
-      }
-      if (!after_damage) {
-        scan.note_damage(
-            *next > record_start
-                ? fmt::format("byte {}: no readable record; {} bytes skipped to the record at "
-                              "byte {}",
-                              record_start, *next - record_start, *next)
-                : fmt::format("byte {}: no readable record; read on from the record found at "
-                              "byte {}, inside the one before",
-                              record_start, *next));
-      }
-      crc_meaningful = false;
-      file.seek(*next);
-      resume = *next;
-      suspect = false;  // a record found by resync() is followed by another
-      after_damage = false;
-      continue;
-    }
-    const uint8_t op = h->op;
-    file.read(h->len, buf);
-    // The data section CRC covers every byte before the Data End record.
-    const uint32_t crc_before_record = data_crc;
-    if (!data_ended && op != kDataEnd) data_crc = mcap_crc32(buf, mcap_crc32(head, data_crc));
-
+    RecordHead h;
+    const Scan::Step step = scan.next_head(record_start, h);
+    if (step == Scan::Step::ended) return scan.summary;
+    if (step == Scan::Step::skipped) continue;
     Parsed p;
-    std::string problem;
-    try {
-      ByteReader r(buf, path, record_start + 9);
-      switch (op) {
-        case kHeader: {
-          std::string profile = r.string("header profile");
-          p.header.emplace(std::move(profile), r.string("header library"));
-          break;
-        }
-        case kSchema:
-          p.schema = parse_schema(r);
-          break;
-        case kChannel:
-          p.channel = parse_channel(r);
-          break;
-        case kMessage:
-          p.message = parse_message(r);
-          break;
-        case kMetadata: {
-          McapMetadata m;
-          m.name = r.string("metadata name");
-          m.entries = get_map(r);
-          p.metadata = std::move(m);
-          break;
-        }
-        case kMessageIndex: {  // not used, but its fields delimit it for recovery
-          (void)r.u16();
-          r.skip(r.u32(), "message index entries");
-          break;
-        }
-        case kChunk: {
-          (void)r.u64();  // start time
-          (void)r.u64();  // end time
-          const uint64_t uncompressed_size = r.u64();
-          const uint32_t uncompressed_crc = r.u32();
-          const std::string compression = r.string("chunk compression");
-          const uint64_t records_len = r.u64();
-          const auto records = r.bytes(records_len, "chunk records");
-          if (uncompressed_size > kMaxChunkBytes) {
-            problem = fmt::format("declares {} uncompressed bytes (more than {})",
-                                  uncompressed_size, kMaxChunkBytes);
-          } else if (compression.empty()) {
-            if (records.size() != uncompressed_size)
-              problem = "uncompressed size does not match its records";
-            p.plain = records;
-          } else if (compression == "zstd" &&
-                     ZSTD_getFrameContentSize(records.data(), records.size()) !=
-                         uncompressed_size) {
-            // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
-            // checking first means a lying header never decides how much memory is allocated.
-            problem = "uncompressed size does not match its zstd frame";
-          } else if (compression == "zstd") {
-            uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
-            const std::size_t n = ZSTD_decompress(uncompressed.data(), uncompressed.size(),
-                                                  records.data(), records.size());
-            if (ZSTD_isError(n))
-              problem = fmt::format("zstd: {}", ZSTD_getErrorName(n));
-            else if (n != uncompressed_size)
-              problem = "decompressed size does not match the chunk header";
-            p.plain = std::span<const uint8_t>(uncompressed.data(),
-                                               std::min<std::size_t>(n, uncompressed.size()));
-          } else {
-            problem = fmt::format("unsupported compression '{}'", compression);
-          }
-          if (problem.empty() && options.verify_crcs && uncompressed_crc != 0 &&
-              mcap_crc32(p.plain) != uncompressed_crc) {
-            problem = "CRC-32 of its records does not match";
-          }
-          if (!problem.empty()) {
-            if (!recover) throw Error(at(record_start), "corrupt chunk: " + problem);
-            ++out.corrupt_chunks;
-            problem = fmt::format("{}: corrupt chunk: {}", at(record_start).to_string(), problem);
-          }
-          p.chunk = true;
-          break;
-        }
-        case kDataEnd:
-          p.data_end_crc = r.u32();
-          break;
-        case kFooter:
-          (void)r.u64();
-          (void)r.u64();
-          (void)r.u32();
-          break;
-        default:
-          r.skip(r.remaining(), "record");  // summary records and unknown opcodes
-          break;
-      }
-      p.consumed = r.position();
-    } catch (const Error& e) {
-      if (!recover) throw;
-      problem = e.what();
-    }
-    if (!problem.empty()) {
-      scan.note_damage(fmt::format("{} record skipped ({})", record_name(op), problem));
-      crc_meaningful = false;
-      // Go on right after it if a record that is followed by another starts there (its length
-      // was sound), else search from just after its start (its length was what the damage hit).
-      resume = record_start + 1;
-      suspect = true;
-      after_damage = true;
-      continue;
-    }
-    after_damage = false;
-    resume = record_start + 9 + p.consumed;
-    // Verified: a chunk that passed its CRC, or a record whose self-delimiting fields used
-    // exactly its length.
-    const bool self_delimited = op == kHeader || op == kSchema || op == kChannel ||
-                                op == kMetadata || op == kMessageIndex || op == kDataEnd ||
-                                op == kFooter || op == kChunk;
-    suspect = !(self_delimited && p.consumed == h->len);
-
-    if (p.header) {
-      out.profile = std::move(p.header->first);
-      out.library = std::move(p.header->second);
-    } else if (p.schema) {
-      // A summary whose CRC matches lists every schema and channel; the data section's copies
-      // have no CRC of their own (a damaged id would parse as another schema).
-      if (!data_ended && !out.summary_used) scan.add_schema(std::move(*p.schema));
-    } else if (p.channel) {
-      if (!data_ended && !out.summary_used) scan.add_channel(std::move(*p.channel));
-    } else if (p.message) {
-      scan.message(*p.message, path, record_start);
-    } else if (p.metadata) {
-      if (!data_ended) out.metadata.push_back(std::move(*p.metadata));
-    } else if (p.chunk) {
-      const auto damaged = scan.chunk_records(
-          p.plain, path + " (chunk at byte " + std::to_string(record_start) + ")", 0);
-      if (damaged) {
-        scan.note_damage(fmt::format("Chunk records cut short ({})", *damaged));
-      } else {
-        ++out.chunks;
-      }
-    } else if (p.data_end_crc) {
-      const uint32_t stored = *p.data_end_crc;
-      if (options.verify_crcs && stored != 0 && stored != crc_before_record && crc_meaningful) {
-        const std::string what =
-            fmt::format("data section CRC-32 0x{:08x} does not match the stored 0x{:08x}",
-                        crc_before_record, stored);
-        if (!recover) throw Error(at(record_start), what);
-        // Every chunk passed its own CRC: the damage is in a record outside the chunks.
-        scan.note_damage(fmt::format("{}: {} (a record outside the chunks is damaged{})",
-                                     at(record_start).to_string(), what,
-                                     out.summary_used ? "; schemas and channels came from the "
-                                                        "summary, whose CRC matches"
-                                                      : ""));
-      }
-      data_ended = true;
-    } else if (op == kFooter) {
-      if (file.remaining() < 8) return truncated("inside the closing magic");
-      file.read(8, buf);
-      if (std::memcmp(buf.data(), kMagic, 8) != 0) {
-        if (!recover) throw Error(at(file.position() - 8), "bad closing magic after the footer");
-        scan.note_damage(fmt::format("byte {}: bad closing magic", file.position() - 8));
-        return truncated("after a footer without its closing magic");
-      }
-      out.complete = true;
-      return out;
-    }
+    if (!scan.verify(record_start, h, p)) continue;
+    if (scan.hand_on(record_start, h.op, p) == Scan::Step::ended) return scan.summary;
   }
 }
 

@@ -248,23 +248,18 @@ void write_sync(McapWriter& writer, Device& d, const drivers::SyncPoint& p, uint
                        static_cast<uint64_t>(p.host_receive), bytes_of(text));
 }
 
-}  // namespace
+using Devices = std::vector<std::unique_ptr<Device>>;
 
-std::string partial_path(const std::string& path) {
-  const std::filesystem::path p(path);
-  return (p.parent_path() / (p.stem().string() + ".partial.mcap")).string();
-}
+// What the session writes to after the start: the schema of the time-sync channels (made when a
+// device's first sync point arrives) and the event channel.
+struct SessionChannels {
+  uint16_t sync_schema;
+  uint16_t event_channel;
+};
 
-SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
-  if (specs.empty()) throw Error("record: name at least one device");
-  std::vector<std::unique_ptr<Device>> devices;
-  for (auto& s : specs)
-    devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
-
-  // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
-  // crash leaves the temporary file readable up to its last chunk.
-  const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
-  McapWriter writer(live_path, options.mcap);
+// The schemas, the event channel (with the events given up front), the guide's metadata and
+// every device's channels and metadata.
+SessionChannels open_channels(McapWriter& writer, Devices& devices, const SessionOptions& options) {
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
   const uint16_t raw_schema = writer.add_schema(kRawImuSchemaName, "ros2msg", kRawImuSchemaText);
   const uint16_t sync_schema = writer.add_schema("imukit_msgs/TimeSync", "jsonschema", kSyncSchema);
@@ -300,6 +295,10 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
                            {"codec", d->spec.device.codec->name()},
                            {"transport", d->spec.device.transport->describe()}});
   }
+  return {sync_schema, event_channel};
+}
+
+void start_readers(Devices& devices) {
   // Virtual-time mocks run ahead of the writer; waiting for queue space loses nothing there.
   const bool wait_when_full = std::all_of(devices.begin(), devices.end(), [](const auto& d) {
     return d->spec.device.transport->virtual_time();
@@ -308,11 +307,19 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     Device* raw = d.get();
     d->thread = std::thread([raw, wait_when_full] { reader_thread(*raw, wait_when_full); });
   }
+}
+
+// The writer's side of a running session: moves what the reader threads queue into the file.
+struct Pump {
+  McapWriter& writer;
+  Devices& devices;
+  const SessionOptions& options;
+  uint16_t sync_schema;
+  Live live;
 
   // Samples past the duration or the sample limit are outside the recording (a virtual-time
   // mock runs ahead of the writer); they are not written, and not counted as lost either.
-  const Live live{event_channel, options};
-  const auto accept = [&](Device& d, const drivers::Sample& s) {
+  void accept(Device& d, const drivers::Sample& s) {
     if (d.full) return;
     if (d.guide && d.guide->done()) {
       d.full = true;
@@ -326,91 +333,87 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
       return;
     }
     d.stop.store(true);
-  };
-  SessionReport report;
-  auto last_progress = std::chrono::steady_clock::now();
-  const auto stop_all = [&] {
+  }
+  void stop_all() {
     for (auto& d : devices) d->stop.store(true);
-  };
-  try {
-    drivers::Sample sample;
-    drivers::SyncPoint sync;
-    for (;;) {
-      bool busy = false;
-      const auto now = std::chrono::steady_clock::now();
-      for (auto& d : devices) {
-        for (int n = 0; n < 4096 && d->samples.pop(sample); ++n) {
-          busy = true;
-          d->last_data = now;
-          accept(*d, sample);
-        }
-        while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
-        if (options.no_data_timeout_s > 0 && d->silent_reason.empty() && !d->full &&
-            !d->ended.load(std::memory_order_acquire) &&
-            std::chrono::duration<double>(now - d->last_data).count() > options.no_data_timeout_s) {
-          const std::lock_guard lock(d->mutex);
-          d->silent_reason = fmt::format(
-              "no data for {:g} s{}", options.no_data_timeout_s,
-              d->written == 0 ? " since the start (check the baud rate and codec in the URI)" : "");
-          d->stop.store(true);
-        }
-      }
-      if (options.take_markers) {
-        std::vector<Event> markers;
-        options.take_markers(markers);
-        for (const Event& e : markers) write_event(writer, event_channel, e);
-      }
-      if (options.stop && options.stop->load()) {
-        report.stop_reason = "stopped by signal";
-        break;
-      }
-      if (options.guide && std::all_of(devices.begin(), devices.end(), [](const auto& d) {
-            return d->guide && d->guide->done();
-          })) {
-        report.stop_reason = fmt::format("{} distinct poses held", options.guide->poses_wanted);
-        for (auto& d : devices)
-          d->full = true;  // what a virtual-time mock made since is not wanted
-        break;
-      }
-      bool all_done = true;
-      bool all_ended = true;
-      for (auto& d : devices) {
-        const bool ended = d->ended.load(std::memory_order_acquire);
-        all_ended = all_ended && ended;
-        all_done = all_done && (d->full || ended);
-      }
-      if (all_ended && !busy) {  // the drain below writes anything pushed since this pass
-        const bool limited =
-            std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
-        const bool silent = std::all_of(devices.begin(), devices.end(),
-                                        [](const auto& d) { return !d->silent_reason.empty(); });
-        report.stop_reason =
-            limited  ? "limit reached"
-            : silent ? fmt::format("no data from any device for {:g} s", options.no_data_timeout_s)
-                     : "every device ended";
-        break;
-      }
-      if (all_done) stop_all();
-      if (options.progress && now - last_progress > std::chrono::milliseconds(250)) {
-        last_progress = now;
-        std::vector<DeviceProgress> p;
-        for (auto& d : devices) p.push_back(progress_of(*d));
-        options.progress(p);
-      }
-      if (!busy) std::this_thread::sleep_for(std::chrono::microseconds(500));
-    }
-  } catch (...) {
+  }
+  void stop_and_join() {
     stop_all();
     for (auto& d : devices) {
       if (d->thread.joinable()) d->thread.join();
     }
-    throw;
   }
-  stop_all();
-  for (auto& d : devices) {
-    if (d->thread.joinable()) d->thread.join();
+  std::string run();
+  void drain();
+};
+
+// The main loop, until a signal, the guide, the limits or the devices end the session; returns
+// why it stopped.
+std::string Pump::run() {
+  auto last_progress = std::chrono::steady_clock::now();
+  drivers::Sample sample;
+  drivers::SyncPoint sync;
+  for (;;) {
+    bool busy = false;
+    const auto now = std::chrono::steady_clock::now();
+    for (auto& d : devices) {
+      for (int n = 0; n < 4096 && d->samples.pop(sample); ++n) {
+        busy = true;
+        d->last_data = now;
+        accept(*d, sample);
+      }
+      while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
+      if (options.no_data_timeout_s > 0 && d->silent_reason.empty() && !d->full &&
+          !d->ended.load(std::memory_order_acquire) &&
+          std::chrono::duration<double>(now - d->last_data).count() > options.no_data_timeout_s) {
+        const std::lock_guard lock(d->mutex);
+        d->silent_reason = fmt::format(
+            "no data for {:g} s{}", options.no_data_timeout_s,
+            d->written == 0 ? " since the start (check the baud rate and codec in the URI)" : "");
+        d->stop.store(true);
+      }
+    }
+    if (options.take_markers) {
+      std::vector<Event> markers;
+      options.take_markers(markers);
+      for (const Event& e : markers) write_event(writer, live.event_channel, e);
+    }
+    if (options.stop && options.stop->load()) return "stopped by signal";
+    if (options.guide && std::all_of(devices.begin(), devices.end(),
+                                     [](const auto& d) { return d->guide && d->guide->done(); })) {
+      for (auto& d : devices) d->full = true;  // what a virtual-time mock made since is not wanted
+      return fmt::format("{} distinct poses held", options.guide->poses_wanted);
+    }
+    bool all_done = true;
+    bool all_ended = true;
+    for (auto& d : devices) {
+      const bool ended = d->ended.load(std::memory_order_acquire);
+      all_ended = all_ended && ended;
+      all_done = all_done && (d->full || ended);
+    }
+    if (all_ended && !busy) {  // drain() writes anything pushed since this pass
+      const bool limited =
+          std::any_of(devices.begin(), devices.end(), [](const auto& d) { return d->full; });
+      const bool silent = std::all_of(devices.begin(), devices.end(),
+                                      [](const auto& d) { return !d->silent_reason.empty(); });
+      return limited  ? "limit reached"
+             : silent ? fmt::format("no data from any device for {:g} s", options.no_data_timeout_s)
+                      : "every device ended";
+    }
+    if (all_done) stop_all();
+    if (options.progress && now - last_progress > std::chrono::milliseconds(250)) {
+      last_progress = now;
+      std::vector<DeviceProgress> p;
+      for (auto& d : devices) p.push_back(progress_of(*d));
+      options.progress(p);
+    }
+    if (!busy) std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
-  // What arrived before the threads ended is written too: nothing received is lost.
+}
+
+// Stops the readers and writes what arrived before they ended: nothing received is lost.
+void Pump::drain() {
+  stop_and_join();
   drivers::Sample sample;
   drivers::SyncPoint sync;
   for (auto& d : devices) {
@@ -418,6 +421,12 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     while (d->syncs.pop(sync)) write_sync(writer, *d, sync, sync_schema);
     d->clock.flush();
   }
+}
+
+// Closes the recording with each device's session statistics, refits its clocks (when
+// finalizing: the finished file replaces the live one) and reports on every device.
+SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions& options,
+                     const std::string& live_path, SessionReport report) {
   for (auto& d : devices) {
     const DeviceProgress p = progress_of(*d);
     writer.write_metadata("imukit.session." + d->spec.name,
@@ -444,6 +453,37 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
     report.devices.push_back(std::move(p));
   }
   return report;
+}
+
+}  // namespace
+
+std::string partial_path(const std::string& path) {
+  const std::filesystem::path p(path);
+  return (p.parent_path() / (p.stem().string() + ".partial.mcap")).string();
+}
+
+SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
+  if (specs.empty()) throw Error("record: name at least one device");
+  Devices devices;
+  for (auto& s : specs)
+    devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
+
+  // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
+  // crash leaves the temporary file readable up to its last chunk.
+  const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
+  McapWriter writer(live_path, options.mcap);
+  const SessionChannels channels = open_channels(writer, devices, options);
+  start_readers(devices);
+  Pump pump{writer, devices, options, channels.sync_schema, Live{channels.event_channel, options}};
+  SessionReport report;
+  try {
+    report.stop_reason = pump.run();
+  } catch (...) {
+    pump.stop_and_join();
+    throw;
+  }
+  pump.drain();
+  return finish(writer, devices, options, live_path, std::move(report));
 }
 
 namespace {
