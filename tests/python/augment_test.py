@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """imukit Python package: STDA on (N, T, C) arrays in place (float32 and float64), policies,
 PPDA batches of a scene's windows (by index, description or dict; any thread count; into a
 caller's buffer), datasets equal to `imukit augment` for the same seed; bad input.
 
-usage: augment_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import json
 import os
@@ -13,7 +12,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import main, run_cli
+from support import run_cli
 
 
 def batch(n=8, t=60, c=12, dtype=np.float32, seed=0):
@@ -240,7 +239,3 @@ class Datasets(unittest.TestCase):
         labels = np.repeat(np.arange(7, dtype=np.int64), 43)[:301]
         np.testing.assert_array_equal(imukit.window_labels(labels, starts, 50),
                                       [np.bincount(labels[s:s + 50]).argmax() for s in starts])
-
-
-if __name__ == "__main__":
-    main()
