@@ -25,15 +25,10 @@ struct AugmentArgs {
   std::string policy = "imukit";
   std::string output;
   std::string labels;
-  std::string method = "spline";
-  std::size_t window = 100;
-  std::size_t stride = 25;
-  std::size_t count = 0;
-  std::size_t batch_size = 256;
+  // The options bind straight to the dataset's fields (and their defaults), except the seed,
+  // whose default is the scene's.
+  augment::DatasetOptions dataset;
   std::optional<uint64_t> seed;
-  unsigned threads = 1;
-  bool normalize = false;
-  double identity_fraction = 0.0;
   bool list = false;
 };
 
@@ -52,15 +47,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     throw UsageError("augment: give either --scene SCENE.json or --input RECORDING");
   if (!a.scene.empty() && !extra.empty())
     throw UsageError("augment: unexpected argument " + quote_excerpt(extra.front()));
-  augment::DatasetOptions o;
-  o.window = a.window;
-  o.stride = a.stride;
-  o.count = a.count;
-  o.batch_size = a.batch_size;
-  o.threads = a.threads;
-  o.normalize = a.normalize;
-  o.identity_fraction = a.identity_fraction;
-  o.method = sim::parse_derivative_method(a.method);
+  augment::DatasetOptions o = a.dataset;
   augment::Dataset d;
   if (!a.scene.empty()) {
     sim::Scene scene = sim::read_scene(a.scene);
@@ -70,7 +57,7 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     if (!a.labels.empty()) {
       // Labels are per sensor sample: ask the augmenter for the sample count and rate.
       augment::PpdaOptions po;
-      po.window = a.window;
+      po.window = o.window;
       po.method = o.method;
       const augment::PpdaAugmenter probe(scene, po);
       labels = augment::read_labels(a.labels, static_cast<std::size_t>(probe.sample_count()),
@@ -122,6 +109,7 @@ IMUKIT_REGISTER_COMMAND(
         "classic augmentation of a recording",
         70, [](CLI::App& sub) -> std::function<int()> {
           auto a = std::make_shared<AugmentArgs>();
+          augment::DatasetOptions& o = a->dataset;  // defaults in the help are its own
           sub.add_option("--scene", a->scene, "Scene JSON (imukit.scene/1): PPDA");
           sub.add_option("--input", a->input,
                          "A recording (MCAP, EuRoC CSV, column text): the policy's STDA "
@@ -132,30 +120,34 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("-o,--output", a->output, "Output folder");
           sub.add_option("--labels", a->labels,
                          "Label CSV: header 'label' (one row per sample) or 'start_s,end_s,label'");
-          sub.add_option("--window", a->window, "Samples per window (default 100)")
+          sub.add_option("--window", o.window,
+                         fmt::format("Samples per window (default {})", o.window))
               ->check(whole_in(2, 10'000'000, "samples"));
-          sub.add_option("--stride", a->stride, "Samples between window starts (default 25)")
+          sub.add_option("--stride", o.stride,
+                         fmt::format("Samples between window starts (default {})", o.stride))
               ->check(whole_in(1, 10'000'000, "samples"));
-          sub.add_option("--count", a->count,
+          sub.add_option("--count", o.count,
                          "Windows to write (default: one pass over the windows; more repeat them "
                          "under fresh draws)")
               ->check(whole_in(0, 1'000'000'000'000, "windows"));
-          sub.add_option("--batch-size", a->batch_size, "Windows per sub-policy draw (default 256)")
+          sub.add_option("--batch-size", o.batch_size,
+                         fmt::format("Windows per sub-policy draw (default {})", o.batch_size))
               ->check(whole_in(1, 10'000'000, "windows"));
           sub.add_option("--seed", a->seed, "Seed (default: the scene's seed, or 0)")
               ->check(seed_range());
-          sub.add_option("--threads", a->threads,
+          sub.add_option("--threads", o.threads,
                          "Worker threads (0 = all cores); the output does not depend on it")
               ->check(whole_in(0, 1024));
-          sub.add_flag("--normalize", a->normalize,
+          sub.add_flag("--normalize", o.normalize,
                        "z-score every channel (statistics in dataset.json); STDA jitter is then in "
                        "standard deviations");
-          sub.add_option("--identity-fraction", a->identity_fraction,
+          sub.add_option("--identity-fraction", o.identity_fraction,
                          "Fraction of batches left unaugmented (the paper's comparison uses 0.5)")
               ->check(real_in(0, 1, ""));
-          sub.add_option("--method", a->method,
-                         "Derivative method of the re-simulation: spline "
-                         "(default) or fd (faster)")
+          sub.add_option_function<std::string>(
+                 "--method",
+                 [&o](const std::string& m) { o.method = sim::parse_derivative_method(m); },
+                 "Derivative method of the re-simulation: spline (default) or fd (faster)")
               ->check(CLI::IsMember({"spline", "fd"}));
           sub.add_flag("--list-sub-policies", a->list, "Print the policy's sub-policies and exit");
           sub.allow_extras();

@@ -123,6 +123,29 @@ function(imukit_add_test_suite module)
                        PROPERTIES LABELS ${module})
 endfunction()
 
+# imukit_add_pytest(<ctest name> <file> [LABELS ...] [ENVIRONMENT ...] [TIMEOUT s])
+# One ctest entry runs every test of one pytest file (tests/pytest.ini, tests/conftest.py) with
+# ${IMUKIT_PYTHON}; the command under test is $IMUKIT_CLI, and sanitizer builds set
+# IMUKIT_TEST_QUICK=1 (the tests that take minutes shorten themselves). One entry per file, not per
+# test: listing the tests at configure time would import the Python module before it is built, and
+# per-test entries would repeat a file's shared runs (one `imukit demo` takes minutes). A single
+# test runs alone through pytest itself (the command in tests/pytest.ini); `-ra` names every
+# failed or skipped test in the ctest log.
+function(imukit_add_pytest name file)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "LABELS;ENVIRONMENT" ${ARGN})
+  add_test(NAME ${name}
+           COMMAND ${IMUKIT_PYTHON} -m pytest -v -c ${PROJECT_SOURCE_DIR}/tests/pytest.ini
+                   --rootdir ${PROJECT_SOURCE_DIR}/tests ${file})
+  set(env "IMUKIT_CLI=$<TARGET_FILE:imukit>" "PYTHONDONTWRITEBYTECODE=1" ${ARG_ENVIRONMENT})
+  if(IMUKIT_SANITIZE)
+    list(APPEND env "IMUKIT_TEST_QUICK=1")
+  endif()
+  set_tests_properties(${name} PROPERTIES LABELS "${ARG_LABELS}" ENVIRONMENT "${env}")
+  if(ARG_TIMEOUT)
+    set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT})
+  endif()
+endfunction()
+
 # imukit_add_benchmark(<name> SOURCES ... [DEPS ...])
 function(imukit_add_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})

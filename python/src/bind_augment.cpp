@@ -285,21 +285,27 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
   return out;
 }
 
-augment::DatasetOptions dataset_options(std::size_t window, std::size_t stride, std::size_t count,
-                                        std::size_t batch_size, uint64_t seed, unsigned threads,
-                                        bool normalize, double identity_fraction,
-                                        const std::string& method) {
+// Python's DatasetOptions: the C++ defaults, except threads = 0 (all cores) as everywhere in the
+// package; the output does not depend on it.
+augment::DatasetOptions python_dataset_options() {
   augment::DatasetOptions o;
-  o.window = window;
-  o.stride = stride;
-  o.count = count;
-  o.batch_size = batch_size;
-  o.seed = seed;
-  o.threads = threads;
-  o.normalize = normalize;
-  o.identity_fraction = identity_fraction;
-  o.method = sim::parse_derivative_method(method);
+  o.threads = 0;
   return o;
+}
+
+// Sets o's fields named by the keywords through the bound properties (their type checks and
+// conversions); a name that is not a field raises TypeError naming `caller`.
+void set_dataset_fields(augment::DatasetOptions& o, const py::kwargs& fields, const char* caller) {
+  const py::object self = py::cast(&o, py::return_value_policy::reference);
+  const py::object type = py::type::of(self);
+  const py::object property = py::module_::import("builtins").attr("property");
+  for (auto [key, value] : fields) {
+    const auto name = key.cast<std::string>();
+    if (!py::hasattr(type, name.c_str()) || !py::isinstance(type.attr(name.c_str()), property))
+      throw py::type_error(std::string(caller) + ": unexpected keyword argument '" + name +
+                           "' (not a DatasetOptions field)");
+    py::setattr(self, name.c_str(), value);
+  }
 }
 
 // Seconds per call of `call`, `repeats` times, measured inside C++ (python/bench/overhead.py
@@ -613,14 +619,41 @@ write(dir) writes X.npy, y.npy, sub_policy.npy and dataset.json.)doc")
           },
           py::arg("dir"));
 
+  py::class_<augment::DatasetOptions>(m, "DatasetOptions", R"doc(
+The settings of generate_dataset, field by field those of `imukit augment`: window, stride (samples),
+count (windows to write; 0: one pass over the base windows), batch_size (windows per sub-policy
+draw), seed, threads (0: all cores; the output does not depend on it), normalize (z-score every
+channel), identity_fraction (batches left unaugmented), method ("spline" or "fd"; "reference" too)
+and max_bytes (the dataset's memory limit; 0: half the physical memory). DatasetOptions(**fields).
+The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
+      .def(py::init([](const py::kwargs& fields) {
+        augment::DatasetOptions o = python_dataset_options();
+        set_dataset_fields(o, fields, "DatasetOptions");
+        return o;
+      }))
+      .def_readwrite("window", &augment::DatasetOptions::window)
+      .def_readwrite("stride", &augment::DatasetOptions::stride)
+      .def_readwrite("count", &augment::DatasetOptions::count)
+      .def_readwrite("batch_size", &augment::DatasetOptions::batch_size)
+      .def_readwrite("seed", &augment::DatasetOptions::seed)
+      .def_readwrite("threads", &augment::DatasetOptions::threads)
+      .def_readwrite("normalize", &augment::DatasetOptions::normalize)
+      .def_readwrite("identity_fraction", &augment::DatasetOptions::identity_fraction)
+      .def_property(
+          "method",
+          [](const augment::DatasetOptions& o) { return std::string(sim::to_string(o.method)); },
+          [](augment::DatasetOptions& o, const std::string& m) {
+            o.method = sim::parse_derivative_method(m);
+          })
+      .def_readwrite("max_bytes", &augment::DatasetOptions::max_bytes);
+
   m.def(
       "generate_dataset",
-      [](py::handle source, const Policy& policy, py::handle labels, std::size_t window,
-         std::size_t stride, std::size_t count, std::size_t batch_size, uint64_t seed,
-         unsigned threads, bool normalize, double identity_fraction, const std::string& method,
-         std::optional<std::vector<std::string>> stream_names) {
-        const auto o = dataset_options(window, stride, count, batch_size, seed, threads, normalize,
-                                       identity_fraction, method);
+      [](py::handle source, const Policy& policy, py::handle labels,
+         std::optional<augment::DatasetOptions> options,
+         std::optional<std::vector<std::string>> stream_names, const py::kwargs& overrides) {
+        augment::DatasetOptions o = options.value_or(python_dataset_options());
+        set_dataset_fields(o, overrides, "generate_dataset");
         const std::vector<int64_t> l = labels_argument(labels);
         if (py::isinstance<py::dict>(source)) {
           std::vector<std::string> names;
@@ -657,14 +690,13 @@ write(dir) writes X.npy, y.npy, sub_policy.npy and dataset.json.)doc")
         return std::make_shared<augment::Dataset>(augment::generate_dataset(scene, policy, l, o));
       },
       py::arg("source"), py::arg("policy"), py::kw_only(), py::arg("labels") = py::none(),
-      py::arg("window") = 100, py::arg("stride") = 25, py::arg("count") = 0,
-      py::arg("batch_size") = 256, py::arg("seed") = 0, py::arg("threads") = 0,
-      py::arg("normalize") = false, py::arg("identity_fraction") = 0.0,
-      py::arg("method") = "spline", py::arg("stream_names") = py::none(), R"doc(
+      py::arg("options") = py::none(), py::arg("stream_names") = py::none(), R"doc(
 The dataset `imukit augment` writes, in memory: from a Scene (PPDA: one sub-policy per batch of
 batch_size windows) or from recorded Series (a dict name -> Series, or a list with
-stream_names; the policy's STDA counterparts). labels: int64 per sample (or None). The same
-seed gives the same arrays as the command, whatever the thread count.)doc");
+stream_names; the policy's STDA counterparts). labels: int64 per sample (or None). options: a
+DatasetOptions (default: DatasetOptions()); any of its fields given as keywords override it
+(generate_dataset(scene, policy, window=50, seed=8)). The same seed gives the same arrays as the
+command, whatever the thread count.)doc");
 }
 
 }  // namespace imukit::python

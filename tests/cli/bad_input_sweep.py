@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The bad-input sweep: every command that reads a file gets every kind of bad file in each file
 role it has (missing, empty, random bytes, truncated, NaN, extreme magnitudes, a foreign file,
 a device or pipe), and every numeric option gets non-numbers and values out of range. Each run
@@ -9,8 +8,10 @@ without echoing the input: the output is printable text, and no 40-byte run of a
 appears in it. The table of exit codes per input class and command is printed at the end (it is
 the one in docs/validation.md, "Robustness").
 
-usage: bad_input_sweep.py IMUKIT_BINARY [--quick] [--jobs N] [--verbose]
-  --quick   three values per numeric option instead of ten (the sanitizer build)
+run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test; quick mode ($IMUKIT_TEST_QUICK,
+the sanitizer build) tries three values per numeric option instead of ten and allows 60 s per run.
+As a script, for the table or every run's outcome:
+  python3 bad_input_sweep.py IMUKIT_BINARY [--quick] [--jobs N] [--verbose]
   --verbose print every run: its exit code, command and first error line
 """
 import concurrent.futures
@@ -24,13 +25,6 @@ import sys
 import tempfile
 import time
 
-from checks import Checks
-
-IMUKIT = os.path.abspath(sys.argv[1])
-QUICK = "--quick" in sys.argv[2:]
-VERBOSE = "--verbose" in sys.argv[2:]
-JOBS = int(sys.argv[sys.argv.index("--jobs") + 1]) if "--jobs" in sys.argv else 2
-TIMEOUT = 60 if QUICK else 20  # s per run; the sanitizer build is ~10x slower
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 WALK = os.path.join(ROOT, "examples", "motion", "cmu_131_01_walk_2s.bvh")
 PROFILE = os.path.join(ROOT, "examples", "profiles", "wrist_watch_imu.json")
@@ -39,10 +33,9 @@ EUROC_HEADER = ("#timestamp [ns],w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_
 # A foreign file's content (think /etc/passwd): no 40-byte run of it may appear in any output.
 FOREIGN = ("root:x:0:0:root:/root:/bin/bash\n" + "s3cr3t-" * 12 + "\n").encode()
 CLASSES = ["missing", "empty", "random", "truncated", "nan", "extreme", "foreign", "device"]
-check = Checks()
 
 
-def prepare(tmp):
+def prepare(tmp, imukit):
     """Good fixtures of every kind, then each bad variant: {kind: {class: path}}."""
     rng = random.Random(16)
     p = lambda name: os.path.join(tmp, name)
@@ -55,7 +48,7 @@ def prepare(tmp):
     good["txt"] = p("good.txt")
     open(good["txt"], "w").write("".join(r.replace(",", " ") for r in rows))
     good["mcap"] = p("good.mcap")
-    subprocess.run([IMUKIT, "convert", good["csv"], "-o", good["mcap"]], check=True, capture_output=True)
+    subprocess.run([imukit, "convert", good["csv"], "-o", good["mcap"]], check=True, capture_output=True)
     good["bvh"] = p("good.bvh")
     shutil.copy(WALK, good["bvh"])
     good["scene"] = p("good_scene.json")
@@ -121,7 +114,7 @@ def prepare(tmp):
                     lines[k] = lines[k].rsplit(" ", 1)[0] + " " + value
                 open(source, "w").write("\n".join(lines))
                 v[cls] = p(f"{cls}_mcap.mcap")
-                subprocess.run([IMUKIT, "convert", source, "--columns", "t,gx,gy,gz,ax,ay,az", "--time-unit", "ns",
+                subprocess.run([imukit, "convert", source, "--columns", "t,gx,gy,gz,ax,ay,az", "--time-unit", "ns",
                                 "--gaps", "ax,ay,az", "-o", v[cls]], check=True, capture_output=True)
                 continue
             v[cls] = p(f"{cls}_{kind}{ext}")
@@ -207,23 +200,30 @@ def option_cases(tmp):
 # Values every numeric option must refuse at parse time (exit 2), and values some accept.
 NOT_NUMBERS = ["nan", "inf", "1e999", "abc", "", "0x10"]
 OUT_OF_RANGE = ["1e300", "-1e300"]
-OPTION_VALUES = ["nan", "abc", "1e300"] if QUICK else NOT_NUMBERS + OUT_OF_RANGE + ["-1", "0"]
 
 
-def run(args, cwd):
+def option_values(quick):
+    return ["nan", "abc", "1e300"] if quick else NOT_NUMBERS + OUT_OF_RANGE + ["-1", "0"]
+
+
+def timeout_s(quick):
+    return 60 if quick else 20  # s per run; the sanitizer build is ~10x slower
+
+
+def run(imukit, args, cwd, timeout):
     start = time.monotonic()
     try:
-        r = subprocess.run([IMUKIT, *args], capture_output=True, timeout=TIMEOUT, cwd=cwd, stdin=subprocess.DEVNULL)
+        r = subprocess.run([imukit, *args], capture_output=True, timeout=timeout, cwd=cwd, stdin=subprocess.DEVNULL)
         return r.returncode, r.stdout, r.stderr, time.monotonic() - start
     except subprocess.TimeoutExpired:
         return "hang", b"", b"", time.monotonic() - start
 
 
-def problems(rc, out, err, foreign):
+def problems(rc, out, err, foreign, timeout):
     """What is wrong with a run's outcome (empty: nothing)."""
     found = []
     if rc == "hang":
-        return [f"no result within {TIMEOUT} s"]
+        return [f"no result within {timeout} s"]
     if rc < 0:
         found.append(f"killed by signal {-rc}")
     elif rc not in (0, 1, 2, 3):
@@ -248,50 +248,66 @@ def problems(rc, out, err, foreign):
     return found
 
 
-with tempfile.TemporaryDirectory() as tmp:
-    good, files = prepare(tmp)
-    jobs = []  # (table row, table column, args, foreign)
-    for cls in CLASSES:
-        for command, kind, template in roles(good):
-            # Outputs in a folder per run: runs go in parallel.
-            out = os.path.join(tmp, "out", str(len(jobs)))
-            os.makedirs(out)
-            args = [a.replace("{F}", files[kind][cls]).replace("{O}", out) for a in template]
-            jobs.append((cls, command, args, cls == "foreign"))
-    for command, option, base in option_cases(tmp):
-        for value in OPTION_VALUES:
-            jobs.append(("option value", command, base[:1] + [f"{option}={value}"] + base[1:], False, value))
-    start = time.monotonic()
-    with concurrent.futures.ThreadPoolExecutor(JOBS) as pool:
-        results = list(pool.map(lambda j: run(j[2], tmp), jobs))
-    elapsed = time.monotonic() - start
+def sweep(imukit, quick, workers=2, verbose=False):
+    """Runs every case (in `workers` threads), prints the table of exit codes; returns what went
+    wrong, one line per failed run."""
+    with tempfile.TemporaryDirectory() as tmp:
+        good, files = prepare(tmp, imukit)
+        jobs = []  # (table row, table column, args, foreign)
+        for cls in CLASSES:
+            for command, kind, template in roles(good):
+                # Outputs in a folder per run: runs go in parallel.
+                out = os.path.join(tmp, "out", str(len(jobs)))
+                os.makedirs(out)
+                args = [a.replace("{F}", files[kind][cls]).replace("{O}", out) for a in template]
+                jobs.append((cls, command, args, cls == "foreign"))
+        for command, option, base in option_cases(tmp):
+            for value in option_values(quick):
+                jobs.append(("option value", command, base[:1] + [f"{option}={value}"] + base[1:], False, value))
+        start = time.monotonic()
+        with concurrent.futures.ThreadPoolExecutor(workers) as pool:
+            results = list(pool.map(lambda j: run(imukit, j[2], tmp, timeout_s(quick)), jobs))
+        elapsed = time.monotonic() - start
 
-    table = {}
-    slowest = 0.0
-    for job, (rc, out, err, seconds) in zip(jobs, results):
-        row, column, args, foreign = job[:4]
-        slowest = max(slowest, seconds)
-        found = problems(rc, out, err, foreign)
-        if row == "option value" and job[4] in NOT_NUMBERS + OUT_OF_RANGE and rc != 2:
-            found.append(f"{job[4]!r} is not refused as a usage error")
-        table.setdefault(row, {}).setdefault(column, set()).add(str(rc))
-        if VERBOSE:
-            first = err.decode(errors="replace").strip().splitlines()
-            print(f"{rc} [{row}] {' '.join(args)}\n    {first[-1] if first else ''}")
-        if found:
-            check(False, f"{' '.join(args)} -> {rc}: {'; '.join(found)} | {err.decode(errors='replace').strip()[:300]}")
-        else:
-            check.passed += 1
+        table = {}
+        failures = []
+        slowest = 0.0
+        for job, (rc, out, err, seconds) in zip(jobs, results):
+            row, column, args, foreign = job[:4]
+            slowest = max(slowest, seconds)
+            found = problems(rc, out, err, foreign, timeout_s(quick))
+            if row == "option value" and job[4] in NOT_NUMBERS + OUT_OF_RANGE and rc != 2:
+                found.append(f"{job[4]!r} is not refused as a usage error")
+            table.setdefault(row, {}).setdefault(column, set()).add(str(rc))
+            if verbose:
+                first = err.decode(errors="replace").strip().splitlines()
+                print(f"{rc} [{row}] {' '.join(args)}\n    {first[-1] if first else ''}")
+            if found:
+                failures.append(f"{' '.join(args)} -> {rc}: {'; '.join(found)} | "
+                                f"{err.decode(errors='replace').strip()[:300]}")
 
-    commands = ["info", "convert", "characterize", "calibrate", "simulate", "augment", "identify", "record",
-                "devices", "demo"]
-    print(f"\n{len(jobs)} runs in {elapsed:.1f} s with {JOBS} workers (slowest {slowest:.2f} s)")
-    print("exit codes seen (0 done, 1 bad input, 2 usage, 3 I/O):\n")
-    print("| input | " + " | ".join(commands) + " |")
-    print("|---|" + "---|" * len(commands))
-    for row in CLASSES + ["option value"]:
-        cells = [", ".join(sorted(table.get(row, {}).get(c, set()))) or "-" for c in commands]
-        print(f"| {row} | " + " | ".join(cells) + " |")
-    print()
+        commands = ["info", "convert", "characterize", "calibrate", "simulate", "augment", "identify", "record",
+                    "devices", "demo"]
+        print(f"\n{len(jobs)} runs in {elapsed:.1f} s with {workers} workers (slowest {slowest:.2f} s)")
+        print("exit codes seen (0 done, 1 bad input, 2 usage, 3 I/O):\n")
+        print("| input | " + " | ".join(commands) + " |")
+        print("|---|" + "---|" * len(commands))
+        for row in CLASSES + ["option value"]:
+            cells = [", ".join(sorted(table.get(row, {}).get(c, set()))) or "-" for c in commands]
+            print(f"| {row} | " + " | ".join(cells) + " |")
+        print()
+    return failures
 
-check.finish()
+
+def test_every_bad_input_ends_in_a_documented_way(imukit, quick):
+    failures = sweep(imukit, quick)
+    assert not failures, f"{len(failures)} run(s) went wrong:\n" + "\n".join(failures)
+
+
+if __name__ == "__main__":
+    argv = sys.argv
+    failed = sweep(os.path.abspath(argv[1]), "--quick" in argv[2:],
+                   int(argv[argv.index("--jobs") + 1]) if "--jobs" in argv else 2, "--verbose" in argv[2:])
+    print("\n".join(failed))
+    print(f"{len(failed)} run(s) went wrong")
+    sys.exit(1 if failed else 0)

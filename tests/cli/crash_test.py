@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """Crash safety of recordings through the real binary (issue 16, items 9 and 10):
 - a --no-refit recording (the online clock map) converts and characterizes;
 - `imukit record` killed with SIGKILL at several moments: the live file, `convert --recover`,
@@ -8,24 +7,21 @@
 - a closed recording damaged in a message index, a chunk header or a Channel record: plain
   reading fails with an error naming the file, recovery keeps every intact chunk.
 
-usage: crash_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
 import json
 import os
 import signal
 import subprocess
-import sys
-import tempfile
 import time
 import zlib
+from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
-from checks import Checks, imukit_runner
+from conftest import imukit_binary, run_imukit as run
 
-IMUKIT = sys.argv[1]
-run = imukit_runner(IMUKIT)
-check = Checks()
 HERE = os.path.dirname(os.path.abspath(__file__))
 PROFILE = os.path.join(HERE, "..", "..", "examples", "profiles", "wrist_watch_imu.json")
 TOPIC = "/imu/mock_static"
@@ -94,7 +90,7 @@ def kept(path):
 
 
 def info_samples(path):
-    r = subprocess.run([IMUKIT, "info", path], capture_output=True, text=True)
+    r = subprocess.run([imukit_binary(), "info", path], capture_output=True, text=True)
     for line in r.stdout.splitlines():
         if ": " in line and " samples over " in line:
             return int(line.split(": ", 1)[1].split()[0]), r
@@ -110,114 +106,147 @@ def gyro_density_ok(profile_json, what):
     got = json.load(open(profile_json))["gyroscope"]["noise"]["noise_density"]
     want = json.load(open(PROFILE))["gyroscope"]["noise"]["noise_density"]
     worst = max(abs(g / w - 1) for g, w in zip(got, want))
-    check(worst < 0.15, f"{what}: gyroscope noise density within 15 % of the mock's profile "
-                        f"(worst {worst * 100:.1f} %)")
+    assert worst < 0.15, f"{what}: gyroscope noise density within 15 % of the mock's profile " \
+                         f"(worst {worst * 100:.1f} %)"
 
 
-with tempfile.TemporaryDirectory() as tmp:
-    # 1. The issue's repro: a --no-refit recording carries the online clock map's times.
+def test_no_refit_recording_converts_and_characterizes(workdir):
+    """The issue's repro: a --no-refit recording carries the online clock map's times."""
+    tmp = workdir
     out = os.path.join(tmp, "n.mcap")
     r = run("record", f"mock:static?rate=1000&clock=virtual&profile={PROFILE}", "-o", out,
             "--duration", "5", "--no-refit")
-    check(r.returncode == 0, "record --no-refit succeeds")
+    assert r.returncode == 0, "record --no-refit succeeds"
     csv = os.path.join(tmp, "n.csv")
     r = run("convert", out, "-o", csv)
-    check(r.returncode == 0, f"convert reads the --no-refit recording ({r.stderr.strip()})")
-    t = csv_times(csv) if r.returncode == 0 else np.zeros(0, dtype=np.int64)
-    check(len(t) == kept(out) and len(t) > 4900,
-          f"with every sample ({len(t)} rows, {kept(out)} in the file's chunks)")
+    assert r.returncode == 0, f"convert reads the --no-refit recording ({r.stderr.strip()})"
+    t = csv_times(csv)
+    assert len(t) == kept(out) and len(t) > 4900, f"with every sample ({len(t)} rows, {kept(out)} in the file's chunks)"
     steps = np.diff(t)
-    check(len(steps) > 0 and steps.min() >= 0, "and times that never go back")
+    assert len(steps) > 0 and steps.min() >= 0, "and times that never go back"
     # Each interval within 10 % of the device's 1 ms, the slew's bound.
-    check(len(steps) > 0 and 0.9e6 - 1e3 <= steps.min() and steps.max() <= 1.1e6 + 1e3,
-          f"each interval within 10 % of 1 ms ({steps.min() / 1e3:.1f}..{steps.max() / 1e3:.1f} us)")
+    assert len(steps) > 0 and 0.9e6 - 1e3 <= steps.min() and steps.max() <= 1.1e6 + 1e3, \
+        f"each interval within 10 % of 1 ms ({steps.min() / 1e3:.1f}..{steps.max() / 1e3:.1f} us)"
     profile = os.path.join(tmp, "n.json")
     r = run("characterize", out, "-o", profile)
-    check(r.returncode == 0, "characterize reads it")
-    if r.returncode == 0:
-        gyro_density_ok(profile, "--no-refit")
+    assert r.returncode == 0, "characterize reads it"
+    gyro_density_ok(profile, "--no-refit")
 
-    # 2. kill -9 at several moments of a real-time recording.
-    previous = -1
-    for delay in (0.2, 1.5, 3.0):
-        out = os.path.join(tmp, f"k{delay}.mcap")
-        live = os.path.join(tmp, f"k{delay}.partial.mcap")
-        p = subprocess.Popen([IMUKIT, "record", f"mock:static?rate=1000&clock=real&profile={PROFILE}",
+
+DELAYS = (0.2, 1.5, 3.0)
+
+
+@pytest.fixture(scope="module")
+def killed_recordings(imukit, workdir):
+    """`imukit record` of a real-time 1 kHz mock killed with SIGKILL after each delay: {delay: (the
+    final file's path, the live file's path)}."""
+    files = {}
+    for delay in DELAYS:
+        out = os.path.join(workdir, f"k{delay}.mcap")
+        live = os.path.join(workdir, f"k{delay}.partial.mcap")
+        p = subprocess.Popen([imukit, "record", f"mock:static?rate=1000&clock=real&profile={PROFILE}",
                               "-o", out, "--duration", "60"],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         time.sleep(delay)
         p.send_signal(signal.SIGKILL)
         p.wait()
-        what = f"kill -9 after {delay} s"
-        check(os.path.exists(live) and not os.path.exists(out), f"{what}: the live file is left")
+        files[delay] = out, live
+    return files
+
+
+@pytest.mark.parametrize("delay", DELAYS)
+def test_killed_recording_reads_converts_and_recovers(workdir, killed_recordings, delay):
+    tmp = workdir
+    out, live = killed_recordings[delay]
+    what = f"kill -9 after {delay} s"
+    assert os.path.exists(live) and not os.path.exists(out), f"{what}: the live file is left"
+    n = kept(live)
+    # At most what 1 kHz gives in the time, at least all but the chunk being filled (250 ms)
+    # and the start-up (generous: sanitizer builds start slowly).
+    assert n <= 1000 * delay + 20 and (delay < 1 or n >= 1000 * (delay - 1.0)), \
+        f"{what}: {n} samples in complete chunks"
+    count, r = info_samples(live)
+    assert r.returncode == 0 and count == n, f"{what}: info reads {count} samples"
+    direct = os.path.join(tmp, f"k{delay}_direct.csv")
+    r = run("convert", live, "-o", direct)
+    assert r.returncode == 0 and len(csv_times(direct)) == n, \
+        f"{what}: convert reads the live file as it is (online times)"
+    fixed = os.path.join(tmp, f"k{delay}_fixed.mcap")
+    r = run("convert", "--recover", live, "-o", fixed)
+    assert r.returncode == 0, f"{what}: convert --recover succeeds"
+    assert n == 0 or "clock refitted" in r.stdout, f"{what}: and refits the clock"
+    count, r = info_samples(fixed)
+    assert count == n and "the file ends" not in r.stderr and kept(fixed) == n, \
+        f"{what}: the recovered file is complete, with the same {count} samples"
+    fixed_csv = os.path.join(tmp, f"k{delay}_fixed.csv")
+    r = run("convert", fixed, "-o", fixed_csv)
+    t = csv_times(fixed_csv) if r.returncode == 0 else np.zeros(0, dtype=np.int64)
+    assert r.returncode == 0 and len(t) == n and (n < 2 or np.diff(t).min() >= 0), \
+        f"{what}: convert writes {len(t)} rows, times never going back"
+    if delay >= 1.5:
+        profile = os.path.join(tmp, f"k{delay}.json")
+        r = run("characterize", fixed, "-o", profile)
+        assert r.returncode == 0, f"{what}: characterize reads the recovered file"
+        gyro_density_ok(profile, what)
+
+
+def test_a_longer_run_keeps_no_fewer_samples(killed_recordings):
+    previous = -1
+    for delay in DELAYS:
+        live = killed_recordings[delay][1]
         if not os.path.exists(live):
             continue
         n = kept(live)
-        # At most what 1 kHz gives in the time, at least all but the chunk being filled (250 ms)
-        # and the start-up (generous: sanitizer builds start slowly).
-        check(n <= 1000 * delay + 20 and (delay < 1 or n >= 1000 * (delay - 1.0)),
-              f"{what}: {n} samples in complete chunks")
-        check(n >= previous, f"{what}: no fewer than after a shorter run ({previous})")
+        assert n >= previous, f"kill -9 after {delay} s: no fewer than after a shorter run ({previous})"
         previous = n
-        count, r = info_samples(live)
-        check(r.returncode == 0 and count == n, f"{what}: info reads {count} samples")
-        direct = os.path.join(tmp, f"k{delay}_direct.csv")
-        r = run("convert", live, "-o", direct)
-        check(r.returncode == 0 and len(csv_times(direct)) == n,
-              f"{what}: convert reads the live file as it is (online times)")
-        fixed = os.path.join(tmp, f"k{delay}_fixed.mcap")
-        r = run("convert", "--recover", live, "-o", fixed)
-        check(r.returncode == 0, f"{what}: convert --recover succeeds")
-        check(n == 0 or "clock refitted" in r.stdout, f"{what}: and refits the clock")
-        count, r = info_samples(fixed)
-        check(count == n and "the file ends" not in r.stderr and kept(fixed) == n,
-              f"{what}: the recovered file is complete, with the same {count} samples")
-        fixed_csv = os.path.join(tmp, f"k{delay}_fixed.csv")
-        r = run("convert", fixed, "-o", fixed_csv)
-        t = csv_times(fixed_csv) if r.returncode == 0 else np.zeros(0, dtype=np.int64)
-        check(r.returncode == 0 and len(t) == n and (n < 2 or np.diff(t).min() >= 0),
-              f"{what}: convert writes {len(t)} rows, times never going back")
-        if delay >= 1.5:
-            profile = os.path.join(tmp, f"k{delay}.json")
-            r = run("characterize", fixed, "-o", profile)
-            check(r.returncode == 0, f"{what}: characterize reads the recovered file")
-            if r.returncode == 0:
-                gyro_density_ok(profile, what)
 
-    # 3. A closed recording damaged on disk: plain reading refuses it naming the file; recovery
-    # keeps every intact chunk.
-    good = os.path.join(tmp, "good.mcap")
+
+@pytest.fixture(scope="module")
+def closed_recording(workdir):
+    """A closed 3 s recording to damage, and what this file's own MCAP walker finds in it."""
+    good = os.path.join(workdir, "good.mcap")
     r = run("record", "mock:static?rate=1000&clock=virtual", "-o", good, "--duration", "3")
-    check(r.returncode == 0, "a 3 s recording to damage")
-    data = open(good, "rb").read()
+    assert r.returncode == 0, "a 3 s recording to damage"
     records = walk(good)
     per_chunk = chunk_counts(good)
-    total = sum(per_chunk)
     chunks = [(pos, body) for op, pos, body in records if op == 0x06]
-    index = next(pos for op, pos, _ in records if op == 0x07)
-    channel = next(pos for op, pos, body in records
-                   if op == 0x04 and body[8:8 + u32(body, 4)] == TOPIC.encode())
-    check(len(chunks) >= 4 and total > 2900, f"{len(chunks)} chunks, {total} samples")
-    cases = [
-        ("a message index", index + 9 + 6 + 3, 0x40, "data section CRC-32", total),
-        ("the compression of chunk 3", chunks[2][0] + 9 + 30, 0x01, "needs 65540 bytes",
-         total - per_chunk[2]),
-        ("the IMU Channel record's opcode", channel, 0xFF, "", total),
-    ]
-    for what, at, xor, error, expected in cases:
-        damaged = os.path.join(tmp, "damaged.mcap")
-        bad = bytearray(data)
-        bad[at] ^= xor
-        open(damaged, "wb").write(bad)
-        r = subprocess.run([IMUKIT, "convert", damaged, "-o", os.path.join(tmp, "d.csv")],
-                           capture_output=True, text=True)
-        if error:
-            check(r.returncode != 0 and error in r.stderr and damaged in r.stderr,
-                  f"{what} damaged: plain convert fails naming the file ({r.stderr.strip()})")
-        fixed = os.path.join(tmp, "damaged_fixed.mcap")
-        r = run("convert", "--recover", damaged, "-o", fixed)
-        count, _ = info_samples(fixed)
-        check(r.returncode == 0 and "damaged:" in r.stdout and count == expected,
-              f"{what} damaged: recovery keeps {count} of {total} samples (expected {expected})")
+    return SimpleNamespace(data=open(good, "rb").read(), records=records, per_chunk=per_chunk,
+                           total=sum(per_chunk), chunks=chunks)
 
-check.finish()
+
+def test_closed_recording_has_chunks_to_damage(closed_recording):
+    c = closed_recording
+    assert len(c.chunks) >= 4 and c.total > 2900, f"{len(c.chunks)} chunks, {c.total} samples"
+
+
+@pytest.mark.parametrize("case", ["index", "chunk", "channel"])
+def test_damaged_recording(workdir, closed_recording, case):
+    """A closed recording damaged on disk: plain reading refuses it naming the file; recovery keeps
+    every intact chunk."""
+    tmp, c = workdir, closed_recording
+    total, per_chunk, chunks, records = c.total, c.per_chunk, c.chunks, c.records
+    if case == "index":
+        index = next(pos for op, pos, _ in records if op == 0x07)
+        what, at, xor, error, expected = ("a message index", index + 9 + 6 + 3, 0x40, "data section CRC-32", total)
+    elif case == "chunk":
+        what, at, xor, error, expected = ("the compression of chunk 3", chunks[2][0] + 9 + 30, 0x01,
+                                          "needs 65540 bytes", total - per_chunk[2])
+    else:
+        channel = next(pos for op, pos, body in records
+                       if op == 0x04 and body[8:8 + u32(body, 4)] == TOPIC.encode())
+        what, at, xor, error, expected = ("the IMU Channel record's opcode", channel, 0xFF, "", total)
+    os.makedirs(os.path.join(tmp, case))
+    damaged = os.path.join(tmp, case, "damaged.mcap")
+    bad = bytearray(c.data)
+    bad[at] ^= xor
+    open(damaged, "wb").write(bad)
+    r = subprocess.run([imukit_binary(), "convert", damaged, "-o", os.path.join(tmp, case, "d.csv")],
+                       capture_output=True, text=True)
+    if error:
+        assert r.returncode != 0 and error in r.stderr and damaged in r.stderr, \
+            f"{what} damaged: plain convert fails naming the file ({r.stderr.strip()})"
+    fixed = os.path.join(tmp, case, "damaged_fixed.mcap")
+    r = run("convert", "--recover", damaged, "-o", fixed)
+    count, _ = info_samples(fixed)
+    assert r.returncode == 0 and "damaged:" in r.stdout and count == expected, \
+        f"{what} damaged: recovery keeps {count} of {total} samples (expected {expected})"

@@ -1,29 +1,21 @@
-#!/usr/bin/env python3
-"""End-to-end checks of `imukit identify` through the real binary:
+"""End-to-end tests of `imukit identify` through the real binary:
 1. a wrist sensor simulated by `imukit simulate` from a joint-quaternion CSV, with bias, noise
    and a 37 ms clock offset added here: identify --motion --joint --init recovers the
    placement (0.5 deg, 5 mm), the offset (1 ms) and the biases, and writes the plot data;
 2. the BROAD command of issue 8, exactly as written, on the first 50 s of trial 02 (rest, an
-   optical gap, the start of the motion): a lag of a few ms, smaller residuals after the fit;
+   optical gap, the start of the motion): a lag of a few ms, smaller residuals after the fit
+   (skipped in quick mode, the sanitizer build: the unit test covers it);
 3. one-line errors for bad invocations.
 
-usage: identify_cli_test.py IMUKIT_BINARY [--quick]
+run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
 import json
 import os
 import subprocess
-import sys
-import tempfile
+from types import SimpleNamespace
 
 import numpy as np
-from checks import Checks, data_dir, imukit_runner
-
-IMUKIT = sys.argv[1]
-QUICK = "--quick" in sys.argv[2:]  # sanitizer builds: skip the BROAD excerpt (the unit test covers it)
-DATA = data_dir()
-check = Checks()
-
-run = imukit_runner(IMUKIT)
+import pytest
 
 
 def expq(v):
@@ -45,8 +37,11 @@ def angle_between(a, b):
     return 2 * np.degrees(np.arccos(min(1.0, abs(float(np.dot(a, b))))))
 
 
-with tempfile.TemporaryDirectory() as tmp:
-    # Varied motion: pelvis turning about all axes and translating, shoulder and elbow swinging.
+@pytest.fixture(scope="module")
+def simulated_wrist(run, workdir):
+    """Varied motion (pelvis turning about all axes and translating, shoulder and elbow swinging),
+    a wrist sensor simulated from it, with biases, noise and a 37 ms clock offset added here."""
+    tmp = workdir
     rate, seconds = 100, 40
     t = np.arange(0, seconds * rate + 1) / rate
     cols = {"t": t, "root_x": 0.3 * np.sin(0.8 * t), "root_y": 0.25 * np.sin(1.2 * t + 1),
@@ -72,7 +67,7 @@ with tempfile.TemporaryDirectory() as tmp:
         json.dump(scene, f)
     out = os.path.join(tmp, "sim")
     r = run("simulate", scene_path, "-o", out)
-    check(r.returncode == 0, "simulate the wrist sensor")
+    assert r.returncode == 0, "simulate the wrist sensor"
     d = np.loadtxt(os.path.join(out, "watch.csv"), delimiter=",", comments="#")
     stamps = np.loadtxt(os.path.join(out, "watch.csv"), delimiter=",", comments="#", dtype=np.int64, usecols=0)
     rng = np.random.default_rng(4)
@@ -87,89 +82,104 @@ with tempfile.TemporaryDirectory() as tmp:
                 "a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2]\n")
         for ts, g, a in zip(stamps[keep] - int(offset * 1e9), gyro[keep], acc[keep]):
             f.write(f"{ts},{g[0]:.9g},{g[1]:.9g},{g[2]:.9g},{a[0]:.9g},{a[1]:.9g},{a[2]:.9g}\n")
-    placement = os.path.join(tmp, "placement.json")
-    plots = os.path.join(tmp, "plots")
-    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--init", "left_wrist_watch",
-            "--motion-start", "0", "-o", placement, "--plot", plots)
-    check(r.returncode == 0, "identify --motion --joint --init succeeds")
-    j = json.load(open(placement))
-    check(j["schema"] == "imukit.placement/1" and j["sensor"]["segment"] == "left_elbow", "placement JSON schema")
+    return SimpleNamespace(tmp=tmp, motion=motion, imu=imu, p_true=p_true, q_true=q_true, bg=bg, ba=ba,
+                           offset=offset, placement=os.path.join(tmp, "placement.json"))
+
+
+def test_recovers_placement_offset_and_biases(run, simulated_wrist):
+    s = simulated_wrist
+    plots = os.path.join(s.tmp, "plots")
+    r = run("identify", "--imu", s.imu, "--motion", s.motion, "--joint", "left_elbow", "--init", "left_wrist_watch",
+            "--motion-start", "0", "-o", s.placement, "--plot", plots)
+    assert r.returncode == 0, "identify --motion --joint --init succeeds"
+    j = json.load(open(s.placement))
+    assert j["schema"] == "imukit.placement/1" and j["sensor"]["segment"] == "left_elbow", "placement JSON schema"
     q = np.array(j["sensor"]["rotation"]["quaternion_wxyz"])
     p = np.array(j["sensor"]["position_m"])
-    check(angle_between(q, q_true) < 0.5, f"rotation within 0.5 deg ({angle_between(q, q_true):.3f})")
-    check(np.linalg.norm(p - p_true) < 0.005, f"position within 5 mm ({np.linalg.norm(p - p_true) * 1e3:.2f} mm)")
-    check(abs(j["timing"]["time_offset_s"] - offset) < 0.001, f"time offset within 1 ms ({j['timing']['time_offset_s']})")
+    assert angle_between(q, s.q_true) < 0.5, f"rotation within 0.5 deg ({angle_between(q, s.q_true):.3f})"
+    assert np.linalg.norm(p - s.p_true) < 0.005, \
+        f"position within 5 mm ({np.linalg.norm(p - s.p_true) * 1e3:.2f} mm)"
+    assert abs(j["timing"]["time_offset_s"] - s.offset) < 0.001, \
+        f"time offset within 1 ms ({j['timing']['time_offset_s']})"
     n = j["fit"]["samples_used"]
-    check(np.all(np.abs(np.array(j["accelerometer"]["bias_mps2"]) - ba) < 3 * 0.04 / np.sqrt(n) * 1.5)
-          and np.all(np.abs(np.array(j["gyroscope"]["bias_radps"]) - bg) < 3 * 0.004 / np.sqrt(n) * 1.5),
-          "biases within 3 standard errors (x1.5 for the correlation with the placement)")
-    check(j["fit"]["rms_after"]["gyro_radps"] < 0.0045 < j["fit"]["rms_before"]["gyro_radps"],
-          "gyro residual RMS falls to the noise")
+    assert np.all(np.abs(np.array(j["accelerometer"]["bias_mps2"]) - s.ba) < 3 * 0.04 / np.sqrt(n) * 1.5) \
+        and np.all(np.abs(np.array(j["gyroscope"]["bias_radps"]) - s.bg) < 3 * 0.004 / np.sqrt(n) * 1.5), \
+        "biases within 3 standard errors (x1.5 for the correlation with the placement)"
+    assert j["fit"]["rms_after"]["gyro_radps"] < 0.0045 < j["fit"]["rms_before"]["gyro_radps"], \
+        "gyro residual RMS falls to the noise"
     sig = np.loadtxt(os.path.join(plots, "identify_signals.dat"))
-    check(sig.shape == (n, 19), "plot data: one row per sample, time + 3 x 6 channels")
-    check(os.path.exists(os.path.join(plots, "identify_signals.gp")), "gnuplot script written")
-    check(np.sqrt(np.mean((sig[:, 13:16] - sig[:, 1:4]) ** 2)) < 0.05, "plotted simulated accelerometer matches")
+    assert sig.shape == (n, 19), "plot data: one row per sample, time + 3 x 6 channels"
+    assert os.path.exists(os.path.join(plots, "identify_signals.gp")), "gnuplot script written"
+    assert np.sqrt(np.mean((sig[:, 13:16] - sig[:, 1:4]) ** 2)) < 0.05, "plotted simulated accelerometer matches"
 
-    # 1b. The same with a twist correction and a wide clock-rate range: there is no twist and
-    # no time scale in the truth, so both come out near zero and the placement is unchanged.
-    placement2 = os.path.join(tmp, "placement_twist.json")
-    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--init", "left_wrist_watch",
+
+def test_twist_and_clock_rate_find_nothing_where_there_is_none(run, simulated_wrist):
+    """The same with a twist correction and a wide clock-rate range: there is no twist and no time
+    scale in the truth, so both come out near zero and the placement is unchanged."""
+    s = simulated_wrist
+    placement2 = os.path.join(s.tmp, "placement_twist.json")
+    r = run("identify", "--imu", s.imu, "--motion", s.motion, "--joint", "left_elbow", "--init", "left_wrist_watch",
             "--motion-start", "0", "--correct", "twist", "--estimate", "clock_rate", "--max-clock-rate", "0.05",
             "--function-tolerance", "1e-6", "-o", placement2)
-    check(r.returncode == 0, "identify --correct twist --estimate clock_rate succeeds")
+    assert r.returncode == 0, "identify --correct twist --estimate clock_rate succeeds"
     j2 = json.load(open(placement2))
     q2 = np.array(j2["sensor"]["rotation"]["quaternion_wxyz"])
-    check(j2["correction"]["kind"] == "twist" and j2["correction"]["rms_angle_rad"][0] < np.radians(0.5),
-          f"no twist found where there is none ({np.degrees(j2['correction']['rms_angle_rad'][0]):.3f} deg RMS)")
-    check(abs(j2["timing"]["clock_rate"]) < 1e-4, f"no time scale found ({j2['timing']['clock_rate']:.2e})")
-    check(angle_between(q2, q_true) < 0.5, f"rotation within 0.5 deg with the correction ({angle_between(q2, q_true):.3f})")
+    assert j2["correction"]["kind"] == "twist" and j2["correction"]["rms_angle_rad"][0] < np.radians(0.5), \
+        f"no twist found where there is none ({np.degrees(j2['correction']['rms_angle_rad'][0]):.3f} deg RMS)"
+    assert abs(j2["timing"]["clock_rate"]) < 1e-4, f"no time scale found ({j2['timing']['clock_rate']:.2e})"
+    assert angle_between(q2, s.q_true) < 0.5, \
+        f"rotation within 0.5 deg with the correction ({angle_between(q2, s.q_true):.3f})"
     fa = j2["fit"]["fidelity_after"]
-    check(min(fa["gyro"]["correlation"]) > 0.999 and len(fa["accel"]["rmse_mps2"]) == 3,
-          "per-axis fidelity in the JSON")
-    check("segment correction twist" in r.stdout and "fidelity per axis" in r.stdout and "time scale" in r.stdout,
-          "the correction, time scale and fidelity are printed")
+    assert min(fa["gyro"]["correlation"]) > 0.999 and len(fa["accel"]["rmse_mps2"]) == 3, \
+        "per-axis fidelity in the JSON"
+    assert "segment correction twist" in r.stdout and "fidelity per axis" in r.stdout and "time scale" in r.stdout, \
+        "the correction, time scale and fidelity are printed"
 
-    # 2. BROAD, the command of issue 8 on a 50 s excerpt.
-    trial = os.path.join(DATA, "broad", "02_undisturbed_slow_rotation_B.csv")
-    if QUICK:
-        print("SKIP BROAD: --quick")
-    elif os.path.exists(trial):
-        excerpt = os.path.join(tmp, "02_undisturbed_slow_rotation_B.csv")
-        with open(trial) as src, open(excerpt, "w") as dst:
-            for i, line in enumerate(src):
-                if i > 1 + 50 * 285:
-                    break
-                dst.write(line)
-        out_json = os.path.join(tmp, "broad.json")
-        r = subprocess.run([IMUKIT, "identify", "--imu", "02_undisturbed_slow_rotation_B.csv", "--columns",
-                            "t,ax,ay,az,gx,gy,gz,_,_,_,_,_,_,_,_,_,_,_", "--pose", "02_undisturbed_slow_rotation_B.csv",
-                            "--columns", "t,_,_,_,_,_,_,_,_,_,qw,qx,qy,qz,px,py,pz,_", "--gaps", "qw,qx,qy,qz,px,py,pz",
-                            "-o", out_json], capture_output=True, text=True, cwd=tmp)
-        if r.returncode != 0:
-            print(r.stdout, r.stderr)
-        check(r.returncode == 0, "the BROAD command of issue 8 runs as written")
-        b = json.load(open(out_json))
-        check(-0.008 < b["timing"]["time_offset_s"] < -0.002, f"BROAD lag a few ms, IMU late ({b['timing']['time_offset_s']})")
-        check(b["fit"]["rms_after"]["gyro_radps"] < b["fit"]["rms_before"]["gyro_radps"]
-              and b["fit"]["rms_after"]["accel_mps2"] < b["fit"]["rms_before"]["accel_mps2"], "BROAD residuals fall")
-        check("missing rows" in r.stdout and b["fit"]["samples_excluded"] > 0, "BROAD gap reported and skipped")
-    else:
-        print(f"SKIP BROAD: {trial} not found")
 
-    # 3. Errors: one line, non-zero exit.
+def test_broad_command_of_issue_8(imukit, workdir, quick, data_file):
+    """BROAD, the command of issue 8 on a 50 s excerpt."""
+    if quick:
+        pytest.skip("quick mode (sanitizer build): the unit test covers the BROAD excerpt")
+    trial = data_file("broad", "02_undisturbed_slow_rotation_B.csv")
+    excerpt = os.path.join(workdir, "02_undisturbed_slow_rotation_B.csv")
+    with open(trial) as src, open(excerpt, "w") as dst:
+        for i, line in enumerate(src):
+            if i > 1 + 50 * 285:
+                break
+            dst.write(line)
+    out_json = os.path.join(workdir, "broad.json")
+    r = subprocess.run([imukit, "identify", "--imu", "02_undisturbed_slow_rotation_B.csv", "--columns",
+                        "t,ax,ay,az,gx,gy,gz,_,_,_,_,_,_,_,_,_,_,_", "--pose", "02_undisturbed_slow_rotation_B.csv",
+                        "--columns", "t,_,_,_,_,_,_,_,_,_,qw,qx,qy,qz,px,py,pz,_", "--gaps", "qw,qx,qy,qz,px,py,pz",
+                        "-o", out_json], capture_output=True, text=True, cwd=workdir)
+    if r.returncode != 0:
+        print(r.stdout, r.stderr)
+    assert r.returncode == 0, "the BROAD command of issue 8 runs as written"
+    b = json.load(open(out_json))
+    assert -0.008 < b["timing"]["time_offset_s"] < -0.002, \
+        f"BROAD lag a few ms, IMU late ({b['timing']['time_offset_s']})"
+    assert b["fit"]["rms_after"]["gyro_radps"] < b["fit"]["rms_before"]["gyro_radps"] \
+        and b["fit"]["rms_after"]["accel_mps2"] < b["fit"]["rms_before"]["accel_mps2"], "BROAD residuals fall"
+    assert "missing rows" in r.stdout and b["fit"]["samples_excluded"] > 0, "BROAD gap reported and skipped"
+
+
+def test_errors_are_one_line(run, simulated_wrist):
+    """Errors: one line, non-zero exit."""
+    s = simulated_wrist
+    imu, motion, placement = s.imu, s.motion, s.placement
     r = run("identify", "-o", placement, "--motion", motion, "--joint", "left_elbow")
-    check(r.returncode != 0 and "--imu" in r.stderr and len(r.stderr.strip().splitlines()) == 1, "missing --imu")
+    assert r.returncode != 0 and "--imu" in r.stderr and len(r.stderr.strip().splitlines()) == 1, "missing --imu"
     r = run("identify", "--imu", imu, "--pose", imu, "-o", placement)
-    check(r.returncode != 0 and "--columns" in r.stderr, "a pose file without a column map")
+    assert r.returncode != 0 and "--columns" in r.stderr, "a pose file without a column map"
     r = run("identify", "--imu", imu, "--motion", motion, "--joint", "no_such_joint", "-o", placement)
-    check(r.returncode != 0 and "no_such_joint" in r.stderr, "unknown joint")
-    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--fix", "elbow_room", "-o", placement)
-    check(r.returncode != 0 and "elbow_room" in r.stderr, "unknown --fix name")
-    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--correct", "spin", "-o", placement)
-    check(r.returncode != 0 and "spin" in r.stderr, "unknown --correct kind")
+    assert r.returncode != 0 and "no_such_joint" in r.stderr, "unknown joint"
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--fix", "elbow_room", "-o",
+            placement)
+    assert r.returncode != 0 and "elbow_room" in r.stderr, "unknown --fix name"
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--correct", "spin", "-o",
+            placement)
+    assert r.returncode != 0 and "spin" in r.stderr, "unknown --correct kind"
     r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--correct", "twist",
             "--knot-spacing", "-1", "-o", placement)
-    check(r.returncode != 0 and "knot-spacing" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
-          "a negative knot spacing is one clear line")
-
-sys.exit(check.finish())
+    assert r.returncode != 0 and "knot-spacing" in r.stderr and len(r.stderr.strip().splitlines()) == 1, \
+        "a negative knot spacing is one clear line"

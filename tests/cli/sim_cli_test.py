@@ -1,25 +1,43 @@
-#!/usr/bin/env python3
-"""End-to-end checks of `imukit simulate` through the real binary, read back with NumPy:
+"""End-to-end tests of `imukit simulate` through the real binary, read back with NumPy:
 presets list, a scene JSON with hardware noise and ground truth, a still body read from a
 joint-quaternion CSV (|acc| = g and gyro = 0 exactly), a magnetometer on a drifting device clock
 (CSV and MCAP), clear errors, and the quick BVH form.
 
-usage: sim_cli_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
 import json
 import os
-import subprocess
-import sys
-import tempfile
+from types import SimpleNamespace
 
 import numpy as np
-from checks import Checks, data_dir, imukit_runner
+import pytest
 
-IMUKIT = sys.argv[1]
-DATA = data_dir()
-check = Checks()
-
-run = imukit_runner(IMUKIT)
+DENSITY = 0.002
+SCENE = {
+    "schema": "imukit.scene/1",
+    "body": {"default_humanoid": {"height_m": 1.8}},
+    "motion": {"procedural": {"rate_hz": 100, "duration_s": 30, "seed": 5}},
+    "simulation": {"method": "spline", "rate_hz": 200, "seed": 11},
+    "outputs": {"ground_truth": True},
+    "sensors": [{"name": "watch", "preset": "left_wrist_watch",
+                 "hardware": {"schema": "imukit.profile/1",
+                              "accelerometer": {"noise": {"noise_density": [DENSITY] * 3}}}},
+                {"name": "belt", "preset": "waist_belt"}],
+}
+# A magnetometer with hard iron on a device whose clock runs 200 ppm fast.
+B = [0.0, 2.2e-5, -4.1e-5]
+HARD_IRON = [1e-6, -2e-6, 3e-6]
+MAG_SCENE = {
+    "schema": "imukit.scene/1",
+    "motion": {"procedural": {"rate_hz": 100, "duration_s": 100, "seed": 2}},
+    "simulation": {"magnetic_field": B},
+    "outputs": {"ground_truth": True},
+    "sensors": [{"name": "watch", "preset": "left_wrist_watch",
+                 "outputs": ["accelerometer", "gyroscope", "magnetometer"],
+                 "hardware": {"schema": "imukit.profile/1",
+                              "magnetometer": {"hard_iron": HARD_IRON},
+                              "clock": {"error_ppm": 200}}}],
+}
 
 
 def euroc(path):
@@ -30,70 +48,73 @@ def euroc(path):
     return header, t, d[:, 1:4], d[:, 4:7]
 
 
-r = run("simulate", "--list-presets")
-names = [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
-check(r.returncode == 0 and len(names) == 12 and "left_wrist_watch" in names and "waist_belt" in names,
-      "--list-presets prints the 12 presets")
+def test_list_presets(run):
+    r = run("simulate", "--list-presets")
+    names = [line.split()[0] for line in r.stdout.splitlines() if line.strip()]
+    assert r.returncode == 0 and len(names) == 12 and "left_wrist_watch" in names and "waist_belt" in names, \
+        "--list-presets prints the 12 presets"
 
-with tempfile.TemporaryDirectory() as tmp:
-    density = 0.002
-    scene = {
-        "schema": "imukit.scene/1",
-        "body": {"default_humanoid": {"height_m": 1.8}},
-        "motion": {"procedural": {"rate_hz": 100, "duration_s": 30, "seed": 5}},
-        "simulation": {"method": "spline", "rate_hz": 200, "seed": 11},
-        "outputs": {"ground_truth": True},
-        "sensors": [{"name": "watch", "preset": "left_wrist_watch",
-                     "hardware": {"schema": "imukit.profile/1",
-                                  "accelerometer": {"noise": {"noise_density": [density] * 3}}}},
-                    {"name": "belt", "preset": "waist_belt"}],
-    }
-    path = os.path.join(tmp, "scene.json")
+
+@pytest.fixture(scope="module")
+def scene_run(run, workdir):
+    """The procedural scene with accelerometer noise and ground truth, simulated into a folder."""
+    path = os.path.join(workdir, "scene.json")
     with open(path, "w") as f:
-        json.dump(scene, f)
-    out = os.path.join(tmp, "out")
+        json.dump(SCENE, f)
+    out = os.path.join(workdir, "out")
     r = run("simulate", path, "-o", out)
-    check(r.returncode == 0, "simulate SCENE.json -o DIR succeeds")
+    assert r.returncode == 0, "simulate SCENE.json -o DIR succeeds"
+    return SimpleNamespace(path=path, out=out)
+
+
+def test_scene_outputs_noise_and_truth(run, workdir, scene_run):
+    out = scene_run.out
     header, t, gyro, acc = euroc(os.path.join(out, "watch.csv"))
     _, tt, gyro_true, acc_true = euroc(os.path.join(out, "watch.truth.csv"))
-    check(header.startswith("#timestamp [ns],w_RS_S_x"), "EuRoC header")
-    check(len(t) == 6001 and np.array_equal(t, np.arange(6001, dtype=np.int64) * 5_000_000),
-          "6001 samples at exactly 5 ms steps")
-    check(np.array_equal(tt, t) and np.array_equal(gyro, gyro_true), "truth file aligned; ideal gyro unchanged")
+    assert header.startswith("#timestamp [ns],w_RS_S_x"), "EuRoC header"
+    assert len(t) == 6001 and np.array_equal(t, np.arange(6001, dtype=np.int64) * 5_000_000), \
+        "6001 samples at exactly 5 ms steps"
+    assert np.array_equal(tt, t) and np.array_equal(gyro, gyro_true), "truth file aligned; ideal gyro unchanged"
     sigma = np.std(acc - acc_true)
-    expected = density * np.sqrt(200.0)
-    check(abs(sigma / expected - 1) < 0.03, f"accelerometer noise sigma {sigma:.5f} = density sqrt(rate) {expected:.5f} (3 %)")
+    expected = DENSITY * np.sqrt(200.0)
+    assert abs(sigma / expected - 1) < 0.03, \
+        f"accelerometer noise sigma {sigma:.5f} = density sqrt(rate) {expected:.5f} (3 %)"
     med = np.median(np.linalg.norm(acc_true, axis=1))
-    check(5.0 < med < 15.0, f"median |acc| of the procedural motion is plausible ({med:.2f})")
+    assert 5.0 < med < 15.0, f"median |acc| of the procedural motion is plausible ({med:.2f})"
     info = json.load(open(os.path.join(out, "simulation.json")))
-    check(info["gravity_world"] == [0, 0, -9.80665] and info["method"] == "spline" and info["seed"] == 11,
-          "simulation.json records gravity, method and seed")
-    r2 = run("simulate", path, "-o", os.path.join(tmp, "out2"))
-    _, _, _, acc2 = euroc(os.path.join(tmp, "out2", "watch.csv"))
-    check(np.array_equal(acc, acc2), "same seed, same output")
+    assert info["gravity_world"] == [0, 0, -9.80665] and info["method"] == "spline" and info["seed"] == 11, \
+        "simulation.json records gravity, method and seed"
+    run("simulate", scene_run.path, "-o", os.path.join(workdir, "out2"))
+    _, _, _, acc2 = euroc(os.path.join(workdir, "out2", "watch.csv"))
+    assert np.array_equal(acc, acc2), "same seed, same output"
 
-    # A still body from a joint-quaternion CSV: |acc| = 9.80665 and gyro = 0 on every sample.
+
+@pytest.mark.parametrize("method", ["fd", "spline", "reference"])
+def test_still_body_reads_g(run, workdir, method):
+    """A still body from a joint-quaternion CSV: |acc| = 9.80665 and gyro = 0 on every sample."""
     q = np.array([0.8, 0.2, -0.4, 0.4])
     q = q / np.linalg.norm(q)
-    csv = os.path.join(tmp, "still.csv")
+    csv = os.path.join(workdir, "still.csv")
     with open(csv, "w") as f:
         f.write("t,root_x,root_y,root_z,pelvis_qw,pelvis_qx,pelvis_qy,pelvis_qz\n")
         for k in range(50):
             f.write(f"{k * 0.02:.2f},0.1,0.2,1.0,{q[0]!r},{q[1]!r},{q[2]!r},{q[3]!r}\n")
     still = {"schema": "imukit.scene/1", "motion": {"quaternion_csv": "still.csv"},
              "sensors": [{"preset": "chest_strap"}]}
-    spath = os.path.join(tmp, "still.json")
+    spath = os.path.join(workdir, "still.json")
     json.dump(still, open(spath, "w"))
-    for method in ("fd", "spline", "reference"):
-        r = run("simulate", spath, "-o", os.path.join(tmp, "still_" + method), "--method", method)
-        _, t, g, a = euroc(os.path.join(tmp, "still_" + method, "chest_strap.csv"))
-        check(r.returncode == 0 and len(t) == 50 and np.max(np.abs(np.linalg.norm(a, axis=1) - 9.80665)) < 1e-12
-              and np.all(g == 0.0), f"still body ({method}): |acc| = g, gyro = 0")
+    r = run("simulate", spath, "-o", os.path.join(workdir, "still_" + method), "--method", method)
+    _, t, g, a = euroc(os.path.join(workdir, "still_" + method, "chest_strap.csv"))
+    assert r.returncode == 0 and len(t) == 50 and np.max(np.abs(np.linalg.norm(a, axis=1) - 9.80665)) < 1e-12 \
+        and np.all(g == 0.0), f"still body ({method}): |acc| = g, gyro = 0"
 
-    # -o FILE.mcap: the same samples as the CSV folder, read back through `imukit convert`.
-    mcap = os.path.join(tmp, "x.mcap")
-    r = run("simulate", path, "-o", mcap)
-    back = os.path.join(tmp, "from_mcap")
+
+def test_mcap_output_equals_csv(run, workdir, scene_run):
+    """-o FILE.mcap: the same samples as the CSV folder, read back through `imukit convert`."""
+    out = scene_run.out
+    mcap = os.path.join(workdir, "x.mcap")
+    r = run("simulate", scene_run.path, "-o", mcap)
+    back = os.path.join(workdir, "from_mcap")
     r2 = run("convert", mcap, "-o", back)
     ok = r.returncode == 0 and r2.returncode == 0
     if ok:
@@ -102,26 +123,20 @@ with tempfile.TemporaryDirectory() as tmp:
                 _, t1, g1, a1 = euroc(os.path.join(out, name))
                 _, t2, g2, a2 = euroc(os.path.join(back, name))
                 ok = ok and np.array_equal(t1, t2) and np.array_equal(g1, g2) and np.array_equal(a1, a2)
-    check(ok, "-o FILE.mcap holds exactly the samples of the CSV output")
-    # A magnetometer with hard iron on a device whose clock runs 200 ppm fast.
-    B = [0.0, 2.2e-5, -4.1e-5]
-    hard_iron = [1e-6, -2e-6, 3e-6]
-    mscene = {
-        "schema": "imukit.scene/1",
-        "motion": {"procedural": {"rate_hz": 100, "duration_s": 100, "seed": 2}},
-        "simulation": {"magnetic_field": B},
-        "outputs": {"ground_truth": True},
-        "sensors": [{"name": "watch", "preset": "left_wrist_watch",
-                     "outputs": ["accelerometer", "gyroscope", "magnetometer"],
-                     "hardware": {"schema": "imukit.profile/1",
-                                  "magnetometer": {"hard_iron": hard_iron},
-                                  "clock": {"error_ppm": 200}}}],
-    }
-    mpath = os.path.join(tmp, "mag.json")
-    json.dump(mscene, open(mpath, "w"))
-    mout = os.path.join(tmp, "mag_out")
-    r = run("simulate", mpath, "-o", mout)
-    check(r.returncode == 0, "simulate a magnetometer on a drifting clock")
+    assert ok, "-o FILE.mcap holds exactly the samples of the CSV output"
+
+
+@pytest.fixture(scope="module")
+def mag_scene(workdir):
+    mpath = os.path.join(workdir, "mag.json")
+    json.dump(MAG_SCENE, open(mpath, "w"))
+    return mpath
+
+
+def test_magnetometer_on_a_drifting_clock(run, workdir, mag_scene):
+    mout = os.path.join(workdir, "mag_out")
+    r = run("simulate", mag_scene, "-o", mout)
+    assert r.returncode == 0, "simulate a magnetometer on a drifting clock"
     _, t, _, _ = euroc(os.path.join(mout, "watch.csv"))
     _, tt, _, _ = euroc(os.path.join(mout, "watch.truth.csv"))
     with open(os.path.join(mout, "watch.mag.csv")) as f:
@@ -131,40 +146,40 @@ with tempfile.TemporaryDirectory() as tmp:
     n = int(np.floor(100 * 100 * 1.0002 + 1e-9)) + 1  # 10003 samples, not 10001
     k = np.arange(n, dtype=np.int64)
     true_t = np.array([round(int(i) * 10**9 / 100.02) for i in k], dtype=np.int64)
-    check(mag_header == "#timestamp [ns],m_S_x [T],m_S_y [T],m_S_z [T]", "magnetometer CSV header")
-    check(len(t) == n and np.array_equal(t, k * 10_000_000) and np.array_equal(m[:, 0].astype(np.int64), t),
-          f"+200 ppm: {n} samples stamped k / rate by the device, magnetometer rows at the same stamps")
-    check(np.array_equal(tt, true_t) and np.array_equal(mt[:, 0].astype(np.int64), tt),
-          "ground truth at the true instants k / (rate (1 + 200e-6))")
+    assert mag_header == "#timestamp [ns],m_S_x [T],m_S_y [T],m_S_z [T]", "magnetometer CSV header"
+    assert len(t) == n and np.array_equal(t, k * 10_000_000) and np.array_equal(m[:, 0].astype(np.int64), t), \
+        f"+200 ppm: {n} samples stamped k / rate by the device, magnetometer rows at the same stamps"
+    assert np.array_equal(tt, true_t) and np.array_equal(mt[:, 0].astype(np.int64), tt), \
+        "ground truth at the true instants k / (rate (1 + 200e-6))"
     norm_err = np.max(np.abs(np.linalg.norm(mt[:, 1:4], axis=1) / np.linalg.norm(B) - 1))
-    check(norm_err < 1e-12, f"|m_true| = |B| on every sample ({norm_err:.1e})")
-    check(np.max(np.abs(m[:, 1:4] - mt[:, 1:4] - np.array(hard_iron))) < 1e-18, "hard iron adds its offset")
+    assert norm_err < 1e-12, f"|m_true| = |B| on every sample ({norm_err:.1e})"
+    assert np.max(np.abs(m[:, 1:4] - mt[:, 1:4] - np.array(HARD_IRON))) < 1e-18, "hard iron adds its offset"
     info = json.load(open(os.path.join(mout, "simulation.json")))
-    check(info["magnetic_field_world"] == B and info["sensors"][0]["clock_error_ppm"] == 200,
-          "simulation.json records the magnetic field and the clock error")
-    mmcap = os.path.join(tmp, "mag.mcap")
-    r = run("simulate", mpath, "-o", mmcap)
+    assert info["magnetic_field_world"] == B and info["sensors"][0]["clock_error_ppm"] == 200, \
+        "simulation.json records the magnetic field and the clock error"
+
+
+def test_magnetometer_in_mcap(run, workdir, mag_scene):
+    mmcap = os.path.join(workdir, "mag.mcap")
+    r = run("simulate", mag_scene, "-o", mmcap)
     r2 = run("info", mmcap)
     mag_lines = [line for line in r2.stdout.splitlines() if line.strip().startswith("mag") and "[T]" in line]
-    check(r.returncode == 0 and r2.returncode == 0 and len(mag_lines) == 2,
-          "-o FILE.mcap: info reads /imu/watch/mag (and its truth) back into the streams' magnetometer")
+    assert r.returncode == 0 and r2.returncode == 0 and len(mag_lines) == 2, \
+        "-o FILE.mcap: info reads /imu/watch/mag (and its truth) back into the streams' magnetometer"
 
-    bad = dict(scene, sensors=[{"preset": "left_sock"}])
-    json.dump(bad, open(path, "w"))
-    r = run("simulate", path, "-o", out)
-    check(r.returncode != 0 and "sensors[0].preset" in r.stderr, "unknown preset names the JSON path")
 
-    walk = os.path.join(DATA, "mocap", "scaled_131_01_walk.bvh")
-    if os.path.exists(walk):
-        r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "-o", os.path.join(tmp, "walk"))
-        _, t, g, a = euroc(os.path.join(tmp, "walk", "left_wrist_watch.csv"))
-        med = np.median(np.linalg.norm(a, axis=1))
-        peak = np.max(np.linalg.norm(g, axis=1))
-        check(r.returncode == 0 and len(t) == 995 and 8.3 < med < 11.3 and 1 < peak < 15,
-              f"walk BVH, left watch: 995 samples, median |acc| {med:.2f}, gyro peak {peak:.2f}")
-    elif os.environ.get("CI") == "true":
-        check(False, "shared data folder missing under CI")
-    else:
-        print("skip: shared data folder missing (set IMUKIT_DATA_DIR)")
+def test_unknown_preset_names_the_json_path(run, workdir):
+    path = os.path.join(workdir, "bad_scene.json")
+    json.dump(dict(SCENE, sensors=[{"preset": "left_sock"}]), open(path, "w"))
+    r = run("simulate", path, "-o", os.path.join(workdir, "bad_out"))
+    assert r.returncode != 0 and "sensors[0].preset" in r.stderr, "unknown preset names the JSON path"
 
-check.finish()
+
+def test_bvh_quick_form(run, workdir, data_file):
+    walk = data_file("mocap", "scaled_131_01_walk.bvh")
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "-o", os.path.join(workdir, "walk"))
+    _, t, g, a = euroc(os.path.join(workdir, "walk", "left_wrist_watch.csv"))
+    med = np.median(np.linalg.norm(a, axis=1))
+    peak = np.max(np.linalg.norm(g, axis=1))
+    assert r.returncode == 0 and len(t) == 995 and 8.3 < med < 11.3 and 1 < peak < 15, \
+        f"walk BVH, left watch: 995 samples, median |acc| {med:.2f}, gyro peak {peak:.2f}"

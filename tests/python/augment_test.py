@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """imukit Python package: STDA on (N, T, C) arrays in place (float32 and float64), policies,
 PPDA batches of a scene's windows (by index, description or dict; any thread count; into a
 caller's buffer), datasets equal to `imukit augment` for the same seed; bad input.
 
-usage: augment_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import json
 import os
@@ -13,7 +12,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import main, run_cli
+from support import run_cli
 
 
 def batch(n=8, t=60, c=12, dtype=np.float32, seed=0):
@@ -218,6 +217,37 @@ class Datasets(unittest.TestCase):
         np.testing.assert_array_equal(ds.X, X)
         self.assertTrue(np.shares_memory(ds.X, ds.X))
 
+    def test_options_object(self):
+        # imukit.DatasetOptions: the C++ fields and defaults, but threads 0 (all cores) in Python.
+        o = imukit.DatasetOptions()
+        self.assertEqual((o.window, o.stride, o.count, o.batch_size, o.seed, o.threads, o.normalize,
+                          o.identity_fraction, o.method, o.max_bytes),
+                         (100, 25, 0, 256, 0, 0, False, 0.0, "spline", 0))
+        o = imukit.DatasetOptions(window=50, stride=25, count=40, batch_size=16, seed=8, method="fd")
+        self.assertEqual((o.window, o.count, o.batch_size, o.seed, o.method), (50, 40, 16, 8, "fd"))
+        o.method = "spline"
+        self.assertEqual(o.method, "spline")
+        # options= gives exactly what the same keywords give; keywords override its fields on a copy.
+        scene, policy = imukit.parse_scene(json.dumps(SCENE)), imukit.read_policy("imukit")
+        by_keywords = imukit.generate_dataset(scene, policy, window=50, stride=25, count=40, batch_size=16, seed=8)
+        by_options = imukit.generate_dataset(scene, policy, options=o)
+        np.testing.assert_array_equal(by_options.X, by_keywords.X)
+        np.testing.assert_array_equal(by_options.sub_policy, by_keywords.sub_policy)
+        seed9 = imukit.generate_dataset(scene, policy, options=o, seed=9, threads=1)
+        np.testing.assert_array_equal(
+            seed9.X, imukit.generate_dataset(scene, policy, window=50, stride=25, count=40, batch_size=16, seed=9).X)
+        self.assertFalse(np.array_equal(seed9.X, by_options.X))
+        self.assertEqual((o.seed, o.threads), (8, 0))
+        # A name that is not a field, a value of the wrong type, an unknown method: clear errors.
+        with self.assertRaisesRegex(TypeError, "generate_dataset: unexpected keyword argument 'windw'"):
+            imukit.generate_dataset(scene, policy, windw=50)
+        with self.assertRaisesRegex(TypeError, "DatasetOptions: unexpected keyword argument 'describe'"):
+            imukit.DatasetOptions(describe=1)
+        with self.assertRaises(TypeError):
+            imukit.DatasetOptions(window=-1)
+        with self.assertRaises(imukit.Error):
+            imukit.DatasetOptions(method="splines")
+
     def test_sub_policy_list_equals_the_command(self):
         r = run_cli("augment", "--policy", "paper", "--list-sub-policies")
         if r.returncode != 0:
@@ -240,7 +270,3 @@ class Datasets(unittest.TestCase):
         labels = np.repeat(np.arange(7, dtype=np.int64), 43)[:301]
         np.testing.assert_array_equal(imukit.window_labels(labels, starts, 50),
                                       [np.bincount(labels[s:s + 50]).argmax() for s in starts])
-
-
-if __name__ == "__main__":
-    main()

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """imukit.datasets.utd_mhad: the UTD-MHAD reader against the files of the shared data folder.
 
-usage: datasets_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import os
 import tempfile
@@ -10,7 +9,7 @@ import unittest
 import numpy as np
 
 from imukit.datasets import utd_mhad
-from support import data_file, main
+from support import data_file
 
 
 class UtdMhad(unittest.TestCase):
@@ -62,7 +61,3 @@ class UtdMhad(unittest.TestCase):
                 utd_mhad.load_trial(d, trials[0])
         with self.assertRaisesRegex(FileNotFoundError, "no such folder"):
             utd_mhad.list_trials("/nonexistent")
-
-
-if __name__ == "__main__":
-    main()

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """imukit.har: the labelled-recordings format, windowing, the models, online STDA/PPDA, the learned
 policy's gradient, the experiments' bookkeeping, and a smoke run on UTD-MHAD (2 subjects,
 2 epochs, tiny models) that must learn better than chance.
 
-usage: har_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import contextlib
 import io
@@ -19,7 +18,7 @@ import imukit
 from imukit.har import (augmentation, experiments, models, recordings as rf, report, train, utd_mhad,
                         windows)
 from imukit.har.__main__ import main as har_main
-from support import data_file, main
+from support import data_file
 
 BVH = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
 PAPER = imukit.read_policy("paper")
@@ -440,7 +439,3 @@ class UtdMhadSmoke(unittest.TestCase):
             self.assertEqual(r["windows"], {"train": 651, "val": 504, "test": 504})
             if arm != "baseline":
                 self.assertGreater(r["augmented_windows"], 0)
-
-
-if __name__ == "__main__":
-    main()

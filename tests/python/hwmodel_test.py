@@ -1,8 +1,7 @@
-#!/usr/bin/env python3
 """imukit Python package: Allan deviation and noise fit on NumPy arrays, equal to what
 `imukit characterize` writes for the same recording; closed forms; views; bad input.
 
-usage: hwmodel_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import json
 import math
@@ -13,7 +12,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import main, run_cli
+from support import run_cli
 
 RATE = 100.0
 GYRO_N = 3e-4   # rad/s/sqrt(Hz)
@@ -137,7 +136,3 @@ class BadInput(unittest.TestCase):
             res.fit(0)
         with self.assertRaises(IndexError):
             imukit.allan_deviation(gyro, t).fit(3)
-
-
-if __name__ == "__main__":
-    main()

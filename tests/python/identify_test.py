@@ -15,7 +15,7 @@ import unittest
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from support import DATA, data_file, main, run_cli  # noqa: E402
+from support import DATA, data_file, run_cli  # noqa: E402
 
 import imukit  # noqa: E402
 
@@ -240,7 +240,3 @@ class UtdMhadScenes(unittest.TestCase):
                 batch = aug.apply({"placement": {"rotation_deg": [10, 10, 10], "long_axis_deg": 90}},
                                   aug.window_starts(25)[:4], 2)
                 self.assertTrue(np.all(np.isfinite(batch)))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,7 +1,6 @@
-#!/usr/bin/env python3
 """imukit Python package: Series views, EuRoC CSV, device profiles, error translation.
 
-usage: io_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import gc
 import json
@@ -12,7 +11,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import cli_error, euroc, main
+from support import cli_error, euroc
 
 
 def sample_series(n=50, seed=1):
@@ -171,7 +170,3 @@ class Profiles(unittest.TestCase):
         self.assertEqual(e.exception.line, 2)
         with self.assertRaises(TypeError):
             imukit.profile(42)
-
-
-if __name__ == "__main__":
-    main()

@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """imukit.motion_from_keypoints and custom bodies from Python (docs/keypoints.md, docs/python.md):
 a bundled BVH walk as exact Kinect and Human3.6M keypoints comes back with the truth's limb
 rotations; Body.from_arrays; per-subject bodies; clear errors; a real UTD-MHAD trial.
 
-usage: keypoints_test.py IMUKIT_BINARY   (PYTHONPATH must hold <build>/python)
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import os
 import unittest
@@ -11,7 +10,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import data_file, main
+from support import data_file
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WALK = os.path.join(HERE, "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
@@ -172,7 +171,3 @@ class UtdMhadTrial(unittest.TestCase):
         # (the real IMU's is 10.06 m/s^2) and the rate stays human (the real IMU peaks at 4.6 rad/s).
         self.assertAlmostEqual(np.linalg.norm(out.accel[valid], axis=1).mean(), 10.1, delta=1.0)
         self.assertLess(np.linalg.norm(out.gyro[valid], axis=1).max(), 8.0)
-
-
-if __name__ == "__main__":
-    main()

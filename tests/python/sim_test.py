@@ -1,9 +1,8 @@
-#!/usr/bin/env python3
 """imukit Python package: scenes built in Python or read from JSON simulate to the same arrays as
 `imukit simulate` for the same seed (CSV and MCAP outputs), physics checks, the GIL released
 while simulating, errors with the command's messages.
 
-usage: sim_test.py IMUKIT_BINARY
+run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import json
 import math
@@ -16,7 +15,7 @@ import unittest
 import numpy as np
 
 import imukit
-from support import cli_error, data_file, euroc, main, run_cli
+from support import cli_error, data_file, euroc, run_cli
 
 DENSITY = 0.002
 HARDWARE = {"schema": "imukit.profile/1",
@@ -249,7 +248,3 @@ class Errors(unittest.TestCase):
         names = [p["name"] for p in imukit.placement_presets()]
         self.assertEqual(len(names), 12)
         self.assertIn("left_wrist_watch", names)
-
-
-if __name__ == "__main__":
-    main()
