@@ -967,10 +967,84 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
   }
 }
 
+// ---- evaluate()'s phases ------------------------------------------------------------------------
+
+// The motion frames [lo, hi) an evaluate() call reads (its samples' stencils). An in-memory Motion
+// is read in place (a copy was an eighth of fd's run time), other sources through a chunk.
+struct MotionWindow {
+  const Motion* direct = nullptr;
+  const MotionChunk* chunk = nullptr;  // when not direct: frames lo .. hi - 1
+  const int* joints = nullptr;         // the plan's joints (body indices)
+  std::size_t J = 0;                   // plan joints
+  int64_t lo = 0, hi = 0;
+  int64_t N = 0;  // the motion's frames (kEndless for an endless source)
+  double rate = 0.0;
+  const double* translation = nullptr;  // the root translation from frame lo, x y z per frame
+
+  std::size_t frames() const { return static_cast<std::size_t>(hi - lo); }
+  // Plan joint k's local rotation at frame f.
+  const Quaterniond& q_local(int64_t f, std::size_t k) const {
+    return direct != nullptr ? direct->rotation_data(static_cast<std::size_t>(joints[k]))[f]
+                             : chunk->rotation(f - lo, k);
+  }
+  // Plan joint k's local rotations from frame lo on, as Eigen stores them (x, y, z, w); the next
+  // frame's are rotation_stride() doubles on.
+  const double* rotations(std::size_t k) const {
+    return direct != nullptr
+               ? direct->rotation_data(static_cast<std::size_t>(joints[k]))[lo].coeffs().data()
+               : chunk->rotations[k].coeffs().data();
+  }
+  std::size_t rotation_stride() const { return direct != nullptr ? 4 : 4 * J; }
+  Eigen::Map<const Vector3d> root_translation(int64_t f) const {
+    return Eigen::Map<const Vector3d>(translation + 3 * (f - lo));
+  }
+};
+
+// The frames the grid methods (fd, reference) differentiate.
+struct GridFrames {
+  int64_t g0 = 0, g1 = 0;  // the samples' frames and the next (interpolation uses i and i + 1)
+  int64_t d0 = 0, d1 = 0;  // fd's increments d[d0] .. d[d1]: each interior rate uses d[g-1], d[g]
+  bool on_grid = false;    // sample i is at frame g0 + i exactly
+};
+
+inline void store3(double* dst, const Vector3d& v) {
+  dst[0] = v.x();
+  dst[1] = v.y();
+  dst[2] = v.z();
+}
+
+// out[s] sized for the times: the requested channels one column per time, the others empty.
+void size_outputs(const std::vector<SensorSpec>& sensors, std::span<const TimeNs> times,
+                  std::vector<SensorBlock>& out) {
+  out.resize(sensors.size());
+  for (std::size_t s = 0; s < sensors.size(); ++s) {
+    const SensorOutputs& o = sensors[s].outputs;
+    const auto n = static_cast<Eigen::Index>(times.size());
+    out[s].t.assign(times.begin(), times.end());
+    out[s].specific_force.resize(3, o.accelerometer ? n : 0);
+    out[s].angular_rate.resize(3, o.gyroscope ? n : 0);
+    out[s].q_world_sensor.resize(o.orientation ? times.size() : 0);
+    out[s].magnetic_field.resize(3, o.magnetometer ? n : 0);
+  }
+}
+
+// Sample i at frame g0 + i exactly (the last frame counts as the end of the last interval)?
+bool samples_on_grid(std::span<const FramePosition> pos, int64_t g0) {
+  bool on_grid = true;
+  for (std::size_t i = 0; i < pos.size() && on_grid; ++i) {
+    const int64_t g = pos[i].frac == 0.0   ? pos[i].frame
+                      : pos[i].frac == 1.0 ? pos[i].frame + 1
+                                           : -1;
+    on_grid = g == g0 + static_cast<int64_t>(i);
+  }
+  return on_grid;
+}
+
 }  // namespace
 
 struct Simulator::Workspace {
   MotionChunk chunk;
+  std::vector<FramePosition> pos;  // per sample: its position on the motion's frame grid
   // Grid methods: per sensor joint (kept_slot), world w, x, y, z and position x, y, z arrays over
   // the loaded frames; the forward kinematics' tile scratch and its per-joint source pointers.
   std::vector<double> pose;
@@ -1000,6 +1074,58 @@ struct Simulator::Workspace {
   std::vector<Matrix3d> chart_R;
   std::vector<Matrix3d> R;
   std::vector<Vector3d> a, w, dw;
+
+  // evaluate()'s phases, in order.
+  void frame_positions(std::span<const TimeNs> times, double rate, int64_t N);
+  void select_on_frame_samples(int64_t N, bool enabled);
+  MotionWindow load_window(const Simulator& sim, MotionSource& motion, int64_t N, double rate);
+  // spline
+  void evaluate_spline(const Simulator& sim, const MotionWindow& mw, std::vector<SensorBlock>& out);
+  void run_on_frame_samples(const Simulator& sim, const MotionWindow& mw,
+                            std::vector<SensorBlock>& out);
+  void update_chart(std::size_t k, int64_t fi, const SplineStencil& st, const MotionWindow& mw);
+  void propagate_joint(const Simulator& sim, std::size_t k, const LagrangeWeights& L, double u,
+                       int64_t fi, const SplineStencil& st, const MotionWindow& mw);
+  void write_spline_sample(const Simulator& sim, std::size_t i,
+                           std::vector<SensorBlock>& out) const;
+  // fd and reference
+  void evaluate_grid(const Simulator& sim, const MotionWindow& mw, std::vector<SensorBlock>& out);
+  void grid_forward_kinematics(const Simulator& sim, const MotionWindow& mw);
+  void fd_increments(const MotionWindow& mw, const GridFrames& grid);
+  void grid_sensor(const Simulator& sim, std::size_t s, const MotionWindow& mw,
+                   const GridFrames& grid, std::vector<SensorBlock>& out);
+  void fd_grid_values(const Simulator& sim, std::size_t s, const MotionWindow& mw,
+                      const GridFrames& grid, int64_t gl, double* gf, double* gw) const;
+  void reference_grid_values(const Simulator& sim, std::size_t s, const MotionWindow& mw,
+                             const GridFrames& grid, int64_t gl, double* gf, double* gw) const;
+  void grid_to_samples(const Simulator& sim, std::size_t s, const MotionWindow& mw,
+                       const GridFrames& grid, const double* gf, const double* gw,
+                       std::vector<SensorBlock>& out) const;
+  // Sensor joint k's pose arrays (`frames` apart), and its world rotation at frame f.
+  const double* joint_pose(std::size_t k, std::size_t frames) const {
+    return pose.data() + static_cast<std::size_t>(kept_slot[k]) * 7 * frames;
+  }
+  Quaterniond world_rotation(int64_t f, std::size_t k, const MotionWindow& mw) const {
+    const std::size_t Fz = mw.frames();
+    const double* q = joint_pose(k, Fz) + (f - mw.lo);
+    return Quaterniond(q[0], q[Fz], q[2 * Fz], q[3 * Fz]);
+  }
+  // fd: rate joint k's increment d[f].
+  Vector3d increment(int64_t f, std::size_t k, const MotionWindow& mw,
+                     const GridFrames& grid) const {
+    assert(f >= grid.d0 && f <= grid.d1 && rate_slot[k] >= 0);
+    (void)grid;
+    const std::size_t Fz = mw.frames();
+    const double* D = increments.data() + static_cast<std::size_t>(rate_slot[k]) * 4 * Fz +
+                      static_cast<std::size_t>(f - mw.lo);
+    return Vector3d(D[0], D[Fz], D[2 * Fz]);
+  }
+  // The current sensor's position at frame f (from sensor_position).
+  Vector3d sensor_position_at(int64_t f, const MotionWindow& mw) const {
+    const std::size_t Fz = mw.frames();
+    const double* x = sensor_position.data() + (f - mw.lo);
+    return Vector3d(x[0], x[Fz], x[2 * Fz]);
+  }
 };
 
 Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, SimulationOptions options)
@@ -1068,27 +1194,9 @@ TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
   return sample_time(0, n, options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz());
 }
 
-void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
-                         std::vector<SensorBlock>& out) {
-  require_simulatable(motion, "simulation");
-  Workspace& ws = *ws_;
-  const std::size_t J = plan_.joints.size();
-  const std::size_t S = sensors_.size();
-  const int64_t N = motion.frame_count().value_or(kEndless);
-  const double rate = motion.rate_hz();
-  out.resize(S);
-  for (std::size_t s = 0; s < S; ++s) {
-    const SensorOutputs& o = sensors_[s].outputs;
-    const auto n = static_cast<Eigen::Index>(times.size());
-    out[s].t.assign(times.begin(), times.end());
-    out[s].specific_force.resize(3, o.accelerometer ? n : 0);
-    out[s].angular_rate.resize(3, o.gyroscope ? n : 0);
-    out[s].q_world_sensor.resize(o.orientation ? times.size() : 0);
-    out[s].magnetic_field.resize(3, o.magnetometer ? n : 0);
-  }
-  const Vector3d& B_world = options_.magnetic_field_world;
-  if (times.empty() || S == 0) return;
-  std::vector<FramePosition> pos(times.size());
+// Each sample's position on the frame grid, checked: inside the motion, in increasing order.
+void Simulator::Workspace::frame_positions(std::span<const TimeNs> times, double rate, int64_t N) {
+  pos.resize(times.size());
   for (std::size_t i = 0; i < times.size(); ++i) {
     pos[i] = frame_position(times[i], rate);
     if (times[i] < 0 || pos[i].frame > N - 1 || (pos[i].frame == N - 1 && pos[i].frac != 0.0)) {
@@ -1099,422 +1207,482 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     if (pos[i].frame == N - 1) pos[i] = {N - 2, 1.0};
     if (i > 0 && times[i] < times[i - 1]) throw Error("simulation: times must increase");
   }
-  const int64_t imin = pos.front().frame;
-  const int64_t imax = pos.back().frame;
-  const int64_t lo = std::max<int64_t>(0, imin - 2);
-  const int64_t hi = std::min<int64_t>(N, imax + 4);
-  const int64_t F = hi - lo;
-  // The spline's samples on frames (spline_on_frames; the rest are evaluated one by one).
-  const bool spline = options_.method == DerivativeMethod::spline;
-  ws.on_frame.assign(times.size(), 0);
-  ws.on_frame_samples.clear();
-  ws.on_frame_frames.clear();
-  for (std::size_t i = 0; i < times.size() && spline && options_.spline_on_frames; ++i) {
+}
+
+// The spline's samples on frames with the full interior stencil (spline_on_frames; the rest are
+// evaluated one by one).
+void Simulator::Workspace::select_on_frame_samples(int64_t N, bool enabled) {
+  on_frame.assign(pos.size(), 0);
+  on_frame_samples.clear();
+  on_frame_frames.clear();
+  for (std::size_t i = 0; i < pos.size() && enabled; ++i) {
     if (pos[i].frac == 0.0 && pos[i].frame >= 1 && pos[i].frame + 2 <= N - 1) {
-      ws.on_frame[i] = 1;
-      ws.on_frame_samples.push_back(i);
-      ws.on_frame_frames.push_back(pos[i].frame);
+      on_frame[i] = 1;
+      on_frame_samples.push_back(i);
+      on_frame_frames.push_back(pos[i].frame);
     }
   }
-  // An in-memory Motion is read in place (a copy was an eighth of fd's run time); other sources
-  // through a chunk.
-  const auto* direct = dynamic_cast<const Motion*>(&motion);
-  if (direct == nullptr) motion.read(lo, hi - lo, plan_.joints, ws.chunk);
-  const MotionChunk& c = ws.chunk;
-  const auto q_local = [&](int64_t f, std::size_t k) -> const Quaterniond& {
-    return direct != nullptr ? direct->rotation_data(static_cast<std::size_t>(plan_.joints[k]))[f]
-                             : c.rotation(f - lo, k);
-  };
-  const double* translation =
-      direct != nullptr ? direct->translation_data() + 3 * lo : c.root_translation.data();
-  const auto root_translation = [translation, lo](int64_t f) {
-    return Eigen::Map<const Vector3d>(translation + 3 * (f - lo));
-  };
+}
 
-  if (spline) {
-    ws.chart_interval.assign(J, -1);
-    ws.step_frame.assign(J, -1);
-    ws.step.resize(J);
-    LagrangeWeights last_L;
-    double last_u = 0.0;
-    std::array<double, 4> last_tau{};
-    ws.chart_psi.resize(J);
-    ws.chart_R.resize(J);
-    ws.R.resize(J);
-    ws.a.resize(J);
-    ws.w.resize(J);
-    ws.dw.resize(J);
-    if (!ws.on_frame_samples.empty()) {
-      OnFrameInputs in;
-      in.plan = &plan_;
-      in.offsets = &offsets_;
-      in.sensors = &sensors_;
-      in.lo = lo;
-      ws.on_frame_rotations.resize(J);
-      for (std::size_t k = 0; k < J; ++k) {
-        ws.on_frame_rotations[k] =
-            direct != nullptr ? direct->rotation_data(static_cast<std::size_t>(plan_.joints[k]))[lo]
-                                    .coeffs()
-                                    .data()
-                              : c.rotations[k].coeffs().data();
-      }
-      in.rotations = &ws.on_frame_rotations;
-      in.rotation_stride = direct != nullptr ? 4 : 4 * J;
-      in.translation = translation;
-      in.rate = rate;
-      in.gravity_world = options_.gravity_world;
-      in.magnetic_field_world = B_world;
-      spline_on_frames(in, ws.on_frame_samples, ws.on_frame_frames, ws.on_frame_scratch, out);
-    }
-    for (std::size_t i = 0; i < times.size(); ++i) {
-      if (ws.on_frame[i] != 0) continue;
-      const int64_t fi = pos[i].frame;
-      const SplineStencil st = spline_stencil(fi, N);
-      const int64_t s0 = st.s0;
-      const int n = st.n;
-      const std::array<double, 4>& tau = st.tau;
-      const double u = pos[i].frac;
-      if (i == 0 || u != last_u || n != last_L.n || tau != last_tau) {
-        last_L = lagrange(tau, n, u);
-        last_u = u;
-        last_tau = tau;
-      }
-      const LagrangeWeights& L = last_L;
-      for (std::size_t k = 0; k < J; ++k) {
-        if (ws.chart_interval[k] != fi) {
-          // psi_m = log(q_fi^* q_m); the neighbours' are the steps d_f = log(q_f^* q_f+1): d_fi
-          // forwards and -d_(fi-1) backwards, where d_(fi-1) was the previous chart's forward step.
-          const auto step = [&](int64_t f) -> Vector3d {
-            if (ws.step_frame[k] == f) return ws.step[k];
-            ws.step_frame[k] = f;
-            ws.step[k] = relative_log(q_local(f, k), q_local(f + 1, k));
-            return ws.step[k];
-          };
-          auto& psi = ws.chart_psi[k];
-          const auto c0 = static_cast<int>(fi - s0);  // the chart centre's stencil index
-          for (int m = 0; m < n; ++m) {
-            const auto um = static_cast<std::size_t>(m);
-            if (m == c0)
-              psi[um] = Vector3d::Zero();
-            else if (m == c0 - 1)
-              psi[um] = -step(fi - 1);
-            else if (m == c0 + 1)
-              psi[um] = step(fi);
-            else
-              psi[um] = relative_log(q_local(fi, k), q_local(s0 + m, k));
-          }
-          for (int m = c0 + 2; m < n; ++m) {
-            const auto u = static_cast<std::size_t>(m);
-            psi[u] = unwrap_near(psi[u], 2.0 * psi[u - 1] - psi[u - 2]);
-          }
-          for (int m = c0 - 2; m >= 0; --m) {
-            const auto u = static_cast<std::size_t>(m);
-            psi[u] = unwrap_near(psi[u], 2.0 * psi[u + 1] - psi[u + 2]);
-          }
-          ws.chart_R[k] = q_local(fi, k).normalized().toRotationMatrix();
-          ws.chart_interval[k] = fi;
-        }
-        Vector3d psi = Vector3d::Zero(), dpsi = Vector3d::Zero(), ddpsi = Vector3d::Zero();
-        for (int m = 0; m < n; ++m) {
-          const Vector3d& y = ws.chart_psi[k][static_cast<std::size_t>(m)];
-          if (u != 0.0) psi += L.w[static_cast<std::size_t>(m)] * y;
-          dpsi += L.dw[static_cast<std::size_t>(m)] * y;
-          ddpsi += L.ddw[static_cast<std::size_t>(m)] * y;
-        }
-        ExpDerivatives E;
-        Matrix3d Rl;
-        if (u == 0.0) {
-          // On a frame psi = 0: exp is the identity and its body rate and acceleration are dpsi
-          // and ddpsi themselves (what exp_with_derivatives returns there, bit for bit).
-          E.w_body = dpsi * rate;
-          E.dw_body = ddpsi * (rate * rate);
-          Rl = ws.chart_R[k];
-        } else {
-          E = exp_with_derivatives(psi, dpsi * rate, ddpsi * (rate * rate));
-          Rl = ws.chart_R[k] * E.e.toRotationMatrix();
-        }
-        const int p = plan_.parent[k];
-        if (p < 0) {
-          // Differences from the interval's start frame: the weights of the derivatives sum
-          // to 0 only up to rounding, differences make a still root exactly still.
-          // (Positions and velocities are not needed: a sensor's acceleration follows from the
-          // chain's rates and the root's acceleration.)
-          const Vector3d t0 = root_translation(fi);
-          Vector3d ta = Vector3d::Zero();
-          for (int m = 0; m < n; ++m)
-            ta += L.ddw[static_cast<std::size_t>(m)] * (root_translation(s0 + m) - t0);
-          ws.R[k] = Rl;
-          ws.a[k] = ta * (rate * rate);
-          ws.w[k] = Rl * E.w_body;
-          ws.dw[k] = Rl * E.dw_body;
-        } else {
-          const auto pp = static_cast<std::size_t>(p);
-          const Vector3d o = ws.R[pp] * offsets_[k];
-          ws.R[k] = ws.R[pp] * Rl;
-          const Vector3d wl = ws.R[k] * E.w_body;  // the joint's own rate, world axes
-          ws.w[k] = ws.w[pp] + wl;
-          ws.dw[k] = ws.dw[pp] + ws.w[pp].cross(wl) + ws.R[k] * E.dw_body;
-          ws.a[k] = ws.a[pp] + ws.dw[pp].cross(o) + ws.w[pp].cross(ws.w[pp].cross(o));
-        }
-      }
-      for (std::size_t s = 0; s < S; ++s) {
-        const auto k = static_cast<std::size_t>(plan_.sensor_joint[s]);
-        const Placement& pl = sensors_[s].placement;
-        const Matrix3d Rs = ws.R[k] * pl.q_joint_sensor.toRotationMatrix();
-        const auto col = static_cast<Eigen::Index>(i);
-        if (sensors_[s].outputs.accelerometer) {
-          const Vector3d r = ws.R[k] * pl.p_joint_sensor;
-          const Vector3d acc = ws.a[k] + ws.dw[k].cross(r) + ws.w[k].cross(ws.w[k].cross(r));
-          out[s].specific_force.col(col) = Rs.transpose() * (acc - options_.gravity_world);
-        }
-        if (sensors_[s].outputs.gyroscope) out[s].angular_rate.col(col) = Rs.transpose() * ws.w[k];
-        if (sensors_[s].outputs.orientation)
-          out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
-        if (sensors_[s].outputs.magnetometer)
-          out[s].magnetic_field.col(col) = Rs.transpose() * B_world;
-      }
-    }
-    return;
-  }
+MotionWindow Simulator::Workspace::load_window(const Simulator& sim, MotionSource& motion,
+                                               int64_t N, double rate) {
+  MotionWindow mw;
+  mw.lo = std::max<int64_t>(0, pos.front().frame - 2);
+  mw.hi = std::min<int64_t>(N, pos.back().frame + 4);
+  mw.N = N;
+  mw.rate = rate;
+  mw.joints = sim.plan_.joints.data();
+  mw.J = sim.plan_.joints.size();
+  mw.direct = dynamic_cast<const Motion*>(&motion);
+  if (mw.direct == nullptr) motion.read(mw.lo, mw.hi - mw.lo, sim.plan_.joints, chunk);
+  mw.chunk = &chunk;
+  mw.translation = mw.direct != nullptr ? mw.direct->translation_data() + 3 * mw.lo
+                                        : chunk.root_translation.data();
+  return mw;
+}
 
-  // Grid methods: forward kinematics on every loaded frame (kernel forward_kinematics), keeping
-  // the sensor joints' world rotations and positions per frame as arrays (pose); the SO(3)
-  // increments (fd) and the interior frames' samples in kernels too; the ends of the motion,
-  // the reference method and orientation outputs quaternion by quaternion.
-  const std::size_t Fz = static_cast<std::size_t>(F);
-  ws.pose.resize(static_cast<std::size_t>(ws.kept_joints) * 7 * Fz);
-  ws.fk_tile.resize(J * 7 * kFkTile);
-  ws.fk_rotations.resize(J);
-  for (std::size_t k = 0; k < J; ++k) {
-    ws.fk_rotations[k] =
-        direct != nullptr ? (direct->rotation_data(static_cast<std::size_t>(plan_.joints[k])) + lo)
-                                ->coeffs()
-                                .data()
-                          : c.rotations[k].coeffs().data();
-  }
-  {
-    ForwardKinematicsArgs fk;
-    fk.joints = J;
-    fk.frames = Fz;
-    fk.rotations = ws.fk_rotations.data();
-    fk.stride = direct != nullptr ? 4 : 4 * J;
-    fk.translation = translation;
-    fk.parent = plan_.parent.data();
-    fk.offsets = ws.offset_xyz.data();
-    fk.offset_is_zero = ws.offset_is_zero.data();
-    fk.kept = ws.kept_slot.data();
-    fk.positions = plan_.needs_position;
-    fk.tile = ws.fk_tile.data();
-    fk.pose = ws.pose.data();
-    forward_kinematics(fk);
-  }
-  // Sensor joint k's pose arrays, and its world rotation at frame f.
-  const auto pose = [&](std::size_t k) {
-    return ws.pose.data() + static_cast<std::size_t>(ws.kept_slot[k]) * 7 * Fz;
-  };
-  const auto qw = [&](int64_t f, std::size_t k) {
-    const double* q = pose(k) + (f - lo);
-    return Quaterniond(q[0], q[Fz], q[2 * Fz], q[3 * Fz]);
-  };
-  // Frames whose derivatives the samples need (the interpolation uses frame i and i + 1).
-  const int64_t g0 = imin;
-  const int64_t g1 = std::min<int64_t>(N - 1, imax + 1);
-  const auto G = static_cast<Eigen::Index>(g1 - g0 + 1);
-  // fd: SO(3) increments d[f] = log(R[f]^T R[f+1]) (the body-frame rotation from frame f to
-  // f + 1) of every joint that carries a gyroscope, once per joint however many sensors share
-  // it, for f in [d0, d1]: each interior rate uses d[g-1] and d[g]. By the branch-free
-  // small-angle series; the rare larger increments (flagged) through so3_log afterwards.
-  const int64_t d0 = std::max<int64_t>(lo, g0 - 1);
-  const int64_t d1 = std::min<int64_t>(g1, N - 2);
-  const bool fd = options_.method == DerivativeMethod::fd;
-  if (fd) {
-    ws.increments.resize(static_cast<std::size_t>(ws.rate_joints) * 4 * Fz);
+// ---- spline ------------------------------------------------------------------------------------
+
+void Simulator::Workspace::evaluate_spline(const Simulator& sim, const MotionWindow& mw,
+                                           std::vector<SensorBlock>& out) {
+  const std::size_t J = sim.plan_.joints.size();
+  chart_interval.assign(J, -1);
+  step_frame.assign(J, -1);
+  step.resize(J);
+  chart_psi.resize(J);
+  chart_R.resize(J);
+  R.resize(J);
+  a.resize(J);
+  w.resize(J);
+  dw.resize(J);
+  if (!on_frame_samples.empty()) run_on_frame_samples(sim, mw, out);
+  // The Lagrange weights of the previous sample, reused while its stencil and position repeat.
+  LagrangeWeights last_L;
+  double last_u = 0.0;
+  std::array<double, 4> last_tau{};
+  for (std::size_t i = 0; i < pos.size(); ++i) {
+    if (on_frame[i] != 0) continue;
+    const int64_t fi = pos[i].frame;
+    const SplineStencil st = spline_stencil(fi, mw.N);
+    const double u = pos[i].frac;
+    if (i == 0 || u != last_u || st.n != last_L.n || st.tau != last_tau) {
+      last_L = lagrange(st.tau, st.n, u);
+      last_u = u;
+      last_tau = st.tau;
+    }
     for (std::size_t k = 0; k < J; ++k) {
-      if (ws.rate_slot[k] < 0 || d1 < d0) continue;
-      double* D = ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz;
-      const auto a = static_cast<std::size_t>(d0 - lo), b = static_cast<std::size_t>(d1 - lo);
-      if (increments(pose(k), Fz, a, b - a + 1, D) == 0.0) continue;
-      for (std::size_t f = a; f <= b; ++f) {
-        if (D[3 * Fz + f] == 0.0) continue;
-        const auto ff = static_cast<int64_t>(f) + lo;
-        const Vector3d d = relative_log(qw(ff, k), qw(ff + 1, k));
-        D[f] = d.x();
-        D[Fz + f] = d.y();
-        D[2 * Fz + f] = d.z();
-      }
+      if (chart_interval[k] != fi) update_chart(k, fi, st, mw);
+      propagate_joint(sim, k, last_L, u, fi, st, mw);
     }
+    write_spline_sample(sim, i, out);
   }
-  const auto increment = [&](int64_t f, std::size_t k) -> Vector3d {
-    assert(f >= d0 && f <= d1 && ws.rate_slot[k] >= 0);
-    const double* D = ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz +
-                      static_cast<std::size_t>(f - lo);
-    return Vector3d(D[0], D[Fz], D[2 * Fz]);
-  };
+}
 
-  const double rate2 = rate * rate;
-  const Vector3d gravity = options_.gravity_world;
-  // Sample i at frame g0 + i exactly (the last frame counts as the end of the last interval)?
-  bool on_grid = true;
-  for (std::size_t i = 0; i < times.size() && on_grid; ++i) {
-    const int64_t g = pos[i].frac == 0.0   ? pos[i].frame
-                      : pos[i].frac == 1.0 ? pos[i].frame + 1
-                                           : -1;
-    on_grid = g == g0 + static_cast<int64_t>(i);
+void Simulator::Workspace::run_on_frame_samples(const Simulator& sim, const MotionWindow& mw,
+                                                std::vector<SensorBlock>& out) {
+  const std::size_t J = sim.plan_.joints.size();
+  OnFrameInputs in;
+  in.plan = &sim.plan_;
+  in.offsets = &sim.offsets_;
+  in.sensors = &sim.sensors_;
+  in.lo = mw.lo;
+  on_frame_rotations.resize(J);
+  for (std::size_t k = 0; k < J; ++k) on_frame_rotations[k] = mw.rotations(k);
+  in.rotations = &on_frame_rotations;
+  in.rotation_stride = mw.rotation_stride();
+  in.translation = mw.translation;
+  in.rate = mw.rate;
+  in.gravity_world = sim.options_.gravity_world;
+  in.magnetic_field_world = sim.options_.magnetic_field_world;
+  spline_on_frames(in, on_frame_samples, on_frame_frames, on_frame_scratch, out);
+}
+
+// Plan joint k's chart at frame fi: psi_m = log(q_fi^* q_m) over the stencil. The neighbours' are
+// the steps d_f = log(q_f^* q_f+1): d_fi forwards and -d_(fi-1) backwards, where d_(fi-1) was the
+// previous chart's forward step.
+void Simulator::Workspace::update_chart(std::size_t k, int64_t fi, const SplineStencil& st,
+                                        const MotionWindow& mw) {
+  const int64_t s0 = st.s0;
+  const int n = st.n;
+  const auto step_at = [&](int64_t f) -> Vector3d {
+    if (step_frame[k] == f) return step[k];
+    step_frame[k] = f;
+    step[k] = relative_log(mw.q_local(f, k), mw.q_local(f + 1, k));
+    return step[k];
+  };
+  auto& psi = chart_psi[k];
+  const auto c0 = static_cast<int>(fi - s0);  // the chart centre's stencil index
+  for (int m = 0; m < n; ++m) {
+    const auto um = static_cast<std::size_t>(m);
+    if (m == c0)
+      psi[um] = Vector3d::Zero();
+    else if (m == c0 - 1)
+      psi[um] = -step_at(fi - 1);
+    else if (m == c0 + 1)
+      psi[um] = step_at(fi);
+    else
+      psi[um] = relative_log(mw.q_local(fi, k), mw.q_local(s0 + m, k));
   }
-  for (std::size_t s = 0; s < S; ++s) {
-    const auto k = static_cast<std::size_t>(plan_.sensor_joint[s]);
-    const Placement& pl = sensors_[s].placement;
-    const SensorOutputs& o = sensors_[s].outputs;
-    // One sample per frame from g0 on (the sensor at the motion's rate): the grid values are
-    // the samples, written in place.
-    const bool direct_out = on_grid && !o.orientation && !o.magnetometer;
-    // The last frame computed: the last sample's when they are written in place.
-    const int64_t gl = direct_out ? g0 + static_cast<int64_t>(times.size()) - 1 : g1;
-    if (!direct_out) {
-      ws.grid_f.resize(3, o.accelerometer ? G : 0);
-      ws.grid_w.resize(3, o.gyroscope ? G : 0);
-    }
-    double* gf = direct_out ? out[s].specific_force.data() : ws.grid_f.data();
-    double* gw = direct_out ? out[s].angular_rate.data() : ws.grid_w.data();
-    // Sensor positions on every loaded frame.
+  for (int m = c0 + 2; m < n; ++m) {
+    const auto u = static_cast<std::size_t>(m);
+    psi[u] = unwrap_near(psi[u], 2.0 * psi[u - 1] - psi[u - 2]);
+  }
+  for (int m = c0 - 2; m >= 0; --m) {
+    const auto u = static_cast<std::size_t>(m);
+    psi[u] = unwrap_near(psi[u], 2.0 * psi[u + 1] - psi[u + 2]);
+  }
+  chart_R[k] = mw.q_local(fi, k).normalized().toRotationMatrix();
+  chart_interval[k] = fi;
+}
+
+// Plan joint k at position u of interval fi: its local rotation and body rate and acceleration
+// from the chart's cubic, then its world rotation, rate, acceleration and origin acceleration from
+// its parent's (parents come first).
+void Simulator::Workspace::propagate_joint(const Simulator& sim, std::size_t k,
+                                           const LagrangeWeights& L, double u, int64_t fi,
+                                           const SplineStencil& st, const MotionWindow& mw) {
+  const int64_t s0 = st.s0;
+  const int n = st.n;
+  const double rate = mw.rate;
+  Vector3d psi = Vector3d::Zero(), dpsi = Vector3d::Zero(), ddpsi = Vector3d::Zero();
+  for (int m = 0; m < n; ++m) {
+    const Vector3d& y = chart_psi[k][static_cast<std::size_t>(m)];
+    if (u != 0.0) psi += L.w[static_cast<std::size_t>(m)] * y;
+    dpsi += L.dw[static_cast<std::size_t>(m)] * y;
+    ddpsi += L.ddw[static_cast<std::size_t>(m)] * y;
+  }
+  ExpDerivatives E;
+  Matrix3d Rl;
+  if (u == 0.0) {
+    // On a frame psi = 0: exp is the identity and its body rate and acceleration are dpsi
+    // and ddpsi themselves (what exp_with_derivatives returns there, bit for bit).
+    E.w_body = dpsi * rate;
+    E.dw_body = ddpsi * (rate * rate);
+    Rl = chart_R[k];
+  } else {
+    E = exp_with_derivatives(psi, dpsi * rate, ddpsi * (rate * rate));
+    Rl = chart_R[k] * E.e.toRotationMatrix();
+  }
+  const int p = sim.plan_.parent[k];
+  if (p < 0) {
+    // Differences from the interval's start frame: the weights of the derivatives sum
+    // to 0 only up to rounding, differences make a still root exactly still.
+    // (Positions and velocities are not needed: a sensor's acceleration follows from the
+    // chain's rates and the root's acceleration.)
+    const Vector3d t0 = mw.root_translation(fi);
+    Vector3d ta = Vector3d::Zero();
+    for (int m = 0; m < n; ++m)
+      ta += L.ddw[static_cast<std::size_t>(m)] * (mw.root_translation(s0 + m) - t0);
+    R[k] = Rl;
+    a[k] = ta * (rate * rate);
+    w[k] = Rl * E.w_body;
+    dw[k] = Rl * E.dw_body;
+  } else {
+    const auto pp = static_cast<std::size_t>(p);
+    const Vector3d o = R[pp] * sim.offsets_[k];
+    R[k] = R[pp] * Rl;
+    const Vector3d wl = R[k] * E.w_body;  // the joint's own rate, world axes
+    w[k] = w[pp] + wl;
+    dw[k] = dw[pp] + w[pp].cross(wl) + R[k] * E.dw_body;
+    a[k] = a[pp] + dw[pp].cross(o) + w[pp].cross(w[pp].cross(o));
+  }
+}
+
+// Sample i of every sensor from its joint's world rotation, rate and accelerations.
+void Simulator::Workspace::write_spline_sample(const Simulator& sim, std::size_t i,
+                                               std::vector<SensorBlock>& out) const {
+  for (std::size_t s = 0; s < sim.sensors_.size(); ++s) {
+    const auto k = static_cast<std::size_t>(sim.plan_.sensor_joint[s]);
+    const Placement& pl = sim.sensors_[s].placement;
+    const SensorOutputs& o = sim.sensors_[s].outputs;
+    const Matrix3d Rs = R[k] * pl.q_joint_sensor.toRotationMatrix();
+    const auto col = static_cast<Eigen::Index>(i);
     if (o.accelerometer) {
-      ws.sensor_position.resize(3 * Fz);
-      sensor_positions(pose(k), Fz, pl.p_joint_sensor.data(), 0, Fz, ws.sensor_position.data());
+      const Vector3d r = R[k] * pl.p_joint_sensor;
+      const Vector3d acc = a[k] + dw[k].cross(r) + w[k].cross(w[k].cross(r));
+      out[s].specific_force.col(col) = Rs.transpose() * (acc - sim.options_.gravity_world);
     }
-    const double* sp = ws.sensor_position.data();
-    const auto P = [sp, lo, Fz](int64_t f) {
-      const double* x = sp + (f - lo);
-      return Vector3d(x[0], x[Fz], x[2 * Fz]);
-    };
-    const Matrix3d R_sensor_joint = pl.q_joint_sensor.toRotationMatrix().transpose();
-    const auto store = [](double* dst, const Vector3d& v) {
-      dst[0] = v.x();
-      dst[1] = v.y();
-      dst[2] = v.z();
-    };
-    if (fd) {
-      // Interior frames in the kernel, then the frames at the motion's ends (if loaded).
-      const int64_t ia = std::max<int64_t>(g0, 1), ib = std::min<int64_t>(gl, N - 2);
-      if (ib >= ia) {
-        FdInteriorArgs fa;
-        fa.pose = pose(k);
-        fa.position = o.accelerometer ? sp : nullptr;
-        fa.increments =
-            o.gyroscope ? ws.increments.data() + static_cast<std::size_t>(ws.rate_slot[k]) * 4 * Fz
-                        : nullptr;
-        fa.frames = Fz;
-        fa.first = static_cast<std::size_t>(ia - lo);
-        fa.count = static_cast<std::size_t>(ib - ia + 1);
-        for (int r = 0; r < 3; ++r) {
-          for (int cc = 0; cc < 3; ++cc) fa.R_sensor_joint[3 * r + cc] = R_sensor_joint(r, cc);
-          fa.gravity[r] = gravity[r];
-        }
-        fa.rate = rate;
-        // An output not requested has no storage (null): no offset into it (UB even unused).
-        fa.force = o.accelerometer ? gf + 3 * (ia - g0) : nullptr;
-        fa.angular_rate = o.gyroscope ? gw + 3 * (ia - g0) : nullptr;
-        fd_interior(fa);
-      }
-      const int64_t ends[2] = {g0, gl};
-      for (int e = 0; e < (gl == g0 ? 1 : 2); ++e) {
-        const int64_t g = ends[e];
-        if (g > 0 && g < N - 1) continue;
-        const auto col = static_cast<std::size_t>(g - g0);
-        if (o.accelerometer) {
-          Vector3d acc = Vector3d::Zero();
-          if (N >= 4) {  // one-sided, second order: (2 p0 - 5 p1 + 4 p2 - p3) / h^2
-            const int64_t d = g == 0 ? 1 : -1;
-            acc = (2.0 * (P(g) - P(g + d)) - 3.0 * (P(g + d) - P(g + 2 * d)) +
-                   (P(g + 2 * d) - P(g + 3 * d))) *
-                  rate2;
-          } else if (N == 3) {
-            acc = ((P(2) - P(1)) - (P(1) - P(0))) * rate2;
-          }
-          store(gf + 3 * col, R_sensor_joint * rotate_inverse(qw(g, k), acc - gravity));
-        }
-        if (o.gyroscope) {
-          Vector3d w;
-          if (N >= 3) {
-            // Chart at the end frame: psi_1, psi_2 of the two neighbours inwards,
-            // w = (4 psi_1 - psi_2) / (2 h) (one-sided, second order).
-            const int64_t d = g == 0 ? 1 : -1;
-            const Vector3d psi1 = g == 0 ? increment(g, k) : Vector3d(-increment(g - 1, k));
-            const Vector3d psi2 =
-                unwrap_near(so3_log(qw(g, k).conjugate() * qw(g + 2 * d, k)), 2.0 * psi1);
-            w = (4.0 * psi1 - psi2) * (0.5 * rate) * static_cast<double>(d);
-          } else {
-            w = increment(0, k) * rate;
-          }
-          store(gw + 3 * col, R_sensor_joint * w);
-        }
-      }
-    } else {  // reference
-      for (int64_t g = g0; g <= gl; ++g) {
-        const auto col = static_cast<std::size_t>(g - g0);
-        const Quaterniond qs = multiply(qw(g, k), pl.q_joint_sensor);
-        if (o.accelerometer) {
-          // v = D1(p)/h and a = D1(v)/h with D1 central inside and one-sided at the ends.
-          const auto vel = [&](int64_t f) -> Vector3d {
-            if (f == 0) return (P(1) - P(0)) * rate;
-            if (f == N - 1) return (P(N - 1) - P(N - 2)) * rate;
-            return (P(f + 1) - P(f - 1)) * (0.5 * rate);
-          };
-          Vector3d acc;
-          if (g == 0)
-            acc = (vel(1) - vel(0)) * rate;
-          else if (g == N - 1)
-            acc = (vel(N - 1) - vel(N - 2)) * rate;
-          else
-            acc = (vel(g + 1) - vel(g - 1)) * (0.5 * rate);
-          store(gf + 3 * col, qs.conjugate() * (acc - gravity));
-        }
-        if (o.gyroscope) {
-          const auto qsf = [&](int64_t f) { return multiply(qw(f, k), pl.q_joint_sensor); };
-          Vector3d e;
-          if (g == 0)
-            e = reference_euler_xyz(multiply(qsf(1), qsf(0).conjugate()).toRotationMatrix());
-          else if (g == N - 1)
-            e = reference_euler_xyz(
-                multiply(qsf(N - 1), qsf(N - 2).conjugate()).toRotationMatrix());
-          else
-            e = 0.5 * reference_euler_xyz(
-                          multiply(qsf(g + 1), qsf(g - 1).conjugate()).toRotationMatrix());
-          store(gw + 3 * col, qs.conjugate() * (e * rate));
-        }
-      }
-    }
-    if (direct_out) continue;
-    // Samples between frames: linear interpolation of the frame values.
-    double* of = out[s].specific_force.data();
-    double* ow = out[s].angular_rate.data();
-    double* om = out[s].magnetic_field.data();
-    for (std::size_t i = 0; i < times.size(); ++i) {
-      const auto a = static_cast<std::size_t>(pos[i].frame - g0);
-      const double u = pos[i].frac;
-      const auto put = [&](double* dst, const double* grid) {
-        const double* x0 = grid + 3 * a;
-        if (u == 0.0) {
-          dst[0] = x0[0], dst[1] = x0[1], dst[2] = x0[2];
-        } else if (u == 1.0) {
-          dst[0] = x0[3], dst[1] = x0[4], dst[2] = x0[5];
-        } else {
-          for (int r = 0; r < 3; ++r) dst[r] = (1.0 - u) * x0[r] + u * x0[r + 3];
-        }
-      };
-      if (o.accelerometer) put(of + 3 * i, gf);
-      if (o.gyroscope) put(ow + 3 * i, gw);
-      if (o.orientation || o.magnetometer) {
-        // Between frames the orientation is the slerp of the frame orientations (fd's linear
-        // interpolation, on SO(3)).
-        const Quaterniond q0 = qw(pos[i].frame, k) * pl.q_joint_sensor;
-        const Quaterniond q_ws =
-            u == 0.0 ? q0.normalized()
-                     : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
-        if (o.orientation) out[s].q_world_sensor[i] = q_ws;
-        if (o.magnetometer) store(om + 3 * i, rotate_inverse(q_ws, B_world));
-      }
+    if (o.gyroscope) out[s].angular_rate.col(col) = Rs.transpose() * w[k];
+    if (o.orientation) out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
+    if (o.magnetometer)
+      out[s].magnetic_field.col(col) = Rs.transpose() * sim.options_.magnetic_field_world;
+  }
+}
+
+// ---- grid methods (fd, reference) --------------------------------------------------------------
+//
+// Forward kinematics on every loaded frame (kernel forward_kinematics), keeping the sensor joints'
+// world rotations and positions per frame as arrays (pose); the SO(3) increments (fd) and the
+// interior frames' samples in kernels too; the ends of the motion, the reference method and
+// orientation outputs quaternion by quaternion.
+void Simulator::Workspace::evaluate_grid(const Simulator& sim, const MotionWindow& mw,
+                                         std::vector<SensorBlock>& out) {
+  grid_forward_kinematics(sim, mw);
+  GridFrames grid;
+  grid.g0 = pos.front().frame;
+  grid.g1 = std::min<int64_t>(mw.N - 1, pos.back().frame + 1);
+  grid.d0 = std::max<int64_t>(mw.lo, grid.g0 - 1);
+  grid.d1 = std::min<int64_t>(grid.g1, mw.N - 2);
+  if (sim.options_.method == DerivativeMethod::fd) fd_increments(mw, grid);
+  grid.on_grid = samples_on_grid(pos, grid.g0);
+  for (std::size_t s = 0; s < sim.sensors_.size(); ++s) grid_sensor(sim, s, mw, grid, out);
+}
+
+void Simulator::Workspace::grid_forward_kinematics(const Simulator& sim, const MotionWindow& mw) {
+  const std::size_t J = sim.plan_.joints.size();
+  const std::size_t Fz = mw.frames();
+  pose.resize(static_cast<std::size_t>(kept_joints) * 7 * Fz);
+  fk_tile.resize(J * 7 * kFkTile);
+  fk_rotations.resize(J);
+  for (std::size_t k = 0; k < J; ++k) fk_rotations[k] = mw.rotations(k);
+  ForwardKinematicsArgs fk;
+  fk.joints = J;
+  fk.frames = Fz;
+  fk.rotations = fk_rotations.data();
+  fk.stride = mw.rotation_stride();
+  fk.translation = mw.translation;
+  fk.parent = sim.plan_.parent.data();
+  fk.offsets = offset_xyz.data();
+  fk.offset_is_zero = offset_is_zero.data();
+  fk.kept = kept_slot.data();
+  fk.positions = sim.plan_.needs_position;
+  fk.tile = fk_tile.data();
+  fk.pose = pose.data();
+  forward_kinematics(fk);
+}
+
+// fd: SO(3) increments d[f] = log(R[f]^T R[f+1]) (the body-frame rotation from frame f to f + 1)
+// of every joint that carries a gyroscope, once per joint however many sensors share it, for f in
+// [d0, d1]. By the branch-free small-angle series; the rare larger increments (flagged) through
+// so3_log afterwards.
+void Simulator::Workspace::fd_increments(const MotionWindow& mw, const GridFrames& grid) {
+  const std::size_t Fz = mw.frames();
+  increments.resize(static_cast<std::size_t>(rate_joints) * 4 * Fz);
+  for (std::size_t k = 0; k < mw.J; ++k) {
+    if (rate_slot[k] < 0 || grid.d1 < grid.d0) continue;
+    double* D = increments.data() + static_cast<std::size_t>(rate_slot[k]) * 4 * Fz;
+    const auto first = static_cast<std::size_t>(grid.d0 - mw.lo);
+    const auto last = static_cast<std::size_t>(grid.d1 - mw.lo);
+    // (Qualified: `increments` here is the member array.)
+    if (sim::increments(joint_pose(k, Fz), Fz, first, last - first + 1, D) == 0.0) continue;
+    for (std::size_t f = first; f <= last; ++f) {
+      if (D[3 * Fz + f] == 0.0) continue;
+      const auto ff = static_cast<int64_t>(f) + mw.lo;
+      const Vector3d d = relative_log(world_rotation(ff, k, mw), world_rotation(ff + 1, k, mw));
+      D[f] = d.x();
+      D[Fz + f] = d.y();
+      D[2 * Fz + f] = d.z();
     }
   }
+}
+
+// Sensor s: its values on the grid frames, then at the samples.
+void Simulator::Workspace::grid_sensor(const Simulator& sim, std::size_t s, const MotionWindow& mw,
+                                       const GridFrames& grid, std::vector<SensorBlock>& out) {
+  const auto k = static_cast<std::size_t>(sim.plan_.sensor_joint[s]);
+  const Placement& pl = sim.sensors_[s].placement;
+  const SensorOutputs& o = sim.sensors_[s].outputs;
+  const auto G = static_cast<Eigen::Index>(grid.g1 - grid.g0 + 1);
+  // One sample per frame from g0 on (the sensor at the motion's rate): the grid values are
+  // the samples, written in place.
+  const bool direct_out = grid.on_grid && !o.orientation && !o.magnetometer;
+  // The last frame computed: the last sample's when they are written in place.
+  const int64_t gl = direct_out ? grid.g0 + static_cast<int64_t>(pos.size()) - 1 : grid.g1;
+  if (!direct_out) {
+    grid_f.resize(3, o.accelerometer ? G : 0);
+    grid_w.resize(3, o.gyroscope ? G : 0);
+  }
+  double* gf = direct_out ? out[s].specific_force.data() : grid_f.data();
+  double* gw = direct_out ? out[s].angular_rate.data() : grid_w.data();
+  // Sensor positions on every loaded frame.
+  if (o.accelerometer) {
+    const std::size_t Fz = mw.frames();
+    sensor_position.resize(3 * Fz);
+    sensor_positions(joint_pose(k, Fz), Fz, pl.p_joint_sensor.data(), 0, Fz,
+                     sensor_position.data());
+  }
+  if (sim.options_.method == DerivativeMethod::fd)
+    fd_grid_values(sim, s, mw, grid, gl, gf, gw);
+  else
+    reference_grid_values(sim, s, mw, grid, gl, gf, gw);
+  if (!direct_out) grid_to_samples(sim, s, mw, grid, gf, gw, out);
+}
+
+// fd on grid frames g0 .. gl: interior frames in the kernel, then the frames at the motion's ends
+// (if loaded).
+void Simulator::Workspace::fd_grid_values(const Simulator& sim, std::size_t s,
+                                          const MotionWindow& mw, const GridFrames& grid,
+                                          int64_t gl, double* gf, double* gw) const {
+  const auto k = static_cast<std::size_t>(sim.plan_.sensor_joint[s]);
+  const Placement& pl = sim.sensors_[s].placement;
+  const SensorOutputs& o = sim.sensors_[s].outputs;
+  const int64_t N = mw.N, g0 = grid.g0, lo = mw.lo;
+  const std::size_t Fz = mw.frames();
+  const double rate = mw.rate, rate2 = rate * rate;
+  const Vector3d gravity = sim.options_.gravity_world;
+  const Matrix3d R_sensor_joint = pl.q_joint_sensor.toRotationMatrix().transpose();
+  const auto P = [&](int64_t f) { return sensor_position_at(f, mw); };
+  const auto qw = [&](int64_t f, std::size_t j) { return world_rotation(f, j, mw); };
+  const auto increment = [&](int64_t f, std::size_t j) { return this->increment(f, j, mw, grid); };
+  const int64_t ia = std::max<int64_t>(g0, 1), ib = std::min<int64_t>(gl, N - 2);
+  if (ib >= ia) {
+    FdInteriorArgs fa;
+    fa.pose = joint_pose(k, Fz);
+    fa.position = o.accelerometer ? sensor_position.data() : nullptr;
+    fa.increments =
+        o.gyroscope ? increments.data() + static_cast<std::size_t>(rate_slot[k]) * 4 * Fz : nullptr;
+    fa.frames = Fz;
+    fa.first = static_cast<std::size_t>(ia - lo);
+    fa.count = static_cast<std::size_t>(ib - ia + 1);
+    for (int r = 0; r < 3; ++r) {
+      for (int cc = 0; cc < 3; ++cc) fa.R_sensor_joint[3 * r + cc] = R_sensor_joint(r, cc);
+      fa.gravity[r] = gravity[r];
+    }
+    fa.rate = rate;
+    // An output not requested has no storage (null): no offset into it (UB even unused).
+    fa.force = o.accelerometer ? gf + 3 * (ia - g0) : nullptr;
+    fa.angular_rate = o.gyroscope ? gw + 3 * (ia - g0) : nullptr;
+    fd_interior(fa);
+  }
+  const int64_t ends[2] = {g0, gl};
+  for (int e = 0; e < (gl == g0 ? 1 : 2); ++e) {
+    const int64_t g = ends[e];
+    if (g > 0 && g < N - 1) continue;
+    const auto col = static_cast<std::size_t>(g - g0);
+    if (o.accelerometer) {
+      Vector3d acc = Vector3d::Zero();
+      if (N >= 4) {  // one-sided, second order: (2 p0 - 5 p1 + 4 p2 - p3) / h^2
+        const int64_t d = g == 0 ? 1 : -1;
+        acc = (2.0 * (P(g) - P(g + d)) - 3.0 * (P(g + d) - P(g + 2 * d)) +
+               (P(g + 2 * d) - P(g + 3 * d))) *
+              rate2;
+      } else if (N == 3) {
+        acc = ((P(2) - P(1)) - (P(1) - P(0))) * rate2;
+      }
+      store3(gf + 3 * col, R_sensor_joint * rotate_inverse(qw(g, k), acc - gravity));
+    }
+    if (o.gyroscope) {
+      Vector3d omega;
+      if (N >= 3) {
+        // Chart at the end frame: psi_1, psi_2 of the two neighbours inwards,
+        // w = (4 psi_1 - psi_2) / (2 h) (one-sided, second order).
+        const int64_t d = g == 0 ? 1 : -1;
+        const Vector3d psi1 = g == 0 ? increment(g, k) : Vector3d(-increment(g - 1, k));
+        const Vector3d psi2 =
+            unwrap_near(so3_log(qw(g, k).conjugate() * qw(g + 2 * d, k)), 2.0 * psi1);
+        omega = (4.0 * psi1 - psi2) * (0.5 * rate) * static_cast<double>(d);
+      } else {
+        omega = increment(0, k) * rate;
+      }
+      store3(gw + 3 * col, R_sensor_joint * omega);
+    }
+  }
+}
+
+// The reference method on grid frames g0 .. gl.
+void Simulator::Workspace::reference_grid_values(const Simulator& sim, std::size_t s,
+                                                 const MotionWindow& mw, const GridFrames& grid,
+                                                 int64_t gl, double* gf, double* gw) const {
+  const auto k = static_cast<std::size_t>(sim.plan_.sensor_joint[s]);
+  const Placement& pl = sim.sensors_[s].placement;
+  const SensorOutputs& o = sim.sensors_[s].outputs;
+  const int64_t N = mw.N, g0 = grid.g0;
+  const double rate = mw.rate;
+  const Vector3d gravity = sim.options_.gravity_world;
+  const auto P = [&](int64_t f) { return sensor_position_at(f, mw); };
+  const auto qw = [&](int64_t f, std::size_t j) { return world_rotation(f, j, mw); };
+  for (int64_t g = g0; g <= gl; ++g) {
+    const auto col = static_cast<std::size_t>(g - g0);
+    const Quaterniond qs = multiply(qw(g, k), pl.q_joint_sensor);
+    if (o.accelerometer) {
+      // v = D1(p)/h and a = D1(v)/h with D1 central inside and one-sided at the ends.
+      const auto vel = [&](int64_t f) -> Vector3d {
+        if (f == 0) return (P(1) - P(0)) * rate;
+        if (f == N - 1) return (P(N - 1) - P(N - 2)) * rate;
+        return (P(f + 1) - P(f - 1)) * (0.5 * rate);
+      };
+      Vector3d acc;
+      if (g == 0)
+        acc = (vel(1) - vel(0)) * rate;
+      else if (g == N - 1)
+        acc = (vel(N - 1) - vel(N - 2)) * rate;
+      else
+        acc = (vel(g + 1) - vel(g - 1)) * (0.5 * rate);
+      store3(gf + 3 * col, qs.conjugate() * (acc - gravity));
+    }
+    if (o.gyroscope) {
+      const auto qsf = [&](int64_t f) { return multiply(qw(f, k), pl.q_joint_sensor); };
+      Vector3d e;
+      if (g == 0)
+        e = reference_euler_xyz(multiply(qsf(1), qsf(0).conjugate()).toRotationMatrix());
+      else if (g == N - 1)
+        e = reference_euler_xyz(multiply(qsf(N - 1), qsf(N - 2).conjugate()).toRotationMatrix());
+      else
+        e = 0.5 *
+            reference_euler_xyz(multiply(qsf(g + 1), qsf(g - 1).conjugate()).toRotationMatrix());
+      store3(gw + 3 * col, qs.conjugate() * (e * rate));
+    }
+  }
+}
+
+// Samples between frames: linear interpolation of the frame values; the orientation by slerp.
+void Simulator::Workspace::grid_to_samples(const Simulator& sim, std::size_t s,
+                                           const MotionWindow& mw, const GridFrames& grid,
+                                           const double* gf, const double* gw,
+                                           std::vector<SensorBlock>& out) const {
+  const auto k = static_cast<std::size_t>(sim.plan_.sensor_joint[s]);
+  const Placement& pl = sim.sensors_[s].placement;
+  const SensorOutputs& o = sim.sensors_[s].outputs;
+  const Vector3d& B_world = sim.options_.magnetic_field_world;
+  const int64_t g0 = grid.g0;
+  const auto qw = [&](int64_t f, std::size_t j) { return world_rotation(f, j, mw); };
+  double* of = out[s].specific_force.data();
+  double* ow = out[s].angular_rate.data();
+  double* om = out[s].magnetic_field.data();
+  for (std::size_t i = 0; i < pos.size(); ++i) {
+    const auto at = static_cast<std::size_t>(pos[i].frame - g0);
+    const double u = pos[i].frac;
+    const auto put = [&](double* dst, const double* values) {
+      const double* x0 = values + 3 * at;
+      if (u == 0.0) {
+        dst[0] = x0[0], dst[1] = x0[1], dst[2] = x0[2];
+      } else if (u == 1.0) {
+        dst[0] = x0[3], dst[1] = x0[4], dst[2] = x0[5];
+      } else {
+        for (int r = 0; r < 3; ++r) dst[r] = (1.0 - u) * x0[r] + u * x0[r + 3];
+      }
+    };
+    if (o.accelerometer) put(of + 3 * i, gf);
+    if (o.gyroscope) put(ow + 3 * i, gw);
+    if (o.orientation || o.magnetometer) {
+      // Between frames the orientation is the slerp of the frame orientations (fd's linear
+      // interpolation, on SO(3)).
+      const Quaterniond q0 = qw(pos[i].frame, k) * pl.q_joint_sensor;
+      const Quaterniond q_ws =
+          u == 0.0 ? q0.normalized()
+                   : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
+      if (o.orientation) out[s].q_world_sensor[i] = q_ws;
+      if (o.magnetometer) store3(om + 3 * i, rotate_inverse(q_ws, B_world));
+    }
+  }
+}
+
+void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
+                         std::vector<SensorBlock>& out) {
+  require_simulatable(motion, "simulation");
+  Workspace& ws = *ws_;
+  const int64_t N = motion.frame_count().value_or(kEndless);
+  const double rate = motion.rate_hz();
+  size_outputs(sensors_, times, out);
+  if (times.empty() || sensors_.empty()) return;
+  ws.frame_positions(times, rate, N);
+  const bool spline = options_.method == DerivativeMethod::spline;
+  ws.select_on_frame_samples(N, spline && options_.spline_on_frames);
+  const MotionWindow mw = ws.load_window(*this, motion, N, rate);
+  if (spline)
+    ws.evaluate_spline(*this, mw, out);
+  else
+    ws.evaluate_grid(*this, mw, out);
 }
 
 void Simulator::run(MotionSource& motion,
