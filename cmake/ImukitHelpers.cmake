@@ -35,21 +35,39 @@ function(imukit_configure_toolchain)
   endif()
 endfunction()
 
-# imukit_add_module(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
-# Creates imukit_<name> with alias imukit::<name>; headers live beside the sources and are
-# included as "<name>/<header>.hpp" from the project root.
+# imukit_add_module(<name> SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [INTERNAL_HEADERS ...])
+# Creates imukit_<name> with alias imukit::<name>. Headers live beside the sources and everything,
+# inside the project and outside, includes them as "imukit/<name>/<header>.hpp": in the build tree
+# <build>/include/imukit/<name> is a link to this folder, installed they are copied to
+# <prefix>/include/imukit/<name>. INTERNAL_HEADERS are the module's plumbing (used by its sources
+# and the project's tests, benchmarks and fuzzers): never installed, and no installed header may
+# include one (tests/install proves both).
 function(imukit_add_module name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS;INTERNAL_HEADERS" ${ARGN})
   add_library(imukit_${name} ${ARG_SOURCES})
   add_library(imukit::${name} ALIAS imukit_${name})
+  file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/include/imukit)
+  file(CREATE_LINK ${CMAKE_CURRENT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/include/imukit/${name} SYMBOLIC)
   target_include_directories(imukit_${name} PUBLIC
-    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}> $<INSTALL_INTERFACE:include/imukit>)
+    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/include> $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
   target_link_libraries(imukit_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   set_target_properties(imukit_${name} PROPERTIES EXPORT_NAME ${name})
-  # Every module is installed and exported as imukit::<name> (imukit_install_package), headers
-  # keeping the "<name>/<header>.hpp" layout under include/imukit.
   set_property(GLOBAL APPEND PROPERTY IMUKIT_MODULES ${name})
-  file(GLOB headers CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.hpp ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  file(GLOB headers RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} CONFIGURE_DEPENDS
+       ${CMAKE_CURRENT_SOURCE_DIR}/*.hpp ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  foreach(h IN LISTS ARG_INTERNAL_HEADERS)  # a misspelt name must not let the header be installed
+    if(NOT h IN_LIST headers)
+      message(FATAL_ERROR "imukit_add_module(${name}): INTERNAL_HEADERS names ${h}, which is not here")
+    endif()
+    set_property(GLOBAL APPEND PROPERTY IMUKIT_INTERNAL_HEADERS imukit/${name}/${h})
+  endforeach()
+  if(ARG_INTERNAL_HEADERS)
+    list(REMOVE_ITEM headers ${ARG_INTERNAL_HEADERS})
+  endif()
+  foreach(h IN LISTS headers)
+    set_property(GLOBAL APPEND PROPERTY IMUKIT_PUBLIC_HEADERS imukit/${name}/${h})
+  endforeach()
+  list(TRANSFORM headers PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/)
   install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/imukit/${name} COMPONENT dev)
 endfunction()
 
@@ -109,6 +127,11 @@ function(imukit_install_package)
                                    VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
   install(FILES ${PROJECT_BINARY_DIR}/imukitConfig.cmake ${PROJECT_BINARY_DIR}/imukitConfigVersion.cmake
           DESTINATION ${cmake_dir} COMPONENT dev)
+  # Which headers are public and which internal, for tests/install (not installed).
+  get_property(public GLOBAL PROPERTY IMUKIT_PUBLIC_HEADERS)
+  get_property(internal GLOBAL PROPERTY IMUKIT_INTERNAL_HEADERS)
+  file(WRITE ${PROJECT_BINARY_DIR}/imukit_headers.cmake
+       "set(IMUKIT_PUBLIC_HEADERS \"${public}\")\nset(IMUKIT_INTERNAL_HEADERS \"${internal}\")\n")
 endfunction()
 
 # imukit_add_test_suite(<module> SOURCES ... [DEPS ...])
@@ -150,6 +173,8 @@ endfunction()
 function(imukit_add_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   add_executable(bench_${name} ${ARG_SOURCES})
+  # Benchmarks share the tests' header-only helpers (tests/support).
+  target_include_directories(bench_${name} PRIVATE ${PROJECT_SOURCE_DIR}/tests)
   target_link_libraries(bench_${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
 endfunction()
 

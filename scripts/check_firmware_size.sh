@@ -24,9 +24,13 @@ done
 
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+# The protocol's headers are included as "imukit/firmware_proto/x.hpp", as the CMake build and an
+# installed tree have them: a firmware that vendors the folder makes the same link.
+mkdir -p "$work/include/imukit"
+ln -s "$root/firmware_proto" "$work/include/imukit/firmware_proto"
 
 cflags=(-mcpu=cortex-m4 -mthumb -Os -fno-exceptions -fno-rtti -ffreestanding -std=c++20
-        -Wall -Wextra -Wpedantic -Werror -ffunction-sections -fdata-sections -I"$root")
+        -Wall -Wextra -Wpedantic -Werror -ffunction-sections -fdata-sections -I"$work/include")
 
 # A stand-in firmware: a HAL over static buffers, one DeviceModel, and calls into every public
 # entry point, with inputs read through volatile pointers so the compiler cannot fold them away.
@@ -34,11 +38,11 @@ cat >"$work/main.cpp" <<'EOF'
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware_proto/cobs.hpp"
-#include "firmware_proto/crc32c.hpp"
-#include "firmware_proto/device_model.hpp"
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/cobs.hpp"
+#include "imukit/firmware_proto/crc32c.hpp"
+#include "imukit/firmware_proto/device_model.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace proto = imukit::proto;
 

@@ -7,11 +7,11 @@
 #include <cstdio>
 #include <memory>
 
-#include "core/error.hpp"
-#include "core/so3.hpp"
-#include "sim/bvh.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
+#include <imukit/core/error.hpp>
+#include <imukit/core/so3.hpp>
+#include <imukit/sim/bvh.hpp>
+#include <imukit/sim/placement.hpp>
+#include <imukit/sim/scene.hpp>
 
 int main(int argc, char** argv) {
   if (argc != 2) {
