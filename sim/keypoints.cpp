@@ -883,6 +883,14 @@ struct Cleaned {
   std::vector<double> t;       // s
   Eigen::Matrix3Xd p;          // input frame, column f * J + j
   std::vector<uint8_t> valid;  // f * J + j
+
+  std::size_t idx(int64_t f, std::size_t j) const { return static_cast<std::size_t>(f) * J + j; }
+  Eigen::Index col(int64_t f, std::size_t j) const { return static_cast<Eigen::Index>(idx(f, j)); }
+  // Keypoint j (a topology index) at frame f, and whether it is there.
+  Vector3d point(int64_t f, int j) const {
+    return Vector3d(p.col(col(f, static_cast<std::size_t>(j))));
+  }
+  bool seen(int64_t f, int j) const { return valid[idx(f, static_cast<std::size_t>(j))] != 0; }
 };
 
 // The secondary direction at one instant, and for a cross product how well it is defined: the
@@ -952,35 +960,13 @@ void check_and_time(const Keypoints& k, const KeypointTopology& topo, Cleaned& c
   }
 }
 
-}  // namespace
-
-KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointTopology& topo,
-                                     const KeypointMotionOptions& opt) {
-  validate_topology(topo, "topology " + topo.name);
-  if (!(opt.rate_hz > 0.0 && opt.rate_hz <= 1e4))
-    throw Error("motion_from_keypoints: rate_hz must be in (0, 1e4]");
-  if (!(opt.cutoff_hz > 0.0 && std::isfinite(opt.cutoff_hz)))
-    throw Error("motion_from_keypoints: cutoff_hz must be positive");
-  if (!(opt.max_bone_deviation >= 0.0))
-    throw Error("motion_from_keypoints: max_bone_deviation must be >= 0");
-  if (!(opt.twist_min_angle_deg >= 0.0 && opt.twist_full_angle_deg > opt.twist_min_angle_deg &&
-        opt.twist_full_angle_deg <= 90.0))
-    throw Error(
-        "motion_from_keypoints: need 0 <= twist_min_angle_deg < twist_full_angle_deg <= 90");
-  KeypointMotion out;
-  Cleaned c;
-  check_and_time(keypoints, topo, c);
+// Step 1: the input frames with some keypoint missing (NaN).
+void mark_missing(const Cleaned& c, KeypointMotion& out) {
   const int64_t F = c.F;
   const std::size_t J = c.J;
-  const auto idx = [&](int64_t f, std::size_t j) { return static_cast<std::size_t>(f) * J + j; };
-  const auto col = [&](int64_t f, std::size_t j) { return static_cast<Eigen::Index>(idx(f, j)); };
-  out.input_rate_hz = static_cast<double>(F - 1) / (c.t.back() - c.t.front());
-  out.start_s = c.t.front();
-
-  // Missing on input.
   for (int64_t f = 0; f < F; ++f) {
     for (std::size_t j = 0; j < J; ++j) {
-      if (!c.valid[idx(f, j)]) {
+      if (!c.valid[c.idx(f, j)]) {
         out.missing_frames.push_back(f);
         break;
       }
@@ -989,183 +975,196 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
   if (!out.missing_frames.empty())
     out.warnings.push_back("missing keypoints (NaN) in input frames " +
                            frame_list(out.missing_frames) + ": filled by the smoothing spline");
+}
 
-  // Frozen frames: an exact repeat of the previous frame (a dropped camera frame), unless the
-  // whole input is one still pose.
-  if (opt.drop_frozen_frames) {
-    std::vector<int64_t> frozen;
-    for (int64_t f = 1; f < F; ++f) {
-      bool same = false;
-      for (std::size_t j = 0; j < J; ++j) {
-        const bool a = c.valid[idx(f, j)], b = c.valid[idx(f - 1, j)];
-        if (a != b) {
-          same = false;
-          break;
-        }
-        if (!a) continue;
-        if (c.p.col(col(f, j)) != c.p.col(col(f - 1, j))) {
-          same = false;
-          break;
-        }
-        same = true;
+// Step 1: frozen frames, an exact repeat of the previous frame (a dropped camera frame), become
+// missing, unless the whole input is one still pose.
+void mark_frozen(Cleaned& c, KeypointMotion& out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  std::vector<int64_t> frozen;
+  for (int64_t f = 1; f < F; ++f) {
+    bool same = false;
+    for (std::size_t j = 0; j < J; ++j) {
+      const bool a = c.valid[c.idx(f, j)], b = c.valid[c.idx(f - 1, j)];
+      if (a != b) {
+        same = false;
+        break;
       }
-      if (same) frozen.push_back(f);
-    }
-    if (static_cast<int64_t>(frozen.size()) < F - 1) {
-      for (int64_t f : frozen) {
-        for (std::size_t j = 0; j < J; ++j) c.valid[idx(f, j)] = 0;
+      if (!a) continue;
+      if (c.p.col(c.col(f, j)) != c.p.col(c.col(f - 1, j))) {
+        same = false;
+        break;
       }
-      out.frozen_frames = frozen;
-      if (!frozen.empty())
-        out.warnings.push_back("frozen input frames (an exact repeat of the previous frame) " +
-                               frame_list(frozen) + ": treated as missing");
+      same = true;
     }
+    if (same) frozen.push_back(f);
   }
+  if (static_cast<int64_t>(frozen.size()) < F - 1) {
+    for (int64_t f : frozen) {
+      for (std::size_t j = 0; j < J; ++j) c.valid[c.idx(f, j)] = 0;
+    }
+    out.frozen_frames = frozen;
+    if (!frozen.empty())
+      out.warnings.push_back("frozen input frames (an exact repeat of the previous frame) " +
+                             frame_list(frozen) + ": treated as missing");
+  }
+}
 
-  // Every keypoint must have data somewhere.
+// Every keypoint must have data somewhere.
+void require_coverage(const Cleaned& c, const KeypointTopology& topo) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
   for (std::size_t j = 0; j < J; ++j) {
     bool any = false;
-    for (int64_t f = 0; f < F && !any; ++f) any = c.valid[idx(f, j)] != 0;
+    for (int64_t f = 0; f < F && !any; ++f) any = c.valid[c.idx(f, j)] != 0;
     if (!any)
       throw Error("keypoints: keypoint '" + topo.keypoints[j] + "' is missing in every frame");
   }
+}
 
-  // Left/right limb swaps: a group whose labels fit the last frames better exchanged is
-  // exchanged back (temporal continuity; a margin keeps crossing limbs, claps and fast swings
-  // from being taken for swaps).
-  if (opt.fix_swaps) {
-    std::vector<int64_t> swapped;
-    for (const auto& group : topo.swap_groups) {
-      std::vector<Vector3d> refL(group.size()), refR(group.size());
-      std::vector<int64_t> seen(group.size(), -1000);
-      for (int64_t f = 0; f < F; ++f) {
-        double keep = 0.0, swap = 0.0;
-        int used = 0;
-        for (std::size_t g = 0; g < group.size(); ++g) {
-          const auto [l, r] = group[g];
-          if (!c.valid[idx(f, static_cast<std::size_t>(l))] ||
-              !c.valid[idx(f, static_cast<std::size_t>(r))] || f - seen[g] > 3)
-            continue;
-          const Vector3d L = c.p.col(col(f, static_cast<std::size_t>(l)));
-          const Vector3d R = c.p.col(col(f, static_cast<std::size_t>(r)));
-          keep += (L - refL[g]).norm() + (R - refR[g]).norm();
-          swap += (L - refR[g]).norm() + (R - refL[g]).norm();
-          ++used;
+// Step 2: left/right limb swaps. A group whose labels fit the last frames better exchanged is
+// exchanged back (temporal continuity; a margin keeps crossing limbs, claps and fast swings from
+// being taken for swaps).
+void repair_limb_swaps(Cleaned& c, const KeypointTopology& topo, KeypointMotion& out) {
+  const int64_t F = c.F;
+  std::vector<int64_t> swapped;
+  for (const auto& group : topo.swap_groups) {
+    std::vector<Vector3d> refL(group.size()), refR(group.size());
+    std::vector<int64_t> seen(group.size(), -1000);
+    for (int64_t f = 0; f < F; ++f) {
+      double keep = 0.0, swap = 0.0;
+      int used = 0;
+      for (std::size_t g = 0; g < group.size(); ++g) {
+        const auto [l, r] = group[g];
+        if (!c.valid[c.idx(f, static_cast<std::size_t>(l))] ||
+            !c.valid[c.idx(f, static_cast<std::size_t>(r))] || f - seen[g] > 3)
+          continue;
+        const Vector3d L = c.p.col(c.col(f, static_cast<std::size_t>(l)));
+        const Vector3d R = c.p.col(c.col(f, static_cast<std::size_t>(r)));
+        keep += (L - refL[g]).norm() + (R - refR[g]).norm();
+        swap += (L - refR[g]).norm() + (R - refL[g]).norm();
+        ++used;
+      }
+      const bool do_swap = used > 0 && swap < 0.5 * keep && keep - swap > 0.15 * used;
+      if (do_swap) swapped.push_back(f);
+      for (std::size_t g = 0; g < group.size(); ++g) {
+        const auto [l, r] = group[g];
+        const auto cl = c.col(f, static_cast<std::size_t>(l)),
+                   cr = c.col(f, static_cast<std::size_t>(r));
+        if (do_swap) {
+          const Vector3d tmp = c.p.col(cl);
+          c.p.col(cl) = c.p.col(cr);
+          c.p.col(cr) = tmp;
+          std::swap(c.valid[static_cast<std::size_t>(cl)], c.valid[static_cast<std::size_t>(cr)]);
         }
-        const bool do_swap = used > 0 && swap < 0.5 * keep && keep - swap > 0.15 * used;
-        if (do_swap) swapped.push_back(f);
-        for (std::size_t g = 0; g < group.size(); ++g) {
-          const auto [l, r] = group[g];
-          const auto cl = col(f, static_cast<std::size_t>(l)),
-                     cr = col(f, static_cast<std::size_t>(r));
-          if (do_swap) {
-            const Vector3d tmp = c.p.col(cl);
-            c.p.col(cl) = c.p.col(cr);
-            c.p.col(cr) = tmp;
-            std::swap(c.valid[static_cast<std::size_t>(cl)], c.valid[static_cast<std::size_t>(cr)]);
-          }
-          if (c.valid[static_cast<std::size_t>(cl)] && c.valid[static_cast<std::size_t>(cr)]) {
-            refL[g] = c.p.col(cl);
-            refR[g] = c.p.col(cr);
-            seen[g] = f;
-          }
+        if (c.valid[static_cast<std::size_t>(cl)] && c.valid[static_cast<std::size_t>(cr)]) {
+          refL[g] = c.p.col(cl);
+          refR[g] = c.p.col(cr);
+          seen[g] = f;
         }
       }
     }
-    std::sort(swapped.begin(), swapped.end());
-    swapped.erase(std::unique(swapped.begin(), swapped.end()), swapped.end());
-    out.swapped_frames = swapped;
-    if (!swapped.empty())
-      out.warnings.push_back("left/right limb swaps undone in input frames " + frame_list(swapped));
   }
+  std::sort(swapped.begin(), swapped.end());
+  swapped.erase(std::unique(swapped.begin(), swapped.end()), swapped.end());
+  out.swapped_frames = swapped;
+  if (!swapped.empty())
+    out.warnings.push_back("left/right limb swaps undone in input frames " + frame_list(swapped));
+}
 
-  // Bone-length outliers: of the two keypoints of a bone far off its median length, the one
-  // further from the midpoint of its own neighbouring frames (the one that jumped) is dropped.
-  if (opt.max_bone_deviation > 0.0) {
-    std::vector<int64_t> outliers;
-    const auto jump = [&](int64_t f, std::size_t j) {
-      Vector3d sum = Vector3d::Zero();
-      int n = 0;
-      for (const int64_t g : {f - 1, f + 1}) {
-        if (g >= 0 && g < F && c.valid[idx(g, j)]) sum += c.p.col(col(g, j)), ++n;
-      }
-      return n == 0 ? 0.0 : (c.p.col(col(f, j)) - sum / n).norm();
-    };
-    for (const KeypointSegment& s : topo.segments) {
-      if (s.end < 0) continue;
-      const auto o = static_cast<std::size_t>(s.origin), e = static_cast<std::size_t>(s.end);
-      std::vector<double> len;
-      for (int64_t f = 0; f < F; ++f) {
-        if (c.valid[idx(f, o)] && c.valid[idx(f, e)])
-          len.push_back((c.p.col(col(f, e)) - c.p.col(col(f, o))).norm());
-      }
-      if (len.size() < 3) continue;
-      const double m = median(len);
-      for (int64_t f = 0; f < F; ++f) {
-        if (!(c.valid[idx(f, o)] && c.valid[idx(f, e)])) continue;
-        const double l = (c.p.col(col(f, e)) - c.p.col(col(f, o))).norm();
-        if (std::abs(l - m) > std::max(opt.max_bone_deviation * m, kMinBoneDeviationM)) {
-          c.valid[idx(f, jump(f, o) > jump(f, e) ? o : e)] = 0;
-          outliers.push_back(f);
-        }
+// Step 2: bone-length outliers. Of the two keypoints of a bone far off its median length, the
+// one further from the midpoint of its own neighbouring frames (the one that jumped) is dropped.
+void drop_bone_outliers(Cleaned& c, const KeypointTopology& topo, const KeypointMotionOptions& opt,
+                        KeypointMotion& out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  std::vector<int64_t> outliers;
+  const auto jump = [&](int64_t f, std::size_t j) {
+    Vector3d sum = Vector3d::Zero();
+    int n = 0;
+    for (const int64_t g : {f - 1, f + 1}) {
+      if (g >= 0 && g < F && c.valid[c.idx(g, j)]) sum += c.p.col(c.col(g, j)), ++n;
+    }
+    return n == 0 ? 0.0 : (c.p.col(c.col(f, j)) - sum / n).norm();
+  };
+  for (const KeypointSegment& s : topo.segments) {
+    if (s.end < 0) continue;
+    const auto o = static_cast<std::size_t>(s.origin), e = static_cast<std::size_t>(s.end);
+    std::vector<double> len;
+    for (int64_t f = 0; f < F; ++f) {
+      if (c.valid[c.idx(f, o)] && c.valid[c.idx(f, e)])
+        len.push_back((c.p.col(c.col(f, e)) - c.p.col(c.col(f, o))).norm());
+    }
+    if (len.size() < 3) continue;
+    const double m = median(len);
+    for (int64_t f = 0; f < F; ++f) {
+      if (!(c.valid[c.idx(f, o)] && c.valid[c.idx(f, e)])) continue;
+      const double l = (c.p.col(c.col(f, e)) - c.p.col(c.col(f, o))).norm();
+      if (std::abs(l - m) > std::max(opt.max_bone_deviation * m, kMinBoneDeviationM)) {
+        c.valid[c.idx(f, jump(f, o) > jump(f, e) ? o : e)] = 0;
+        outliers.push_back(f);
       }
     }
-    std::sort(outliers.begin(), outliers.end());
-    outliers.erase(std::unique(outliers.begin(), outliers.end()), outliers.end());
-    out.outlier_frames = outliers;
-    if (!outliers.empty())
-      out.warnings.push_back(
-          "keypoints dropped for bone lengths off the median by more than " +
-          std::to_string(static_cast<int>(std::lround(100 * opt.max_bone_deviation))) +
-          " % (and 5 cm) in input frames " + frame_list(outliers));
+  }
+  std::sort(outliers.begin(), outliers.end());
+  outliers.erase(std::unique(outliers.begin(), outliers.end()), outliers.end());
+  out.outlier_frames = outliers;
+  if (!outliers.empty())
+    out.warnings.push_back(
+        "keypoints dropped for bone lengths off the median by more than " +
+        std::to_string(static_cast<int>(std::lround(100 * opt.max_bone_deviation))) +
+        " % (and 5 cm) in input frames " + frame_list(outliers));
+  for (std::size_t j = 0; j < J; ++j) {
+    bool any = false;
+    for (int64_t f = 0; f < F && !any; ++f) any = c.valid[c.idx(f, j)] != 0;
+    if (!any) throw Error("keypoints: keypoint '" + topo.keypoints[j] + "' has no usable frame");
+  }
+}
+
+// Step 2: jumps, a keypoint that steps faster than jump_speed_mps between two frames, and more
+// than three times as fast as in the steps before and after (a tracking failure snapping back,
+// not a fast swing). Kept (the data may be right), but named and left out of identification.
+void flag_jumps(const Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  std::vector<int64_t> jumps;
+  const auto speed = [&](int64_t f, std::size_t j) {  // step f-1 -> f, 0 when unknown
+    if (f < 1 || f >= F || !c.valid[c.idx(f, j)] || !c.valid[c.idx(f - 1, j)]) return 0.0;
+    return (c.p.col(c.col(f, j)) - c.p.col(c.col(f - 1, j))).norm() /
+           (c.t[static_cast<std::size_t>(f)] - c.t[static_cast<std::size_t>(f - 1)]);
+  };
+  for (int64_t f = 1; f < F; ++f) {
     for (std::size_t j = 0; j < J; ++j) {
-      bool any = false;
-      for (int64_t f = 0; f < F && !any; ++f) any = c.valid[idx(f, j)] != 0;
-      if (!any) throw Error("keypoints: keypoint '" + topo.keypoints[j] + "' has no usable frame");
-    }
-  }
-  // Jumps: a keypoint that steps faster than jump_speed_mps between two frames, and more than
-  // three times as fast as in the steps before and after (a tracking failure snapping back,
-  // not a fast swing). Kept (the data may be right), but named and left out of identification.
-  if (opt.jump_speed_mps > 0.0) {
-    std::vector<int64_t> jumps;
-    const auto speed = [&](int64_t f, std::size_t j) {  // step f-1 -> f, 0 when unknown
-      if (f < 1 || f >= F || !c.valid[idx(f, j)] || !c.valid[idx(f - 1, j)]) return 0.0;
-      return (c.p.col(col(f, j)) - c.p.col(col(f - 1, j))).norm() /
-             (c.t[static_cast<std::size_t>(f)] - c.t[static_cast<std::size_t>(f - 1)]);
-    };
-    for (int64_t f = 1; f < F; ++f) {
-      for (std::size_t j = 0; j < J; ++j) {
-        const double v = speed(f, j);
-        if (v > opt.jump_speed_mps && v > 3.0 * std::max(speed(f - 1, j), speed(f + 1, j))) {
-          jumps.push_back(f);
-          break;
-        }
+      const double v = speed(f, j);
+      if (v > opt.jump_speed_mps && v > 3.0 * std::max(speed(f - 1, j), speed(f + 1, j))) {
+        jumps.push_back(f);
+        break;
       }
     }
-    out.jump_frames = jumps;
-    if (!jumps.empty())
-      out.warnings.push_back("keypoints jump faster than " +
-                             std::to_string(opt.jump_speed_mps).substr(0, 4) +
-                             " m/s (a tracking failure?) into input frames " + frame_list(jumps) +
-                             ": kept, and listed in invalid_motion");
   }
-  {
-    std::vector<int64_t> all = out.missing_frames;
-    for (const auto* v :
-         {&out.frozen_frames, &out.swapped_frames, &out.outlier_frames, &out.jump_frames})
-      all.insert(all.end(), v->begin(), v->end());
-    std::sort(all.begin(), all.end());
-    out.flagged_frames = std::unique(all.begin(), all.end()) - all.begin();
-  }
+  out.jump_frames = jumps;
+  if (!jumps.empty())
+    out.warnings.push_back("keypoints jump faster than " +
+                           std::to_string(opt.jump_speed_mps).substr(0, 4) +
+                           " m/s (a tracking failure?) into input frames " + frame_list(jumps) +
+                           ": kept, and listed in invalid_motion");
+}
 
-  // World frame (step 3).
-  const auto P = [&](int64_t f, int j) {
-    return Vector3d(c.p.col(col(f, static_cast<std::size_t>(j))));
-  };
-  const auto V = [&](int64_t f, int j) {
-    return c.valid[idx(f, static_cast<std::size_t>(j))] != 0;
-  };
+// The number of input frames flagged for any reason.
+void count_flagged(KeypointMotion& out) {
+  std::vector<int64_t> all = out.missing_frames;
+  for (const auto* v :
+       {&out.frozen_frames, &out.swapped_frames, &out.outlier_frames, &out.jump_frames})
+    all.insert(all.end(), v->begin(), v->end());
+  std::sort(all.begin(), all.end());
+  out.flagged_frames = std::unique(all.begin(), all.end()) - all.begin();
+}
+
+// Step 3: the up direction in the input frame (given, from the upright body, or from the trunk).
+Vector3d estimate_up(const Cleaned& c, const KeypointTopology& topo,
+                     const KeypointMotionOptions& opt, KeypointMotion& out) {
+  const int64_t F = c.F;
   Vector3d up;
   if (opt.up) {
     if (!(opt.up->allFinite() && opt.up->norm() > 1e-9))
@@ -1178,8 +1177,8 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     const auto mid = [&](const std::vector<std::pair<int, int>>& pairs, int64_t f, Vector3d& m) {
       m.setZero();
       for (const auto& [a, b] : pairs) {
-        if (!V(f, a) || !V(f, b)) return false;
-        m += 0.5 * (P(f, a) + P(f, b));
+        if (!c.seen(f, a) || !c.seen(f, b)) return false;
+        m += 0.5 * (c.point(f, a) + c.point(f, b));
       }
       m /= static_cast<double>(pairs.size());
       return true;
@@ -1187,9 +1186,10 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     if (!topo.upright_lower.empty()) {
       for (int64_t f = 0; f < F; ++f) {
         Vector3d lo, hi;
-        if (!V(f, root_kp) || !mid(topo.upright_lower, f, lo) || !mid(topo.upright_upper, f, hi))
+        if (!c.seen(f, root_kp) || !mid(topo.upright_lower, f, lo) ||
+            !mid(topo.upright_upper, f, hi))
           continue;
-        const Vector3d legs = P(f, root_kp) - lo, trunk = hi - P(f, root_kp);
+        const Vector3d legs = c.point(f, root_kp) - lo, trunk = hi - c.point(f, root_kp);
         if (legs.norm() < 1e-6 || trunk.norm() < 1e-6) continue;
         if (legs.normalized().dot(trunk.normalized()) > std::cos(15.0 * kPi / 180.0))
           axes.push_back((hi - lo).normalized());
@@ -1203,8 +1203,8 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
       if (r.end < 0)
         throw Error("topology " + topo.name + ": the root segment needs an end keypoint");
       for (int64_t f = 0; f < F; ++f) {
-        if (V(f, r.origin) && V(f, r.end)) {
-          const Vector3d d = P(f, r.end) - P(f, r.origin);
+        if (c.seen(f, r.origin) && c.seen(f, r.end)) {
+          const Vector3d d = c.point(f, r.end) - c.point(f, r.origin);
           if (d.norm() > 1e-6) axes.push_back(d.normalized());
         }
       }
@@ -1225,12 +1225,21 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     }
     up = m2.norm() > 0.0 ? m2.normalized() : m;
   }
+  return up;
+}
+
+// Step 3: the world frame (x right, y forward, z up) and its origin on the floor below the root.
+void world_frame(const Cleaned& c, const KeypointTopology& topo, const KeypointMotionOptions& opt,
+                 KeypointMotion& out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  const Vector3d up = estimate_up(c, topo, opt, out);
   Vector3d forward = Vector3d::Zero();
   {
     const auto [l, r] = topo.left_right;
     for (int64_t f = 0; f < F; ++f) {
-      if (!V(f, l) || !V(f, r)) continue;
-      Vector3d right = P(f, r) - P(f, l);
+      if (!c.seen(f, l) || !c.seen(f, r)) continue;
+      Vector3d right = c.point(f, r) - c.point(f, l);
       right -= right.dot(up) * up;
       if (right.norm() > 1e-6) forward += up.cross(right).normalized();
     }
@@ -1255,12 +1264,12 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
       if (low.empty()) {
         double m = std::numeric_limits<double>::infinity();
         for (std::size_t j = 0; j < J; ++j) {
-          if (c.valid[idx(f, j)]) m = std::min(m, up.dot(c.p.col(col(f, j))));
+          if (c.valid[c.idx(f, j)]) m = std::min(m, up.dot(c.p.col(c.col(f, j))));
         }
         if (std::isfinite(m)) heights.push_back(m);
       } else {
         for (int j : low) {
-          if (V(f, j)) heights.push_back(up.dot(P(f, j)));
+          if (c.seen(f, j)) heights.push_back(up.dot(c.point(f, j)));
         }
       }
     }
@@ -1268,15 +1277,23 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     const int root_kp = topo.segments.front().origin;
     Vector3d p0 = Vector3d::Zero();
     for (int64_t f = 0; f < F; ++f) {
-      if (V(f, root_kp)) {
-        p0 = P(f, root_kp);
+      if (c.seen(f, root_kp)) {
+        p0 = c.point(f, root_kp);
         break;
       }
     }
     out.origin_input = p0 - p0.dot(up) * up + floor * up;
   }
+}
 
-  // Smoothing and resampling (step 4), in the world frame.
+// Step 4: the keypoints in the world frame, smoothed and resampled at opt.rate_hz: 3 x N each, at
+// the N times t_out (s).
+std::vector<Eigen::Matrix3Xd> smooth_keypoints(const Cleaned& c, const KeypointMotionOptions& opt,
+                                               const KeypointMotion& out,
+                                               std::vector<double>& t_out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  const Matrix3d& R = out.R_world_input;
   const double duration = c.t.back() - c.t.front();
   if (!(duration <= kMaxDurationS))
     throw Error("keypoints: the input lasts " + std::to_string(duration) + " s (more than 1e7 s)");
@@ -1287,7 +1304,7 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
   if (N < 2)
     throw Error("keypoints: the input lasts " + std::to_string(duration) +
                 " s, less than one output frame at " + std::to_string(opt.rate_hz) + " Hz");
-  std::vector<double> t_out(static_cast<std::size_t>(N));
+  t_out.resize(static_cast<std::size_t>(N));
   for (int64_t k = 0; k < N; ++k)
     t_out[static_cast<std::size_t>(k)] = c.t.front() + to_seconds(sample_time(0, k, opt.rate_hz));
   const double wc = 2.0 * kPi * opt.cutoff_hz;
@@ -1299,59 +1316,134 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     std::vector<double> w(static_cast<std::size_t>(F));
     for (std::size_t j = 0; j < J; ++j) {
       for (int64_t f = 0; f < F; ++f) {
-        const bool ok = c.valid[idx(f, j)] != 0;
+        const bool ok = c.valid[c.idx(f, j)] != 0;
         w[static_cast<std::size_t>(f)] = ok ? 1.0 : 0.0;
-        y.col(f) = ok ? Vector3d(R * (c.p.col(col(f, j)) - out.origin_input)) : Vector3d::Zero();
+        y.col(f) = ok ? Vector3d(R * (c.p.col(c.col(f, j)) - out.origin_input)) : Vector3d::Zero();
       }
       S[j] = smooth_and_resample(c.t, y, w, opt.cutoff_hz, t_out, 0, keypoint_tension);
     }
   }
-  // Filled stretches: runs of two or more input frames with some keypoint missing.
-  {
-    std::vector<uint8_t> bad(static_cast<std::size_t>(F), 0);
-    for (int64_t f = 0; f < F; ++f) {
-      for (std::size_t j = 0; j < J; ++j)
-        bad[static_cast<std::size_t>(f)] |= c.valid[idx(f, j)] == 0;
-    }
-    for (int64_t f = 0; f < F;) {
-      if (!bad[static_cast<std::size_t>(f)]) {
-        ++f;
-        continue;
-      }
-      int64_t g = f;
-      while (g + 1 < F && bad[static_cast<std::size_t>(g + 1)]) ++g;
-      if (g > f) {
-        out.invalid_motion.emplace_back(
-            from_seconds(c.t[static_cast<std::size_t>(f)] - c.t.front()),
-            from_seconds(c.t[static_cast<std::size_t>(g)] - c.t.front()));
-      }
-      f = g + 1;
-    }
-    // Jumps, widened by the smoothing's reach (half a period of the cut-off) on each side.
-    const double reach = 0.5 / opt.cutoff_hz;
-    for (const int64_t f : out.jump_frames) {
-      const double b = std::max(0.0, c.t[static_cast<std::size_t>(f - 1)] - c.t.front() - reach);
-      const double e = std::min(duration, c.t[static_cast<std::size_t>(f)] - c.t.front() + reach);
-      out.invalid_motion.emplace_back(from_seconds(b), from_seconds(e));
-    }
-    std::sort(out.invalid_motion.begin(), out.invalid_motion.end());
-    std::vector<std::pair<TimeNs, TimeNs>> merged;
-    for (const auto& iv : out.invalid_motion) {
-      if (!merged.empty() && iv.first <= merged.back().second) {
-        merged.back().second = std::max(merged.back().second, iv.second);
-      } else {
-        merged.push_back(iv);
-      }
-    }
-    out.invalid_motion = std::move(merged);
-  }
+  return S;
+}
 
-  // Rotations (step 5).
+// Filled stretches: runs of two or more input frames with some keypoint missing, and the jumps,
+// into out.invalid_motion.
+void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
+  const int64_t F = c.F;
+  const std::size_t J = c.J;
+  const double duration = c.t.back() - c.t.front();
+  std::vector<uint8_t> bad(static_cast<std::size_t>(F), 0);
+  for (int64_t f = 0; f < F; ++f) {
+    for (std::size_t j = 0; j < J; ++j)
+      bad[static_cast<std::size_t>(f)] |= c.valid[c.idx(f, j)] == 0;
+  }
+  for (int64_t f = 0; f < F;) {
+    if (!bad[static_cast<std::size_t>(f)]) {
+      ++f;
+      continue;
+    }
+    int64_t g = f;
+    while (g + 1 < F && bad[static_cast<std::size_t>(g + 1)]) ++g;
+    if (g > f) {
+      out.invalid_motion.emplace_back(from_seconds(c.t[static_cast<std::size_t>(f)] - c.t.front()),
+                                      from_seconds(c.t[static_cast<std::size_t>(g)] - c.t.front()));
+    }
+    f = g + 1;
+  }
+  // Jumps, widened by the smoothing's reach (half a period of the cut-off) on each side.
+  const double reach = 0.5 / opt.cutoff_hz;
+  for (const int64_t f : out.jump_frames) {
+    const double b = std::max(0.0, c.t[static_cast<std::size_t>(f - 1)] - c.t.front() - reach);
+    const double e = std::min(duration, c.t[static_cast<std::size_t>(f)] - c.t.front() + reach);
+    out.invalid_motion.emplace_back(from_seconds(b), from_seconds(e));
+  }
+  std::sort(out.invalid_motion.begin(), out.invalid_motion.end());
+  std::vector<std::pair<TimeNs, TimeNs>> merged;
+  for (const auto& iv : out.invalid_motion) {
+    if (!merged.empty() && iv.first <= merged.back().second) {
+      merged.back().second = std::max(merged.back().second, iv.second);
+    } else {
+      merged.push_back(iv);
+    }
+  }
+  out.invalid_motion = std::move(merged);
+}
+
+// Step 5, one segment's twist: the angle (rad) about the bone at each output frame from the
+// secondary directions, weighted by their distance from the bone, then smoothed. `observed`
+// counts the frames whose twist is well seen (weight >= 0.5).
+std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eigen::Matrix3Xd>& S,
+                                 const std::vector<Vector3d>& bone,
+                                 const std::vector<Quaterniond>& Fr,
+                                 const std::vector<double>& t_out, const KeypointMotionOptions& opt,
+                                 int64_t& observed, KeypointMotion& out) {
+  const auto N = static_cast<int64_t>(t_out.size());
+  const double s_lo = std::sin(opt.twist_min_angle_deg * kPi / 180.0);
+  const double s_hi = std::sin(opt.twist_full_angle_deg * kPi / 180.0);
+  std::vector<double> phi(static_cast<std::size_t>(N), 0.0), W(static_cast<std::size_t>(N), 0.0);
+  observed = 0;
+  if (!s.secondary.empty()) {
+    std::vector<Vector3d> n0;
+    for (const SecondaryDirection& d : s.secondary)
+      n0.push_back((d.neutral - d.neutral.dot(s.neutral) * s.neutral).normalized());
+    const auto pos = [&](int64_t k) {
+      return [&S, k](int j) { return Vector3d(S[static_cast<std::size_t>(j)].col(k)); };
+    };
+    double last = 0.0;
+    bool have_last = false;
+    for (int64_t k = 0; k < N; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      double sx = 0.0, sy = 0.0, wmax = 0.0;
+      for (std::size_t ci = 0; ci < s.secondary.size(); ++ci) {
+        double sine = 1.0;
+        const Vector3d v = direction_of(s.secondary[ci], pos(k), sine);
+        const double vn = v.norm();
+        if (!(vn > 1e-12)) continue;
+        const Vector3d perp = v - v.dot(bone[kk]) * bone[kk];
+        const double wgt =
+            smooth_ramp(perp.norm() / vn, s_lo, s_hi) * smooth_ramp(sine, s_lo, s_hi);
+        if (wgt <= 0.0) continue;
+        const Vector3d pred = Fr[kk] * n0[ci];
+        const double a = std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp));
+        sx += wgt * std::cos(a);
+        sy += wgt * std::sin(a);
+        wmax = std::max(wmax, wgt);
+      }
+      if (wmax <= 0.0) continue;
+      double a = std::atan2(sy, sx);
+      if (have_last) a += 2.0 * kPi * std::round((last - a) / (2.0 * kPi));
+      phi[kk] = a;
+      W[kk] = wmax;
+      last = a;
+      have_last = true;
+      if (wmax >= 0.5) ++observed;
+    }
+    if (have_last) {
+      const Eigen::MatrixXd y = Eigen::Map<const Eigen::RowVectorXd>(phi.data(), N);
+      const double fc = 2.0 * opt.cutoff_hz;
+      const double wc2 = 2.0 * kPi * fc;
+      const double h_out = 1.0 / opt.rate_hz;
+      const Eigen::MatrixXd sm = smooth_and_resample(t_out, y, W, fc, t_out, 0,
+                                                     0.01 * wc2 * wc2 / (h_out * std::pow(wc2, 4)));
+      for (int64_t k = 0; k < N; ++k) phi[static_cast<std::size_t>(k)] = sm(0, k);
+    } else {
+      out.warnings.push_back("segment " + s.joint + ": twist unobservable in every frame (" +
+                             s.twist_note + "): minimum twist from frame 0 assumed");
+    }
+  }
+  return phi;
+}
+
+// Step 5: each segment's world rotation at each output frame (the bone direction by parallel
+// transport, the twist from the secondary directions), and its report.
+std::vector<std::vector<Quaterniond>> segment_rotations(
+    const Cleaned& c, const KeypointTopology& topo, const KeypointMotionOptions& opt,
+    const std::vector<Eigen::Matrix3Xd>& S, const std::vector<double>& t_out, KeypointMotion& out) {
+  const int64_t F = c.F;
+  const auto N = static_cast<int64_t>(t_out.size());
   const std::size_t nseg = topo.segments.size();
   std::vector<std::vector<Quaterniond>> Rw(nseg,
                                            std::vector<Quaterniond>(static_cast<std::size_t>(N)));
-  const double s_lo = std::sin(opt.twist_min_angle_deg * kPi / 180.0);
-  const double s_hi = std::sin(opt.twist_full_angle_deg * kPi / 180.0);
   for (std::size_t si = 0; si < nseg; ++si) {
     const KeypointSegment& s = topo.segments[si];
     SegmentReport rep;
@@ -1384,58 +1476,8 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
         Fr[kk] = (rotation_between(bone[kk - 1], bone[kk]) * Fr[kk - 1]).normalized();
       }
     }
-    // Twist from the secondary directions, weighted by their distance from the bone.
-    std::vector<double> phi(static_cast<std::size_t>(N), 0.0), W(static_cast<std::size_t>(N), 0.0);
     int64_t observed = 0;
-    if (!s.secondary.empty()) {
-      std::vector<Vector3d> n0;
-      for (const SecondaryDirection& d : s.secondary)
-        n0.push_back((d.neutral - d.neutral.dot(s.neutral) * s.neutral).normalized());
-      const auto pos = [&](int64_t k) {
-        return [&S, k](int j) { return Vector3d(S[static_cast<std::size_t>(j)].col(k)); };
-      };
-      double last = 0.0;
-      bool have_last = false;
-      for (int64_t k = 0; k < N; ++k) {
-        const auto kk = static_cast<std::size_t>(k);
-        double sx = 0.0, sy = 0.0, wmax = 0.0;
-        for (std::size_t ci = 0; ci < s.secondary.size(); ++ci) {
-          double sine = 1.0;
-          const Vector3d v = direction_of(s.secondary[ci], pos(k), sine);
-          const double vn = v.norm();
-          if (!(vn > 1e-12)) continue;
-          const Vector3d perp = v - v.dot(bone[kk]) * bone[kk];
-          const double wgt =
-              smooth_ramp(perp.norm() / vn, s_lo, s_hi) * smooth_ramp(sine, s_lo, s_hi);
-          if (wgt <= 0.0) continue;
-          const Vector3d pred = Fr[kk] * n0[ci];
-          const double a = std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp));
-          sx += wgt * std::cos(a);
-          sy += wgt * std::sin(a);
-          wmax = std::max(wmax, wgt);
-        }
-        if (wmax <= 0.0) continue;
-        double a = std::atan2(sy, sx);
-        if (have_last) a += 2.0 * kPi * std::round((last - a) / (2.0 * kPi));
-        phi[kk] = a;
-        W[kk] = wmax;
-        last = a;
-        have_last = true;
-        if (wmax >= 0.5) ++observed;
-      }
-      if (have_last) {
-        const Eigen::MatrixXd y = Eigen::Map<const Eigen::RowVectorXd>(phi.data(), N);
-        const double fc = 2.0 * opt.cutoff_hz;
-        const double wc2 = 2.0 * kPi * fc;
-        const double h_out = 1.0 / opt.rate_hz;
-        const Eigen::MatrixXd sm = smooth_and_resample(
-            t_out, y, W, fc, t_out, 0, 0.01 * wc2 * wc2 / (h_out * std::pow(wc2, 4)));
-        for (int64_t k = 0; k < N; ++k) phi[static_cast<std::size_t>(k)] = sm(0, k);
-      } else {
-        out.warnings.push_back("segment " + s.joint + ": twist unobservable in every frame (" +
-                               s.twist_note + "): minimum twist from frame 0 assumed");
-      }
-    }
+    const std::vector<double> phi = twist_angles(s, S, bone, Fr, t_out, opt, observed, out);
     rep.twist_observed = static_cast<double>(observed) / static_cast<double>(N);
     for (int64_t k = 0; k < N; ++k) {
       const auto kk = static_cast<std::size_t>(k);
@@ -1444,14 +1486,22 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     // Length statistics from the cleaned input (before smoothing).
     std::vector<double> len;
     for (int64_t f = 0; f < F; ++f) {
-      if (V(f, s.origin) && V(f, s.end)) len.push_back((P(f, s.end) - P(f, s.origin)).norm());
+      if (c.seen(f, s.origin) && c.seen(f, s.end))
+        len.push_back((c.point(f, s.end) - c.point(f, s.origin)).norm());
     }
     rep.length_m = median(len);
     rep.length_iqr_m = quantile(len, 0.75) - quantile(len, 0.25);
     out.segments.push_back(rep);
   }
+  return Rw;
+}
 
-  // Body (step 6).
+// Step 6: the body given, checked against the topology, or fitted: each joint's offset is the
+// median of its position in its parent's frame, a segment end no child marks the median bone.
+Body fitted_body(const KeypointTopology& topo, const KeypointMotionOptions& opt,
+                 const std::vector<Eigen::Matrix3Xd>& S,
+                 const std::vector<std::vector<Quaterniond>>& Rw, int64_t N) {
+  const std::size_t nseg = topo.segments.size();
   Body body;
   if (opt.body) {
     const Body& b = *opt.body;
@@ -1500,8 +1550,14 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
       body.joint(si).end_offset = median(len) * s.neutral;
     }
   }
+  return body;
+}
 
-  // Motion: relative rotations with continuous signs.
+// The motion: rotations relative to the parent with continuous signs, the root keypoint's path.
+Motion relative_motion(const KeypointTopology& topo, const KeypointMotionOptions& opt,
+                       const std::vector<Eigen::Matrix3Xd>& S,
+                       const std::vector<std::vector<Quaterniond>>& Rw, int64_t N) {
+  const std::size_t nseg = topo.segments.size();
   Motion m(opt.rate_hz, nseg, N);
   for (std::size_t si = 0; si < nseg; ++si) {
     const KeypointSegment& s = topo.segments[si];
@@ -1520,6 +1576,45 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
   }
   for (int64_t k = 0; k < N; ++k)
     m.root_translation(k) = S[static_cast<std::size_t>(topo.segments.front().origin)].col(k);
+  return m;
+}
+
+}  // namespace
+
+KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointTopology& topo,
+                                     const KeypointMotionOptions& opt) {
+  validate_topology(topo, "topology " + topo.name);
+  if (!(opt.rate_hz > 0.0 && opt.rate_hz <= 1e4))
+    throw Error("motion_from_keypoints: rate_hz must be in (0, 1e4]");
+  if (!(opt.cutoff_hz > 0.0 && std::isfinite(opt.cutoff_hz)))
+    throw Error("motion_from_keypoints: cutoff_hz must be positive");
+  if (!(opt.max_bone_deviation >= 0.0))
+    throw Error("motion_from_keypoints: max_bone_deviation must be >= 0");
+  if (!(opt.twist_min_angle_deg >= 0.0 && opt.twist_full_angle_deg > opt.twist_min_angle_deg &&
+        opt.twist_full_angle_deg <= 90.0))
+    throw Error(
+        "motion_from_keypoints: need 0 <= twist_min_angle_deg < twist_full_angle_deg <= 90");
+  KeypointMotion out;
+  Cleaned c;
+  check_and_time(keypoints, topo, c);
+  out.input_rate_hz = static_cast<double>(c.F - 1) / (c.t.back() - c.t.front());
+  out.start_s = c.t.front();
+
+  mark_missing(c, out);
+  if (opt.drop_frozen_frames) mark_frozen(c, out);
+  require_coverage(c, topo);
+  if (opt.fix_swaps) repair_limb_swaps(c, topo, out);
+  if (opt.max_bone_deviation > 0.0) drop_bone_outliers(c, topo, opt, out);
+  if (opt.jump_speed_mps > 0.0) flag_jumps(c, opt, out);
+  count_flagged(out);
+  world_frame(c, topo, opt, out);
+  std::vector<double> t_out;
+  const std::vector<Eigen::Matrix3Xd> S = smooth_keypoints(c, opt, out, t_out);
+  filled_stretches(c, opt, out);
+  const auto N = static_cast<int64_t>(t_out.size());
+  const std::vector<std::vector<Quaterniond>> Rw = segment_rotations(c, topo, opt, S, t_out, out);
+  Body body = fitted_body(topo, opt, S, Rw, N);
+  Motion m = relative_motion(topo, opt, S, Rw, N);
   const std::vector<std::string> w = m.validate_and_normalize(&body);
   out.warnings.insert(out.warnings.end(), w.begin(), w.end());
   out.body = std::move(body);

@@ -167,36 +167,28 @@ Scene parse_scene(std::string_view text, const std::string& source, const std::s
 }
 
 namespace {
-Scene parse_scene_impl(std::string_view text, const std::string& source,
-                       const std::string& base_dir) {
-  const json root = parse_json_text<json>(text, source);
-  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
-            source, "$");
-  if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {
-    fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
+
+// "motion": {"bvh": ...}: the motion, its skeleton (into scene.body) and the reader's warnings;
+// nullptr when the motion is not a BVH file.
+std::shared_ptr<Motion> parse_bvh_motion(const json& m, const std::string& source,
+                                         const std::string& base_dir, Scene& scene) {
+  if (!m.contains("bvh")) return nullptr;
+  BvhOptions o;
+  if (m.contains("scale")) o.scale = number(m["scale"], source, "motion.scale");
+  if (m.contains("up")) {
+    const std::string up = string_of(m["up"], source, "motion.up");
+    if (up != "y" && up != "z") fail(source, "motion.up", "expected \"y\" or \"z\"");
+    o.up = up == "y" ? UpAxis::y : UpAxis::z;
   }
-  Scene scene;
-  // Motion (and, for BVH, the body).
-  if (!root.contains("motion")) fail(source, "motion", "missing");
-  const json& m = root["motion"];
-  only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source, "motion");
-  std::shared_ptr<Motion> loaded;
-  bool body_from_motion = false;
-  if (m.contains("bvh")) {
-    BvhOptions o;
-    if (m.contains("scale")) o.scale = number(m["scale"], source, "motion.scale");
-    if (m.contains("up")) {
-      const std::string up = string_of(m["up"], source, "motion.up");
-      if (up != "y" && up != "z") fail(source, "motion.up", "expected \"y\" or \"z\"");
-      o.up = up == "y" ? UpAxis::y : UpAxis::z;
-    }
-    BvhData d = read_bvh(resolve(base_dir, string_of(m["bvh"], source, "motion.bvh")), o);
-    scene.body = std::move(d.body);
-    loaded = std::make_shared<Motion>(std::move(d.motion));
-    scene.warnings = std::move(d.warnings);
-    body_from_motion = true;
-  }
-  // Body.
+  BvhData d = read_bvh(resolve(base_dir, string_of(m["bvh"], source, "motion.bvh")), o);
+  scene.body = std::move(d.body);
+  auto loaded = std::make_shared<Motion>(std::move(d.motion));
+  scene.warnings = std::move(d.warnings);
+  return loaded;
+}
+
+// "body": joints or the default humanoid (also without "body", unless a BVH motion brought one).
+void parse_body(const json& root, const std::string& source, bool body_from_motion, Scene& scene) {
   if (root.contains("body")) {
     if (body_from_motion)
       fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
@@ -220,6 +212,12 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
   } else if (!body_from_motion) {
     scene.body = Body::default_humanoid();
   }
+}
+
+// The rest of "motion" once the body is known: a quaternion CSV or a procedural motion (unless
+// `loaded` holds the BVH motion), checked against the body's joint count.
+void parse_motion(const json& m, const std::string& source, const std::string& base_dir,
+                  std::shared_ptr<Motion> loaded, Scene& scene) {
   if (m.contains("quaternion_csv")) {
     std::optional<double> rate;
     if (m.contains("rate_hz")) rate = number(m["rate_hz"], source, "motion.rate_hz");
@@ -262,134 +260,169 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
              std::to_string(scene.body.size()));
   }
   scene.frames = scene.motion->frame_count();
-  // Simulation settings.
-  if (root.contains("simulation")) {
-    const json& s = root["simulation"];
-    only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"}, source,
-              "simulation");
-    if (s.contains("method")) {
-      try {
-        scene.options.method =
-            parse_derivative_method(string_of(s["method"], source, "simulation.method"));
-      } catch (const Error& e) {
-        fail(source, "simulation.method", e.what());
-      }
-    }
-    if (s.contains("rate_hz")) {
-      scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
-      if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
-        fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
-    }
-    if (s.contains("gravity")) {
-      scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
-      if (!(scene.options.gravity_world.norm() <= 100.0))
-        fail(source, "simulation.gravity", "expected at most 100 m/s^2 (the Earth's is 9.81)");
-    }
-    if (s.contains("magnetic_field")) {
-      scene.options.magnetic_field_world =
-          vec3(s["magnetic_field"], source, "simulation.magnetic_field");
-      // Tesla, not microtesla or gauss: the Earth's field is 25-65 uT; 1e-2 T is a strong magnet.
-      if (!(scene.options.magnetic_field_world.norm() <= 1e-2))
-        fail(source, "simulation.magnetic_field",
-             "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
-                 std::to_string(scene.options.magnetic_field_world.norm()) + " T");
-    }
-    if (s.contains("seed")) scene.seed = seed_of(s["seed"], source, "simulation.seed");
-    if (s.contains("chunk_frames")) {
-      const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
-      if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
-      scene.options.chunk_frames = static_cast<int64_t>(c);
+}
+
+// "simulation": method, rate, gravity, magnetic field, seed, chunk size.
+void parse_simulation(const json& s, const std::string& source, Scene& scene) {
+  only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"}, source,
+            "simulation");
+  if (s.contains("method")) {
+    try {
+      scene.options.method =
+          parse_derivative_method(string_of(s["method"], source, "simulation.method"));
+    } catch (const Error& e) {
+      fail(source, "simulation.method", e.what());
     }
   }
-  if (root.contains("outputs")) {
-    const json& o = root["outputs"];
-    only_keys(o, {"ground_truth"}, source, "outputs");
-    if (o.contains("ground_truth")) {
-      if (!o["ground_truth"].is_boolean())
-        fail(source, "outputs.ground_truth", "expected true or false");
-      scene.ground_truth = o["ground_truth"].get<bool>();
-    }
+  if (s.contains("rate_hz")) {
+    scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
+    if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
+      fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
   }
+  if (s.contains("gravity")) {
+    scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+    if (!(scene.options.gravity_world.norm() <= 100.0))
+      fail(source, "simulation.gravity", "expected at most 100 m/s^2 (the Earth's is 9.81)");
+  }
+  if (s.contains("magnetic_field")) {
+    scene.options.magnetic_field_world =
+        vec3(s["magnetic_field"], source, "simulation.magnetic_field");
+    // Tesla, not microtesla or gauss: the Earth's field is 25-65 uT; 1e-2 T is a strong magnet.
+    if (!(scene.options.magnetic_field_world.norm() <= 1e-2))
+      fail(source, "simulation.magnetic_field",
+           "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
+               std::to_string(scene.options.magnetic_field_world.norm()) + " T");
+  }
+  if (s.contains("seed")) scene.seed = seed_of(s["seed"], source, "simulation.seed");
+  if (s.contains("chunk_frames")) {
+    const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
+    if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
+    scene.options.chunk_frames = static_cast<int64_t>(c);
+  }
+}
+
+// "outputs": {"ground_truth": bool}.
+void parse_outputs(const json& o, const std::string& source, Scene& scene) {
+  only_keys(o, {"ground_truth"}, source, "outputs");
+  if (o.contains("ground_truth")) {
+    if (!o["ground_truth"].is_boolean())
+      fail(source, "outputs.ground_truth", "expected true or false");
+    scene.ground_truth = o["ground_truth"].get<bool>();
+  }
+}
+
+// A sensor's "outputs": a non-empty array of signal names.
+SensorOutputs parse_sensor_outputs(const json& o, const std::string& source,
+                                   const std::string& path) {
+  if (!o.is_array() || o.empty())
+    fail(source, path + ".outputs", "expected a non-empty array of names");
+  SensorOutputs outputs{false, false, false};
+  for (const json& name : o) {
+    const std::string n = string_of(name, source, path + ".outputs");
+    if (n == "accelerometer")
+      outputs.accelerometer = true;
+    else if (n == "gyroscope")
+      outputs.gyroscope = true;
+    else if (n == "orientation")
+      outputs.orientation = true;
+    else if (n == "magnetometer")
+      outputs.magnetometer = true;
+    else
+      fail(source, path + ".outputs",
+           "unknown output '" + n + "' (accelerometer, gyroscope, orientation, magnetometer)");
+  }
+  return outputs;
+}
+
+// A sensor's "hardware": a device profile (inline or a file name), checked at the simulation
+// rate (the motion's when the scene sets none).
+void parse_sensor_hardware(const json& h, const std::string& source, const std::string& path,
+                           const std::string& base_dir, const Scene& scene, SceneSensor& s) {
+  try {
+    const DeviceProfile profile = h.is_string()
+                                      ? read_profile(resolve(base_dir, h.get<std::string>()))
+                                      : parse_profile(h.dump(), source + ":" + path + ".hardware");
+    s.hardware = to_hardware_model(profile);
+    const double rate =
+        scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+    validate_hardware_model(*s.hardware, rate);
+    if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
+      s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
+    }
+  } catch (const Error& e) {
+    fail(source, path + ".hardware", e.what());
+  }
+}
+
+// "sensors"[i]: name, placement (a preset or a segment with position and rotation), outputs and
+// hardware; `scene` holds the body, the motion and the sensors before it.
+SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& source,
+                         const std::string& base_dir, const Scene& scene) {
+  const std::string path = "sensors[" + std::to_string(i) + "]";
+  only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
+            source, path);
+  SceneSensor s;
+  s.spec.name = js.contains("name")
+                    ? string_of(js["name"], source, path + ".name")
+                    : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset")
+                                             : "sensor" + std::to_string(i));
+  if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
+    fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
+  }
+  for (const SceneSensor& other : scene.sensors) {
+    if (other.spec.name == s.spec.name)
+      fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
+  }
+  if (js.contains("preset")) {
+    if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
+    s.preset = string_of(js["preset"], source, path + ".preset");
+    try {
+      s.spec.placement = resolve_preset(placement_preset(s.preset), scene.body);
+    } catch (const Error& e) {
+      fail(source, path + ".preset", e.what());
+    }
+  } else if (js.contains("segment")) {
+    const std::string seg = string_of(js["segment"], source, path + ".segment");
+    const auto j = scene.body.find(seg);
+    if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
+    s.spec.placement.joint = *j;
+    if (js.contains("position_m"))
+      s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
+    if (js.contains("rotation"))
+      s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
+  } else {
+    fail(source, path, "needs a preset or a segment");
+  }
+  if (js.contains("outputs")) s.spec.outputs = parse_sensor_outputs(js["outputs"], source, path);
+  if (js.contains("hardware"))
+    parse_sensor_hardware(js["hardware"], source, path, base_dir, scene, s);
+  return s;
+}
+
+Scene parse_scene_impl(std::string_view text, const std::string& source,
+                       const std::string& base_dir) {
+  const json root = parse_json_text<json>(text, source);
+  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
+            source, "$");
+  if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {
+    fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
+  }
+  Scene scene;
+  // Motion (and, for BVH, the body), then the body, then the other motions (they need the body).
+  if (!root.contains("motion")) fail(source, "motion", "missing");
+  const json& m = root["motion"];
+  only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source, "motion");
+  std::shared_ptr<Motion> loaded = parse_bvh_motion(m, source, base_dir, scene);
+  parse_body(root, source, loaded != nullptr, scene);
+  parse_motion(m, source, base_dir, std::move(loaded), scene);
+  if (root.contains("simulation")) parse_simulation(root["simulation"], source, scene);
+  if (root.contains("outputs")) parse_outputs(root["outputs"], source, scene);
   // Sensors.
   if (!root.contains("sensors") || !root["sensors"].is_array() || root["sensors"].empty()) {
     fail(source, "sensors", "expected a non-empty array");
   }
-  for (std::size_t i = 0; i < root["sensors"].size(); ++i) {
-    const json& js = root["sensors"][i];
-    const std::string path = "sensors[" + std::to_string(i) + "]";
-    only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
-              source, path);
-    SceneSensor s;
-    s.spec.name = js.contains("name")
-                      ? string_of(js["name"], source, path + ".name")
-                      : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset")
-                                               : "sensor" + std::to_string(i));
-    if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
-      fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
-    }
-    for (const SceneSensor& other : scene.sensors) {
-      if (other.spec.name == s.spec.name)
-        fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
-    }
-    if (js.contains("preset")) {
-      if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
-      s.preset = string_of(js["preset"], source, path + ".preset");
-      try {
-        s.spec.placement = resolve_preset(placement_preset(s.preset), scene.body);
-      } catch (const Error& e) {
-        fail(source, path + ".preset", e.what());
-      }
-    } else if (js.contains("segment")) {
-      const std::string seg = string_of(js["segment"], source, path + ".segment");
-      const auto j = scene.body.find(seg);
-      if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
-      s.spec.placement.joint = *j;
-      if (js.contains("position_m"))
-        s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
-      if (js.contains("rotation"))
-        s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
-    } else {
-      fail(source, path, "needs a preset or a segment");
-    }
-    if (js.contains("outputs")) {
-      const json& o = js["outputs"];
-      if (!o.is_array() || o.empty())
-        fail(source, path + ".outputs", "expected a non-empty array of names");
-      s.spec.outputs = SensorOutputs{false, false, false};
-      for (const json& name : o) {
-        const std::string n = string_of(name, source, path + ".outputs");
-        if (n == "accelerometer")
-          s.spec.outputs.accelerometer = true;
-        else if (n == "gyroscope")
-          s.spec.outputs.gyroscope = true;
-        else if (n == "orientation")
-          s.spec.outputs.orientation = true;
-        else if (n == "magnetometer")
-          s.spec.outputs.magnetometer = true;
-        else
-          fail(source, path + ".outputs",
-               "unknown output '" + n + "' (accelerometer, gyroscope, orientation, magnetometer)");
-      }
-    }
-    if (js.contains("hardware")) {
-      const json& h = js["hardware"];
-      try {
-        const DeviceProfile profile =
-            h.is_string() ? read_profile(resolve(base_dir, h.get<std::string>()))
-                          : parse_profile(h.dump(), source + ":" + path + ".hardware");
-        s.hardware = to_hardware_model(profile);
-        const double rate =
-            scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
-        validate_hardware_model(*s.hardware, rate);
-        if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
-          s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
-        }
-      } catch (const Error& e) {
-        fail(source, path + ".hardware", e.what());
-      }
-    }
-    scene.sensors.push_back(std::move(s));
-  }
+  for (std::size_t i = 0; i < root["sensors"].size(); ++i)
+    scene.sensors.push_back(parse_sensor(root["sensors"][i], i, source, base_dir, scene));
   return scene;
 }
 }  // namespace
