@@ -1,5 +1,5 @@
 // Windowing, labels, the dataset writer and generate_dataset (augment/dataset.hpp).
-#include "augment/dataset.hpp"
+#include "imukit/augment/dataset.hpp"
 
 #include <fmt/core.h>
 #include <unistd.h>
@@ -11,10 +11,10 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/npy.hpp"
-#include "core/sampling.hpp"
-#include "core/text_parse.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/npy.hpp"
+#include "imukit/core/sampling.hpp"
+#include "imukit/core/text_parse.hpp"
 
 namespace imukit::augment {
 

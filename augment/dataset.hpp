@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include "augment/policy.hpp"
-#include "augment/ppda.hpp"
-#include "augment/stda.hpp"
-#include "core/imu_series.hpp"
-#include "sim/scene.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/ppda.hpp"
+#include "imukit/augment/stda.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::augment {
 

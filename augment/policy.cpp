@@ -1,5 +1,5 @@
 // Policies: the paper's grid, JSON (imukit.policy/1), sampling (augment/policy.hpp).
-#include "augment/policy.hpp"
+#include "imukit/augment/policy.hpp"
 
 #include <fmt/core.h>
 
@@ -8,11 +8,11 @@
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/json_text.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/json_text.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::augment {
 

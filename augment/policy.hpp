@@ -26,10 +26,10 @@
 #include <string_view>
 #include <vector>
 
-#include "augment/stda.hpp"
-#include "core/profile.hpp"
-#include "core/rng.hpp"
-#include "sim/placement.hpp"
+#include "imukit/augment/stda.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::augment {
 

@@ -1,5 +1,5 @@
 // PPDA: sub-policies applied to the simulation's parameters, then simulated (augment/ppda.hpp).
-#include "augment/ppda.hpp"
+#include "imukit/augment/ppda.hpp"
 
 #include <fmt/core.h>
 
@@ -11,13 +11,13 @@
 #include <map>
 #include <set>
 
-#include "core/error.hpp"
-#include "core/hardware_model.hpp"
-#include "core/isa.hpp"
-#include "core/lane_math.hpp"
-#include "core/parallel.hpp"
-#include "core/profile.hpp"
-#include "core/time.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/lane_math.hpp"
+#include "imukit/core/parallel.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::augment {
 

@@ -21,10 +21,10 @@
 #include <string>
 #include <vector>
 
-#include "augment/policy.hpp"
-#include "augment/stda.hpp"
-#include "core/rng.hpp"
-#include "sim/scene.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/stda.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::augment {
 

@@ -1,5 +1,5 @@
 // STDA methods on contiguous (N, T, C) batches (augment/stda.hpp).
-#include "augment/stda.hpp"
+#include "imukit/augment/stda.hpp"
 
 #include <fmt/core.h>
 
@@ -8,8 +8,8 @@
 #include <array>
 #include <cmath>
 
-#include "core/error.hpp"
-#include "core/interpolation.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/interpolation.hpp"
 
 namespace imukit::augment {
 

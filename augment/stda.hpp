@@ -19,8 +19,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/interpolation.hpp"
-#include "core/rng.hpp"
+#include "imukit/core/interpolation.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit::augment {
 

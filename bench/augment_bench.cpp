@@ -13,12 +13,12 @@
 #include <cmath>
 #include <numbers>
 
-#include "augment/policy.hpp"
-#include "augment/ppda.hpp"
-#include "augment/stda.hpp"
-#include "bench/isa_compare.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/ppda.hpp"
+#include "imukit/augment/stda.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/scene.hpp"
+#include "isa_compare.hpp"
 
 namespace {
 

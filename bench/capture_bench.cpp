@@ -6,10 +6,10 @@
 #include <sys/resource.h>
 #include <filesystem>
 
-#include "capture/mcap.hpp"
-#include "capture/ros_messages.hpp"
-#include "capture/session.hpp"
-#include "drivers/uri.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/capture/session.hpp"
+#include "imukit/drivers/uri.hpp"
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <cstring>
 #include <string>
 
-#include "core/column_text.hpp"
-#include "core/euroc_csv.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/euroc_csv.hpp"
 
 namespace {
 

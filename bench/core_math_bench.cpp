@@ -9,9 +9,9 @@
 #include <random>
 #include <vector>
 
-#include "core/interpolation.hpp"
-#include "core/rng.hpp"
-#include "core/so3.hpp"
+#include "imukit/core/interpolation.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/so3.hpp"
 
 namespace {
 

@@ -8,13 +8,13 @@
 #include <memory>
 #include <string>
 
-#include "drivers/imukit_codec.hpp"
-#include "drivers/playstation_codec.hpp"
-#include "drivers/text_codec.hpp"
-#include "drivers/witmotion_codec.hpp"
-#include "drivers/xsens_codec.hpp"
-#include "firmware_proto/messages.hpp"
-#include "tests/support/example_models.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
+#include "imukit/drivers/text_codec.hpp"
+#include "imukit/drivers/witmotion_codec.hpp"
+#include "imukit/drivers/xsens_codec.hpp"
+#include "imukit/firmware_proto/messages.hpp"
+#include "support/example_models.hpp"
 
 namespace {
 

@@ -18,8 +18,8 @@
 #include <random>
 #include <vector>
 
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace {
 

@@ -8,9 +8,9 @@
 #include <Eigen/Core>
 #include <cstring>
 
-#include "core/hardware_model.hpp"
-#include "core/rng.hpp"
-#include "tests/support/example_models.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/example_models.hpp"
 
 namespace {
 

@@ -24,14 +24,14 @@
 #include <thread>
 #include <vector>
 
-#include "bench/isa_compare.hpp"
-#include "core/column_text.hpp"
-#include "core/isa.hpp"
-#include "core/npy.hpp"
-#include "core/rng.hpp"
-#include "hwmodel/allan.hpp"
-#include "hwmodel/calibration.hpp"
-#include "hwmodel/noise_fit.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/npy.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
+#include "isa_compare.hpp"
 
 namespace {
 

@@ -11,11 +11,11 @@
 #include <ctime>
 #include <numbers>
 
-#include "core/rng.hpp"
-#include "core/so3.hpp"
-#include "sim/identify.hpp"
-#include "sim/simulator.hpp"
-#include "tests/support/sampled_motion.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/identify.hpp"
+#include "imukit/sim/simulator.hpp"
+#include "support/sampled_motion.hpp"
 
 namespace {
 

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "core/isa.hpp"
+#include "imukit/core/isa.hpp"
 
 namespace imukit::bench {
 

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "sim/keypoints.hpp"
-#include "sim/placement.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/sim/keypoints.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/simulator.hpp"
 
 namespace {
 

@@ -17,9 +17,9 @@
 #include <cstring>
 #include <numbers>
 
-#include "bench/isa_compare.hpp"
-#include "sim/scene.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/sim/scene.hpp"
+#include "imukit/sim/simulator.hpp"
+#include "isa_compare.hpp"
 
 namespace {
 

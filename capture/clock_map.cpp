@@ -1,4 +1,4 @@
-#include "capture/clock_map.hpp"
+#include "imukit/capture/clock_map.hpp"
 
 #include <algorithm>
 #include <cassert>

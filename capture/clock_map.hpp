@@ -31,7 +31,7 @@
 #include <optional>
 #include <vector>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::capture {
 

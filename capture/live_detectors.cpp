@@ -1,4 +1,4 @@
-#include "capture/live_detectors.hpp"
+#include "imukit/capture/live_detectors.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -11,7 +11,7 @@
 #include <optional>
 #include <vector>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::capture {
 

@@ -1,4 +1,4 @@
-#include "capture/mcap.hpp"
+#include "imukit/capture/mcap.hpp"
 
 #include <fmt/core.h>
 #include <sys/stat.h>
@@ -9,9 +9,9 @@
 #include <cstring>
 #include <optional>
 
-#include "capture/bytes.hpp"
-#include "core/error.hpp"
-#include "core/input_file.hpp"
+#include "imukit/capture/bytes.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 
 namespace imukit::capture {
 namespace {

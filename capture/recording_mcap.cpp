@@ -1,4 +1,4 @@
-#include "capture/recording_mcap.hpp"
+#include "imukit/capture/recording_mcap.hpp"
 
 #include <fmt/core.h>
 #include <array>
@@ -6,8 +6,8 @@
 #include <functional>
 #include <nlohmann/json.hpp>
 
-#include "capture/ros_messages.hpp"
-#include "core/error.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::capture {
 namespace {

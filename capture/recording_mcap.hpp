@@ -12,8 +12,8 @@
 #include <span>
 #include <string>
 
-#include "capture/mcap.hpp"
-#include "core/imu_series.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/core/imu_series.hpp"
 
 namespace imukit::capture {
 

@@ -1,7 +1,7 @@
-#include "capture/ros_messages.hpp"
+#include "imukit/capture/ros_messages.hpp"
 
-#include "capture/bytes.hpp"
-#include "core/error.hpp"
+#include "imukit/capture/bytes.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::capture {
 

@@ -13,7 +13,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::capture {
 

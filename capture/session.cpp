@@ -1,4 +1,4 @@
-#include "capture/session.hpp"
+#include "imukit/capture/session.hpp"
 
 #include <fmt/core.h>
 #include <algorithm>
@@ -9,12 +9,12 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "capture/ros_messages.hpp"
-#include "capture/spsc_queue.hpp"
-#include "core/error.hpp"
-#include "drivers/codec.hpp"
-#include "drivers/reader.hpp"
-#include "drivers/sample.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/capture/spsc_queue.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/codec.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/sample.hpp"
 
 namespace imukit::capture {
 namespace {

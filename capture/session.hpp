@@ -18,12 +18,12 @@
 #include <string>
 #include <vector>
 
-#include "capture/clock_map.hpp"
-#include "capture/live_detectors.hpp"
-#include "capture/mcap.hpp"
-#include "core/hardware_model.hpp"
-#include "core/imu_series.hpp"
-#include "drivers/uri.hpp"
+#include "imukit/capture/clock_map.hpp"
+#include "imukit/capture/live_detectors.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/drivers/uri.hpp"
 
 namespace imukit::capture {
 

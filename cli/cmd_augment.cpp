@@ -7,14 +7,14 @@
 #include <memory>
 #include <optional>
 
-#include "augment/dataset.hpp"
-#include "augment/policy.hpp"
-#include "cli/command.hpp"
-#include "cli/inputs.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "core/sampling.hpp"
-#include "sim/scene.hpp"
+#include "command.hpp"
+#include "imukit/augment/dataset.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/sampling.hpp"
+#include "imukit/sim/scene.hpp"
+#include "inputs.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -10,15 +10,15 @@
 #include <filesystem>
 #include <optional>
 
-#include "cli/command.hpp"
-#include "cli/hwmodel_common.hpp"
-#include "cli/inputs.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
-#include "hwmodel/calibration.hpp"
+#include "command.hpp"
+#include "hwmodel_common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "inputs.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -9,17 +9,17 @@
 #include <cmath>
 #include <filesystem>
 
-#include "cli/command.hpp"
-#include "cli/hwmodel_common.hpp"
-#include "cli/inputs.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
-#include "hwmodel/allan.hpp"
-#include "hwmodel/calibration.hpp"
-#include "hwmodel/noise_fit.hpp"
+#include "command.hpp"
+#include "hwmodel_common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
+#include "inputs.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

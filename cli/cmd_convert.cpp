@@ -4,14 +4,14 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "capture/mcap.hpp"
-#include "capture/recording_mcap.hpp"
-#include "capture/session.hpp"
-#include "cli/command.hpp"
-#include "cli/inputs.hpp"
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
-#include "core/npy.hpp"
+#include "command.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/capture/session.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/npy.hpp"
+#include "inputs.hpp"
 
 namespace imukit::cli {
 namespace {

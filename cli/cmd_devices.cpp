@@ -7,12 +7,12 @@
 #include <chrono>
 #include <thread>
 
-#include "cli/command.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "drivers/devices.hpp"
-#include "drivers/reader.hpp"
-#include "drivers/uri.hpp"
+#include "command.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/devices.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/uri.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -13,18 +13,18 @@
 #include <fstream>
 #include <numbers>
 
-#include "cli/command.hpp"
-#include "cli/hwmodel_common.hpp"
-#include "cli/inputs.hpp"
-#include "cli/options.hpp"
-#include "core/column_text.hpp"
-#include "core/error.hpp"
-#include "core/so3.hpp"
-#include "core/units.hpp"
-#include "sim/bvh.hpp"
-#include "sim/identify.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
+#include "command.hpp"
+#include "hwmodel_common.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/identify.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "inputs.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

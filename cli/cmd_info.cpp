@@ -2,10 +2,10 @@
 // gaps, per-axis statistics of each channel, and events.
 #include <fmt/core.h>
 
-#include "cli/command.hpp"
-#include "cli/inputs.hpp"
-#include "core/error.hpp"
-#include "core/sampling.hpp"
+#include "command.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/sampling.hpp"
+#include "inputs.hpp"
 
 namespace imukit::cli {
 namespace {

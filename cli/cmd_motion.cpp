@@ -8,12 +8,12 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "cli/command.hpp"
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "sim/bvh.hpp"
-#include "sim/keypoints.hpp"
-#include "sim/scene.hpp"
+#include "command.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/keypoints.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -12,12 +12,12 @@
 #include <set>
 #include <thread>
 
-#include "capture/session.hpp"
-#include "cli/command.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "drivers/transport.hpp"
-#include "drivers/uri.hpp"
+#include "command.hpp"
+#include "imukit/capture/session.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/transport.hpp"
+#include "imukit/drivers/uri.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -10,17 +10,17 @@
 #include <memory>
 #include <optional>
 
-#include "capture/mcap.hpp"
-#include "capture/ros_messages.hpp"
-#include "cli/command.hpp"
-#include "cli/options.hpp"
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
-#include "sim/bvh.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
+#include "command.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/scene.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {

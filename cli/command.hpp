@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::cli {
 

@@ -1,4 +1,4 @@
-#include "cli/hwmodel_common.hpp"
+#include "hwmodel_common.hpp"
 
 #include <fmt/core.h>
 #include <fmt/os.h>
@@ -13,8 +13,8 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "core/error.hpp"
-#include "core/time.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::cli {
 

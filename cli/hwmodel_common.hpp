@@ -12,14 +12,14 @@
 #include <string>
 #include <vector>
 
-#include "cli/inputs.hpp"
-#include "core/imu_series.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
-#include "hwmodel/allan.hpp"
-#include "hwmodel/calibration.hpp"
-#include "hwmodel/characterize.hpp"
-#include "hwmodel/noise_fit.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "imukit/hwmodel/characterize.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
+#include "inputs.hpp"
 
 namespace imukit::cli {
 

@@ -1,16 +1,16 @@
-#include "cli/inputs.hpp"
+#include "inputs.hpp"
 
 #include <fmt/core.h>
 #include <cmath>
 
 #include <filesystem>
 
-#include "capture/recording_mcap.hpp"
-#include "cli/command.hpp"
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
-#include "core/input_file.hpp"
-#include "core/units.hpp"
+#include "command.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "core/column_text.hpp"
-#include "core/imu_series.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/imu_series.hpp"
 
 namespace imukit::cli {
 

@@ -7,8 +7,8 @@
 #include <new>
 #include <string>
 
-#include "cli/command.hpp"
-#include "core/error.hpp"
+#include "command.hpp"
+#include "imukit/core/error.hpp"
 
 #ifndef IMUKIT_VERSION
 #define IMUKIT_VERSION "unknown"

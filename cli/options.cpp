@@ -1,4 +1,4 @@
-#include "cli/options.hpp"
+#include "options.hpp"
 
 #include <fmt/core.h>
 
@@ -6,8 +6,8 @@
 #include <cmath>
 #include <limits>
 
-#include "core/error.hpp"
-#include "sim/bvh.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/bvh.hpp"
 
 namespace imukit::cli {
 namespace {

@@ -1,10 +1,10 @@
-#include "core/column_text.hpp"
+#include "imukit/core/column_text.hpp"
 
 #include <fmt/core.h>
 #include <cmath>
 
-#include "core/error.hpp"
-#include "core/text_parse.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/text_parse.hpp"
 
 namespace imukit {
 namespace {

@@ -18,8 +18,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/imu_series.hpp"
-#include "core/time.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit {
 

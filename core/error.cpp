@@ -1,4 +1,4 @@
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 #include <fmt/core.h>
 

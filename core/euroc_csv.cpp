@@ -1,11 +1,11 @@
-#include "core/euroc_csv.hpp"
+#include "imukit/core/euroc_csv.hpp"
 
 #include <fmt/format.h>
 #include <cerrno>
 #include <cstring>
 
-#include "core/column_text.hpp"
-#include "core/error.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-#include "core/imu_series.hpp"
+#include "imukit/core/imu_series.hpp"
 
 namespace imukit {
 

@@ -1,4 +1,4 @@
-#include "core/hardware_model.hpp"
+#include "imukit/core/hardware_model.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -9,8 +9,8 @@
 
 #include <fmt/format.h>
 
-#include "core/error.hpp"
-#include "core/imu_series.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/imu_series.hpp"
 
 namespace imukit {
 namespace {

@@ -20,7 +20,7 @@
 #include <span>
 #include <vector>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit {
 

@@ -1,10 +1,10 @@
-#include "core/imu_series.hpp"
+#include "imukit/core/imu_series.hpp"
 
 #include <fmt/core.h>
 
 #include <cassert>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/input_file.hpp"
+#include "imukit/core/input_file.hpp"
 
 #include <fcntl.h>
 #include <fmt/core.h>
@@ -9,7 +9,7 @@
 #include <cerrno>
 #include <cstring>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

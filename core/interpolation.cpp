@@ -1,4 +1,4 @@
-#include "core/interpolation.hpp"
+#include "imukit/core/interpolation.hpp"
 
 #include <fmt/format.h>
 
@@ -7,7 +7,7 @@
 #include <cmath>
 #include <utility>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

@@ -1,10 +1,10 @@
-#include "core/isa.hpp"
+#include "imukit/core/isa.hpp"
 
 #include <atomic>
 #include <cstdlib>
 #include <string>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

@@ -1,5 +1,5 @@
 // JSON text with located errors (core/json_text.hpp).
-#include "core/json_text.hpp"
+#include "imukit/core/json_text.hpp"
 
 #include <fmt/format.h>
 

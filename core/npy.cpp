@@ -1,4 +1,4 @@
-#include "core/npy.hpp"
+#include "imukit/core/npy.hpp"
 
 #include <fmt/format.h>
 #include <bit>
@@ -6,8 +6,8 @@
 #include <cstring>
 #include <iterator>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 
 namespace imukit {
 

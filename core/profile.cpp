@@ -1,4 +1,4 @@
-#include "core/profile.hpp"
+#include "imukit/core/profile.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -11,9 +11,9 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/json_text.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/json_text.hpp"
 
 namespace imukit {
 namespace {

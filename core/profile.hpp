@@ -15,8 +15,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/hardware_model.hpp"
-#include "core/rng.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit {
 

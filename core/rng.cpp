@@ -1,4 +1,4 @@
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 #include <bit>
 #include <cassert>

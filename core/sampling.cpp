@@ -1,4 +1,4 @@
-#include "core/sampling.hpp"
+#include "imukit/core/sampling.hpp"
 
 #include <fmt/core.h>
 
@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

@@ -7,7 +7,7 @@
 #include <span>
 #include <string_view>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit {
 

@@ -7,7 +7,7 @@
 #include <Eigen/Core>
 #include <span>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit {
 

@@ -1,4 +1,4 @@
-#include "core/so3.hpp"
+#include "imukit/core/so3.hpp"
 
 #include <array>
 #include <cassert>

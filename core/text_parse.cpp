@@ -1,4 +1,4 @@
-#include "core/text_parse.hpp"
+#include "imukit/core/text_parse.hpp"
 
 #include <fmt/core.h>
 
@@ -6,8 +6,8 @@
 #include <charconv>
 #include <cstring>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 
 namespace imukit {
 namespace {

@@ -1,9 +1,9 @@
-#include "drivers/codec.hpp"
+#include "imukit/drivers/codec.hpp"
 
 #include <charconv>
 #include <cmath>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::drivers {
 

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/sample.hpp"
+#include "imukit/drivers/sample.hpp"
 
 namespace imukit::drivers {
 

@@ -1,13 +1,13 @@
-#include "drivers/codecs.hpp"
+#include "imukit/drivers/codecs.hpp"
 
 #include <cmath>
 
-#include "core/error.hpp"
-#include "drivers/imukit_codec.hpp"
-#include "drivers/playstation_codec.hpp"
-#include "drivers/text_codec.hpp"
-#include "drivers/witmotion_codec.hpp"
-#include "drivers/xsens_codec.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
+#include "imukit/drivers/text_codec.hpp"
+#include "imukit/drivers/witmotion_codec.hpp"
+#include "imukit/drivers/xsens_codec.hpp"
 
 namespace imukit::drivers {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/codec.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers {
 

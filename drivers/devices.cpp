@@ -1,4 +1,4 @@
-#include "drivers/devices.hpp"
+#include "imukit/drivers/devices.hpp"
 
 #include <hidapi/hidapi.h>
 #include <libserialport.h>

@@ -1,4 +1,4 @@
-#include "drivers/hid_transport.hpp"
+#include "imukit/drivers/hid_transport.hpp"
 
 #include <hidapi/hidapi.h>
 

@@ -6,7 +6,7 @@
 
 #include <cstdint>
 
-#include "drivers/transport.hpp"
+#include "imukit/drivers/transport.hpp"
 
 struct hid_device_;
 

@@ -1,9 +1,9 @@
-#include "drivers/imukit_codec.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
 
 #include <cmath>
 #include <string>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::drivers {
 namespace {

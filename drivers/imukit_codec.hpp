@@ -15,9 +15,9 @@
 
 #include <optional>
 
-#include "drivers/codec.hpp"
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/drivers/codec.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace imukit::drivers {
 

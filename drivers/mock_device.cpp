@@ -1,4 +1,4 @@
-#include "drivers/mock_device.hpp"
+#include "imukit/drivers/mock_device.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -7,11 +7,11 @@
 #include <sstream>
 #include <thread>
 
-#include "core/error.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
-#include "drivers/codec.hpp"
-#include "drivers/sources.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/drivers/codec.hpp"
+#include "imukit/drivers/sources.hpp"
 
 namespace imukit::drivers {
 namespace {

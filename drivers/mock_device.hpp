@@ -24,11 +24,11 @@
 #include <memory>
 #include <optional>
 
-#include "core/hardware_model.hpp"
-#include "core/rng.hpp"
-#include "core/signal_source.hpp"
-#include "drivers/transport.hpp"
-#include "firmware_proto/device_model.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/signal_source.hpp"
+#include "imukit/drivers/transport.hpp"
+#include "imukit/firmware_proto/device_model.hpp"
 
 namespace imukit::drivers {
 

@@ -1,10 +1,10 @@
-#include "drivers/playstation_codec.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
 
 #include <cstdlib>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/units.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::drivers {
 namespace {

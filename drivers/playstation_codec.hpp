@@ -24,7 +24,7 @@
 
 #include <optional>
 
-#include "drivers/codec.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers {
 

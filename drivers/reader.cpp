@@ -1,4 +1,4 @@
-#include "drivers/reader.hpp"
+#include "imukit/drivers/reader.hpp"
 
 #include <chrono>
 #include <exception>

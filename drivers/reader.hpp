@@ -17,8 +17,8 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/codec.hpp"
-#include "drivers/transport.hpp"
+#include "imukit/drivers/codec.hpp"
+#include "imukit/drivers/transport.hpp"
 
 namespace imukit::drivers {
 

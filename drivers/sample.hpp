@@ -12,8 +12,8 @@
 #include <span>
 #include <vector>
 
-#include "core/imu_series.hpp"
-#include "core/time.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::drivers {
 

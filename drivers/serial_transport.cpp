@@ -1,4 +1,4 @@
-#include "drivers/serial_transport.hpp"
+#include "imukit/drivers/serial_transport.hpp"
 
 #include <libserialport.h>
 #include <poll.h>

@@ -3,7 +3,7 @@
 // which carries the OS error text.
 #pragma once
 
-#include "drivers/transport.hpp"
+#include "imukit/drivers/transport.hpp"
 
 struct sp_port;
 

@@ -1,10 +1,10 @@
-#include "drivers/sources.hpp"
+#include "imukit/drivers/sources.hpp"
 
 #include <algorithm>
 #include <cassert>
 #include <cmath>
 
-#include "core/so3.hpp"
+#include "imukit/core/so3.hpp"
 
 namespace imukit::drivers {
 

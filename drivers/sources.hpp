@@ -9,8 +9,8 @@
 #include <Eigen/Geometry>
 #include <vector>
 
-#include "core/signal_source.hpp"
-#include "core/units.hpp"
+#include "imukit/core/signal_source.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::drivers {
 

@@ -1,11 +1,11 @@
-#include "drivers/text_codec.hpp"
+#include "imukit/drivers/text_codec.hpp"
 
 #include <charconv>
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/units.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::drivers {
 

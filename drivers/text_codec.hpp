@@ -6,7 +6,7 @@
 // 512 bytes) is counted as a corrupt frame and a dropped sample. The device time is the t column.
 #pragma once
 
-#include "drivers/codec.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers {
 

@@ -1,4 +1,4 @@
-#include "drivers/transport.hpp"
+#include "imukit/drivers/transport.hpp"
 
 #include <fcntl.h>
 #include <poll.h>

@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/time.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::drivers {
 

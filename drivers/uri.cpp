@@ -1,4 +1,4 @@
-#include "drivers/uri.hpp"
+#include "imukit/drivers/uri.hpp"
 
 #include <fcntl.h>
 
@@ -6,13 +6,13 @@
 #include <cerrno>
 #include <charconv>
 
-#include "core/error.hpp"
-#include "drivers/codecs.hpp"
-#include "drivers/devices.hpp"
-#include "drivers/hid_transport.hpp"
-#include "drivers/mock_device.hpp"
-#include "drivers/serial_transport.hpp"
-#include "drivers/usb_transport.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/codecs.hpp"
+#include "imukit/drivers/devices.hpp"
+#include "imukit/drivers/hid_transport.hpp"
+#include "imukit/drivers/mock_device.hpp"
+#include "imukit/drivers/serial_transport.hpp"
+#include "imukit/drivers/usb_transport.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "drivers/codec.hpp"
-#include "drivers/transport.hpp"
+#include "imukit/drivers/codec.hpp"
+#include "imukit/drivers/transport.hpp"
 
 namespace imukit::drivers {
 

@@ -1,4 +1,4 @@
-#include "drivers/usb_transport.hpp"
+#include "imukit/drivers/usb_transport.hpp"
 
 #include <libusb-1.0/libusb.h>
 

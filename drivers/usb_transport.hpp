@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "drivers/transport.hpp"
+#include "imukit/drivers/transport.hpp"
 
 struct libusb_context;
 struct libusb_device_handle;

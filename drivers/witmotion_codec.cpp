@@ -1,10 +1,10 @@
-#include "drivers/witmotion_codec.hpp"
+#include "imukit/drivers/witmotion_codec.hpp"
 
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/units.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -13,7 +13,7 @@
 // Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
 #pragma once
 
-#include "drivers/codec.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers {
 

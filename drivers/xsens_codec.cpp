@@ -1,4 +1,4 @@
-#include "drivers/xsens_codec.hpp"
+#include "imukit/drivers/xsens_codec.hpp"
 
 #include <algorithm>
 #include <cstring>

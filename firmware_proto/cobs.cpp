@@ -1,4 +1,4 @@
-#include "firmware_proto/cobs.hpp"
+#include "imukit/firmware_proto/cobs.hpp"
 
 #include <string.h>
 

@@ -1,4 +1,4 @@
-#include "firmware_proto/crc32c.hpp"
+#include "imukit/firmware_proto/crc32c.hpp"
 
 namespace imukit::proto {
 namespace {

@@ -21,8 +21,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace imukit::proto {
 

@@ -1,8 +1,8 @@
-#include "firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/frame.hpp"
 
 #include <string.h>
 
-#include "firmware_proto/crc32c.hpp"
+#include "imukit/firmware_proto/crc32c.hpp"
 
 namespace imukit::proto {
 namespace {

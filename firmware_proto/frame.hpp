@@ -15,8 +15,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware_proto/bytes.hpp"
-#include "firmware_proto/cobs.hpp"
+#include "imukit/firmware_proto/bytes.hpp"
+#include "imukit/firmware_proto/cobs.hpp"
 
 namespace imukit::proto {
 

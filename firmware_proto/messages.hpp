@@ -11,8 +11,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "firmware_proto/bytes.hpp"
-#include "firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/bytes.hpp"
+#include "imukit/firmware_proto/frame.hpp"
 
 namespace imukit::proto {
 

@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <string_view>
 
-#include "core/error.hpp"
-#include "sim/bvh.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/simulator.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);

@@ -5,8 +5,8 @@
 #include <string>
 #include <string_view>
 
-#include "core/column_text.hpp"
-#include "core/error.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view input(reinterpret_cast<const char*>(data), size);

@@ -1,8 +1,8 @@
 // libFuzzer target: the device URI parser (only parsing: nothing is opened).
 #include <string>
 
-#include "core/error.hpp"
-#include "drivers/uri.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/uri.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

@@ -8,8 +8,8 @@
 #include <cstdlib>
 #include <vector>
 
-#include "core/error.hpp"
-#include "drivers/codec.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers::fuzz {
 

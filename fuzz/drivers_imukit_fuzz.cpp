@@ -1,6 +1,6 @@
 // libFuzzer target: the imukit codec on arbitrary bytes in arbitrary chunks.
-#include "drivers/imukit_codec.hpp"
-#include "fuzz/drivers_codec_fuzz.hpp"
+#include "drivers_codec_fuzz.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace imukit::drivers;

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "core/error.hpp"
-#include "drivers/playstation_codec.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace imukit::drivers;

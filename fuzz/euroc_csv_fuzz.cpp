@@ -3,8 +3,8 @@
 #include <cstdint>
 #include <string_view>
 
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

@@ -14,10 +14,10 @@
 #include <cstring>
 #include <vector>
 
-#include "firmware_proto/cobs.hpp"
-#include "firmware_proto/device_model.hpp"
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/cobs.hpp"
+#include "imukit/firmware_proto/device_model.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace {
 

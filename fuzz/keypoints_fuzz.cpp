@@ -7,8 +7,8 @@
 #include <optional>
 #include <string_view>
 
-#include "core/error.hpp"
-#include "sim/keypoints.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/keypoints.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;

@@ -7,9 +7,9 @@
 #include <cstdint>
 #include <cstdlib>
 
-#include "augment/dataset.hpp"
-#include "core/error.hpp"
-#include "fuzz/temp_file.hpp"
+#include "imukit/augment/dataset.hpp"
+#include "imukit/core/error.hpp"
+#include "temp_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 2) return 0;

@@ -4,9 +4,9 @@
 #include <cstdint>
 #include <span>
 
-#include "capture/mcap.hpp"
-#include "capture/ros_messages.hpp"
-#include "core/error.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/core/error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

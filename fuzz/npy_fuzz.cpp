@@ -5,8 +5,8 @@
 #include <cstdlib>
 #include <span>
 
-#include "core/error.hpp"
-#include "core/npy.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/npy.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

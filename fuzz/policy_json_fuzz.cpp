@@ -13,13 +13,13 @@
 #include <string_view>
 #include <vector>
 
-#include "augment/dataset.hpp"
-#include "augment/policy.hpp"
-#include "augment/ppda.hpp"
-#include "core/error.hpp"
-#include "fuzz/json_fuzz.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
+#include "imukit/augment/dataset.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/ppda.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "json_fuzz.hpp"
 
 namespace {
 

@@ -8,10 +8,10 @@
 
 #include <Eigen/Core>
 
-#include "core/error.hpp"
-#include "core/hardware_model.hpp"
-#include "core/profile.hpp"
-#include "core/rng.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/rng.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);

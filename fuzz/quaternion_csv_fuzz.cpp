@@ -8,10 +8,10 @@
 #include <cstdlib>
 #include <string_view>
 
-#include "core/error.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/simulator.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const imukit::sim::Body body = imukit::sim::Body::default_humanoid();

@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <span>
 
-#include "capture/recording_mcap.hpp"
-#include "core/error.hpp"
-#include "fuzz/recording_use.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/core/error.hpp"
+#include "recording_use.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {

@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
-#include "core/imu_series.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/imu_series.hpp"
 
 namespace imukit::fuzz {
 

@@ -7,12 +7,12 @@
 #include <cstdint>
 #include <cstdlib>
 
-#include "capture/mcap.hpp"
-#include "capture/recording_mcap.hpp"
-#include "capture/session.hpp"
-#include "core/error.hpp"
-#include "fuzz/recording_use.hpp"
-#include "fuzz/temp_file.hpp"
+#include "imukit/capture/mcap.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/capture/session.hpp"
+#include "imukit/core/error.hpp"
+#include "recording_use.hpp"
+#include "temp_file.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const auto& folder = imukit::fuzz::temp_folder();

@@ -11,11 +11,11 @@
 #include <string_view>
 #include <vector>
 
-#include "augment/policy.hpp"
-#include "augment/ppda.hpp"
-#include "core/error.hpp"
-#include "fuzz/json_fuzz.hpp"
-#include "sim/scene.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/ppda.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/scene.hpp"
+#include "json_fuzz.hpp"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/allan.hpp"
+#include "imukit/hwmodel/allan.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -10,10 +10,10 @@
 #include <memory>
 #include <string>
 
-#include "core/error.hpp"
-#include "core/isa.hpp"
-#include "core/parallel.hpp"
-#include "hwmodel/chi_square.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/parallel.hpp"
+#include "imukit/hwmodel/chi_square.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -33,8 +33,8 @@
 #include <span>
 #include <vector>
 
-#include "core/sampling.hpp"
-#include "core/time.hpp"
+#include "imukit/core/sampling.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::hwmodel {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/calibration.hpp"
+#include "imukit/hwmodel/calibration.hpp"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <string>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -24,9 +24,9 @@
 #include <string>
 #include <vector>
 
-#include "core/imu_series.hpp"
-#include "core/profile.hpp"
-#include "core/units.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::hwmodel {
 

@@ -1,4 +1,4 @@
-#include "hwmodel/characterize.hpp"
+#include "imukit/hwmodel/characterize.hpp"
 
 #include <cstddef>
 #include <vector>

@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <span>
 
-#include "core/profile.hpp"
-#include "core/time.hpp"
-#include "hwmodel/allan.hpp"
-#include "hwmodel/calibration.hpp"
-#include "hwmodel/noise_fit.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
 
 namespace imukit::hwmodel {
 

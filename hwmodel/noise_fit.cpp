@@ -1,12 +1,12 @@
-#include "hwmodel/noise_fit.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "hwmodel/chi_square.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/hwmodel/chi_square.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -1,4 +1,4 @@
-#include "sim/body.hpp"
+#include "imukit/sim/body.hpp"
 
 #include <Eigen/Geometry>
 
@@ -9,7 +9,7 @@
 #include <functional>
 #include <set>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -1,13 +1,13 @@
-#include "sim/bvh.hpp"
+#include "imukit/sim/bvh.hpp"
 
 #include <fmt/core.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/text_parse.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/text_parse.hpp"
 
 namespace imukit::sim {
 namespace {

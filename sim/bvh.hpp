@@ -21,8 +21,8 @@
 #include <string_view>
 #include <vector>
 
-#include "sim/body.hpp"
-#include "sim/motion.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/motion.hpp"
 
 namespace imukit::sim {
 

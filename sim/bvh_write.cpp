@@ -3,9 +3,9 @@
 #include <cstdio>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "sim/bvh.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/sim/bvh.hpp"
 
 namespace imukit::sim {
 namespace {

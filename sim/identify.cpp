@@ -1,4 +1,4 @@
-#include "sim/identify.hpp"
+#include "imukit/sim/identify.hpp"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -15,13 +15,13 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/profile.hpp"
-#include "core/sampling.hpp"
-#include "core/so3.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/sampling.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/scene.hpp"
+#include "imukit/sim/simulator.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -26,12 +26,12 @@
 #include <utility>
 #include <vector>
 
-#include "core/imu_series.hpp"
-#include "core/time.hpp"
-#include "core/units.hpp"
-#include "sim/body.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::sim {
 

@@ -1,4 +1,4 @@
-#include "sim/keypoints.hpp"
+#include "imukit/sim/keypoints.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
@@ -10,12 +10,12 @@
 #include <numbers>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/json_text.hpp"
-#include "core/npy.hpp"
-#include "core/so3.hpp"
-#include "core/text_parse.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/json_text.hpp"
+#include "imukit/core/npy.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/core/text_parse.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -42,9 +42,9 @@
 #include <utility>
 #include <vector>
 
-#include "core/time.hpp"
-#include "sim/body.hpp"
-#include "sim/motion.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/motion.hpp"
 
 namespace imukit::sim {
 

@@ -1,4 +1,4 @@
-#include "sim/motion.hpp"
+#include "imukit/sim/motion.hpp"
 
 #include <algorithm>
 #include <cassert>
@@ -7,11 +7,11 @@
 #include <numbers>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/rng.hpp"
-#include "core/text_parse.hpp"
-#include "core/time.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/text_parse.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::sim {
 

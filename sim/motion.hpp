@@ -24,7 +24,7 @@
 #include <string_view>
 #include <vector>
 
-#include "sim/body.hpp"
+#include "imukit/sim/body.hpp"
 
 namespace imukit::sim {
 

@@ -1,11 +1,11 @@
-#include "sim/placement.hpp"
+#include "imukit/sim/placement.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/so3.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/so3.hpp"
 
 namespace imukit::sim {
 namespace {

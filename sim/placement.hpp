@@ -22,8 +22,8 @@
 #include <string_view>
 #include <vector>
 
-#include "core/rng.hpp"
-#include "sim/body.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/sim/body.hpp"
 
 namespace imukit::sim {
 

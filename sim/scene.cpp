@@ -1,4 +1,4 @@
-#include "sim/scene.hpp"
+#include "imukit/sim/scene.hpp"
 
 #include <fmt/core.h>
 
@@ -7,14 +7,14 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/input_file.hpp"
-#include "core/json_text.hpp"
-#include "core/parallel.hpp"
-#include "core/profile.hpp"
-#include "core/rng.hpp"
-#include "sim/bvh.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/json_text.hpp"
+#include "imukit/core/parallel.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::sim {
 namespace {

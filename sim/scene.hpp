@@ -16,11 +16,11 @@
 #include <string_view>
 #include <vector>
 
-#include "core/hardware_model.hpp"
-#include "core/imu_series.hpp"
-#include "sim/body.hpp"
-#include "sim/motion.hpp"
-#include "sim/simulator.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/simulator.hpp"
 
 namespace imukit::sim {
 

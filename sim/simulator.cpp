@@ -1,4 +1,4 @@
-#include "sim/simulator.hpp"
+#include "imukit/sim/simulator.hpp"
 
 #include <algorithm>
 #include <array>
@@ -9,9 +9,9 @@
 #include <limits>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/isa.hpp"
-#include "core/so3.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/so3.hpp"
 
 namespace imukit::sim {
 namespace {

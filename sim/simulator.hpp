@@ -43,12 +43,12 @@
 #include <string_view>
 #include <vector>
 
-#include "core/signal_source.hpp"
-#include "core/time.hpp"
-#include "core/units.hpp"
-#include "sim/body.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/signal_source.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::sim {
 

@@ -5,14 +5,14 @@
 #include <memory>
 #include <mutex>
 
-#include "augment/dataset.hpp"
-#include "augment/policy.hpp"
-#include "augment/ppda.hpp"
-#include "augment/stda.hpp"
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "python/src/common.hpp"
-#include "sim/scene.hpp"
+#include "common.hpp"
+#include "imukit/augment/dataset.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/augment/ppda.hpp"
+#include "imukit/augment/stda.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::python {
 

@@ -1,10 +1,10 @@
 // Allan-family deviations and the noise-model fit on NumPy arrays.
 #include <memory>
 
-#include "core/error.hpp"
-#include "hwmodel/allan.hpp"
-#include "hwmodel/noise_fit.hpp"
-#include "python/src/common.hpp"
+#include "common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
 
 namespace imukit::python {
 namespace {

@@ -2,15 +2,15 @@
 // segment correction fitted to a real IMU; the fitted motion; fidelity.
 #include <memory>
 
-#include "core/error.hpp"
-#include "core/imu_series.hpp"
-#include "core/units.hpp"
-#include "python/src/common.hpp"
-#include "sim/body.hpp"
-#include "sim/identify.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
-#include "sim/simulator.hpp"
+#include "common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/identify.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/simulator.hpp"
 
 namespace imukit::python {
 namespace {

@@ -1,11 +1,11 @@
 // Series, recordings (MCAP, EuRoC CSV) and device profiles.
 #include <memory>
 
-#include "capture/recording_mcap.hpp"
-#include "core/error.hpp"
-#include "core/euroc_csv.hpp"
-#include "core/profile.hpp"
-#include "python/src/common.hpp"
+#include "common.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/profile.hpp"
 
 namespace imukit::python {
 namespace {

@@ -1,7 +1,7 @@
 // Body motion from 3D keypoints (sim/keypoints.hpp, docs/keypoints.md).
-#include "core/error.hpp"
-#include "python/src/common.hpp"
-#include "sim/keypoints.hpp"
+#include "common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/keypoints.hpp"
 
 namespace imukit::python {
 namespace {

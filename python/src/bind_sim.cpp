@@ -3,14 +3,14 @@
 #include <memory>
 #include <mutex>
 
-#include "core/error.hpp"
-#include "core/profile.hpp"
-#include "python/src/common.hpp"
-#include "sim/body.hpp"
-#include "sim/bvh.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
-#include "sim/scene.hpp"
+#include "common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/sim/body.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::python {
 

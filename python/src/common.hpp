@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 namespace imukit::python {
 

@@ -2,9 +2,9 @@
 // module definition and the translation of imukit::Error into imukit.Error.
 #include <pybind11/pybind11.h>
 
-#include "core/error.hpp"
-#include "core/units.hpp"
-#include "python/src/common.hpp"
+#include "common.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::python {
 namespace {

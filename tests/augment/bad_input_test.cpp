@@ -4,12 +4,12 @@
 
 #include <string>
 
-#include "augment/dataset.hpp"
-#include "augment/policy.hpp"
-#include "core/error.hpp"
-#include "sim/motion.hpp"
-#include "sim/placement.hpp"
-#include "tests/support/expect_error.hpp"
+#include "imukit/augment/dataset.hpp"
+#include "imukit/augment/policy.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/motion.hpp"
+#include "imukit/sim/placement.hpp"
+#include "support/expect_error.hpp"
 
 namespace imukit::augment {
 namespace {

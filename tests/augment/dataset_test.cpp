@@ -1,5 +1,5 @@
 // Windowing, labels, the dataset writer read back, and generate_dataset's determinism.
-#include "augment/dataset.hpp"
+#include "imukit/augment/dataset.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/npy.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/npy.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::augment {
 namespace {

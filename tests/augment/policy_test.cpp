@@ -1,6 +1,6 @@
 // Policies: the built-in grids (every option of seed-summary section 2, 810 sub-policies), JSON
 // round trips and errors, sampling frequencies, and the STDA counterparts.
-#include "augment/policy.hpp"
+#include "imukit/augment/policy.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,8 +8,8 @@
 #include <fstream>
 #include <set>
 
-#include "core/error.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::augment {
 namespace {

@@ -1,7 +1,7 @@
 // PPDA: closed forms for speed and amplitude on a sinusoidal joint, placement through the
 // carriers' affine field against a direct simulation, hardware ranges, every grid sub-policy,
 // and thread-count independence.
-#include "augment/ppda.hpp"
+#include "imukit/augment/ppda.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,11 +10,11 @@
 #include <numbers>
 #include <utility>
 
-#include "core/error.hpp"
-#include "core/isa.hpp"
-#include "core/profile.hpp"
-#include "core/so3.hpp"
-#include "sim/placement.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/placement.hpp"
 
 namespace imukit::augment {
 namespace {

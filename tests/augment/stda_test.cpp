@@ -1,6 +1,6 @@
 // STDA methods: shape and identity, per-call variation, replay against hand-computed results,
 // and the distributions of the drawn parameters.
-#include "augment/stda.hpp"
+#include "imukit/augment/stda.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <numbers>
 #include <numeric>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::augment {
 namespace {

@@ -5,13 +5,13 @@
 #include <chrono>
 #include <string>
 
-#include "capture/live_detectors.hpp"
-#include "capture/recording_mcap.hpp"
-#include "capture/session.hpp"
-#include "core/rng.hpp"
-#include "core/time.hpp"
-#include "drivers/uri.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/capture/live_detectors.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/capture/session.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/drivers/uri.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::capture {
 namespace {

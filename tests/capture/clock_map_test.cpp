@@ -1,4 +1,4 @@
-#include "capture/clock_map.hpp"
+#include "imukit/capture/clock_map.hpp"
 
 #include <gtest/gtest.h>
 #include <algorithm>
@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit::capture {
 namespace {

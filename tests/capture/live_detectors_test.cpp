@@ -1,9 +1,9 @@
-#include "capture/live_detectors.hpp"
+#include "imukit/capture/live_detectors.hpp"
 
 #include <gtest/gtest.h>
 #include <cmath>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit::capture {
 namespace {

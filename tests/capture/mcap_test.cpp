@@ -1,4 +1,4 @@
-#include "capture/mcap.hpp"
+#include "imukit/capture/mcap.hpp"
 
 #include <gtest/gtest.h>
 #include <algorithm>
@@ -11,9 +11,9 @@
 
 #include <fmt/core.h>
 
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::capture {
 namespace {

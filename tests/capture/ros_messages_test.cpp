@@ -1,11 +1,11 @@
-#include "capture/ros_messages.hpp"
+#include "imukit/capture/ros_messages.hpp"
 
 #include <gtest/gtest.h>
 #include <cstring>
 
-#include "capture/recording_mcap.hpp"
-#include "core/error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/core/error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::capture {
 namespace {

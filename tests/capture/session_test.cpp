@@ -1,15 +1,15 @@
-#include "capture/session.hpp"
+#include "imukit/capture/session.hpp"
 
 #include <gtest/gtest.h>
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
 
-#include "capture/recording_mcap.hpp"
-#include "capture/ros_messages.hpp"
-#include "drivers/imukit_codec.hpp"
-#include "drivers/mock_device.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/capture/recording_mcap.hpp"
+#include "imukit/capture/ros_messages.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
+#include "imukit/drivers/mock_device.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::capture {
 namespace {

@@ -1,11 +1,11 @@
-#include "core/column_text.hpp"
+#include "imukit/core/column_text.hpp"
 
 #include <gtest/gtest.h>
 #include <cmath>
 
-#include "core/error.hpp"
-#include "tests/support/expect_error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "support/expect_error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

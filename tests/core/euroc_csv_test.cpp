@@ -1,13 +1,13 @@
-#include "core/euroc_csv.hpp"
+#include "imukit/core/euroc_csv.hpp"
 
 #include <gtest/gtest.h>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/hardware_model.hpp"
+#include "imukit/core/hardware_model.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,11 +7,11 @@
 #include <numbers>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/imu_series.hpp"
-#include "core/rng.hpp"
-#include "tests/support/allan_reference.hpp"
-#include "tests/support/example_models.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/allan_reference.hpp"
+#include "support/example_models.hpp"
 
 namespace imukit {
 namespace {

@@ -1,8 +1,8 @@
-#include "core/imu_series.hpp"
+#include "imukit/core/imu_series.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

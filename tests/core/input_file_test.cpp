@@ -1,4 +1,4 @@
-#include "core/input_file.hpp"
+#include "imukit/core/input_file.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -6,11 +6,11 @@
 #include <fstream>
 #include <string>
 
-#include "core/column_text.hpp"
-#include "core/error.hpp"
-#include "core/npy.hpp"
-#include "core/profile.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/npy.hpp"
+#include "imukit/core/profile.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/interpolation.hpp"
+#include "imukit/core/interpolation.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,8 +8,8 @@
 #include <limits>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/rng.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit {
 namespace {

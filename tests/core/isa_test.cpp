@@ -1,4 +1,4 @@
-#include "core/isa.hpp"
+#include "imukit/core/isa.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit {
 namespace {

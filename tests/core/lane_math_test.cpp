@@ -1,4 +1,4 @@
-#include "core/lane_math.hpp"
+#include "imukit/core/lane_math.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <limits>
 #include <numbers>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit::lane {
 namespace {

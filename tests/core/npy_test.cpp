@@ -1,12 +1,12 @@
-#include "core/npy.hpp"
+#include "imukit/core/npy.hpp"
 
 #include <gtest/gtest.h>
 #include <cstring>
 #include <fstream>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

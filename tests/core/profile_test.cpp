@@ -1,4 +1,4 @@
-#include "core/profile.hpp"
+#include "imukit/core/profile.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

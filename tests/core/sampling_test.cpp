@@ -1,4 +1,4 @@
-#include "core/sampling.hpp"
+#include "imukit/core/sampling.hpp"
 
 #include <gtest/gtest.h>
 #include <algorithm>
@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/rng.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/so3.hpp"
+#include "imukit/core/so3.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <numbers>
 #include <vector>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit {
 namespace {

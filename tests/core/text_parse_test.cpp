@@ -1,10 +1,10 @@
-#include "core/text_parse.hpp"
+#include "imukit/core/text_parse.hpp"
 
 #include <gtest/gtest.h>
 #include <cmath>
 
-#include "core/error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/time.hpp"
+#include "imukit/core/time.hpp"
 
 #include <gtest/gtest.h>
 

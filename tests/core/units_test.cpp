@@ -1,4 +1,4 @@
-#include "core/units.hpp"
+#include "imukit/core/units.hpp"
 
 #include <gtest/gtest.h>
 

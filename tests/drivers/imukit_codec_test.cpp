@@ -1,11 +1,11 @@
-#include "drivers/imukit_codec.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
 
 #include <gtest/gtest.h>
 
 #include <set>
 
-#include "tests/drivers/test_util.hpp"
-#include "tests/support/example_models.hpp"
+#include "support/example_models.hpp"
+#include "test_util.hpp"
 
 namespace imukit::drivers {
 namespace {

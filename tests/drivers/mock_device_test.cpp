@@ -1,20 +1,20 @@
-#include "drivers/mock_device.hpp"
+#include "imukit/drivers/mock_device.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 #include <cmath>
 #include <numbers>
 #include <set>
 
-#include "core/profile.hpp"
-#include "core/so3.hpp"
-#include "drivers/imukit_codec.hpp"
-#include "drivers/reader.hpp"
-#include "drivers/sources.hpp"
-#include "drivers/uri.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/profile.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/sources.hpp"
+#include "imukit/drivers/uri.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::drivers {
 namespace {

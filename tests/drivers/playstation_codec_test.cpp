@@ -1,6 +1,6 @@
-#include "drivers/playstation_codec.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "drivers/reader.hpp"
+#include "imukit/drivers/reader.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "drivers/text_codec.hpp"
+#include "imukit/drivers/text_codec.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -1,4 +1,4 @@
-#include "drivers/sample.hpp"
+#include "imukit/drivers/sample.hpp"
 
 #include <gtest/gtest.h>
 

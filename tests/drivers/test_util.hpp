@@ -3,8 +3,8 @@
 
 #include <vector>
 
-#include "core/rng.hpp"
-#include "drivers/codec.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers::testing {
 

@@ -1,13 +1,13 @@
-#include "drivers/text_codec.hpp"
+#include "imukit/drivers/text_codec.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 #include <numbers>
 #include <set>
 
-#include "tests/drivers/test_util.hpp"
+#include "test_util.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -18,16 +18,16 @@
 #include <cstring>
 #include <thread>
 
-#include "core/rng.hpp"
-#include "drivers/devices.hpp"
-#include "drivers/hid_transport.hpp"
-#include "drivers/imukit_codec.hpp"
-#include "drivers/mock_device.hpp"
-#include "drivers/playstation_codec.hpp"
-#include "drivers/reader.hpp"
-#include "drivers/serial_transport.hpp"
-#include "drivers/uri.hpp"
-#include "drivers/witmotion_codec.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/drivers/devices.hpp"
+#include "imukit/drivers/hid_transport.hpp"
+#include "imukit/drivers/imukit_codec.hpp"
+#include "imukit/drivers/mock_device.hpp"
+#include "imukit/drivers/playstation_codec.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/serial_transport.hpp"
+#include "imukit/drivers/uri.hpp"
+#include "imukit/drivers/witmotion_codec.hpp"
 
 namespace imukit::drivers {
 namespace {

@@ -1,15 +1,15 @@
-#include "drivers/uri.hpp"
+#include "imukit/drivers/uri.hpp"
 
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <cstdio>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
-#include "drivers/devices.hpp"
-#include "drivers/reader.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/drivers/devices.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::drivers {
 namespace {

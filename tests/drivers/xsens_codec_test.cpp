@@ -1,4 +1,4 @@
-#include "drivers/xsens_codec.hpp"
+#include "imukit/drivers/xsens_codec.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,8 +8,8 @@
 #include <set>
 #include <sstream>
 
-#include "tests/drivers/test_util.hpp"
-#include "tests/support/test_data.hpp"
+#include "support/test_data.hpp"
+#include "test_util.hpp"
 
 namespace imukit::drivers {
 namespace {

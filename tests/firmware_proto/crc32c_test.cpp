@@ -1,4 +1,4 @@
-#include "firmware_proto/crc32c.hpp"
+#include "imukit/firmware_proto/crc32c.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <cstring>
 #include <vector>
 
-#include "firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/frame.hpp"
 #include "proto_test_util.hpp"
 
 namespace imukit::proto {

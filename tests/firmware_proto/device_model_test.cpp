@@ -1,4 +1,4 @@
-#include "firmware_proto/device_model.hpp"
+#include "imukit/firmware_proto/device_model.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,12 +1,12 @@
-#include "firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/frame.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstring>
 
-#include "firmware_proto/crc32c.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/crc32c.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 #include "proto_test_util.hpp"
 
 namespace imukit::proto {

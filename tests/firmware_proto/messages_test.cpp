@@ -1,4 +1,4 @@
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 #include <gtest/gtest.h>
 

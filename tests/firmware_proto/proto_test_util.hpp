@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "firmware_proto/frame.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/firmware_proto/frame.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace imukit::proto::test {
 

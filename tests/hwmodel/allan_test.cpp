@@ -1,4 +1,4 @@
-#include "hwmodel/allan.hpp"
+#include "imukit/hwmodel/allan.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,10 +6,10 @@
 #include <functional>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/isa.hpp"
-#include "core/rng.hpp"
-#include "tests/support/allan_reference.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/allan_reference.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/time.hpp"
-#include "hwmodel/calibration.hpp"
-#include "tests/support/expect_error.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/time.hpp"
+#include "imukit/hwmodel/calibration.hpp"
+#include "support/expect_error.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -1,4 +1,4 @@
-#include "hwmodel/calibration.hpp"
+#include "imukit/hwmodel/calibration.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,10 +8,10 @@
 #include <numbers>
 #include <vector>
 
-#include "core/column_text.hpp"
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -1,11 +1,11 @@
-#include "hwmodel/characterize.hpp"
+#include "imukit/hwmodel/characterize.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
 
-#include "core/rng.hpp"
+#include "imukit/core/rng.hpp"
 
 namespace imukit::hwmodel {
 namespace {

@@ -1,4 +1,4 @@
-#include "hwmodel/chi_square.hpp"
+#include "imukit/hwmodel/chi_square.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "hwmodel/noise_fit.hpp"
+#include "imukit/hwmodel/noise_fit.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,11 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/hardware_model.hpp"
-#include "core/rng.hpp"
-#include "hwmodel/allan.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/hwmodel/allan.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::hwmodel {
 namespace {

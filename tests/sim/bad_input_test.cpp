@@ -6,11 +6,11 @@
 #include <limits>
 #include <string>
 
-#include "core/error.hpp"
-#include "sim/bvh.hpp"
-#include "sim/identify.hpp"
-#include "sim/scene.hpp"
-#include "tests/support/expect_error.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/identify.hpp"
+#include "imukit/sim/scene.hpp"
+#include "support/expect_error.hpp"
 
 namespace imukit::sim {
 namespace {

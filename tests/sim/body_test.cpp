@@ -1,8 +1,8 @@
-#include "sim/body.hpp"
+#include "imukit/sim/body.hpp"
 
 #include <gtest/gtest.h>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::sim {
 namespace {

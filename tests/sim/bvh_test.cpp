@@ -1,12 +1,12 @@
-#include "sim/bvh.hpp"
+#include "imukit/sim/bvh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -11,14 +11,14 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "core/so3.hpp"
-#include "sim/bvh.hpp"
-#include "sim/identify.hpp"
-#include "sim/placement.hpp"
-#include "sim/simulator.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/identify.hpp"
+#include "imukit/sim/placement.hpp"
+#include "imukit/sim/simulator.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::sim {
 namespace {

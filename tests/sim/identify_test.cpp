@@ -1,7 +1,7 @@
 // Identification (sim/identify.hpp): recovery of a known placement, biases, time offset, clock
 // rate and segment length from synthetic recordings with noise (the tolerances of issue 8),
 // the unobservability diagnostic, pose tracks with gaps, and the real BROAD recording.
-#include "sim/identify.hpp"
+#include "imukit/sim/identify.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,13 +9,13 @@
 #include <nlohmann/json.hpp>
 #include <numbers>
 
-#include "core/column_text.hpp"
-#include "core/error.hpp"
-#include "core/rng.hpp"
-#include "core/so3.hpp"
-#include "sim/simulator.hpp"
-#include "tests/support/sampled_motion.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/column_text.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/simulator.hpp"
+#include "support/sampled_motion.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::sim {
 namespace {

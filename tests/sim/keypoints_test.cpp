@@ -1,14 +1,14 @@
-#include "sim/keypoints.hpp"
+#include "imukit/sim/keypoints.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "core/error.hpp"
-#include "core/so3.hpp"
-#include "sim/bvh.hpp"
-#include "sim/scene.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/scene.hpp"
 
 namespace imukit::sim {
 namespace {

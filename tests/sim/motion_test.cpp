@@ -1,10 +1,10 @@
-#include "sim/motion.hpp"
+#include "imukit/sim/motion.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -1,4 +1,4 @@
-#include "sim/placement.hpp"
+#include "imukit/sim/placement.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <numbers>
 #include <string>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::sim {
 namespace {

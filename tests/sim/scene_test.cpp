@@ -1,11 +1,11 @@
-#include "sim/scene.hpp"
+#include "imukit/sim/scene.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -1,6 +1,6 @@
 // Simulator accuracy: closed forms, convergence orders, the reference simulator's numbers, and
 // numerical stress (sign flips, rotations through pi, extreme rates, degenerate motions).
-#include "sim/simulator.hpp"
+#include "imukit/sim/simulator.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,14 +12,14 @@
 #include <numbers>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "core/isa.hpp"
-#include "core/so3.hpp"
-#include "core/text_parse.hpp"
-#include "sim/bvh.hpp"
-#include "sim/placement.hpp"
-#include "tests/support/sampled_motion.hpp"
-#include "tests/support/test_data.hpp"
+#include "imukit/core/error.hpp"
+#include "imukit/core/isa.hpp"
+#include "imukit/core/so3.hpp"
+#include "imukit/core/text_parse.hpp"
+#include "imukit/sim/bvh.hpp"
+#include "imukit/sim/placement.hpp"
+#include "support/sampled_motion.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::sim {
 namespace {

@@ -7,8 +7,8 @@
 #include <cstdint>
 #include <numbers>
 
-#include "core/hardware_model.hpp"
-#include "firmware_proto/messages.hpp"
+#include "imukit/core/hardware_model.hpp"
+#include "imukit/firmware_proto/messages.hpp"
 
 namespace imukit::testing {
 

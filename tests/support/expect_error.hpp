@@ -7,7 +7,7 @@
 #include <initializer_list>
 #include <string>
 
-#include "core/error.hpp"
+#include "imukit/core/error.hpp"
 
 namespace imukit::testing {
 

@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-#include "sim/motion.hpp"
+#include "imukit/sim/motion.hpp"
 
 namespace imukit::testing {
 

@@ -1,4 +1,4 @@
-#include "tests/support/test_data.hpp"
+#include "support/test_data.hpp"
 
 #include <unistd.h>
 #include <atomic>
