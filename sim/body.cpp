@@ -222,8 +222,11 @@ std::optional<int> Body::find(std::string_view name) const {
     if (lower(joints_[i].name) == l || lower(joints_[i].source_name) == l)
       return static_cast<int>(i);
   }
+  // A segment's name stands for the joint at its start. Some segments share their joint's name
+  // (pelvis, neck, head, clavicles): that name was just looked up, so asking again would recurse
+  // without end on a body without the joint.
   for (const SegmentName& s : kSegments) {
-    if (l == s.segment) return find(s.joint);
+    if (l == s.segment && l != s.joint) return find(s.joint);
   }
   // An alias spelling of a canonical name this body uses.
   const std::vector<std::string> c = canonicalize_joint_names({std::string(name)});

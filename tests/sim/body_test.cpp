@@ -39,6 +39,24 @@ TEST(Body, FindsJointsBySegmentNameAndAlias) {
   EXPECT_EQ(b.chain(b.index_of("left_wrist")).size(), 7u);
 }
 
+TEST(Body, SegmentNamedLikeItsJointIsNotFoundOnABodyWithoutTheJoint) {
+  // pelvis, neck, head and the clavicles name both a joint and its segment; looking one up on a
+  // body without that joint used to recurse until the stack overflowed (a scene's "segment":
+  // "head" on a one-joint body, or a quaternion-CSV column for a missing joint).
+  Body b;
+  b.add_joint("root", -1, Eigen::Vector3d::Zero());
+  b.add_joint("arm", 0, Eigen::Vector3d(0.3, 0.0, 0.0));
+  for (const char* name : {"pelvis", "neck", "head", "left_clavicle", "right_clavicle", "HEAD"}) {
+    EXPECT_FALSE(b.find(name).has_value()) << name;
+    EXPECT_THROW(b.index_of(name), Error) << name;
+  }
+  // A segment whose joint has another name still resolves through it.
+  Body c;
+  c.add_joint("left_elbow", -1, Eigen::Vector3d::Zero());
+  EXPECT_EQ(c.find("left_forearm"), std::optional<int>(0));
+  EXPECT_FALSE(c.find("left_upper_arm").has_value());
+}
+
 TEST(Body, AliasTableMapsBothCmuSchemes) {
   const std::vector<std::string> max = {
       "Hips",   "LHipJoint",  "LeftHip",      "LeftKnee",  "LeftAnkle", "lowerback", "Chest",
