@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include <fmt/format.h>
@@ -32,16 +33,32 @@ enum Term : uint64_t {
 
 void fail(const std::string& what) { throw Error("hardware model: " + what); }
 
-void check_finite(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name) {
+// Fails on the first element x of m (row-major) with !ok(x), naming it and what was `expected`.
+template <class Ok>
+void check_elements(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name, Ok ok,
+                    std::string_view expected) {
   for (Eigen::Index r = 0; r < m.rows(); ++r) {
     for (Eigen::Index c = 0; c < m.cols(); ++c) {
-      if (!std::isfinite(m(r, c))) {
-        fail(m.cols() == 1
-                 ? fmt::format("{}[{}] is {}, expected a finite number", name, r, m(r, c))
-                 : fmt::format("{}[{}][{}] is {}, expected a finite number", name, r, c, m(r, c)));
+      if (!ok(m(r, c))) {
+        fail(m.cols() == 1 ? fmt::format("{}[{}] is {}, {}", name, r, m(r, c), expected)
+                           : fmt::format("{}[{}][{}] is {}, {}", name, r, c, m(r, c), expected));
       }
     }
   }
+}
+
+void check_finite(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name) {
+  check_elements(m, name, [](double x) { return std::isfinite(x); }, "expected a finite number");
+}
+
+// Above this magnitude (of the sensor's unit, or as a gain) a parameter describes no sensor, and
+// the simulated samples could overflow to infinity without a word (noise density 1e300 did).
+constexpr double kMaxParameterMagnitude = 1e12;
+
+void check_magnitude(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name) {
+  check_elements(
+      m, name, [](double x) { return std::abs(x) <= kMaxParameterMagnitude; },
+      fmt::format("beyond any sensor's (at most {:g} in magnitude)", kMaxParameterMagnitude));
 }
 
 void check_non_negative(const Eigen::Vector3d& v, const std::string& name) {
@@ -67,6 +84,13 @@ void validate_triad(const TriadModel& t, const std::string& name, double rate_hz
     if (t.scale[i] == 0.0) fail(fmt::format("{}.scale[{}] is 0", name, i));
   }
   check_finite(t.misalignment, name + ".misalignment");
+  check_magnitude(t.noise_density, name + ".noise_density");
+  check_magnitude(t.bias_instability, name + ".bias_instability");
+  check_magnitude(t.random_walk, name + ".random_walk");
+  check_magnitude(t.turn_on_bias_mean, name + ".turn_on_bias_mean");
+  check_magnitude(t.turn_on_bias_spread, name + ".turn_on_bias_spread");
+  check_magnitude(t.scale, name + ".scale");
+  check_magnitude(t.misalignment, name + ".misalignment");
   for (int i = 0; i < 3; ++i) {
     if (std::abs(t.misalignment(i, i) - 1.0) > 1e-9) {
       fail(fmt::format(
@@ -143,6 +167,9 @@ void validate_hardware_model(const HardwareModel& model, const SensorRates& rate
   validate_triad(model.magnetometer, "magnetometer", rates.magnetometer_hz);
   check_finite(model.magnetometer.hard_iron, "magnetometer.hard_iron");
   check_finite(model.magnetometer.soft_iron, "magnetometer.soft_iron");
+  check_magnitude(model.gyroscope.g_sensitivity, "gyroscope.g_sensitivity");
+  check_magnitude(model.magnetometer.hard_iron, "magnetometer.hard_iron");
+  check_magnitude(model.magnetometer.soft_iron, "magnetometer.soft_iron");
   // The clock: a crystal is off by tens of ppm; 1 % is a broken device, not a clock error. Jitter
   // above a tenth of the period would reorder samples (the simulator clips draws at 0.45 periods).
   if (!(std::abs(model.clock.error_ppm) <= 1e4))
@@ -492,8 +519,11 @@ void ImuErrorGenerator::Triad::apply(double* y, const double* force, std::size_t
     if (resolution > 0.0) {
       // Round to the nearest LSB, ties away from zero (std::round does not depend on the
       // floating-point rounding mode).
+      // A value of 2^52 LSBs or more is already on the grid (and a tiny LSB would overflow
+      // the quotient to infinity): it stays as it is.
       for (std::size_t k = 0; k < 3 * count; ++k) {
-        block[k] = resolution * std::round(block[k] / resolution);
+        const double steps = block[k] / resolution;
+        if (std::abs(steps) < 0x1p52) block[k] = resolution * std::round(steps);
       }
     }
   }

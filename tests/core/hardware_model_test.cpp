@@ -378,6 +378,52 @@ TEST(Generator, SaturatesThenQuantisesExactly) {
   EXPECT_TRUE(bit_equal(y, expected)) << y;
 }
 
+TEST(Generator, QuantisationWithATinyLsbKeepsEveryValueFinite) {
+  // value / 1e-300 overflowed to infinity, and infinity * 1e-300 wrote inf samples without a word.
+  HardwareModel m;
+  m.accelerometer.resolution = 1e-300;
+  Rng rng(1);
+  ImuErrorGenerator generator(m, 100.0, rng);
+  Eigen::Matrix3Xd y(3, 2);
+  y << 9.81, -1e10,    //
+      1e-290, 3e-300,  //
+      -2.5, 0.0;
+  Eigen::Matrix3Xd expected = y;
+  expected(1, 0) = 1e-300 * std::round(1e-290 / 1e-300);  // within 2^52 LSBs: still quantised
+  expected(1, 1) = 1e-300 * std::round(3e-300 / 1e-300);
+  generator.apply_accelerometer(y);
+  EXPECT_TRUE(y.allFinite()) << y;
+  EXPECT_TRUE(bit_equal(y, expected)) << y;
+}
+
+TEST(HardwareModel, RejectsParametersBeyondAnySensor) {
+  // A profile with a noise density of 1e300 was accepted and its samples came out as +-inf.
+  const auto message = [](const HardwareModel& m) -> std::string {
+    try {
+      validate_hardware_model(m, 100.0);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  HardwareModel m;
+  m.accelerometer.noise_density = {0.01, 1e300, 0.01};
+  EXPECT_NE(message(m).find("accelerometer.noise_density[1] is 1e+300"), std::string::npos)
+      << message(m);
+  m = HardwareModel{};
+  m.gyroscope.turn_on_bias_mean = {0.0, 0.0, -2e12};
+  EXPECT_NE(message(m).find("gyroscope.turn_on_bias_mean[2]"), std::string::npos) << message(m);
+  m = HardwareModel{};
+  m.accelerometer.misalignment(0, 1) = 1e13;
+  EXPECT_NE(message(m).find("accelerometer.misalignment[0][1]"), std::string::npos) << message(m);
+  m = HardwareModel{};
+  m.magnetometer.hard_iron = {1e200, 0.0, 0.0};
+  EXPECT_NE(message(m).find("magnetometer.hard_iron[0]"), std::string::npos) << message(m);
+  m = HardwareModel{};
+  m.gyroscope.random_walk = {1e12, 1e12, 1e12};  // the bound itself is allowed
+  EXPECT_EQ(message(m), "accepted");
+}
+
 // Amplitude of the sinusoid at `frequency` in x (least-squares fit over whole periods).
 double fitted_amplitude(const std::vector<double>& x, double frequency, double rate) {
   double s = 0.0;
