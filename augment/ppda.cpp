@@ -733,7 +733,7 @@ std::set<int> carrier_joints(const sim::Body& body, const std::vector<sim::Scene
   for (const sim::SceneSensor& s : sensors) joints.insert(s.spec.placement.joint);
   if (sub.placement.enabled) {
     for (const std::string& p : sub.placement.swap_presets)
-      joints.insert(sim::resolve_preset(sim::placement_preset(p), body).joint);
+      joints.insert(sim::preset_placement(p, body).joint);
     for (const SubjectPlacements& subject : sub.placement.swap_subjects) {
       for (const sim::PlacementPreset& p : subject.sensors) {
         try {

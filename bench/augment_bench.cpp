@@ -45,7 +45,7 @@ const sim::Scene& humanoid_scene() {
       sim::SceneSensor ss;
       ss.spec.name = p;
       ss.preset = p;
-      ss.spec.placement = sim::resolve_preset(sim::placement_preset(p), s.body);
+      ss.spec.placement = sim::preset_placement(p, s.body);
       s.sensors.push_back(ss);
     }
     return s;

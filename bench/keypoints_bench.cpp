@@ -77,7 +77,7 @@ void BM_SimulateWatchOnIt(benchmark::State& state) {
   KeypointMotion r = motion_from_keypoints(figure(fps, seconds), keypoint_topology("kinect_v1_20"));
   SensorSpec spec;
   spec.name = "watch";
-  spec.placement = resolve_preset(placement_preset("right_wrist_watch"), r.body);
+  spec.placement = preset_placement("right_wrist_watch", r.body);
   SimulationOptions o;
   o.method = DerivativeMethod::spline;
   o.rate_hz = 50.0;

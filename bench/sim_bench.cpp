@@ -206,7 +206,7 @@ void BM_FullBody9Sensors100Hz3min(benchmark::State& state) {
         "right_front_pocket_phone", "left_upper_arm_band", "right_ankle_clip", "waist_belt"}) {
     SensorSpec x;
     x.name = p;
-    x.placement = resolve_preset(placement_preset(p), b);
+    x.placement = preset_placement(p, b);
     s.push_back(x);
   }
   run_whole(state, b, s, static_cast<DerivativeMethod>(state.range(0)), 18000);

@@ -217,10 +217,7 @@ sim::Scene make_scene(const std::string& motion_path, const HardwareModel& hardw
   scene.options.method = sim::DerivativeMethod::spline;  // sensor rate != motion frame rate
   scene.seed = seed;
   scene.ground_truth = true;
-  sim::SceneSensor s;
-  s.preset = kSensor;
-  s.spec.name = kSensor;
-  s.spec.placement = sim::resolve_preset(sim::placement_preset(kSensor), scene.body);
+  sim::SceneSensor s = sim::preset_sensor(kSensor, scene.body);
   s.hardware = hardware;
   scene.sensors.push_back(std::move(s));
   return scene;

@@ -123,10 +123,7 @@ sim::Scene quick_scene(const SimulateArgs& a) {
   if (a.presets.empty())
     throw UsageError("simulate --bvh: name at least one --preset (see --list-presets)");
   for (const std::string& name : a.presets) {
-    sim::SceneSensor s;
-    s.preset = name;
-    s.spec.name = name;
-    s.spec.placement = sim::resolve_preset(sim::placement_preset(name), scene.body);
+    sim::SceneSensor s = sim::preset_sensor(name, scene.body);
     if (!a.hardware.empty()) s.hardware = to_hardware_model(read_profile(a.hardware));
     scene.sensors.push_back(std::move(s));
   }

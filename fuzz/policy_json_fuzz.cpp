@@ -36,8 +36,7 @@ imukit::sim::Scene small_scene() {
   imukit::sim::SceneSensor s;
   s.spec.name = "watch";
   s.preset = "left_wrist_watch";
-  s.spec.placement =
-      imukit::sim::resolve_preset(imukit::sim::placement_preset(s.preset), scene.body);
+  s.spec.placement = imukit::sim::preset_placement(s.preset, scene.body);
   scene.sensors.push_back(s);
   return scene;
 }

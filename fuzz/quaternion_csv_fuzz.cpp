@@ -32,8 +32,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (motion.frames() < 2 || motion.frames() > 64) return 0;
   imukit::sim::SensorSpec s;
   s.name = "watch";
-  s.placement =
-      imukit::sim::resolve_preset(imukit::sim::placement_preset("left_wrist_watch"), body);
+  s.placement = imukit::sim::preset_placement("left_wrist_watch", body);
   for (const auto method :
        {imukit::sim::DerivativeMethod::fd, imukit::sim::DerivativeMethod::spline}) {
     try {

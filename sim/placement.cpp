@@ -121,6 +121,10 @@ Placement resolve_preset(const PlacementPreset& preset, const Body& body) {
   return p;
 }
 
+Placement preset_placement(std::string_view preset, const Body& body) {
+  return resolve_preset(placement_preset(preset), body);
+}
+
 PlacementPreset describe_placement(const Placement& placement, const Body& body, std::string name) {
   const Joint& joint = body.joint(static_cast<std::size_t>(placement.joint));
   const double length = body.segment_end(placement.joint).norm();
@@ -154,7 +158,7 @@ Placement vary_placement(Placement pl, std::string& preset, const PlacementVaria
   if (!v.swap_presets.empty() &&
       std::find(v.swap_presets.begin(), v.swap_presets.end(), preset) != v.swap_presets.end()) {
     preset = v.swap_presets[rng.uniform_index(v.swap_presets.size())];
-    pl = resolve_preset(placement_preset(preset), body);
+    pl = preset_placement(preset, body);
   }
   if (v.shift && !preset.empty()) {
     const PlacementPreset& pp = placement_preset(preset);

@@ -57,6 +57,8 @@ Eigen::Matrix3d anatomical_frame(const Body& body, int joint);
 
 // The preset on this body. Throws imukit::Error if the body has no such segment.
 Placement resolve_preset(const PlacementPreset& preset, const Body& body);
+// The preset called `preset` on this body (unknown names and missing segments throw, as above).
+Placement preset_placement(std::string_view preset, const Body& body);
 
 // The inverse: `placement` on `body` as a preset named `name` (its segment's canonical joint, the
 // position as a fraction along the segment plus offsets across it, the axes in the anatomical

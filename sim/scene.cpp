@@ -377,7 +377,7 @@ SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& sourc
     if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
     s.preset = string_of(js["preset"], source, path + ".preset");
     try {
-      s.spec.placement = resolve_preset(placement_preset(s.preset), scene.body);
+      s.spec.placement = preset_placement(s.preset, scene.body);
     } catch (const Error& e) {
       fail(source, path + ".preset", e.what());
     }
@@ -440,6 +440,14 @@ std::string body_json(const Body& body) {
     joints.push_back(o);
   }
   return json{{"joints", joints}}.dump();
+}
+
+SceneSensor preset_sensor(std::string_view preset, const Body& body, std::string name) {
+  SceneSensor s;
+  s.preset = std::string(preset);
+  s.spec.name = name.empty() ? s.preset : std::move(name);
+  s.spec.placement = preset_placement(preset, body);
+  return s;
 }
 
 Scene read_scene(const std::string& path) {

@@ -32,6 +32,10 @@ struct SceneSensor {
   std::string preset;                     // the preset used, if any
 };
 
+// An ideal sensor at the preset called `preset` on `body`, named `name` (the preset's name when
+// empty).
+SceneSensor preset_sensor(std::string_view preset, const Body& body, std::string name = {});
+
 struct Scene {
   Body body;
   std::shared_ptr<MotionSource> motion;

@@ -81,7 +81,7 @@ std::shared_ptr<IdentifyHandle> run_identify(
     double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
   sim::IdentifyOptions o;
   if (init) {
-    o.init = sim::resolve_preset(sim::placement_preset(*init), body);
+    o.init = sim::preset_placement(*init, body);
     o.joint = o.init.joint;
   }
   if (joint) {

@@ -172,9 +172,7 @@ void add_sensor(SceneHandle& h, std::optional<std::string> name, std::optional<s
     if (!position_m.is_none() || !q_joint_sensor.is_none()) {
       throw Error("Scene.add_sensor: position_m and q_joint_sensor go with joint=, not preset=");
     }
-    s.preset = *preset;
-    s.spec.placement = sim::resolve_preset(sim::placement_preset(*preset), body);
-    s.spec.name = name.value_or(*preset);
+    s = sim::preset_sensor(*preset, body, name.value_or(*preset));
   } else {
     if (!name) throw Error("Scene.add_sensor: a sensor on joint= needs a name");
     s.spec.name = *name;

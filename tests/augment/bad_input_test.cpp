@@ -76,7 +76,7 @@ sim::Scene small_scene() {
   sim::SceneSensor s;
   s.spec.name = "watch";
   s.preset = "left_wrist_watch";
-  s.spec.placement = sim::resolve_preset(sim::placement_preset(s.preset), scene.body);
+  s.spec.placement = sim::preset_placement(s.preset, scene.body);
   scene.sensors.push_back(s);
   return scene;
 }

@@ -63,7 +63,7 @@ sim::Scene humanoid_scene(const std::vector<std::string>& presets, int64_t frame
     sim::SceneSensor s;
     s.spec.name = p;
     s.preset = p;
-    s.spec.placement = sim::resolve_preset(sim::placement_preset(p), scene.body);
+    s.spec.placement = sim::preset_placement(p, scene.body);
     scene.sensors.push_back(s);
   }
   return scene;

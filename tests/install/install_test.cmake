@@ -55,10 +55,10 @@ foreach(h IN LISTS IMUKIT_PUBLIC_HEADERS)
   file(APPEND ${every_header} "#include <${h}>\n")
 endforeach()
 foreach(h IN LISTS IMUKIT_INTERNAL_HEADERS)
-  file(APPEND ${every_header} "static_assert(!__has_include(<${h}>), \"internal header installed: ${h}\");\n")
+  file(APPEND ${every_header} "#if __has_include(<${h}>)\n#error \"internal header installed: ${h}\"\n#endif\n")
 endforeach()
 file(APPEND ${every_header}
-     "static_assert(!__has_include(<core/error.hpp>), \"headers reachable without the imukit/ prefix\");\n")
+     "#if __has_include(<core/error.hpp>)\n#error \"headers reachable without the imukit/ prefix\"\n#endif\n")
 
 execute_process(COMMAND ${prefix}/bin/imukit --version OUTPUT_VARIABLE version COMMAND_ERROR_IS_FATAL ANY)
 if(NOT version MATCHES "^imukit [0-9]+\\.[0-9]+\\.[0-9]+")

@@ -26,7 +26,7 @@ TEST(Placement, AllTwelvePresetsResolveOnTheDefaultHumanoid) {
 TEST(Placement, WatchesSitAboveTheWristScreenUpInTPose) {
   const Body b = Body::default_humanoid(1.75);
   for (const char* name : {"left_wrist_watch", "right_wrist_watch"}) {
-    const Placement pl = resolve_preset(placement_preset(name), b);
+    const Placement pl = preset_placement(name, b);
     const bool left = name[0] == 'l';
     EXPECT_EQ(pl.joint, b.index_of(left ? "left_elbow" : "right_elbow"));
     const double forearm = 0.146 * 1.75;
@@ -37,16 +37,15 @@ TEST(Placement, WatchesSitAboveTheWristScreenUpInTPose) {
     EXPECT_NEAR((R.col(2) - Eigen::Vector3d::UnitZ()).norm(), 0.0, 1e-12) << name;
     EXPECT_NEAR((R.col(0) - Eigen::Vector3d::UnitX() * (left ? -1 : 1)).norm(), 0.0, 1e-12) << name;
   }
-  const Placement inner = resolve_preset(placement_preset("left_wrist_watch_inner"), b);
+  const Placement inner = preset_placement("left_wrist_watch_inner", b);
   EXPECT_NEAR(inner.q_joint_sensor.toRotationMatrix()(2, 2), -1.0, 1e-12);
   // Earbuds: the left one on the subject's left (-x), pointing out of the ear.
-  const Placement le = resolve_preset(placement_preset("left_earbud"), b);
+  const Placement le = preset_placement("left_earbud", b);
   EXPECT_NEAR(le.p_joint_sensor.x(), -0.075, 1e-12);
   EXPECT_NEAR((le.q_joint_sensor.toRotationMatrix().col(2) + Eigen::Vector3d::UnitX()).norm(), 0.0,
               1e-12);
   // The ankle clip is on the outside of the right shank (+x).
-  EXPECT_NEAR(resolve_preset(placement_preset("right_ankle_clip"), b).p_joint_sensor.x(), 0.04,
-              1e-12);
+  EXPECT_NEAR(preset_placement("right_ankle_clip", b).p_joint_sensor.x(), 0.04, 1e-12);
 }
 
 // describe_placement inverts resolve_preset on the same body (any joint, position and
@@ -86,8 +85,8 @@ TEST(Placement, DescribedPlacementsResolveBackAndCarryOverToOtherProportions) {
 TEST(Placement, PresetsNeedTheirSegment) {
   Body b;
   b.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
-  EXPECT_THROW(resolve_preset(placement_preset("left_wrist_watch"), b), Error);
-  EXPECT_NO_THROW(resolve_preset(placement_preset("waist_belt"), b));
+  EXPECT_THROW(preset_placement("left_wrist_watch", b), Error);
+  EXPECT_NO_THROW(preset_placement("waist_belt", b));
 }
 
 TEST(Placement, EulerConventionsAreExplicit) {
@@ -122,7 +121,7 @@ Eigen::Matrix3d rotation_about(const Eigen::Vector3d& axis, double angle) {
 TEST(VaryPlacement, EqualsTheRotationsComposedByHandInTheStatedOrder) {
   const Body b = Body::default_humanoid(1.75);
   const std::string name = "left_wrist_watch";
-  const Placement p0 = resolve_preset(placement_preset(name), b);
+  const Placement p0 = preset_placement(name, b);
   PlacementVariation v;
   v.rotation_range_rad = Eigen::Vector3d(0.3, 0.2, 0.5);
   v.long_axis_range_rad = 0.4;
@@ -188,7 +187,7 @@ TEST(VaryPlacement, ShiftStaysInsideThePresetsRangeAndCoversIt) {
     }
   }
   // A sensor without a preset is not shifted, and the shift then draws nothing.
-  const Placement p0 = resolve_preset(placement_preset("left_wrist_watch"), b);
+  const Placement p0 = preset_placement("left_wrist_watch", b);
   PlacementVariation v;
   v.shift = true;
   Rng rng(3), ref(3);
@@ -201,7 +200,7 @@ TEST(VaryPlacement, ShiftStaysInsideThePresetsRangeAndCoversIt) {
 
 TEST(VaryPlacement, FlipIsAHalfTurnAboutTheSensorsZHalfOfTheTime) {
   const Body b = Body::default_humanoid(1.75);
-  const Placement p0 = resolve_preset(placement_preset("right_wrist_watch"), b);
+  const Placement p0 = preset_placement("right_wrist_watch", b);
   const Eigen::Matrix3d R0 = p0.q_joint_sensor.toRotationMatrix();
   PlacementVariation v;
   v.flip = true;
@@ -230,14 +229,14 @@ TEST(VaryPlacement, SwapRenamesThePresetAndResolvesIt) {
   PlacementVariation v;
   v.swap_presets = {"left_wrist_watch", "right_wrist_watch", "right_front_pocket_phone"};
   EXPECT_FALSE(v.keeps_position());
-  const Placement p0 = resolve_preset(placement_preset("left_wrist_watch"), b);
+  const Placement p0 = preset_placement("left_wrist_watch", b);
   std::map<std::string, int> seen;
   Rng rng(5);
   for (int i = 0; i < 300; ++i) {
     std::string preset = "left_wrist_watch";
     const Placement p = vary_placement(p0, preset, v, b, rng);
     ++seen[preset];
-    const Placement want = resolve_preset(placement_preset(preset), b);
+    const Placement want = preset_placement(preset, b);
     EXPECT_EQ(p.joint, want.joint) << preset;
     EXPECT_EQ(p.p_joint_sensor, want.p_joint_sensor) << preset;
     EXPECT_LT((p.q_joint_sensor.coeffs() - want.q_joint_sensor.coeffs()).norm(), 1e-15) << preset;
@@ -247,7 +246,7 @@ TEST(VaryPlacement, SwapRenamesThePresetAndResolvesIt) {
   // A preset not in the list (or none) is not swapped: no index draw.
   Rng rng2(5), ref(5);
   std::string other = "chest_strap";
-  const Placement chest = resolve_preset(placement_preset(other), b);
+  const Placement chest = preset_placement(other, b);
   const Placement p = vary_placement(chest, other, v, b, rng2);
   EXPECT_EQ(other, "chest_strap");
   EXPECT_EQ(p.p_joint_sensor, chest.p_joint_sensor);

@@ -117,8 +117,7 @@ TEST(Scene, BatchIsTheSameForAnyThreadCount) {
     j.motion = motion;
     SceneSensor s;
     s.spec.name = "w";
-    s.spec.placement =
-        resolve_preset(placement_preset(i % 2 ? "left_wrist_watch" : "chest_strap"), body);
+    s.spec.placement = preset_placement(i % 2 ? "left_wrist_watch" : "chest_strap", body);
     s.hardware = hw;
     j.sensors = {s};
     j.options.method = i % 3 == 0 ? DerivativeMethod::spline : DerivativeMethod::fd;
@@ -145,7 +144,7 @@ TEST(Scene, BatchThrowsTheErrorOfTheLowestFailingJob) {
     jobs[i].motion = motion;
     SceneSensor s;
     s.spec.name = "w";
-    s.spec.placement = resolve_preset(placement_preset("left_wrist_watch"), body);
+    s.spec.placement = preset_placement("left_wrist_watch", body);
     // Jobs 3 and 30 name a joint the body does not have: each fails with its own joint index.
     if (i == 3) s.spec.placement.joint = 997;
     if (i == 30) s.spec.placement.joint = 998;
@@ -179,7 +178,7 @@ Scene one_sensor_scene(double seconds, const HardwareModel& hw, SensorOutputs ou
   s.seed = 11;
   SceneSensor ss;
   ss.spec.name = "w";
-  ss.spec.placement = resolve_preset(placement_preset("left_wrist_watch"), s.body);
+  ss.spec.placement = preset_placement("left_wrist_watch", s.body);
   ss.spec.outputs = outputs;
   ss.hardware = hw;
   s.sensors.push_back(ss);

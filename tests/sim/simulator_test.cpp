@@ -181,7 +181,7 @@ TEST(Simulator, MagnetometerFollowsTheSensorOrientationWhileMoving) {
   Motion m = proc.materialize(400);
   SensorSpec s;
   s.name = "w";
-  s.placement = resolve_preset(placement_preset("right_wrist_watch"), body);
+  s.placement = preset_placement("right_wrist_watch", body);
   s.outputs = SensorOutputs{true, true, true, true};
   for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
     SimulationOptions opt;
@@ -403,7 +403,7 @@ TEST(Simulator, SplineOnFramesAgreesWithThePerSamplePath) {
                              "right_ankle_clip", "waist_belt"}) {
     SensorSpec s;
     s.name = preset;
-    s.placement = resolve_preset(placement_preset(preset), body);
+    s.placement = preset_placement(preset, body);
     s.outputs = {true, true, true, true};
     sensors.push_back(s);
   }
@@ -464,7 +464,7 @@ TEST(Simulator, EveryInstructionSetVariantGivesTheSameBits) {
        {"left_wrist_watch", "right_wrist_watch", "left_earbud", "right_ankle_clip", "waist_belt"}) {
     SensorSpec s;
     s.name = preset;
-    s.placement = resolve_preset(placement_preset(preset), body);
+    s.placement = preset_placement(preset, body);
     sensors.push_back(s);
   }
   sensors[1].outputs = {true, true, true, true};
@@ -832,7 +832,7 @@ TEST(Simulator, WalkBvhWithLeftWristWatchIsInTheRangesOfRealWatches) {
   for (const DerivativeMethod method : {DerivativeMethod::fd, DerivativeMethod::spline}) {
     SensorSpec s;
     s.name = "left_wrist_watch";
-    s.placement = resolve_preset(placement_preset("left_wrist_watch"), walk.body);
+    s.placement = preset_placement("left_wrist_watch", walk.body);
     SimulationOptions opt;
     opt.method = method;
     Simulator sim(walk.body, {s}, opt);

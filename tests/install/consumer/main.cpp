@@ -24,11 +24,7 @@ int main(int argc, char** argv) {
     scene.body = std::move(d.body);
     scene.motion = std::make_shared<imukit::sim::Motion>(std::move(d.motion));
     scene.frames = scene.motion->frame_count();
-    imukit::sim::SceneSensor s;
-    s.spec.name = "watch";
-    s.spec.placement =
-        imukit::sim::resolve_preset(imukit::sim::placement_preset("left_wrist_watch"), scene.body);
-    scene.sensors.push_back(s);
+    scene.sensors.push_back(imukit::sim::preset_sensor("left_wrist_watch", scene.body, "watch"));
     long samples = 0;
     bool finite = true;
     double norm_sum = 0.0;
