@@ -193,19 +193,8 @@ void write_plot(const std::string& dir, const sim::IdentifyResult& r) {
   run_gnuplot(dir, "identify_signals", script);
 }
 
-int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
-  const RoleInputs in = split_inputs(tokens);
-  if (!in.imu) throw UsageError("identify: give the IMU recording with --imu FILE");
-  if (in.pose.has_value() == !a.motion.empty())
-    throw UsageError(
-        "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
-  ImuSeries imu = load_imu_series(*in.imu);
-  imu.validate(in.imu->path);
-  if (imu.size() < 2) {
-    throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
-                            imu.size()));
-  }
-
+// The options from the command line; the joint and the motion's timing come with the motion.
+sim::IdentifyOptions identify_options(const IdentifyArgs& a) {
   sim::IdentifyOptions o;
   o.threads = a.threads;
   o.max_time_offset_s = a.max_time_offset;
@@ -226,65 +215,82 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
     o.coarse_time_offset = false;
     o.time_offset_init_s = *a.time_offset;
   }
+  return o;
+}
 
+// The body and its motion to fit on.
+struct FitMotion {
   sim::Body body;
   std::shared_ptr<sim::Motion> motion;
-  std::vector<std::string> warnings;
-  if (in.pose) {
-    if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
-      throw UsageError(
-          "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
-          "apply");
-    sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(*in.pose), in.pose->path);
-    body = std::move(pm.body);
-    motion = std::make_shared<sim::Motion>(std::move(pm.motion));
-    o.joint = 0;
-    o.motion_start_ns = pm.start_ns;
-    o.invalid_motion = pm.gaps;
-    // The tracked orientation is the sensor frame's or close to it: start from identity.
-    o.init_rotation_from_data = false;
-    if (pm.missing_rows > 0) {
-      fmt::print("pose track: {} missing rows in {} gap(s) filled and left out of the fit\n",
-                 pm.missing_rows, pm.gaps.size());
-    }
-  } else {
-    const std::filesystem::path mp(a.motion);
-    if (mp.extension() == ".bvh") {
-      sim::BvhOptions bo;
-      bo.scale = a.bvh_scale;
-      bo.up = a.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
-      sim::BvhData d = sim::read_bvh(a.motion, bo);
-      body = std::move(d.body);
-      motion = std::make_shared<sim::Motion>(std::move(d.motion));
-      warnings = std::move(d.warnings);
-    } else {
-      body = sim::Body::default_humanoid(a.height);
-      motion = std::make_shared<sim::Motion>(
-          sim::read_quaternion_csv(a.motion, body, std::nullopt, &warnings));
-    }
-    if (!a.init.empty()) {
-      o.init = sim::resolve_preset(sim::placement_preset(a.init), body);
-      o.joint = o.init.joint;
-    }
-    if (!a.joint.empty()) {
-      const int j = body.index_of(a.joint);
-      if (!a.init.empty() && j != o.joint) {
-        throw UsageError(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'",
-                                     a.init, body.joint(static_cast<std::size_t>(o.joint)).name,
-                                     a.joint));
-      }
-      o.joint = j;
-    }
-    if (o.joint < 0)
-      throw UsageError(
-          "identify --motion: name the sensor's joint with --joint (or --init PRESET)");
-    for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
-    o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
+};
+
+// A rigid body's pose track (--pose): the tracked body is the joint; its gaps are filled and left
+// out of the fit.
+FitMotion pose_motion(const IdentifyArgs& a, const InputArg& pose, sim::IdentifyOptions& o) {
+  if (!a.joint.empty() || !a.init.empty() || !a.segments.empty())
+    throw UsageError(
+        "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
+        "apply");
+  sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(pose), pose.path);
+  FitMotion m;
+  m.body = std::move(pm.body);
+  m.motion = std::make_shared<sim::Motion>(std::move(pm.motion));
+  o.joint = 0;
+  o.motion_start_ns = pm.start_ns;
+  o.invalid_motion = pm.gaps;
+  // The tracked orientation is the sensor frame's or close to it: start from identity.
+  o.init_rotation_from_data = false;
+  if (pm.missing_rows > 0) {
+    fmt::print("pose track: {} missing rows in {} gap(s) filled and left out of the fit\n",
+               pm.missing_rows, pm.gaps.size());
   }
-  for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
+  return m;
+}
 
-  const sim::IdentifyResult r = sim::identify(body, *motion, imu, o);
+// A skeleton's motion (--motion, BVH or joint-quaternion CSV) with the sensor's joint from
+// --joint and/or --init, the segments to fit, and frame 0 at --motion-start (default: the first
+// IMU sample). The reader's warnings go to `warnings`.
+FitMotion skeleton_motion(const IdentifyArgs& a, const ImuSeries& imu, sim::IdentifyOptions& o,
+                          std::vector<std::string>& warnings) {
+  FitMotion m;
+  const std::filesystem::path mp(a.motion);
+  if (mp.extension() == ".bvh") {
+    sim::BvhOptions bo;
+    bo.scale = a.bvh_scale;
+    bo.up = a.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
+    sim::BvhData d = sim::read_bvh(a.motion, bo);
+    m.body = std::move(d.body);
+    m.motion = std::make_shared<sim::Motion>(std::move(d.motion));
+    warnings = std::move(d.warnings);
+  } else {
+    m.body = sim::Body::default_humanoid(a.height);
+    m.motion = std::make_shared<sim::Motion>(
+        sim::read_quaternion_csv(a.motion, m.body, std::nullopt, &warnings));
+  }
+  const sim::Body& body = m.body;
+  if (!a.init.empty()) {
+    o.init = sim::resolve_preset(sim::placement_preset(a.init), body);
+    o.joint = o.init.joint;
+  }
+  if (!a.joint.empty()) {
+    const int j = body.index_of(a.joint);
+    if (!a.init.empty() && j != o.joint) {
+      throw UsageError(fmt::format("identify: preset '{}' sits on '{}', not on --joint '{}'",
+                                   a.init, body.joint(static_cast<std::size_t>(o.joint)).name,
+                                   a.joint));
+    }
+    o.joint = j;
+  }
+  if (o.joint < 0)
+    throw UsageError("identify --motion: name the sensor's joint with --joint (or --init PRESET)");
+  for (const std::string& s : a.segments) o.segments.push_back(body.index_of(s));
+  o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : imu.t.front();
+  return m;
+}
 
+// The fit on stdout (warnings on stderr): the estimates in display units, the correction, the
+// residuals and the fidelity before and after.
+void print_result(const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
   fmt::print(
       "{} IMU samples used ({} left out: outside the motion or in gaps), fit in {:.2f} s, {} "
       "iterations{}\n",
@@ -332,30 +338,56 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
         r.fidelity_before.gyro.rmse[k], r.fidelity_after.gyro.rmse[k],
         r.fidelity_before.gyro.correlation[k], r.fidelity_after.gyro.correlation[k]);
   }
+}
+
+// --scene-out: the fitted motion on the IMU's clock, frame k at first + k / rate with the mean
+// rate, as many frames as IMU samples (the last on the last sample), in a scene.
+void write_scene(const IdentifyArgs& a, const FitMotion& m, const ImuSeries& imu,
+                 const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
+  const sim::Body& body = m.body;
+  const double rate =
+      1e9 * static_cast<double>(imu.size() - 1) / static_cast<double>(imu.t.back() - imu.t.front());
+  const sim::Motion fitted =
+      sim::fitted_motion(body, *m.motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), rate);
+  sim::write_fitted_scene(a.scene_out, body, fitted, r,
+                          a.sensor_name.empty()
+                              ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
+                              : a.sensor_name,
+                          o.gravity_world);
+  fmt::print("wrote the fitted scene in {} (scene.json, motion.csv at {:.6g} Hz, placement.json)\n",
+             a.scene_out, rate);
+}
+
+int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) {
+  const RoleInputs in = split_inputs(tokens);
+  if (!in.imu) throw UsageError("identify: give the IMU recording with --imu FILE");
+  if (in.pose.has_value() == !a.motion.empty())
+    throw UsageError(
+        "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
+  ImuSeries imu = load_imu_series(*in.imu);
+  imu.validate(in.imu->path);
+  if (imu.size() < 2) {
+    throw Error(fmt::format("{}: holds {} IMU sample(s); identify needs a recording", in.imu->path,
+                            imu.size()));
+  }
+  sim::IdentifyOptions o = identify_options(a);
+  std::vector<std::string> warnings;
+  const FitMotion m = in.pose ? pose_motion(a, *in.pose, o) : skeleton_motion(a, imu, o, warnings);
+  for (const std::string& w : warnings) fmt::print(stderr, "warning: {}\n", w);
+
+  const sim::IdentifyResult r = sim::identify(m.body, *m.motion, imu, o);
+  print_result(r, o);
   {
     std::ofstream f(a.output);
     if (!f) throw IoError(a.output + ": cannot open for writing");
-    f << sim::placement_json(r, body);
+    f << sim::placement_json(r, m.body);
     if (!f.flush()) throw IoError(a.output + ": write failed");
   }
   fmt::print("wrote {}\n", a.output);
   if (!a.scene_out.empty()) {
     if (in.pose)
       throw UsageError("identify --scene-out: needs a skeleton motion (--motion), not --pose");
-    // The fitted motion on the IMU's clock: frame k at first + k / rate with the mean rate, as
-    // many frames as IMU samples (the last on the last sample).
-    const double rate = 1e9 * static_cast<double>(imu.size() - 1) /
-                        static_cast<double>(imu.t.back() - imu.t.front());
-    const sim::Motion fitted =
-        sim::fitted_motion(body, *motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), rate);
-    sim::write_fitted_scene(a.scene_out, body, fitted, r,
-                            a.sensor_name.empty()
-                                ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
-                                : a.sensor_name,
-                            o.gravity_world);
-    fmt::print(
-        "wrote the fitted scene in {} (scene.json, motion.csv at {:.6g} Hz, placement.json)\n",
-        a.scene_out, rate);
+    write_scene(a, m, imu, r, o);
   }
   if (!a.plot_dir.empty()) {
     write_plot(a.plot_dir, r);

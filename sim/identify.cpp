@@ -748,9 +748,39 @@ Fidelity fidelity(const Eigen::Matrix3Xd& measured_accel, const Eigen::Matrix3Xd
   return f;
 }
 
-IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries& imu,
-                        const IdentifyOptions& o) {
-  const auto clock_start = std::chrono::steady_clock::now();
+namespace {
+
+int correction_dims(SegmentCorrection c) {
+  return c == SegmentCorrection::none ? 0 : c == SegmentCorrection::twist ? 1 : 3;
+}
+
+// The sensor's chain must be finite everywhere (else the kinematics would be NaN somewhere in the
+// middle of the fit): read it in chunks and name the first bad frame.
+void require_finite_chain(const Body& body, MotionSource& motion, const std::vector<int>& chain) {
+  const int64_t frames = *motion.frame_count();
+  MotionChunk chunk;
+  constexpr int64_t kChunk = 4096;
+  for (int64_t f0 = 0; f0 < frames; f0 += kChunk) {
+    const int64_t count = std::min(kChunk, frames - f0);
+    motion.read(f0, count, chain, chunk);
+    for (int64_t f = 0; f < count; ++f) {
+      if (!chunk.root_translation.col(f).allFinite())
+        throw Error(fmt::format("identify: the motion's root translation at frame {} is not finite",
+                                f0 + f));
+      for (std::size_t k = 0; k < chain.size(); ++k) {
+        if (!chunk.rotation(f, k).coeffs().allFinite())
+          throw Error(
+              fmt::format("identify: the motion's rotation of joint '{}' at frame {} is non-finite",
+                          body.joint(static_cast<std::size_t>(chain[k])).name, f0 + f));
+      }
+    }
+  }
+}
+
+// The arguments' checks, in the order of their messages. Returns the nominal lengths of the
+// segments to identify.
+std::vector<double> check_inputs(const Body& body, MotionSource& motion, const ImuSeries& imu,
+                                 const IdentifyOptions& o) {
   require_simulatable(motion, "identify");
   if (!motion.frame_count()) throw Error("identify: the motion must have a finite length");
   if (o.joint < 0 || static_cast<std::size_t>(o.joint) >= body.size())
@@ -788,10 +818,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   if (!(o.max_clock_rate >= 0 && o.max_clock_rate <= 0.5))
     throw Error(
         fmt::format("identify: max_clock_rate must be in [0, 0.5], got {}", o.max_clock_rate));
-  const int dims = o.correction == SegmentCorrection::none    ? 0
-                   : o.correction == SegmentCorrection::twist ? 1
-                                                              : 3;
-  if (dims > 0) {
+  if (correction_dims(o.correction) > 0) {
     if (!(o.correction_knot_spacing_s > 0 && std::isfinite(o.correction_knot_spacing_s)) ||
         !(o.twist_prior_rad > 0) || !(o.tilt_prior_rad > 0) ||
         !(o.correction_smoothness_radps2 > 0))
@@ -803,38 +830,15 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
           body.joint(static_cast<std::size_t>(o.joint)).name));
     }
   }
+  if (*motion.frame_count() < 8) throw Error("identify: the motion needs at least 8 frames");
+  require_finite_chain(body, motion, chain);
+  return ell0;
+}
 
-  const double mrate = motion.rate_hz();
-  const int64_t frames = *motion.frame_count();
-  const double T = static_cast<double>(frames - 1) / mrate;
-  if (frames < 8) throw Error("identify: the motion needs at least 8 frames");
-  // The sensor's chain must be finite everywhere (else the kinematics would be NaN somewhere
-  // in the middle of the fit): read it in chunks and name the first bad frame.
-  {
-    MotionChunk chunk;
-    constexpr int64_t kChunk = 4096;
-    for (int64_t f0 = 0; f0 < frames; f0 += kChunk) {
-      const int64_t count = std::min(kChunk, frames - f0);
-      motion.read(f0, count, chain, chunk);
-      for (int64_t f = 0; f < count; ++f) {
-        if (!chunk.root_translation.col(f).allFinite())
-          throw Error(fmt::format(
-              "identify: the motion's root translation at frame {} is not finite", f0 + f));
-        for (std::size_t k = 0; k < chain.size(); ++k) {
-          if (!chunk.rotation(f, k).coeffs().allFinite())
-            throw Error(fmt::format(
-                "identify: the motion's rotation of joint '{}' at frame {} is non-finite",
-                body.joint(static_cast<std::size_t>(chain[k])).name, f0 + f));
-        }
-      }
-    }
-  }
-  // IMU period: the median sample spacing.
-  const double h_imu = analyze_sampling(imu.t).median_period_s;
-  if (!(h_imu > 0)) throw Error("identify: the IMU time stamps do not increase");
-
-  IdentifyResult res;
-  res.motion_start_ns = o.motion_start_ns;
+// The coarse timing: the |w| cross-correlation's when the offset is searched, else the given
+// offset at clock rate 0.
+CoarseTiming initial_timing(const Body& body, MotionSource& motion, const ImuSeries& imu,
+                            const IdentifyOptions& o, double h_imu) {
   CoarseTiming coarse;
   coarse.offset_s = o.time_offset_init_s;
   if (o.time_offset && o.coarse_time_offset) {
@@ -847,32 +851,40 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
           o.max_time_offset_s, coarse.peak_r));
     }
   }
-  const double kappa0 = coarse.clock_rate;
-  res.coarse_clock_rate = kappa0;
-  // The range the fine fit may move the clock rate in: around the coarse grid's value (two
-  // grid steps) when it searched, else the whole bound.
-  double kappa_lo = 0.0, kappa_hi = 0.0;
+  return coarse;
+}
+
+struct ClockRange {
+  double lo = 0.0, hi = 0.0;
+};
+
+// The range the fine fit may move the clock rate in: around the coarse grid's value (two grid
+// steps) when it searched, else the whole bound.
+ClockRange clock_rate_range(const IdentifyOptions& o, const ImuSeries& imu, double kappa0,
+                            double h_imu) {
+  ClockRange r;
   if (o.clock_rate) {
     const bool searched = o.time_offset && o.coarse_time_offset && o.max_clock_rate > 1e-3;
     const double span = to_seconds(imu.t.back() - imu.t.front());
     const double step = searched ? std::max(2.0 * o.max_clock_rate / (kMaxCoarseRates - 1),
                                             h_imu / std::max(span, h_imu))
                                  : o.max_clock_rate;
-    kappa_lo = std::max(-o.max_clock_rate, kappa0 - 2.0 * step);
-    kappa_hi = std::min(o.max_clock_rate, kappa0 + 2.0 * step);
+    r.lo = std::max(-o.max_clock_rate, kappa0 - 2.0 * step);
+    r.hi = std::min(o.max_clock_rate, kappa0 + 2.0 * step);
   }
+  return r;
+}
 
-  // The samples used: every time the fine fit may reach (offset window, clock-rate range, and
-  // offset 0 / rate 0 for the "before" figures) must lie inside the motion and outside the
-  // invalid intervals. The coarse offset is referred to the coarse step's reference time; the
-  // first pass finds the samples' span with it, whose middle becomes t_ref.
-  const double window = o.time_offset ? 3.0 * h_imu + 3.0 / mrate : 0.0;
-  const double edge = 2.0 / mrate + 2e-9 * static_cast<double>(kTimeStepNs);
-  // The motion times a sample may be read at: the fit's range of offsets and clock rates, and
-  // with `before` also offset 0 and rate 0 (the "before" figures; they only need the sample
-  // inside the motion, while the fit's range must also stay clear of the invalid intervals).
-  auto reach = [&](double b, double rel, double dt_c, double& lo, double& hi, bool before) {
-    double dlo = dt_c - window, dhi = dt_c + window, klo = kappa_lo, khi = kappa_hi;
+// The motion times a sample may be read at: the fit's range of offsets and clock rates, and
+// with `before` also offset 0 and rate 0 (the "before" figures; they only need the sample
+// inside the motion, while the fit's range must also stay clear of the invalid intervals).
+struct Reach {
+  double window = 0.0;  // the fit moves the offset within +-window of the coarse one, s
+  double edge = 0.0;    // a sample's reach keeps this far from the motion's ends, s
+  double T = 0.0;       // the motion's length, s
+  ClockRange kappa;
+  void operator()(double b, double rel, double dt_c, double& lo, double& hi, bool before) const {
+    double dlo = dt_c - window, dhi = dt_c + window, klo = kappa.lo, khi = kappa.hi;
     if (before) {
       dlo = std::min(0.0, dlo);
       dhi = std::max(0.0, dhi);
@@ -881,34 +893,43 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     }
     lo = b + dlo + std::min(klo * rel, khi * rel);
     hi = b + dhi + std::max(klo * rel, khi * rel);
-  };
+  }
+};
+
+// The first pass: with the coarse offset (referred to the coarse step's reference time), the
+// span of the samples inside the motion; its middle becomes t_ref.
+TimeNs reference_time(const ImuSeries& imu, const IdentifyOptions& o, const CoarseTiming& coarse,
+                      const Reach& reach) {
   TimeNs first = 0, last = 0;
   bool any = false;
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
     double lo = 0, hi = 0;
     reach(b, b - coarse.t_ref_s, coarse.offset_s, lo, hi, true);
-    if (lo >= edge && hi <= T - edge) {
+    if (lo >= reach.edge && hi <= reach.T - reach.edge) {
       if (!any) first = imu.t[i];
       last = imu.t[i];
       any = true;
     }
   }
   if (!any) throw Error("identify: the IMU recording does not overlap the motion");
-  res.t_ref_ns = first + (last - first) / 2;
-  // The coarse offset referred to t_ref.
-  const double dt0 =
-      coarse.offset_s + kappa0 * (to_seconds(res.t_ref_ns - o.motion_start_ns) - coarse.t_ref_s);
-  res.coarse_time_offset_s = dt0;
-  Context ctx;
+  return first + (last - first) / 2;
+}
+
+// The second pass: the finite samples whose reach (from the coarse offset dt0 at t_ref) stays
+// inside the motion and clear of the invalid intervals. Their times from motion_start and from
+// t_ref go to the context.
+std::vector<std::size_t> select_samples(const ImuSeries& imu, const IdentifyOptions& o,
+                                        const Reach& reach, TimeNs t_ref_ns, double dt0,
+                                        double mrate, Context& ctx) {
   std::vector<std::size_t> used;
   const TimeNs guard = from_seconds(3.0 / mrate);
   for (std::size_t i = 0; i < imu.size(); ++i) {
     const double b = to_seconds(imu.t[i] - o.motion_start_ns);
-    const double rel = to_seconds(imu.t[i] - res.t_ref_ns);
+    const double rel = to_seconds(imu.t[i] - t_ref_ns);
     double lo = 0, hi = 0;
     reach(b, rel, dt0, lo, hi, true);
-    bool ok = lo >= edge && hi <= T - edge &&
+    bool ok = lo >= reach.edge && hi <= reach.T - reach.edge &&
               imu.accel.col(static_cast<Eigen::Index>(i)).allFinite() &&
               imu.gyro.col(static_cast<Eigen::Index>(i)).allFinite();
     reach(b, rel, dt0, lo, hi, false);
@@ -921,6 +942,12 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
       ctx.rel_s.push_back(rel);
     }
   }
+  return used;
+}
+
+// The samples used into the result (times and measurements), with their counts and a warning
+// naming the non-finite ones.
+void take_samples(const ImuSeries& imu, const std::vector<std::size_t>& used, IdentifyResult& res) {
   res.samples_used = static_cast<int64_t>(used.size());
   res.samples_excluded = static_cast<int64_t>(imu.size() - used.size());
   {
@@ -951,51 +978,55 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     res.accel.col(i) = imu.accel.col(src);
     res.gyro.col(i) = imu.gyro.col(src);
   }
+}
 
-  KinematicsEvaluator eval(body, motion, o.joint, o.segments, o.gravity_world);
-  ctx.eval = &eval;
-  ctx.ell0 = ell0;
+// The segment correction's spline over the whole recording (so the fitted motion has it
+// everywhere), knots as close to the asked spacing as divide the span evenly: the result's
+// spline (control points zero), each sample's spot on it, the control points to fit. Returns
+// the number of knots (0: no correction).
+int correction_grid(const Body& body, const ImuSeries& imu, const IdentifyOptions& o, int dims,
+                    Context& ctx, Params& p, IdentifyResult& res) {
+  if (dims == 0) return 0;
+  CorrectionSpline& cs = res.correction;
+  cs.dims = dims;
+  const Eigen::Matrix3d F = anatomical_frame(body, o.joint);  // L, A, N
+  cs.axes = F;
+  cs.t0_ns = imu.t.front();
+  const double span = to_seconds(imu.t.back() - imu.t.front());
+  const int segments =
+      std::max(1, static_cast<int>(std::lround(span / o.correction_knot_spacing_s)));
+  cs.knot_spacing_s = span / segments;
+  const int knots = segments + 3;
+  cs.control = Eigen::MatrixXd::Zero(dims, knots);
+  ctx.dims = dims;
+  ctx.axes = F;
+  for (std::size_t i = 0; i < res.t.size(); ++i)
+    ctx.spot.push_back(spline_spot(cs.t0_ns, cs.knot_spacing_s, segments, res.t[i]));
+  p.ctrl.assign(static_cast<std::size_t>(dims * knots), 0.0);
+  return knots;
+}
 
-  // The segment correction's spline over the whole recording (so the fitted motion has it
-  // everywhere), knots as close to the asked spacing as divide the span evenly.
-  Params p;
-  int knots = 0;
-  if (dims > 0) {
-    CorrectionSpline& cs = res.correction;
-    cs.dims = dims;
-    const Eigen::Matrix3d F = anatomical_frame(body, o.joint);  // L, A, N
-    cs.axes = F;
-    cs.t0_ns = imu.t.front();
-    const double span = to_seconds(imu.t.back() - imu.t.front());
-    const int segments =
-        std::max(1, static_cast<int>(std::lround(span / o.correction_knot_spacing_s)));
-    cs.knot_spacing_s = span / segments;
-    knots = segments + 3;
-    cs.control = Eigen::MatrixXd::Zero(dims, knots);
-    ctx.dims = dims;
-    ctx.axes = F;
-    for (std::size_t i = 0; i < used.size(); ++i)
-      ctx.spot.push_back(spline_spot(cs.t0_ns, cs.knot_spacing_s, segments, res.t[i]));
-    p.ctrl.assign(static_cast<std::size_t>(dims * knots), 0.0);
+// Gyro vectors dominate when the motion rotates; gravity (in f) settles the rest.
+Eigen::Matrix3d wahba_rotation(const Context& ctx, const IdentifyResult& res) {
+  Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < res.gyro.cols(); ++i) {
+    B += ctx.value.block<3, 1>(kW, i) * res.gyro.col(i).transpose();
+    B += 0.01 * ctx.value.block<3, 1>(kF, i) * res.accel.col(i).transpose();
   }
+  return wahba(B);
+}
 
-  // Before: the initial position, no bias, no time offset or rate, no correction; the rotation
-  // the initial one or, from data, Wahba's at offset 0.
+// Before: the initial position, no bias, no time offset or rate, no correction; the rotation
+// the initial one or, from data, Wahba's at offset 0 (the "before" figures). Then the fit's
+// start: the coarse timing (dt0 at t_ref, kappa0), with Wahba's rotation there.
+void initial_values(const IdentifyOptions& o, const std::vector<double>& ell0, double dt0,
+                    double kappa0, Context& ctx, Params& p, IdentifyResult& res) {
   p.pos = {o.init.p_joint_sensor.x(), o.init.p_joint_sensor.y(), o.init.p_joint_sensor.z()};
   p.ell = ell0;
   ctx.R0 = o.init.q_joint_sensor.normalized().toRotationMatrix();
-  // Gyro vectors dominate when the motion rotates; gravity (in f) settles the rest.
-  auto wahba_rotation = [&] {
-    Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
-    for (Eigen::Index i = 0; i < n; ++i) {
-      B += ctx.value.block<3, 1>(kW, i) * res.gyro.col(i).transpose();
-      B += 0.01 * ctx.value.block<3, 1>(kF, i) * res.accel.col(i).transpose();
-    }
-    return wahba(B);
-  };
   const bool rotation_from_data = o.rotation && o.init_rotation_from_data;
   ctx.update(0.0, 0.0);
-  if (rotation_from_data) ctx.R0 = wahba_rotation();
+  if (rotation_from_data) ctx.R0 = wahba_rotation(ctx, res);
   {
     const Predicted b = predict(ctx, p, false);
     res.accel_before = b.accel;
@@ -1007,17 +1038,20 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   p.dt = dt0;
   p.kappa = kappa0;
   ctx.update(dt0, kappa0);
-  if (rotation_from_data) ctx.R0 = wahba_rotation();
+  if (rotation_from_data) ctx.R0 = wahba_rotation(ctx, res);
+}
 
-  // The parameter blocks: the sensor's (reported), segment lengths, the correction's control
-  // points (not reported one by one).
-  struct Block {
-    double* data;
-    int size;
-    bool free;
-    std::string name, unit;
-    bool reported;
-  };
+// A parameter block: the sensor's (reported), segment lengths, the correction's control points
+// (not reported one by one).
+struct Block {
+  double* data;
+  int size;
+  bool free;
+  std::string name, unit;
+  bool reported;
+};
+
+std::vector<Block> parameter_blocks(Params& p, const IdentifyOptions& o, int knots, int dims) {
   const int S = static_cast<int>(o.segments.size());
   std::vector<Block> blocks = {{p.rot.data(), 3, o.rotation, "rotation", "rad", true},
                                {p.pos.data(), 3, o.position, "position", "m", true},
@@ -1031,90 +1065,111 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   for (int k = 0; k < knots; ++k)
     blocks.push_back({p.ctrl.data() + static_cast<std::size_t>(k * dims), dims, true, "correction",
                       "rad", false});
+  return blocks;
+}
 
-  // Problem: one gyro and one accelerometer residual block per sample.
-  TimeCallback callback(ctx, &p.dt, &p.kappa);
-  ceres::Problem::Options po;
-  po.evaluation_callback = &callback;
-  ceres::Problem problem(po);
-  const double huber = o.huber_sigmas * std::sqrt(3.0);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const int ii = static_cast<int>(i);
-    if (dims > 0) {
-      // The sample's four control points.
-      const int f0 = ctx.spot[static_cast<std::size_t>(i)].first;
-      std::vector<double*> ctrl;
-      for (int m = 0; m < 4; ++m)
-        ctrl.push_back(p.ctrl.data() + static_cast<std::size_t>((f0 + m) * dims));
-      const Eigen::Vector3d g = res.gyro.col(i), a = res.accel.col(i);
-      if (S == 0 && dims == 1) {
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectedGyroCost<1>, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
-                new CorrectedGyroCost<1>{&ctx, ii, g}),
-            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
-            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectedAccelCost<1>, 3, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
-                new CorrectedAccelCost<1>{&ctx, ii, a}),
-            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
-            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
-        continue;
-      }
-      if (S == 0 && dims == 3) {
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectedGyroCost<3>, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
-                new CorrectedGyroCost<3>{&ctx, ii, g}),
-            new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
-            ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectedAccelCost<3>, 3, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
-                new CorrectedAccelCost<3>{&ctx, ii, a}),
-            new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(),
-            &p.dt, &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
-        continue;
-      }
-      for (const bool gyro : {true, false}) {
-        auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(new GeneralCost{
-            &ctx, ii, gyro, gyro ? 0 : S, true, gyro ? res.gyro.col(i) : res.accel.col(i)});
-        std::vector<double*> ps =
-            gyro ? std::vector<double*>{p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa}
-                 : std::vector<double*>{p.rot.data(), p.pos.data(), p.ba.data(),
-                                        p.sa.data(),  &p.dt,        &p.kappa};
-        for (int b : gyro ? std::vector<int>{3, 3, 3, 1, 1} : std::vector<int>{3, 3, 3, 3, 1, 1})
-          cf->AddParameterBlock(b);
-        if (!gyro && S > 0) {
-          cf->AddParameterBlock(S);
-          ps.push_back(p.ell.data());
-        }
-        for (double* c : ctrl) {
-          cf->AddParameterBlock(dims);
-          ps.push_back(c);
-        }
-        cf->SetNumResiduals(3);
-        problem.AddResidualBlock(cf, new ceres::HuberLoss(huber), ps);
-      }
-      continue;
-    }
-    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GyroCost, 3, 3, 3, 3, 1, 1>(
-                                 new GyroCost{&ctx, ii, res.gyro.col(i)}),
-                             new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(),
-                             &p.dt, &p.kappa);
-    if (S == 0) {
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelCost, 3, 3, 3, 3, 3, 1, 1>(
-                                   new AccelCost{&ctx, ii, res.accel.col(i)}),
-                               new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(),
-                               p.sa.data(), &p.dt, &p.kappa);
-    } else {
-      auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(
-          new GeneralCost{&ctx, ii, false, S, false, res.accel.col(i)});
-      for (int b : {3, 3, 3, 3, 1, 1}) cf->AddParameterBlock(b);
-      cf->AddParameterBlock(S);
-      cf->SetNumResiduals(3);
-      problem.AddResidualBlock(
-          cf, new ceres::HuberLoss(huber),
-          {p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt, &p.kappa, p.ell.data()});
-    }
+// Sample i's gyro and accelerometer residual blocks with the correction (S segment lengths,
+// dims angles per control point): fixed-size cost functions without lengths, else dynamic ones.
+void add_corrected_sample(ceres::Problem& problem, const Context& ctx, Params& p,
+                          const IdentifyResult& res, Eigen::Index i, int S, int dims,
+                          double huber) {
+  const int ii = static_cast<int>(i);
+  // The sample's four control points.
+  const int f0 = ctx.spot[static_cast<std::size_t>(i)].first;
+  std::vector<double*> ctrl;
+  for (int m = 0; m < 4; ++m)
+    ctrl.push_back(p.ctrl.data() + static_cast<std::size_t>((f0 + m) * dims));
+  const Eigen::Vector3d g = res.gyro.col(i), a = res.accel.col(i);
+  if (S == 0 && dims == 1) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<CorrectedGyroCost<1>, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+            new CorrectedGyroCost<1>{&ctx, ii, g}),
+        new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+        ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<CorrectedAccelCost<1>, 3, 3, 3, 3, 3, 1, 1, 1, 1, 1, 1>(
+            new CorrectedAccelCost<1>{&ctx, ii, a}),
+        new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt,
+        &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+    return;
   }
+  if (S == 0 && dims == 3) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<CorrectedGyroCost<3>, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
+            new CorrectedGyroCost<3>{&ctx, ii, g}),
+        new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa,
+        ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<CorrectedAccelCost<3>, 3, 3, 3, 3, 3, 1, 1, 3, 3, 3, 3>(
+            new CorrectedAccelCost<3>{&ctx, ii, a}),
+        new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt,
+        &p.kappa, ctrl[0], ctrl[1], ctrl[2], ctrl[3]);
+    return;
+  }
+  for (const bool gyro : {true, false}) {
+    auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(new GeneralCost{
+        &ctx, ii, gyro, gyro ? 0 : S, true, gyro ? res.gyro.col(i) : res.accel.col(i)});
+    std::vector<double*> ps =
+        gyro ? std::vector<double*>{p.rot.data(), p.bg.data(), p.sg.data(), &p.dt, &p.kappa}
+             : std::vector<double*>{p.rot.data(), p.pos.data(), p.ba.data(),
+                                    p.sa.data(),  &p.dt,        &p.kappa};
+    for (int b : gyro ? std::vector<int>{3, 3, 3, 1, 1} : std::vector<int>{3, 3, 3, 3, 1, 1})
+      cf->AddParameterBlock(b);
+    if (!gyro && S > 0) {
+      cf->AddParameterBlock(S);
+      ps.push_back(p.ell.data());
+    }
+    for (double* c : ctrl) {
+      cf->AddParameterBlock(dims);
+      ps.push_back(c);
+    }
+    cf->SetNumResiduals(3);
+    problem.AddResidualBlock(cf, new ceres::HuberLoss(huber), ps);
+  }
+}
+
+// Sample i's gyro and accelerometer residual blocks without the correction (S segment lengths).
+void add_rigid_sample(ceres::Problem& problem, const Context& ctx, Params& p,
+                      const IdentifyResult& res, Eigen::Index i, int S, double huber) {
+  const int ii = static_cast<int>(i);
+  problem.AddResidualBlock(new ceres::AutoDiffCostFunction<GyroCost, 3, 3, 3, 3, 1, 1>(
+                               new GyroCost{&ctx, ii, res.gyro.col(i)}),
+                           new ceres::HuberLoss(huber), p.rot.data(), p.bg.data(), p.sg.data(),
+                           &p.dt, &p.kappa);
+  if (S == 0) {
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<AccelCost, 3, 3, 3, 3, 3, 1, 1>(
+                                 new AccelCost{&ctx, ii, res.accel.col(i)}),
+                             new ceres::HuberLoss(huber), p.rot.data(), p.pos.data(), p.ba.data(),
+                             p.sa.data(), &p.dt, &p.kappa);
+  } else {
+    auto* cf = new ceres::DynamicAutoDiffCostFunction<GeneralCost, 8>(
+        new GeneralCost{&ctx, ii, false, S, false, res.accel.col(i)});
+    for (int b : {3, 3, 3, 3, 1, 1}) cf->AddParameterBlock(b);
+    cf->AddParameterBlock(S);
+    cf->SetNumResiduals(3);
+    problem.AddResidualBlock(
+        cf, new ceres::HuberLoss(huber),
+        {p.rot.data(), p.pos.data(), p.ba.data(), p.sa.data(), &p.dt, &p.kappa, p.ell.data()});
+  }
+}
+
+// Problem: one gyro and one accelerometer residual block per sample.
+void add_sample_residuals(ceres::Problem& problem, const Context& ctx, Params& p,
+                          const IdentifyResult& res, const IdentifyOptions& o, int dims) {
+  const int S = static_cast<int>(o.segments.size());
+  const double huber = o.huber_sigmas * std::sqrt(3.0);
+  for (Eigen::Index i = 0; i < res.gyro.cols(); ++i) {
+    if (dims > 0)
+      add_corrected_sample(problem, ctx, p, res, i, S, dims, huber);
+    else
+      add_rigid_sample(problem, ctx, p, res, i, S, huber);
+  }
+}
+
+// The segment lengths' priors about their nominal values, the biases' about zero.
+void add_priors(ceres::Problem& problem, const IdentifyOptions& o, const std::vector<double>& ell0,
+                Params& p) {
+  const int S = static_cast<int>(o.segments.size());
   for (int s = 0; s < S; ++s) {
     auto* cf = new ceres::DynamicAutoDiffCostFunction<SegmentPrior, 8>(
         new SegmentPrior{s, S, ell0[static_cast<std::size_t>(s)],
@@ -1131,34 +1186,42 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
           block);
     }
   }
-  if (dims > 0) {
-    const std::array<double, 3> inv_mag = {1.0 / o.twist_prior_rad, 1.0 / o.tilt_prior_rad,
-                                           1.0 / o.tilt_prior_rad};
-    const double h2 = res.correction.knot_spacing_s * res.correction.knot_spacing_s;
-    const double inv_smooth = 1.0 / (h2 * o.correction_smoothness_radps2);
-    auto point = [&](int k) { return p.ctrl.data() + static_cast<std::size_t>(k * dims); };
-    for (int k = 0; k < knots; ++k) {
-      if (dims == 1)
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<1>, 1, 1>(
-                                     new CorrectionMagnitudePrior<1>{inv_mag}),
-                                 nullptr, point(k));
-      else
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<3>, 3, 3>(
-                                     new CorrectionMagnitudePrior<3>{inv_mag}),
-                                 nullptr, point(k));
-      if (k == 0 || k + 1 == knots) continue;
-      if (dims == 1)
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<1>, 1, 1, 1, 1>(
-                new CorrectionSmoothnessPrior<1>{inv_smooth}),
-            nullptr, point(k - 1), point(k), point(k + 1));
-      else
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<3>, 3, 3, 3, 3>(
-                new CorrectionSmoothnessPrior<3>{inv_smooth}),
-            nullptr, point(k - 1), point(k), point(k + 1));
-    }
+}
+
+// The correction's priors: each control point's magnitude, each inner knot's smoothness.
+void add_correction_priors(ceres::Problem& problem, const IdentifyOptions& o, Params& p, int knots,
+                           int dims, double knot_spacing_s) {
+  const std::array<double, 3> inv_mag = {1.0 / o.twist_prior_rad, 1.0 / o.tilt_prior_rad,
+                                         1.0 / o.tilt_prior_rad};
+  const double h2 = knot_spacing_s * knot_spacing_s;
+  const double inv_smooth = 1.0 / (h2 * o.correction_smoothness_radps2);
+  auto point = [&](int k) { return p.ctrl.data() + static_cast<std::size_t>(k * dims); };
+  for (int k = 0; k < knots; ++k) {
+    if (dims == 1)
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<1>, 1, 1>(
+                                   new CorrectionMagnitudePrior<1>{inv_mag}),
+                               nullptr, point(k));
+    else
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CorrectionMagnitudePrior<3>, 3, 3>(
+                                   new CorrectionMagnitudePrior<3>{inv_mag}),
+                               nullptr, point(k));
+    if (k == 0 || k + 1 == knots) continue;
+    if (dims == 1)
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<1>, 1, 1, 1, 1>(
+              new CorrectionSmoothnessPrior<1>{inv_smooth}),
+          nullptr, point(k - 1), point(k), point(k + 1));
+    else
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<CorrectionSmoothnessPrior<3>, 3, 3, 3, 3>(
+              new CorrectionSmoothnessPrior<3>{inv_smooth}),
+          nullptr, point(k - 1), point(k), point(k + 1));
   }
+}
+
+// The held blocks, and the bounds of the time offset (+-window about dt0) and the clock rate.
+void constrain(ceres::Problem& problem, const std::vector<Block>& blocks, const IdentifyOptions& o,
+               Params& p, double dt0, double window, const ClockRange& kappa) {
   for (const Block& b : blocks) {
     if (!b.free) problem.SetParameterBlockConstant(b.data);
   }
@@ -1167,26 +1230,32 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     problem.SetParameterUpperBound(&p.dt, 0, dt0 + window);
   }
   if (o.clock_rate) {
-    problem.SetParameterLowerBound(&p.kappa, 0, kappa_lo);
-    problem.SetParameterUpperBound(&p.kappa, 0, kappa_hi);
+    problem.SetParameterLowerBound(&p.kappa, 0, kappa.lo);
+    problem.SetParameterUpperBound(&p.kappa, 0, kappa.hi);
   }
+}
 
-  // Residual scale from the current residuals (robust), so the Huber threshold means sigmas.
-  auto reweight = [&] {
-    ctx.update(p.dt, p.kappa);
-    const Predicted m = predict(ctx, p);
-    std::vector<double> ra, rg;
-    ra.reserve(static_cast<std::size_t>(3 * n));
-    rg.reserve(static_cast<std::size_t>(3 * n));
-    for (Eigen::Index i = 0; i < 3 * n; ++i) {
-      ra.push_back(std::abs(m.accel.data()[i] - res.accel.data()[i]));
-      rg.push_back(std::abs(m.gyro.data()[i] - res.gyro.data()[i]));
-    }
-    res.sigma_accel = robust_sigma(std::move(ra));
-    res.sigma_gyro = robust_sigma(std::move(rg));
-    ctx.inv_sigma_a = 1.0 / res.sigma_accel;
-    ctx.inv_sigma_g = 1.0 / res.sigma_gyro;
-  };
+// Residual scale from the current residuals (robust), so the Huber threshold means sigmas.
+void reweight(Context& ctx, const Params& p, IdentifyResult& res) {
+  const Eigen::Index n = res.accel.cols();
+  ctx.update(p.dt, p.kappa);
+  const Predicted m = predict(ctx, p);
+  std::vector<double> ra, rg;
+  ra.reserve(static_cast<std::size_t>(3 * n));
+  rg.reserve(static_cast<std::size_t>(3 * n));
+  for (Eigen::Index i = 0; i < 3 * n; ++i) {
+    ra.push_back(std::abs(m.accel.data()[i] - res.accel.data()[i]));
+    rg.push_back(std::abs(m.gyro.data()[i] - res.gyro.data()[i]));
+  }
+  res.sigma_accel = robust_sigma(std::move(ra));
+  res.sigma_gyro = robust_sigma(std::move(rg));
+  ctx.inv_sigma_a = 1.0 / res.sigma_accel;
+  ctx.inv_sigma_g = 1.0 / res.sigma_gyro;
+}
+
+// Two solves, each after reweighting the residuals (p is what the problem's blocks point into).
+void solve_robust(ceres::Problem& problem, Context& ctx, Params& p, const IdentifyOptions& o,
+                  IdentifyResult& res) {
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
   so.max_num_iterations = o.max_iterations;
@@ -1196,129 +1265,156 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   so.gradient_tolerance = 1e-14;
   ceres::Solver::Summary summary;
   for (int stage = 0; stage < 2; ++stage) {
-    reweight();
+    reweight(ctx, p, res);
     ceres::Solve(so, &problem, &summary);
     // iterations[0] is the initial evaluation; a solve that fails at once has none at all.
     res.iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   }
   res.converged = summary.termination_type == ceres::CONVERGENCE;
   res.solver_summary = summary.BriefReport();
-  if (dims > 0 && o.rotation && o.position) {
-    // A constant twist and a turn of the placement about the long axis e0 give the same
-    // signals (the twist is the innermost factor of Q); the weak prior alone splits them
-    // arbitrarily. Re-centre: the correction's twist averages zero over the samples used, its
-    // mean moves into the placement (R_joint_sensor and p_joint_sensor turned about e0).
-    double mean = 0.0;
-    for (const SplineSpot& sp : ctx.spot) {
-      for (std::size_t m = 0; m < 4; ++m)
-        mean += sp.w[m] * p.ctrl[static_cast<std::size_t>((sp.first + static_cast<int>(m)) * dims)];
-    }
-    mean /= static_cast<double>(ctx.spot.size());
-    for (int k = 0; k < knots; ++k) p.ctrl[static_cast<std::size_t>(k * dims)] -= mean;
-    const Eigen::Matrix3d turn = so3_exp(mean * ctx.axes.col(0)).toRotationMatrix();
-    ctx.R0 = turn * ctx.R0;  // R_joint_sensor = R0 Exp(delta): delta is kept
-    const Eigen::Vector3d pos = turn * Eigen::Vector3d(p.pos[0], p.pos[1], p.pos[2]);
-    p.pos = {pos.x(), pos.y(), pos.z()};
-  }
-  ctx.update(p.dt, p.kappa);  // the last evaluation may have been a rejected step
+}
 
-  // Observability: the Jacobian of the free parameters (the correction's too, so that a
-  // reported parameter traded against it is seen), columns scaled to unit norm.
+// A constant twist and a turn of the placement about the long axis e0 give the same signals
+// (the twist is the innermost factor of Q); the weak prior alone splits them arbitrarily.
+// Re-centre: the correction's twist averages zero over the samples used, its mean moves into
+// the placement (R_joint_sensor and p_joint_sensor turned about e0).
+void recentre_twist(Context& ctx, Params& p, int knots, int dims) {
+  double mean = 0.0;
+  for (const SplineSpot& sp : ctx.spot) {
+    for (std::size_t m = 0; m < 4; ++m)
+      mean += sp.w[m] * p.ctrl[static_cast<std::size_t>((sp.first + static_cast<int>(m)) * dims)];
+  }
+  mean /= static_cast<double>(ctx.spot.size());
+  for (int k = 0; k < knots; ++k) p.ctrl[static_cast<std::size_t>(k * dims)] -= mean;
+  const Eigen::Matrix3d turn = so3_exp(mean * ctx.axes.col(0)).toRotationMatrix();
+  ctx.R0 = turn * ctx.R0;  // R_joint_sensor = R0 Exp(delta): delta is kept
+  const Eigen::Vector3d pos = turn * Eigen::Vector3d(p.pos[0], p.pos[1], p.pos[2]);
+  p.pos = {pos.x(), pos.y(), pos.z()};
+}
+
+// A parameter's name: the block's, with the axis or the segment's joint.
+std::string component_name(const Body& body, const IdentifyOptions& o, const Block& b, int k) {
+  const char* axis = "xyz";
+  if (b.name == "segment_length")
+    return b.name + "." +
+           body.joint(static_cast<std::size_t>(o.segments[static_cast<std::size_t>(k)])).name;
+  if (b.size == 3 && b.reported) return b.name + "." + axis[k];
+  return b.name;
+}
+
+struct Observability {
+  Eigen::Index columns = 0;        // the free parameters' components
+  std::vector<char> unobservable;  // per column
+  int null_dims = 0;               // dimension of the (near) null space
+};
+
+// J^T J of the free blocks at the current point.
+Eigen::MatrixXd normal_matrix(ceres::Problem& problem, const std::vector<double*>& free_blocks,
+                              Eigen::Index np) {
+  ceres::Problem::EvaluateOptions eo;
+  eo.parameter_blocks = free_blocks;
+  ceres::CRSMatrix J;
+  double cost = 0;
+  problem.Evaluate(eo, &cost, nullptr, nullptr, &J);
+  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(np, np);
+  for (int r = 0; r < J.num_rows; ++r) {
+    for (int a = J.rows[static_cast<std::size_t>(r)]; a < J.rows[static_cast<std::size_t>(r) + 1];
+         ++a) {
+      for (int b = J.rows[static_cast<std::size_t>(r)]; b < J.rows[static_cast<std::size_t>(r) + 1];
+           ++b) {
+        JtJ(J.cols[static_cast<std::size_t>(a)], J.cols[static_cast<std::size_t>(b)]) +=
+            J.values[static_cast<std::size_t>(a)] * J.values[static_cast<std::size_t>(b)];
+      }
+    }
+  }
+  return JtJ;
+}
+
+// Observability: the Jacobian of the free parameters (the correction's too, so that a
+// reported parameter traded against it is seen), columns scaled to unit norm.
+Observability observability(ceres::Problem& problem, const std::vector<Block>& blocks,
+                            const Body& body, const IdentifyOptions& o) {
   std::vector<double*> free_blocks;
   struct Column {
     std::string name, unit;
     bool reported;
   };
   std::vector<Column> cols;
-  const char* axis = "xyz";
-  auto component_name = [&](const Block& b, int k) {
-    if (b.name == "segment_length")
-      return b.name + "." +
-             body.joint(static_cast<std::size_t>(o.segments[static_cast<std::size_t>(k)])).name;
-    if (b.size == 3 && b.reported) return b.name + "." + axis[k];
-    return b.name;
-  };
   for (const Block& b : blocks) {
     if (!b.free) continue;
     free_blocks.push_back(b.data);
-    for (int k = 0; k < b.size; ++k) cols.push_back({component_name(b, k), b.unit, b.reported});
+    for (int k = 0; k < b.size; ++k)
+      cols.push_back({component_name(body, o, b, k), b.unit, b.reported});
   }
+  Observability obs;
   const auto np = static_cast<Eigen::Index>(cols.size());
-  std::vector<char> unobservable(static_cast<std::size_t>(np), 0);
-  int null_dims = 0;
-  if (np > 0) {
-    ceres::Problem::EvaluateOptions eo;
-    eo.parameter_blocks = free_blocks;
-    ceres::CRSMatrix J;
-    double cost = 0;
-    problem.Evaluate(eo, &cost, nullptr, nullptr, &J);
-    Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(np, np);
-    for (int r = 0; r < J.num_rows; ++r) {
-      for (int a = J.rows[static_cast<std::size_t>(r)]; a < J.rows[static_cast<std::size_t>(r) + 1];
-           ++a) {
-        for (int b = J.rows[static_cast<std::size_t>(r)];
-             b < J.rows[static_cast<std::size_t>(r) + 1]; ++b) {
-          JtJ(J.cols[static_cast<std::size_t>(a)], J.cols[static_cast<std::size_t>(b)]) +=
-              J.values[static_cast<std::size_t>(a)] * J.values[static_cast<std::size_t>(b)];
-        }
-      }
-    }
-    const Eigen::VectorXd dn = JtJ.diagonal().cwiseMax(0.0).cwiseSqrt();
-    const double dmax = dn.maxCoeff();
-    std::vector<Eigen::Index> live;
-    for (Eigen::Index k = 0; k < np; ++k) {
-      if (dn[k] <= 1e-12 * dmax) {
-        unobservable[static_cast<std::size_t>(k)] = 1;  // the residuals do not depend on it at all
-        ++null_dims;
-      } else {
-        live.push_back(k);
-      }
-    }
-    const auto nl = static_cast<Eigen::Index>(live.size());
-    Eigen::MatrixXd A(nl, nl);
-    for (Eigen::Index a = 0; a < nl; ++a)
-      for (Eigen::Index b = 0; b < nl; ++b)
-        A(a, b) = JtJ(live[static_cast<std::size_t>(a)], live[static_cast<std::size_t>(b)]) /
-                  (dn[live[static_cast<std::size_t>(a)]] * dn[live[static_cast<std::size_t>(b)]]);
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
-    const double lmax = es.eigenvalues().maxCoeff();
-    for (Eigen::Index e = 0; e < nl; ++e) {
-      if (es.eigenvalues()[e] >= o.observability_threshold * o.observability_threshold * lmax)
-        continue;
-      ++null_dims;
-      for (Eigen::Index a = 0; a < nl; ++a) {
-        if (std::abs(es.eigenvectors()(a, e)) > 0.1)
-          unobservable[static_cast<std::size_t>(live[static_cast<std::size_t>(a)])] = 1;
-      }
+  obs.columns = np;
+  obs.unobservable.assign(static_cast<std::size_t>(np), 0);
+  if (np == 0) return obs;
+  const Eigen::MatrixXd JtJ = normal_matrix(problem, free_blocks, np);
+  const Eigen::VectorXd dn = JtJ.diagonal().cwiseMax(0.0).cwiseSqrt();
+  const double dmax = dn.maxCoeff();
+  std::vector<Eigen::Index> live;
+  for (Eigen::Index k = 0; k < np; ++k) {
+    if (dn[k] <= 1e-12 * dmax) {
+      obs.unobservable[static_cast<std::size_t>(k)] = 1;  // the residuals do not depend on it
+      ++obs.null_dims;
+    } else {
+      live.push_back(k);
     }
   }
-
-  // Covariance of the reported free parameters (pseudo-inverse over the observable directions).
-  Eigen::VectorXd stderr_col = Eigen::VectorXd::Constant(np, kNaN);
-  if (np > 0) {
-    ceres::Covariance::Options co;
-    co.algorithm_type = ceres::DENSE_SVD;
-    co.null_space_rank = null_dims;
-    co.num_threads = std::max(1, o.threads);
-    ceres::Covariance cov(co);
-    std::vector<std::pair<const double*, const double*>> pairs;
-    for (const Block& b : blocks)
-      if (b.free && b.reported) pairs.emplace_back(b.data, b.data);
-    if (cov.Compute(pairs, &problem)) {
-      Eigen::Index col = 0;
-      for (const Block& b : blocks) {
-        if (!b.free) continue;
-        if (b.reported) {
-          Eigen::MatrixXd C(b.size, b.size);
-          cov.GetCovarianceBlock(b.data, b.data, C.data());
-          for (int k = 0; k < b.size; ++k) stderr_col[col + k] = std::sqrt(std::max(0.0, C(k, k)));
-        }
-        col += b.size;
-      }
+  const auto nl = static_cast<Eigen::Index>(live.size());
+  Eigen::MatrixXd A(nl, nl);
+  for (Eigen::Index a = 0; a < nl; ++a)
+    for (Eigen::Index b = 0; b < nl; ++b)
+      A(a, b) = JtJ(live[static_cast<std::size_t>(a)], live[static_cast<std::size_t>(b)]) /
+                (dn[live[static_cast<std::size_t>(a)]] * dn[live[static_cast<std::size_t>(b)]]);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(A);
+  const double lmax = es.eigenvalues().maxCoeff();
+  for (Eigen::Index e = 0; e < nl; ++e) {
+    if (es.eigenvalues()[e] >= o.observability_threshold * o.observability_threshold * lmax)
+      continue;
+    ++obs.null_dims;
+    for (Eigen::Index a = 0; a < nl; ++a) {
+      if (std::abs(es.eigenvectors()(a, e)) > 0.1)
+        obs.unobservable[static_cast<std::size_t>(live[static_cast<std::size_t>(a)])] = 1;
     }
   }
+  return obs;
+}
 
-  // Result.
+// Covariance of the reported free parameters (pseudo-inverse over the observable directions):
+// the standard error per column of the free parameters (NaN where none was computed).
+Eigen::VectorXd standard_errors(ceres::Problem& problem, const std::vector<Block>& blocks,
+                                const Observability& obs, int threads) {
+  Eigen::VectorXd stderr_col = Eigen::VectorXd::Constant(obs.columns, kNaN);
+  if (obs.columns == 0) return stderr_col;
+  ceres::Covariance::Options co;
+  co.algorithm_type = ceres::DENSE_SVD;
+  co.null_space_rank = obs.null_dims;
+  co.num_threads = std::max(1, threads);
+  ceres::Covariance cov(co);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (const Block& b : blocks)
+    if (b.free && b.reported) pairs.emplace_back(b.data, b.data);
+  if (cov.Compute(pairs, &problem)) {
+    Eigen::Index col = 0;
+    for (const Block& b : blocks) {
+      if (!b.free) continue;
+      if (b.reported) {
+        Eigen::MatrixXd C(b.size, b.size);
+        cov.GetCovarianceBlock(b.data, b.data, C.data());
+        for (int k = 0; k < b.size; ++k) stderr_col[col + k] = std::sqrt(std::max(0.0, C(k, k)));
+      }
+      col += b.size;
+    }
+  }
+  return stderr_col;
+}
+
+// The fitted values into the result: placement, hardware, timing, segment lengths, correction.
+void write_estimates(const Context& ctx, const Params& p, const IdentifyOptions& o, int knots,
+                     int dims, IdentifyResult& res) {
   const Eigen::Quaterniond dq = so3_exp(Eigen::Vector3d(p.rot[0], p.rot[1], p.rot[2]));
   res.placement.joint = o.joint;
   res.placement.q_joint_sensor = canonical((Eigen::Quaterniond(ctx.R0) * dq).normalized());
@@ -1329,10 +1425,12 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   res.gyro_scale = Eigen::Vector3d(p.sg[0], p.sg[1], p.sg[2]);
   res.time_offset_s = p.dt;
   res.clock_rate = p.kappa;
+  const int S = static_cast<int>(o.segments.size());
   for (int s = 0; s < S; ++s)
     res.segment_lengths.emplace_back(o.segments[static_cast<std::size_t>(s)],
                                      p.ell[static_cast<std::size_t>(s)]);
   if (dims > 0) {
+    const auto n = static_cast<Eigen::Index>(res.t.size());
     for (int k = 0; k < knots; ++k)
       for (int dd = 0; dd < dims; ++dd)
         res.correction.control(dd, k) = p.ctrl[static_cast<std::size_t>(k * dims + dd)];
@@ -1341,6 +1439,14 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
       res.correction_angles.col(i) =
           res.correction.angles(res.t[static_cast<std::size_t>(i)]).head(dims);
   }
+}
+
+// One estimate per component of the reported blocks (the rotation as a rotation vector of the
+// whole placement); unobservable ones are listed and not reported as values, here and in the
+// result's fields.
+void report_parameters(const std::vector<Block>& blocks, const Body& body, const IdentifyOptions& o,
+                       const Observability& obs, const Eigen::VectorXd& stderr_col,
+                       IdentifyResult& res) {
   const Eigen::Vector3d rot_vec = so3_log(res.placement.q_joint_sensor);
   Eigen::Index col = 0;
   for (const Block& b : blocks) {
@@ -1350,14 +1456,14 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     }
     for (int k = 0; k < b.size; ++k) {
       ParameterEstimate e;
-      e.name = component_name(b, k);
+      e.name = component_name(body, o, b, k);
       e.unit = b.unit;
       e.value = b.name == "rotation" ? rot_vec[k] : b.data[k];
       e.estimated = b.free;
       e.std_error = 0.0;
       if (e.estimated) {
         e.std_error = stderr_col[col];
-        if (unobservable[static_cast<std::size_t>(col)]) {
+        if (obs.unobservable[static_cast<std::size_t>(col)]) {
           e.observable = false;
           e.value = kNaN;
           e.std_error = kNaN;
@@ -1382,7 +1488,10 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
     if (e.name == "time_offset") res.time_offset_s = kNaN;
     if (e.name == "clock_rate") res.clock_rate = kNaN;
   }
+}
 
+// Warnings about implausible scales, a clock rate at its bound and a solve that did not converge.
+void add_fit_warnings(const IdentifyOptions& o, IdentifyResult& res) {
   for (int k = 0; k < 3; ++k) {
     const char ax = "xyz"[k];
     if (o.accel_scale && std::abs(res.accel_scale[k]) > 0.1) {
@@ -1408,6 +1517,72 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
         res.clock_rate, o.max_clock_rate));
   }
   if (!res.converged) res.warnings.push_back("the solver did not converge: " + res.solver_summary);
+}
+
+}  // namespace
+
+IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries& imu,
+                        const IdentifyOptions& o) {
+  const auto clock_start = std::chrono::steady_clock::now();
+  const std::vector<double> ell0 = check_inputs(body, motion, imu, o);
+  const int dims = correction_dims(o.correction);
+  const double mrate = motion.rate_hz();
+  const int64_t frames = *motion.frame_count();
+  // IMU period: the median sample spacing.
+  const double h_imu = analyze_sampling(imu.t).median_period_s;
+  if (!(h_imu > 0)) throw Error("identify: the IMU time stamps do not increase");
+
+  IdentifyResult res;
+  res.motion_start_ns = o.motion_start_ns;
+  const CoarseTiming coarse = initial_timing(body, motion, imu, o, h_imu);
+  const double kappa0 = coarse.clock_rate;
+  res.coarse_clock_rate = kappa0;
+
+  // The samples used: every time the fine fit may reach (offset window, clock-rate range, and
+  // offset 0 / rate 0 for the "before" figures) must lie inside the motion and outside the
+  // invalid intervals. The coarse offset is referred to the coarse step's reference time; the
+  // first pass finds the samples' span with it, whose middle becomes t_ref.
+  Reach reach;
+  reach.window = o.time_offset ? 3.0 * h_imu + 3.0 / mrate : 0.0;
+  reach.edge = 2.0 / mrate + 2e-9 * static_cast<double>(kTimeStepNs);
+  reach.T = static_cast<double>(frames - 1) / mrate;
+  reach.kappa = clock_rate_range(o, imu, kappa0, h_imu);
+  res.t_ref_ns = reference_time(imu, o, coarse, reach);
+  // The coarse offset referred to t_ref.
+  const double dt0 =
+      coarse.offset_s + kappa0 * (to_seconds(res.t_ref_ns - o.motion_start_ns) - coarse.t_ref_s);
+  res.coarse_time_offset_s = dt0;
+  Context ctx;
+  take_samples(imu, select_samples(imu, o, reach, res.t_ref_ns, dt0, mrate, ctx), res);
+
+  KinematicsEvaluator eval(body, motion, o.joint, o.segments, o.gravity_world);
+  ctx.eval = &eval;
+  ctx.ell0 = ell0;
+  // The parameters the problem's blocks point into (never reallocated once the blocks exist).
+  Params p;
+  const int knots = correction_grid(body, imu, o, dims, ctx, p, res);
+  initial_values(o, ell0, dt0, kappa0, ctx, p, res);
+  const std::vector<Block> blocks = parameter_blocks(p, o, knots, dims);
+
+  TimeCallback callback(ctx, &p.dt, &p.kappa);
+  ceres::Problem::Options po;
+  po.evaluation_callback = &callback;
+  ceres::Problem problem(po);
+  add_sample_residuals(problem, ctx, p, res, o, dims);
+  add_priors(problem, o, ell0, p);
+  if (dims > 0) add_correction_priors(problem, o, p, knots, dims, res.correction.knot_spacing_s);
+  constrain(problem, blocks, o, p, dt0, reach.window, reach.kappa);
+
+  solve_robust(problem, ctx, p, o, res);
+  if (dims > 0 && o.rotation && o.position) recentre_twist(ctx, p, knots, dims);
+  ctx.update(p.dt, p.kappa);  // the last evaluation may have been a rejected step
+
+  const Observability obs = observability(problem, blocks, body, o);
+  const Eigen::VectorXd stderr_col = standard_errors(problem, blocks, obs, o.threads);
+
+  write_estimates(ctx, p, o, knots, dims, res);
+  report_parameters(blocks, body, o, obs, stderr_col, res);
+  add_fit_warnings(o, res);
   const Predicted after = predict(ctx, p);
   res.accel_after = after.accel;
   res.gyro_after = after.gyro;
