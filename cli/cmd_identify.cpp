@@ -269,7 +269,7 @@ FitMotion skeleton_motion(const IdentifyArgs& a, const ImuSeries& imu, sim::Iden
   }
   const sim::Body& body = m.body;
   if (!a.init.empty()) {
-    o.init = sim::resolve_preset(sim::placement_preset(a.init), body);
+    o.init = sim::preset_placement(a.init, body);
     o.joint = o.init.joint;
   }
   if (!a.joint.empty()) {
