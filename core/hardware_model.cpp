@@ -48,7 +48,8 @@ void check_elements(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::strin
 }
 
 void check_finite(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name) {
-  check_elements(m, name, [](double x) { return std::isfinite(x); }, "expected a finite number");
+  check_elements(
+      m, name, [](double x) { return std::isfinite(x); }, "expected a finite number");
 }
 
 // Above this magnitude (of the sensor's unit, or as a gain) a parameter describes no sensor, and
