@@ -360,7 +360,7 @@ PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
   m.motion_rate = scene.motion->rate_hz();
   m.sim_options = scene.options;
   m.sim_options.method = options.method;
-  m.rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : m.motion_rate;
+  m.rate = sim::sample_rate_hz(scene.options, *scene.motion);
   m.sensors = scene.sensors;
   if (m.sensors.empty()) throw Error("augment: the scene has no sensors");
   std::vector<sim::SensorSpec> specs;

@@ -55,13 +55,10 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     o.seed = a.seed.value_or(scene.seed);
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
-      // Labels are per sensor sample: ask the augmenter for the sample count and rate.
-      augment::PpdaOptions po;
-      po.window = o.window;
-      po.method = o.method;
-      const augment::PpdaAugmenter probe(scene, po);
-      labels = augment::read_labels(a.labels, static_cast<std::size_t>(probe.sample_count()),
-                                    probe.rate_hz());
+      // Labels are per sensor sample of the scene.
+      labels =
+          augment::read_labels(a.labels, static_cast<std::size_t>(sim::scene_sample_count(scene)),
+                               sim::scene_rate_hz(scene));
     }
     d = augment::generate_dataset(scene, policy, labels, o);
     d.info.source = a.scene;

@@ -222,7 +222,7 @@ int run_simulate(const SimulateArgs& a) {
   if (a.seed) scene.seed = *a.seed;
   if (a.gravity) scene.options.gravity_world = Eigen::Vector3d(0, 0, -*a.gravity);
   if (a.ground_truth) scene.ground_truth = true;
-  const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+  const double rate = sim::scene_rate_hz(scene);
   for (sim::SceneSensor& s : scene.sensors) {
     if (!s.spec.outputs.accelerometer || !s.spec.outputs.gyroscope) {
       throw Error("simulate: sensor " + s.spec.name +

@@ -343,9 +343,7 @@ void parse_sensor_hardware(const json& h, const std::string& source, const std::
                                       ? read_profile(resolve(base_dir, h.get<std::string>()))
                                       : parse_profile(h.dump(), source + ":" + path + ".hardware");
     s.hardware = to_hardware_model(profile);
-    const double rate =
-        scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
-    validate_hardware_model(*s.hardware, rate);
+    validate_hardware_model(*s.hardware, scene_rate_hz(scene));
     if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
       s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
     }
@@ -448,6 +446,14 @@ SceneSensor preset_sensor(std::string_view preset, const Body& body, std::string
   s.spec.name = name.empty() ? s.preset : std::move(name);
   s.spec.placement = preset_placement(preset, body);
   return s;
+}
+
+double scene_rate_hz(const Scene& scene) { return sample_rate_hz(scene.options, *scene.motion); }
+
+int64_t scene_sample_count(const Scene& scene) {
+  return sample_count(scene.motion->rate_hz(),
+                      frames_to_simulate(*scene.motion, scene.frames, "simulation"),
+                      scene_rate_hz(scene));
 }
 
 Scene read_scene(const std::string& path) {
@@ -564,7 +570,7 @@ void run_scene_clocked(Scene& scene, const SceneSink& sink, double rate, int64_t
 }  // namespace
 
 void run_scene(Scene& scene, const SceneSink& sink) {
-  const double rate = scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+  const double rate = scene_rate_hz(scene);
   const Rng base(scene.seed);
   std::vector<std::unique_ptr<ImuErrorGenerator>> gens(scene.sensors.size());
   bool clocked = false;
@@ -609,7 +615,7 @@ std::vector<std::vector<ImuSeries>> simulate_batch(const Body& body,
     std::vector<SensorSpec> specs;
     for (const SceneSensor& s : job.sensors) specs.push_back(s.spec);
     Simulator sim(body, specs, job.options);
-    const double rate = job.options.rate_hz > 0.0 ? job.options.rate_hz : job.motion->rate_hz();
+    const double rate = sample_rate_hz(job.options, *job.motion);
     Rng job_rng = base.child(i);
     std::vector<SensorBlock> blocks;
     std::vector<TimeNs> times;

@@ -54,6 +54,11 @@ Scene parse_scene(std::string_view text, const std::string& source_name,
                   const std::string& base_dir);
 Scene read_scene(const std::string& path);
 
+// The scene's sensor sample rate: its simulation rate_hz, or the motion's frame rate.
+double scene_rate_hz(const Scene& scene);
+// The samples per sensor a run of the scene gives (over frames_to_simulate's frames).
+int64_t scene_sample_count(const Scene& scene);
+
 // The body as a scene's "body" object, {"joints": [{"name", "parent", "offset_m",
 // "end_offset_m"}]} (docs/formats.md), as JSON text that parse_scene reads back to the same body.
 std::string body_json(const Body& body);

@@ -1166,23 +1166,19 @@ Simulator::~Simulator() = default;
 Simulator::Simulator(Simulator&&) noexcept = default;
 Simulator& Simulator::operator=(Simulator&&) noexcept = default;
 
-int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames) const {
-  return sample_count(motion, frames, options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz());
+double sample_rate_hz(const SimulationOptions& options, const MotionSource& motion) {
+  return options.rate_hz > 0.0 ? options.rate_hz : motion.rate_hz();
 }
 
-int64_t Simulator::frame_at(TimeNs t, double motion_rate_hz) {
-  return frame_position(t, motion_rate_hz).frame;
-}
-
-int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames, double rate) const {
+int64_t sample_count(double motion_rate_hz, int64_t frames, double rate) {
   if (frames < 1) return 0;
   if (!(std::isfinite(rate) && rate > 0.0))
     throw Error("simulation: the sample rate must be finite and positive");
   int64_t n =
-      static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion.rate_hz() * rate));
+      static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion_rate_hz * rate));
   n = std::max<int64_t>(n - 2, 0);
   const auto inside = [&](int64_t k) {
-    const FramePosition fp = frame_position(sample_time(0, k, rate), motion.rate_hz());
+    const FramePosition fp = frame_position(sample_time(0, k, rate), motion_rate_hz);
     return fp.frame < frames - 1 || (fp.frame == frames - 1 && fp.frac == 0.0);
   };
   while (inside(n + 1)) ++n;
@@ -1190,8 +1186,20 @@ int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames, doub
   return n + 1;
 }
 
+int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames) const {
+  return sim::sample_count(motion.rate_hz(), frames, sample_rate_hz(options_, motion));
+}
+
+int64_t Simulator::frame_at(TimeNs t, double motion_rate_hz) {
+  return frame_position(t, motion_rate_hz).frame;
+}
+
+int64_t Simulator::sample_count(const MotionSource& motion, int64_t frames, double rate) const {
+  return sim::sample_count(motion.rate_hz(), frames, rate);
+}
+
 TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
-  return sample_time(0, n, options_.rate_hz > 0.0 ? options_.rate_hz : motion.rate_hz());
+  return sample_time(0, n, sample_rate_hz(options_, motion));
 }
 
 // Each sample's position on the frame grid, checked: inside the motion, in increasing order.
@@ -1697,7 +1705,7 @@ void Simulator::run(MotionSource& motion,
   MotionSource& source = count && *count == N ? motion : static_cast<MotionSource&>(limited);
   const int64_t total = sample_count(motion, N);
   const double motion_rate = motion.rate_hz();
-  const double rate = options_.rate_hz > 0.0 ? options_.rate_hz : motion_rate;
+  const double rate = sample_rate_hz(options_, motion);
   std::vector<TimeNs> times;
   std::vector<SensorBlock> blocks;
   int64_t n = 0;

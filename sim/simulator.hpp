@@ -107,6 +107,13 @@ struct SimulationPlan {
 
 SimulationPlan compile_plan(const Body& body, const std::vector<SensorSpec>& sensors);
 
+// The sensor sample rate of a simulation with `options` over `motion`: options.rate_hz, or the
+// motion's frame rate when that is 0.
+double sample_rate_hz(const SimulationOptions& options, const MotionSource& motion);
+// How many samples k / rate_hz (k = 0, 1, ...) lie within `frames` frames of a motion at
+// motion_rate_hz (the last at or before the last frame). Throws unless rate_hz is finite and > 0.
+int64_t sample_count(double motion_rate_hz, int64_t frames, double rate_hz);
+
 class Simulator {
  public:
   Simulator(const Body& body, std::vector<SensorSpec> sensors, SimulationOptions options = {});

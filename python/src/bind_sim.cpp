@@ -72,15 +72,13 @@ py::dict simulate(SceneHandle& h, std::optional<uint64_t> seed) {
     require_simulatable(*scene.motion, "Scene.simulate");
     const std::optional<int64_t> frames = scene.frames ? scene.frames : scene.motion->frame_count();
     if (!frames) throw Error("Scene.simulate: an endless motion needs frames=N");
-    const double rate =
-        scene.options.rate_hz > 0.0 ? scene.options.rate_hz : scene.motion->rate_hz();
+    const double rate = sim::scene_rate_hz(scene);
     std::vector<sim::SensorSpec> specs;
     for (const sim::SceneSensor& s : scene.sensors) {
       if (s.hardware) validate_hardware_model(*s.hardware, rate);
       specs.push_back(s.spec);
     }
-    const int64_t n =
-        sim::Simulator(scene.body, specs, scene.options).sample_count(*scene.motion, *frames);
+    const int64_t n = sim::sample_count(scene.motion->rate_hz(), *frames, rate);
     for (const sim::SensorSpec& spec : specs) {
       measured.push_back(series_for(spec, n));
       truth.push_back(scene.ground_truth ? series_for(spec, n) : nullptr);
@@ -463,10 +461,7 @@ numbers as `imukit simulate` for the same scene and seed.)doc")
             h.scene.options.method = sim::parse_derivative_method(s);
           })
       .def_property_readonly("rate_hz",
-                             [](const SceneHandle& h) {
-                               return h.scene.options.rate_hz > 0.0 ? h.scene.options.rate_hz
-                                                                    : h.scene.motion->rate_hz();
-                             })
+                             [](const SceneHandle& h) { return sim::scene_rate_hz(h.scene); })
       .def_property_readonly("gravity_world",
                              [](const SceneHandle& h) {
                                const Eigen::Vector3d& g = h.scene.options.gravity_world;
