@@ -3,7 +3,10 @@
 
 #include "common.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/imu_series.hpp"
+#include "imukit/core/profile.hpp"
 #include "imukit/hwmodel/allan.hpp"
+#include "imukit/hwmodel/characterize.hpp"
 #include "imukit/hwmodel/noise_fit.hpp"
 
 namespace imukit::python {
@@ -272,6 +275,32 @@ name; chi2_per_dof, points, covariance_inflation.)doc")
       py::arg("terms") = py::none(), py::arg("confidence") = 0.95, py::arg("tau_min_s") = 0.0,
       py::arg("tau_max_s") = 1e300,
       "Generalised least squares on an overlapping ADEV of n samples at `factors`.");
+  m.def(
+      "characterize",
+      [](const ImuSeries& series, int points_per_decade, double fit_tau_min_s) {
+        const hwmodel::TriadNoiseOptions o{points_per_decade, fit_tau_min_s};
+        DeviceProfile p;
+        py::gil_scoped_release release;
+        if (series.has_accel()) {
+          p.accelerometer = SensorProfile{};
+          p.accelerometer->noise =
+              hwmodel::noise_estimate(hwmodel::characterize_triad(series.t, series.accel, o));
+        }
+        if (series.has_gyro()) {
+          p.gyroscope = GyroscopeProfile{};
+          p.gyroscope->noise =
+              hwmodel::noise_estimate(hwmodel::characterize_triad(series.t, series.gyro, o));
+        }
+        if (!p.accelerometer && !p.gyroscope)
+          throw Error("characterize: the series holds neither accelerometer nor gyroscope samples");
+        return p;
+      },
+      py::arg("series"), py::kw_only(), py::arg("points_per_decade") = 10,
+      py::arg("fit_tau_min_s") = 0.0, R"doc(
+The noise sections of a device profile from a static recording, as `imukit characterize` writes
+them for one input: per accelerometer and gyroscope the overlapping Allan deviation, the GLS
+noise-model fit (N, B, K with 1-sigma) and the curve. Returns an imukit.Profile (write(path)
+writes the file; to_dict() the sections).)doc");
   m.def(
       "model_allan_variance",
       [](std::array<double, hwmodel::kNoiseTerms> c, double tau) {

@@ -111,6 +111,30 @@ class EqualToCharacterize(unittest.TestCase):
                                            delta=1e-12 * abs(fit.sigma[term]) + 1e-300)
 
 
+class CharacterizeInPython(unittest.TestCase):
+    def test_noise_sections_equal_the_command(self):
+        # imukit.characterize runs what `imukit characterize` runs for one recording: the noise
+        # sections come out identical, to the last digit of the JSON.
+        t, accel, gyro = white_recording(n=20000, seed=5)
+        with tempfile.TemporaryDirectory() as tmp:
+            src = os.path.join(tmp, "static.csv")
+            imukit.write_euroc_csv(src, t, accel, gyro)
+            profile = os.path.join(tmp, "profile.json")
+            r = run_cli("characterize", src, "-o", profile)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            cli = json.load(open(profile))
+            py = imukit.characterize(imukit.read_euroc_csv(src)).to_dict()
+        for sensor in ("accelerometer", "gyroscope"):
+            self.assertEqual(py[sensor]["noise"], cli[sensor]["noise"], sensor)
+        # White noise of known density: N within 3 % of it on every axis.
+        np.testing.assert_allclose(py["gyroscope"]["noise"]["noise_density"], [GYRO_N] * 3, rtol=0.03)
+        np.testing.assert_allclose(py["accelerometer"]["noise"]["noise_density"], [ACCEL_N] * 3, rtol=0.03)
+
+    def test_a_series_without_inertial_samples_is_refused(self):
+        with self.assertRaisesRegex(imukit.Error, "neither accelerometer nor gyroscope"):
+            imukit.characterize(imukit.Series(np.arange(100, dtype=np.int64) * 10_000_000, mag=np.ones((100, 3))))
+
+
 class BadInput(unittest.TestCase):
     def test_errors(self):
         t, _, gyro = white_recording(n=100)
