@@ -86,17 +86,22 @@ class AllanOnArrays(unittest.TestCase):
             imukit.fit_noise_model(list(tau), adev, [1000.0] * len(tau), terms=["X"])
 
 
+def characterized_by_the_command(test, seed):
+    """A white-noise recording written as EuRoC CSV, the profile `imukit characterize` writes for
+    it (as a dict) and the recording read back as a Series."""
+    t, accel, gyro = white_recording(n=20000, seed=seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        src = os.path.join(tmp, "static.csv")
+        imukit.write_euroc_csv(src, t, accel, gyro)
+        profile = os.path.join(tmp, "profile.json")
+        r = run_cli("characterize", src, "-o", profile)
+        test.assertEqual(r.returncode, 0, r.stderr)
+        return json.load(open(profile)), imukit.read_euroc_csv(src)
+
+
 class EqualToCharacterize(unittest.TestCase):
     def test_profile_numbers_equal_python_fit(self):
-        t, accel, gyro = white_recording(n=20000, seed=9)
-        with tempfile.TemporaryDirectory() as tmp:
-            src = os.path.join(tmp, "static.csv")
-            imukit.write_euroc_csv(src, t, accel, gyro)
-            profile = os.path.join(tmp, "profile.json")
-            r = run_cli("characterize", src, "-o", profile)
-            self.assertEqual(r.returncode, 0, r.stderr)
-            p = json.load(open(profile))
-            s = imukit.read_euroc_csv(src)
+        p, s = characterized_by_the_command(self, seed=9)
         for sensor, data in (("gyroscope", s.gyro), ("accelerometer", s.accel)):
             res = imukit.allan_deviation(data, s.t)
             noise = p[sensor]["noise"]
@@ -115,15 +120,8 @@ class CharacterizeInPython(unittest.TestCase):
     def test_noise_sections_equal_the_command(self):
         # imukit.characterize runs what `imukit characterize` runs for one recording: the noise
         # sections come out identical, to the last digit of the JSON.
-        t, accel, gyro = white_recording(n=20000, seed=5)
-        with tempfile.TemporaryDirectory() as tmp:
-            src = os.path.join(tmp, "static.csv")
-            imukit.write_euroc_csv(src, t, accel, gyro)
-            profile = os.path.join(tmp, "profile.json")
-            r = run_cli("characterize", src, "-o", profile)
-            self.assertEqual(r.returncode, 0, r.stderr)
-            cli = json.load(open(profile))
-            py = imukit.characterize(imukit.read_euroc_csv(src)).to_dict()
+        cli, s = characterized_by_the_command(self, seed=5)
+        py = imukit.characterize(s).to_dict()
         for sensor in ("accelerometer", "gyroscope"):
             self.assertEqual(py[sensor]["noise"], cli[sensor]["noise"], sensor)
         # White noise of known density: N within 3 % of it on every axis.
