@@ -515,9 +515,15 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
 sim::Motion& PpdaAugmenter::Impl::window_motion(Worker& wk, int64_t F) const {
   const sim::SimulationPlan& plan = wk.simulator->plan();
   const std::size_t J = plan.joints.size();
-  const auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
-  const auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
-  assert(hi - lo >= 4);  // the constructor asks for more frames than a window's span
+  auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
+  auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
+  if (hi - lo < 4) {
+    // A window shorter than a frame (sensor rate above the motion's) at either end of the
+    // motion: widen to the 4 frames the stencil needs (the constructor asks for more frames).
+    lo = std::max<int64_t>(0, hi - 4);
+    hi = std::min<int64_t>(frames, lo + 4);
+  }
+  assert(hi - lo >= 4);
   // Per window frame: the frame at or before x (its rotation is the sign reference), the
   // stencil's first frame, both from lo, the four weights, and 1 where x is a frame itself.
   wk.ref.resize(static_cast<std::size_t>(F));

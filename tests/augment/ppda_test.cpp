@@ -420,6 +420,30 @@ TEST(Ppda, EverySubPolicyOfThePaperGridGivesFiniteWindows) {
   EXPECT_THROW(aug.apply(policy, 810, start, rng, out), Error);
 }
 
+TEST(Ppda, WindowsShorterThanAFrameAtTheMotionsEndsGetTheirWholeStencil) {
+  // Sensor at 1 kHz on a 100 Hz motion: a window of 16 samples spans under 2 frames, and at the
+  // first or last start its frame range [floor(x0) - 2, ceil(x1) + 3), cut to the motion, held
+  // 3 frames: the 4-frame stencil asserted (fuzz_scene_json found it). Every start, under every
+  // sub-policy of the imukit grid, must give finite windows.
+  sim::Scene scene = humanoid_scene({"left_wrist_watch"}, 100);
+  scene.options.rate_hz = 1000.0;
+  PpdaOptions po;
+  po.window = 16;
+  PpdaAugmenter aug(scene, po);
+  const std::vector<int64_t> starts = aug.window_starts(16);
+  ASSERT_GE(starts.size(), 2u);
+  const Policy policy = builtin_policy("imukit");
+  std::vector<float> out(aug.window() * aug.channels());
+  Rng rng(11);
+  for (const int64_t start : {starts.front(), starts.back()}) {
+    for (std::size_t k = 0; k < policy.sub_policies.size(); k += 7) {
+      const int64_t one[1] = {start};
+      aug.apply(policy, k, one, rng, out);
+      for (float v : out) ASSERT_TRUE(std::isfinite(v)) << start << " " << k;
+    }
+  }
+}
+
 TEST(Ppda, SameSeedSameBatchForAnyThreadCountAndCallsVary) {
   const sim::Scene scene = humanoid_scene({"left_wrist_watch", "right_ankle_clip", "waist_belt"});
   PpdaAugmenter aug(scene);
