@@ -494,7 +494,9 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   // Keep a re-timed span inside the motion (a speed-changed window near an end slides inwards;
   // identity spans are inside by construction).
   const double last = static_cast<double>(frames - 1);
-  const double x0 = wk.x.front(), x1 = wk.x.back();
+  // The extremes, not the ends: a warp's margins need not be monotonic.
+  const auto [x_min, x_max] = std::minmax_element(wk.x.begin(), wk.x.end());
+  const double x0 = *x_min, x1 = *x_max;
   if (x1 - x0 > last) {
     throw Error(
         fmt::format("augment: a window of {} samples at this speed needs {:.0f} frames; "
@@ -515,8 +517,9 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
 sim::Motion& PpdaAugmenter::Impl::window_motion(Worker& wk, int64_t F) const {
   const sim::SimulationPlan& plan = wk.simulator->plan();
   const std::size_t J = plan.joints.size();
-  auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(wk.x.front())) - 2);
-  auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(wk.x.back())) + 3);
+  const auto [x_min, x_max] = std::minmax_element(wk.x.begin(), wk.x.end());
+  auto lo = std::max<int64_t>(0, static_cast<int64_t>(std::floor(*x_min)) - 2);
+  auto hi = std::min<int64_t>(frames, static_cast<int64_t>(std::ceil(*x_max)) + 3);
   if (hi - lo < 4) {
     // A window shorter than a frame (sensor rate above the motion's) at either end of the
     // motion: widen to the 4 frames the stencil needs (the constructor asks for more frames).
