@@ -35,8 +35,7 @@ struct IdentifyArgs {
   std::string joint;
   std::string init;
   std::string plot_dir;
-  double bvh_scale = 1.0;
-  std::string up = "y";
+  BvhArgs bvh;
   double height = 1.75;
   std::vector<std::string> fix;
   std::vector<std::string> estimate;
@@ -255,10 +254,7 @@ FitMotion skeleton_motion(const IdentifyArgs& a, const ImuSeries& imu, sim::Iden
   FitMotion m;
   const std::filesystem::path mp(a.motion);
   if (mp.extension() == ".bvh") {
-    sim::BvhOptions bo;
-    bo.scale = a.bvh_scale;
-    bo.up = a.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
-    sim::BvhData d = sim::read_bvh(a.motion, bo);
+    sim::BvhData d = load_bvh(a.motion, a.bvh);
     m.body = std::move(d.body);
     m.motion = std::make_shared<sim::Motion>(std::move(d.motion));
     warnings = std::move(d.warnings);
@@ -422,10 +418,7 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--joint", a->joint, "the joint (or segment) carrying the sensor");
           sub.add_option("--init", a->init,
                          "placement preset to start from (see imukit simulate --list-presets)");
-          sub.add_option("--bvh-scale", a->bvh_scale, "BVH length unit in metres")
-              ->check(bvh_scale_range());
-          sub.add_option("--up", a->up, "up axis of the BVH file: y (default) or z")
-              ->check(CLI::IsMember({"y", "z"}));
+          add_bvh_options(sub, a->bvh);
           sub.add_option("--height", a->height,
                          "stature of the default humanoid for a quaternion CSV, m")
               ->check(real_in(0.3, 3, "m"));

@@ -20,6 +20,7 @@
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/placement.hpp"
 #include "imukit/sim/scene.hpp"
+#include "inputs.hpp"
 #include "options.hpp"
 
 namespace imukit::cli {
@@ -32,8 +33,7 @@ struct SimulateArgs {
   double rate_hz = 0.0;
   std::optional<uint64_t> seed;
   std::string bvh;
-  double bvh_scale = 1.0;
-  std::string up = "y";
+  BvhArgs bvh_args;
   std::vector<std::string> presets;
   std::string hardware;
   bool ground_truth = false;
@@ -112,10 +112,7 @@ int list_presets() {
 
 sim::Scene quick_scene(const SimulateArgs& a) {
   sim::Scene scene;
-  sim::BvhOptions o;
-  o.scale = a.bvh_scale;
-  o.up = a.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
-  sim::BvhData d = sim::read_bvh(a.bvh, o);
+  sim::BvhData d = load_bvh(a.bvh, a.bvh_args);
   scene.body = std::move(d.body);
   scene.motion = std::make_shared<sim::Motion>(std::move(d.motion));
   scene.frames = scene.motion->frame_count();
@@ -335,11 +332,7 @@ IMUKIT_REGISTER_COMMAND(
                          fmt::format("Gravity magnitude in m/s^2 (default {})", kStandardGravity))
               ->check(gravity_range());
           sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
-          sub.add_option("--bvh-scale", a->bvh_scale,
-                         "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)")
-              ->check(bvh_scale_range());
-          sub.add_option("--up", a->up, "Up axis of the BVH file: y (default) or z")
-              ->check(CLI::IsMember({"y", "z"}));
+          add_bvh_options(sub, a->bvh_args);
           sub.add_option("--preset", a->presets,
                          "Quick form: a placement preset (repeatable; see --list-presets)");
           sub.add_option("--hardware", a->hardware,

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "command.hpp"
+#include "options.hpp"
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/core/euroc_csv.hpp"
@@ -169,6 +170,21 @@ ImuSeries load_imu_series(const InputArg& input, Recording* context) {
   const ChannelScale scale{accel_factor(input.accel_unit), gyro_factor(input.gyro_unit),
                            mag_factor(input.mag_unit)};
   return to_imu_series(read_column_text(input.path, spec), scale);
+}
+
+void add_bvh_options(CLI::App& sub, BvhArgs& args) {
+  sub.add_option("--bvh-scale", args.scale,
+                 "BVH length unit in metres (1 m, 0.01 cm, 0.056444 CMU units)")
+      ->check(bvh_scale_range());
+  sub.add_option("--up", args.up, "Up axis of the BVH file: y (default) or z")
+      ->check(CLI::IsMember({"y", "z"}));
+}
+
+sim::BvhData load_bvh(const std::string& path, const BvhArgs& args) {
+  sim::BvhOptions o;
+  o.scale = args.scale;
+  o.up = args.up == "z" ? sim::UpAxis::z : sim::UpAxis::y;
+  return sim::read_bvh(path, o);
 }
 
 }  // namespace imukit::cli

@@ -9,6 +9,11 @@
 
 #include "imukit/core/column_text.hpp"
 #include "imukit/core/imu_series.hpp"
+#include "imukit/sim/bvh.hpp"
+
+namespace CLI {
+class App;
+}
 
 namespace imukit::cli {
 
@@ -41,5 +46,17 @@ ImuSeries load_imu_series(const InputArg& input, Recording* context = nullptr);
 // last complete chunk, with a note on stderr), any other input as one stream named after the
 // file's stem.
 Recording load_recording(const InputArg& input);
+
+// How to read a BVH motion file, as --bvh-scale and --up give it.
+struct BvhArgs {
+  double scale = 1.0;    // metres per BVH length unit
+  std::string up = "y";  // y or z
+};
+
+// Adds --bvh-scale and --up to a subcommand, checked at parse time.
+void add_bvh_options(CLI::App& sub, BvhArgs& args);
+
+// Reads a BVH file with those options.
+sim::BvhData load_bvh(const std::string& path, const BvhArgs& args);
 
 }  // namespace imukit::cli
