@@ -82,6 +82,23 @@ class Models(unittest.TestCase):
             models.build_model("lstm", 6, 2)
 
 
+class Threads(unittest.TestCase):
+    def test_torch_runs_in_openblas_held_to_the_torch_thread_count(self):
+        # scripts/setup.sh installs OpenBLAS (1.7x ATLAS on a training step); it would start a
+        # thread per core in every worker process unless told.
+        import ctypes
+        path = train.blas_library()
+        self.assertTrue(path.endswith("openblas-pthread/libblas.so.3"), path)
+        lib = ctypes.CDLL(path)
+        try:
+            for n in (2, 1):
+                train.set_threads(n)
+                self.assertEqual(lib.openblas_get_num_threads(), n)
+                self.assertEqual(torch.get_num_threads(), n)
+        finally:
+            train.set_threads(1)
+
+
 class Metrics(unittest.TestCase):
     def test_macro_f1_by_hand(self):
         # class 0: tp 1 fp 1 fn 1 -> 0.5; class 1: tp 2 fp 1 fn 1 -> 2/3; class 2: fn 1 -> 0; class 3

@@ -4,6 +4,7 @@ test windows; online augmentation per mini-batch (`augmentation.py`); fixed seed
 number of CPU threads. Nothing is written to disk: the best weights are kept in memory.
 """
 import copy
+import ctypes
 import dataclasses
 import time
 
@@ -42,10 +43,29 @@ def macro_f1(y_true, y_pred):
     return float(np.mean(scores)) if scores else 0.0
 
 
+def blas_library():
+    """The BLAS that torch's matrix products run in: Debian's torch calls the system libblas.so.3
+    (OpenBLAS when libopenblas0 is installed, as scripts/setup.sh does: a DeepConvLSTM training
+    step took 160 ms with it and 275 ms with Debian's ATLAS). The shared object's path, or ''."""
+    with open("/proc/self/maps") as maps:
+        for line in maps:
+            path = line.split()[-1]
+            if path.rsplit("/", 1)[-1].startswith("libblas.so"):
+                return path
+    return ""
+
+
 def set_threads(threads):
-    """torch's intra-op threads; inter-op work (none in this loop) gets one thread, set once per
-    process: torch refuses (by aborting, in a forked worker) to set it again."""
+    """torch's intra-op threads, and as many for OpenBLAS, which torch does not tell (by default
+    it starts a thread per core in every worker process); inter-op work (none in this loop) gets
+    one thread, set once per process: torch refuses (by aborting, in a forked worker) to set it
+    again."""
     torch.set_num_threads(threads)
+    path = blas_library()
+    if path:
+        openblas_set = getattr(ctypes.CDLL(path), "openblas_set_num_threads", None)
+        if openblas_set is not None:
+            openblas_set(threads)
     global _interop_set
     if not _interop_set and torch.get_num_interop_threads() != 1:
         torch.set_num_interop_threads(1)
@@ -188,6 +208,7 @@ class Trainer:
             "parameters": parameter_count(self.model), "steps": steps,
             "augmented_windows": self.augmenter.augmented_windows,
             "seconds": time.perf_counter() - t_start,
+            "blas": blas_library(),
             "step_seconds_mean": step_seconds / max(steps, 1),
             "imukit_seconds": self.augmenter.imukit_seconds,
             "imukit_share": self.augmenter.imukit_seconds / step_seconds if step_seconds > 0 else 0.0,
