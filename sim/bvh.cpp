@@ -170,32 +170,28 @@ Eigen::Quaterniond axis_rotation(Channel c, double degrees) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(a, axis));
 }
 
-}  // namespace
+// The MOTION section's header: the frame count, the frame time and the rate they give.
+struct MotionHeader {
+  Token frame_count;  // where messages about the frames point
+  int64_t frames = 0;
+  double frame_time_s = 0.0;
+  double rate_hz = 0.0;
+};
 
-BvhData parse_bvh(std::string_view text, const std::string& source_name,
-                  const BvhOptions& options) {
-  if (!(options.scale >= BvhLimits::min_scale && options.scale <= BvhLimits::max_scale)) {
-    throw Error(fmt::format("{}: the BVH scale must be in [{:g}, {:g}] m per unit, got {:g}",
-                            source_name, BvhLimits::min_scale, BvhLimits::max_scale,
-                            options.scale));
-  }
-  Tokenizer tz(text, source_name);
-  tz.expect("HIERARCHY");
-  tz.expect("ROOT");
-  std::vector<RawJoint> raw;
-  parse_joint(tz, raw, -1, 0);
+MotionHeader parse_motion_header(Tokenizer& tz) {
   {
     const Token t = tz.expect_any("MOTION");
     if (t.text == "ROOT") tz.fail(t, "more than one ROOT is not supported");
     if (t.text != "MOTION") tz.fail(t, "expected 'MOTION', got " + quote_excerpt(t.text, 24));
   }
+  MotionHeader h;
   tz.expect("Frames:");
-  const Token ft = tz.expect_any("the frame count");
-  const auto frames_d = parse_double(ft.text);
+  h.frame_count = tz.expect_any("the frame count");
+  const auto frames_d = parse_double(h.frame_count.text);
   if (!frames_d || *frames_d != std::floor(*frames_d) || *frames_d < 0 || *frames_d > 1e9) {
-    tz.fail(ft, "frame count must be a whole number in [0, 1e9]");
+    tz.fail(h.frame_count, "frame count must be a whole number in [0, 1e9]");
   }
-  const auto frames = static_cast<int64_t>(*frames_d);
+  h.frames = static_cast<int64_t>(*frames_d);
   tz.expect("Frame");
   tz.expect("Time:");
   const Token dtt = tz.expect_any("the frame time");
@@ -208,41 +204,68 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
                              *dt, 1.0 / BvhLimits::max_rate_hz, BvhLimits::max_frame_time_s,
                              BvhLimits::max_rate_hz));
   }
+  h.frame_time_s = *dt;
+  // Frame times are printed rounded (CMU: "0.008333" for 120 Hz). When a whole-number rate
+  // reproduces the printed digits, use it: frame positions are then exact integers.
+  h.rate_hz = 1.0 / *dt;
+  const std::string_view txt = dtt.text;
+  const std::size_t dot = txt.find('.');
+  const bool plain = txt.find_first_of("eE") == std::string_view::npos;
+  if (dot != std::string_view::npos && plain) {
+    const double half_ulp = 0.5 * std::pow(10.0, -static_cast<double>(txt.size() - dot - 1));
+    const double whole = std::round(h.rate_hz);
+    if (whole >= 1.0 && std::abs(1.0 / whole - *dt) <= half_ulp) h.rate_hz = whole;
+  }
+  return h;
+}
 
-  BvhData out;
-  out.frame_time_s = *dt;
-  // Up-axis change of basis C and its quaternion.
-  const Eigen::Quaterniond qC =
-      options.up == UpAxis::y
-          ? Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()))
-          : Eigen::Quaterniond::Identity();
-  // Exact for the y-up case: C maps (x, y, z) to (x, -z, y) with no rounding.
-  const auto map_vec = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d {
-    const Eigen::Vector3d s = v * options.scale;
-    return options.up == UpAxis::y ? Eigen::Vector3d(s.x(), -s.z(), s.y()) : s;
-  };
-  // Lengths and positions beyond this are not a body on the Earth's surface but a wrong
-  // scale or a corrupt file; refused where they are read (a token of the file or the option).
-  const double max_value = BvhLimits::max_length_m / options.scale;
-  const auto check_length = [&](const Eigen::Vector3d& v, const auto& what) {
-    if (v.cwiseAbs().maxCoeff() <= max_value) return;
+// The file's lengths in metres and imukit's z-up world, refusing values no body has.
+class Lengths {
+ public:
+  Lengths(const BvhOptions& options, const std::string& source_name)
+      : options_(options),
+        source_name_(source_name),
+        max_value_(BvhLimits::max_length_m / options.scale) {}
+
+  // Exact for the y-up case: the change of basis maps (x, y, z) to (x, -z, y) with no rounding.
+  Eigen::Vector3d to_world(const Eigen::Vector3d& v) const {
+    const Eigen::Vector3d s = v * options_.scale;
+    return options_.up == UpAxis::y ? Eigen::Vector3d(s.x(), -s.z(), s.y()) : s;
+  }
+
+  // Lengths and positions beyond BvhLimits::max_length_m are not a body on the Earth's surface
+  // but a wrong scale or a corrupt file; refused where they are read. what() names the value.
+  template <class What>
+  void check(const Eigen::Vector3d& v, const What& what) const {
+    if (v.cwiseAbs().maxCoeff() <= max_value_) return;
     throw Error(fmt::format(
         "{}: {} ({:g} {:g} {:g}) is beyond {:g} m at scale {:g}: a wrong "
         "scale or a corrupt file",
-        source_name, what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options.scale));
-  };
+        source_name_, what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options_.scale));
+  }
+
+ private:
+  const BvhOptions& options_;
+  const std::string& source_name_;
+  double max_value_;
+};
+
+// The hierarchy's joints into out.body (canonical names, offsets in metres), with a warning
+// when non-root joints have position channels.
+void add_joints(const std::vector<RawJoint>& raw, const Lengths& lengths,
+                const std::string& source_name, BvhData& out) {
   std::vector<std::string> names;
   for (const RawJoint& j : raw) names.push_back(j.name);
   const std::vector<std::string> canon = canonicalize_joint_names(names);
   bool ignored_positions = false;
   for (std::size_t i = 0; i < raw.size(); ++i) {
-    check_length(raw[i].offset, [&] { return "the OFFSET of " + quote_excerpt(raw[i].name); });
+    lengths.check(raw[i].offset, [&] { return "the OFFSET of " + quote_excerpt(raw[i].name); });
     if (raw[i].end)
-      check_length(*raw[i].end, [&] { return "the End Site of " + quote_excerpt(raw[i].name); });
-    out.body.add_joint(canon[i], raw[i].parent,
-                       raw[i].parent < 0 ? Eigen::Vector3d::Zero() : map_vec(raw[i].offset),
-                       raw[i].name);
-    if (raw[i].end) out.body.joint(i).end_offset = map_vec(*raw[i].end);
+      lengths.check(*raw[i].end, [&] { return "the End Site of " + quote_excerpt(raw[i].name); });
+    out.body.add_joint(
+        canon[i], raw[i].parent,
+        raw[i].parent < 0 ? Eigen::Vector3d::Zero() : lengths.to_world(raw[i].offset), raw[i].name);
+    if (raw[i].end) out.body.joint(i).end_offset = lengths.to_world(*raw[i].end);
     if (raw[i].parent >= 0) {
       for (Channel c : raw[i].channels) {
         if (c == Channel::xpos || c == Channel::ypos || c == Channel::zpos)
@@ -255,33 +278,32 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
                            ": position channels of non-root joints are ignored "
                            "(segment lengths are fixed by the OFFSETs)");
   }
-  // The root's OFFSET is where the root sits when its position channels read 0.
-  const Eigen::Vector3d root_offset = map_vec(raw.front().offset);
+}
 
-  // Frame times are printed rounded (CMU: "0.008333" for 120 Hz). When a whole-number rate
-  // reproduces the printed digits, use it: frame positions are then exact integers.
-  double rate = 1.0 / *dt;
-  {
-    const std::string_view txt = dtt.text;
-    const std::size_t dot = txt.find('.');
-    const bool plain = txt.find_first_of("eE") == std::string_view::npos;
-    if (dot != std::string_view::npos && plain) {
-      const double half_ulp = 0.5 * std::pow(10.0, -static_cast<double>(txt.size() - dot - 1));
-      const double whole = std::round(rate);
-      if (whole >= 1.0 && std::abs(1.0 / whole - *dt) <= half_ulp) rate = whole;
-    }
-  }
+// The frames' channel values into a Motion: joint rotations in the world's axes, the root's
+// position channels (from its OFFSET) as the root translation.
+Motion read_frames(Tokenizer& tz, const std::vector<RawJoint>& raw, const MotionHeader& h,
+                   const Lengths& lengths, UpAxis up) {
   // Never allocate for frames the file cannot hold: each value takes at least 2 bytes.
   std::size_t channels = 0;
   for (const RawJoint& j : raw) channels += j.channels.size();
-  if (frames > 0 && channels == 0) tz.fail(ft, "frames given but no joint has channels");
-  if (frames > 0 && static_cast<double>(frames) * static_cast<double>(channels) >
-                        static_cast<double>(tz.remaining()) / 2.0 + 1.0) {
-    tz.fail(ft, "the file declares " + std::to_string(frames) + " frames of " +
-                    std::to_string(channels) + " channels but is too short to hold them");
+  if (h.frames > 0 && channels == 0)
+    tz.fail(h.frame_count, "frames given but no joint has channels");
+  if (h.frames > 0 && static_cast<double>(h.frames) * static_cast<double>(channels) >
+                          static_cast<double>(tz.remaining()) / 2.0 + 1.0) {
+    tz.fail(h.frame_count, "the file declares " + std::to_string(h.frames) + " frames of " +
+                               std::to_string(channels) +
+                               " channels but is too short to hold them");
   }
-  out.motion = Motion(rate, raw.size(), frames);
-  for (int64_t f = 0; f < frames; ++f) {
+  // Up-axis change of basis C as a quaternion.
+  const Eigen::Quaterniond qC =
+      up == UpAxis::y
+          ? Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()))
+          : Eigen::Quaterniond::Identity();
+  // The root's OFFSET is where the root sits when its position channels read 0.
+  const Eigen::Vector3d root_offset = lengths.to_world(raw.front().offset);
+  Motion motion(h.rate_hz, raw.size(), h.frames);
+  for (int64_t f = 0; f < h.frames; ++f) {
     for (std::size_t i = 0; i < raw.size(); ++i) {
       Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
       Eigen::Vector3d pos = Eigen::Vector3d::Zero();
@@ -302,17 +324,40 @@ BvhData parse_bvh(std::string_view text, const std::string& source_name,
             break;  // intrinsic: right-multiply in order
         }
       }
-      out.motion.rotation(f, i) = qC * q * qC.conjugate();
+      motion.rotation(f, i) = qC * q * qC.conjugate();
       if (i == 0) {
-        check_length(pos, [&] { return fmt::format("the root position of frame {}", f); });
-        out.motion.root_translation(f) = root_offset + map_vec(pos);
+        lengths.check(pos, [&] { return fmt::format("the root position of frame {}", f); });
+        motion.root_translation(f) = root_offset + lengths.to_world(pos);
       }
     }
   }
   Token extra;
   if (tz.next(extra)) {
-    tz.fail(extra, "more values than " + std::to_string(frames) + " frames of channels");
+    tz.fail(extra, "more values than " + std::to_string(h.frames) + " frames of channels");
   }
+  return motion;
+}
+
+}  // namespace
+
+BvhData parse_bvh(std::string_view text, const std::string& source_name,
+                  const BvhOptions& options) {
+  if (!(options.scale >= BvhLimits::min_scale && options.scale <= BvhLimits::max_scale)) {
+    throw Error(fmt::format("{}: the BVH scale must be in [{:g}, {:g}] m per unit, got {:g}",
+                            source_name, BvhLimits::min_scale, BvhLimits::max_scale,
+                            options.scale));
+  }
+  Tokenizer tz(text, source_name);
+  tz.expect("HIERARCHY");
+  tz.expect("ROOT");
+  std::vector<RawJoint> raw;
+  parse_joint(tz, raw, -1, 0);
+  const MotionHeader header = parse_motion_header(tz);
+  const Lengths lengths(options, source_name);
+  BvhData out;
+  out.frame_time_s = header.frame_time_s;
+  add_joints(raw, lengths, source_name, out);
+  out.motion = read_frames(tz, raw, header, lengths, options.up);
   std::vector<std::string> w = out.motion.validate_and_normalize(&out.body);
   out.warnings.insert(out.warnings.end(), w.begin(), w.end());
   return out;
