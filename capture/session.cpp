@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -508,27 +509,31 @@ std::optional<int64_t> json_int(const nlohmann::json& j, const char* key) {
   return it->get<int64_t>();
 }
 
-// Re-times `in` into `out` as refit_recording_clocks says; `read` recovers a damaged file, and
-// then messages that do not decode are left out (counted in `undecodable`).
-std::map<std::string, ClockFit> refit(const std::string& in, const std::string& out,
-                                      const McapReadOptions& read, McapReadSummary* summary,
-                                      uint64_t* undecodable) {
-  // Pass 1: every device's (ticks, receive time) pairs and time-sync exchanges.
+// Decodes a RawImu message; in recovery (`recover`) one that does not decode is nothing.
+std::optional<RawImuMessage> decode_raw(std::span<const uint8_t> data, const std::string& file,
+                                        bool recover) {
+  try {
+    return decode_raw_imu_cdr(data, file);
+  } catch (const Error&) {
+    if (!recover) throw;
+    return std::nullopt;
+  }
+}
+
+// What refit's first pass learns from a recording: its channels by kind (device names after
+// "/imu/") and every device's clock, fed with its (ticks, receive time) pairs and time-sync
+// exchanges.
+struct ClockScan {
   std::map<std::string, ClockMapper> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
   std::optional<uint16_t> event_channel;
+};
+
+ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
+  ClockScan scan;
   const auto name_of = [](const std::string& topic, std::string_view suffix) {
     std::string name = topic.substr(5);  // after "/imu/"
     return name.substr(0, name.size() - suffix.size());
-  };
-  // Decodes a RawImu message; in recovery one that does not decode is left out.
-  const auto decode_raw = [&](std::span<const uint8_t> data) -> std::optional<RawImuMessage> {
-    try {
-      return decode_raw_imu_cdr(data, in);
-    } catch (const Error&) {
-      if (!read.recover) throw;
-      return std::nullopt;
-    }
   };
   McapHandlers handlers;
   handlers.on_channel = [&](const McapChannel& c) {
@@ -536,41 +541,46 @@ std::map<std::string, ClockFit> refit(const std::string& in, const std::string& 
       return c.topic.size() > s.size() &&
              c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
     };
-    if (c.topic == "/events") event_channel = c.id;
+    if (c.topic == "/events") scan.event_channel = c.id;
     if (c.topic.rfind("/imu/", 0) != 0) return;
     if (ends("/raw"))
-      raw_channels[c.id] = name_of(c.topic, "/raw");
+      scan.raw_channels[c.id] = name_of(c.topic, "/raw");
     else if (ends("/time_sync"))
-      sync_channels[c.id] = name_of(c.topic, "/time_sync");
+      scan.sync_channels[c.id] = name_of(c.topic, "/time_sync");
     else
-      imu_channels[c.id] = name_of(c.topic, "");
+      scan.imu_channels[c.id] = name_of(c.topic, "");
   };
   handlers.on_message = [&](const McapMessageView& m) {
-    if (const auto it = raw_channels.find(m.channel_id); it != raw_channels.end()) {
-      const auto raw = decode_raw(m.data);
+    if (const auto it = scan.raw_channels.find(m.channel_id); it != scan.raw_channels.end()) {
+      const auto raw = decode_raw(m.data, in, read.recover);
       if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
-        clocks.try_emplace(it->second, 1e9).first->second.add_sample(*ns, raw->host_receive_time);
+        scan.clocks.try_emplace(it->second, 1e9)
+            .first->second.add_sample(*ns, raw->host_receive_time);
       }
-    } else if (const auto s = sync_channels.find(m.channel_id); s != sync_channels.end()) {
+    } else if (const auto s = scan.sync_channels.find(m.channel_id);
+               s != scan.sync_channels.end()) {
       const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
       if (!j.is_object()) return;
       const auto send = json_int(j, "host_send_ns"), receive = json_int(j, "host_receive_ns");
       const auto rx = json_int(j, "device_rx_ns"), tx = json_int(j, "device_tx_ns");
       if (send && receive && rx && tx) {
-        clocks.try_emplace(s->second, 1e9)
+        scan.clocks.try_emplace(s->second, 1e9)
             .first->second.add_ping(*send, static_cast<uint64_t>(*rx), static_cast<uint64_t>(*tx),
                                     *receive);
       }
     }
   };
   read_mcap(in, handlers, read);
-  for (auto& [name, clock] : clocks) clock.flush();
+  for (auto& [name, clock] : scan.clocks) clock.flush();
+  return scan;
+}
 
-  // The fits go into the file too, so `imukit info` can show them.
-  std::vector<McapMetadata> fit_records;
+// The clock fits as metadata records of the refitted file, so `imukit info` can show them.
+std::vector<McapMetadata> clock_fit_records(const std::map<std::string, ClockMapper>& clocks) {
+  std::vector<McapMetadata> records;
   for (const auto& [name, clock] : clocks) {
     const ClockFit f = clock.fit();
-    fit_records.push_back(
+    records.push_back(
         {"imukit.clock." + name,
          {{"skew_ppm", fmt::format("{:.4f}", f.skew_ppm)},
           {"packets", std::to_string(f.packets)},
@@ -581,67 +591,106 @@ std::map<std::string, ClockFit> refit(const std::string& in, const std::string& 
                                           : std::string("unknown (no time-sync pings)")},
           {"pings", std::to_string(f.pings)}}});
   }
-  // Pass 2: re-time every raw message, and the IMU message that follows it. Both were written
-  // with the same (online) stamp; an IMU message whose raw message was lost with a damaged
-  // chunk moves by the correction of the device's last raw message.
+  return records;
+}
+
+// refit's second pass, message by message (an McapMessageEdit): every raw message re-timed by
+// its device's clock, and the IMU message that follows it. Both were written with the same
+// (online) stamp; an IMU message whose raw message was lost with a damaged chunk moves by the
+// correction of the device's last raw message. Events move by their device's clock.
+class Retimer {
+ public:
+  Retimer(const ClockScan& scan, const std::string& file, bool recover)
+      : scan_(scan), file_(file), recover_(recover) {}
+
+  bool operator()(const McapChannel& c, McapMessageView& m) {
+    if (const auto it = scan_.raw_channels.find(c.id); it != scan_.raw_channels.end())
+      return raw(it->second, m);
+    if (scan_.event_channel && c.id == *scan_.event_channel) return event(m);
+    if (const auto it = scan_.imu_channels.find(c.id); it != scan_.imu_channels.end())
+      return imu(it->second, m);
+    return true;
+  }
+
+  // Messages left out because they did not decode (recovery only).
+  uint64_t dropped() const { return dropped_; }
+
+ private:
   struct Retimed {
     TimeNs original = 0, mapped = 0;
   };
-  std::map<std::string, Retimed> last_raw;
-  std::vector<uint8_t> buffer;
-  uint64_t dropped = 0;
-  const McapReadSummary s = rewrite_mcap(
-      in, out,
-      [&](const McapChannel& c, McapMessageView& m) {
-        if (const auto it = raw_channels.find(c.id); it != raw_channels.end()) {
-          auto raw = decode_raw(m.data);
-          if (!raw) return ++dropped, false;
-          const auto clock = clocks.find(it->second);
-          const auto ns = device_ns(*raw);
-          if (!ns || clock == clocks.end()) return true;
-          const TimeNs original = raw->stamp;
-          raw->stamp = clock->second.map(*ns);
-          last_raw[it->second] = {original, raw->stamp};
-          buffer = encode_cdr(*raw);
-          m.data = buffer;
-          m.log_time = static_cast<uint64_t>(raw->stamp);
-        } else if (event_channel && c.id == *event_channel) {
-          const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
-          if (!j.is_object()) return true;
-          const auto device = j.find("device");
-          const auto ns = json_int(j, "device_ns");
-          if (device == j.end() || !device->is_string() || !ns) return true;
-          const auto clock = clocks.find(device->get<std::string>());
-          if (clock == clocks.end()) return true;
-          m.log_time = static_cast<uint64_t>(clock->second.map(static_cast<uint64_t>(*ns)));
-          m.publish_time = m.log_time;
-        } else if (const auto imu = imu_channels.find(c.id); imu != imu_channels.end()) {
-          const auto t = last_raw.find(imu->second);
-          if (t == last_raw.end()) return true;
-          ImuMessage msg;
-          try {
-            msg = decode_imu_cdr(m.data, in);
-          } catch (const Error&) {
-            if (!read.recover) throw;
-            return ++dropped, false;
-          }
-          TimeNs stamp = t->second.mapped, correction = 0;
-          if (msg.stamp != t->second.original &&
-              (__builtin_sub_overflow(t->second.mapped, t->second.original, &correction) ||
-               __builtin_add_overflow(msg.stamp, correction, &stamp)))
-            stamp = msg.stamp;
-          msg.stamp = stamp;
-          buffer = encode_cdr(msg);
-          m.data = buffer;
-          m.log_time = static_cast<uint64_t>(stamp);
-        }
-        return true;
-      },
-      read, fit_records);
+
+  bool raw(const std::string& device, McapMessageView& m) {
+    auto raw = decode_raw(m.data, file_, recover_);
+    if (!raw) return ++dropped_, false;
+    const auto clock = scan_.clocks.find(device);
+    const auto ns = device_ns(*raw);
+    if (!ns || clock == scan_.clocks.end()) return true;
+    const TimeNs original = raw->stamp;
+    raw->stamp = clock->second.map(*ns);
+    last_raw_[device] = {original, raw->stamp};
+    buffer_ = encode_cdr(*raw);
+    m.data = buffer_;
+    m.log_time = static_cast<uint64_t>(raw->stamp);
+    return true;
+  }
+
+  bool event(McapMessageView& m) const {
+    const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
+    if (!j.is_object()) return true;
+    const auto device = j.find("device");
+    const auto ns = json_int(j, "device_ns");
+    if (device == j.end() || !device->is_string() || !ns) return true;
+    const auto clock = scan_.clocks.find(device->get<std::string>());
+    if (clock == scan_.clocks.end()) return true;
+    m.log_time = static_cast<uint64_t>(clock->second.map(static_cast<uint64_t>(*ns)));
+    m.publish_time = m.log_time;
+    return true;
+  }
+
+  bool imu(const std::string& device, McapMessageView& m) {
+    const auto t = last_raw_.find(device);
+    if (t == last_raw_.end()) return true;
+    ImuMessage msg;
+    try {
+      msg = decode_imu_cdr(m.data, file_);
+    } catch (const Error&) {
+      if (!recover_) throw;
+      return ++dropped_, false;
+    }
+    TimeNs stamp = t->second.mapped, correction = 0;
+    if (msg.stamp != t->second.original &&
+        (__builtin_sub_overflow(t->second.mapped, t->second.original, &correction) ||
+         __builtin_add_overflow(msg.stamp, correction, &stamp)))
+      stamp = msg.stamp;
+    msg.stamp = stamp;
+    buffer_ = encode_cdr(msg);
+    m.data = buffer_;
+    m.log_time = static_cast<uint64_t>(stamp);
+    return true;
+  }
+
+  const ClockScan& scan_;
+  const std::string& file_;
+  bool recover_;
+  std::map<std::string, Retimed> last_raw_;
+  std::vector<uint8_t> buffer_;  // the message being rewritten
+  uint64_t dropped_ = 0;
+};
+
+// Re-times `in` into `out` as refit_recording_clocks says; `read` recovers a damaged file, and
+// then messages that do not decode are left out (counted in `undecodable`).
+std::map<std::string, ClockFit> refit(const std::string& in, const std::string& out,
+                                      const McapReadOptions& read, McapReadSummary* summary,
+                                      uint64_t* undecodable) {
+  const ClockScan scan = scan_clocks(in, read);
+  Retimer retimer(scan, in, read.recover);
+  const McapReadSummary s =
+      rewrite_mcap(in, out, std::ref(retimer), read, clock_fit_records(scan.clocks));
   if (summary) *summary = s;
-  if (undecodable) *undecodable = dropped;
+  if (undecodable) *undecodable = retimer.dropped();
   std::map<std::string, ClockFit> fits;
-  for (const auto& [name, clock] : clocks) fits[name] = clock.fit();
+  for (const auto& [name, clock] : scan.clocks) fits[name] = clock.fit();
   return fits;
 }
 
