@@ -224,23 +224,21 @@ Vector3d unwrap_near(const Vector3d& phi, const Vector3d& ref) {
 // sum (-r^2)^k / (2k + 1), 9 terms for an error below 1e-18: no atan2, no square root, no branch,
 // so loops over frames vectorise. `large` is 1 where the series does not apply and the caller
 // takes so3_log instead, else 0 (a double, not a bool, so that it vectorises with the rest).
-// q and -q give the same.
+// q and -q give the same: the sign need not be made positive, because it cancels exactly in
+// v (2 / w) (IEEE negation is exact, and r depends on w^2 only).
 struct SmallAngleLog {
   double x, y, z;
   double large;
 };
 [[gnu::always_inline]] inline SmallAngleLog small_angle_log(double qw, double qx, double qy,
                                                             double qz) {
-  const double sgn = qw < 0.0 ? -1.0 : 1.0;
-  const double w = sgn * qw;
-  const double vx = sgn * qx, vy = sgn * qy, vz = sgn * qz;
-  const double s2 = vx * vx + vy * vy + vz * vz;
-  const double inv = 1.0 / w;
+  const double s2 = qx * qx + qy * qy + qz * qz;
+  const double inv = 1.0 / qw;
   const double r2 = s2 * (inv * inv);
   double r = 1.0 / 17.0;
   for (int m = 7; m >= 0; --m) r = 1.0 / (2 * m + 1) - r2 * r;
   const double scale = 2.0 * r * inv;
-  return {vx * scale, vy * scale, vz * scale, s2 < 0.01 * w * w ? 0.0 : 1.0};
+  return {qx * scale, qy * scale, qz * scale, s2 < 0.01 * qw * qw ? 0.0 : 1.0};
 }
 
 // log(a^* b), the rotation from a to b in a's axes: by the series when small, else so3_log.
@@ -338,6 +336,36 @@ namespace {
     py[i] = d.y;
     pz[i] = d.z;
     large[i] = d.large;
+  }
+}
+
+// Two independent relative logs per lane, log(a^* b) into p and log(c^* d) into q, each as
+// relative_log_lanes has it (the same bits): in one loop the two series' dependency chains
+// overlap, where one after the other each waits on its own multiply-subtract chain.
+// Each quaternion argument points at its w row, with x, y, z `R` doubles apart after it; each
+// output at its x row, with y and z after it the same way, and its flag row apart.
+[[gnu::always_inline]] inline void relative_log_pairs(
+    const double* __restrict a, const double* __restrict b, const double* __restrict c,
+    const double* __restrict d, double* __restrict p, double* __restrict pf, double* __restrict q,
+    double* __restrict qf, std::size_t R, std::size_t n) {
+  const auto log_of = [R](const double* __restrict u, const double* __restrict v, std::size_t i) {
+    const double cw = u[i], cx = -u[R + i], cy = -u[2 * R + i], cz = -u[3 * R + i];
+    const double bw = v[i], bx = v[R + i], by = v[2 * R + i], bz = v[3 * R + i];
+    return small_angle_log(
+        cw * bw - cx * bx - cy * by - cz * bz, (cw * bx + cx * bw) + (cy * bz - cz * by),
+        (cw * by + cy * bw) + (cz * bx - cx * bz), (cw * bz + cz * bw) + (cx * by - cy * bx));
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const SmallAngleLog e = log_of(a, b, i);
+    const SmallAngleLog f = log_of(c, d, i);
+    p[i] = e.x;
+    p[R + i] = e.y;
+    p[2 * R + i] = e.z;
+    pf[i] = e.large;
+    q[i] = f.x;
+    q[R + i] = f.y;
+    q[2 * R + i] = f.z;
+    qf[i] = f.large;
   }
 }
 
@@ -610,9 +638,10 @@ constexpr std::size_t kJointArrays = 13;
 // four frames; a tile of consecutive frames uses rows 0-3 for its n + 3 frames), the steps
 // log(q_(f-1)^* q_f) and log(q_f^* q_f+1) (rows 16-21; for consecutive frames rows 16-18 hold
 // n + 1 steps, each sample's backward step followed by its forward one), log(q_f^* q_f+2) (rows
-// 22-24), their flags (25-27) and the sensor outputs (specific force, angular rate; 28-33).
+// 22-24), their flags (25-27), the sensor outputs (specific force, angular rate; 28-33) and the
+// local rotation at f normalised (w x y z; 34-37).
 constexpr std::size_t kStencilRow = kOnFrameTile + 4;
-constexpr std::size_t kStencilArrays = 34;
+constexpr std::size_t kStencilArrays = 38;
 
 // n consecutive quaternions as Eigen stores them (x, y, z, w) into the arrays w, x, y, z.
 [[gnu::always_inline]] inline void transpose_quaternions(const double* __restrict q,
@@ -624,6 +653,22 @@ constexpr std::size_t kStencilArrays = 34;
     x[i] = q[4 * i];
     y[i] = q[4 * i + 1];
     z[i] = q[4 * i + 2];
+  }
+}
+
+// n quaternions (rows w x y z, kStencilRow apart from q) normalised into the rows from dst.
+// Here, not in joint_tile: there the square root and division were a sixth of its time, waiting
+// at the head of its chain; next to the logarithms' series they overlap.
+[[gnu::always_inline]] inline void normalize_lanes(const double* __restrict q,
+                                                   double* __restrict dst, std::size_t n) {
+  constexpr std::size_t R = kStencilRow;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double lw = q[i], lx = q[R + i], ly = q[2 * R + i], lz = q[3 * R + i];
+    const double inv = 1.0 / std::sqrt(lw * lw + lx * lx + ly * ly + lz * lz);
+    dst[i] = lw * inv;
+    dst[R + i] = lx * inv;
+    dst[2 * R + i] = ly * inv;
+    dst[3 * R + i] = lz * inv;
   }
 }
 
@@ -664,8 +709,14 @@ constexpr std::size_t kStencilArrays = 34;
             sizeof(double);
     for (std::size_t b = 0; b < n * stride * sizeof(double); b += 64)
       __builtin_prefetch(reinterpret_cast<const void*>(next + b));
-    logs(st, st + 1, 16, n + 1);  // steps from frame f-1 on
-    logs(st + 1, st + 3, 22, n);  // f to f+2
+    // The steps from frame f-1 on (n + 1) and f to f+2 (n), the first n of each together.
+    relative_log_pairs(st, st + 1, st + 1, st + 3, st + 16 * R, st + 25 * R, st + 22 * R,
+                       st + 27 * R, R, n);
+    const double* last = st + n;  // the last step
+    relative_log_lanes(last, last + R, last + 2 * R, last + 3 * R, last + 1, last + 1 + R,
+                       last + 1 + 2 * R, last + 1 + 3 * R, st + 16 * R + n, st + 17 * R + n,
+                       st + 18 * R + n, st + 25 * R + n, 1);
+    normalize_lanes(st + 1, st + 34 * R, n);
     const double a = any_flag(st + 25 * R, n + 1), b = any_flag(st + 27 * R, n);
     return a > b ? a : b;
   }
@@ -674,6 +725,7 @@ constexpr std::size_t kStencilArrays = 34;
   logs(st, st + 4 * R, 16, n);           // f-1 to f
   logs(st + 4 * R, st + 8 * R, 19, n);   // f to f+1
   logs(st + 4 * R, st + 12 * R, 22, n);  // f to f+2
+  normalize_lanes(st + 4 * R, st + 34 * R, n);
   double any = 0.0;
   for (std::size_t r = 25; r < 28; ++r) {
     const double v = any_flag(st + r * R, n);
@@ -727,10 +779,8 @@ template <bool Root>
     const double abx = (e[0] * back[i] + e[1] * fwd[i]) + e[2] * fwd2[i];
     const double aby = (e[0] * back[R + i] + e[1] * fwd[R + i]) + e[2] * fwd2[R + i];
     const double abz = (e[0] * back[2 * R + i] + e[1] * fwd[2 * R + i]) + e[2] * fwd2[2 * R + i];
-    // The local rotation at f, normalised.
-    const double lw = lq[i], lx = lq[R + i], ly = lq[2 * R + i], lz = lq[3 * R + i];
-    const double inv = 1.0 / std::sqrt(lw * lw + lx * lx + ly * ly + lz * lz);
-    const double bw = lw * inv, bx = lx * inv, by = ly * inv, bz = lz * inv;
+    // The local rotation at f (normalised by stencil_logs).
+    const double bw = lq[i], bx = lq[R + i], by = lq[2 * R + i], bz = lq[3 * R + i];
     if constexpr (Root) {
       jt[i] = bw;
       jt[T + i] = bx;
@@ -910,7 +960,7 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
           const Vector3d fw(st[16 * R + i + 1], st[17 * R + i + 1], st[18 * R + i + 1]);
           put(22, i, unwrap_near(relative_log(quat(0, i + 1), quat(0, i + 3)), 2.0 * fw));
         }
-        ja.lq = st + 1;
+        ja.lq = st + 34 * R;
         ja.back = st + 16 * R;
         ja.fwd = st + 16 * R + 1;
       } else {
@@ -921,7 +971,7 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
           put(19, i, fw);
           put(22, i, unwrap_near(relative_log(quat(4, i), quat(12, i)), 2.0 * fw));
         }
-        ja.lq = st + 4 * R;
+        ja.lq = st + 34 * R;
         ja.back = st + 16 * R;
         ja.fwd = st + 19 * R;
       }
