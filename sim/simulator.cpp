@@ -342,12 +342,14 @@ namespace {
 // Two independent relative logs per lane, log(a^* b) into p and log(c^* d) into q, each as
 // relative_log_lanes has it (the same bits): in one loop the two series' dependency chains
 // overlap, where one after the other each waits on its own multiply-subtract chain.
-// Each quaternion argument points at its w row, with x, y, z `R` doubles apart after it; each
-// output at its x row, with y and z after it the same way, and its flag row apart.
+// Also c normalised into cn (as normalize_lanes), its square root and division overlapping the
+// series too. Each quaternion argument points at its w row, with x, y, z `R` doubles apart
+// after it; each log output at its x row, with y and z after it the same way, and its flag row
+// apart.
 [[gnu::always_inline]] inline void relative_log_pairs(
     const double* __restrict a, const double* __restrict b, const double* __restrict c,
     const double* __restrict d, double* __restrict p, double* __restrict pf, double* __restrict q,
-    double* __restrict qf, std::size_t R, std::size_t n) {
+    double* __restrict qf, double* __restrict cn, std::size_t R, std::size_t n) {
   const auto log_of = [R](const double* __restrict u, const double* __restrict v, std::size_t i) {
     const double cw = u[i], cx = -u[R + i], cy = -u[2 * R + i], cz = -u[3 * R + i];
     const double bw = v[i], bx = v[R + i], by = v[2 * R + i], bz = v[3 * R + i];
@@ -366,6 +368,12 @@ namespace {
     q[R + i] = f.y;
     q[2 * R + i] = f.z;
     qf[i] = f.large;
+    const double cw = c[i], cx = c[R + i], cy = c[2 * R + i], cz = c[3 * R + i];
+    const double inv = 1.0 / std::sqrt(cw * cw + cx * cx + cy * cy + cz * cz);
+    cn[i] = cw * inv;
+    cn[R + i] = cx * inv;
+    cn[2 * R + i] = cy * inv;
+    cn[3 * R + i] = cz * inv;
   }
 }
 
@@ -711,12 +719,11 @@ constexpr std::size_t kStencilArrays = 38;
       __builtin_prefetch(reinterpret_cast<const void*>(next + b));
     // The steps from frame f-1 on (n + 1) and f to f+2 (n), the first n of each together.
     relative_log_pairs(st, st + 1, st + 1, st + 3, st + 16 * R, st + 25 * R, st + 22 * R,
-                       st + 27 * R, R, n);
+                       st + 27 * R, st + 34 * R, R, n);
     const double* last = st + n;  // the last step
     relative_log_lanes(last, last + R, last + 2 * R, last + 3 * R, last + 1, last + 1 + R,
                        last + 1 + 2 * R, last + 1 + 3 * R, st + 16 * R + n, st + 17 * R + n,
                        st + 18 * R + n, st + 25 * R + n, 1);
-    normalize_lanes(st + 1, st + 34 * R, n);
     const double a = any_flag(st + 25 * R, n + 1), b = any_flag(st + 27 * R, n);
     return a > b ? a : b;
   }
