@@ -35,4 +35,37 @@ inline TimeNs sample_time(TimeNs t0, int64_t index, double rate_hz) {
   return t0 + std::llround(static_cast<long double>(index) * 1e9L / rate_hz);
 }
 
+// sample_time(t0, index, rate_hz) for index after index: the same times, without the division
+// per call (a stream's bookkeeping loops call it per sample). Any index may be asked for; the
+// next one after a non-negative index is the cheap case.
+class SampleClock {
+ public:
+  SampleClock(TimeNs t0, double rate_hz) : t0_(t0), rate_hz_(rate_hz) {
+    double whole = 0.0;
+    if (std::modf(rate_hz, &whole) == 0.0 && whole >= 1.0 && whole < 4e18)
+      per_second_ = static_cast<int64_t>(whole);
+  }
+
+  TimeNs operator()(int64_t index) {
+    if (per_second_ == 0) return sample_time(t0_, index, rate_hz_);
+    if (index != next_ || index <= 0) {
+      seconds_ = index / per_second_;
+      within_ = index % per_second_;
+    }
+    const TimeNs t = t0_ + seconds_ * kNsPerSecond +
+                     std::llround(static_cast<double>(within_) * 1e9 / rate_hz_);
+    // The next index's quotient and remainder (of a non-negative index: no sign cases).
+    next_ = index + 1;
+    if (++within_ == per_second_) within_ = 0, ++seconds_;
+    return t;
+  }
+
+ private:
+  TimeNs t0_;
+  double rate_hz_;
+  int64_t per_second_ = 0;  // the rate when it is a whole number, else 0
+  int64_t next_ = 0;        // the index whose quotient and remainder are held, when > 0
+  int64_t seconds_ = 0, within_ = 0;
+};
+
 }  // namespace imukit

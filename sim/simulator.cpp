@@ -1234,8 +1234,9 @@ int64_t sample_count(double motion_rate_hz, int64_t frames, double rate) {
   int64_t n =
       static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion_rate_hz * rate));
   n = std::max<int64_t>(n - 2, 0);
+  SampleClock clock(0, rate);
   const auto inside = [&](int64_t k) {
-    const FramePosition fp = frame_position(sample_time(0, k, rate), motion_rate_hz);
+    const FramePosition fp = frame_position(clock(k), motion_rate_hz);
     return fp.frame < frames - 1 || (fp.frame == frames - 1 && fp.frac == 0.0);
   };
   while (inside(n + 1)) ++n;
@@ -1765,12 +1766,13 @@ void Simulator::run(MotionSource& motion,
   const double rate = sample_rate_hz(options_, motion);
   std::vector<TimeNs> times;
   std::vector<SensorBlock> blocks;
+  SampleClock clock(0, rate);
   int64_t n = 0;
   int64_t chunk_end = options_.chunk_frames;
   while (n < total) {
     times.clear();
     while (n < total) {
-      const TimeNs t = sample_time(0, n, rate);
+      const TimeNs t = clock(n);
       if (frame_position(t, motion_rate).frame >= chunk_end && !times.empty()) break;
       times.push_back(t);
       ++n;

@@ -31,6 +31,23 @@ TEST(SampleTime, NegativeIndicesMirrorPositiveOnes) {
   EXPECT_EQ(sample_time(0, -1001, 1000.0), -1'001'000'000);
 }
 
+TEST(SampleClock, GivesSampleTimesExactlyInOrderAndOutOfIt) {
+  for (const double rate : {1.0, 3.0, 100.0, 120.0, 1000.0, 1e6, 285.714285, 0.5, 99.9}) {
+    for (const TimeNs t0 : {TimeNs{0}, TimeNs{-7}, TimeNs{1'700'000'000'000'000'000}}) {
+      SampleClock clock(t0, rate);
+      // In order across several whole seconds, from a negative index on.
+      for (int64_t k = -2500; k < 5000; ++k)
+        ASSERT_EQ(clock(k), sample_time(t0, k, rate)) << rate << " " << t0 << " " << k;
+      // Jumps, backwards and far, then in order again.
+      for (const int64_t k : {int64_t{7}, int64_t{3}, int64_t{0}, int64_t{-1}, int64_t{999'999},
+                              int64_t{1'000'000}, int64_t{1'000'001}, int64_t{86'399'999'999},
+                              int64_t{5}, int64_t{6}}) {
+        ASSERT_EQ(clock(k), sample_time(t0, k, rate)) << rate << " " << t0 << " " << k;
+      }
+    }
+  }
+}
+
 TEST(TimeConversions, RoundTripSeconds) {
   EXPECT_EQ(from_seconds(1.5), 1'500'000'000);
   EXPECT_EQ(from_seconds(-0.25), -250'000'000);
