@@ -52,8 +52,8 @@ class SampleClock {
       seconds_ = index / per_second_;
       within_ = index % per_second_;
     }
-    const TimeNs t = t0_ + seconds_ * kNsPerSecond +
-                     std::llround(static_cast<double>(within_) * 1e9 / rate_hz_);
+    const TimeNs t =
+        t0_ + seconds_ * kNsPerSecond + std::llround(static_cast<double>(within_) * 1e9 / rate_hz_);
     // The next index's quotient and remainder (of a non-negative index: no sign cases).
     next_ = index + 1;
     if (++within_ == per_second_) within_ = 0, ++seconds_;
