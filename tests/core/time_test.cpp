@@ -32,7 +32,8 @@ TEST(SampleTime, NegativeIndicesMirrorPositiveOnes) {
 }
 
 TEST(SampleClock, GivesSampleTimesExactlyInOrderAndOutOfIt) {
-  for (const double rate : {1.0, 3.0, 100.0, 120.0, 1000.0, 1e6, 285.714285, 0.5, 99.9}) {
+  for (const double rate :
+       {1.0, 3.0, 100.0, 120.0, 1000.0, 1e6, 1e9, 5e8, 285.714285, 0.5, 99.9, 4e9}) {
     for (const TimeNs t0 : {TimeNs{0}, TimeNs{-7}, TimeNs{1'700'000'000'000'000'000}}) {
       SampleClock clock(t0, rate);
       // In order across several whole seconds, from a negative index on.
