@@ -339,6 +339,18 @@ namespace {
   }
 }
 
+// Lane i of the quaternion rows at q (w x y z, R doubles apart) normalised into the rows at dst.
+[[gnu::always_inline]] inline void normalize_lane(const double* __restrict q,
+                                                  double* __restrict dst, std::size_t R,
+                                                  std::size_t i) {
+  const double w = q[i], x = q[R + i], y = q[2 * R + i], z = q[3 * R + i];
+  const double inv = 1.0 / std::sqrt(w * w + x * x + y * y + z * z);
+  dst[i] = w * inv;
+  dst[R + i] = x * inv;
+  dst[2 * R + i] = y * inv;
+  dst[3 * R + i] = z * inv;
+}
+
 // Two independent relative logs per lane, log(a^* b) into p and log(c^* d) into q, each as
 // relative_log_lanes has it (the same bits): in one loop the two series' dependency chains
 // overlap, where one after the other each waits on its own multiply-subtract chain.
@@ -368,12 +380,7 @@ namespace {
     q[R + i] = f.y;
     q[2 * R + i] = f.z;
     qf[i] = f.large;
-    const double cw = c[i], cx = c[R + i], cy = c[2 * R + i], cz = c[3 * R + i];
-    const double inv = 1.0 / std::sqrt(cw * cw + cx * cx + cy * cy + cz * cz);
-    cn[i] = cw * inv;
-    cn[R + i] = cx * inv;
-    cn[2 * R + i] = cy * inv;
-    cn[3 * R + i] = cz * inv;
+    normalize_lane(c, cn, R, i);
   }
 }
 
@@ -669,15 +676,7 @@ constexpr std::size_t kStencilArrays = 38;
 // at the head of its chain; next to the logarithms' series they overlap.
 [[gnu::always_inline]] inline void normalize_lanes(const double* __restrict q,
                                                    double* __restrict dst, std::size_t n) {
-  constexpr std::size_t R = kStencilRow;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double lw = q[i], lx = q[R + i], ly = q[2 * R + i], lz = q[3 * R + i];
-    const double inv = 1.0 / std::sqrt(lw * lw + lx * lx + ly * ly + lz * lz);
-    dst[i] = lw * inv;
-    dst[R + i] = lx * inv;
-    dst[2 * R + i] = ly * inv;
-    dst[3 * R + i] = lz * inv;
-  }
+  for (std::size_t i = 0; i < n; ++i) normalize_lane(q, dst, kStencilRow, i);
 }
 
 // One joint's stencil for a tile of n samples on frames fr (frames of the motion; its rotations
