@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <numbers>
 #include <sstream>
 
@@ -188,29 +189,27 @@ Motion ProceduralMotion::materialize(int64_t frames) {
 
 // --- quaternion CSV ---------------------------------------------------------------------------
 
-Motion parse_quaternion_csv(std::string_view text, const std::string& source_name, const Body& body,
-                            std::optional<double> rate_hz, std::vector<std::string>* warnings) {
-  LineReader reader(text, source_name);
-  std::vector<Field> fields;
-  const auto at = [&](int64_t column) {
-    return InputLocation{source_name, reader.line_number(), column, std::nullopt};
-  };
-  std::optional<std::string_view> line = reader.next();
-  if (!line)
-    throw Error(InputLocation{source_name, 1, 1, std::nullopt},
-                "empty file: expected a header row");
-  split_fields(*line, fields);
-  // Column roles: -1 skip, 0 time, 1..3 root x..z, 10 + 4 j + c joint j component c (w,x,y,z).
-  std::vector<int> role(fields.size(), -1);
+namespace {
+
+// What each column of a joint-quaternion CSV holds: -1 nothing, 0 time, 1..3 root x..z,
+// 10 + 4 j + c joint j's component c (w, x, y, z).
+struct QuaternionColumns {
+  std::vector<int> role;
   bool have_t = false;
+};
+
+QuaternionColumns quaternion_columns(const std::vector<Field>& fields, const Body& body,
+                                     const std::function<InputLocation(int64_t)>& at) {
+  QuaternionColumns cols;
+  cols.role.assign(fields.size(), -1);
   std::vector<std::array<bool, 4>> have(body.size(), {false, false, false, false});
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const std::string name(fields[i].text);
     if (name == "t" || name == "time" || name == "t_s") {
-      role[i] = 0;
-      have_t = true;
+      cols.role[i] = 0;
+      cols.have_t = true;
     } else if (name == "root_x" || name == "root_y" || name == "root_z") {
-      role[i] = 1 + (name.back() - 'x');
+      cols.role[i] = 1 + (name.back() - 'x');
     } else if (name.size() > 3 && name[name.size() - 3] == '_' && name[name.size() - 2] == 'q') {
       const char c = name.back();
       const int comp = c == 'w' ? 0 : c == 'x' ? 1 : c == 'y' ? 2 : c == 'z' ? 3 : -1;
@@ -224,7 +223,7 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
                     "column " + quote_excerpt(name) + " repeats a joint component");
       }
       have[static_cast<std::size_t>(*j)][static_cast<std::size_t>(comp)] = true;
-      role[i] = 10 + 4 * *j + comp;
+      cols.role[i] = 10 + 4 * *j + comp;
     } else {
       throw Error(at(fields[i].column), "unknown column " + quote_excerpt(name) +
                                             " (expected t, root_x..z or <joint>_qw..qz)");
@@ -236,59 +235,43 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       throw Error(at(1), "joint " + body.joint(j).name + " needs all four columns _qw,_qx,_qy,_qz");
     }
   }
-  if (!have_t && !rate_hz) throw Error(at(1), "no t column: give the frame rate");
-  std::vector<double> times;
-  std::vector<double> values;  // row-major, fields.size() per row
-  const std::size_t width = fields.size();
-  while ((line = reader.next())) {
-    if (line->empty()) continue;
-    split_fields(*line, fields);
-    if (fields.size() != width) {
-      throw Error(at(1), "expected " + std::to_string(width) + " fields, got " +
-                             std::to_string(fields.size()));
-    }
-    for (std::size_t i = 0; i < width; ++i) {
-      const auto v = parse_double(fields[i].text);
-      if (!v)
-        throw Error(at(fields[i].column), "not a number: " + quote_excerpt(fields[i].text, 24));
-      if (!std::isfinite(*v)) {
-        throw Error(at(fields[i].column),
-                    "frame " + std::to_string(times.size()) + ": value is not finite");
-      }
-      values.push_back(*v);
-      if (role[i] == 0) times.push_back(*v);
-    }
-    if (!have_t) times.push_back(0.0);
+  return cols;
+}
+
+// The frame rate from the t column: a uniform step within the rates a BVH may state.
+double rate_from_times(const std::vector<double>& times, int64_t frames,
+                       const std::string& source_name) {
+  if (frames < 2) {
+    throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
+                "motion has " + std::to_string(frames) +
+                    " frame(s): the rate cannot be taken from t (simulation needs >= 2)");
   }
+  const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
+  if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
+  // A step of 1e20 s made the simulator's sample times overflow int64 ns (found by fuzzing),
+  // one of 1e-12 s puts every frame at the same ns.
+  if (!(dt >= 1e-6 && dt <= 3600.0)) {
+    std::ostringstream what;
+    what << "t steps by " << dt
+         << " s per frame: motions are read at 1 frame per hour to 1e6 frames per second";
+    throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt}, what.str());
+  }
+  for (int64_t f = 1; f < frames; ++f) {
+    const double step = times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
+    if (std::abs(step - dt) > 1e-6 * dt) {
+      throw Error(InputLocation{source_name, f + 2, 1, std::nullopt},
+                  "t is not uniform (step " + std::to_string(step) + " s, mean " +
+                      std::to_string(dt) + " s)");
+    }
+  }
+  return 1.0 / dt;
+}
+
+// The rows' values (row-major, one per column) into a Motion of the body's joints.
+Motion quaternion_motion(const std::vector<double>& values, const std::vector<int>& role,
+                         double rate, const Body& body) {
+  const std::size_t width = role.size();
   const auto frames = static_cast<int64_t>(values.size() / std::max<std::size_t>(width, 1));
-  double rate = rate_hz.value_or(0.0);
-  if (!rate_hz) {
-    if (frames < 2) {
-      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
-                  "motion has " + std::to_string(frames) +
-                      " frame(s): the rate cannot be taken from t (simulation needs >= 2)");
-    }
-    const double dt = (times.back() - times.front()) / static_cast<double>(frames - 1);
-    if (!(dt > 0.0)) throw Error(source_name + ": t does not increase");
-    // The frame rates a BVH may state, too: a step of 1e20 s made the simulator's sample times
-    // overflow int64 ns (found by fuzzing), one of 1e-12 s puts every frame at the same ns.
-    if (!(dt >= 1e-6 && dt <= 3600.0)) {
-      std::ostringstream what;
-      what << "t steps by " << dt
-           << " s per frame: motions are read at 1 frame per hour to 1e6 frames per second";
-      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt}, what.str());
-    }
-    for (int64_t f = 1; f < frames; ++f) {
-      const double step =
-          times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
-      if (std::abs(step - dt) > 1e-6 * dt) {
-        throw Error(InputLocation{source_name, f + 2, 1, std::nullopt},
-                    "t is not uniform (step " + std::to_string(step) + " s, mean " +
-                        std::to_string(dt) + " s)");
-      }
-    }
-    rate = 1.0 / dt;
-  }
   Motion m(rate, body.size(), frames);
   for (int64_t f = 0; f < frames; ++f) {
     for (std::size_t i = 0; i < width; ++i) {
@@ -310,6 +293,51 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       }
     }
   }
+  return m;
+}
+
+}  // namespace
+
+Motion parse_quaternion_csv(std::string_view text, const std::string& source_name, const Body& body,
+                            std::optional<double> rate_hz, std::vector<std::string>* warnings) {
+  LineReader reader(text, source_name);
+  std::vector<Field> fields;
+  const auto at = [&](int64_t column) {
+    return InputLocation{source_name, reader.line_number(), column, std::nullopt};
+  };
+  std::optional<std::string_view> line = reader.next();
+  if (!line)
+    throw Error(InputLocation{source_name, 1, 1, std::nullopt},
+                "empty file: expected a header row");
+  split_fields(*line, fields);
+  const QuaternionColumns cols = quaternion_columns(fields, body, at);
+  if (!cols.have_t && !rate_hz) throw Error(at(1), "no t column: give the frame rate");
+  std::vector<double> times;
+  std::vector<double> values;  // row-major, fields.size() per row
+  const std::size_t width = fields.size();
+  while ((line = reader.next())) {
+    if (line->empty()) continue;
+    split_fields(*line, fields);
+    if (fields.size() != width) {
+      throw Error(at(1), "expected " + std::to_string(width) + " fields, got " +
+                             std::to_string(fields.size()));
+    }
+    for (std::size_t i = 0; i < width; ++i) {
+      const auto v = parse_double(fields[i].text);
+      if (!v)
+        throw Error(at(fields[i].column), "not a number: " + quote_excerpt(fields[i].text, 24));
+      if (!std::isfinite(*v)) {
+        throw Error(at(fields[i].column),
+                    "frame " + std::to_string(times.size()) + ": value is not finite");
+      }
+      values.push_back(*v);
+      if (cols.role[i] == 0) times.push_back(*v);
+    }
+    if (!cols.have_t) times.push_back(0.0);
+  }
+  const auto frames = static_cast<int64_t>(values.size() / std::max<std::size_t>(width, 1));
+  const double rate = rate_hz ? *rate_hz : rate_from_times(times, frames, source_name);
+  Motion m = quaternion_motion(values, cols.role, rate, body);
   std::vector<std::string> w = m.validate_and_normalize(&body);
   if (warnings != nullptr) warnings->insert(warnings->end(), w.begin(), w.end());
   return m;
