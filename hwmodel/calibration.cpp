@@ -305,28 +305,13 @@ void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& 
   rms = means.empty() ? 0.0 : std::sqrt(ss / static_cast<double>(means.size()));
 }
 
-}  // namespace
-
-CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
-                            const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options) {
-  const auto start = std::chrono::steady_clock::now();
-  const auto n = static_cast<int64_t>(t.size());
-  if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
-    throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
-  }
-  // Ceres would chase a NaN or astronomically scaled model; gravity is a physical quantity.
-  if (!(options.gravity > 0 && options.gravity <= 1000))
-    throw Error(fmt::format("calibration: gravity {:g} m/s^2 is not plausible", options.gravity));
-  if (n < 2) {
-    throw Error(fmt::format(
-        "calibration: the recording has {} sample(s); a multi-position calibration needs the "
-        "initial static period and {} or more still poses",
-        n, options.min_poses));
-  }
+// The threshold search (the paper's k): the factor whose static poses give the accelerometer
+// fit with the smallest norm error.
+CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                                          const CalibrationOptions& options) {
   CalibrationResult best;
   bool have = false;
   std::string last_error = "no threshold factor gave enough static poses";
-  // Threshold search (the paper's k): keep the factor whose accelerometer fit fits best.
   for (int k = 1; k <= options.max_threshold_factor; ++k) {
     StaticDetectorOptions d = options.detector;
     d.threshold_factor = static_cast<double>(k);
@@ -352,91 +337,123 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
     if (!have || r.accel_rms < best.accel_rms) best = std::move(r), have = true;
   }
   if (!have) throw Error("calibration: " + last_error);
+  return best;
+}
 
-  if (options.calibrate_gyro) {
-    const auto& iv = best.poses;
-    // Bias from the first static pose (the initial static period), then refined with the rest.
-    double m[6] = {0, 0, 0, 0, 0, 0}, s[3] = {1, 1, 1}, b[3];
-    const Eigen::Vector3d b0 = interval_mean(gyro, iv.front());
-    for (int a = 0; a < 3; ++a) b[a] = b0(a);
-    ceres::Problem problem;
-    std::vector<Eigen::Vector3d> dirs;
-    for (const auto& i : iv) dirs.push_back(best.accel.apply(interval_mean(accel, i)).normalized());
-    for (size_t p = 0; p + 1 < iv.size(); ++p) {
-      // From the middle of pose p to the middle of pose p+1: the static parts at both ends carry
-      // the bias into the fit and cost nothing in rotation.
-      const int64_t from = (iv[p].begin + iv[p].end) / 2,
-                    to = (iv[p + 1].begin + iv[p + 1].end) / 2;
-      std::vector<double> dt;
-      for (int64_t q = from; q < to; ++q)
-        dt.push_back(to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]));
-      problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<GyroResidual, 3, 6, 3, 3>(
-              new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1])),
-          nullptr, m, s, b);
-    }
-    // Scale starts at 1 (SI input) or is guessed for raw counts: the rotation angle between
-    // poses from gravity against the integrated raw rate.
-    {
-      double num = 0.0, den = 0.0;
-      for (size_t p = 0; p + 1 < iv.size(); ++p) {
-        const double angle = std::acos(std::clamp(dirs[p].dot(dirs[p + 1]), -1.0, 1.0));
-        Eigen::Vector3d integ = Eigen::Vector3d::Zero();
-        for (int64_t q = iv[p].end; q < iv[p + 1].begin; ++q)
-          integ += (gyro.col(q) - b0) *
-                   to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]);
-        if (angle > 0.3) num += angle, den += integ.norm();
-      }
-      if (den > 0 && num > 0) {
-        for (double& v : s) v = num / den;
-      }
-    }
-    auto refs = [&] { return column_references(6, s); };
-    int cols = 0;
-    const int rank_before = jacobian_rank(problem, refs(), &cols);
-    ceres::Solver::Options so;
-    so.max_num_iterations = options.max_iterations;
-    so.linear_solver_type = ceres::DENSE_QR;
-    so.num_threads = 2;
-    ceres::Solver::Summary summary;
-    ceres::Solve(so, &problem, &summary);
-    const int rank = jacobian_rank(problem, refs(), &cols);
-    if (std::min(rank, rank_before) < cols) {
-      throw Error(
-          "gyroscope calibration: the rotations between poses do not excite all axes "
-          "(Jacobian rank " +
-          std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
-          "); rotate about each of the three axes");
-    }
-    if (summary.termination_type == ceres::FAILURE) {
-      throw Error("gyroscope calibration did not converge: " + summary.BriefReport());
-    }
-    best.gyro.T << 1, m[0], m[1], m[2], 1, m[3], m[4], m[5], 1;
-    best.gyro.scale = Eigen::Vector3d(s[0], s[1], s[2]);
-    best.gyro.bias = Eigen::Vector3d(b[0], b[1], b[2]);
-    // Residual angles.
-    double ss = 0.0;
-    best.gyro_max_rad = 0.0;
-    std::vector<double> res(3);
-    for (ceres::ResidualBlockId id : [&] {
-           std::vector<ceres::ResidualBlockId> ids;
-           problem.GetResidualBlocks(&ids);
-           return ids;
-         }()) {
-      double r[3];
-      const ceres::CostFunction* cf = problem.GetCostFunctionForResidualBlock(id);
-      const double* params[3] = {m, s, b};
-      cf->Evaluate(params, r, nullptr);
-      // |p - u| = 2 sin(angle/2) for unit vectors.
-      const double chord = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-      const double ang = 2.0 * std::asin(std::min(1.0, 0.5 * chord));
-      best.gyro_direction_error_rad.push_back(ang);
-      ss += ang * ang;
-      best.gyro_max_rad = std::max(best.gyro_max_rad, ang);
-    }
-    best.gyro_rms_rad = std::sqrt(
-        ss / static_cast<double>(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
+// The gyroscope's starting scale: 1 for SI input, guessed for raw counts from the rotation angle
+// between poses (from gravity) against the integrated raw rate.
+double initial_gyro_scale(std::span<const TimeNs> t, const Eigen::Matrix3Xd& gyro,
+                          const std::vector<StaticInterval>& iv,
+                          const std::vector<Eigen::Vector3d>& dirs, const Eigen::Vector3d& b0) {
+  double num = 0.0, den = 0.0;
+  for (size_t p = 0; p + 1 < iv.size(); ++p) {
+    const double angle = std::acos(std::clamp(dirs[p].dot(dirs[p + 1]), -1.0, 1.0));
+    Eigen::Vector3d integ = Eigen::Vector3d::Zero();
+    for (int64_t q = iv[p].end; q < iv[p + 1].begin; ++q)
+      integ += (gyro.col(q) - b0) *
+               to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]);
+    if (angle > 0.3) num += angle, den += integ.norm();
   }
+  return den > 0 && num > 0 ? num / den : 1.0;
+}
+
+// Each rotation's residual angle after the fit (the residual is the chord between the predicted
+// and the measured gravity direction), into best's gyroscope error fields.
+void gyro_residual_angles(const ceres::Problem& problem, const double* m, const double* s,
+                          const double* b, CalibrationResult& best) {
+  double ss = 0.0;
+  best.gyro_max_rad = 0.0;
+  std::vector<ceres::ResidualBlockId> ids;
+  problem.GetResidualBlocks(&ids);
+  for (ceres::ResidualBlockId id : ids) {
+    double r[3];
+    const ceres::CostFunction* cf = problem.GetCostFunctionForResidualBlock(id);
+    const double* params[3] = {m, s, b};
+    cf->Evaluate(params, r, nullptr);
+    // |p - u| = 2 sin(angle/2) for unit vectors.
+    const double chord = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+    const double ang = 2.0 * std::asin(std::min(1.0, 0.5 * chord));
+    best.gyro_direction_error_rad.push_back(ang);
+    ss += ang * ang;
+    best.gyro_max_rad = std::max(best.gyro_max_rad, ang);
+  }
+  best.gyro_rms_rad = std::sqrt(
+      ss / static_cast<double>(std::max<size_t>(1, best.gyro_direction_error_rad.size())));
+}
+
+// The gyroscope's misalignment, scale and bias from the rotations between best's poses: each
+// rotation, integrated, must turn the gravity direction of one pose into the next's.
+void fit_gyroscope(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                   const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options,
+                   CalibrationResult& best) {
+  const auto& iv = best.poses;
+  // Bias from the first static pose (the initial static period), then refined with the rest.
+  double m[6] = {0, 0, 0, 0, 0, 0}, s[3] = {1, 1, 1}, b[3];
+  const Eigen::Vector3d b0 = interval_mean(gyro, iv.front());
+  for (int a = 0; a < 3; ++a) b[a] = b0(a);
+  ceres::Problem problem;
+  std::vector<Eigen::Vector3d> dirs;
+  for (const auto& i : iv) dirs.push_back(best.accel.apply(interval_mean(accel, i)).normalized());
+  for (size_t p = 0; p + 1 < iv.size(); ++p) {
+    // From the middle of pose p to the middle of pose p+1: the static parts at both ends carry
+    // the bias into the fit and cost nothing in rotation.
+    const int64_t from = (iv[p].begin + iv[p].end) / 2, to = (iv[p + 1].begin + iv[p + 1].end) / 2;
+    std::vector<double> dt;
+    for (int64_t q = from; q < to; ++q)
+      dt.push_back(to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]));
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<GyroResidual, 3, 6, 3, 3>(
+            new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1])),
+        nullptr, m, s, b);
+  }
+  const double scale = initial_gyro_scale(t, gyro, iv, dirs, b0);
+  for (double& v : s) v = scale;
+  auto refs = [&] { return column_references(6, s); };
+  int cols = 0;
+  const int rank_before = jacobian_rank(problem, refs(), &cols);
+  ceres::Solver::Options so;
+  so.max_num_iterations = options.max_iterations;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.num_threads = 2;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  const int rank = jacobian_rank(problem, refs(), &cols);
+  if (std::min(rank, rank_before) < cols) {
+    throw Error(
+        "gyroscope calibration: the rotations between poses do not excite all axes "
+        "(Jacobian rank " +
+        std::to_string(std::min(rank, rank_before)) + " of " + std::to_string(cols) +
+        "); rotate about each of the three axes");
+  }
+  if (summary.termination_type == ceres::FAILURE) {
+    throw Error("gyroscope calibration did not converge: " + summary.BriefReport());
+  }
+  best.gyro.T << 1, m[0], m[1], m[2], 1, m[3], m[4], m[5], 1;
+  best.gyro.scale = Eigen::Vector3d(s[0], s[1], s[2]);
+  best.gyro.bias = Eigen::Vector3d(b[0], b[1], b[2]);
+  gyro_residual_angles(problem, m, s, b, best);
+}
+
+}  // namespace
+
+CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
+                            const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto n = static_cast<int64_t>(t.size());
+  if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
+    throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
+  }
+  // Ceres would chase a NaN or astronomically scaled model; gravity is a physical quantity.
+  if (!(options.gravity > 0 && options.gravity <= 1000))
+    throw Error(fmt::format("calibration: gravity {:g} m/s^2 is not plausible", options.gravity));
+  if (n < 2) {
+    throw Error(fmt::format(
+        "calibration: the recording has {} sample(s); a multi-position calibration needs the "
+        "initial static period and {} or more still poses",
+        n, options.min_poses));
+  }
+  CalibrationResult best = fit_accelerometer_poses(t, accel, options);
+  if (options.calibrate_gyro) fit_gyroscope(t, accel, gyro, options, best);
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return best;
 }
