@@ -82,11 +82,9 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   return line;
 }
 
-int run_record(const RecordArgs& args) {
-  if (std::filesystem::path(args.output).extension() != ".mcap") {
-    throw UsageError(fmt::format("record: the output must be a .mcap file, got {}",
-                                 quote_excerpt(args.output, 200)));
-  }
+// The devices of the command line, each with its stream name (a --rate goes into URIs without
+// their own rate=).
+std::vector<capture::SessionDevice> open_devices(const RecordArgs& args) {
   std::vector<capture::SessionDevice> devices;
   std::set<std::string> used;
   for (std::string text : args.uris) {
@@ -101,6 +99,72 @@ int run_record(const RecordArgs& args) {
     d.device = drivers::open_device(text);
     devices.push_back(std::move(d));
   }
+  return devices;
+}
+
+// --guide multipos: the pose guide, and what it says to the person holding the device.
+void add_pose_guide(const RecordArgs& args, bool tty, capture::SessionOptions& options) {
+  if (args.guide != "multipos") throw UsageError("--guide: the only guide is multipos");
+  capture::PoseGuideOptions guide;
+  guide.poses_wanted = args.poses;
+  guide.initial_still_s = args.init_static_s;
+  options.guide = guide;
+  options.on_pose = [&args, tty](const std::string& device, const capture::PoseEvent& e) {
+    if (tty) fmt::print("\n");
+    if (e.initial) {
+      fmt::print("{}: held still for {:g} s (the initial static period): done\n", device,
+                 args.init_static_s);
+    }
+    if (e.kind == capture::PoseEvent::Kind::repeated_pose) {
+      fmt::print("{}: this orientation is already recorded: turn to a new one\n", device);
+    } else if (e.kind == capture::PoseEvent::Kind::done) {
+      fmt::print("{}: pose {} of {} held: done\n", device, e.count, args.poses);
+    } else {
+      fmt::print("{}: pose {} of {} held: rotate to a new orientation and hold it still for 2 s\n",
+                 device, e.count, args.poses);
+    }
+    std::fflush(stdout);
+  };
+}
+
+// Per device: samples, rate, every kind of loss, the backlog and the clock fit. Returns the
+// names of the devices that sent nothing ("" if none).
+std::string print_report(const capture::SessionReport& report) {
+  fmt::print("stopped: {}\n", report.stop_reason);
+  const std::size_t queue_capacity = capture::SessionOptions{}.queue_capacity;
+  std::string silent;
+  for (const auto& d : report.devices) {
+    // The backlog is how far the writer fell behind the device (the queue between them): near
+    // the capacity, samples were about to be lost.
+    fmt::print(
+        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
+        "the recorder {}, largest backlog {} of {} samples; ended: {}\n",
+        d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
+        d.queue_high_water, queue_capacity, d.end_reason);
+    if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
+    if (d.clock.packets > 1) {
+      fmt::print(
+          "  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} "
+          "us{}\n",
+          d.clock.skew_ppm, d.clock.jitter_mean_s * 1e6, d.clock.jitter_std_s * 1e6,
+          d.clock.jitter_max_s * 1e6,
+          d.clock.ping_corrected
+              ? fmt::format(
+                    "; latency {:.1f} us from {} time-sync pings (best round trip {:.1f} us)",
+                    d.clock.latency_correction_s * 1e6, d.clock.pings,
+                    d.clock.best_round_trip_s * 1e6)
+              : "; no time-sync pings: times are receive times at the smallest latency seen");
+    }
+  }
+  return silent;
+}
+
+int run_record(const RecordArgs& args) {
+  if (std::filesystem::path(args.output).extension() != ".mcap") {
+    throw UsageError(fmt::format("record: the output must be a .mcap file, got {}",
+                                 quote_excerpt(args.output, 200)));
+  }
+  std::vector<capture::SessionDevice> devices = open_devices(args);
   // A virtual-clock mock makes data as fast as the disk takes it: without a limit it would fill
   // the disk before anyone reached for Ctrl-C. A guide is a limit only if it can complete.
   const bool all_virtual = std::all_of(
@@ -122,30 +186,7 @@ int run_record(const RecordArgs& args) {
   options.finalize = !args.no_refit;
   options.stop = &g_stop;
   options.detect_taps = !args.no_taps;
-  if (!args.guide.empty()) {
-    if (args.guide != "multipos") throw UsageError("--guide: the only guide is multipos");
-    capture::PoseGuideOptions guide;
-    guide.poses_wanted = args.poses;
-    guide.initial_still_s = args.init_static_s;
-    options.guide = guide;
-    options.on_pose = [&](const std::string& device, const capture::PoseEvent& e) {
-      if (tty) fmt::print("\n");
-      if (e.initial) {
-        fmt::print("{}: held still for {:g} s (the initial static period): done\n", device,
-                   args.init_static_s);
-      }
-      if (e.kind == capture::PoseEvent::Kind::repeated_pose) {
-        fmt::print("{}: this orientation is already recorded: turn to a new one\n", device);
-      } else if (e.kind == capture::PoseEvent::Kind::done) {
-        fmt::print("{}: pose {} of {} held: done\n", device, e.count, args.poses);
-      } else {
-        fmt::print(
-            "{}: pose {} of {} held: rotate to a new orientation and hold it still for 2 s\n",
-            device, e.count, args.poses);
-      }
-      std::fflush(stdout);
-    };
-  }
+  if (!args.guide.empty()) add_pose_guide(args, tty, options);
   if (::isatty(STDIN_FILENO)) {
     auto markers = std::make_shared<Markers>();
     start_marker_thread(markers);
@@ -176,32 +217,7 @@ int run_record(const RecordArgs& args) {
   }
   const capture::SessionReport report = capture::record_session(std::move(devices), options);
   if (tty) fmt::print("\n");
-  fmt::print("stopped: {}\n", report.stop_reason);
-  const std::size_t queue_capacity = capture::SessionOptions{}.queue_capacity;
-  std::string silent;
-  for (const auto& d : report.devices) {
-    // The backlog is how far the writer fell behind the device (the queue between them): near
-    // the capacity, samples were about to be lost.
-    fmt::print(
-        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
-        "the recorder {}, largest backlog {} of {} samples; ended: {}\n",
-        d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
-        d.queue_high_water, queue_capacity, d.end_reason);
-    if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
-    if (d.clock.packets > 1) {
-      fmt::print(
-          "  clock: device {:+.3f} ppm, receive jitter mean {:.1f} us, std {:.1f} us, max {:.1f} "
-          "us{}\n",
-          d.clock.skew_ppm, d.clock.jitter_mean_s * 1e6, d.clock.jitter_std_s * 1e6,
-          d.clock.jitter_max_s * 1e6,
-          d.clock.ping_corrected
-              ? fmt::format(
-                    "; latency {:.1f} us from {} time-sync pings (best round trip {:.1f} us)",
-                    d.clock.latency_correction_s * 1e6, d.clock.pings,
-                    d.clock.best_round_trip_s * 1e6)
-              : "; no time-sync pings: times are receive times at the smallest latency seen");
-    }
-  }
+  const std::string silent = print_report(report);
   fmt::print("wrote {}\n", args.output);
   if (!silent.empty())
     throw IoError(fmt::format("record: no samples from {} (see the end reason above)", silent));
