@@ -2,6 +2,8 @@
 shared data folder (both from tests/conftest.py, which pytest loads and puts on sys.path), and a
 EuRoC CSV reader in plain NumPy."""
 import subprocess
+import threading
+import time
 
 import numpy as np
 
@@ -23,3 +25,30 @@ def euroc(path):
     d = np.loadtxt(path, delimiter=",", comments="#", dtype=np.float64, ndmin=2)
     t = np.loadtxt(path, delimiter=",", comments="#", dtype=np.int64, usecols=0, ndmin=1)
     return t, d[:, 1:4], d[:, 4:7]
+
+
+def python_steps_during(call):
+    """Runs call() in another thread while this one spins a Python loop: (how many of the loop's
+    time stamps fell in the middle half of the call, the call's duration in s). Only the middle
+    half counts: at its ends the worker runs Python itself. With the GIL held by the C++ code for
+    the whole call the count is 0, whatever the machine's load; with it released this thread
+    steps whenever the scheduler gives it a core (a CPU-share threshold failed under heavy load)."""
+    span, done = [], threading.Event()
+
+    def work():
+        t0 = time.perf_counter()
+        call()
+        span.extend((t0, time.perf_counter()))
+        done.set()
+
+    worker = threading.Thread(target=work)
+    stamps, n = [], 0
+    worker.start()
+    while not done.is_set():
+        n += 1
+        if n % 256 == 0:
+            stamps.append(time.perf_counter())
+    worker.join()
+    t0, t1 = span
+    quarter = 0.25 * (t1 - t0)
+    return sum(1 for t in stamps if t0 + quarter < t < t1 - quarter), t1 - t0
