@@ -766,6 +766,7 @@ struct JointTileArgs {
   const double* translation = nullptr;
   int64_t lo = 0;
   const int64_t* fr = nullptr;
+  bool run = false;  // the frames are consecutive
   double ddw[3] = {};
   double rate2 = 0.0;
 };
@@ -842,7 +843,7 @@ template <bool Root>
       a.jt[(10 + static_cast<std::size_t>(c)) * T + i] = v * a.rate2;
     }
   };
-  if (a.fr[a.n - 1] - a.fr[0] == static_cast<int64_t>(a.n) - 1) {
+  if (a.run) {
     // Consecutive frames: a fixed stride, which vectorises.
     const double* t0 = a.translation + 3 * (a.fr[0] - a.lo);
     for (std::size_t i = 0; i < a.n; ++i) second_derivative(t0 + 3 * i, i);
@@ -959,7 +960,10 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
   for (std::size_t t0 = 0; t0 < samples.size(); t0 += T) {
     const std::size_t n = std::min(T, samples.size() - t0);
     const int64_t* fr = frames.data() + t0;
-    const bool run = fr[n - 1] - fr[0] == static_cast<int64_t>(n) - 1;
+    // Consecutive frames, each one after the last (a repeated time repeats its frame: its
+    // first and last frames alone cannot tell).
+    bool run = true;
+    for (std::size_t i = 1; i < n && run; ++i) run = fr[i] - fr[i - 1] == 1;
     for (std::size_t k = 0; k < J; ++k) {
       const double large =
           stencil_logs((*in.rotations)[k], in.rotation_stride, in.lo, fr, n, run, st);
@@ -993,6 +997,7 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
       ja.jt = joint_arrays(k);
       ja.n = n;
       ja.fr = fr;
+      ja.run = run;
       const Vector3d& o = (*in.offsets)[k];
       ja.o[0] = o.x(), ja.o[1] = o.y(), ja.o[2] = o.z();
       joint_tile(ja);

@@ -439,6 +439,56 @@ TEST(Simulator, SplineOnFramesAgreesWithThePerSamplePath) {
   }
 }
 
+// Repeated time stamps (a real recording can have them, and identify evaluates at its times) on
+// frames: a tile whose first and last frames are as far apart as its length is not a run of
+// consecutive frames when a time repeats inside it (the on-frame spline took it for one). Each
+// sample must equal the same time alone, for every method.
+TEST(Simulator, SplineOnFramesWithRepeatedTimesEqualsEachTimeAlone) {
+  const Body body = Body::default_humanoid();
+  ProceduralMotionOptions po;
+  po.rate_hz = 100.0;
+  po.frames = 200;
+  po.seed = 4;
+  po.amplitude_rad = 0.4;
+  po.translation_amplitude_m = 0.2;
+  ProceduralMotion pm(body.size(), po);
+  Motion m = pm.materialize(200);
+  std::vector<SensorSpec> sensors;
+  for (const char* preset : {"left_wrist_watch", "waist_belt"}) {
+    SensorSpec s;
+    s.name = preset;
+    s.placement = preset_placement(preset, body);
+    sensors.push_back(s);
+  }
+  for (const DerivativeMethod method :
+       {DerivativeMethod::spline, DerivativeMethod::fd, DerivativeMethod::reference}) {
+    SimulationOptions o;
+    o.method = method;
+    o.rate_hz = 100.0;
+    Simulator sim(body, sensors, o);
+    // Each list's last frame is as many frames after its first as the list has gaps.
+    for (const std::vector<int64_t>& frames : std::vector<std::vector<int64_t>>{
+             {10, 10, 12}, {30, 31, 31, 33}, {40, 40, 40, 43}, {50, 51, 52, 53, 53, 55}}) {
+      std::vector<TimeNs> times;
+      for (const int64_t f : frames) times.push_back(f * 10'000'000);
+      std::vector<SensorBlock> all, one;
+      sim.evaluate(m, times, all);
+      for (std::size_t i = 0; i < times.size(); ++i) {
+        sim.evaluate(m, std::span<const TimeNs>(&times[i], 1), one);
+        for (std::size_t s = 0; s < sensors.size(); ++s) {
+          const auto col = static_cast<Eigen::Index>(i);
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_EQ(all[s].specific_force(c, col), one[s].specific_force(c, 0))
+                << to_string(method) << " " << sensors[s].name << " frame " << frames[i];
+            EXPECT_EQ(all[s].angular_rate(c, col), one[s].angular_rate(c, 0))
+                << to_string(method) << " " << sensors[s].name << " frame " << frames[i];
+          }
+        }
+      }
+    }
+  }
+}
+
 // The kernels run in baseline, AVX2 and AVX-512 variants (core/isa.hpp) with the same
 // arithmetic in the same order: every variant must give the same samples, bit for bit, for
 // every method, on and off the frames, for increments large enough to need so3_log, from an
