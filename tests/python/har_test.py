@@ -88,7 +88,7 @@ class Threads(unittest.TestCase):
         # thread per core in every worker process unless told.
         import ctypes
         path = train.blas_library()
-        self.assertTrue(path.endswith("openblas-pthread/libblas.so.3"), path)
+        self.assertIn("/openblas", path)  # openblas-pthread (setup.sh) or openblas-openmp
         lib = ctypes.CDLL(path)
         try:
             for n in (2, 1):
