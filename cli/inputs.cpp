@@ -6,12 +6,12 @@
 #include <filesystem>
 
 #include "command.hpp"
-#include "options.hpp"
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/core/euroc_csv.hpp"
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/units.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {
