@@ -17,7 +17,7 @@ packages=(
   pybind11-dev python3-dev                       # the Python module (python/, docs/python.md)
   python3-scipy python3-pytest                   # dataset readers (loadmat), Python tests
   python3-torch python3-matplotlib               # imukit.har: HAR models, training, plots
-  libopenblas0-pthread                           # torch's matrix products: 1.7x ATLAS (har/train.py)
+  libopenblas0-pthread                           # torch's matrix products: 1.7x ATLAS (bench/har_step.py)
   gnuplot-nox                                    # characterize/calibrate --plot (SVG)
   zstd                                           # tests/cli/crash_test.py reads chunks itself
 )

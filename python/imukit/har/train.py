@@ -46,7 +46,7 @@ def macro_f1(y_true, y_pred):
 def blas_library():
     """The BLAS that torch's matrix products run in: Debian's torch calls the system libblas.so.3
     (OpenBLAS when libopenblas0 is installed, as scripts/setup.sh does: a DeepConvLSTM training
-    step took 160 ms with it and 275 ms with Debian's ATLAS). The shared object's path, or ''."""
+    step takes 162 ms with it and 283 ms with Debian's ATLAS: bench/har_step.py). The shared object's path, or ''."""
     with open("/proc/self/maps") as maps:
         for line in maps:
             path = line.split()[-1]
