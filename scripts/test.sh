@@ -12,6 +12,15 @@ fuzz_seconds=${IMUKIT_FUZZ_SECONDS:-10}
 start=$(date +%s)
 stamp() { echo "== [$(( $(date +%s) - start ))s] $*"; }
 
+# The real recordings (tests/support/test_data.hpp): said once here, since without them the tests
+# that read them are skipped (failed when CI=true), which is easy to miss in ctest's output.
+data_dir=${IMUKIT_DATA_DIR:-$root/../shared/data}
+if [ -d "$data_dir" ]; then
+  stamp "test data: $(cd "$data_dir" && pwd)"
+else
+  stamp "test data: none at $data_dir: the tests on real recordings will be skipped (set IMUKIT_DATA_DIR)"
+fi
+
 stamp "setup"
 bash scripts/setup.sh
 
