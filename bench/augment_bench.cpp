@@ -19,6 +19,7 @@
 #include "imukit/sim/placement.hpp"
 #include "imukit/sim/scene.hpp"
 #include "isa_compare.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace {
 
@@ -28,28 +29,11 @@ using namespace imukit::augment;
 constexpr std::size_t kBatch = 256;
 
 const sim::Scene& humanoid_scene() {
-  static const sim::Scene scene = [] {
-    sim::Scene s;
-    s.body = sim::Body::default_humanoid();
-    sim::ProceduralMotionOptions po;
-    po.rate_hz = 100.0;
-    po.frames = 6000;
-    po.seed = 9;
-    po.amplitude_rad = 0.2;
-    sim::ProceduralMotion pm(s.body.size(), po);
-    s.motion = std::make_shared<sim::Motion>(pm.materialize(6000));
-    s.frames = 6000;
-    for (const char* p : {"left_wrist_watch", "right_wrist_watch", "right_index_ring",
-                          "left_earbud", "right_front_pocket_phone", "chest_strap",
-                          "left_upper_arm_band", "right_ankle_clip", "waist_belt"}) {
-      sim::SceneSensor ss;
-      ss.spec.name = p;
-      ss.preset = p;
-      ss.spec.placement = sim::preset_placement(p, s.body);
-      s.sensors.push_back(ss);
-    }
-    return s;
-  }();
+  static const sim::Scene scene =
+      testing::preset_scene({"left_wrist_watch", "right_wrist_watch", "right_index_ring",
+                             "left_earbud", "right_front_pocket_phone", "chest_strap",
+                             "left_upper_arm_band", "right_ankle_clip", "waist_belt"},
+                            {.rate_hz = 100.0, .frames = 6000, .seed = 9, .amplitude_rad = 0.2});
   return scene;
 }
 

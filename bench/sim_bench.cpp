@@ -20,6 +20,7 @@
 #include "imukit/sim/scene.hpp"
 #include "imukit/sim/simulator.hpp"
 #include "isa_compare.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace {
 
@@ -172,10 +173,7 @@ void print_accuracy_table() {
 
 void run_whole(benchmark::State& state, const Body& body, const std::vector<SensorSpec>& sensors,
                DerivativeMethod method, int64_t frames) {
-  ProceduralMotionOptions po;
-  po.frames = frames;
-  ProceduralMotion proc(body.size(), po);
-  Motion m = proc.materialize(frames);
+  Motion m = imukit::testing::procedural_motion(body.size(), {.frames = frames});
   SimulationOptions opt;
   opt.method = method;
   Simulator sim(body, sensors, opt);

@@ -10,6 +10,7 @@
 #include "imukit/sim/motion.hpp"
 #include "imukit/sim/placement.hpp"
 #include "support/expect_error.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace imukit::augment {
 namespace {
@@ -65,19 +66,8 @@ TEST(BadInput, PolicyValidateAppliesTheSameLimitsToPoliciesBuiltInCode) {
 }
 
 sim::Scene small_scene() {
-  sim::Scene scene;
-  scene.body = sim::Body::default_humanoid();
-  sim::ProceduralMotionOptions po;
-  po.rate_hz = 50;
-  po.frames = 200;
-  sim::ProceduralMotion pm(scene.body.size(), po);
-  scene.motion = std::make_shared<sim::Motion>(pm.materialize(200));
-  scene.frames = 200;
-  sim::SceneSensor s;
-  s.spec.name = "watch";
-  s.preset = "left_wrist_watch";
-  s.spec.placement = sim::preset_placement(s.preset, scene.body);
-  scene.sensors.push_back(s);
+  sim::Scene scene = testing::preset_scene({"left_wrist_watch"}, {.rate_hz = 50, .frames = 200});
+  scene.sensors[0].spec.name = "watch";
   return scene;
 }
 

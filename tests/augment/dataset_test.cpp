@@ -10,6 +10,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/npy.hpp"
 #include "imukit/sim/placement.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace imukit::augment {
 namespace {
@@ -33,7 +34,7 @@ TEST(Dataset, SegmentsBecomePerSampleLabels) {
   const std::vector<int64_t> l = labels_from_segments(segs, 12, 10.0);
   // Samples at 0.0 .. 1.1 s: [0, 0.5) -> 4, [0.5, 1.0) -> 9, then 0.3 s in [0.25, 0.35) -> 1.
   EXPECT_EQ(l, (std::vector<int64_t>{4, 4, 4, 1, 4, 9, 9, 9, 9, 9, kNoLabel, kNoLabel}));
-  const std::string dir = testing::TempDir();
+  const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "/seg.csv") << "start_s,end_s,label\n0,0.5,4\n0.5,1.0,9\n";
   EXPECT_EQ(read_labels(dir + "/seg.csv", 12, 10.0)[7], 9);
   std::ofstream(dir + "/per.csv") << "label\n1\n2\n3\n";
@@ -49,7 +50,7 @@ TEST(Dataset, SegmentsBecomePerSampleLabels) {
 }
 
 TEST(Dataset, WriterOutputReadsBack) {
-  const std::string dir = testing::TempDir() + "/ds_writer";
+  const std::string dir = ::testing::TempDir() + "/ds_writer";
   const BatchShape shape{2, 3, 6};
   std::vector<float> X(shape.size());
   for (std::size_t k = 0; k < X.size(); ++k) X[k] = static_cast<float>(k) * 0.5f;
@@ -79,19 +80,8 @@ TEST(Dataset, WriterOutputReadsBack) {
 }
 
 sim::Scene small_scene() {
-  sim::Scene scene;
-  scene.body = sim::Body::default_humanoid();
-  sim::ProceduralMotionOptions po;
-  po.rate_hz = 50;
-  po.frames = 700;
-  sim::ProceduralMotion pm(scene.body.size(), po);
-  scene.motion = std::make_shared<sim::Motion>(pm.materialize(700));
-  scene.frames = 700;
-  sim::SceneSensor s;
-  s.spec.name = "watch";
-  s.preset = "left_wrist_watch";
-  s.spec.placement = sim::preset_placement(s.preset, scene.body);
-  scene.sensors.push_back(s);
+  sim::Scene scene = testing::preset_scene({"left_wrist_watch"}, {.rate_hz = 50, .frames = 700});
+  scene.sensors[0].spec.name = "watch";
   return scene;
 }
 

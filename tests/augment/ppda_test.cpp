@@ -15,6 +15,7 @@
 #include "imukit/core/profile.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/sim/placement.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace imukit::augment {
 namespace {
@@ -49,24 +50,8 @@ sim::Scene sinusoid_scene(int64_t frames = 3000, double rate = 100.0) {
 }
 
 sim::Scene humanoid_scene(const std::vector<std::string>& presets, int64_t frames = 1200) {
-  sim::Scene scene;
-  scene.body = sim::Body::default_humanoid();
-  sim::ProceduralMotionOptions po;
-  po.rate_hz = 100.0;
-  po.frames = frames;
-  po.seed = 5;
-  po.amplitude_rad = 0.2;
-  sim::ProceduralMotion pm(scene.body.size(), po);
-  scene.motion = std::make_shared<sim::Motion>(pm.materialize(frames));
-  scene.frames = frames;
-  for (const std::string& p : presets) {
-    sim::SceneSensor s;
-    s.spec.name = p;
-    s.preset = p;
-    s.spec.placement = sim::preset_placement(p, scene.body);
-    scene.sensors.push_back(s);
-  }
-  return scene;
+  return testing::preset_scene(
+      presets, {.rate_hz = 100.0, .frames = frames, .seed = 5, .amplitude_rad = 0.2});
 }
 
 // out[i * 6 + k]: ax ay az gx gy gz of the single sensor.

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "imukit/core/error.hpp"
+#include "support/procedural_scene.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -104,10 +105,7 @@ TEST(Scene, RunIsDeterministicAndHardwareAddsTheStatedNoise) {
 
 TEST(Scene, BatchIsTheSameForAnyThreadCount) {
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.frames = 300;
-  ProceduralMotion proc(body.size(), po);
-  auto motion = std::make_shared<Motion>(proc.materialize(300));
+  auto motion = std::make_shared<Motion>(testing::procedural_motion(body.size(), {.frames = 300}));
   HardwareModel hw;
   hw.accelerometer.noise_density = Eigen::Vector3d::Constant(0.002);
   hw.gyroscope.turn_on_bias_spread = Eigen::Vector3d::Constant(0.01);
@@ -136,9 +134,7 @@ TEST(Scene, BatchIsTheSameForAnyThreadCount) {
 
 TEST(Scene, BatchThrowsTheErrorOfTheLowestFailingJob) {
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.frames = 50;
-  auto motion = std::make_shared<Motion>(ProceduralMotion(body.size(), po).materialize(50));
+  auto motion = std::make_shared<Motion>(testing::procedural_motion(body.size(), {.frames = 50}));
   std::vector<BatchJob> jobs(40);
   for (std::size_t i = 0; i < jobs.size(); ++i) {
     jobs[i].motion = motion;

@@ -18,6 +18,7 @@
 #include "imukit/core/text_parse.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/placement.hpp"
+#include "support/procedural_scene.hpp"
 #include "support/sampled_motion.hpp"
 #include "support/test_data.hpp"
 
@@ -175,10 +176,7 @@ TEST(Simulator, MagnetometerFollowsTheSensorOrientationWhileMoving) {
   // m = R_world_sensor^T B at every sample of a moving sensor, with R_world_sensor the
   // orientation output of the same method (fd slerps between frames, spline is analytic).
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.frames = 400;
-  ProceduralMotion proc(body.size(), po);
-  Motion m = proc.materialize(400);
+  Motion m = testing::procedural_motion(body.size(), {.frames = 400});
   SensorSpec s;
   s.name = "w";
   s.placement = preset_placement("right_wrist_watch", body);
@@ -383,13 +381,8 @@ TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
 // turning 2.9 rad per frame (chart coordinates two frames away unwrapped past pi).
 TEST(Simulator, SplineOnFramesAgreesWithThePerSamplePath) {
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.rate_hz = 100.0;
-  po.frames = 400;
-  po.seed = 3;
-  po.amplitude_rad = 0.3;
-  ProceduralMotion pm(body.size(), po);
-  Motion m = pm.materialize(400);
+  Motion m = testing::procedural_motion(
+      body.size(), {.rate_hz = 100.0, .frames = 400, .seed = 3, .amplitude_rad = 0.3});
   const auto right = static_cast<std::size_t>(body.index_of("right_elbow"));
   const auto head = static_cast<std::size_t>(body.index_of("head"));
   for (int64_t f = 0; f < m.frames(); ++f) {
@@ -445,14 +438,11 @@ TEST(Simulator, SplineOnFramesAgreesWithThePerSamplePath) {
 // sample must equal the same time alone, for every method.
 TEST(Simulator, SplineOnFramesWithRepeatedTimesEqualsEachTimeAlone) {
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.rate_hz = 100.0;
-  po.frames = 200;
-  po.seed = 4;
-  po.amplitude_rad = 0.4;
-  po.translation_amplitude_m = 0.2;
-  ProceduralMotion pm(body.size(), po);
-  Motion m = pm.materialize(200);
+  Motion m = testing::procedural_motion(body.size(), {.rate_hz = 100.0,
+                                                      .frames = 200,
+                                                      .seed = 4,
+                                                      .amplitude_rad = 0.4,
+                                                      .translation_amplitude_m = 0.2});
   std::vector<SensorSpec> sensors;
   for (const char* preset : {"left_wrist_watch", "waist_belt"}) {
     SensorSpec s;
@@ -495,13 +485,9 @@ TEST(Simulator, SplineOnFramesWithRepeatedTimesEqualsEachTimeAlone) {
 // in-memory motion and from a streamed source.
 TEST(Simulator, EveryInstructionSetVariantGivesTheSameBits) {
   const Body body = Body::default_humanoid();
-  ProceduralMotionOptions po;
-  po.rate_hz = 100.0;
-  po.frames = 600;
-  po.seed = 5;
-  po.amplitude_rad = 0.6;
-  ProceduralMotion pm(body.size(), po);
-  Motion m = pm.materialize(600);
+  const ProceduralMotionOptions po{
+      .rate_hz = 100.0, .frames = 600, .seed = 5, .amplitude_rad = 0.6};
+  Motion m = testing::procedural_motion(body.size(), po);
   const auto head = static_cast<std::size_t>(body.index_of("head"));
   const auto right = static_cast<std::size_t>(body.index_of("right_elbow"));
   for (int64_t f = 0; f < m.frames(); ++f) {
