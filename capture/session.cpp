@@ -32,11 +32,19 @@ std::span<const uint8_t> bytes_of(const std::string& s) {
   return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
 }
 
+// A sample on its way from the reader thread to the writer, with the number of samples the full
+// queue refused just before it: they leave a gap in the sequence that is the recorder's loss
+// (counted in backpressure), not the device's.
+struct QueuedSample {
+  drivers::Sample sample;
+  uint64_t refused_before = 0;
+};
+
 // Everything the writer knows about one device; the reader thread touches only the queues, the
 // atomics and (under the mutex) the stats snapshot.
 struct Device {
   SessionDevice spec;
-  SpscQueue<drivers::Sample> samples;
+  SpscQueue<QueuedSample> samples;
   SpscQueue<drivers::SyncPoint> syncs{1024};
   std::atomic<bool> stop{false};
   std::atomic<bool> ended{false};
@@ -48,8 +56,11 @@ struct Device {
 
   // Writer side.
   ClockMapper clock{1e9};  // device times arrive in ns
-  uint64_t first_sequence = 0, last_sequence = 0;
-  uint64_t gaps = 0;  // samples missing between consecutive written samples (sequence gaps)
+  uint64_t last_sequence = 0;
+  uint64_t sequence_span = 0;  // the sequence's forward steps between written samples
+  // Samples missing between consecutive written samples (sequence gaps), less those the queue
+  // refused.
+  uint64_t gaps = 0;
   bool full =
       false;  // reached the duration or sample limit: later samples are outside the recording
   uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
@@ -71,27 +82,40 @@ struct Device {
 void reader_thread(Device& d, bool wait_when_full) {
   drivers::ReaderOptions options;
   std::size_t syncs_forwarded = 0;
+  uint64_t refused = 0;  // since the last sample the queue took
+  // Time-sync replies go to the writer as they are decoded; the reader hands over only reads
+  // that produced samples, so this runs once more at the end for replies that came after the
+  // last sample (a stop, an unplugged device, the end of a file).
+  const auto forward_syncs = [&] {
+    const std::span<const drivers::SyncPoint> points = d.spec.device.codec->sync_points();
+    while (syncs_forwarded < points.size() &&
+           d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
+      ++syncs_forwarded;
+    }
+  };
   const drivers::EndReason end = drivers::DeviceReader::run(
       *d.spec.device.transport, *d.spec.device.codec, options, d.stop,
       [&](std::vector<drivers::Sample>& batch) {
         for (drivers::Sample& s : batch) {
-          while (!d.samples.push(std::move(s))) {
-            if (!wait_when_full || d.stop.load()) {
-              d.backpressure.fetch_add(1);
-              break;
-            }
+          QueuedSample q{std::move(s), refused};
+          bool taken = d.samples.push(std::move(q));  // a refused push leaves q as it was
+          while (!taken && wait_when_full && !d.stop.load()) {
             std::this_thread::yield();
+            taken = d.samples.push(std::move(q));
+          }
+          if (taken) {
+            refused = 0;
+          } else {
+            d.backpressure.fetch_add(1);
+            ++refused;
           }
         }
         batch.clear();
-        const std::span<const drivers::SyncPoint> points = d.spec.device.codec->sync_points();
-        while (syncs_forwarded < points.size() &&
-               d.syncs.push(drivers::SyncPoint(points[syncs_forwarded]))) {
-          ++syncs_forwarded;
-        }
+        forward_syncs();
         const std::lock_guard lock(d.mutex);
         d.stats = d.spec.device.codec->stats();
       });
+  forward_syncs();
   {
     const std::lock_guard lock(d.mutex);
     d.stats = d.spec.device.codec->stats();
@@ -110,8 +134,7 @@ void set_rate(const Device& d, DeviceProgress& p) {
     host_span = to_seconds(*d.last_device - *d.first_device) / (1.0 + p.clock.skew_ppm * 1e-6);
   }
   // Sample numbers, not samples written: dropped samples were made at the device's rate too.
-  if (host_span > 0)
-    p.rate_hz = static_cast<double>(d.last_sequence - d.first_sequence) / host_span;
+  if (host_span > 0) p.rate_hz = static_cast<double>(d.sequence_span) / host_span;
 }
 
 DeviceProgress progress_of(Device& d) {
@@ -150,7 +173,9 @@ struct Live {
   const SessionOptions& options;
 };
 
-void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const Live& live) {
+// s with the number of samples the queue refused just before it (not the device's loss).
+void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint64_t refused_before,
+                  const Live& live) {
   TimeNs t = s.host_time;
   if (s.has_device_time) {
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
@@ -186,10 +211,12 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, const
                        imu_bytes);
   if (d.written == 0) {
     d.first_host = s.host_time;
-    d.first_sequence = s.sequence;
     if (s.has_device_time) d.first_device = s.device_time;
-  } else if (s.sequence > d.last_sequence + 1) {
-    d.gaps += s.sequence - d.last_sequence - 1;
+  } else if (s.sequence > d.last_sequence) {
+    // A counter that went back (the device restarted its stream) adds nothing here.
+    const uint64_t missing = s.sequence - d.last_sequence - 1;
+    d.gaps += missing - std::min(missing, refused_before);
+    d.sequence_span += s.sequence - d.last_sequence;
   }
   d.last_sequence = s.sequence;
   if (s.channels & drivers::kHasAccel) {
@@ -320,7 +347,8 @@ struct Pump {
 
   // Samples past the duration or the sample limit are outside the recording (a virtual-time
   // mock runs ahead of the writer); they are not written, and not counted as lost either.
-  void accept(Device& d, const drivers::Sample& s) {
+  void accept(Device& d, const QueuedSample& q) {
+    const drivers::Sample& s = q.sample;
     if (d.full) return;
     if (d.guide && d.guide->done()) {
       d.full = true;
@@ -330,7 +358,7 @@ struct Pump {
     } else if (options.max_samples && d.written >= options.max_samples) {
       d.full = true;
     } else {
-      write_sample(writer, d, s, live);
+      write_sample(writer, d, s, q.refused_before, live);
       return;
     }
     d.stop.store(true);
@@ -352,7 +380,7 @@ struct Pump {
 // why it stopped.
 std::string Pump::run() {
   auto last_progress = std::chrono::steady_clock::now();
-  drivers::Sample sample;
+  QueuedSample sample;
   drivers::SyncPoint sync;
   for (;;) {
     bool busy = false;
@@ -415,7 +443,7 @@ std::string Pump::run() {
 // Stops the readers and writes what arrived before they ended: nothing received is lost.
 void Pump::drain() {
   stop_and_join();
-  drivers::Sample sample;
+  QueuedSample sample;
   drivers::SyncPoint sync;
   for (auto& d : devices) {
     while (d->samples.pop(sample)) accept(*d, sample);
@@ -433,6 +461,7 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
     writer.write_metadata("imukit.session." + d->spec.name,
                           {{"samples", std::to_string(p.samples)},
                            {"samples_dropped", std::to_string(p.dropped)},
+                           {"codec_samples_dropped", std::to_string(p.codec_dropped)},
                            {"frames_corrupt", std::to_string(p.frames_corrupt)},
                            {"backpressure_dropped", std::to_string(p.backpressure)},
                            {"end_reason", p.end_reason},

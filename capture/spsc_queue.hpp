@@ -30,7 +30,9 @@ class SpscQueue {
     }
     slots_[head & mask_] = std::move(value);
     head_.store(head + 1, std::memory_order_release);
-    const std::size_t depth = head + 1 - tail_cache_;
+    // Against the consumer's current position: tail_cache_ is refreshed only when the queue
+    // looks full, so measured against it the depth would be every value pushed so far.
+    const std::size_t depth = head + 1 - tail_.load(std::memory_order_relaxed);
     if (depth > high_water_.load(std::memory_order_relaxed)) {
       high_water_.store(depth, std::memory_order_relaxed);
     }
@@ -50,7 +52,8 @@ class SpscQueue {
   }
 
   std::size_t capacity() const { return mask_ + 1; }
-  // Deepest the queue has been (an upper bound: measured against the producer's view).
+  // Deepest the queue has been, as the producer saw it after each push (the consumer may have
+  // taken values meanwhile, so this can exceed the true depth by what it took since).
   std::size_t high_water() const { return high_water_.load(std::memory_order_relaxed); }
 
  private:

@@ -137,9 +137,10 @@ std::string print_report(const capture::SessionReport& report) {
     // The backlog is how far the writer fell behind the device (the queue between them): near
     // the capacity, samples were about to be lost.
     fmt::print(
-        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, corrupt frames {}, lost by "
-        "the recorder {}, largest backlog {} of {} samples; ended: {}\n",
-        d.name, d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.backpressure,
+        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, lost as the codec counts them "
+        "{}, corrupt frames {}, lost by the recorder {}, largest backlog {} of {} samples; "
+        "ended: {}\n",
+        d.name, d.samples, d.rate_hz, d.dropped, d.codec_dropped, d.frames_corrupt, d.backpressure,
         d.queue_high_water, queue_capacity, d.end_reason);
     if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
     if (d.clock.packets > 1) {

@@ -110,6 +110,7 @@ TEST(Session, RecordsEverySampleCountsEveryDropAndMapsClocksToWithin50us) {
   EXPECT_EQ(rows.front().index, 0u);
   EXPECT_EQ(rows.size() + mock->samples_in_dropped_frames(), mock->samples_made());
   EXPECT_LE(d.dropped, mock->samples_in_dropped_frames());
+  EXPECT_EQ(d.codec_dropped, d.dropped);  // the first sample is the device's first
   EXPECT_EQ(d.dropped + (mock->samples_made() - 1 - rows.back().index),
             mock->samples_in_dropped_frames());
   // Mapped time minus true sample time is constant to within 50 us (true time: the device clock
@@ -221,6 +222,68 @@ TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
         "cut at %.0f %%: kept %zu samples and %zu pings, refitted times %.1f..%.1f us from "
         "the truth\n",
         fraction * 100, rows.size(), pings, lo * 1e6, hi * 1e6);
+  }
+}
+
+// Samples lost before the first one written (the link dropped the first frames) are invisible
+// to the counter gaps between written samples but not to the codec, whose count reaches the
+// report and the file's metadata.
+TEST(Session, LossesBeforeTheFirstSampleAreInTheCodecCount) {
+  testing::TempDir dir;
+  const auto mock = drivers::make_mock_device(
+      "static", {{"rate", "1000"}, {"drop", "0.5"}, {"seed", "1"}, {"clock", "virtual"}});
+  std::vector<SessionDevice> devices = one_kilohertz_mock(*mock);
+  SessionOptions options;
+  options.path = (dir / "rec.mcap").string();
+  options.max_samples = 50;
+  const SessionReport report = record_session(std::move(devices), options);
+  const DeviceProgress& d = report.devices.at(0);
+  const auto rows = raw_rows(options.path, "mock");
+  ASSERT_EQ(rows.size(), 50u);
+  ASSERT_GT(rows.front().index, 0u);  // this seed drops the first frame
+  EXPECT_EQ(rows.size() + d.dropped, rows.back().index - rows.front().index + 1);
+  EXPECT_GE(d.codec_dropped, rows.front().index + d.dropped);
+  const RecordingRead back = read_recording_mcap(options.path);
+  EXPECT_EQ(back.recording.metadata.at("imukit.session.mock.codec_samples_dropped"),
+            std::to_string(d.codec_dropped));
+  EXPECT_EQ(back.recording.metadata.at("imukit.session.mock.samples_dropped"),
+            std::to_string(d.dropped));
+}
+
+// A real-time device and a queue of one sample: each read's burst overflows it, and what the
+// queue refuses is the recorder's loss, counted once (backpressure), not also as a gap in the
+// device's counter. The largest backlog is the queue's true depth, never above its capacity.
+// Then with the default queue: the backlog stays a few reads deep, far below the samples
+// written (measured against a stale consumer position it was every sample pushed).
+TEST(Session, QueueRefusalsAreCountedOnceAndTheBacklogIsTheTrueDepth) {
+  testing::TempDir dir;
+  for (const std::size_t capacity : {std::size_t{1}, SessionOptions{}.queue_capacity}) {
+    const auto mock = drivers::make_mock_device("static", {{"rate", "1000"}, {"clock", "real"}});
+    std::vector<SessionDevice> devices = one_kilohertz_mock(*mock);
+    SessionOptions options;
+    options.path = (dir / "rec.mcap").string();
+    options.queue_capacity = capacity;
+    options.duration_s = 0.5;
+    const SessionReport report = record_session(std::move(devices), options);
+    const DeviceProgress& d = report.devices.at(0);
+    const auto rows = raw_rows(options.path, "mock");
+    ASSERT_GT(rows.size(), 20u) << capacity;
+    EXPECT_EQ(d.dropped, 0u) << capacity;  // the mock's link loses nothing
+    EXPECT_EQ(d.codec_dropped, 0u) << capacity;
+    EXPECT_LE(d.queue_high_water, capacity);
+    const uint64_t span = rows.back().index - rows.front().index + 1;
+    if (capacity == 1) {
+      EXPECT_GT(d.backpressure, 0u);
+      // Every refusal between the first and last sample written is a hole in the file; those
+      // after the last sample written are not.
+      EXPECT_LE(rows.size(), span);
+      EXPECT_GE(rows.size() + d.backpressure, span);
+      EXPECT_LT(rows.size(), span);  // some refusals fell between samples written
+    } else {
+      EXPECT_EQ(d.backpressure, 0u);
+      EXPECT_EQ(rows.size(), span);
+      EXPECT_LT(d.queue_high_water, rows.size() / 4) << d.queue_high_water;
+    }
   }
 }
 
