@@ -8,11 +8,24 @@
 namespace imukit::capture {
 namespace {
 
+// The slowest and (inverted) fastest host seconds per device second a fit may have.
+constexpr double kMinRate = 0.5;
+
 // t - t0 in seconds, or nothing when the difference does not fit in int64 ns (a corrupt file).
 std::optional<double> seconds_since(TimeNs t, TimeNs t0) {
   TimeNs d = 0;
   if (__builtin_sub_overflow(t, t0, &d)) return std::nullopt;
   return to_seconds(d);
+}
+
+// t0 + seconds, saturated at the int64 range (a tick from a corrupt file cannot overflow it).
+TimeNs offset_by(TimeNs t0, double seconds) {
+  constexpr double kLimit = 9.2e18;
+  const double ns = std::clamp(std::round(seconds * 1e9), -kLimit, kLimit);
+  TimeNs t = 0;
+  if (__builtin_add_overflow(t0, static_cast<TimeNs>(ns), &t))
+    return ns > 0 ? std::numeric_limits<TimeNs>::max() : std::numeric_limits<TimeNs>::min();
+  return t;
 }
 
 }  // namespace
@@ -119,9 +132,11 @@ void ClockMapper::refit() const {
     const Point& q = hull_[k + 1];
     b_ = (q.y - p.y) / (q.x - p.x);
     a_ = p.y - b_ * p.x;
-    // A host clock that stepped back can tilt the envelope down; a clock map must not run
-    // backwards, so such a fit falls back to the nominal rate through the edge's first point.
-    if (!(b_ > 0.0 && std::isfinite(b_) && std::isfinite(a_))) {
+    // A host clock that stepped back can tilt the envelope down, and a file replayed faster than
+    // it was recorded lays it almost flat; no device clock is off by half its rate, so such a
+    // fit falls back to the nominal rate through the edge's first point (a clock map must not
+    // run backwards, nor squeeze seconds of samples into the milliseconds of a replay).
+    if (!(b_ > kMinRate && b_ < 1.0 / kMinRate && std::isfinite(a_))) {
       b_ = 1.0;
       a_ = p.y - p.x;
     }
@@ -139,38 +154,10 @@ double ClockMapper::estimate(double x) const {
   return a_ + b_ * x - latency_s_.value_or(0.0);
 }
 
-TimeNs ClockMapper::to_host(double y) const {
-  // Saturated so that a tick from a corrupt file cannot overflow int64 (9.2e18 ns).
-  constexpr double kLimit = 9.2e18;
-  const double ns = std::clamp(std::round(y * 1e9), -kLimit, kLimit);
-  TimeNs t = 0;
-  if (__builtin_add_overflow(host0_, static_cast<TimeNs>(ns), &t))
-    return ns > 0 ? std::numeric_limits<TimeNs>::max() : std::numeric_limits<TimeNs>::min();
-  return t;
-}
+TimeNs ClockMapper::to_host(double y) const { return offset_by(host0_, y); }
 
 TimeNs ClockMapper::map(uint64_t device_ticks) const {
   return to_host(estimate(device_seconds(device_ticks)));
-}
-
-TimeNs ClockMapper::map_monotonic(uint64_t device_ticks) {
-  const double x = device_seconds(device_ticks);
-  const double target = estimate(x);
-  double y = target;
-  if (emitted_) {
-    // Free running from the last output at the device's nominal rate (the fitted one can be off
-    // by percent over the first few packets), pulled toward the fit by at most kMaxSlew of the
-    // elapsed device time: never before last_y_.
-    const double dx = std::max(0.0, x - last_x_);
-    const double free_run = last_y_ + dx;
-    const double limit = kMaxSlew * dx;
-    y = std::max(last_y_, free_run + std::clamp(target - free_run, -limit, limit));
-  }
-  if (!std::isfinite(y)) y = emitted_ ? last_y_ : 0.0;
-  last_x_ = emitted_ ? std::max(last_x_, x) : x;
-  last_y_ = y;
-  emitted_ = true;
-  return to_host(y);
 }
 
 ClockFit ClockMapper::fit() const {
@@ -196,6 +183,181 @@ ClockFit ClockMapper::fit() const {
     f.jitter_std_s = std::sqrt(std::max(0.0, sum_sq / n - f.jitter_mean_s * f.jitter_mean_s));
     f.jitter_max_s = max;
   }
+  return f;
+}
+
+DeviceClock::DeviceClock(double tick_hz) : tick_hz_(tick_hz) { assert(tick_hz > 0); }
+
+bool DeviceClock::follows(const Stamp& a, const Stamp& b) const {
+  if (b.ticks < a.ticks) return false;
+  const std::optional<double> host_elapsed = seconds_since(b.host, a.host);
+  if (!host_elapsed) return false;
+  return static_cast<double>(b.ticks - a.ticks) / tick_hz_ <= *host_elapsed + kMaxLeadS;
+}
+
+void DeviceClock::begin_segment(const Stamp& s) {
+  if (!segments_.empty()) segments_.back().mapper.flush();
+  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, 0});
+  segment_starts_.push_back(s.k);
+}
+
+void DeviceClock::accept(const Stamp& s) {
+  shifts_dirty_ = true;
+  Segment& seg = segments_.back();
+  seg.mapper.add_sample(s.ticks, s.host);
+  if (seg.accepted == 0) seg.first = s;
+  seg.last = s;
+  ++seg.accepted;
+}
+
+void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive) {
+  const Stamp s{next_k_++, device_ticks, host_receive};
+  const bool was_accepted = last_accepted_;
+  last_added_ = s;
+  if (segments_.empty()) {
+    anchor_ = host_receive;
+    begin_segment(s);
+    accept(s);
+    last_accepted_ = true;
+    continues_ = false;
+    return;
+  }
+  if (follows(segments_.back().last, s)) {
+    continues_ = was_accepted;
+    candidates_.clear();  // they were outliers after all (recorded as such)
+    accept(s);
+    last_accepted_ = true;
+    return;
+  }
+  continues_ = false;
+  if (candidates_.empty() || !follows(candidates_.back(), s)) candidates_.clear();
+  candidates_.push_back(s);
+  if (candidates_.size() < kRestartSamples) {
+    outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last};
+    last_accepted_ = false;
+    return;
+  }
+  // A restart: the outliers in a row begin a segment of their own.
+  begin_segment(candidates_.front());
+  for (const Stamp& c : candidates_) {
+    outliers_.erase(c.k);
+    accept(c);
+  }
+  candidates_.clear();
+  last_accepted_ = true;
+}
+
+double DeviceClock::seconds_since_anchor(TimeNs t) const {
+  return seconds_since(t, anchor_).value_or(0.0);
+}
+
+TimeNs DeviceClock::online_time() {
+  assert(!segments_.empty());
+  const Stamp& s = last_added_;
+  const bool same_clock = last_accepted_ && last_emitted_accepted_ &&
+                          last_emitted_segment_ == segments_.size() - 1 &&
+                          s.ticks >= last_emitted_.ticks;
+  // The time elapsed since the last sample given out: on the device's clock where both are on
+  // the same one, else on the host's.
+  double elapsed = 0.0;
+  if (emitted_) {
+    elapsed = same_clock ? static_cast<double>(s.ticks - last_emitted_.ticks) / tick_hz_
+                         : std::max(0.0, seconds_since(s.host, last_emitted_.host).value_or(0.0));
+  }
+  const double free_run = last_y_ + elapsed;
+  double y = free_run;
+  if (last_accepted_) {
+    const double target = seconds_since_anchor(segments_.back().mapper.map(s.ticks));
+    if (!emitted_) {
+      y = target;
+    } else {
+      const double limit = kMaxSlew * elapsed;
+      y = std::max(last_y_, free_run + std::clamp(target - free_run, -limit, limit));
+    }
+  }
+  if (!std::isfinite(y)) y = last_y_;
+  emitted_ = true;
+  last_y_ = y;
+  last_emitted_ = s;
+  last_emitted_accepted_ = last_accepted_;
+  last_emitted_segment_ = segments_.size() - 1;
+  return offset_by(anchor_, y);
+}
+
+void DeviceClock::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
+                           uint64_t device_transmit_ticks, TimeNs host_receive) {
+  if (segments_.empty()) return;  // no clock to correct yet
+  shifts_dirty_ = true;
+  segments_.back().mapper.add_ping(host_send, device_receive_ticks, device_transmit_ticks,
+                                   host_receive);
+}
+
+void DeviceClock::flush() {
+  shifts_dirty_ = true;
+  if (!segments_.empty()) segments_.back().mapper.flush();
+}
+
+double DeviceClock::period_s(const Segment& seg) const {
+  if (seg.accepted < 2) return 0.0;
+  return static_cast<double>(seg.last.ticks - seg.first.ticks) / tick_hz_ /
+         static_cast<double>(seg.last.k - seg.first.k);
+}
+
+TimeNs DeviceClock::segment_time(std::size_t index, uint64_t device_ticks) const {
+  if (shifts_dirty_) {
+    shifts_.assign(segments_.size(), 0);
+    for (std::size_t i = 1; i < segments_.size(); ++i) {
+      const Segment& prev = segments_[i - 1];
+      const TimeNs prev_end =
+          offset_by(prev.mapper.map(prev.last.ticks), period_s(prev) + to_seconds(shifts_[i - 1]));
+      const TimeNs start = segments_[i].mapper.map(segments_[i].first.ticks);
+      TimeNs gap = 0;
+      if (!__builtin_sub_overflow(prev_end, start, &gap) && gap > 0) shifts_[i] = gap;
+    }
+    shifts_dirty_ = false;
+  }
+  TimeNs t = 0;
+  const TimeNs mapped = segments_[index].mapper.map(device_ticks);
+  if (__builtin_add_overflow(mapped, shifts_[index], &t)) t = std::numeric_limits<TimeNs>::max();
+  return t;
+}
+
+TimeNs DeviceClock::time_of(std::size_t k, uint64_t device_ticks) const {
+  assert(!segments_.empty());
+  if (const auto o = outliers_.find(k); o != outliers_.end()) {
+    // Where its place in the sequence puts it: the last accepted sample's time plus the
+    // segment's mean sample period per sample since.
+    const std::size_t index = o->second.segment;
+    const Stamp& before = o->second.before;
+    return offset_by(segment_time(index, before.ticks),
+                     static_cast<double>(k - before.k) * period_s(segments_[index]));
+  }
+  return map_near(k, device_ticks);
+}
+
+TimeNs DeviceClock::map_near(std::size_t k, uint64_t device_ticks) const {
+  assert(!segments_.empty());
+  const auto next = std::upper_bound(segment_starts_.begin(), segment_starts_.end(), k);
+  return segment_time(static_cast<std::size_t>(next - segment_starts_.begin()) - 1, device_ticks);
+}
+
+ClockFit DeviceClock::fit() const {
+  if (segments_.empty()) return {};
+  const auto longest =
+      std::max_element(segments_.begin(), segments_.end(),
+                       [](const Segment& a, const Segment& b) { return a.accepted < b.accepted; });
+  ClockFit f = longest->mapper.fit();
+  f.packets = 0;
+  f.rejected = 0;
+  f.pings = 0;
+  for (const Segment& seg : segments_) {
+    const ClockFit s = seg.mapper.fit();
+    f.packets += s.packets;
+    f.rejected += s.rejected;
+    f.pings += s.pings;
+  }
+  f.segments = segments_.size();
+  f.outliers = outliers_.size();
   return f;
 }
 

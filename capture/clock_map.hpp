@@ -16,7 +16,8 @@
 // symmetric paths the device instant (r + s)/2 happened at host time (t1 + t2)/2. The ping with
 // the shortest round trip is the least disturbed one and gives the latency correction.
 //
-// Online times (map_monotonic) never go backwards. The fit moves while a recording runs: the
+// DeviceClock (below) runs one ClockMapper per stretch of unbroken device clock and gives the
+// online times. Online times never go backwards. The fit moves while a recording runs: the
 // first packets arrive late by the device's buffering and by jitter, and every packet that arrives
 // with less delay than any before lowers the envelope (a ping lowers it by the latency). Stepping
 // the time stamps with the fit would step them back, so the online map slews instead, as NTP
@@ -28,6 +29,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <vector>
 
@@ -37,7 +39,11 @@ namespace imukit::capture {
 
 struct ClockFit {
   std::size_t packets = 0;
-  std::size_t rejected = 0;           // packets left out: tick going back, absurd host time
+  std::size_t rejected = 0;  // packets left out: tick going back, absurd host time
+  // DeviceClock: stretches of unbroken device clock (a restart begins a new one; the figures
+  // below are the longest's) and samples whose tick fitted neither (timed from their neighbours).
+  std::size_t segments = 1;
+  std::size_t outliers = 0;
   double skew_ppm = 0.0;              // device clock fast (> 0) or slow relative to the host
   double latency_correction_s = 0.0;  // subtracted from the envelope (0 without pings)
   bool ping_corrected = false;
@@ -71,14 +77,11 @@ class ClockMapper {
                 TimeNs host_receive);
 
   // Host time of a device tick under the current fit; before two packets arrived, the first
-  // packet's offset at the nominal rate. Non-decreasing in the tick (the fitted rate is kept
-  // positive); saturates at the int64 range for ticks absurdly far from the first packet's.
+  // packet's offset at the nominal rate. Non-decreasing in the tick: a fitted rate that is not
+  // within a factor 2 of the nominal one (a host clock that stepped, a file replayed at once) is
+  // replaced by the nominal rate. Saturates at the int64 range for ticks absurdly far from the
+  // first packet's.
   TimeNs map(uint64_t device_ticks) const;
-  // The online time of the next sample, for a live recording: map() slewed so that it never goes
-  // backwards (see the top of this file). Ticks of successive calls should not decrease; one that
-  // does gets the previous time again.
-  TimeNs map_monotonic(uint64_t device_ticks);
-  static constexpr double kMaxSlew = 0.1;
   bool ready() const { return packets_ >= 2; }
   // Statistics of the fit (a pass over the kept residual samples: call at the end, or rarely).
   ClockFit fit() const;
@@ -115,9 +118,96 @@ class ClockMapper {
   mutable bool dirty_ = true;
   mutable double a_ = 0.0, b_ = 1.0;
   mutable std::optional<double> latency_s_;
-  // map_monotonic's last output (device seconds, host seconds since host0_).
+};
+
+// DeviceClock: one device's clock over a whole recording, through restarts and corrupt ticks.
+//
+// A device that restarts begins its tick counter again, and a tick damaged on the link (a text
+// line's time stamp with a flipped digit) lands anywhere: fed to one ClockMapper, either stops the
+// fit (every later packet "goes back") and freezes the online times. So every sample is first
+// checked against the last one accepted: its tick must not go back, nor run ahead of the host
+// time elapsed by more than kMaxLeadS (no packet arrives that much earlier than the one before
+// it). A sample that fails is an outlier: left out of the fit, and timed from the last accepted
+// sample plus its place in the sequence at the segment's mean sample period. kRestartSamples
+// outliers in a row that agree with each other are a restart: they begin a new segment, a new
+// ClockMapper on their own clock. A segment's times begin no earlier than one sample period
+// after the previous segment's last (where the host times cannot place it: a file replayed
+// faster than it was recorded), so a recording's times run forward through restarts.
+//
+// Samples are numbered in the order they are added (k = 0, 1, ...); the offline re-timing of a
+// recording adds them all in a first pass and asks for their times by number in a second.
+class DeviceClock {
+ public:
+  static constexpr double kMaxLeadS = 1.0;
+  static constexpr std::size_t kRestartSamples = 3;
+  // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
+  static constexpr double kMaxSlew = 0.1;
+
+  explicit DeviceClock(double tick_hz);
+
+  // The next sample: its (unwrapped) device tick and when it reached the host; samples that
+  // arrived together (the same host time) are one packet (ClockMapper::add_sample).
+  void add_sample(uint64_t device_ticks, TimeNs host_receive);
+  // True when the sample just added continues the one before it on the same clock (neither is
+  // an outlier, no restart between): its tick step is elapsed device time.
+  bool continues() const { return continues_; }
+  // The online time of the sample just added: the fit of its segment, slewed so that it never
+  // goes before the previous sample's; outliers advance by the host time elapsed.
+  TimeNs online_time();
+  // One time-sync exchange, on the clock of the current segment.
+  void add_ping(TimeNs host_send, uint64_t device_receive_ticks, uint64_t device_transmit_ticks,
+                TimeNs host_receive);
+  // Enters the last packet into the fit (at the end of a recording or of a pass).
+  void flush();
+
+  // The time of sample k (added with device_ticks) under the fit of its segment.
+  TimeNs time_of(std::size_t k, uint64_t device_ticks) const;
+  // Any device tick under the fit of the segment sample k belongs to (an event found near it).
+  TimeNs map_near(std::size_t k, uint64_t device_ticks) const;
+  // The longest segment's fit, with the packets, segments and outliers of all.
+  ClockFit fit() const;
+
+ private:
+  struct Stamp {
+    std::size_t k = 0;
+    uint64_t ticks = 0;
+    TimeNs host = 0;
+  };
+  struct Segment {
+    ClockMapper mapper;
+    Stamp first, last;  // its first and last accepted sample
+    std::size_t accepted = 0;
+  };
+  struct Outlier {
+    std::size_t segment;
+    Stamp before;  // the last sample its segment had accepted
+  };
+  // b can follow a on one clock: its tick not before a's, nor ahead by more than the host time
+  // elapsed plus kMaxLeadS.
+  bool follows(const Stamp& a, const Stamp& b) const;
+  void begin_segment(const Stamp& s);
+  void accept(const Stamp& s);
+  double seconds_since_anchor(TimeNs t) const;
+  double period_s(const Segment& seg) const;  // its mean device seconds per accepted sample
+  TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
+
+  double tick_hz_;
+  std::vector<Segment> segments_;
+  std::vector<std::size_t> segment_starts_;  // k of each segment's first sample
+  mutable std::vector<TimeNs> shifts_;       // per segment: how far its fit is moved later
+  mutable bool shifts_dirty_ = true;
+  std::map<std::size_t, Outlier> outliers_;
+  std::vector<Stamp> candidates_;  // outliers in a row that agree with each other
+  Stamp last_added_;
+  bool last_accepted_ = false, continues_ = false;
+  std::size_t next_k_ = 0;
+  // Online state: the last time given out, in seconds since the first sample's arrival (anchor_).
+  TimeNs anchor_ = 0;
   bool emitted_ = false;
-  double last_x_ = 0.0, last_y_ = 0.0;
+  double last_y_ = 0.0;
+  Stamp last_emitted_;
+  bool last_emitted_accepted_ = false;
+  std::size_t last_emitted_segment_ = 0;
 };
 
 }  // namespace imukit::capture

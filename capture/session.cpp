@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -55,9 +56,13 @@ struct Device {
   std::thread thread;
 
   // Writer side.
-  ClockMapper clock{1e9};  // device times arrive in ns
+  DeviceClock clock{1e9};  // device times arrive in ns
   uint64_t last_sequence = 0;
-  uint64_t sequence_span = 0;  // the sequence's forward steps between written samples
+  // Between consecutive written samples on one clock (DeviceClock::continues, or forward
+  // sequence numbers for a device without a clock): the sequence's steps and, with a clock, the
+  // device time elapsed. Restarts and outliers add nothing.
+  uint64_t sequence_span = 0;
+  TimeNs device_span = 0;
   // Samples missing between consecutive written samples (sequence gaps), less those the queue
   // refused.
   uint64_t gaps = 0;
@@ -67,8 +72,8 @@ struct Device {
   bool sync_channel_made = false;
   uint64_t written = 0;
   TimeNs first_host = 0, last_host = 0;
-  // Device times of the first and last sample written (when the device has a clock).
-  std::optional<TimeNs> first_device, last_device;
+  TimeNs last_device = 0;  // device time of the last sample written that had one
+  bool has_device_time = false;
   ImuMessage imu;
   RawImuMessage raw;
   TapDetector taps;
@@ -130,9 +135,7 @@ void set_rate(const Device& d, DeviceProgress& p) {
   p.rate_hz = 0.0;
   if (d.written < 2) return;
   double host_span = to_seconds(d.last_host - d.first_host);
-  if (d.first_device && d.last_device) {
-    host_span = to_seconds(*d.last_device - *d.first_device) / (1.0 + p.clock.skew_ppm * 1e-6);
-  }
+  if (d.has_device_time) host_span = to_seconds(d.device_span) / (1.0 + p.clock.skew_ppm * 1e-6);
   // Sample numbers, not samples written: dropped samples were made at the device's rate too.
   if (host_span > 0) p.rate_hz = static_cast<double>(d.sequence_span) / host_span;
 }
@@ -179,7 +182,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
   TimeNs t = s.host_time;
   if (s.has_device_time) {
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
-    t = d.clock.map_monotonic(static_cast<uint64_t>(s.device_time));
+    t = d.clock.online_time();
   }
   // Raw first: the offline refit maps the raw message and gives its time to the IMU message
   // that follows it.
@@ -211,12 +214,14 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
                        imu_bytes);
   if (d.written == 0) {
     d.first_host = s.host_time;
-    if (s.has_device_time) d.first_device = s.device_time;
   } else if (s.sequence > d.last_sequence) {
     // A counter that went back (the device restarted its stream) adds nothing here.
     const uint64_t missing = s.sequence - d.last_sequence - 1;
     d.gaps += missing - std::min(missing, refused_before);
-    d.sequence_span += s.sequence - d.last_sequence;
+    if (!s.has_device_time || d.clock.continues()) {
+      d.sequence_span += s.sequence - d.last_sequence;
+      if (s.has_device_time) d.device_span += s.device_time - d.last_device;
+    }
   }
   d.last_sequence = s.sequence;
   if (s.channels & drivers::kHasAccel) {
@@ -255,7 +260,10 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
     }
   }
   d.last_host = s.host_time;
-  if (s.has_device_time) d.last_device = s.device_time;
+  if (s.has_device_time) {
+    d.last_device = s.device_time;
+    d.has_device_time = true;
+  }
   ++d.written;
 }
 
@@ -553,7 +561,7 @@ std::optional<RawImuMessage> decode_raw(std::span<const uint8_t> data, const std
 // "/imu/") and every device's clock, fed with its (ticks, receive time) pairs and time-sync
 // exchanges.
 struct ClockScan {
-  std::map<std::string, ClockMapper> clocks;
+  std::map<std::string, DeviceClock> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
   std::optional<uint16_t> event_channel;
 };
@@ -605,7 +613,7 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
 }
 
 // The clock fits as metadata records of the refitted file, so `imukit info` can show them.
-std::vector<McapMetadata> clock_fit_records(const std::map<std::string, ClockMapper>& clocks) {
+std::vector<McapMetadata> clock_fit_records(const std::map<std::string, DeviceClock>& clocks) {
   std::vector<McapMetadata> records;
   for (const auto& [name, clock] : clocks) {
     const ClockFit f = clock.fit();
@@ -618,7 +626,9 @@ std::vector<McapMetadata> clock_fit_records(const std::map<std::string, ClockMap
           {"jitter_max_us", fmt::format("{:.1f}", f.jitter_max_s * 1e6)},
           {"latency_us", f.ping_corrected ? fmt::format("{:.1f}", f.latency_correction_s * 1e6)
                                           : std::string("unknown (no time-sync pings)")},
-          {"pings", std::to_string(f.pings)}}});
+          {"pings", std::to_string(f.pings)},
+          {"segments", std::to_string(f.segments)},
+          {"outliers", std::to_string(f.outliers)}}});
   }
   return records;
 }
@@ -646,7 +656,8 @@ class Retimer {
 
  private:
   struct Retimed {
-    TimeNs original = 0, mapped = 0;
+    TimeNs original = 0, mapped = std::numeric_limits<TimeNs>::min();
+    std::size_t clocked = 0;  // raw messages with a device clock so far
   };
 
   bool raw(const std::string& device, McapMessageView& m) {
@@ -656,14 +667,21 @@ class Retimer {
     const auto ns = device_ns(*raw);
     if (!ns || clock == scan_.clocks.end()) return true;
     const TimeNs original = raw->stamp;
-    raw->stamp = clock->second.map(*ns);
-    last_raw_[device] = {original, raw->stamp};
+    // The k-th message with a clock, as scan_clocks added them. Where two segments' fits meet,
+    // or an outlier's estimate sits, a time can come out a little before the previous one; a
+    // recording's times never go back, so it takes the previous time instead.
+    Retimed& last = last_raw_[device];
+    raw->stamp = std::max(clock->second.time_of(last.clocked++, *ns), last.mapped);
+    last.original = original;
+    last.mapped = raw->stamp;
     buffer_ = encode_cdr(*raw);
     m.data = buffer_;
     m.log_time = static_cast<uint64_t>(raw->stamp);
     return true;
   }
 
+  // An event carries the device time of the sample it was found in, written just after it: it
+  // is on the clock of its device's last raw message.
   bool event(McapMessageView& m) const {
     const auto j = nlohmann::json::parse(m.data.begin(), m.data.end(), nullptr, false);
     if (!j.is_object()) return true;
@@ -672,7 +690,10 @@ class Retimer {
     if (device == j.end() || !device->is_string() || !ns) return true;
     const auto clock = scan_.clocks.find(device->get<std::string>());
     if (clock == scan_.clocks.end()) return true;
-    m.log_time = static_cast<uint64_t>(clock->second.map(static_cast<uint64_t>(*ns)));
+    const auto last = last_raw_.find(device->get<std::string>());
+    const std::size_t k =
+        last == last_raw_.end() || last->second.clocked == 0 ? 0 : last->second.clocked - 1;
+    m.log_time = static_cast<uint64_t>(clock->second.map_near(k, static_cast<uint64_t>(*ns)));
     m.publish_time = m.log_time;
     return true;
   }

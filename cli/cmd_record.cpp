@@ -155,6 +155,12 @@ std::string print_report(const capture::SessionReport& report) {
                     d.clock.latency_correction_s * 1e6, d.clock.pings,
                     d.clock.best_round_trip_s * 1e6)
               : "; no time-sync pings: times are receive times at the smallest latency seen");
+      if (d.clock.segments > 1 || d.clock.outliers > 0) {
+        fmt::print(
+            "  clock: {} restart(s) of the device clock (each stretch fitted on its own), {} "
+            "sample(s) with a tick that fitted neither side, timed from their neighbours\n",
+            d.clock.segments - 1, d.clock.outliers);
+      }
     }
   }
   return silent;

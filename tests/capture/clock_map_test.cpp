@@ -151,14 +151,15 @@ TEST(ClockMapper, ADayAt100HzStaysExact) {
 
 // Issue 16, item 9: a device sending blocks of 8 samples. The first block anchors the map on its
 // arrival, 7 ms of buffering after its first sample; once the block's last sample enters the fit,
-// map() puts sample 8 about 6 ms before sample 7 (what made --no-refit and crashed recordings
-// unreadable). The online map slews instead: its times never go back, every interval stays
-// within 10 % of the device's own, and after the first 0.1 s they follow the fit. The offline
+// the fit puts sample 8 about 6 ms before sample 7 (what made --no-refit and crashed recordings
+// unreadable). DeviceClock's online times slew instead: its times never go back, every interval
+// stays within 10 % of the device's own, and after the first 0.1 s they follow the fit. The offline
 // fit over the whole minute is the reference.
-TEST(ClockMapper, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
+TEST(DeviceClock, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
   const Link link;
   Rng rng(8);
-  ClockMapper online(link.tick_hz), offline(link.tick_hz);
+  DeviceClock online(link.tick_hz);
+  ClockMapper offline(link.tick_hz);
   const int64_t samples = 60'000;
   std::vector<uint64_t> ticks;
   std::vector<TimeNs> slewed, fitted;
@@ -170,8 +171,8 @@ TEST(ClockMapper, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
       online.add_sample(tick, received);
       offline.add_sample(tick, received);
       ticks.push_back(tick);
-      slewed.push_back(online.map_monotonic(tick));
-      fitted.push_back(online.map(tick));
+      slewed.push_back(online.online_time());
+      fitted.push_back(online.map_near(static_cast<std::size_t>(i), tick));
     }
   }
   offline.flush();
@@ -213,10 +214,10 @@ TEST(ClockMapper, OnlineTimesNeverGoBackAndMeetTheOfflineFit) {
 
 // The first time-sync ping lowers the fit by the link latency (2 ms) at once; the online times
 // slew through it at 10 % (20 ms of device time) instead of stepping back.
-TEST(ClockMapper, APingThatMovesTheFitIsSlewedThrough) {
+TEST(DeviceClock, APingThatMovesTheFitIsSlewedThrough) {
   Link link;
   link.drift_ppm = 0;
-  ClockMapper mapper(link.tick_hz);
+  DeviceClock mapper(link.tick_hz);
   TimeNs previous = 0;
   int64_t caught_up_at = -1;
   for (int64_t i = 0; i < 2000; ++i) {
@@ -227,17 +228,123 @@ TEST(ClockMapper, APingThatMovesTheFitIsSlewedThrough) {
       mapper.add_ping(link.host_at(t), link.ticks_at(t + link.latency_s),
                       link.ticks_at(t + link.latency_s), link.host_at(t + 2 * link.latency_s));
     }
-    const TimeNs now = mapper.map_monotonic(tick);
+    const TimeNs now = mapper.online_time();
     if (i > 0) {
       ASSERT_GE(now - previous, 899'999) << i;
       ASSERT_LE(now - previous, 1'000'001) << i;
     }
-    if (i > 500 && caught_up_at < 0 && std::llabs(now - mapper.map(tick)) <= 1) caught_up_at = i;
+    const auto k = static_cast<std::size_t>(i);
+    if (i > 500 && caught_up_at < 0 && std::llabs(now - mapper.map_near(k, tick)) <= 1)
+      caught_up_at = i;
     previous = now;
   }
   // 2 ms at 0.1 ms per 1 ms sample: caught up 20 samples after the ping.
   EXPECT_NEAR(static_cast<double>(caught_up_at), 520.0, 1.0);
-  EXPECT_EQ(mapper.map(link.ticks_at(1.0)), link.host_at(1.0));  // the latency is removed
+  EXPECT_EQ(mapper.map_near(0, link.ticks_at(1.0)), link.host_at(1.0));  // the latency is removed
+}
+
+// Blocks of 8 samples from `link` (as in the tests above), each sample's tick from tick_of(i):
+// what a DeviceClock makes of them online and offline.
+struct Replay {
+  std::vector<uint64_t> ticks;
+  std::vector<double> truth;  // true sample times, s
+  std::vector<TimeNs> online;
+  std::vector<bool> continues;
+};
+
+template <class TickOf>
+Replay replay(DeviceClock& clock, const Link& link, int64_t samples, uint64_t seed,
+              TickOf tick_of) {
+  Rng rng(seed);
+  Replay r;
+  for (int64_t first = 0; first < samples; first += 8) {
+    const TimeNs received =
+        link.host_at(link.true_time(first + 7) + link.latency_s + link.jitter(rng));
+    for (int64_t i = first; i < first + 8; ++i) {
+      r.ticks.push_back(tick_of(i));
+      r.truth.push_back(link.true_time(i));
+      clock.add_sample(r.ticks.back(), received);
+      r.continues.push_back(clock.continues());
+      r.online.push_back(clock.online_time());
+    }
+  }
+  clock.flush();
+  return r;
+}
+
+// A device that restarts after 10 s: its clock begins again at 0 while the host's goes on. In
+// one ClockMapper every later packet would "go back", be left out and get the same online time.
+// DeviceClock begins a second segment at the restart (the three samples that showed it are not
+// outliers): online times never go back, each stretch is fitted on its own (once it has a
+// second of packets, every offline time is within 30 us of the true time plus the latency), and
+// the offline times run forward through the restart.
+TEST(DeviceClock, ARestartBeginsASegmentOfItsOwn) {
+  const Link link;
+  const int64_t samples = 20'000, restart = 10'000;
+  DeviceClock clock(link.tick_hz);
+  const Replay r = replay(clock, link, samples, 3, [&](int64_t i) {
+    if (i < restart) return link.ticks_at(link.true_time(i));
+    return link.ticks_at(link.true_time(i) - link.true_time(restart)) - link.tick_start;
+  });
+  const ClockFit f = clock.fit();
+  EXPECT_EQ(f.segments, 2u);
+  EXPECT_EQ(f.outliers, 0u);
+  EXPECT_NEAR(f.skew_ppm, 200.0, 2.0);
+  EXPECT_FALSE(r.continues[restart]);
+  EXPECT_FALSE(r.continues[restart + 2]);  // the third of the run: the new segment begins
+  EXPECT_TRUE(r.continues[restart + 3]);
+  double worst_settled = 0.0, worst = 0.0;
+  TimeNs previous = INT64_MIN;
+  for (std::size_t k = 0; k < r.ticks.size(); ++k) {
+    ASSERT_GE(r.online[k], k > 0 ? r.online[k - 1] : INT64_MIN) << k;
+    const TimeNs t = clock.time_of(k, r.ticks[k]);
+    ASSERT_GE(t, previous) << k;
+    previous = t;
+    const double err = to_seconds(t - link.host_at(r.truth[k] + link.latency_s));
+    worst = std::max(worst, std::abs(err));
+    const auto since_segment = static_cast<int64_t>(k) % restart;
+    if (since_segment >= 1000) worst_settled = std::max(worst_settled, std::abs(err));
+  }
+  EXPECT_LT(worst_settled, 30e-6);
+  EXPECT_LT(worst, 1.1e-3);  // the first packets of a segment: at most the jitter's 1 ms
+  std::printf("restart: offline within %.1f us once settled, %.1f us at worst\n",
+              worst_settled * 1e6, worst * 1e6);
+}
+
+// Ticks damaged on the link: one sample 100 s ahead (the last of its packet, so it would have
+// entered the fit), one 5 s back. Each is an outlier, timed from its neighbours; every other
+// sample's offline time is what it is without them, and the online times, after slewing
+// through, are again the undisturbed ones.
+TEST(DeviceClock, ACorruptTickIsAnOutlierTimedFromItsNeighbours) {
+  const Link link;
+  const int64_t samples = 12'000, ahead = 5007, back = 7005;
+  const auto true_tick = [&](int64_t i) { return link.ticks_at(link.true_time(i)); };
+  DeviceClock clean(link.tick_hz), damaged(link.tick_hz);
+  const Replay a = replay(clean, link, samples, 4, true_tick);
+  const Replay b = replay(damaged, link, samples, 4, [&](int64_t i) {
+    if (i == ahead) return true_tick(i) + 100'000'000;  // 100 s of 1 MHz ticks
+    if (i == back) return true_tick(i) - 5'000'000;
+    return true_tick(i);
+  });
+  EXPECT_EQ(damaged.fit().outliers, 2u);
+  EXPECT_EQ(damaged.fit().segments, 1u);
+  EXPECT_NEAR(damaged.fit().skew_ppm, clean.fit().skew_ppm, 0.01);
+  EXPECT_FALSE(b.continues[ahead]);
+  EXPECT_FALSE(b.continues[ahead + 1]);  // follows an outlier
+  EXPECT_TRUE(b.continues[ahead + 2]);
+  TimeNs worst_offline = 0, worst_online_after = 0;
+  for (std::size_t k = 0; k < b.ticks.size(); ++k) {
+    ASSERT_GE(b.online[k], k > 0 ? b.online[k - 1] : INT64_MIN) << k;
+    const TimeNs d = std::abs(damaged.time_of(k, b.ticks[k]) - clean.time_of(k, a.ticks[k]));
+    worst_offline = std::max(worst_offline, d);
+    const auto i = static_cast<int64_t>(k);
+    if ((i > ahead + 100 && i < back) || i > back + 100)
+      worst_online_after = std::max(worst_online_after, std::abs(b.online[k] - a.online[k]));
+  }
+  // The outliers land within a microsecond of their true times (one mean period after their
+  // neighbour), and leaving the damaged sample out of its packet moves the fit by less.
+  EXPECT_LT(worst_offline, 1000);
+  EXPECT_LT(worst_online_after, 1000);
 }
 
 // What a damaged or crafted file can feed the clock fit during recovery: receive times 2^63 ns

@@ -9,6 +9,7 @@
 #include "imukit/capture/ros_messages.hpp"
 #include "imukit/drivers/imukit_codec.hpp"
 #include "imukit/drivers/mock_device.hpp"
+#include "imukit/drivers/uri.hpp"
 #include "support/test_data.hpp"
 
 namespace imukit::capture {
@@ -285,6 +286,49 @@ TEST(Session, QueueRefusalsAreCountedOnceAndTheBacklogIsTheTrueDepth) {
       EXPECT_LT(d.queue_high_water, rows.size() / 4) << d.queue_high_water;
     }
   }
+}
+
+// A text stream (Arduino-style `t,ax,ay,az,gx,gy,gz`, t in ms) whose device restarts after
+// 1.5 s and whose time stamp 50 was damaged (101 s instead of 0.5 s). Fed to one clock fit, the
+// damaged tick froze every later online time, and the restart left the refitted file with
+// times going back (`convert` refused it). Now: every sample is written, the refitted series is
+// valid, and the clock record names one restart and one outlier.
+TEST(Session, ARestartAndADamagedTickLeaveAValidRecording) {
+  testing::TempDir dir;
+  const std::string log = (dir / "log.txt").string();
+  {
+    std::ofstream out(log);
+    for (int stretch = 0; stretch < 2; ++stretch) {
+      for (int i = 0; i < 150; ++i) {
+        const int t = stretch == 0 && i == 50 ? 101000 : 10 * i;
+        out << t << ",0,0,9.81,0,0,0\n";
+      }
+    }
+  }
+  std::vector<SessionDevice> devices;
+  devices.push_back({"text", "file:" + log + "?codec=text",
+                     drivers::open_device("file:" + log + "?codec=text"), std::nullopt});
+  SessionOptions options;
+  options.path = (dir / "rec.mcap").string();
+  const SessionReport report = record_session(std::move(devices), options);
+  const DeviceProgress& d = report.devices.at(0);
+  EXPECT_EQ(d.samples, 300u);
+  EXPECT_EQ(d.clock.segments, 2u);
+  EXPECT_EQ(d.clock.outliers, 1u);
+  // 100 Hz of device time over the stretches, whatever the host times of a file read at once.
+  EXPECT_NEAR(d.rate_hz, 100.0, 1e-6);
+  const RecordingRead back = read_recording_mcap(options.path);
+  ASSERT_EQ(back.recording.streams.at("text").size(), 300u);
+  EXPECT_NO_THROW(back.recording.streams.at("text").validate());
+  EXPECT_EQ(back.recording.metadata.at("imukit.clock.text.segments"), "2");
+  EXPECT_EQ(back.recording.metadata.at("imukit.clock.text.outliers"), "1");
+  // The second stretch follows the first: 1.49 s of device time, then at least one period.
+  const auto& t = back.recording.streams.at("text").t;
+  EXPECT_NEAR(to_seconds(t[149] - t[0]), 1.49, 1e-6);
+  EXPECT_GE(t[150] - t[149], 10'000'000 - 1);
+  EXPECT_NEAR(to_seconds(t[299] - t[150]), 1.49, 1e-6);
+  // The damaged sample sits where its place puts it: one period after its neighbour.
+  EXPECT_NEAR(to_seconds(t[50] - t[49]), 0.01, 1e-6);
 }
 
 TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {
