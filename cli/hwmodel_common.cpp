@@ -102,6 +102,13 @@ void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& 
       "slopes: N@1s      B=min/0.664   K@3s\n",
       fmt::arg("u", unit));
   for (int ax = 0; ax < 3; ++ax) {
+    if (tn.axes[size_t(ax)].constant) {
+      fmt::print(
+          "  {}     constant: every sample the same (a dead axis, or noise below one count): "
+          "no noise to fit, 0 in the profile\n",
+          "xyz"[ax]);
+      continue;
+    }
     const auto& f = tn.axes[size_t(ax)].fit;
     const auto& s = tn.axes[size_t(ax)].slopes;
     auto pm = [](double v, double sd, bool active, double upper) {
@@ -243,14 +250,22 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
   fmt::print("noise from {} ({} recordings given)\n", longest->name, runs.size());
   r.update.gravity = options.gravity;
   const hwmodel::TriadNoiseOptions noise_options{options.points_per_decade, options.fit_tau_min_s};
+  // The triad's name on any error its noise fit gives (which axis it names itself).
+  const auto characterize = [&](const char* name, const Eigen::Matrix3Xd& x) {
+    try {
+      return hwmodel::characterize_triad(s.t, x, noise_options);
+    } catch (const Error& e) {
+      throw Error(fmt::format("characterize: {} of {}: {}", name, longest->name, e.what()));
+    }
+  };
   if (s.has_accel()) {
-    r.accel = hwmodel::characterize_triad(s.t, s.accel, noise_options);
+    r.accel = characterize("accelerometer", s.accel);
     print_triad("accelerometer", "m/s^2", *r.accel);
     r.update.accelerometer = SensorProfile{};
     r.update.accelerometer->noise = hwmodel::noise_estimate(*r.accel);
   }
   if (s.has_gyro()) {
-    r.gyro = hwmodel::characterize_triad(s.t, s.gyro, noise_options);
+    r.gyro = characterize("gyroscope", s.gyro);
     print_triad("gyroscope", "rad/s", *r.gyro);
     r.update.gyroscope = GyroscopeProfile{};
     r.update.gyroscope->noise = hwmodel::noise_estimate(*r.gyro);

@@ -611,6 +611,10 @@ AllanResult grid_and_sampling(std::span<const TimeNs> t,
   const auto n = int64_t(samples.cols());
   const int axes = int(samples.rows());
   if (axes < 1 || axes > 16) throw Error("Allan deviation: between 1 and 16 axes are supported");
+  if (!(options.confidence > 0.0 && options.confidence < 1.0)) {
+    throw Error("Allan deviation: the confidence of the intervals must be between 0 and 1, got " +
+                std::to_string(options.confidence));
+  }
   if (int64_t(t.size()) != n) {
     throw Error("Allan deviation: " + std::to_string(t.size()) + " time stamps for " +
                 std::to_string(n) + " samples");

@@ -1,7 +1,11 @@
 #include "imukit/hwmodel/characterize.hpp"
 
+#include <algorithm>
 #include <cstddef>
+#include <string>
 #include <vector>
+
+#include "imukit/core/error.hpp"
 
 namespace imukit::hwmodel {
 
@@ -22,8 +26,16 @@ TriadNoise characterize_triad(std::span<const TimeNs> t, const Eigen::Matrix3Xd&
     NoiseFitOptions fo;
     fo.tau_min_s = options.fit_tau_min_s;
     AxisNoise& axis = out.axes[static_cast<std::size_t>(ax)];
-    axis.fit = fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors,
-                                   static_cast<int64_t>(t.size()), fo);
+    if (std::all_of(dev.begin(), dev.end(), [](double d) { return d == 0.0; })) {
+      axis.constant = true;
+      continue;
+    }
+    try {
+      axis.fit = fit_noise_model_gls(out.allan.tau_s, dev, out.allan.factors,
+                                     static_cast<int64_t>(t.size()), fo);
+    } catch (const Error& e) {
+      throw Error(std::string("axis ") + "xyz"[ax] + ": " + e.what());
+    }
     axis.slopes = read_slopes(out.allan.tau_s, dev, lo, hi);
   }
   return out;

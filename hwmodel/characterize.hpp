@@ -20,6 +20,9 @@ namespace imukit::hwmodel {
 struct AxisNoise {
   NoiseFit fit;          // fit_noise_model_gls on the axis' Allan deviation
   SlopeReadings slopes;  // read_slopes: the classic graphical readings, for comparison
+  // Every sample the same (a dead axis, or noise below one count of the converter): its Allan
+  // deviation is 0 at every tau, there is nothing to fit, and fit and slopes stay zero.
+  bool constant = false;
 };
 
 struct TriadNoise {
@@ -33,7 +36,8 @@ struct TriadNoiseOptions {
 };
 
 // Overlapping Allan deviation of the triad x (3 x n, samples at times t) with, per axis, the
-// GLS noise fit and the slope readings. Throws imukit::Error for input allan_deviation refuses.
+// GLS noise fit and the slope readings (none for a constant axis). Throws imukit::Error for
+// input allan_deviation refuses, and naming the axis when its fit fails.
 TriadNoise characterize_triad(std::span<const TimeNs> t, const Eigen::Matrix3Xd& x,
                               const TriadNoiseOptions& options = {});
 

@@ -11,6 +11,10 @@
 namespace imukit::hwmodel {
 namespace {
 
+// Above any recording's sample count, so no real edf reaches it; an infinite or astronomically
+// large one (a crafted input) would overflow the weighted columns and silently zero the fit.
+constexpr double kMaxEdf = 1e15;
+
 // Basis of the model in the squared coefficients (Q^2, N^2, B^2, K^2, R^2).
 double basis(int term, double tau) {
   switch (term) {
@@ -246,8 +250,13 @@ std::vector<size_t> usable_points(const std::vector<double>& tau_s, const std::v
   return use;
 }
 
-// The noise terms the options select (indices into Q, N, B, K, R). At least one.
+// The noise terms the options select (indices into Q, N, B, K, R). At least one. Also checks
+// the options' confidence.
 std::vector<int> selected_terms(const NoiseFitOptions& options) {
+  if (!(options.confidence > 0.0 && options.confidence < 1.0)) {
+    throw Error("noise fit: the confidence of the intervals must be between 0 and 1, got " +
+                std::to_string(options.confidence));
+  }
   std::vector<int> terms;
   for (int i = 0; i < kNoiseTerms; ++i)
     if (options.terms[static_cast<size_t>(i)]) terms.push_back(i);
@@ -262,8 +271,8 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
   if (tau_s.size() != adev.size() || tau_s.size() != edf.size()) {
     throw Error("noise fit: tau, deviation and edf lists differ in length");
   }
-  const std::vector<size_t> use =
-      usable_points(tau_s, adev, options, [&](size_t k) { return edf[k] >= 1.0; });
+  const std::vector<size_t> use = usable_points(
+      tau_s, adev, options, [&](size_t k) { return edf[k] >= 1.0 && edf[k] < kMaxEdf; });
   const std::vector<int> terms = selected_terms(options);
 
   const auto rows = static_cast<Eigen::Index>(use.size());
@@ -377,8 +386,9 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   if (tau_s.size() != adev.size() || tau_s.size() != factors.size()) {
     throw Error("noise fit: tau, deviation and factor lists differ in length");
   }
-  const std::vector<size_t> use =
-      usable_points(tau_s, adev, options, [&](size_t k) { return n + 1 - 2 * factors[k] >= 2; });
+  const std::vector<size_t> use = usable_points(tau_s, adev, options, [&](size_t k) {
+    return factors[k] >= 1 && n + 1 - 2 * factors[k] >= 2;
+  });
   const std::vector<int> terms = selected_terms(options);
   const double tau0 = tau_s[use.front()] / static_cast<double>(factors[use.front()]);
 

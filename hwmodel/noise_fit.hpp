@@ -29,7 +29,7 @@ inline constexpr int kNoiseTerms = 5;
 const char* noise_term_name(int term);  // "Q", "N", "B", "K", "R"
 
 // sqrt(2 ln 2 / pi): the Allan deviation of the flicker floor is this times B.
-inline constexpr double kFlickerFloorFactor = 0.66431190389408;
+inline constexpr double kFlickerFloorFactor = 0.6642824702679601;
 
 // The model's Allan variance at tau for coefficients (Q, N, B, K, R).
 double model_allan_variance(const std::array<double, kNoiseTerms>& coefficients, double tau_s);

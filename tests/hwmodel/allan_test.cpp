@@ -411,6 +411,12 @@ TEST(AllanDeviation, RejectsBadInput) {
   EXPECT_THROW(allan_deviation(t, Eigen::MatrixXd::Ones(1, 100), opt), Error);
   const std::vector<TimeNs> same(100, 7);
   EXPECT_THROW(allan_deviation(same, Eigen::MatrixXd::Ones(1, 100)), Error);
+  // A confidence outside (0, 1) is an error, not an assertion deep in the interval code.
+  for (const double c : {0.0, 1.0, 1.5, std::nan("")}) {
+    AllanOptions o;
+    o.confidence = c;
+    EXPECT_THROW(allan_deviation(t, Eigen::MatrixXd::Ones(1, 100), o), Error) << c;
+  }
 }
 
 }  // namespace

@@ -42,6 +42,36 @@ TEST(Characterize, WhiteNoiseTriadGivesItsDensityAndNoOtherTerm) {
   EXPECT_EQ(e.allan->adev[2].size(), noise.allan.tau_s.size());
 }
 
+// Found in review: one constant axis (dead, or noise below one count) made the whole triad
+// fail with "fewer than 2 usable points". Now that axis is marked constant with zero noise and
+// the other two are characterized as usual.
+TEST(Characterize, AConstantAxisIsMarkedAndTheOthersAreFitted) {
+  const double rate = 10.0;
+  const int64_t n = 50'000;
+  const double density = 2e-3;
+  Rng rng(12);
+  std::vector<TimeNs> t(static_cast<std::size_t>(n));
+  Eigen::Matrix3Xd x(3, n);
+  for (int64_t i = 0; i < n; ++i) {
+    t[static_cast<std::size_t>(i)] = i * 100'000'000;
+    x(0, i) = density * std::sqrt(rate) * rng.normal();
+    x(1, i) = density * std::sqrt(rate) * rng.normal();
+    x(2, i) = 9.80665;  // constant
+  }
+  const TriadNoise noise = characterize_triad(t, x);
+  EXPECT_FALSE(noise.axes[0].constant);
+  EXPECT_FALSE(noise.axes[1].constant);
+  EXPECT_TRUE(noise.axes[2].constant);
+  const NoiseEstimate e = noise_estimate(noise);
+  for (int a = 0; a < 2; ++a) {
+    const NoiseFit& f = noise.axes[static_cast<std::size_t>(a)].fit;
+    EXPECT_NEAR(f.value[kWhite], density, 3 * f.sigma[kWhite]) << a;
+  }
+  EXPECT_EQ((*e.noise_density)(2), 0.0);
+  EXPECT_EQ((*e.noise_density_sigma)(2), 0.0);
+  EXPECT_EQ((*e.random_walk)(2), 0.0);
+}
+
 TEST(Characterize, CalibrationSectionIsTheForwardModel) {
   TriadCalibration c;
   c.T << 1.0, 0.01, -0.02, 0.0, 1.0, 0.03, 0.0, 0.0, 1.0;

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -190,6 +191,41 @@ TEST(NoiseFit, RealCurvesOfImuUtilsAgreeWithItsWhiteNoiseAtOneSecond) {
 TEST(NoiseFit, RejectsTooFewPoints) {
   EXPECT_THROW(fit_noise_model({1.0}, {1.0}, {10.0}), Error);
   EXPECT_THROW(fit_noise_model({1.0, 2.0}, {1.0}, {10.0, 10.0}), Error);
+}
+
+// Found in review: a confidence outside (0, 1) reached an assertion (the process aborted, from
+// Python too); an infinite or absurd edf, or an averaging factor of 0, gave a silent all-zero
+// fit. Each is now an error naming what is wrong, or the point is not used.
+TEST(NoiseFit, RejectsAConfidenceOutsideZeroOneAndUnusableEdfsOrFactors) {
+  const std::array<double, kNoiseTerms> truth = {0.0, 3e-3, 2e-4, 5e-6, 0.0};
+  std::vector<double> tau, adev, edf;
+  for (int k = 0; k <= 30; ++k) {
+    tau.push_back(0.01 * std::pow(10.0, k / 10.0));
+    adev.push_back(std::sqrt(model_allan_variance(truth, tau.back())));
+    edf.push_back(1000.0);
+  }
+  for (const double c : {0.0, 1.0, 1.5, -0.5, std::nan("")}) {
+    NoiseFitOptions opt;
+    opt.confidence = c;
+    try {
+      fit_noise_model(tau, adev, edf, opt);
+      ADD_FAILURE() << "confidence " << c << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("confidence"), std::string::npos) << e.what();
+    }
+  }
+  // Infinite or absurd edf: those points are not used (all of them: too few points).
+  std::vector<double> bad(edf.size(), std::numeric_limits<double>::infinity());
+  EXPECT_THROW(fit_noise_model(tau, adev, bad), Error);
+  std::fill(bad.begin(), bad.end(), 1e300);
+  EXPECT_THROW(fit_noise_model(tau, adev, bad), Error);
+  // One infinite edf among good ones leaves the fit of the rest exact.
+  edf[5] = std::numeric_limits<double>::infinity();
+  const NoiseFit fit = fit_noise_model(tau, adev, edf);
+  EXPECT_NEAR(fit.value[kWhite], truth[kWhite], 1e-6 * truth[kWhite]);
+  // The GLS fit: factors of 0 are not averaging factors.
+  std::vector<int64_t> zero(tau.size(), 0);
+  EXPECT_THROW(fit_noise_model_gls(tau, adev, zero, 1'000'000), Error);
 }
 
 }  // namespace
