@@ -1,5 +1,6 @@
 #include "imukit/hwmodel/allan.hpp"
 
+#include <fmt/core.h>
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -612,8 +613,9 @@ AllanResult grid_and_sampling(std::span<const TimeNs> t,
   const int axes = int(samples.rows());
   if (axes < 1 || axes > 16) throw Error("Allan deviation: between 1 and 16 axes are supported");
   if (!(options.confidence > 0.0 && options.confidence < 1.0)) {
-    throw Error("Allan deviation: the confidence of the intervals must be between 0 and 1, got " +
-                std::to_string(options.confidence));
+    throw Error(fmt::format(
+        "Allan deviation: the confidence of the intervals must be between 0 and 1, got {:g}",
+        options.confidence));
   }
   if (int64_t(t.size()) != n) {
     throw Error("Allan deviation: " + std::to_string(t.size()) + " time stamps for " +

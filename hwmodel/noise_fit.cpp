@@ -1,5 +1,6 @@
 #include "imukit/hwmodel/noise_fit.hpp"
 
+#include <fmt/core.h>
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
@@ -254,8 +255,9 @@ std::vector<size_t> usable_points(const std::vector<double>& tau_s, const std::v
 // the options' confidence.
 std::vector<int> selected_terms(const NoiseFitOptions& options) {
   if (!(options.confidence > 0.0 && options.confidence < 1.0)) {
-    throw Error("noise fit: the confidence of the intervals must be between 0 and 1, got " +
-                std::to_string(options.confidence));
+    throw Error(
+        fmt::format("noise fit: the confidence of the intervals must be between 0 and 1, got {:g}",
+                    options.confidence));
   }
   std::vector<int> terms;
   for (int i = 0; i < kNoiseTerms; ++i)
