@@ -64,6 +64,7 @@ void ImukitCodec::start(TimeNs now) {
 }
 
 void ImukitCodec::send_configuration() {
+  send(proto::Stop{});
   if (opt_.rate_hz > 0 && info_) {
     proto::Configure c;
     c.rate_mhz = static_cast<uint32_t>(std::llround(opt_.rate_hz * 1000.0));
@@ -73,7 +74,9 @@ void ImukitCodec::send_configuration() {
     rate_mhz_ = c.rate_mhz;
     send(c);
   }
+  start_sequence_ = tx_sequence_;
   send(proto::Start{});
+  started_ = true;
 }
 
 void ImukitCodec::tick(TimeNs now) {
@@ -84,8 +87,8 @@ void ImukitCodec::tick(TimeNs now) {
     if (!info_) {
       send(proto::GetDeviceInfo{});
       last_request_ = now;
-    } else if (started_ && !got_block_) {
-      send_configuration();  // a repeated Start while streaming is NACKed, which is harmless
+    } else if (started_ && !stream_acked_) {
+      send_configuration();
       last_request_ = now;
     }
   }
@@ -150,12 +153,6 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
         configured_ = true;
         send_configuration();
         last_request_ = host_time;
-        started_ = true;
-        // A session started by us numbers its samples from 0: a lost first block shows.
-        have_index_ = true;
-        next_index_ = 0;
-        index_.reset();
-        index_.unwrap(0);
       }
       return;
     }
@@ -171,6 +168,24 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       sync_.push_back(s);
       return;
     }
+    case MessageType::kAck: {
+      ++stats_.frames_other;
+      proto::Ack a;
+      if (proto::parse_message(f, a) != proto::ParseStatus::kOk) return;
+      if (started_ && !stream_acked_ &&
+          a.request_type == static_cast<uint8_t>(MessageType::kStart) &&
+          a.request_sequence == start_sequence_) {
+        // Our stream begins: the device numbers its samples from 0 and its blocks follow the
+        // Ack, so a lost first block shows as a gap.
+        stream_acked_ = true;
+        have_index_ = true;
+        next_index_ = 0;
+        index_.reset();
+        index_.unwrap(0);
+        ticks_.reset();
+      }
+      return;
+    }
     case MessageType::kNack: {
       ++stats_.frames_other;
       ++stats_.device_errors;
@@ -178,10 +193,11 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       if (proto::parse_message(f, n) != proto::ParseStatus::kOk) return;
       nacks_.push_back(n);
       // A refused configuration will not get better by asking again: end the stream with the
-      // device's reason. (A repeated Start while already streaming is refused as kBadState.)
+      // device's reason. "Not allowed in this state" means the device is still streaming (our
+      // Stop was lost): the next round of the start-up stops it again.
       const auto type = static_cast<MessageType>(n.request_type);
-      if (type == MessageType::kConfigure ||
-          (type == MessageType::kStart && n.code != proto::NackCode::kBadState)) {
+      if ((type == MessageType::kConfigure || type == MessageType::kStart) &&
+          n.code != proto::NackCode::kBadState) {
         throw Error(std::string("the device refused ") +
                     (type == MessageType::kConfigure ? "Configure" : "Start") + ": " +
                     nack_reason(n.code));
@@ -195,14 +211,18 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       return;
     }
     default:
-      ++stats_.frames_other;  // Ack, CalibrationData, or a type this host does not know
+      ++stats_.frames_other;  // CalibrationData, or a type this host does not know
       return;
   }
 }
 
 void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
                            std::vector<Sample>& out) {
-  got_block_ = true;
+  if (started_ && !stream_acked_) {
+    // Not our stream yet: what the Stop flushed, or the stream of an earlier session.
+    ++stats_.frames_other;
+    return;
+  }
   int64_t first = index_.unwrap(b.sample_index);
   if (have_index_) {
     if (first > next_index_) {

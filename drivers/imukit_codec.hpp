@@ -1,8 +1,14 @@
 // Codec for the imukit wire protocol v1 (firmware_proto, docs/protocol.md): COBS frames with
 // CRC-32C carrying DeviceInfo, SampleBlocks, Pongs, Acks, Nacks and Logs.
 //
-// Start-up (live devices): GetDeviceInfo; when DeviceInfo arrives, Configure (rate, every channel
-// the device has, range index 0, samples per block) when a rate was asked for, then Start.
+// Start-up (live devices): GetDeviceInfo; when DeviceInfo arrives, Stop (a device left streaming
+// by an earlier session refuses Configure and Start, and numbers its samples from its own start),
+// Configure (rate, every channel the device has, range index 0, samples per block) when a rate
+// was asked for, then Start. The stream is ours from the Ack of that Start: sample blocks before
+// it (what the Stop flushed, an earlier session's stream) are not decoded, and sample 0 of ours
+// is the first expected. Until that Ack the three are sent again every retry_ns (a frame lost on
+// the link); a refused Configure or Start ends the stream with the device's reason, except
+// "not allowed in this state" (a Stop that was lost: the next round stops the device again).
 // Raw counts are scaled with the DeviceInfo's per-range scale and offset. Sample i of a block is
 // stamped on the device clock at first_tick + floor(i * tick_hz * 1000 / rate_mhz) ticks, the
 // device's own stepping rule, unwrapped to 64 bits (32-bit ticks, half-range rule). Gaps in the
@@ -27,7 +33,8 @@ struct ImukitCodecOptions {
   int samples_per_block = 8;
   uint8_t channels = 0;                    // 0: every channel the device has
   TimeNs ping_interval_ns = kNsPerSecond;  // 0: no pings
-  TimeNs retry_ns = 500'000'000;           // repeat an unanswered GetDeviceInfo / Start after this
+  // Repeat an unanswered GetDeviceInfo, or Stop-Configure-Start until the Start is acknowledged.
+  TimeNs retry_ns = 500'000'000;
 };
 
 class ImukitCodec : public Codec {
@@ -61,9 +68,10 @@ class ImukitCodec : public Codec {
   uint16_t tx_sequence_ = 0;
   std::optional<proto::DeviceInfo> info_;
   uint32_t rate_mhz_ = 0;
-  bool started_ = false;
-  bool configured_ = false;
-  bool got_block_ = false;
+  bool started_ = false;         // Start sent
+  bool configured_ = false;      // the DeviceInfo that set off the start-up arrived
+  bool stream_acked_ = false;    // the device acknowledged our latest Start
+  uint16_t start_sequence_ = 0;  // that Start's frame sequence number
   TimeNs last_request_ = 0;
   CounterUnwrapper index_{32};
   CounterUnwrapper ticks_{32};

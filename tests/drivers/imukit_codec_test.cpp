@@ -140,13 +140,15 @@ TEST(ImukitCodec, SendsInfoRequestThenConfigureAndStartAndPings) {
   std::vector<Sample> out;
   codec.feed(st.bytes, 0, out);  // the DeviceInfo
   collect();
-  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x02, 0x03}));
+  // Stop (a device left streaming refuses Configure and Start), Configure, Start.
+  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x04, 0x02, 0x03}));
   codec.tick(10);           // first ping
   codec.tick(500'000'000);  // within both the ping interval and the retry time: nothing
   codec.tick(1'000'000'010);
   collect();
-  // No SampleBlock came within the retry time: Configure and Start again; then the next ping.
-  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x02, 0x03, 0x05, 0x02, 0x03, 0x05}));
+  // The Start was not acknowledged within the retry time: Stop, Configure and Start again; then
+  // the next ping.
+  EXPECT_EQ(types, (std::vector<uint8_t>{0x01, 0x04, 0x02, 0x03, 0x05, 0x04, 0x02, 0x03, 0x05}));
   // A Pong becomes a sync point with unwrapped device times.
   proto::Pong pong;
   pong.host_time = 10;

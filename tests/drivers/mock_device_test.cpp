@@ -331,6 +331,45 @@ TEST(MockDevice, RefusedConfigurationEndsTheStreamWithTheDevicesReason) {
   EXPECT_TRUE(out.empty());
 }
 
+// Found in review: the start-up repeated Configure and Start until the first sample block, every
+// 0.5 s; at 10 Hz in blocks of 8 that block comes after 0.8 s, the device (streaming by then)
+// refused the second Configure, and the stream ended with 0 samples. Now the start-up repeats
+// only until the device acknowledges the Start.
+TEST(MockDevice, SlowRatesStreamAlthoughTheFirstBlockComesAfterTheRetryTime) {
+  for (const std::string rate : {"10", "12.5"}) {
+    const MockRun r = run("mock:static?clock=virtual&disconnect_after=40&rate=" + rate);
+    EXPECT_EQ(r.end.kind, EndKind::kEndOfStream) << rate << ": " << r.end.message;
+    EXPECT_EQ(r.samples.size(), 40u) << rate;
+    EXPECT_EQ(r.stats.samples_dropped, 0u) << rate;
+    EXPECT_EQ(r.stats.device_errors, 0u) << rate;
+  }
+}
+
+// Found in review: a device left streaming by an earlier session (the recorder exited, the
+// firmware kept going) refused the next session's Configure (the session ended) and, without a
+// rate, kept its own numbering, so every sample it had made before counted as dropped. The
+// start-up now stops it first: the second session's samples are numbered from 0, none dropped.
+TEST(MockDevice, ADeviceLeftStreamingIsStoppedAndStartedAgain) {
+  OpenedDevice dev = open_device("mock:static?rate=200&clock=virtual");
+  for (const double asked_rate : {200.0, 0.0}) {
+    for (int session = 0; session < 2; ++session) {
+      ImukitCodec codec(ImukitCodecOptions{true, asked_rate, 8, 0, 0});
+      std::atomic<bool> stop{false};
+      std::vector<Sample> out;
+      ReaderOptions options;
+      options.max_samples = 500;
+      const EndReason end = DeviceReader::run(*dev.transport, codec, options, stop, out);
+      // The reader stops at the limit; the device goes on streaming for the next session.
+      EXPECT_NE(end.kind, EndKind::kError) << end.message;
+      ASSERT_GE(out.size(), 500u) << asked_rate << " " << session;
+      EXPECT_EQ(out.front().sequence, 0u) << asked_rate << " " << session;
+      EXPECT_EQ(codec.stats().samples_dropped, 0u) << asked_rate << " " << session;
+      for (std::size_t i = 1; i < out.size(); ++i)
+        ASSERT_EQ(out[i].sequence, out[i - 1].sequence + 1) << i;
+    }
+  }
+}
+
 TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {
   OpenedDevice dev = open_device("mock:static?rate=200&clock=real");
   DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
