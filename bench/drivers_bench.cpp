@@ -103,7 +103,7 @@ void run_bytes(benchmark::State& state, const std::vector<uint8_t>& stream,
       const std::size_t n = std::min<std::size_t>(4096, stream.size() - pos);
       codec->feed(std::span<const uint8_t>(stream.data() + pos, n), 0, out);
     }
-    codec->finish(out);
+    codec->finish(0, out);
     samples += out.size();
     benchmark::DoNotOptimize(out.data());
   }

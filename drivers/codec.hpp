@@ -45,8 +45,9 @@ class Codec {
   virtual void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) = 0;
   // Called between reads (host clock now): e.g. periodic time-sync requests.
   virtual void tick(TimeNs /*now*/) {}
-  // End of stream: hand out anything complete that was held back.
-  virtual void finish(std::vector<Sample>& /*out*/) {}
+  // End of stream: hand out anything complete that was held back. host_time is when the last
+  // bytes arrived (what the held-back data is stamped with).
+  virtual void finish(TimeNs /*host_time*/, std::vector<Sample>& /*out*/) {}
 
   // Bytes received but not yet decided on (an unfinished frame or line).
   virtual std::size_t bytes_pending() const { return 0; }

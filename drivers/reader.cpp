@@ -80,6 +80,7 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
   EndReason end;
   uint64_t total = 0;
   std::vector<Sample> batch;
+  TimeNs last_bytes_at = 0;  // host time of the last read that brought data
   auto deliver = [&] {
     if (batch.empty()) return;
     total += batch.size();
@@ -93,10 +94,14 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
     codec.start(transport.now());
     flush_commands(transport, codec);
     std::vector<uint8_t> buf(codec.report_based() ? std::size_t{1024} : options.read_size);
+    last_bytes_at = transport.now();
     while (!stop.load()) {
       const ReadResult r = bytes ? bytes->read(buf, options.read_timeout_ms)
                                  : reports->read_report(buf, options.read_timeout_ms);
-      if (r.size > 0) codec.feed(std::span<const uint8_t>(buf.data(), r.size), r.host_time, batch);
+      if (r.size > 0) {
+        codec.feed(std::span<const uint8_t>(buf.data(), r.size), r.host_time, batch);
+        last_bytes_at = r.host_time;
+      }
       deliver();
       if (r.end) {
         end = {EndKind::kEndOfStream, r.end_reason};
@@ -117,7 +122,7 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
   }
   // Whatever ended the stream, hand out what the codec still holds.
   try {
-    codec.finish(batch);
+    codec.finish(last_bytes_at, batch);
     deliver();
   } catch (const std::exception& e) {
     if (end.kind != EndKind::kError) end = {EndKind::kError, e.what()};

@@ -71,7 +71,7 @@ void TextCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vecto
   }
 }
 
-void TextCodec::finish(std::vector<Sample>& out) {
+void TextCodec::finish(TimeNs host_time, std::vector<Sample>& out) {
   if (overlong_) {
     stats_.bytes_discarded += overlong_bytes_;
     ++stats_.frames_corrupt;
@@ -79,7 +79,7 @@ void TextCodec::finish(std::vector<Sample>& out) {
     overlong_ = false;
     overlong_bytes_ = 0;
   } else if (!line_.empty()) {
-    on_line(line_.size(), 0, out);  // a last line without its newline
+    on_line(line_.size(), host_time, out);  // a last line without its newline
   }
   line_.clear();
 }

@@ -25,8 +25,9 @@ class TextCodec : public Codec {
   explicit TextCodec(TextCodecOptions options = {});
   std::string name() const override { return "text"; }
   void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(std::vector<Sample>& out) override;
-  std::size_t bytes_pending() const override { return line_.size(); }
+  void finish(TimeNs host_time, std::vector<Sample>& out) override;
+  // An overlong line's bytes are held (not yet discarded) until its newline.
+  std::size_t bytes_pending() const override { return line_.size() + overlong_bytes_; }
 
   static constexpr std::size_t kMaxLine = 512;
 

@@ -172,7 +172,7 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
   }
 }
 
-void WitmotionCodec::finish(std::vector<Sample>& out) {
+void WitmotionCodec::finish(TimeNs /*host_time*/, std::vector<Sample>& out) {
   // Bytes of an unfinished frame at the end are lost.
   stats_.bytes_discarded += buf_.size() - head_;
   head_ = buf_.size();

@@ -36,7 +36,7 @@ class WitmotionCodec : public Codec {
   std::string name() const override { return "witmotion"; }
   void start(TimeNs now) override;
   void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(std::vector<Sample>& out) override;
+  void finish(TimeNs host_time, std::vector<Sample>& out) override;
   std::size_t bytes_pending() const override { return buf_.size() - head_; }
 
  private:

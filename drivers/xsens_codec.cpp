@@ -159,7 +159,7 @@ void XsensCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vect
   parse(host_time, out, false);
 }
 
-void XsensCodec::finish(std::vector<Sample>& out) { parse(0, out, true); }
+void XsensCodec::finish(TimeNs host_time, std::vector<Sample>& out) { parse(host_time, out, true); }
 
 void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) {
   for (;;) {

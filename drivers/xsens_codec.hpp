@@ -77,7 +77,7 @@ class XsensCodec : public Codec {
   std::string name() const override { return "xsens"; }
   void start(TimeNs now) override;
   void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(std::vector<Sample>& out) override;
+  void finish(TimeNs host_time, std::vector<Sample>& out) override;
   std::size_t bytes_pending() const override { return buf_.size() - head_; }
   // MIDs of the non-data messages received (acks, errors), in order.
   const std::vector<uint8_t>& messages() const { return messages_; }

@@ -28,7 +28,7 @@ inline void run_stream(Codec& codec, const uint8_t* data, std::size_t size, bool
       codec.tick(t);
       (void)codec.take_outgoing();
     }
-    codec.finish(out);
+    codec.finish(t, out);
   } catch (const imukit::Error&) {
     return;  // a codec may end a stream with an error (e.g. the device refused its configuration)
   }

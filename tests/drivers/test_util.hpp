@@ -20,7 +20,7 @@ inline std::vector<Sample> feed_split(Codec& codec, const std::vector<uint8_t>& 
     codec.feed(std::span<const uint8_t>(bytes.data() + pos, n), t += 1000, out);
     pos += n;
   }
-  codec.finish(out);
+  codec.finish(t, out);
   return out;
 }
 

@@ -85,13 +85,28 @@ TEST(TextCodec, CountsEveryBrokenLineAndSurvivesSplits) {
   }
 }
 
+// Found in review: the bytes of an overlong line were in no count until its newline came.
+TEST(TextCodec, AnOverlongLineIsPendingUntilItsNewlineThenDiscarded) {
+  TextCodec codec;
+  std::vector<Sample> out;
+  codec.feed(std::vector<uint8_t>(600, 'x'), 0, out);
+  EXPECT_EQ(codec.bytes_pending(), 600u);
+  testing::expect_byte_accounting(codec);
+  codec.feed(bytes("\n1 2 3 4 5 6 7\n"), 1, out);
+  testing::expect_byte_accounting(codec);
+  EXPECT_EQ(codec.stats().bytes_discarded, 601u);
+  EXPECT_EQ(codec.stats().frames_corrupt, 1u);
+  EXPECT_EQ(out.size(), 1u);
+}
+
 TEST(TextCodec, LastLineWithoutNewlineIsKept) {
   TextCodec codec;
   std::vector<Sample> out;
-  codec.feed(bytes("1 2 3 4 5 6 7"), 0, out);
+  codec.feed(bytes("1 2 3 4 5 6 7"), 4000, out);
   EXPECT_TRUE(out.empty());
-  codec.finish(out);
+  codec.finish(4000, out);
   ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].host_time, 4000);  // when its bytes came (it was stamped 0, 1970)
   EXPECT_EQ(out[0].gyro[2], 7.0);
   EXPECT_EQ(out[0].device_time, 1'000'000);  // default unit ms
 }

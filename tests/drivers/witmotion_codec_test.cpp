@@ -49,7 +49,7 @@ TEST(WitmotionCodec, ScalesEveryFrameTypeAndStampsHostTime) {
   WitmotionCodec codec;
   std::vector<Sample> out;
   codec.feed(st.bytes, 5000, out);
-  codec.finish(out);
+  codec.finish(5000, out);
   ASSERT_EQ(out.size(), 3u);
   const double g = 9.80665;
   for (int i = 0; i < 3; ++i) {
