@@ -60,7 +60,9 @@ struct CodecStats {
   uint64_t bytes_accepted = 0;   // bytes of valid frames / lines / reports
   uint64_t bytes_discarded = 0;  // garbage, corrupt frames, unparseable lines
   uint64_t frames_ok = 0;        // valid frames (samples or not)
-  uint64_t frames_corrupt = 0;   // checksum, length, format or framing errors
+  // Checksum, length, format or framing errors. Codecs that resynchronise byte by byte
+  // (WitMotion, Xsens) count a stretch of rejected bytes between two valid frames once.
+  uint64_t frames_corrupt = 0;
   uint64_t frames_other = 0;     // valid frames that carry no sample (acks, info, logs)
   uint64_t samples_decoded = 0;  // samples handed out
   // Samples the device made that never arrived: gaps in its sample counter, or (for devices

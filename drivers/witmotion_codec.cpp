@@ -61,17 +61,16 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
   if (!in_group_) return;
   in_group_ = false;
   if (!learned_) {
-    if (group_had_error_) {
-      // Cannot tell what a full group holds yet; what we have is still a sample if it has both
-      // motion triads.
-      if ((group_types_ & 0x3) != 0x3) {
-        ++stats_.samples_dropped;
-        return;
-      }
-    } else {
-      expected_types_ = group_types_;
-      learned_ = true;
+    // Damage inside the group (group_had_error_) or after its last frame (pending_error_: the
+    // last frame may be the one lost) leaves what a full group holds unknown. Learn from a clean
+    // group only; a damaged one before it is dropped, so that every sample has the same
+    // channels (a series takes its channels from its first sample).
+    if (group_had_error_ || pending_error_) {
+      ++stats_.samples_dropped;
+      return;
     }
+    expected_types_ = group_types_;
+    learned_ = true;
   }
   if (learned_ && (group_types_ & expected_types_) != expected_types_) {
     ++stats_.samples_dropped;  // a frame of this sample was corrupted or lost
@@ -103,12 +102,16 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
     for (std::size_t i = 0; i < 10; ++i) sum = static_cast<uint8_t>(sum + f[i]);
     const uint8_t type = f[1];
     if (sum != f[10] || type < 0x50 || type > 0x5F) {
-      ++stats_.frames_corrupt;
+      // Resynchronise on the next header byte; the header bytes inside one damaged frame fail
+      // too, so a stretch of failures between valid frames counts as one corrupt frame.
+      if (!resyncing_) ++stats_.frames_corrupt;
+      resyncing_ = true;
       ++stats_.bytes_discarded;
       ++head_;
       pending_error_ = true;
       continue;
     }
+    resyncing_ = false;
     stats_.bytes_accepted += kFrame;
     ++stats_.frames_ok;
     head_ += kFrame;
@@ -127,8 +130,12 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
       continue;
     }
     if (!in_group_) {
-      // A gyro/angle/mag frame whose accel frame was lost: part of a dropped sample, counted
-      // when the group it belonged to could not be formed.
+      // A gyro/angle/mag frame whose accel frame was lost: part of a dropped sample. A type not
+      // above the previous one begins the frames of another such sample (two accel frames lost
+      // in a row); the first stray frames of a stream (last_type_ 0) are not counted: their
+      // group may have begun before the recording.
+      if (last_type_ != 0 && type <= last_type_) ++stats_.samples_dropped;
+      last_type_ = type;
       ++stats_.frames_other;
       continue;
     }
@@ -138,6 +145,7 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
       emit(out);
       ++stats_.samples_dropped;
       ++stats_.frames_other;
+      last_type_ = type;
       continue;
     }
     last_type_ = type;

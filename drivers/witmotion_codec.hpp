@@ -6,9 +6,9 @@
 //
 // The device has no sample counter, so samples are stamped with the host time of the bytes that
 // carried their acceleration frame. A sample is the group of frames from one 0x51 to the next;
-// the codec learns which types a group holds from the first complete group, and a later group
-// missing one of them (its frame was corrupted or lost) is counted as a dropped sample instead of
-// being emitted half-filled.
+// the codec learns which types a group holds from the first group without damage around it (a
+// damaged group before it is dropped), and a later group missing one of them (its frame was
+// corrupted or lost) is counted as a dropped sample instead of being emitted half-filled.
 //
 // Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
 #pragma once
@@ -52,6 +52,7 @@ class WitmotionCodec : public Codec {
   bool learned_ = false;
   bool group_had_error_ = false;
   bool pending_error_ = false;  // corruption seen since the last accel frame
+  bool resyncing_ = false;      // bytes rejected since the last valid frame
   Sample current_;
   uint64_t sequence_ = 0;
 };

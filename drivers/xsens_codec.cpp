@@ -197,12 +197,15 @@ void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) 
     }
     if (bad) {
       // Not a frame here (corruption, or a data byte that looked like a preamble): drop the
-      // preamble byte and resynchronise on the next one.
-      ++stats_.frames_corrupt;
+      // preamble byte and resynchronise on the next one. Preamble bytes inside one damaged
+      // frame fail too, so a stretch of failures between valid frames counts as one.
+      if (!resyncing_) ++stats_.frames_corrupt;
+      resyncing_ = true;
       ++stats_.bytes_discarded;
       ++head_;
       continue;
     }
+    resyncing_ = false;
     const std::size_t total = header + len + 1;
     stats_.bytes_accepted += total;
     ++stats_.frames_ok;

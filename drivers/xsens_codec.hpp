@@ -90,6 +90,7 @@ class XsensCodec : public Codec {
   XsensCodecOptions opt_;
   std::vector<uint8_t> buf_;
   std::size_t head_ = 0;
+  bool resyncing_ = false;  // bytes rejected since the last valid frame
   CounterUnwrapper counter_{16};
   CounterUnwrapper time_{32};
   uint64_t decoded_ = 0;

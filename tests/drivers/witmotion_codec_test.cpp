@@ -107,6 +107,66 @@ TEST(WitmotionCodec, EveryCorruptedSampleIsCountedAndNoneIsMixedUp) {
   }
 }
 
+// Corrupts frame f of the stream (its checksum byte).
+void corrupt(Stream& st, std::size_t f) { st.bytes[st.frame_start[f] + 10] ^= 0x5A; }
+// Removes frames [first, last) of the stream.
+std::vector<uint8_t> without(const Stream& st, std::size_t first, std::size_t last) {
+  std::vector<uint8_t> b(st.bytes.begin(),
+                         st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[first]));
+  const std::size_t end = last < st.frame_start.size() ? st.frame_start[last] : st.bytes.size();
+  b.insert(b.end(), st.bytes.begin() + static_cast<std::ptrdiff_t>(end), st.bytes.end());
+  return b;
+}
+
+// Found in review. (a) The group whose last frame (0x54) was damaged looked complete to the
+// learning of what a group holds, so later groups without 0x54 were emitted half filled instead
+// of counted as dropped. (b) Two lost accel frames in a row counted one dropped sample. (c) The
+// header bytes inside one damaged frame each counted another corrupt frame.
+TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
+  {  // (a): sample 0's 0x54 damaged, sample 5 lacks its 0x54 too.
+    Stream st = make_stream(10);
+    corrupt(st, 3);
+    corrupt(st, 4 * 5 + 3);
+    WitmotionCodec codec;
+    std::vector<Sample> out;
+    codec.feed(st.bytes, 0, out);
+    codec.finish(0, out);
+    EXPECT_EQ(out.size(), 8u);
+    EXPECT_EQ(codec.stats().samples_dropped, 2u);
+    for (const Sample& x : out) EXPECT_TRUE(x.channels & kHasMag);
+    testing::expect_byte_accounting(codec);
+  }
+  {  // (b): the accel frames of samples 3 and 4 lost.
+    const Stream st = make_stream(10);
+    std::vector<uint8_t> b = without(st, 4 * 4, 4 * 4 + 1);
+    Stream cut = st;
+    cut.bytes = b;
+    cut.frame_start.clear();
+    for (std::size_t i = 0; i < st.frame_start.size() - 1; ++i) cut.frame_start.push_back(11 * i);
+    b = without(cut, 4 * 3, 4 * 3 + 1);
+    WitmotionCodec codec;
+    std::vector<Sample> out;
+    codec.feed(b, 0, out);
+    codec.finish(0, out);
+    EXPECT_EQ(out.size(), 8u);
+    EXPECT_EQ(codec.stats().samples_dropped, 2u);
+    testing::expect_byte_accounting(codec);
+  }
+  {  // (c): one frame whose values are full of header bytes (0x5555) and whose checksum fails.
+    std::vector<uint8_t> b = make_stream(2).bytes;
+    const int16_t v[4] = {0x5555, 0x5555, 0x5555, 0x5555};
+    std::vector<uint8_t> bad = witmotion_frame(0x52, v);
+    bad[10] ^= 0x01;
+    b.insert(b.begin() + 4 * 11 + 11, bad.begin(), bad.end());  // after sample 1's accel frame
+    WitmotionCodec codec;
+    std::vector<Sample> out;
+    codec.feed(b, 0, out);
+    codec.finish(0, out);
+    EXPECT_EQ(codec.stats().frames_corrupt, 1u);
+    testing::expect_byte_accounting(codec);
+  }
+}
+
 TEST(WitmotionCodec, RateCommandsFollowTheRegisterMap) {
   EXPECT_EQ(witmotion_rate_commands(100),
             (std::vector<uint8_t>{0xFF, 0xAA, 0x69, 0x88, 0xB5, 0xFF, 0xAA, 0x03, 0x09, 0x00, 0xFF,
