@@ -49,14 +49,11 @@ PsCalibration parse_playstation_calibration(PlaystationModel model, std::span<co
   const int acc_minus[3] = {at(25), at(29), at(33)};
   PsCalibration c;
   for (int i = 0; i < 3; ++i) {
-    if (ds4) {
-      c.gyro[i].bias = 0;
-      c.gyro[i].denom =
-          std::abs(gyro_plus[i] - gyro_bias[i]) + std::abs(gyro_minus[i] - gyro_bias[i]);
-    } else {
-      c.gyro[i].bias = gyro_bias[i];
-      c.gyro[i].denom = gyro_plus[i] - gyro_minus[i];
-    }
+    // The gyro bias belongs in the sensitivity, not subtracted as an offset, for both models
+    // (the DualSense too since the kernel's "correct DualSense gyro bias handling", 2023).
+    c.gyro[i].bias = 0;
+    c.gyro[i].denom =
+        std::abs(gyro_plus[i] - gyro_bias[i]) + std::abs(gyro_minus[i] - gyro_bias[i]);
     c.gyro[i].numer = speed_2x * kGyroResPerDps;
     const int range_2g = acc_plus[i] - acc_minus[i];
     c.accel[i].bias = acc_plus[i] - range_2g / 2;

@@ -8,10 +8,11 @@
 //
 // with speed_2x = speed_plus + speed_minus, range_2g = acc_plus - acc_minus and
 // bias = acc_plus - range_2g / 2 (integer division, as in C). The gyro's denom is
-// |plus - bias| + |minus - bias| with a zero applied bias for the DualShock 4, and plus - minus
-// with bias applied for the DualSense. A zero denominator disables that axis' calibration
-// (kernel fallback: range / 32767). The kernel rounds the result to an integer (mult_frac);
-// imukit keeps the fraction.
+// |plus - bias| + |minus - bias| with a zero applied bias, for both models (the kernel applied
+// the DualSense's bias as an offset with denom plus - minus until its 2023 fix "correct
+// DualSense gyro bias handling": the bias is part of the sensitivity). A zero denominator disables
+// that axis' calibration (kernel fallback: range / 32767). The kernel rounds the result to an
+// integer (mult_frac); imukit keeps the fraction.
 //
 // Report layout, report ID at byte 0 (seed-summary section 4):
 //   DualShock 4 report 0x01, 64 bytes: counter in byte 7 bits 2..7, timestamp u16 LE at 10

@@ -110,7 +110,7 @@ TEST(PlaystationCodec, UnwrapsTimestampAndCountsDroppedReports) {
 TEST(PlaystationCodec, DualSenseLayoutAndCalibration) {
   std::vector<uint8_t> cal(41, 0);
   cal[0] = 0x05;
-  put16(cal, 1, 2);      // pitch bias (applied for the DualSense)
+  put16(cal, 1, 2);      // pitch bias: in the sensitivity, not an offset
   put16(cal, 7, 8000);   // pitch+
   put16(cal, 9, -8000);  // pitch-
   put16(cal, 11, 8000);
@@ -138,8 +138,9 @@ TEST(PlaystationCodec, DualSenseLayoutAndCalibration) {
   std::vector<Sample> out;
   codec.feed(r, 0, out);
   ASSERT_EQ(out.size(), 1u);
-  // (1602 - 2) * 1000 * 1024 / 16000 units of 1/1024 deg/s = 100 deg/s.
-  EXPECT_NEAR(out[0].gyro[0], 100.0 * std::numbers::pi / 180, 1e-12);
+  // 1602 * 1000 * 1024 / (|8000 - 2| + |-8000 - 2|) units of 1/1024 deg/s = 100.125 deg/s (the
+  // bias as an offset with plus - minus, the kernel's rule before 2023, gave 100).
+  EXPECT_NEAR(out[0].gyro[0], 100.125 * std::numbers::pi / 180, 1e-12);
   // accel z bias = 8292 - 16384 / 2 = 100: reads 0.
   EXPECT_NEAR(out[0].accel[2], 0.0, 1e-12);
   EXPECT_EQ(out[0].device_time, ticks_to_ns(0xFFFFFFF0LL, 3'000'000));
