@@ -21,24 +21,40 @@ namespace imukit::augment {
 using json = nlohmann::json;
 
 std::vector<int64_t> labels_from_segments(std::span<const LabelSegment> segments,
-                                          std::size_t samples, double rate_hz) {
-  if (!(rate_hz > 0.0 && std::isfinite(rate_hz))) throw Error("labels: the rate must be positive");
-  std::vector<int64_t> labels(samples, kNoLabel);
+                                          std::span<const double> time_s) {
+  std::vector<int64_t> labels(time_s.size(), kNoLabel);
+  // Sample n is inside [start, end) when start <= time_s[n] < end, to 1 ns (a time stamp that
+  // prints as the boundary is on it).
+  constexpr double kTolerance = 1e-9;
+  const auto first_at = [&](double s) {
+    return static_cast<std::size_t>(std::lower_bound(time_s.begin(), time_s.end(), s - kTolerance) -
+                                    time_s.begin());
+  };
   for (const LabelSegment& seg : segments) {
     if (!(std::isfinite(seg.start_s) && std::isfinite(seg.end_s) && seg.end_s >= seg.start_s))
       throw Error(fmt::format("labels: segment [{}, {}) is not a finite, ordered span", seg.start_s,
                               seg.end_s));
-    // Sample n (time n / rate) is inside [start, end).
-    const double a = std::ceil(seg.start_s * rate_hz - 1e-9);
-    const double b = std::ceil(seg.end_s * rate_hz - 1e-9);
-    const auto lo = static_cast<std::size_t>(std::clamp(a, 0.0, static_cast<double>(samples)));
-    const auto hi = static_cast<std::size_t>(std::clamp(b, 0.0, static_cast<double>(samples)));
-    for (std::size_t n = lo; n < hi; ++n) labels[n] = seg.label;
+    for (std::size_t n = first_at(seg.start_s), hi = first_at(seg.end_s); n < hi; ++n)
+      labels[n] = seg.label;
   }
   return labels;
 }
 
-std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, double rate_hz) {
+std::vector<double> uniform_times_s(std::size_t samples, double rate_hz) {
+  if (!(rate_hz > 0.0 && std::isfinite(rate_hz))) throw Error("labels: the rate must be positive");
+  std::vector<double> t(samples);
+  for (std::size_t n = 0; n < samples; ++n) t[n] = static_cast<double>(n) / rate_hz;
+  return t;
+}
+
+std::vector<double> times_since_first_s(std::span<const TimeNs> t) {
+  std::vector<double> s(t.size());
+  for (std::size_t n = 0; n < t.size(); ++n) s[n] = to_seconds(t[n] - t.front());
+  return s;
+}
+
+std::vector<int64_t> read_labels(const std::string& path, std::span<const double> time_s) {
+  const std::size_t samples = time_s.size();
   LineReader reader(path);
   std::vector<Field> fields;
   const auto header = reader.next();
@@ -91,7 +107,7 @@ std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, d
     }
     return labels;
   }
-  return labels_from_segments(segs, samples, rate_hz);
+  return labels_from_segments(segs, time_s);
 }
 
 std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride) {
@@ -190,8 +206,10 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
   j["seeds"] = {{"seed", info.seed},
                 {"batch_size", info.batch_size},
                 {"streams",
-                 "batch b: Rng(seed).child(b); window k of a batch: "
-                 "Rng(Rng(seed).child(b) first draw).child(k)"}};
+                 "batch b draws from Rng(seed).child(b): one uniform when identity_fraction > 0 "
+                 "(below it the batch is not augmented), one uniform choosing the sub-policy, "
+                 "then for PPDA one 64-bit draw s (window k of the batch: Rng(s).child(k)), for "
+                 "STDA the methods' draws for the whole batch (augment/stda.hpp)"}};
   j["policy"] = info.policy_json.empty() ? json() : json::parse(info.policy_json);
   j["sub_policy_file"] = "sub_policy.npy";
   const std::string path = (d / "dataset.json").string();
@@ -202,8 +220,8 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
 
 namespace {
 
-// Per-channel z-scoring over every window and sample (std 0 -> 1).
-void normalize(std::vector<float>& X, std::size_t C, DatasetInfo& info) {
+// Each channel's mean and standard deviation over X (rows of C values) into info (std 0 -> 1).
+void channel_statistics(std::span<const float> X, std::size_t C, DatasetInfo& info) {
   std::vector<double> sum(C, 0.0), sq(C, 0.0);
   const std::size_t rows = C == 0 ? 0 : X.size() / C;
   for (std::size_t r = 0; r < rows; ++r)
@@ -221,11 +239,22 @@ void normalize(std::vector<float>& X, std::size_t C, DatasetInfo& info) {
     const double sd = rows > 1 ? std::sqrt(sq[c] / static_cast<double>(rows)) : 0.0;
     info.channel_std[c] = sd > 0.0 ? sd : 1.0;
   }
+  info.normalized = true;
+}
+
+// z-scores X's channels with info's statistics.
+void apply_normalization(std::span<float> X, std::size_t C, const DatasetInfo& info) {
+  const std::size_t rows = C == 0 ? 0 : X.size() / C;
   for (std::size_t r = 0; r < rows; ++r)
     for (std::size_t c = 0; c < C; ++c)
       X[r * C + c] =
           static_cast<float>((X[r * C + c] - info.channel_mean[c]) / info.channel_std[c]);
-  info.normalized = true;
+}
+
+// Per-channel z-scoring over every window and sample.
+void normalize(std::vector<float>& X, std::size_t C, DatasetInfo& info) {
+  channel_statistics(X, C, info);
+  apply_normalization(X, C, info);
 }
 
 void check_options(const DatasetOptions& o, const Policy& policy) {
@@ -344,8 +373,11 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   d.info.mode = "stda";
   d.info.sensors = stream_names;
   d.info.rate_hz = rate;
-  // z-scoring comes first here: jitter sigmas are then standard deviations (the paper's setting).
-  if (options.normalize) normalize(windows, C, d.info);
+  // The statistics of the recording's windows. They are z-scored after the transforms that act
+  // on physical units (a rotation or scaling of z-scored channels is neither), before the
+  // jitter of the hardware ranges, whose sigmas are then standard deviations (the paper's
+  // setting; stda_counterparts).
+  if (options.normalize) channel_statistics(windows, C, d.info);
   const ChannelLayout layout = ChannelLayout::imu(stream_names);
   d.shape = {N, T, C};
   d.X.resize(d.shape.size());
@@ -363,11 +395,26 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
       d.y[b0 + k] = base_labels[src];
       d.sub_policy[b0 + k] = idx;
     }
-    if (idx < 0) continue;
     const std::span<float> batch_x(d.X.data() + b0 * T * C, nb * T * C);
+    if (idx < 0) {
+      if (options.normalize) apply_normalization(batch_x, C, d.info);
+      continue;
+    }
     const BatchShape shape{nb, T, C};
-    std::vector<StdaSpec> specs = stda_counterparts(
-        policy.sub_policies[static_cast<std::size_t>(idx)], policy, options.normalize);
+    const SubPolicy& sub = policy.sub_policies[static_cast<std::size_t>(idx)];
+    std::vector<StdaSpec> specs = stda_counterparts(sub, policy, options.normalize, rate);
+    // Jitter in standard deviations waits for the z-scoring (it is last in the list).
+    std::vector<StdaSpec> after_normalizing;
+    if (options.normalize && sub.hardware.kind == HardwareOp::Kind::ranges) {
+      for (auto it = specs.begin(); it != specs.end();) {
+        if (it->method == StdaMethod::jittering) {
+          after_normalizing.push_back(*it);
+          it = specs.erase(it);
+        } else {
+          ++it;
+        }
+      }
+    }
     // Time scaling first, from the recording itself: window k becomes the recording at
     // start + c + b (i - c), c = (T-1)/2, b ~ U[lo, hi] (moved inside the recording when it
     // would leave it), linearly interpolated -- a faster window shows b T recorded samples
@@ -375,13 +422,9 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     for (auto it = specs.begin(); it != specs.end(); ++it) {
       if (it->method != StdaMethod::time_scaling) continue;
       if (whole.empty()) {
-        // The whole recording, scaled like the windows, made the first time it is needed.
+        // The whole recording, made the first time it is needed.
         const std::vector<int64_t> whole_start{0};
         whole = extract_windows(streams, whole_start, n);
-        for (std::size_t r = 0; r < n && options.normalize; ++r)
-          for (std::size_t c = 0; c < C; ++c)
-            whole[r * C + c] = static_cast<float>((whole[r * C + c] - d.info.channel_mean[c]) /
-                                                  d.info.channel_std[c]);
       }
       const double c = 0.5 * static_cast<double>(T - 1), last = static_cast<double>(n - 1);
       for (std::size_t k = 0; k < nb; ++k) {
@@ -413,6 +456,8 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
       break;
     }
     for (const StdaSpec& spec : specs) apply_stda(spec, layout, batch_x, shape, br);
+    if (options.normalize) apply_normalization(batch_x, C, d.info);
+    for (const StdaSpec& spec : after_normalizing) apply_stda(spec, layout, batch_x, shape, br);
   }
   return d;
 }

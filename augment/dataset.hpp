@@ -32,11 +32,18 @@ struct LabelSegment {
 };
 
 // Per-sample labels (kNoLabel where no segment covers a sample; later segments win overlaps).
+// Sample n is at time_s[n] seconds from the first sample (non-decreasing): a recording's own time
+// stamps, so a gap in it does not shift the labels after it.
 std::vector<int64_t> labels_from_segments(std::span<const LabelSegment> segments,
-                                          std::size_t samples, double rate_hz);
+                                          std::span<const double> time_s);
+// The times of `samples` samples at rate_hz from 0 (a simulated scene's).
+std::vector<double> uniform_times_s(std::size_t samples, double rate_hz);
+// Seconds from the first time stamp, per sample.
+std::vector<double> times_since_first_s(std::span<const TimeNs> t);
 // Reads labels: a CSV with a header row and either one column `label` (one row per sample) or
-// three columns `start_s,end_s,label` (segments). Errors name file:line.
-std::vector<int64_t> read_labels(const std::string& path, std::size_t samples, double rate_hz);
+// three columns `start_s,end_s,label` (segments, placed at the samples' times). Errors name
+// file:line.
+std::vector<int64_t> read_labels(const std::string& path, std::span<const double> time_s);
 
 // Window starts 0, stride, 2 stride, ... while start + window <= samples.
 std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride);

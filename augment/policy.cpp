@@ -649,8 +649,8 @@ std::size_t sample_sub_policy(const Policy& policy, Rng& rng) {
   return 0;
 }
 
-std::vector<StdaSpec> stda_counterparts(const SubPolicy& sub, const Policy& policy,
-                                        bool normalized) {
+std::vector<StdaSpec> stda_counterparts(const SubPolicy& sub, const Policy& policy, bool normalized,
+                                        double rate_hz) {
   std::vector<StdaSpec> out;
   if (sub.amplitude.method != WarpMethod::identity) {
     StdaSpec s;
@@ -685,10 +685,11 @@ std::vector<StdaSpec> stda_counterparts(const SubPolicy& sub, const Policy& poli
       s.jitter_sigma[2] = normalized ? sub.hardware.accel_noise : 0.0;
       s.jitter_sigma[3] = normalized ? sub.hardware.accel_noise : 0.0;
     } else if (sub.hardware.profile) {
-      // The device's white noise per sample at its stated rate (100 Hz if none).
+      // The device's white noise per sample at the data's rate (what PPDA's noise generator
+      // draws at), else at its stated rate (100 Hz if none).
       const HardwareModel m = to_hardware_model(*sub.hardware.profile);
-      const auto sigma = [](const TriadModel& t) {
-        const double rate = t.rate_hz > 0.0 ? t.rate_hz : 100.0;
+      const auto sigma = [rate_hz](const TriadModel& t) {
+        const double rate = rate_hz > 0.0 ? rate_hz : t.rate_hz > 0.0 ? t.rate_hz : 100.0;
         return discrete_white_noise_sigma(t.noise_density.norm() / std::sqrt(3.0), rate);
       };
       s.jitter_sigma[0] = sigma(m.accelerometer);

@@ -163,9 +163,13 @@ std::string format_policy(const Policy& policy);
 std::size_t sample_sub_policy(const Policy& policy, Rng& rng);
 
 // The STDA methods standing in for a sub-policy on recorded data, in application order
-// (amplitude, speed, placement, hardware; identities left out). `normalized`: jitter sigmas are
-// the accelerometer's noise in standard deviations for every channel.
-std::vector<StdaSpec> stda_counterparts(const SubPolicy& sub, const Policy& policy,
-                                        bool normalized);
+// (amplitude, speed, placement, hardware; identities left out). Every method but jittering acts
+// on physical units (a rotation or scaling of z-scored channels is neither); jittering comes
+// last. `normalized`: the hardware ranges' jitter sigmas are the accelerometer's noise in
+// standard deviations for every channel, to add after z-scoring; a device profile's are always
+// its white noise per sample in physical units at `rate_hz`, the data's sample rate (0: the
+// profile's own rate, 100 Hz if it states none), to add before z-scoring.
+std::vector<StdaSpec> stda_counterparts(const SubPolicy& sub, const Policy& policy, bool normalized,
+                                        double rate_hz = 0.0);
 
 }  // namespace imukit::augment

@@ -56,9 +56,10 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
       // Labels are per sensor sample of the scene.
-      labels =
-          augment::read_labels(a.labels, static_cast<std::size_t>(sim::scene_sample_count(scene)),
-                               sim::scene_rate_hz(scene));
+      labels = augment::read_labels(
+          a.labels,
+          augment::uniform_times_s(static_cast<std::size_t>(sim::scene_sample_count(scene)),
+                                   sim::scene_rate_hz(scene)));
     }
     d = augment::generate_dataset(scene, policy, labels, o);
     d.info.source = a.scene;
@@ -84,7 +85,8 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     std::vector<int64_t> labels;
     if (!a.labels.empty()) {
       const ImuSeries& s = *streams.front();
-      labels = augment::read_labels(a.labels, s.size(), measured_rate_hz(s.t, a.input));
+      measured_rate_hz(s.t, a.input);  // refuses times that do not advance, naming the file
+      labels = augment::read_labels(a.labels, augment::times_since_first_s(s.t));
     }
     d = augment::generate_dataset(names, streams, policy, labels, o);
     d.info.source = a.input;

@@ -17,7 +17,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const double rate_hz = 1.0 + (data[1] >> 2) * 4.0;
   const std::string path = imukit::fuzz::temp_folder().write("labels.csv", data + 2, size - 2);
   try {
-    const std::vector<int64_t> labels = imukit::augment::read_labels(path, samples, rate_hz);
+    const std::vector<int64_t> labels =
+        imukit::augment::read_labels(path, imukit::augment::uniform_times_s(samples, rate_hz));
     if (labels.size() != samples) std::abort();
     const std::vector<int64_t> starts = imukit::augment::window_starts(samples, 16, 8);
     const std::vector<int64_t> windows = imukit::augment::window_labels(labels, starts, 16);

@@ -403,7 +403,8 @@ placement and hardware. SubPolicy.from_dict(d) reads the policy file's layout.)d
   py::class_<Policy>(m, "Policy", R"doc(
 A list of sub-policies with sampling probabilities: read_policy("imukit" | "paper" | FILE).
 len(policy), policy[i] (SubPolicy), describe() (one string per sub-policy), probabilities,
-sample(rng) (an index drawn with the probabilities), stda_counterparts(i, normalized=False).)doc")
+sample(rng) (an index drawn with the probabilities), stda_counterparts(i, normalized=False,
+rate_hz=0) (see augment/policy.hpp: jittering last, a profile's sigmas at rate_hz).)doc")
       .def_readonly("name", &Policy::name)
       .def("__len__", [](const Policy& p) { return p.sub_policies.size(); })
       .def("__getitem__",
@@ -442,11 +443,11 @@ sample(rng) (an index drawn with the probabilities), stda_counterparts(i, normal
           py::arg("rng"))
       .def(
           "stda_counterparts",
-          [](const Policy& p, std::size_t i, bool normalized) {
+          [](const Policy& p, std::size_t i, bool normalized, double rate_hz) {
             if (i >= p.sub_policies.size()) throw py::index_error("sub-policy index out of range");
-            return augment::stda_counterparts(p.sub_policies[i], p, normalized);
+            return augment::stda_counterparts(p.sub_policies[i], p, normalized, rate_hz);
           },
-          py::arg("index"), py::arg("normalized") = false)
+          py::arg("index"), py::arg("normalized") = false, py::arg("rate_hz") = 0.0)
       .def("to_json", &augment::format_policy);
   m.def("read_policy", &augment::read_policy, py::arg("name_or_path"),
         "A built-in policy (\"imukit\", \"paper\") or a policy JSON file.");

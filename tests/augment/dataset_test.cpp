@@ -31,22 +31,40 @@ TEST(Dataset, WindowStartsAndMajorityLabels) {
 
 TEST(Dataset, SegmentsBecomePerSampleLabels) {
   const std::vector<LabelSegment> segs = {{0.0, 0.5, 4}, {0.5, 1.0, 9}, {0.25, 0.35, 1}};
-  const std::vector<int64_t> l = labels_from_segments(segs, 12, 10.0);
+  const std::vector<int64_t> l = labels_from_segments(segs, uniform_times_s(12, 10.0));
   // Samples at 0.0 .. 1.1 s: [0, 0.5) -> 4, [0.5, 1.0) -> 9, then 0.3 s in [0.25, 0.35) -> 1.
   EXPECT_EQ(l, (std::vector<int64_t>{4, 4, 4, 1, 4, 9, 9, 9, 9, 9, kNoLabel, kNoLabel}));
   const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "/seg.csv") << "start_s,end_s,label\n0,0.5,4\n0.5,1.0,9\n";
-  EXPECT_EQ(read_labels(dir + "/seg.csv", 12, 10.0)[7], 9);
+  EXPECT_EQ(read_labels(dir + "/seg.csv", uniform_times_s(12, 10.0))[7], 9);
   std::ofstream(dir + "/per.csv") << "label\n1\n2\n3\n";
-  EXPECT_EQ(read_labels(dir + "/per.csv", 3, 10.0), (std::vector<int64_t>{1, 2, 3}));
-  EXPECT_THROW(read_labels(dir + "/per.csv", 4, 10.0), Error);
+  EXPECT_EQ(read_labels(dir + "/per.csv", uniform_times_s(3, 10.0)),
+            (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_THROW(read_labels(dir + "/per.csv", uniform_times_s(4, 10.0)), Error);
   std::ofstream(dir + "/bad.csv") << "label\n1\nx\n";
   try {
-    read_labels(dir + "/bad.csv", 2, 10.0);
+    read_labels(dir + "/bad.csv", uniform_times_s(2, 10.0));
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("bad.csv:3:1"), std::string::npos) << e.what();
   }
+}
+
+// Found in review: segments were placed at n / (mean rate), so a recording with a gap got labels
+// shifted on both sides of it. Now at the samples' own times: 60 s at 100 Hz with 1 s missing at
+// 30 s, segments 0-20, 20-45, 45-60 s: label 2 begins at sample 2000 and label 3 at 4400.
+TEST(Dataset, SegmentsFollowTheTimeStampsThroughAGap) {
+  std::vector<TimeNs> t;
+  for (int64_t n = 0; n < 6000; ++n)
+    if (n < 3000 || n >= 3100) t.push_back(n * 10'000'000);
+  const std::vector<LabelSegment> segs = {{0, 20, 1}, {20, 45, 2}, {45, 60, 3}};
+  const std::vector<int64_t> l = labels_from_segments(segs, times_since_first_s(t));
+  ASSERT_EQ(l.size(), 5900u);
+  EXPECT_EQ(l[1999], 1);
+  EXPECT_EQ(l[2000], 2);
+  EXPECT_EQ(l[4399], 2);  // 44.99 s: sample 4499 of the device, 4399 after the gap
+  EXPECT_EQ(l[4400], 3);
+  EXPECT_EQ(l.back(), 3);
 }
 
 TEST(Dataset, WriterOutputReadsBack) {
@@ -155,6 +173,58 @@ TEST(Dataset, StdaFromRecordedStreams) {
   const Dataset f = generate_dataset({"imu"}, {&s}, policy, {}, o);
   EXPECT_EQ(e.X, f.X);
   EXPECT_NE(e.X, d.X);
+}
+
+// Found in review: with --normalize the STDA counterparts acted on z-scored channels, where a
+// rotation is not one (gravity stayed, norms changed by up to 1.6 m/s^2) and magnitude scaling
+// scales only the deviations from the mean. Now they act on the physical signals and the
+// z-scoring follows: undone with the stored statistics, a rotated window keeps every sample's
+// norm, and a scaled window's mean is the original's times the drawn factor.
+TEST(Dataset, NormalizedStdaRotatesAndScalesThePhysicalSignals) {
+  const std::size_t n = 400;
+  ImuSeries s = ImuSeries::with_channels(n, true, true);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = 0.01 * static_cast<double>(i);
+    s.t[i] = static_cast<TimeNs>(i) * 10'000'000;
+    s.accel.col(static_cast<Eigen::Index>(i)) =
+        Eigen::Vector3d(0.5 * std::sin(3 * t), 1.0 + 0.3 * std::cos(2 * t), 9.7);
+    s.gyro.col(static_cast<Eigen::Index>(i)) =
+        Eigen::Vector3d(0.2 * std::cos(5 * t), 0.1, -0.4 * std::sin(t));
+  }
+  DatasetOptions o;
+  o.window = 50;
+  o.stride = 50;
+  o.batch_size = 1;
+  o.normalize = true;
+  const Policy rotate = parse_policy(R"({"schema": "imukit.policy/1", "sub_policies": [
+      {"placement": {"rotation_deg": 25}}]})",
+                                     "p.json", ".");
+  const Dataset d = generate_dataset({"imu"}, {&s}, rotate, {}, o);
+  ASSERT_EQ(d.shape, (BatchShape{8, 50, 6}));
+  const auto physical = [&](const Dataset& ds, std::size_t w, std::size_t i, std::size_t c) {
+    return ds.X[(w * 50 + i) * 6 + c] * ds.info.channel_std[c] + ds.info.channel_mean[c];
+  };
+  double worst = 0.0;
+  for (std::size_t w = 0; w < 8; ++w) {
+    for (std::size_t i = 0; i < 50; ++i) {
+      const auto col = static_cast<Eigen::Index>(50 * w + i);
+      for (std::size_t triad = 0; triad < 2; ++triad) {
+        const Eigen::Vector3d v = triad == 0 ? s.accel.col(col) : s.gyro.col(col);
+        const Eigen::Vector3d r(physical(d, w, i, 3 * triad), physical(d, w, i, 3 * triad + 1),
+                                physical(d, w, i, 3 * triad + 2));
+        worst = std::max(worst, std::abs(r.norm() - v.norm()) / v.norm());
+      }
+    }
+  }
+  EXPECT_LT(worst, 1e-5);  // float32 rounding
+  // Gravity turned with the sensor: some window's mean z is well below 9.7.
+  double lowest_z = 1e9;
+  for (std::size_t w = 0; w < 8; ++w) {
+    double z = 0.0;
+    for (std::size_t i = 0; i < 50; ++i) z += physical(d, w, i, 2) / 50.0;
+    lowest_z = std::min(lowest_z, z);
+  }
+  EXPECT_LT(lowest_z, 9.0);
 }
 
 // STDA time scaling of a recording reads the recording beyond the window: at twice the speed a

@@ -133,6 +133,11 @@ TEST(Policy, HardwareFromAProfileIsReadRelativeToThePolicy) {
   ASSERT_EQ(stda.size(), 1u);
   EXPECT_NEAR(stda[0].jitter_sigma[0], 0.001 * 10, 1e-12);
   EXPECT_NEAR(stda[0].jitter_sigma[1], 0.0001 * 10, 1e-12);
+  // At the data's rate, what PPDA's noise generator draws at (found in review: the profile's rate
+  // was used, 4x too much noise for 25 Hz data from a 400 Hz profile).
+  const auto at_25 = stda_counterparts(p.sub_policies[0], p, true, 25.0);
+  EXPECT_NEAR(at_25[0].jitter_sigma[0], 0.001 * 5, 1e-12);
+  EXPECT_NEAR(at_25[0].jitter_sigma[1], 0.0001 * 5, 1e-12);
   EXPECT_THROW(parse_policy(R"({"schema": "imukit.policy/1", "sub_policies": [
       {"hardware": {"profile": "missing.json"}}]})",
                             "p.json", dir),
