@@ -90,6 +90,9 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
   bool first_row = true;
   while (auto line = reader.next()) {
     if (is_blank_line(*line)) continue;
+    // A UTF-8 byte-order mark (spreadsheets' "CSV UTF-8" exports) before the first row would turn
+    // its first number into text, and the row into a header.
+    if (first_row && line->starts_with("\xEF\xBB\xBF")) line->remove_prefix(3);
     split_fields(*line, fields);
     const auto where = [&](int64_t column) {
       return InputLocation{table.source, reader.line_number(), column, {}};
@@ -151,6 +154,13 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
         if (std::isinf(*parsed)) {
           throw Error(where(f.column),
                       fmt::format("{}: infinite value {}", describe(), quote_excerpt(f.text, 24)));
+        }
+        // NaN spelled with a payload ("nan(0x1)", MSVC's "-nan(ind)") is NaN like "nan".
+        if (std::isnan(*parsed) && !spec.gappy[index(name)]) {
+          throw Error(where(f.column),
+                      fmt::format("{}: NaN ({}) is not allowed here (declare the column with "
+                                  "--gaps {} if samples may be missing)",
+                                  describe(), quote_excerpt(f.text, 24), column_name(name)));
         }
         value = *parsed;
       }

@@ -15,15 +15,43 @@ const ColumnSpec& euroc_spec() {
   return spec;
 }
 
-ImuSeries from_table(const ColumnTable& table) {
-  const bool header_ok =
-      !table.header.empty() && (table.header.front().rfind("#timestamp", 0) == 0 ||
-                                table.header.front().rfind("timestamp", 0) == 0);
-  if (!header_ok) {
-    throw Error(InputLocation{table.source, 1, 1, {}},
-                "not an EuRoC IMU CSV: the first row must be the header starting with "
-                "'#timestamp [ns]'");
+// The header must name the EuRoC columns in their order: a CSV of other columns (accelerometer
+// first, or times in seconds) would otherwise be read with its columns swapped or its times
+// scaled. The time first ('#timestamp' or 'timestamp'), then three gyroscope columns (names
+// beginning with 'w' as EuRoC's w_RS_S_x, or 'g') and three accelerometer columns ('a'); a unit
+// in brackets, where given, must be EuRoC's.
+void check_header(const ColumnTable& table) {
+  static constexpr std::string_view kUnits[] = {
+      "[ns]", "[rad s^-1]", "[rad s^-1]", "[rad s^-1]", "[m s^-2]", "[m s^-2]", "[m s^-2]"};
+  const auto fail = [&](std::size_t k, const std::string& what) {
+    throw Error(InputLocation{table.source, 1, static_cast<int64_t>(k + 1), {}},
+                fmt::format("not an EuRoC IMU CSV: {}; the header is '{}'", what, kEurocHeader));
+  };
+  if (table.header.empty()) fail(0, "the first row must be the header");
+  if (table.header.size() < std::size(kUnits))
+    fail(0, fmt::format("the header has {} columns, EuRoC's 7", table.header.size()));
+  for (std::size_t k = 0; k < std::size(kUnits); ++k) {
+    std::string_view got = table.header[k];
+    while (!got.empty() && got.front() == ' ') got.remove_prefix(1);
+    const std::string_view name = got.substr(0, got.find(' '));
+    const bool ok = k == 0   ? name == "#timestamp" || name == "timestamp"
+                    : k <= 3 ? name.starts_with('w') || name.starts_with('g')
+                             : name.starts_with('a');
+    if (!ok) {
+      fail(k, fmt::format("column {} is '{}', where EuRoC has the {}", k + 1, got,
+                          k == 0   ? "time"
+                          : k <= 3 ? "gyroscope"
+                                   : "accelerometer"));
+    }
+    std::string_view unit = got.substr(name.size());
+    while (!unit.empty() && unit.front() == ' ') unit.remove_prefix(1);
+    if (!unit.empty() && unit != kUnits[k])
+      fail(k, fmt::format("column {} is in {}, EuRoC's in {}", k + 1, unit, kUnits[k]));
   }
+}
+
+ImuSeries from_table(const ColumnTable& table) {
+  check_header(table);
   return to_imu_series(table);
 }
 

@@ -75,6 +75,38 @@ TEST(ColumnText, GappyColumnsKeepNaNOthersRejectIt) {
                {"g.csv:1:5", "column 3 (px)", "NaN", "--gaps px"});
 }
 
+// Found in review: NaN with a payload ("nan(0x1)", MSVC's "-nan(ind)") passed the NaN check
+// of columns not declared gappy, and a UTF-8 byte-order mark made the first data row a header
+// (the sample was dropped without a word).
+TEST(ColumnText, NaNWithAPayloadIsNaNAndAByteOrderMarkIsNoHeader) {
+  const ColumnSpec spec = ColumnSpec::parse("t,ax,ay", {}, TimeUnit::s);
+  for (const char* nan : {"nan(0x1)", "-nan(ind)", "NAN(abc)"}) {
+    try {
+      parse_column_text(std::string("0,1,2\n1,") + nan + ",3\n", "p.csv", spec);
+      ADD_FAILURE() << nan << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("p.csv:2:3: column 2 (ax): NaN"), std::string::npos)
+          << e.what();
+    }
+  }
+  const ColumnSpec gappy = ColumnSpec::parse("t,ax,ay", "ax", TimeUnit::s);
+  const ColumnTable g = parse_column_text("0,-nan(ind),2\n", "p.csv", gappy);
+  EXPECT_TRUE(std::isnan(g[Column::ax][0]));
+  const ColumnTable b = parse_column_text(
+      "\xEF\xBB\xBF"
+      "0,1,2\n1,3,4\n",
+      "bom.csv", spec);
+  EXPECT_EQ(b.rows, 2u);
+  EXPECT_TRUE(b.header.empty());
+  EXPECT_EQ(b.t.front(), 0);
+  const ColumnTable h = parse_column_text(
+      "\xEF\xBB\xBF"
+      "t,ax,ay\n1,3,4\n",
+      "bom.csv", spec);
+  EXPECT_EQ(h.rows, 1u);
+  EXPECT_EQ(h.header.front(), "t");
+}
+
 TEST(ColumnText, MalformedLinesNameFileLineAndColumn) {
   const ColumnSpec spec = ColumnSpec::parse("t,ax,ay,az");
   expect_error([&] { parse_column_text("0,1,2,3\n1,1,2\n", "bad.csv", spec); },

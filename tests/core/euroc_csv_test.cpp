@@ -84,6 +84,29 @@ TEST(EurocCsv, MalformedLinesAreRejectedWithTheLineNumber) {
 TEST(EurocCsv, RequiresTheHeader) {
   EXPECT_THROW(parse_euroc_csv("0,0,0,0,0,0,9.8\n", "x.csv"), Error);
   EXPECT_NO_THROW(parse_euroc_csv("timestamp,wx,wy,wz,ax,ay,az\n0,0,0,0,0,0,9.8\n", "x.csv"));
+  EXPECT_NO_THROW(parse_euroc_csv(std::string(kEurocHeader) + "\n0,0,0,0,0,0,9.8\n", "x.csv"));
+  // Found in review: only the first field was checked, so these were read with accelerometer
+  // and gyroscope swapped, or their times in seconds taken for nanoseconds.
+  const struct {
+    std::string header, expect;
+  } bad[] = {
+      {"timestamp,ax,ay,az,gx,gy,gz", "x.csv:1:2: not an EuRoC IMU CSV: column 2 is 'ax'"},
+      {"#timestamp [ns],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2],"
+       "w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1]",
+       "column 2 is 'a_RS_S_x [m s^-2]', where EuRoC has the gyroscope"},
+      {"timestamp [s],wx,wy,wz,ax,ay,az", "x.csv:1:1: not an EuRoC IMU CSV: column 1 is in [s]"},
+      {"timestamp,wx [deg/s],wy,wz,ax,ay,az", "column 2 is in [deg/s]"},
+      {"timestamp,wx,wy,wz,ax,ay", "the header has 6 columns"},
+  };
+  for (const auto& c : bad) {
+    try {
+      parse_euroc_csv(c.header + "\n0,0,0,0,0,0,9.8\n", "x.csv");
+      ADD_FAILURE() << "accepted: " << c.header;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(c.expect), std::string::npos)
+          << e.what() << "\n  expected: " << c.expect;
+    }
+  }
 }
 
 TEST(EurocCsv, UnwritablePathIsAClearError) {
