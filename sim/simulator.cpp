@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/isa.hpp"
@@ -41,6 +42,19 @@ inline FramePosition frame_position(TimeNs t, double rate_hz) {
   const long double u = static_cast<long double>(t) * static_cast<long double>(rate_hz) / 1e9L;
   const long double fl = std::floor(u);
   return {static_cast<int64_t>(fl), static_cast<double>(u - fl)};
+}
+
+// The position of t in a motion of N frames, with the last frame as the end of the last
+// interval ({N - 2, 1}). Frame times are whole ns (sample_time), rounded up for about half the
+// frames at 30, 60 or 120 Hz: a sample at the last frame's time lies a few ns past the exact
+// frame, so that time counts as the last frame too (else the motion's last sample was dropped).
+// nullopt past the end.
+inline std::optional<FramePosition> position_in_motion(TimeNs t, double rate_hz, int64_t N) {
+  FramePosition fp = frame_position(t, rate_hz);
+  if (fp.frame < N - 1) return fp;
+  if (fp.frame == N - 1 && (fp.frac == 0.0 || t <= sample_time(0, N - 1, rate_hz)))
+    return FramePosition{N - 2, 1.0};
+  return std::nullopt;
 }
 
 // exp(psi(t)) and its body-frame angular velocity and acceleration, given psi and its first
@@ -1246,8 +1260,7 @@ int64_t sample_count(double motion_rate_hz, int64_t frames, double rate) {
   n = std::max<int64_t>(n - 2, 0);
   SampleClock clock(0, rate);
   const auto inside = [&](int64_t k) {
-    const FramePosition fp = frame_position(clock(k), motion_rate_hz);
-    return fp.frame < frames - 1 || (fp.frame == frames - 1 && fp.frac == 0.0);
+    return position_in_motion(clock(k), motion_rate_hz, frames).has_value();
   };
   while (inside(n + 1)) ++n;
   while (n > 0 && !inside(n)) --n;
@@ -1274,13 +1287,12 @@ TimeNs Simulator::sample_time_ns(const MotionSource& motion, int64_t n) const {
 void Simulator::Workspace::frame_positions(std::span<const TimeNs> times, double rate, int64_t N) {
   pos.resize(times.size());
   for (std::size_t i = 0; i < times.size(); ++i) {
-    pos[i] = frame_position(times[i], rate);
-    if (times[i] < 0 || pos[i].frame > N - 1 || (pos[i].frame == N - 1 && pos[i].frac != 0.0)) {
+    const std::optional<FramePosition> p = position_in_motion(times[i], rate, N);
+    if (times[i] < 0 || !p) {
       throw Error("simulation: time " + std::to_string(times[i]) + " ns is outside the motion (" +
                   std::to_string(N) + " frames at " + std::to_string(rate) + " Hz)");
     }
-    // The last frame is the end of the last interval.
-    if (pos[i].frame == N - 1) pos[i] = {N - 2, 1.0};
+    pos[i] = *p;
     if (i > 0 && times[i] < times[i - 1]) throw Error("simulation: times must increase");
   }
 }
@@ -1840,8 +1852,8 @@ Motion spline_resample(const Body& body, MotionSource& motion, std::span<const T
   const std::array<int, 1> root{0};
   motion.read(lo, hi - lo, root, chunk);
   for (int64_t f = 0; f < F; ++f) {
-    FramePosition fp = frame_position(times[static_cast<std::size_t>(f)], rate);
-    if (fp.frame == N - 1 && fp.frac == 0.0) fp = {N - 2, 1.0};
+    const FramePosition fp = position_in_motion(times[static_cast<std::size_t>(f)], rate, N)
+                                 .value_or(FramePosition{N - 2, 1.0});
     const SplineStencil st = spline_stencil(fp.frame, N);
     const LagrangeWeights L = lagrange(st.tau, st.n, fp.frac);
     Vector3d p = Vector3d::Zero();

@@ -106,6 +106,34 @@ TEST(Simulator, ConstantSpinGivesCentripetalPlusGravityAndRateExactlyWithSpline)
   }
 }
 
+// Found in review: frame times are whole ns, rounded up for about half the frames at 30, 60 and
+// 120 Hz, so the last frame's sample lay a few ns past the exact frame and was dropped (12
+// frames at 30 Hz gave 11 samples; CMU motion is 120 Hz). Every motion length at these rates
+// now gives one sample per frame, and the last one is the end of the motion: for a constant
+// spin at 120 Hz it reads the same rate as every other sample.
+TEST(Simulator, EveryFrameIsASampleAtRatesWhoseFrameTimesAreRounded) {
+  for (const double rate : {30.0, 60.0, 120.0, 100.0, 50.0, 29.97}) {
+    for (int64_t frames = 2; frames <= 400; ++frames)
+      ASSERT_EQ(sample_count(rate, frames, rate), frames) << rate << " Hz, " << frames;
+  }
+  for (const int64_t frames : {12, 15, 21, 27}) {
+    const Motion m = constant_spin(120.0, frames);
+    for (const DerivativeMethod method : {DerivativeMethod::spline, DerivativeMethod::fd}) {
+      SimulationOptions opt;
+      opt.method = method;
+      Simulator sim(two_joint_body(), {sensor_on(0, Vector3d(0.2, -0.1, 0.05))}, opt);
+      Motion mm = m;
+      ASSERT_EQ(sim.sample_count(mm, frames), frames);
+      std::vector<SensorBlock> out;
+      sim.evaluate(mm, grid_times(sim, mm, frames), out);
+      ASSERT_EQ(out[0].angular_rate.cols(), frames);
+      EXPECT_NEAR((out[0].angular_rate.col(frames - 1) - kSpinAxis * kSpinRate).norm(), 0.0,
+                  1e-9 * kSpinRate)
+          << frames << " " << to_string(method);
+    }
+  }
+}
+
 TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
   for (const DerivativeMethod method :
        {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
