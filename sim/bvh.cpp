@@ -206,7 +206,10 @@ MotionHeader parse_motion_header(Tokenizer& tz) {
   }
   h.frame_time_s = *dt;
   // Frame times are printed rounded (CMU: "0.008333" for 120 Hz). When a whole-number rate
-  // reproduces the printed digits, use it: frame positions are then exact integers.
+  // reproduces the printed digits, use it: frame positions are then exact integers. Only when
+  // the digits pin the time down to kSnapTolerance: "0.06" is 1/17 s rounded as well as 0.06 s
+  // exactly, and taking 17 Hz would scale every derivative by 2 % (found in review).
+  constexpr double kSnapTolerance = 0.005;
   h.rate_hz = 1.0 / *dt;
   const std::string_view txt = dtt.text;
   const std::size_t dot = txt.find('.');
@@ -214,7 +217,8 @@ MotionHeader parse_motion_header(Tokenizer& tz) {
   if (dot != std::string_view::npos && plain) {
     const double half_ulp = 0.5 * std::pow(10.0, -static_cast<double>(txt.size() - dot - 1));
     const double whole = std::round(h.rate_hz);
-    if (whole >= 1.0 && std::abs(1.0 / whole - *dt) <= half_ulp) h.rate_hz = whole;
+    if (whole >= 1.0 && half_ulp <= kSnapTolerance * *dt && std::abs(1.0 / whole - *dt) <= half_ulp)
+      h.rate_hz = whole;
   }
   return h;
 }

@@ -104,6 +104,26 @@ TEST(Bvh, ZeroAndOneFrameFilesParseButCannotBeSimulated) {
   EXPECT_THROW(require_simulatable(one.motion, "o.bvh"), Error);
 }
 
+// A printed frame time snaps to a whole-number rate only when its digits pin the time to 0.5 %:
+// found in review, "0.06" (16.67 Hz, also 1/17 s rounded) was read as 17 Hz, scaling every
+// derivative by 2 %.
+TEST(Bvh, FrameTimesSnapToWholeRatesOnlyWhenTheDigitsSaySo) {
+  const std::string ch = "Zrotation Yrotation Xrotation";
+  const std::string frames = "0 0 0 0 0 0 0 0 0\n0 0 0 0 0 0 0 0 0\n";
+  const struct {
+    const char* text;
+    double rate;
+  } cases[] = {{"0.06", 1.0 / 0.06}, {"0.07", 1.0 / 0.07},   {"0.045", 1.0 / 0.045},
+               {"0.09", 1.0 / 0.09}, {"0.015", 1.0 / 0.015}, {"0.008333", 120.0},
+               {"0.0083333", 120.0}, {"0.0333333", 30.0},    {"0.0166667", 60.0},
+               {"0.0333", 30.0},     {"0.01", 100.0},        {"0.0125", 80.0}};
+  for (const auto& c : cases) {
+    std::string text = tiny_bvh(ch, frames, 2);
+    text.replace(text.find("Frame Time: .01"), 15, std::string("Frame Time: ") + c.text);
+    EXPECT_DOUBLE_EQ(parse_bvh(text, "t.bvh").motion.rate_hz(), c.rate) << c.text;
+  }
+}
+
 TEST(Bvh, ReadsBothCmuReleases) {
   IMUKIT_REQUIRE_DATA(data);
   const BvhData walk = read_bvh((data / "mocap" / "scaled_131_01_walk.bvh").string());
