@@ -85,6 +85,7 @@ TEST(NoiseFit, IntervalsCoverTruthAcrossSeedsWithBiasInstability) {
   // (core/hardware_model.hpp: floor flat within a few %, its mid-point (2 ln2/pi) B^2).
   const double N = 5e-4, K = 1.5e-5, B = 2e-4, rate = 50.0;
   int covered[kNoiseTerms] = {};
+  double ratio_sum[kNoiseTerms] = {}, chi2_sum = 0.0;
   for (uint64_t seed = 1; seed <= 20; ++seed) {
     const Curve c = simulate(N, K, B, 0.2, 3000.0, rate, 720000, seed);
     NoiseFitOptions opt;
@@ -94,7 +95,18 @@ TEST(NoiseFit, IntervalsCoverTruthAcrossSeedsWithBiasInstability) {
     covered[kBiasInstability] +=
         fit.lower[kBiasInstability] <= B && B <= fit.upper[kBiasInstability];
     covered[kRandomWalk] += fit.lower[kRandomWalk] <= K && K <= fit.upper[kRandomWalk];
+    ratio_sum[kWhite] += fit.value[kWhite] / N;
+    ratio_sum[kBiasInstability] += fit.value[kBiasInstability] / B;
+    ratio_sum[kRandomWalk] += fit.value[kRandomWalk] / K;
+    chi2_sum += fit.chi2_per_dof;
   }
+  // The figures of docs/validation.md's table (--gtest_output=json:FILE shows them).
+  for (int term : {kWhite, kBiasInstability, kRandomWalk}) {
+    RecordProperty(std::string("covered_") + noise_term_name(term), covered[term]);
+    RecordProperty(std::string("mean_ratio_") + noise_term_name(term),
+                   std::to_string(ratio_sum[term] / 20));
+  }
+  RecordProperty("mean_chi2_per_dof", std::to_string(chi2_sum / 20));
   EXPECT_GE(covered[kWhite], 17);
   EXPECT_GE(covered[kBiasInstability], 17);
   EXPECT_GE(covered[kRandomWalk], 17);
@@ -105,6 +117,7 @@ TEST(NoiseFit, FindsNoBiasInstabilityWhereThereIsNone) {
   // tau = sqrt3 N / K), which "minimum / 0.664" turns into a false B; the fit must not.
   const double N = 2e-3, K = 1e-3, rate = 100.0;
   int covered_n = 0, covered_k = 0;
+  double ratio_n = 0.0, ratio_k = 0.0, chi2_mean = 0.0;
   for (uint64_t seed = 101; seed <= 120; ++seed) {
     const Curve c = simulate(N, K, 0.0, 10.0, 1000.0, rate, 360000, seed);
     const NoiseFit fit = fit_noise_model_gls(c.tau, c.adev, c.factors, c.n);
@@ -116,7 +129,16 @@ TEST(NoiseFit, FindsNoBiasInstabilityWhereThereIsNone) {
               0.8 * std::sqrt(2.0 * N * K / std::sqrt(3.0)) / kFlickerFloorFactor);
     covered_n += fit.lower[kWhite] <= N && N <= fit.upper[kWhite];
     covered_k += fit.lower[kRandomWalk] <= K && K <= fit.upper[kRandomWalk];
+    ratio_n += fit.value[kWhite] / N / 20;
+    ratio_k += fit.value[kRandomWalk] / K / 20;
+    chi2_mean += fit.chi2_per_dof / 20;
   }
+  // The figures of docs/validation.md's table (--gtest_output=json:FILE shows them).
+  RecordProperty("covered_N", covered_n);
+  RecordProperty("covered_K", covered_k);
+  RecordProperty("mean_ratio_N", std::to_string(ratio_n));
+  RecordProperty("mean_ratio_K", std::to_string(ratio_k));
+  RecordProperty("mean_chi2_per_dof", std::to_string(chi2_mean));
   EXPECT_GE(covered_n, 17);
   EXPECT_GE(covered_k, 17);
 }
@@ -374,6 +396,9 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   EXPECT_LT(mean_chi2, 1.25);
   EXPECT_LE(false_ramps, 3);
   const double z_rms = std::sqrt(z2_sum / axes);
+  RecordProperty("mean_chi2_per_dof", std::to_string(mean_chi2));
+  RecordProperty("false_ramps", false_ramps);
+  RecordProperty("rms_z_N", std::to_string(z_rms));
   EXPECT_GT(z_rms, 0.7);
   EXPECT_LT(z_rms, 1.35);
 }
