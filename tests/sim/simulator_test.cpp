@@ -134,6 +134,34 @@ TEST(Simulator, EveryFrameIsASampleAtRatesWhoseFrameTimesAreRounded) {
   }
 }
 
+// A joint turning by nearly pi per frame (found in review): two such steps make a two-step
+// rotation near 2 pi, which the on-frame spline's series took for a small one (3.1 rad per frame
+// at 100 Hz read 414.7 rad/s). Both paths and fd now read the constant rate, up to pi per frame.
+TEST(Simulator, SplineOnFramesReadsASpinOfNearlyPiPerFrame) {
+  for (const double per_frame : {3.0, 3.1, 3.14}) {
+    const double rate = 100.0;
+    const int64_t frames = 60;
+    Motion m(rate, 2, frames);
+    for (int64_t f = 0; f < frames; ++f) {
+      m.rotation(f, 0) = so3_exp(Vector3d(0.0, 0.0, per_frame * static_cast<double>(f)));
+      m.rotation(f, 1) = Quaterniond::Identity();
+      m.root_translation(f).setZero();
+    }
+    for (const bool on_frames : {true, false}) {
+      SimulationOptions opt;
+      opt.method = DerivativeMethod::spline;
+      opt.spline_on_frames = on_frames;
+      Simulator sim(two_joint_body(), {sensor_on(0, Vector3d(0.1, 0.0, 0.0))}, opt);
+      std::vector<SensorBlock> out;
+      sim.evaluate(m, grid_times(sim, m, frames), out);
+      double worst = 0.0;
+      for (int64_t i = 2; i + 3 < frames; ++i)
+        worst = std::max(worst, std::abs(out[0].angular_rate(2, i) - per_frame * rate));
+      EXPECT_LT(worst, 1e-6 * per_frame * rate) << per_frame << " on frames " << on_frames;
+    }
+  }
+}
+
 TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
   for (const DerivativeMethod method :
        {DerivativeMethod::fd, DerivativeMethod::spline, DerivativeMethod::reference}) {
