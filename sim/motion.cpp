@@ -337,6 +337,17 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
   }
   const auto frames = static_cast<int64_t>(values.size() / std::max<std::size_t>(width, 1));
   const double rate = rate_hz ? *rate_hz : rate_from_times(times, frames, source_name);
+  // A t column beside a given rate must agree with it (found in review: it was ignored, so a
+  // file with gaps or another rate was read at the given one without a word).
+  if (rate_hz && cols.have_t && frames >= 2) {
+    const double from_t = rate_from_times(times, frames, source_name);
+    if (std::abs(from_t - rate) > 1e-6 * rate) {
+      std::ostringstream what;
+      what << "the t column steps at " << from_t << " Hz, the given rate is " << rate
+           << " Hz (give one of them, or the same)";
+      throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt}, what.str());
+    }
+  }
   Motion m = quaternion_motion(values, cols.role, rate, body);
   std::vector<std::string> w = m.validate_and_normalize(&body);
   if (warnings != nullptr) warnings->insert(warnings->end(), w.begin(), w.end());

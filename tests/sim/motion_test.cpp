@@ -57,6 +57,17 @@ TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
   std::vector<std::string> warnings;
   const Motion m = parse_quaternion_csv(text, "m.csv", small_body(), std::nullopt, &warnings);
   EXPECT_NEAR(m.rate_hz(), 50.0, 1e-9);
+  // A given rate must agree with the t column (it was silently taken over it).
+  EXPECT_EQ(parse_quaternion_csv(text, "m.csv", small_body(), 50.0).rate_hz(), 50.0);
+  try {
+    (void)parse_quaternion_csv(text, "m.csv", small_body(), 100.0);
+    ADD_FAILURE() << "a rate disagreeing with t accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find("m.csv: the t column steps at 50 Hz, the given rate is 100"),
+        std::string::npos)
+        << e.what();
+  }
   EXPECT_EQ(m.frames(), 3);
   EXPECT_EQ(m.root_translation(2), Eigen::Vector3d(1, 2, 3.5));
   EXPECT_EQ(m.rotation(1, 1).coeffs(), Eigen::Quaterniond(0, 1, 0, 0).coeffs());
