@@ -51,6 +51,24 @@ void check_json_depth(std::string_view text, const std::string& source, int max_
   }
 }
 
+std::size_t json_key_offset(std::string_view text, std::size_t n) {
+  std::size_t keys = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '"') continue;
+    const std::size_t open = i;
+    for (++i; i < text.size() && text[i] != '"'; ++i) {
+      if (text[i] == '\\') ++i;
+    }
+    // A string is a key when a colon follows it.
+    std::size_t j = i + 1;
+    while (j < text.size() &&
+           (text[j] == ' ' || text[j] == '\t' || text[j] == '\n' || text[j] == '\r'))
+      ++j;
+    if (j < text.size() && text[j] == ':' && ++keys == n) return open;
+  }
+  return text.size();
+}
+
 // nlohmann's messages start with "[json.exception.parse_error.101] parse error at line 1,
 // column 2: "; the location is printed our way, so keep only what went wrong.
 std::string json_error_reason(std::string message) {

@@ -1,12 +1,14 @@
 // JSON text to a document, with errors an editor can jump to. A syntax error names
 // file:line:column (columns in characters, not bytes) and what was wrong, in nlohmann's words
 // without its prefix; nesting deeper than a limit is rejected before parsing, because readers
-// that recurse over the document would otherwise spend stack on hostile input. Every imukit
+// that recurse over the document would otherwise spend stack on hostile input; a key given twice
+// in one object is an error at the second one. Every imukit
 // reader of JSON files (profiles, scenes, policies) parses through here.
 #pragma once
 
 #include <cstddef>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -24,6 +26,10 @@ void check_json_depth(std::string_view text, const std::string& source, int max_
 
 // nlohmann's exception text without "[json.exception...] parse error at line L, column C: ".
 std::string json_error_reason(std::string message);
+
+// Byte offset of the opening quote of the n-th (1-based) object key in well-formed JSON text, in
+// document order; text.size() when there are fewer keys.
+std::size_t json_key_offset(std::string_view text, std::size_t n);
 
 namespace detail {
 
@@ -49,7 +55,14 @@ class JsonDomBuilder {
     stack_.push_back(last_);
     return true;
   }
+  // A key given twice in one object is an error, not "the last one wins": a profile or scene
+  // edited by hand would otherwise lose the first value without a word.
   bool key(typename Json::string_t& k) {
+    ++keys_read;
+    if (stack_.back()->contains(k)) {
+      duplicate_key = std::move(k);
+      return false;
+    }
     key_ = std::move(k);
     return true;
   }
@@ -74,6 +87,8 @@ class JsonDomBuilder {
 
   std::size_t error_position = 0;
   std::string error_message;
+  std::size_t keys_read = 0;
+  std::optional<typename Json::string_t> duplicate_key;
 
  private:
   bool put(Json&& value) {
@@ -106,6 +121,11 @@ Json parse_json_text(std::string_view text, const std::string& source, int max_d
   Json root;
   detail::JsonDomBuilder<Json> builder(root);
   if (!Json::sax_parse(text.begin(), text.end(), &builder)) {
+    if (builder.duplicate_key) {
+      throw Error(locate_in_text(text, json_key_offset(text, builder.keys_read), source),
+                  "duplicate key " + quote_excerpt(*builder.duplicate_key) +
+                      ": each key may appear once in an object");
+    }
     // The position counts characters read, so the offending byte is the one before it.
     const std::size_t offset = builder.error_position > 0 ? builder.error_position - 1 : 0;
     throw Error(locate_in_text(text, offset, source), builder.error_message);

@@ -36,5 +36,23 @@ TEST(JsonText, NestingBeyondTheLimitIsRejectedAtItsBracket) {
   EXPECT_EQ(parse_json_text<nlohmann::json>("[\"[[[[[[\"]", "f.json", 1)[0], "[[[[[[");
 }
 
+TEST(JsonText, AKeyGivenTwiceInOneObjectIsAnErrorAtItsSecondOccurrence) {
+  // The second "sigma" is on line 3, column 3; the same key in another object, or as a value, is
+  // fine and must not be mistaken for it.
+  const std::string text =
+      "{\"a\": {\"sigma\": 1}, \"b\": \"sigma\",\n \"sigma\": 2,\n  \"sigma\": 3}";
+  EXPECT_EQ(message_of(text),
+            "f.json:3:3: duplicate key 'sigma': each key may appear once in an object");
+  EXPECT_EQ(
+      parse_json_text<nlohmann::json>("{\"a\": {\"k\": 1}, \"b\": {\"k\": 2}}", "f.json").dump(),
+      "{\"a\":{\"k\":1},\"b\":{\"k\":2}}");
+  // Escapes in keys: "\u0061" is "a", so it duplicates "a"; the error points at the escaped one.
+  EXPECT_EQ(message_of("[{\"a\\\"\": 0, \"a\": 1, \"\\u0061\": 2}]").rfind("f.json:1:21: ", 0), 0u)
+      << message_of("[{\"a\\\"\": 0, \"a\": 1, \"\\u0061\": 2}]");
+  EXPECT_NE(message_of("{\"k\": 1, \"k\": 2}").find("duplicate key"), std::string::npos);
+  EXPECT_THROW((void)parse_json_text<nlohmann::ordered_json>("{\"k\": 1, \"k\": 2}", "f.json"),
+               Error);
+}
+
 }  // namespace
 }  // namespace imukit
