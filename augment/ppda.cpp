@@ -487,6 +487,18 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
       const Interpolant warp = time_warp_interpolant(uu, speed.ratio, T);
       Eigen::Map<Eigen::RowVectorXd> xm(wk.x.data(), F);
       warp.evaluate(wk.u, xm);
+      // The margins beyond the window's samples continue at the end speeds (the tangent lines):
+      // the end interval's cubic extrapolated over them is fine for a few knots, but with
+      // hundreds of knots an interval is a fraction of a sample and its cubic, read 3 frames
+      // out, ran off by hundreds of frames (accelerations of 600 m/s^2, or "needs N frames").
+      // The warp maps its first and last anchor to themselves (0 and T - 1).
+      const double first = warp.x().front(), last_anchor = warp.x().back();
+      const Eigen::MatrixXd& slope = warp.knot_slopes();
+      for (int64_t j = 0; j < F; ++j) {
+        const double u = wk.u[static_cast<std::size_t>(j)];
+        if (u < first) xm[j] = first + slope(0, 0) * (u - first);
+        if (u > last_anchor) xm[j] = last_anchor + slope(0, slope.cols() - 1) * (u - last_anchor);
+      }
       for (double& v : wk.x) v = (t_start + v * dt) * motion_rate;
       break;
     }
