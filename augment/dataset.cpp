@@ -357,6 +357,31 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
     throw Error("augment: give one name per stream");
   const std::size_t n = streams[0]->size();
   const double rate = measured_rate_hz(streams[0]->t, "augment: the recording");
+  // A window stacks the streams' samples side by side, so they must be the same instants: every
+  // stream's sample i within half a period of stream 0's (two devices' clocks differ by less;
+  // streams at other rates, or one started later, differ by more).
+  for (std::size_t s = 1; s < streams.size(); ++s) {
+    const std::vector<TimeNs>& t0 = streams[0]->t;
+    const std::vector<TimeNs>& ts = streams[s]->t;
+    if (ts.size() != n) {
+      throw Error(fmt::format(
+          "augment: stream {} has {} samples, stream {} has {}: the streams "
+          "of a recording must share one time base (resample them first)",
+          quote_excerpt(stream_names[s]), ts.size(), quote_excerpt(stream_names[0]), n));
+    }
+    const double half_period_ns = 0.5e9 / rate;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (std::abs(static_cast<double>(ts[i] - t0[i])) > half_period_ns) {
+        throw Error(fmt::format(
+            "augment: sample {} of stream {} is {:+.6f} s off sample {} of stream {} (more than "
+            "half a sample period at {:.6g} Hz): the streams of a recording must share one time "
+            "base "
+            "(resample them first)",
+            i, quote_excerpt(stream_names[s]), static_cast<double>(ts[i] - t0[i]) * 1e-9, i,
+            quote_excerpt(stream_names[0]), rate));
+      }
+    }
+  }
   const std::vector<int64_t> base = window_starts(n, options.window, options.stride);
   if (base.empty())
     throw Error(fmt::format("augment: the recording ({} samples) is shorter than a window of {}", n,

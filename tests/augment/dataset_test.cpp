@@ -175,6 +175,37 @@ TEST(Dataset, StdaFromRecordedStreams) {
   EXPECT_NE(e.X, d.X);
 }
 
+TEST(Dataset, RecordedStreamsMustShareOneTimeBase) {
+  // Found in review: a 400 Hz and a 100 Hz stream of equal length were stacked side by side as
+  // one 400 Hz window (0.75 s of one beside 3 s of the other). Two devices' clocks a little
+  // apart (here 3 ms at 50 Hz, under half a period) are still one time base.
+  const auto stream = [](double rate, TimeNs offset) {
+    ImuSeries s = ImuSeries::with_channels(200, true, true);
+    for (std::size_t i = 0; i < 200; ++i) {
+      s.t[i] = offset + static_cast<TimeNs>(std::llround(static_cast<double>(i) * 1e9 / rate));
+      s.accel.col(static_cast<Eigen::Index>(i)) = Eigen::Vector3d(0, 0, 9.81);
+    }
+    return s;
+  };
+  DatasetOptions o;
+  o.window = 40;
+  o.stride = 20;
+  const Policy policy = builtin_policy("paper");
+  const ImuSeries a = stream(50.0, 0), near = stream(50.0, 3'000'000), fast = stream(200.0, 0);
+  EXPECT_EQ(generate_dataset({"a", "b"}, {&a, &near}, policy, {}, o).shape,
+            (BatchShape{9, 40, 12}));
+  try {
+    (void)generate_dataset({"a", "b"}, {&a, &fast}, policy, {}, o);
+    ADD_FAILURE() << "streams at 50 and 200 Hz were stacked";
+  } catch (const Error& e) {
+    // Sample 1 is at 20 ms in a, 5 ms in b: the first more than 10 ms apart.
+    EXPECT_EQ(std::string(e.what()).rfind(
+                  "augment: sample 1 of stream 'b' is -0.015000 s off sample 1 of stream 'a'", 0),
+              0u)
+        << e.what();
+  }
+}
+
 // Found in review: with --normalize the STDA counterparts acted on z-scored channels, where a
 // rotation is not one (gravity stayed, norms changed by up to 1.6 m/s^2) and magnitude scaling
 // scales only the deviations from the mean. Now they act on the physical signals and the
