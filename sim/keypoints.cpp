@@ -603,6 +603,13 @@ Keypoints parse_keypoints_csv(std::string_view text, const std::string& source,
     const std::string name(fields[i].text);
     if (name == "t" || name == "t_s" || name == "time") {
       if (have_t) throw Error(at(fields[i].column), "a second time column");
+      // Found in review: the given rate silently replaced the column (a 30 Hz file read at
+      // 60 Hz played twice as fast).
+      if (rate_hz) {
+        throw Error(at(fields[i].column),
+                    "the t column gives the frame times; a frame rate given beside it would "
+                    "replace them: give one or the other");
+      }
       role[i] = -1;
       have_t = true;
       continue;
@@ -661,7 +668,7 @@ Keypoints parse_keypoints_csv(std::string_view text, const std::string& source,
   const std::size_t F = values.size() / (3 * J);
   out.positions =
       Eigen::Map<const Eigen::Matrix3Xd>(values.data(), 3, static_cast<Eigen::Index>(F * J));
-  if (have_t && !rate_hz) {
+  if (have_t) {
     out.t_s = std::move(times);
   } else {
     out.rate_hz = *rate_hz;

@@ -564,6 +564,13 @@ TEST(Keypoints, CsvColumnsInAnyOrderNanMissingAndErrorsWithLineAndColumn) {
               parse_keypoints_csv("t,hand_q\n", "k.csv", t);
             }).find("k.csv:1:3: column 'hand_q'"),
             std::string::npos);
+  // A rate beside a t column is refused, not preferred (found in review: a 30 Hz file read at
+  // 60 Hz played twice as fast).
+  EXPECT_EQ(error_of([&] {
+              parse_keypoints_csv(header + "\n" + row1 + "\n" + row2 + "\n", "k.csv", t, 60.0);
+            }),
+            "k.csv:1:1: the t column gives the frame times; a frame rate given beside it would "
+            "replace them: give one or the other");
 }
 
 // ----- custom bodies --------------------------------------------------------------------------
