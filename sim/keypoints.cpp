@@ -1,5 +1,6 @@
 #include "imukit/sim/keypoints.hpp"
 
+#include <fmt/format.h>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -594,6 +595,8 @@ Keypoints parse_keypoints_csv(std::string_view text, const std::string& source,
   if (!line)
     throw Error(InputLocation{source, 1, 1, std::nullopt}, "empty file: expected a header row");
   split_fields(*line, fields);
+  std::vector<std::string> header;
+  for (const Field& f : fields) header.emplace_back(f.text);
   const std::size_t J = topology.keypoints.size();
   // Column roles: -1 time, 3 k + c keypoint k component c.
   std::vector<int> role(fields.size(), -2);
@@ -657,10 +660,20 @@ Keypoints parse_keypoints_csv(std::string_view text, const std::string& source,
         v = *p;
       }
       if (std::isinf(v)) throw Error(at(fields[i].column), "infinite value");
+      // The checks motion_from_keypoints makes too, here where the line is known.
       if (role[i] == -1) {
         if (!std::isfinite(v)) throw Error(at(fields[i].column), "the time is missing");
+        if (!times.empty() && !(v > times.back())) {
+          throw Error(at(fields[i].column), fmt::format("time {} s does not increase (the row "
+                                                        "before is at {} s)",
+                                                        v, times.back()));
+        }
         times.push_back(v);
       } else {
+        if (std::abs(v) > kMaxCoordinateM) {
+          throw Error(at(fields[i].column),
+                      fmt::format("column '{}': {} is beyond 1e6 m (not metres?)", header[i], v));
+        }
         values[base + static_cast<std::size_t>(role[i])] = v;
       }
     }

@@ -564,6 +564,21 @@ TEST(Keypoints, CsvColumnsInAnyOrderNanMissingAndErrorsWithLineAndColumn) {
               parse_keypoints_csv("t,hand_q\n", "k.csv", t);
             }).find("k.csv:1:3: column 'hand_q'"),
             std::string::npos);
+  // Time order and coordinates in metres are checked where the line is known (found in review:
+  // "frame 50: time ... does not increase" named neither file nor line).
+  EXPECT_EQ(
+      error_of([&] { parse_keypoints_csv(header + "\n" + row2 + "\n" + row1 + "\n", "k.csv", t); }),
+      "k.csv:3:1: time 0 s does not increase (the row before is at 0.05 s)");
+  std::string far = row1;
+  far.replace(far.find(",5,"), 3, ",2e6,");
+  EXPECT_EQ(error_of([&] {
+              parse_keypoints_csv(header + "\n" + far + "\n", "k.csv", t);
+            }).rfind("k.csv:2:", 0),
+            0u);
+  EXPECT_NE(error_of([&] {
+              parse_keypoints_csv(header + "\n" + far + "\n", "k.csv", t);
+            }).find("2000000 is beyond 1e6 m (not metres?)"),
+            std::string::npos);
   // A rate beside a t column is refused, not preferred (found in review: a 30 Hz file read at
   // 60 Hz played twice as fast).
   EXPECT_EQ(error_of([&] {
