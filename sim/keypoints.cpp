@@ -29,6 +29,7 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kMinBoneDeviationM = 0.05;
 // Limits that keep every sum of squares, time in ns and buffer finite and sane.
 constexpr double kMaxCoordinateM = 1e6;
+constexpr double kShortBoneM = 0.01;  // a bone shorter than this has no reliable direction
 constexpr double kMaxDurationS = 1e7;
 constexpr int64_t kMaxOutputFrames = 10'000'000;
 
@@ -1483,10 +1484,24 @@ std::vector<std::vector<Quaterniond>> segment_rotations(
     // Bone directions and the parallel-transport frames.
     std::vector<Vector3d> bone(static_cast<std::size_t>(N));
     std::vector<Quaterniond> Fr(static_cast<std::size_t>(N));
+    // A bone of (nearly) no length has no direction of its own: below 1e-9 m it keeps the
+    // previous frame's (or the neutral pose's), and anything under 1 cm is keypoint noise.
+    // Either way the segment's rotation there is made up, so say where (found in review:
+    // hand = wrist, or a skeleton flattened onto a plane, passed without a word).
+    std::vector<int64_t> short_frames;
     for (int64_t k = 0; k < N; ++k) {
       Vector3d d = Se.col(k) - So.col(k);
+      if (d.norm() < kShortBoneM) short_frames.push_back(k);
       if (d.norm() < 1e-9) d = k > 0 ? bone[static_cast<std::size_t>(k - 1)] : s.neutral;
       bone[static_cast<std::size_t>(k)] = d.normalized();
+    }
+    if (!short_frames.empty()) {
+      out.warnings.push_back(fmt::format(
+          "segment {}: {} to {} is shorter than 1 cm in {} of {} output frames ({}): its "
+          "direction there is noise or held from the frame before",
+          s.joint, topo.keypoints[static_cast<std::size_t>(s.origin)],
+          topo.keypoints[static_cast<std::size_t>(s.end)], short_frames.size(), N,
+          frame_list(short_frames)));
     }
     {
       const Quaterniond P0 = Rp ? (*Rp)[0] : Quaterniond::Identity();

@@ -379,6 +379,30 @@ TEST(MotionFromKeypoints, AStillPoseGivesAStillMotionAndDegenerateInputNoNaN) {
   o.up = Vector3d::UnitZ();
   const KeypointMotion d = motion_from_keypoints(k, topo, o);
   EXPECT_FALSE(d.warnings.empty());
+  bool said = false;
+  for (const std::string& w : d.warnings)
+    said |= w.find(
+                "segment pelvis: hip_center to spine is shorter than 1 cm in 31 of 31 output "
+                "frames (0-30)") != std::string::npos;
+  EXPECT_TRUE(said) << ::testing::PrintToString(d.warnings);
+  // One bone of no length (the hand keypoint on the wrist), found in review: said, for that
+  // segment only.
+  Keypoints h = keypoints_of(body, still, topo);
+  const auto col = [&](const char* name, int64_t f) {
+    return static_cast<Eigen::Index>(f * 20 + topo.keypoint_index(name));
+  };
+  for (int64_t f = 0; f < 40; ++f)
+    h.positions.col(col("left_hand", f)) = h.positions.col(col("left_wrist", f));
+  const KeypointMotion hw = motion_from_keypoints(h, topo);
+  std::vector<std::string> short_bones;
+  for (const std::string& w : hw.warnings)
+    if (w.find("shorter than 1 cm") != std::string::npos) short_bones.push_back(w);
+  ASSERT_EQ(short_bones.size(), 1u);
+  EXPECT_EQ(short_bones[0].rfind("segment left_wrist: left_wrist to left_hand is shorter than "
+                                 "1 cm in 131 of 131 output frames (0-130)",
+                                 0),
+            0u)
+      << short_bones[0];
   for (std::size_t j = 0; j < d.body.size(); ++j) {
     EXPECT_TRUE(d.body.joint(j).offset_parent_joint.allFinite());
     for (int64_t f = 0; f < d.motion.frames(); ++f)
