@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 
@@ -112,20 +113,33 @@ std::vector<int64_t> read_labels(const std::string& path, std::span<const double
 
 std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride) {
   if (window == 0 || stride == 0) throw Error("windowing: window and stride must be >= 1");
+  if (samples > static_cast<std::size_t>(std::numeric_limits<int64_t>::max()))
+    throw Error("windowing: more samples than a signed 64-bit index reaches");
   std::vector<int64_t> starts;
-  for (std::size_t s = 0; s + window <= samples; s += stride)
-    starts.push_back(static_cast<int64_t>(s));
+  if (window > samples) return starts;
+  // Counted rather than stepped, so s + stride cannot wrap past the end (found in review).
+  const std::size_t count = (samples - window) / stride + 1;
+  starts.reserve(count);
+  for (std::size_t k = 0; k < count; ++k) starts.push_back(static_cast<int64_t>(k * stride));
   return starts;
 }
 
 std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<const int64_t> starts,
                                    std::size_t window) {
+  if (window == 0) throw Error("windowing: the window must be >= 1 sample");
   std::vector<int64_t> out(starts.size(), kNoLabel);
   if (labels.empty()) return out;
   std::map<int64_t, std::size_t> counts;
   for (std::size_t w = 0; w < starts.size(); ++w) {
+    // A negative start wrapped to a huge one whose end wrapped back inside: "unlabelled"
+    // instead of an error (found in review).
+    if (starts[w] < 0 || static_cast<std::size_t>(starts[w]) > labels.size() ||
+        window > labels.size() - static_cast<std::size_t>(starts[w])) {
+      throw Error(
+          fmt::format("windowing: window {} (samples {} to {} + {}) is outside the {} labels", w,
+                      starts[w], starts[w], window, labels.size()));
+    }
     const auto s = static_cast<std::size_t>(starts[w]);
-    if (s + window > labels.size()) throw Error("windowing: a window reaches past the labels");
     counts.clear();
     for (std::size_t i = s; i < s + window; ++i)
       if (labels[i] != kNoLabel) ++counts[labels[i]];

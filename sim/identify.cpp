@@ -741,6 +741,8 @@ Fidelity fidelity(const Eigen::Matrix3Xd& measured_accel, const Eigen::Matrix3Xd
       measured_gyro.cols() != simulated_gyro.cols() ||
       measured_accel.cols() != measured_gyro.cols())
     throw Error("fidelity: measured and simulated signals differ in length");
+  // Eigen's mean of no values asserts, which ends the process (found in review, from Python).
+  if (measured_accel.cols() == 0) throw Error("fidelity: no samples");
   Fidelity f;
   f.accel = axis_fidelity(measured_accel, simulated_accel);
   f.gyro = axis_fidelity(measured_gyro, simulated_gyro);

@@ -77,10 +77,8 @@ void require_writable_batch(const py::array& a, const char* what) {
 // The target of an in-place method: `out` itself when given (x is copied into it unless it is
 // x), else a new array of x's dtype and shape holding a copy of x. The C++ code then works on
 // the target's memory directly.
-py::array target_for(const py::array& x, py::handle out_obj, const char* what) {
-  if (!is_f32(x) && !is_f64(x)) {
-    throw py::type_error(std::string(what) + ": expected float32 or float64, got " + dtype_name(x));
-  }
+py::array target_for(const py::array& x_in, py::handle out_obj, const char* what) {
+  const py::array x = native_float(x_in, what);
   batch_shape(x, what);
   if (out_obj.is_none()) {
     py::array out(x.dtype(), std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));
@@ -220,7 +218,7 @@ struct AugmenterHandle {
 py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, py::handle rng_obj,
                      const Policy* policy, py::handle out_obj, unsigned threads) {
   augment::PpdaAugmenter& a = *h.augmenter;
-  const auto starts_arr = read_times(starts_obj, "starts");
+  const auto starts_arr = read_int64(starts_obj, "starts", "sample indices");
   const std::span<const int64_t> starts(starts_arr.data(),
                                         static_cast<std::size_t>(starts_arr.size()));
   const auto n = static_cast<py::ssize_t>(starts.size());
@@ -324,7 +322,7 @@ std::vector<double> time_calls(int repeats, Call&& call) {
 
 std::vector<int64_t> labels_argument(py::handle obj) {
   if (obj.is_none()) return {};
-  const auto a = read_times(obj, "labels");
+  const auto a = read_int64(obj, "labels", "class labels");
   return {a.data(), a.data() + a.size()};
 }
 
@@ -450,9 +448,11 @@ rate_hz=0) (see augment/policy.hpp: jittering last, a profile's sigmas at rate_h
           py::arg("index"), py::arg("normalized") = false, py::arg("rate_hz") = 0.0)
       .def("to_json", &augment::format_policy);
   m.def("read_policy", &augment::read_policy, py::arg("name_or_path"),
+        py::call_guard<py::gil_scoped_release>(),
         "A built-in policy (\"imukit\", \"paper\") or a policy JSON file.");
   m.def("parse_policy", &augment::parse_policy, py::arg("text"),
-        py::arg("source_name") = "<string>", py::arg("base_dir") = ".");
+        py::arg("source_name") = "<string>", py::arg("base_dir") = ".",
+        py::call_guard<py::gil_scoped_release>());
   m.def("builtin_policy_names", &augment::builtin_policy_names);
 
   py::class_<AugmenterHandle, std::shared_ptr<AugmenterHandle>>(m, "Augmenter", R"doc(
@@ -509,7 +509,7 @@ result does not depend on the thread count.)doc")
   bench.def(
       "ppda_seconds", [](AugmenterHandle& h, const Policy& policy, std::size_t k,
                          py::handle starts_obj, uint64_t seed, unsigned threads, int repeats) {
-        const auto starts_arr = read_times(starts_obj, "starts");
+        const auto starts_arr = read_int64(starts_obj, "starts", "sample indices");
         const std::span<const int64_t> starts(starts_arr.data(),
                                               static_cast<std::size_t>(starts_arr.size()));
         std::vector<float> out(starts.size() * h.augmenter->window() * h.augmenter->channels());
@@ -543,8 +543,8 @@ result does not depend on the thread count.)doc")
   m.def(
       "window_labels",
       [](py::handle labels, py::handle starts, std::size_t window) {
-        const auto l = read_times(labels, "labels");
-        const auto s = read_times(starts, "starts");
+        const auto l = read_int64(labels, "labels", "class labels");
+        const auto s = read_int64(starts, "starts", "sample indices");
         return adopt(augment::window_labels({l.data(), static_cast<std::size_t>(l.size())},
                                             {s.data(), static_cast<std::size_t>(s.size())},
                                             window));
@@ -555,7 +555,7 @@ result does not depend on the thread count.)doc")
       "extract_windows",
       [](const std::vector<std::shared_ptr<ImuSeries>>& streams, py::handle starts_obj,
          std::size_t window) {
-        const auto s = read_times(starts_obj, "starts");
+        const auto s = read_int64(starts_obj, "starts", "sample indices");
         std::vector<const ImuSeries*> ptrs;
         for (const auto& p : streams) ptrs.push_back(p.get());
         std::vector<float> x;

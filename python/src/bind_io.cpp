@@ -220,7 +220,7 @@ JSON.)doc")
            })
       .def(
           "write", [](const DeviceProfile& p, const std::string& path) { write_profile(path, p); },
-          py::arg("path"))
+          py::arg("path"), py::call_guard<py::gil_scoped_release>())
       .def_property_readonly("name",
                              [](const DeviceProfile& p) -> py::object {
                                if (!p.device) return py::none();
@@ -234,8 +234,9 @@ JSON.)doc")
         if (p.magnetometer) parts += " magnetometer";
         return "<imukit.Profile" + parts + ">";
       });
-  m.def("read_profile", &read_profile, py::arg("path"));
-  m.def("parse_profile", &parse_profile, py::arg("text"), py::arg("source_name") = "<string>");
+  m.def("read_profile", &read_profile, py::arg("path"), py::call_guard<py::gil_scoped_release>());
+  m.def("parse_profile", &parse_profile, py::arg("text"), py::arg("source_name") = "<string>",
+        py::call_guard<py::gil_scoped_release>());
   m.def("profile", &profile_from, py::arg("profile"),
         "A Profile from a Profile, a dict in the imukit.profile/1 layout or a file name.");
 }

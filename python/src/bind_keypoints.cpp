@@ -159,7 +159,12 @@ gravity at rest, mapped to the camera); body: offsets to use (per-subject, see a
   m.def(
       "read_keypoints",
       [](const std::string& path, py::handle topology, std::optional<double> rate_hz) {
-        const sim::Keypoints k = sim::read_keypoints(path, topology_argument(topology), rate_hz);
+        const sim::KeypointTopology topo = topology_argument(topology);
+        sim::Keypoints k;
+        {
+          py::gil_scoped_release release;
+          k = sim::read_keypoints(path, topo, rate_hz);
+        }
         const auto F = static_cast<py::ssize_t>(k.frames());
         py::array_t<double> p({F, static_cast<py::ssize_t>(k.keypoints), py::ssize_t{3}});
         std::copy(k.positions.data(), k.positions.data() + k.positions.size(), p.mutable_data());

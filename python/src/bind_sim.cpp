@@ -411,8 +411,12 @@ on its absolute index only. frames=None makes it endless (give Scene(frames=N)).
       "read_quaternion_csv",
       [](const std::string& path, const Body& body, std::optional<double> rate_hz) {
         std::vector<std::string> warnings;
-        auto mo =
-            std::make_shared<sim::Motion>(sim::read_quaternion_csv(path, body, rate_hz, &warnings));
+        std::shared_ptr<sim::Motion> mo;
+        {
+          py::gil_scoped_release release;
+          mo = std::make_shared<sim::Motion>(
+              sim::read_quaternion_csv(path, body, rate_hz, &warnings));
+        }
         for (const std::string& w : warnings) PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
         return mo;
       },
@@ -491,6 +495,7 @@ numbers as `imukit simulate` for the same scene and seed.)doc")
       "parse_scene",
       [](const std::string& text, const std::string& source_name, const std::string& base_dir) {
         auto h = std::make_shared<SceneHandle>();
+        py::gil_scoped_release release;  // it reads the motion files the scene names
         h->scene = sim::parse_scene(text, source_name, base_dir);
         return h;
       },

@@ -44,29 +44,48 @@ inline py::array as_array(py::handle obj, const char* what) {
   return py::reinterpret_borrow<py::array>(obj);
 }
 
+// a itself when it is native float32 or float64; the same values in native byte order when it
+// is a big-endian (or other non-native) float32 or float64, as .npy and MATLAB files can hold
+// (found in review: they were refused as "expected float32 or float64, got >f8"). Anything
+// else is a TypeError.
+inline py::array native_float(const py::array& a, const char* what) {
+  if (is_f32(a) || is_f64(a)) return a;
+  const py::dtype d = a.dtype();
+  if (d.kind() == 'f' && d.itemsize() == 4)
+    return py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(a);
+  if (d.kind() == 'f' && d.itemsize() == 8)
+    return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+  throw py::type_error(std::string(what) + ": expected float32 or float64, got " + dtype_name(a));
+}
+
 // Float input that is only read: float64 C-contiguous arrays are used in place; float32 (or a
-// non-contiguous float64 view) is converted to a contiguous float64 copy, which the docs state
-// for these functions. Integer or object arrays are a TypeError.
+// non-contiguous float64 view, or another byte order) is converted to a contiguous float64
+// copy, which the docs state for these functions. Integer or object arrays are a TypeError.
 inline py::array_t<double, py::array::c_style> read_f64(py::handle obj, const char* what) {
-  const py::array a = as_array(obj, what);
-  if (!is_f32(a) && !is_f64(a)) {
-    throw py::type_error(std::string(what) + ": expected float32 or float64, got " + dtype_name(a));
-  }
+  const py::array a = native_float(as_array(obj, what), what);
   if (is_f64(a) && is_c_contiguous(a)) return py::reinterpret_borrow<py::array_t<double>>(a);
   return py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
 }
 
-// Sample times: int64 nanoseconds, one-dimensional, used in place when C-contiguous.
-inline py::array_t<int64_t, py::array::c_style> read_times(py::handle obj, const char* what) {
+// One-dimensional int64 input (sample times in nanoseconds, window starts, labels; `meaning`
+// says which in the message), used in place when C-contiguous.
+inline py::array_t<int64_t, py::array::c_style> read_int64(py::handle obj, const char* what,
+                                                           const char* meaning) {
   const py::array a = as_array(obj, what);
   if (!a.dtype().is(py::dtype::of<int64_t>())) {
-    throw py::type_error(std::string(what) + ": expected int64 nanoseconds, got " + dtype_name(a));
+    throw py::type_error(std::string(what) + ": expected int64 " + meaning + ", got " +
+                         dtype_name(a));
   }
   if (a.ndim() != 1) {
     throw py::value_error(std::string(what) + ": expected a 1-d array, got " +
                           std::to_string(a.ndim()) + " dimensions");
   }
   return py::array_t<int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
+}
+
+// Sample times: int64 nanoseconds.
+inline py::array_t<int64_t, py::array::c_style> read_times(py::handle obj, const char* what) {
+  return read_int64(obj, what, "nanoseconds");
 }
 
 // A shape as "(256, 200, 6)" for messages.

@@ -27,6 +27,16 @@ TEST(Dataset, WindowStartsAndMajorityLabels) {
   const std::vector<int64_t> s0 = {0};
   EXPECT_EQ(window_labels(none, s0, 3), (std::vector<int64_t>{kNoLabel}));
   EXPECT_EQ(window_labels({}, starts, 4), std::vector<int64_t>(5, kNoLabel));
+  // Found in review: a negative start, or a window of 0, came back "unlabelled"; a stride near
+  // 2^63 wrapped the loop (a MemoryError from Python).
+  const std::vector<int64_t> negative = {-10};
+  EXPECT_THROW(window_labels(labels, negative, 4), Error);
+  EXPECT_THROW(window_labels(labels, s0, 0), Error);
+  const std::vector<int64_t> late = {7};
+  EXPECT_THROW(window_labels(labels, late, 4), Error);
+  EXPECT_EQ(window_starts(std::size_t{1} << 62, 2, std::size_t{1} << 61),
+            (std::vector<int64_t>{0, int64_t{1} << 61}));
+  EXPECT_THROW(window_starts(~std::size_t{0}, 2, std::size_t{1} << 63), Error);
 }
 
 TEST(Dataset, SegmentsBecomePerSampleLabels) {

@@ -51,6 +51,15 @@ class Stda(unittest.TestCase):
         w = imukit.stda(before, "magnitude_scaling", 5, sigma=0.1, out=buf)
         self.assertTrue(np.shares_memory(w, buf))
         np.testing.assert_array_equal(buf, y)
+        # Big-endian input (some .npy and MATLAB files) is read as its values, not refused (found
+        # in review); the result is native.
+        be = imukit.stda(before.astype(">f4"), "magnitude_scaling", 5, sigma=0.1)
+        self.assertEqual(be.dtype, np.float32)
+        np.testing.assert_array_equal(be, y)
+        with self.assertRaisesRegex(TypeError, "starts: expected int64 sample indices, got int32"):
+            imukit.window_labels(np.zeros(100, np.int64), np.zeros(1, np.int32), 50)
+        with self.assertRaisesRegex(imukit.Error, r"window 0 \(samples -10 to -10 \+ 50\) is outside the 100 labels"):
+            imukit.window_labels(np.zeros(100, np.int64), np.array([-10]), 50)
 
     def test_magnitude_scaling_is_one_factor_per_window(self):
         x = batch(dtype=np.float64)

@@ -180,6 +180,16 @@ class Format(unittest.TestCase):
             expect({k: v for k, v in ok.items() if k != "label"}, r"give either 'label'")
             expect(ok, r"schema: expected \"imukit.recordings/1\"", {"schema": "imukit.dataset/1"})
             expect(ok, r"units: samples are stored in m/s\^2 and rad/s", {"units": {"accelerometer": "g"}})
+            # Found in review: values were coerced (subject 1 and "1" one subject, null 'None', a
+            # string of sensor names split into letters, true an offset of 1 s).
+            expect(dict(ok, subject=1), r"recordings\[0\]\.subject: expected a non-empty string, got 1")
+            expect(dict(ok, id=None), r"recordings\[0\]\.id: expected a non-empty string, got None")
+            expect(dict(ok, samples=5), r"recordings\[0\]\.samples: expected a non-empty string")
+            expect(dict(ok, scene={"file": "s.json", "sensors": "w"}),
+                   r"recordings\[0\]\.scene\.sensors: expected a non-empty list of sensor names, got 'w'")
+            expect(dict(ok, scene={"file": "s.json", "sensors": ["w"], "time_offset_s": True}),
+                   r"recordings\[0\]\.scene\.time_offset_s: expected seconds, got True")
+            expect(ok, r"classes: a name appears twice", {"classes": ["x", "x"]})
             with open(index, "w") as f:
                 f.write('{"schema": \n oops')
             with self.assertRaisesRegex(rf.FormatError, r"recordings\.json:2:2: Expecting value"):
@@ -198,6 +208,11 @@ class Windowing(unittest.TestCase):
         np.testing.assert_array_equal(W.y, [0, 1, 1, 1])
         np.testing.assert_array_equal(W.X[2], x[8:16].astype(np.float32))
         self.assertEqual(W.X.dtype, np.float32)
+        # Recordings at two rates would give windows of two lengths in seconds (found in review).
+        R2 = rf.Recordings("t", ["a", "b"], [rf.Recording("r", "s", x, lab, 50.0, ["w"]),
+                                             rf.Recording("q", "s", x, lab, 100.0, ["w"])])
+        with self.assertRaisesRegex(rf.FormatError, r"recordings at different rates \[50\.0, 100\.0\] Hz"):
+            windows.make_windows(R2, 8, 4)
 
     def test_the_standardizer_uses_the_training_windows_only(self):
         rng = np.random.default_rng(1)
@@ -434,6 +449,17 @@ class Experiments(unittest.TestCase):
             with self.assertRaisesRegex(ValueError, "written with other settings"):
                 with contextlib.redirect_stdout(io.StringIO()):
                     har_main(argv[:argv.index("--epochs") + 1] + ["2"] + argv[argv.index("--epochs") + 2:])
+            # Other recordings under the same settings are refused too (found in review: another
+            # dataset's runs counted as done); a subset of the same subjects continues.
+            other = os.path.join(d, "other")
+            synthetic_recordings(other, trials=1)
+            with self.assertRaisesRegex(ValueError, r"written from other recordings of subject\(s\) \['s1', 's2', 's3'\]"):
+                with contextlib.redirect_stdout(io.StringIO()):
+                    har_main([argv[0], "--recordings", other] + argv[3:])
+            log = io.StringIO()
+            with contextlib.redirect_stdout(log):
+                har_main(argv + ["--subjects", "s1,s2,s3"])
+            self.assertIn("12 of 12 runs already done", log.getvalue())
 
 
 class UtdMhadSmoke(unittest.TestCase):

@@ -151,6 +151,9 @@ class Errors(unittest.TestCase):
             imukit.identify(self.body, self.motion, self.imu)
         with self.assertRaises(ValueError):
             imukit.fidelity(np.zeros((5, 3)), np.zeros((5, 3)), np.zeros((4, 3)), np.zeros((5, 3)))
+        # No samples: an error, not Eigen's assertion ending the interpreter (found in review).
+        with self.assertRaisesRegex(imukit.Error, "fidelity: no samples"):
+            imukit.fidelity(*[np.zeros((0, 3))] * 4)
 
     def test_gil_is_released_while_fitting(self):
         steps, seconds = python_steps_during(

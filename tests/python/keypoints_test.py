@@ -5,12 +5,13 @@ rotations; Body.from_arrays; per-subject bodies; clear errors; a real UTD-MHAD t
 run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import os
+import tempfile
 import unittest
 
 import numpy as np
 
 import imukit
-from support import data_file
+from support import data_file, python_steps_during
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 WALK = os.path.join(HERE, "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
@@ -171,3 +172,19 @@ class UtdMhadTrial(unittest.TestCase):
         # (the real IMU's is 10.06 m/s^2) and the rate stays human (the real IMU peaks at 4.6 rad/s).
         self.assertAlmostEqual(np.linalg.norm(out.accel[valid], axis=1).mean(), 10.1, delta=1.0)
         self.assertLess(np.linalg.norm(out.gyro[valid], axis=1).max(), 8.0)
+
+
+class Concurrency(unittest.TestCase):
+    def test_reading_a_keypoint_file_releases_the_gil(self):
+        # Found in review: a 98 MB CSV held the GIL for its whole 0.64 s read.
+        topo = imukit.keypoint_topology("kinect_v1_20")
+        names = ["t"] + [f"{k}_{c}" for k in topo["keypoints"] for c in "xyz"]
+        frames = 40_000
+        rows = np.random.default_rng(1).uniform(-1, 1, (frames, len(names)))
+        rows[:, 0] = np.arange(frames) / 30.0
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "k.csv")
+            np.savetxt(path, rows, fmt="%.6f", delimiter=",", header=",".join(names), comments="")
+            steps, seconds = python_steps_during(lambda: imukit.read_keypoints(path, "kinect_v1_20"))
+        self.assertGreater(seconds, 0.05)
+        self.assertGreater(steps, 0, f"no Python step in the middle of a {seconds:.3f} s read")

@@ -30,6 +30,8 @@ def _data(args):
         keep = set(args.subjects.split(","))
         R.recordings = [r for r in R.recordings if r.subject in keep]
     source["recordings_count"] = len(R)
+    source["rate_hz"] = R.rate_hz  # one rate, or a FormatError before any training
+    source["fingerprints"] = experiments.subject_fingerprints(R)
     source["subjects"] = R.subjects
     return R, source
 

@@ -15,6 +15,7 @@ appended to the experiment's JSON as soon as it ends, so a killed experiment con
 stopped. Runs are spread over `jobs` worker processes of one torch thread each.
 """
 import dataclasses
+import hashlib
 import itertools
 import json
 import multiprocessing
@@ -203,9 +204,27 @@ def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
     return runs
 
 
+def subject_fingerprints(recordings):
+    """Per subject, a digest of what its runs are trained and tested on: each recording's id,
+    length, channels and rate, and whether it has a scene (folders move between machines, so
+    paths would not do; a subset of subjects keeps the others' digests)."""
+    rows = {}
+    for r in recordings.recordings:
+        rows.setdefault(r.subject, []).append(
+            f"{r.id}:{r.samples.shape[0]}x{r.samples.shape[1]}@{r.rate_hz!r}:{r.scene is not None}")
+    return {s: hashlib.sha256("\n".join(sorted(v)).encode()).hexdigest()[:16] for s, v in rows.items()}
+
+
+def data_mismatch(old, new):
+    """The subjects whose recordings differ between two experiments' data (older JSONs without
+    digests match anything)."""
+    a, b = (old or {}).get("fingerprints") or {}, (new or {}).get("fingerprints") or {}
+    return sorted(s for s in set(a) & set(b) if a[s] != b[s])
+
+
 class ResultStore:
     """The experiment's JSON: settings plus one entry per finished run, rewritten atomically
-    after each run."""
+    after each run. Refuses to continue a JSON written with other settings or other data."""
 
     def __init__(self, path, experiment, settings, data):
         self.path = path
@@ -217,6 +236,20 @@ class ResultStore:
             if old.get("settings") != self.doc["settings"] or old.get("experiment") != experiment:
                 raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
                                  "use another --out or delete it")
+            # Found in review: results of another dataset counted as done for this one.
+            differ = data_mismatch(old.get("data"), data)
+            if differ:
+                raise ValueError(f"{path}: written from other recordings of subject(s) {differ}; "
+                                 "use another --out or delete it")
+            merged = dict(old.get("data") or {})
+            merged.update(data)
+            merged["fingerprints"] = {**((old.get("data") or {}).get("fingerprints") or {}),
+                                      **(data.get("fingerprints") or {})}
+            merged["subjects"] = list(dict.fromkeys((old.get("data") or {}).get("subjects", []) +
+                                                    list(data.get("subjects", []))))
+            merged["recordings_count"] = max((old.get("data") or {}).get("recordings_count", 0),
+                                             data.get("recordings_count", 0))
+            self.doc["data"] = merged
             self.doc["runs"] = old.get("runs", [])
             self.doc["wall_seconds"] = old.get("wall_seconds", 0.0)
         self.done = {run_key(r) for r in self.doc["runs"]}
@@ -242,7 +275,7 @@ def reuse(runs, store, other_path, log=print):
         return 0
     with open(other_path, encoding="utf-8") as f:
         other = json.load(f)
-    if other.get("settings") != store.doc["settings"]:
+    if other.get("settings") != store.doc["settings"] or data_mismatch(other.get("data"), store.doc["data"]):
         return 0
     have = {run_key(r): r for r in other.get("runs", [])}
     copied = 0

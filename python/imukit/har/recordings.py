@@ -150,6 +150,7 @@ def read_recordings(folder):
     classes = doc.get("classes")
     _require(isinstance(classes, list) and classes and all(isinstance(c, str) for c in classes),
              f"{index}: classes: expected a non-empty list of class names")
+    _require(len(set(classes)) == len(classes), f"{index}: classes: a name appears twice")
     units = doc.get("units", {"accelerometer": "m/s^2", "gyroscope": "rad/s"})
     _require(units == {"accelerometer": "m/s^2", "gyroscope": "rad/s"},
              f"{index}: units: samples are stored in m/s^2 and rad/s, got {units}")
@@ -166,7 +167,10 @@ def read_recordings(folder):
             _require(k in rec_keys, f"{where}: unknown key '{k}' ({', '.join(sorted(rec_keys))})")
         for k in ("id", "subject", "samples", "sensors"):
             _require(k in e, f"{where}: '{k}' missing")
-        rid = str(e["id"])
+        # Strings, not coerced: subject 1 and "1" would be one subject of leave-one-subject-out.
+        for k in ("id", "subject", "samples"):
+            _require(isinstance(e[k], str) and e[k], f"{where}.{k}: expected a non-empty string, got {e[k]!r}")
+        rid = e["id"]
         _require(rid not in seen, f"{where}: duplicate id '{rid}'")
         seen.add(rid)
         rate = e.get("rate_hz", default_rate)
@@ -204,10 +208,13 @@ def read_recordings(folder):
             s = e["scene"]
             _require(isinstance(s, dict) and "file" in s and "sensors" in s,
                      f"{where}.scene: expected {{\"file\": ..., \"sensors\": [...], \"time_offset_s\": ...}}")
+            _require(isinstance(s["file"], str) and s["file"], f"{where}.scene.file: expected a file name")
+            _require(isinstance(s["sensors"], list) and s["sensors"] and all(isinstance(n, str) for n in s["sensors"]),
+                     f"{where}.scene.sensors: expected a non-empty list of sensor names, got {s['sensors']!r}")
             for k in s:
                 _require(k in ("file", "sensors", "time_offset_s", "bias"), f"{where}.scene: unknown key '{k}'")
             offset = s.get("time_offset_s", 0.0)
-            _require(isinstance(offset, (int, float)) and np.isfinite(offset),
+            _require(isinstance(offset, (int, float)) and not isinstance(offset, bool) and np.isfinite(offset),
                      f"{where}.scene.time_offset_s: expected seconds, got {offset!r}")
             bias = s.get("bias")
             try:
@@ -216,7 +223,7 @@ def read_recordings(folder):
                 raise FormatError(f"{where}.scene.bias: expected rows of 6 numbers") from None
             scene = SceneRef(path=os.path.join(folder, s["file"]), sensors=list(s["sensors"]),
                              time_offset_s=float(offset), bias=bias)
-        rec = Recording(id=rid, subject=str(e["subject"]), samples=x, labels=y, rate_hz=float(rate),
+        rec = Recording(id=rid, subject=e["subject"], samples=x, labels=y, rate_hz=float(rate),
                         sensors=list(sensors), scene=scene)
         check_recording(rec, classes, f"{where} ({path})")
         out.append(rec)

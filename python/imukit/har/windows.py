@@ -35,6 +35,7 @@ def make_windows(recordings, window, stride, indices=None):
         raise ValueError(f"window must be >= 2 and stride >= 1, got {window}, {stride}")
     idx = range(len(recordings)) if indices is None else indices
     C = recordings.channels
+    recordings.rate_hz  # raises FormatError for recordings at different rates (windows of one length)
     xs, ys, rs, ss = [], [], [], []
     for i in idx:
         r = recordings[i]
