@@ -28,16 +28,19 @@ void require_finite(const std::array<double, 3>& v, const std::string& where, co
 void write_recording_mcap(const std::string& path, const Recording& recording,
                           const std::map<std::string, ImuCovariance>& covariance,
                           const McapWriterOptions& options) {
+  // Checked before the file is opened, so a refused recording leaves an earlier file as it was.
+  for (const auto& [name, series] : recording.streams) {
+    if (!series.has_accel() || !series.has_gyro()) {
+      throw Error(fmt::format(
+          "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
+    }
+  }
   McapWriter writer(path, options);
   McapMetadataMap meta(recording.metadata.begin(), recording.metadata.end());
   writer.write_metadata("imukit.recording", meta);
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
   uint16_t mag_schema = 0;  // added with the first stream that has a magnetometer
   for (const auto& [name, series] : recording.streams) {
-    if (!series.has_accel() || !series.has_gyro()) {
-      throw Error(fmt::format(
-          "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
-    }
     const uint16_t channel = writer.add_channel(imu_schema, std::string(kImuPrefix) + name, "cdr");
     ImuMessage m;
     m.frame_id = name;

@@ -6,6 +6,7 @@
 
 #include "imukit/core/column_text.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 
 namespace imukit {
 namespace {
@@ -89,21 +90,7 @@ void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesVie
 }
 
 void write_euroc_csv(const std::string& path, const ImuSeriesView& series) {
-  std::FILE* out = std::fopen(path.c_str(), "wb");
-  if (!out) {
-    throw IoError(InputLocation{path, {}, {}, {}},
-                  std::string("cannot open for writing: ") + std::strerror(errno));
-  }
-  try {
-    write_euroc_csv(out, path, series);
-  } catch (...) {
-    std::fclose(out);
-    throw;
-  }
-  if (std::fclose(out) != 0) {
-    throw IoError(InputLocation{path, {}, {}, {}},
-                  std::string("close failed: ") + std::strerror(errno));
-  }
+  write_file_atomically(path, [&](std::FILE* out) { write_euroc_csv(out, path, series); });
 }
 
 ImuSeries read_euroc_csv(const std::string& path) {

@@ -101,17 +101,40 @@ void check_updatable_file(const std::string& path, std::string_view what) {
   check_regular(path, st.st_mode, what);
 }
 
-void write_text_file(const std::string& path, std::string_view text) {
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (f == nullptr)
-    throw IoError(fmt::format("{}: cannot open for writing: {}", path, std::strerror(errno)));
-  const bool written = std::fwrite(text.data(), 1, text.size(), f) == text.size();
+void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write) {
+  // Beside the target, so the rename stays within one file system; the process id keeps two
+  // writers of one path apart.
+  const std::string temporary = fmt::format("{}.{}.tmp", path, static_cast<long>(::getpid()));
+  std::FILE* f = std::fopen(temporary.c_str(), "wb");
+  if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
+  const auto discard = [&] { std::remove(temporary.c_str()); };
+  try {
+    write(f);
+  } catch (...) {
+    std::fclose(f);
+    discard();
+    throw;
+  }
+  const bool flushed = std::fflush(f) == 0;
   const int saved = errno;
   const bool closed = std::fclose(f) == 0;
-  if (!written || !closed) {
-    throw IoError(
-        fmt::format("{}: write failed: {}", path, std::strerror(written ? errno : saved)));
+  if (!flushed || !closed) {
+    const int e = flushed ? errno : saved;
+    discard();
+    fail(path, fmt::format("write failed: {}", std::strerror(e)));
   }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    const int e = errno;
+    discard();
+    fail(path, fmt::format("cannot replace the file: {}", std::strerror(e)));
+  }
+}
+
+void write_text_file(const std::string& path, std::string_view text) {
+  write_file_atomically(path, [&](std::FILE* f) {
+    if (std::fwrite(text.data(), 1, text.size(), f) != text.size())
+      fail(path, fmt::format("write failed: {}", std::strerror(errno)));
+  });
 }
 
 }  // namespace imukit

@@ -8,6 +8,7 @@
 
 #include <cstddef>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -38,8 +39,14 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
 // before they are replaced (a profile that is updated), and named in messages as `what`.
 void check_updatable_file(const std::string& path, std::string_view what);
 
-// Writes `text` to `path` (created or replaced); throws IoError naming the path if it cannot be
-// opened or written (a full disk included).
+// Writes `path` (created or replaced) through a temporary file beside it that `write` fills and
+// that is renamed over `path` only when `write` returns and the data reached the file: a
+// failure (bad input found while writing, a full disk) leaves an earlier file at `path` as it
+// was and no temporary behind (found in review: a failed `imukit convert` truncated it).
+// Throws IoError naming the path, or what `write` throws.
+void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write);
+
+// `text` as the whole of `path`, written atomically as above.
 void write_text_file(const std::string& path, std::string_view text);
 
 }  // namespace imukit

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <system_error>
 #include <utility>
@@ -546,28 +545,6 @@ std::string read_file_text(const std::string& path) {
   return read_regular_file(path, kMaxJsonBytes, "device profile");
 }
 
-void write_file_text(const std::string& path, const std::string& text) {
-  const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw IoError(InputLocation{path, {}, {}, {}}, "cannot open for writing");
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.flush();
-    if (!out) {
-      std::error_code ignored;
-      std::filesystem::remove(temporary, ignored);
-      throw IoError(InputLocation{path, {}, {}, {}}, "write failed (disk full?)");
-    }
-  }
-  std::error_code ec;
-  std::filesystem::rename(temporary, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    std::filesystem::remove(temporary, ignored);
-    throw IoError(InputLocation{path, {}, {}, {}}, "cannot replace the file: " + ec.message());
-  }
-}
-
 template <typename T>
 void take(std::optional<T>& base, const std::optional<T>& update) {
   if (update) base = update;
@@ -630,7 +607,7 @@ std::string format_profile(const DeviceProfile& profile) {
 }
 
 void write_profile(const std::string& path, const DeviceProfile& profile) {
-  write_file_text(path, format_profile(profile));
+  write_text_file(path, format_profile(profile));
 }
 
 DeviceProfile merge_profile(DeviceProfile base, const DeviceProfile& update) {
@@ -687,7 +664,7 @@ void update_profile(const std::string& path, const DeviceProfile& update) {
     write_profile(path, update);
     return;
   }
-  write_file_text(path, merge_profile_text(read_file_text(path), path, update));
+  write_text_file(path, merge_profile_text(read_file_text(path), path, update));
 }
 
 HardwareModel to_hardware_model(const DeviceProfile& profile) {

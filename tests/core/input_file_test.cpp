@@ -8,6 +8,7 @@
 
 #include "imukit/core/column_text.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/euroc_csv.hpp"
 #include "imukit/core/npy.hpp"
 #include "imukit/core/profile.hpp"
 #include "support/test_data.hpp"
@@ -39,6 +40,31 @@ TEST(InputFile, ReadsARegularFileWhole) {
   write(dir / "f.bin", text);
   EXPECT_EQ(read_regular_file((dir / "f.bin").string(), 1 << 20, "test input"), text);
   EXPECT_EQ(read_regular_file((dir / "f.bin").string(), text.size(), "test input"), text);
+}
+
+TEST(OutputFile, AFailedWriteLeavesTheEarlierFileAndNoTemporary) {
+  // Found in review: a failed `imukit convert` truncated the file it was to replace.
+  testing::TempDir dir;
+  const std::string path = (dir / "out.csv").string();
+  write(path, "keep me\n");
+  EXPECT_THROW(write_file_atomically(path,
+                                     [](std::FILE* f) {
+                                       std::fputs("half", f);
+                                       throw Error("bad input found while writing");
+                                     }),
+               Error);
+  ImuSeries accel_only = ImuSeries::with_channels(3, true, false);
+  EXPECT_THROW(write_euroc_csv(path, accel_only.view()), Error);
+  EXPECT_EQ(read_regular_file(path, 1 << 20, "test output"), "keep me\n");
+  std::size_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+    files += e.is_regular_file();
+  EXPECT_EQ(files, 1u);
+  write_text_file(path, "new\n");
+  EXPECT_EQ(read_regular_file(path, 1 << 20, "test output"), "new\n");
+  // A folder that does not exist: named, nothing created.
+  expect_io_error([&] { write_text_file((dir / "no" / "x.csv").string(), "x"); },
+                  {"no/x.csv", "cannot open for writing"});
 }
 
 TEST(InputFile, RefusesDevicesPipesAndFoldersWithoutReadingOrBlocking) {
