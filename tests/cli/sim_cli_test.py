@@ -183,3 +183,18 @@ def test_bvh_quick_form(run, workdir, data_file):
     peak = np.max(np.linalg.norm(g, axis=1))
     assert r.returncode == 0 and len(t) == 995 and 8.3 < med < 11.3 and 1 < peak < 15, \
         f"walk BVH, left watch: 995 samples, median |acc| {med:.2f}, gyro peak {peak:.2f}"
+
+
+def test_options_that_would_be_ignored_are_usage_errors(run, workdir, scene_run):
+    # Found in review: beside a scene, --preset, --hardware, --bvh-scale and --up were accepted
+    # and ignored; one preset given twice gave two sensors and one file; an unknown method
+    # exited 1 (bad input) instead of 2 (usage).
+    walk = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+    r = run("simulate", scene_run.path, "-o", os.path.join(workdir, "ign"), "--preset", "left_wrist_watch",
+            "--bvh-scale", "0.01")
+    assert r.returncode == 2 and "--preset, --bvh-scale belong(s) to the --bvh form" in r.stderr, r.stderr
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--preset", "left_wrist_watch",
+            "-o", os.path.join(workdir, "twice"))
+    assert r.returncode == 2 and "--preset left_wrist_watch is given twice" in r.stderr, r.stderr
+    r = run("simulate", scene_run.path, "-o", os.path.join(workdir, "bogus"), "--method", "bogus")
+    assert r.returncode == 2 and "simulate --method:" in r.stderr, r.stderr
