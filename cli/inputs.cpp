@@ -122,8 +122,35 @@ std::string input_options_help() {
          "Details: docs/formats.md, section 'Column-mapped text'.";
 }
 
+namespace {
+
+// Without --columns the file says its own layout and units (EuRoC CSV: ns, rad/s, m/s^2; MCAP:
+// ROS units), so the options for column-mapped text would be ignored (found in review:
+// `--accel-unit g` on an EuRoC CSV left the values in m/s^2 without a word).
+void refuse_column_options(const InputArg& input) {
+  const InputArg defaults;
+  std::string given;
+  const auto name = [&](bool differs, const char* option) {
+    if (differs) given += (given.empty() ? "" : ", ") + std::string(option);
+  };
+  name(!input.gaps.empty(), "--gaps");
+  name(input.time_unit != defaults.time_unit, "--time-unit");
+  name(input.accel_unit != defaults.accel_unit, "--accel-unit");
+  name(input.gyro_unit != defaults.gyro_unit, "--gyro-unit");
+  name(input.mag_unit != defaults.mag_unit, "--mag-unit");
+  if (!given.empty()) {
+    throw UsageError(fmt::format(
+        "{}: {} describe(s) column-mapped text and go(es) with --columns; an EuRoC CSV (ns, "
+        "rad/s, m/s^2) or an MCAP recording (SI units) states its own",
+        input.path, given));
+  }
+}
+
+}  // namespace
+
 Recording load_recording(const InputArg& input) {
   (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
+  if (input.columns.empty()) refuse_column_options(input);
   if (input.columns.empty() && is_mcap(input.path)) {
     capture::RecordingRead read = capture::read_recording_mcap(input.path);
     if (read.recording.streams.empty()) {
@@ -147,6 +174,7 @@ Recording load_recording(const InputArg& input) {
 
 ImuSeries load_imu_series(const InputArg& input, Recording* context) {
   (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
+  if (input.columns.empty()) refuse_column_options(input);
   if (input.columns.empty() && is_mcap(input.path)) {
     Recording r = load_recording(input);
     if (r.streams.size() != 1) {

@@ -71,7 +71,8 @@ bool is_blank_line(std::string_view line) {
   return true;
 }
 
-ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
+ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
+                       const HeaderCheck& check_header) {
   if (spec.columns.empty())
     throw Error("column map is empty: name the file's columns with --columns");
   ColumnTable table;
@@ -99,11 +100,13 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec) {
     };
     if (first_row) {
       first_row = false;
-      if (!fields.empty() && !parse_double(fields.front().text) &&
-          !is_nan_token(fields.front().text)) {
+      const bool header = !fields.empty() && !parse_double(fields.front().text) &&
+                          !is_nan_token(fields.front().text);
+      if (header) {
         for (const Field& f : fields) table.header.emplace_back(f.text);
-        continue;
       }
+      if (check_header) check_header(table);
+      if (header) continue;
     }
     if (fields.size() < spec.columns.size() ||
         (fields.size() > spec.columns.size() && !spec.ignore_extra)) {
@@ -272,15 +275,16 @@ std::string ColumnSpec::to_string() const {
   return out;
 }
 
-ColumnTable read_column_text(const std::string& path, const ColumnSpec& spec) {
+ColumnTable read_column_text(const std::string& path, const ColumnSpec& spec,
+                             const HeaderCheck& check_header) {
   LineReader reader(path);
-  return read_table(reader, spec);
+  return read_table(reader, spec, check_header);
 }
 
 ColumnTable parse_column_text(std::string_view text, const std::string& source_name,
-                              const ColumnSpec& spec) {
+                              const ColumnSpec& spec, const HeaderCheck& check_header) {
   LineReader reader(text, source_name);
-  return read_table(reader, spec);
+  return read_table(reader, spec, check_header);
 }
 
 ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {

@@ -13,6 +13,7 @@
 #include <array>
 #include <bitset>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -81,9 +82,14 @@ struct ColumnTable {
   }
 };
 
-ColumnTable read_column_text(const std::string& path, const ColumnSpec& spec);
+// check_header, when given, sees the table once its header row is read (table.header; empty
+// when the first row is data) and before any data row, so a format with a fixed header can
+// refuse a file by its header rather than by whatever its first row breaks.
+using HeaderCheck = std::function<void(const ColumnTable& table)>;
+ColumnTable read_column_text(const std::string& path, const ColumnSpec& spec,
+                             const HeaderCheck& check_header = {});
 ColumnTable parse_column_text(std::string_view text, const std::string& source_name,
-                              const ColumnSpec& spec);
+                              const ColumnSpec& spec, const HeaderCheck& check_header = {});
 
 // Factors that turn a file's values into SI units (multiply), e.g. accel = 9.80665 for a file
 // in g, gyro = pi/180 for deg/s, mag = 1e-6 for microtesla.

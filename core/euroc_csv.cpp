@@ -26,7 +26,9 @@ void check_header(const ColumnTable& table) {
       "[ns]", "[rad s^-1]", "[rad s^-1]", "[rad s^-1]", "[m s^-2]", "[m s^-2]", "[m s^-2]"};
   const auto fail = [&](std::size_t k, const std::string& what) {
     throw Error(InputLocation{table.source, 1, static_cast<int64_t>(k + 1), {}},
-                fmt::format("not an EuRoC IMU CSV: {}; the header is '{}'", what, kEurocHeader));
+                fmt::format("not an EuRoC IMU CSV: {}; the header is '{}' (for other columns, "
+                            "say what they are with --columns)",
+                            what, kEurocHeader));
   };
   if (table.header.empty()) fail(0, "the first row must be the header");
   if (table.header.size() < std::size(kUnits))
@@ -52,7 +54,7 @@ void check_header(const ColumnTable& table) {
 }
 
 ImuSeries from_table(const ColumnTable& table) {
-  check_header(table);
+  check_header(table);  // an empty file has no rows to call it from
   return to_imu_series(table);
 }
 
@@ -94,11 +96,11 @@ void write_euroc_csv(const std::string& path, const ImuSeriesView& series) {
 }
 
 ImuSeries read_euroc_csv(const std::string& path) {
-  return from_table(read_column_text(path, euroc_spec()));
+  return from_table(read_column_text(path, euroc_spec(), check_header));
 }
 
 ImuSeries parse_euroc_csv(std::string_view text, const std::string& source_name) {
-  return from_table(parse_column_text(text, source_name, euroc_spec()));
+  return from_table(parse_column_text(text, source_name, euroc_spec(), check_header));
 }
 
 }  // namespace imukit

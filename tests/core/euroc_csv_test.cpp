@@ -98,6 +98,18 @@ TEST(EurocCsv, RequiresTheHeader) {
       {"timestamp,wx [deg/s],wy,wz,ax,ay,az", "column 2 is in [deg/s]"},
       {"timestamp,wx,wy,wz,ax,ay", "the header has 6 columns"},
   };
+  // Found in review: a CSV of other columns was refused by its first row ("expected 7 columns
+  // (t,gx,...), found 18; skip extra columns with _"), about a map the user never gave.
+  try {
+    std::string row = "0.01";
+    for (int k = 0; k < 17; ++k) row += ",1";
+    parse_euroc_csv("t,ax,ay,az,gx,gy,gz,mx,my,mz,q0,q1,q2,q3,a,b,c,d\n" + row + "\n", "broad.csv");
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(
+        std::string(e.what()).rfind("broad.csv:1:1: not an EuRoC IMU CSV: column 1 is 't'", 0), 0u)
+        << e.what();
+  }
   for (const auto& c : bad) {
     try {
       parse_euroc_csv(c.header + "\n0,0,0,0,0,0,9.8\n", "x.csv");
