@@ -292,6 +292,28 @@ class Augmentation(unittest.TestCase):
         finally:
             self.R.recordings[0].scene = scene
 
+    def test_windows_whose_resimulation_is_implausible_stay_real(self):
+        # Found in review: on UTD-MHAD, where Kinect tracking failed the re-simulation read up to
+        # 1,287 m/s^2 beside a real peak of 48, and PPDA trained on it. Here recording 1's real
+        # signal is replaced by zeros: its walk re-simulated (gravity alone is 9.8 m/s^2, the
+        # walk's peak above 10) is implausible next to it, every other window is usable.
+        R = rf.Recordings(self.R.name, self.R.classes, list(self.R.recordings))
+        r1 = R.recordings[1]
+        R.recordings[1] = rf.Recording(r1.id, r1.subject, np.zeros_like(r1.samples), r1.labels, r1.rate_hz,
+                                       r1.sensors, r1.scene)
+        src = augmentation.PpdaSource(R, 50)
+        ok = src.usable(self.W.recording, self.W.start)
+        np.testing.assert_array_equal(ok, self.W.recording != 1)
+        W = windows.make_windows(R, 50, 25)
+        aug = augmentation.BatchAugmenter("ppda", PAPER, W, self.st, ppda=src, resimulate_identity=True)
+        index = np.arange(len(W))
+        X, _ = aug.batch(0, index, seed=1)
+        n1 = int((W.recording == 1).sum())
+        self.assertEqual(aug.unfitted_windows, n1)
+        np.testing.assert_allclose(X[-n1:], self.st(np.zeros_like(W.X[:n1])), atol=1e-6)
+        f = experiments.window_fidelity(R, 50, 25)
+        self.assertEqual(f["implausible_windows"], n1)
+
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)
         self.assertEqual(f["fitted_windows"], len(self.W))

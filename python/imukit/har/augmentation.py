@@ -12,7 +12,10 @@ batch is augmented under it.
   one per recording, built once) under the sub-policy: the window of the scene that corresponds
   to the real window (start + time offset), with the motion's amplitude or speed, the sensor's
   placement or its hardware changed. The batch's windows are grouped by recording, one
-  `Augmenter.apply` call per recording, written straight into the batch buffer.
+  `Augmenter.apply` call per recording, written straight into the batch buffer. A window whose
+  re-simulation with nothing changed is implausible next to the real one (`PpdaSource.usable`:
+  where Kinect tracking failed, the converted motion can spin a segment) stays real, as do the
+  windows of recordings without a fitted scene.
 
 Both kinds share the draws that decide which batches are augmented (`SubPolicySampler`), so two
 arms with the same seed augment the same batches: the same number of augmented windows.
@@ -79,11 +82,20 @@ class GumbelPolicy:
 class PpdaSource:
     """The fitted scenes of the recordings, one imukit.Augmenter each (built on first use)."""
 
-    def __init__(self, recordings, window, method="spline"):
+    # A window is usable when its identity re-simulation peaks below PEAK_FACTOR times the real
+    # window's peak plus a margin, accelerometer and gyroscope each (see usable()).
+    PEAK_FACTOR = 2.0
+    PEAK_MARGIN = (10.0, 10.0)  # m/s^2, rad/s
+
+    def __init__(self, recordings, window, method="spline", policy="paper"):
         self.recordings = recordings
         self.window = window
         self.method = method
         self._augmenters = {}
+        self._usable = {}  # (recording, start) -> bool
+        self._identity_policy = imukit.read_policy(policy) if isinstance(policy, str) else policy
+        self._identity = next(k for k in range(len(self._identity_policy))
+                              if self._identity_policy[k].is_identity)
 
     def augmenter(self, i):
         a = self._augmenters.get(i)
@@ -109,6 +121,39 @@ class PpdaSource:
 
     def has_scene(self, i):
         return self.recordings[i].scene is not None
+
+    def usable(self, recording, start):
+        """Per window (recording[k], start[k]): whether PPDA may re-simulate it. False without a
+        fitted scene, and where the window re-simulated with nothing changed (fitted biases
+        added) peaks above PEAK_FACTOR times the real window's peak plus PEAK_MARGIN on the
+        accelerometer or the gyroscope: on UTD-MHAD, where Kinect tracking failed (a wrist
+        jumping 0.4 m between frames) the converted forearm spins at 140 rad/s and the
+        re-simulation reads up to 1,287 m/s^2 beside a real peak of 48 (a sensor that saturates
+        at 78); 165 of 4,867 fitted windows, found in review. Every sub-policy re-simulates that
+        same motion, so such a window stays real under all of them. Cached per window."""
+        recording = np.asarray(recording)
+        start = np.asarray(start)
+        out = np.zeros(len(recording), bool)
+        todo = {}
+        for i, s0 in zip(recording.tolist(), start.tolist()):
+            if self.has_scene(i) and (i, s0) not in self._usable:
+                todo.setdefault(i, []).append(s0)
+        for i, starts in todo.items():
+            starts = np.unique(np.asarray(starts, np.int64))
+            T = self.window
+            sim = np.empty((len(starts), T, self.recordings[i].samples.shape[1]), np.float32)
+            self.apply(self._identity, np.full(len(starts), i), starts, imukit.Rng(0), self._identity_policy, sim)
+            for s0, x in zip(starts.tolist(), sim):
+                real = self.recordings[i].samples[s0:s0 + T]
+                ok = True
+                for lo, margin in zip((0, 3), self.PEAK_MARGIN):
+                    cols = np.concatenate([np.arange(lo, lo + 3) + c for c in range(0, real.shape[1], 6)])
+                    peak_real = np.abs(real[:, cols]).max()
+                    ok &= bool(np.abs(x[:, cols]).max() <= self.PEAK_FACTOR * peak_real + margin)
+                self._usable[(i, s0)] = ok
+        for k, (i, s0) in enumerate(zip(recording.tolist(), start.tolist())):
+            out[k] = self.has_scene(i) and self._usable[(i, s0)]
+        return out
 
     def scene_starts(self, i, starts):
         """The scene's sample index of each real window start (kept inside the scene)."""
@@ -150,7 +195,7 @@ class BatchAugmenter:
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
-        self.unfitted_windows = 0  # PPDA windows left real for want of a fitted scene
+        self.unfitted_windows = 0  # PPDA windows left real: no fitted scene, or not usable()
         self.augmented_windows = 0
         self._specs = {}
 
@@ -183,9 +228,12 @@ class BatchAugmenter:
             self.imukit_seconds += time.perf_counter() - t0
             self.augmented_windows += len(index)
             return X, w.y[index]
-        # Windows of recordings without a fitted scene (a failed fit) stay real, at the end.
+        # Windows without a fitted scene (a failed fit) or whose re-simulation is implausible
+        # (PpdaSource.usable) stay real, at the end.
         rec = w.recording[index]
-        fitted = np.array([self.ppda.has_scene(i) for i in rec])
+        t0 = time.perf_counter()
+        fitted = self.ppda.usable(rec, w.start[index])
+        self.imukit_seconds += time.perf_counter() - t0
         index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
         n = int(fitted.sum())
         X = np.empty((len(index),) + w.X.shape[1:], np.float32)

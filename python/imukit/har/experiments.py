@@ -345,9 +345,11 @@ def window_fidelity(recordings, window, stride, policy="paper"):
     fitted = np.array([recordings[i].scene is not None for i in W.recording])
     Wf = W.subset(fitted)
     X = np.empty_like(Wf.X)
-    augmentation.PpdaSource(recordings, window).apply(0, Wf.recording, Wf.start, 1,
-                                                      imukit.read_policy(policy), X)
-    out = {"windows": int(len(W)), "fitted_windows": int(fitted.sum())}
+    source = augmentation.PpdaSource(recordings, window, policy=policy)
+    source.apply(0, Wf.recording, Wf.start, 1, imukit.read_policy(policy), X)
+    # Figures over every fitted window, the implausible ones (which training keeps real) included.
+    out = {"windows": int(len(W)), "fitted_windows": int(fitted.sum()),
+           "implausible_windows": int((~source.usable(Wf.recording, Wf.start)).sum())}
     for name, lo in (("accel", 0), ("gyro", 3)):
         real, sim = Wf.X[..., lo:lo + 3], X[..., lo:lo + 3]
         rc = real - real.mean(axis=1, keepdims=True)
