@@ -230,11 +230,15 @@ void DeviceModel::take_sample() {
   }
   ++next_index_;
   // Exact stepping of floor(i * tick_hz * 1000 / rate_mhz): whole ticks plus a remainder.
+  // rem_acc_ + period_rem_ can exceed 2^32 for rates above 2^31 mHz (found in review), so the
+  // sum is compared and reduced without being formed; period_rem_ < rate_mhz.
   next_tick_ += period_ticks_;
-  rem_acc_ += period_rem_;
-  if (rem_acc_ >= config_.rate_mhz) {
-    rem_acc_ -= config_.rate_mhz;
+  const uint32_t room = config_.rate_mhz - period_rem_;
+  if (rem_acc_ >= room) {
+    rem_acc_ -= room;
     ++next_tick_;
+  } else {
+    rem_acc_ += period_rem_;
   }
 }
 

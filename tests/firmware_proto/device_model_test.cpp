@@ -313,6 +313,31 @@ TEST(DeviceModel, StreamsContinuousBlocksAtTheConfiguredRate) {
   EXPECT_TRUE(f.host.received().empty());
 }
 
+TEST(DeviceModel, SampleTicksFollowTheFormulaAtRatesAboveTwoToThe31MilliHertz) {
+  // Found in review: the remainder's sum wrapped in 32 bits for rates above 2^31 mHz, so 8 of the
+  // first 10 ticks were early (0, 1, 2, ... for 0, 1, 3, 5, ...).
+  DeviceInfo info = test_device();
+  info.tick_hz = 8589934;
+  info.rates_mhz[0] = 4294967295u;
+  FakeHal hal;
+  DeviceModel device{hal, info};
+  Host host{hal, device};
+  Configure c = config_100hz(10);
+  c.rate_mhz = info.rates_mhz[0];
+  host.send(c);
+  host.send(Start{});
+  ASSERT_EQ(device.state(), DeviceState::kStreaming);
+  for (uint32_t t = 0; t < 4000; ++t) {
+    hal.now = t;
+    device.poll();
+  }
+  ASSERT_GE(hal.read_ticks.size(), 1000u);
+  for (uint64_t i = 0; i < hal.read_ticks.size(); ++i) {
+    EXPECT_EQ(hal.read_ticks[i], i * 8589934000ull / 4294967295ull) << "sample " << i;
+    if (::testing::Test::HasFailure()) break;
+  }
+}
+
 TEST(DeviceModel, StopSendsThePartialBlockBeforeTheAck) {
   Fixture f;
   f.host.send(config_100hz(32));
