@@ -1216,7 +1216,10 @@ Vector3d estimate_up(const Cleaned& c, const KeypointTopology& topo,
           axes.push_back((hi - lo).normalized());
       }
     }
-    if (axes.size() >= 3) {
+    // Three upright frames make a robust mean; a motion of fewer frames that is upright in all
+    // of them is upright too (found in review: a 2-frame T-pose was said never to be upright).
+    const std::size_t upright = axes.size();
+    if (upright >= 3 || (upright > 0 && static_cast<int64_t>(upright) == F)) {
       out.up_source = "upright body";
     } else {
       axes.clear();
@@ -1232,9 +1235,10 @@ Vector3d estimate_up(const Cleaned& c, const KeypointTopology& topo,
       if (axes.empty())
         throw Error("keypoints: no frame shows the root segment, so up is unknown: give up");
       out.up_source = "trunk";
-      out.warnings.push_back(
-          "up estimated from the trunk's mean direction (the body is never upright with straight "
-          "legs): expect a tilt of the trunk's lean; pass up= for better");
+      out.warnings.push_back(fmt::format(
+          "up estimated from the trunk's mean direction (the body is {} upright with straight "
+          "legs): expect a tilt of the trunk's lean; pass up= for better",
+          upright == 0 ? std::string("never") : fmt::format("in only {} frame(s)", upright)));
     }
     // Mean direction, then again without the directions beyond 10 degrees of it.
     Vector3d m = Vector3d::Zero();

@@ -367,6 +367,12 @@ TEST(MotionFromKeypoints, AStillPoseGivesAStillMotionAndDegenerateInputNoNaN) {
       EXPECT_LT(angular_distance(r.motion.rotation(k, j), r.motion.rotation(0, j)), 1e-9);
     EXPECT_LT(angular_distance(r.motion.rotation(0, j), still.rotation(0, j)), 1e-9) << j;
   }
+  // Two frames of the same upright pose: upright, not "never upright" (found in review: the
+  // test needed three upright frames).
+  Motion two(30.0, body.size(), 2);
+  for (int64_t f = 0; f < 2; ++f) two.root_translation(f) = Vector3d(0, 0, 1);
+  const KeypointMotion r2 = motion_from_keypoints(keypoints_of(body, two, topo), topo);
+  EXPECT_EQ(r2.up_source, "upright body");
   // Every keypoint at one point: no direction anywhere. Up unknown is an error; given, the
   // motion is finite (identity-like) with warnings instead of NaN.
   Keypoints k;
