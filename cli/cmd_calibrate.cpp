@@ -35,7 +35,7 @@ struct CalibrateArgs {
 int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
   if (inputs.empty()) throw UsageError("calibrate: name the input file(s)");
-  check_updatable_file(args.output, "profile to create or update");  // before the work
+  check_profile_to_update(args.output);  // before the work
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {
     throw UsageError(

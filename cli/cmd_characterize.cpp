@@ -39,7 +39,7 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   if (inputs.empty()) throw UsageError("characterize: name at least one input file");
   if (args.output.empty())
     throw UsageError("characterize: say where the profile goes with -o profile.json");
-  check_updatable_file(args.output, "profile to create or update");  // before the work
+  check_profile_to_update(args.output);  // before the work
   const auto runs = load_runs(inputs);
   CharacterizeOptions options;
   options.gravity = args.gravity;
@@ -61,6 +61,14 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
         for (const auto& a : t->axes) v = std::max(v, a.fit.value[size_t(term)]);
       return v;
     };
+    // Kalibr's imu.yaml describes both; a missing triad written as 0 would tell Kalibr's filter
+    // that sensor is perfect (found in review).
+    if (!acc || !gyr) {
+      throw Error(
+          fmt::format("--kalibr {}: Kalibr's imu.yaml needs accelerometer and gyroscope "
+                      "noise; {} has no {}",
+                      args.kalibr, r.noise_run, acc ? "gyroscope" : "accelerometer"));
+    }
     auto out = fmt::output_file(args.kalibr);
     out.print(
         "# written by imukit characterize from {}; continuous-time densities (Kalibr convention)\n"

@@ -14,9 +14,16 @@
 #include <cstdlib>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
+#include "imukit/core/profile.hpp"
 #include "imukit/core/time.hpp"
 
 namespace imukit::cli {
+
+void check_profile_to_update(const std::string& path) {
+  check_updatable_file(path, "profile to create or update");
+  if (std::filesystem::exists(path)) (void)read_profile(path);
+}
 
 std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs) {
   std::vector<LoadedRun> runs;

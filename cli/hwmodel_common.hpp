@@ -29,6 +29,11 @@ struct LoadedRun {
   Recording context;  // the first file's metadata and events (MCAP), streams empty
 };
 
+// Before the work: the profile `path` will be created or updated, so it must be absent or a
+// valid profile, in a folder that takes new files (found in review: an invalid profile was found
+// only after the whole computation).
+void check_profile_to_update(const std::string& path);
+
 // Loads every input; an input whose time stamps equal the previous run's adds its channels to
 // that run (a channel present in both is an error), any other starts a new run.
 std::vector<LoadedRun> load_runs(const std::vector<InputArg>& inputs);

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <new>
 #include <string>
+#include <system_error>
 
 #include "command.hpp"
 #include "imukit/core/error.hpp"
@@ -53,6 +54,11 @@ int run_reporting_errors(const std::function<int()>& action, const std::string& 
     std::string what = e.code().message();
     if (!e.path1().empty()) what = e.path1().string() + ": " + what;
     report_error(what);
+    return kIo;
+  } catch (const std::system_error& e) {
+    // fmt::output_file and streams: "cannot open file 'x/y.dat': No such file or directory"
+    // (found in review: reported as an internal error).
+    report_error(e.what());
     return kIo;
   } catch (const std::bad_alloc&) {
     report_error("internal error: out of memory");

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 
 #include "imukit/core/error.hpp"
 
@@ -97,8 +98,14 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
 
 void check_updatable_file(const std::string& path, std::string_view what) {
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0) return;  // absent (or unreachable: the write will say)
-  check_regular(path, st.st_mode, what);
+  if (::stat(path.c_str(), &st) == 0) check_regular(path, st.st_mode, what);
+  // Written through a temporary beside it: the folder must exist and take new files.
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  const std::string folder = parent.empty() ? std::string(".") : parent.string();
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    fail(path, fmt::format("the folder of the {} does not exist", what));
+  if (::access(folder.c_str(), W_OK | X_OK) != 0)
+    fail(path, fmt::format("the folder of the {} is not writable: {}", what, std::strerror(errno)));
 }
 
 void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write) {

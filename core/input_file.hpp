@@ -35,8 +35,9 @@ UniqueFile open_regular_file(const std::string& path, std::string_view what);
 std::string read_regular_file(const std::string& path, std::size_t max_bytes,
                               std::string_view what);
 
-// Throws IoError unless `path` is absent or a regular file: for outputs that are read back
-// before they are replaced (a profile that is updated), and named in messages as `what`.
+// Throws IoError unless `path` is absent or a regular file in a folder that exists and is
+// writable: for outputs that are read back before they are replaced (a profile that is
+// updated), checked before the work; named in messages as `what`.
 void check_updatable_file(const std::string& path, std::string_view what);
 
 // Writes `path` (created or replaced) through a temporary file beside it that `write` fills and

@@ -74,3 +74,33 @@ def test_calibrate_refuses_poses_about_one_axis(run, workdir, characterized):
     np.savetxt(bad, np.column_stack([tt, np.zeros(9000), np.zeros(9000), 9.8 + rng.normal(0, 0.01, 9000)]), fmt="%.6f")
     r = run("calibrate", bad, "--columns", "t,ax,ay,az", "-o", os.path.join(workdir, "x.json"))
     assert r.returncode != 0 and "error" in r.stderr, f"flat recording rejected: {r.stderr.strip()}"
+
+
+def test_output_problems_are_io_errors_and_found_before_the_work(run, workdir):
+    # Found in review: an unwritable --kalibr path was an "internal error" (exit 4); an invalid
+    # profile to update, or a folder that does not exist, was found after the whole fit; an
+    # accelerometer-only input wrote a Kalibr file with a perfect (0) gyroscope.
+    rng = np.random.default_rng(3)
+    n = 20000
+    src = os.path.join(workdir, "acc_only.txt")
+    np.savetxt(src, np.column_stack([np.arange(n) / 100.0, rng.normal(0, 0.02, (n, 3)) + [0, 0, 9.8]]),
+               fmt="%.6f")
+    r = run("characterize", src, "--columns", "t,ax,ay,az", "-o", os.path.join(workdir, "no", "p.json"))
+    assert r.returncode == 3 and "the folder of the profile to create or update does not exist" in r.stderr, \
+        r.stderr
+    bad = os.path.join(workdir, "bad_profile.json")
+    with open(bad, "w") as f:
+        f.write('{"schema": "imukit.profile/1", "accelerometer": 3}')
+    r = run("characterize", src, "--columns", "t,ax,ay,az", "-o", bad)
+    assert r.returncode == 1 and "bad_profile.json" in r.stderr and "wrote" not in r.stdout, r.stderr
+    r = run("characterize", src, "--columns", "t,ax,ay,az", "-o", os.path.join(workdir, "acc.json"),
+            "--kalibr", os.path.join(workdir, "acc.yaml"))
+    assert r.returncode == 1 and "Kalibr's imu.yaml needs accelerometer and gyroscope noise" in r.stderr, \
+        r.stderr
+    assert not os.path.exists(os.path.join(workdir, "acc.yaml"))
+    six = os.path.join(workdir, "six.txt")
+    np.savetxt(six, np.column_stack([np.arange(n) / 100.0, rng.normal(0, 0.01, (n, 3)),
+                                     rng.normal(0, 0.02, (n, 3)) + [0, 0, 9.8]]), fmt="%.6f")
+    r = run("characterize", six, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", os.path.join(workdir, "six.json"),
+            "--kalibr", os.path.join(workdir, "no", "k.yaml"))
+    assert r.returncode == 3 and "no/k.yaml" in r.stderr and "internal" not in r.stderr, r.stderr
