@@ -14,6 +14,7 @@
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/keypoints.hpp"
 #include "imukit/sim/scene.hpp"
+#include "options.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -77,12 +78,14 @@ int run_motion(const MotionArgs& a) {
     return 0;
   }
   if (a.keypoints.empty() || a.topology.empty())
-    throw Error("motion: give --keypoints FILE and --topology NAME (or --print-topology NAME)");
-  if (a.output.empty()) throw Error("motion: give -o FILE.csv (joint quaternions) or FILE.bvh");
+    throw UsageError(
+        "motion: give --keypoints FILE and --topology NAME (or --print-topology NAME)");
+  if (a.output.empty())
+    throw UsageError("motion: give -o FILE.csv (joint quaternions) or FILE.bvh");
   std::string ext = std::filesystem::path(a.output).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext != ".csv" && ext != ".bvh")
-    throw Error("motion: -o " + a.output + ": expected a .csv or .bvh file name");
+    throw UsageError("motion: -o " + a.output + ": expected a .csv or .bvh file name");
   const sim::KeypointTopology topo = sim::load_keypoint_topology(a.topology);
   const sim::Keypoints k = sim::read_keypoints(
       a.keypoints, topo, a.rate_hz > 0.0 ? std::optional<double>(a.rate_hz) : std::nullopt);
@@ -90,7 +93,8 @@ int run_motion(const MotionArgs& a) {
   o.rate_hz = a.output_rate_hz;
   o.cutoff_hz = a.cutoff_hz;
   if (!a.up.empty()) {
-    if (a.up.size() != 3) throw Error("motion: --up takes 3 numbers (x,y,z in the input's frame)");
+    if (a.up.size() != 3)
+      throw UsageError("motion: --up takes 3 numbers (x,y,z in the input's frame)");
     o.up = Eigen::Vector3d(a.up[0], a.up[1], a.up[2]);
   }
   if (a.no_repairs) {
@@ -133,12 +137,17 @@ IMUKIT_REGISTER_COMMAND(
                          "kinect_v1_20, h36m_17, or a topology JSON file (docs/formats.md)");
           sub.add_option("-o,--output", a->output,
                          "FILE.csv (joint-quaternion CSV) or FILE.bvh (Y up, metres)");
+          // The ranges motion_from_keypoints accepts, checked when the line is parsed (found in
+          // review: nan reached the library, 1e9 Hz a singular spline system).
           sub.add_option("--rate", a->rate_hz,
-                         "Input frame rate in Hz (a .npy file, or a CSV without a t column)");
+                         "Input frame rate in Hz (a .npy file, or a CSV without a t column)")
+              ->check(real_in(0.0, 1e4, "Hz", LowEnd::open));
           sub.add_option("--output-rate", a->output_rate_hz,
-                         "Output frame rate in Hz (default 100)");
+                         "Output frame rate in Hz (default 100)")
+              ->check(real_in(0.0, 1e4, "Hz", LowEnd::open));
           sub.add_option("--cutoff", a->cutoff_hz,
-                         "Smoothing cut-off in Hz: gain 1/2 there (default 3)");
+                         "Smoothing cut-off in Hz: gain 1/2 there (default 3)")
+              ->check(real_in(0.0, 1e3, "Hz", LowEnd::open));
           sub.add_option("--up", a->up,
                          "Up direction in the input's frame: x,y,z (default: "
                          "estimated from the upright body)")

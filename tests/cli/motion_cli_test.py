@@ -163,3 +163,14 @@ def test_errors(run, keypoints):
     assert r.returncode != 0 and "bad.csv:1:" in r.stderr and "hed_x" in r.stderr, "a wrong column: file:line:column"
     r = run("motion", "--keypoints", k.csv, "--topology", "coco", "-o", os.path.join(tmp, "x.csv"))
     assert r.returncode != 0 and "kinect_v1_20, h36m_17" in r.stderr, "an unknown topology lists the built-ins"
+    # Options are usage errors (exit 2) when the line is parsed (found in review: nan and 1e9 Hz
+    # reached the library, a missing -o was exit 1), and --rate beside a t column is refused.
+    for opt, value in (("--output-rate", "nan"), ("--cutoff", "1e9"), ("--rate", "-1")):
+        r = run("motion", "--keypoints", k.csv, "--topology", "kinect_v1_20", "-o", os.path.join(tmp, "x.csv"),
+                opt, value)
+        assert r.returncode == 2 and opt in r.stderr, f"{opt} {value}: {r.stderr}"
+    r = run("motion", "--keypoints", k.csv, "--topology", "kinect_v1_20")
+    assert r.returncode == 2 and "give -o" in r.stderr, r.stderr
+    r = run("motion", "--keypoints", k.csv, "--topology", "kinect_v1_20", "--rate", "60", "-o",
+            os.path.join(tmp, "x.csv"))
+    assert r.returncode == 1 and "the t column gives the frame times" in r.stderr, r.stderr
