@@ -10,13 +10,13 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <numbers>
 
 #include "command.hpp"
 #include "hwmodel_common.hpp"
 #include "imukit/core/column_text.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
@@ -360,6 +360,13 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
   if (in.pose.has_value() == !a.motion.empty())
     throw UsageError(
         "identify: give the motion with either --motion FILE (with --joint) or --pose FILE");
+  // Checked before the fit (found in review: refused only after it, with -o already written).
+  if (!a.scene_out.empty() && in.pose)
+    throw UsageError("identify --scene-out: needs a skeleton motion (--motion), not --pose");
+  // The name becomes the scene's sensor name, which names output files.
+  if (a.sensor_name.find('/') != std::string::npos)
+    throw UsageError("identify --sensor-name: " + quote_excerpt(a.sensor_name) +
+                     " names output files, so it cannot hold '/'");
   ImuSeries imu = load_imu_series(*in.imu);
   imu.validate(in.imu->path);
   if (imu.size() < 2) {
@@ -373,18 +380,9 @@ int run_identify(const IdentifyArgs& a, const std::vector<std::string>& tokens) 
 
   const sim::IdentifyResult r = sim::identify(m.body, *m.motion, imu, o);
   print_result(r, o);
-  {
-    std::ofstream f(a.output);
-    if (!f) throw IoError(a.output + ": cannot open for writing");
-    f << sim::placement_json(r, m.body);
-    if (!f.flush()) throw IoError(a.output + ": write failed");
-  }
+  write_text_file(a.output, sim::placement_json(r, m.body));
   fmt::print("wrote {}\n", a.output);
-  if (!a.scene_out.empty()) {
-    if (in.pose)
-      throw UsageError("identify --scene-out: needs a skeleton motion (--motion), not --pose");
-    write_scene(a, m, imu, r, o);
-  }
+  if (!a.scene_out.empty()) write_scene(a, m, imu, r, o);
   if (!a.plot_dir.empty()) {
     write_plot(a.plot_dir, r);
     fmt::print("plots in {}\n", a.plot_dir);

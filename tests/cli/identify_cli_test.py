@@ -183,3 +183,11 @@ def test_errors_are_one_line(run, simulated_wrist):
             "--knot-spacing", "-1", "-o", placement)
     assert r.returncode != 0 and "knot-spacing" in r.stderr and len(r.stderr.strip().splitlines()) == 1, \
         "a negative knot spacing is one clear line"
+    # Checked before the fit (found in review: after it, with -o already written).
+    fresh = placement + ".fresh.json"
+    r = run("identify", "--imu", imu, "--pose", imu, "--columns", "t,qw,qx,qy,qz,px,py,pz", "-o", fresh,
+            "--scene-out", fresh + ".scene")
+    assert r.returncode == 2 and "needs a skeleton motion" in r.stderr and not os.path.exists(fresh), r.stderr
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "-o", fresh,
+            "--scene-out", fresh + ".scene", "--sensor-name", "a/b")
+    assert r.returncode == 2 and "cannot hold '/'" in r.stderr and not os.path.exists(fresh), r.stderr
