@@ -435,7 +435,7 @@ struct DemoRun {
     return fmt::format(
         "mock:{}?rate={}&clock=virtual&seed={}&drift_ppm=30&latency_us=2000&jitter_us=500&profile={"
         "}{}",
-        kind, plan.rate_hz, seed, truth_path, extra);
+        kind, plan.rate_hz, seed, drivers::percent_encode(truth_path), extra);
   }
   std::string poses_path() const { return (out / "recordings" / "poses.mcap").string(); }
   uint64_t poses_seed() const { return args.seed * 1000 + 999; }

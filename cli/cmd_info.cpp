@@ -2,6 +2,9 @@
 // gaps, per-axis statistics of each channel, and events.
 #include <fmt/core.h>
 
+#include <cmath>
+#include <limits>
+
 #include "command.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/core/sampling.hpp"
@@ -10,18 +13,39 @@
 namespace imukit::cli {
 namespace {
 
+// Statistics of the samples present: gaps (NaN, from --gaps columns) are counted and left out
+// (found in review: they made every figure NaN).
 void print_triad(const char* name, const char* unit, const Eigen::Matrix3Xd& m) {
   if (m.cols() == 0) return;
-  const Eigen::Vector3d mean = m.rowwise().mean();
-  const Eigen::Vector3d std_dev = ((m.colwise() - mean).array().square().rowwise().sum() /
-                                   double(std::max<Eigen::Index>(m.cols() - 1, 1)))
-                                      .sqrt();
+  Eigen::Vector3d mean, std_dev, lo, hi;
+  Eigen::Index gaps = 0;
+  for (int k = 0; k < 3; ++k) {
+    double sum = 0.0, n = 0.0;
+    lo[k] = std::numeric_limits<double>::infinity();
+    hi[k] = -lo[k];
+    for (Eigen::Index i = 0; i < m.cols(); ++i) {
+      const double v = m(k, i);
+      if (std::isnan(v)) continue;
+      sum += v;
+      n += 1.0;
+      lo[k] = std::min(lo[k], v);
+      hi[k] = std::max(hi[k], v);
+    }
+    gaps = std::max<Eigen::Index>(gaps, m.cols() - static_cast<Eigen::Index>(n));
+    mean[k] = n > 0.0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+    double ss = 0.0;
+    for (Eigen::Index i = 0; i < m.cols(); ++i)
+      if (!std::isnan(m(k, i))) ss += (m(k, i) - mean[k]) * (m(k, i) - mean[k]);
+    std_dev[k] = n > 1.0 ? std::sqrt(ss / (n - 1.0)) : 0.0;
+  }
   fmt::print(
       "  {:<6}{:<8} mean {:>12.6g} {:>12.6g} {:>12.6g}   std {:>10.4g} {:>10.4g} {:>10.4g}\n", name,
       unit, mean.x(), mean.y(), mean.z(), std_dev.x(), std_dev.y(), std_dev.z());
   fmt::print("  {:<14} min  {:>12.6g} {:>12.6g} {:>12.6g}   max {:>10.4g} {:>10.4g} {:>10.4g}\n",
-             "", m.row(0).minCoeff(), m.row(1).minCoeff(), m.row(2).minCoeff(), m.row(0).maxCoeff(),
-             m.row(1).maxCoeff(), m.row(2).maxCoeff());
+             "", lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z());
+  if (gaps > 0)
+    fmt::print("  {:<14} {} of {} samples are gaps (NaN), left out of these figures\n", "", gaps,
+               m.cols());
 }
 
 void print_stream(const std::string& title, const ImuSeries& s) {

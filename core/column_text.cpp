@@ -306,7 +306,15 @@ ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {
     for (std::size_t axis = 0; axis < 3; ++axis) {
       const std::vector<double>& v = table.values[first + axis];
       for (std::size_t i = 0; i < table.rows; ++i) {
-        out(static_cast<Eigen::Index>(axis), static_cast<Eigen::Index>(i)) = v[i] * factor;
+        const double si = v[i] * factor;
+        // A finite value that its unit turns into infinity (1e308 g): found in review, passed.
+        if (std::isinf(si) && std::isfinite(v[i])) {
+          throw Error(InputLocation{table.source, {}, {}, {}},
+                      fmt::format("data row {}: {} = {} times {:g} (its unit in SI) is beyond a "
+                                  "double",
+                                  i + 1, kNames[first + axis], v[i], factor));
+        }
+        out(static_cast<Eigen::Index>(axis), static_cast<Eigen::Index>(i)) = si;
       }
     }
   };

@@ -3,6 +3,7 @@
 #include <fcntl.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 
@@ -28,6 +29,32 @@ const std::vector<std::string> kSchemes = {"serial", "hid", "usb", "file", "fd",
   where.file = "device URI '" + uri + "'";
   where.byte_offset = static_cast<int64_t>(offset);
   throw Error(where, what);
+}
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// The address or a value with its %XX escapes decoded; `offset` is where `s` starts in `uri`.
+std::string percent_decode(const std::string& uri, std::size_t offset, const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] != '%') {
+      out += s[i];
+      continue;
+    }
+    const bool room = i + 2 < s.size();
+    const int hi = room ? hex_digit(s[i + 1]) : -1;
+    const int lo = room ? hex_digit(s[i + 2]) : -1;
+    if (hi < 0 || lo < 0)
+      fail(uri, offset + i, "'%' must be followed by two hex digits (%25 is '%' itself)");
+    out += static_cast<char>(hi * 16 + lo);
+    i += 2;
+  }
+  return out;
 }
 
 // "054c:09cc" -> vid, pid; false if not two 1..4-digit hex numbers.
@@ -76,6 +103,24 @@ std::string codec_for(const DeviceUri& u, std::optional<KnownDevice> known) {
 
 }  // namespace
 
+std::string percent_encode(std::string_view text) {
+  static constexpr char kHex[] = "0123456789ABCDEF";
+  std::string out;
+  for (const char c : text) {
+    const auto b = static_cast<unsigned char>(c);
+    const bool plain =
+        std::isalnum(b) != 0 || c == '-' || c == '.' || c == '_' || c == '~' || c == '/';
+    if (plain) {
+      out += c;
+    } else {
+      out += '%';
+      out += kHex[b >> 4];
+      out += kHex[b & 15];
+    }
+  }
+  return out;
+}
+
 std::vector<std::string> uri_keys(const std::string& scheme) {
   std::vector<std::string> keys = kCodecKeys;
   if (scheme == "serial") {
@@ -104,7 +149,9 @@ DeviceUri parse_device_uri(const std::string& text) {
     fail(text, 0, "unknown scheme '" + u.scheme + "' (known: serial, hid, usb, file, fd, mock)");
   }
   const std::size_t q = text.find('?', colon + 1);
-  u.address = text.substr(colon + 1, (q == std::string::npos ? text.size() : q) - colon - 1);
+  u.address = percent_decode(
+      text, colon + 1,
+      text.substr(colon + 1, (q == std::string::npos ? text.size() : q) - colon - 1));
   if (u.address.empty()) fail(text, colon + 1, "missing address after '" + u.scheme + ":'");
   if (q != std::string::npos) {
     const std::vector<std::string> known = uri_keys(u.scheme);
@@ -123,7 +170,7 @@ DeviceUri parse_device_uri(const std::string& text) {
         for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
         fail(text, pos, "unknown key '" + key + "' for " + u.scheme + ": (known: " + list + ")");
       }
-      if (!u.keys.emplace(key, pair.substr(eq + 1)).second)
+      if (!u.keys.emplace(key, percent_decode(text, pos + eq + 1, pair.substr(eq + 1))).second)
         fail(text, pos, "key '" + key + "' given twice");
       if (amp == text.size()) break;
       pos = amp + 1;

@@ -3,12 +3,14 @@
 //   serial:/dev/ttyUSB0?baud=921600&codec=witmotion     hid:054c:09cc     hid:/dev/hidraw3
 //   usb:2639:0300?codec=xsens&ep_in=0x81&ep_out=0x01     file:capture.bin?codec=xsens
 //   fd:0?codec=text&time_unit=ms                         mock:static?rate=400&clock=virtual
-// No percent-decoding: addresses cannot contain '?' or '&'.
+// The address and the values are percent-decoded (%26 is '&', %25 is '%'), so a path with any
+// byte can be given; percent_encode() writes one.
 #pragma once
 
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "imukit/drivers/codec.hpp"
@@ -38,6 +40,10 @@ struct OpenedDevice {
 // (devices.hpp), else it is an error that says to name one. Throws imukit::Error (bad URI or
 // option) or TransportError (the OS refused, with its message).
 OpenedDevice open_device(const std::string& uri);
+
+// `text` with every byte but letters, digits and - . _ ~ / written as %XX: safe as a URI's
+// address or value.
+std::string percent_encode(std::string_view text);
 
 // "a, b, c" of the keys a scheme accepts (for messages and docs).
 std::vector<std::string> uri_keys(const std::string& scheme);

@@ -81,6 +81,35 @@ def test_bad_input_messages(run, converted):
         "unknown output format is a one-line usage error (exit 2)"
 
 
+def test_found_in_review_2026_11_26(run, converted):
+    tmp = converted.tmp
+    # A failed convert leaves the file it was to replace (it truncated it).
+    keep = os.path.join(tmp, "keep.csv")
+    with open(keep, "w") as f:
+        f.write("keep me\n")
+    acc = os.path.join(tmp, "acc_only.txt")
+    with open(acc, "w") as f:
+        f.write("0 0 0 9.8\n0.01 0 0 9.8\n")
+    r = run("convert", acc, "--columns", "t,ax,ay,az", "-o", keep)
+    assert r.returncode == 1 and open(keep).read() == "keep me\n", r.stderr
+    assert sorted(os.listdir(tmp)).count("keep.csv") == 1 and not [n for n in os.listdir(tmp) if n.endswith(".tmp")]
+    # Unit options without --columns are refused, not ignored.
+    r = run("convert", converted.out_csv, "--accel-unit", "g", "-o", os.path.join(tmp, "g.csv"))
+    assert r.returncode == 2 and "--accel-unit describe(s) column-mapped text" in r.stderr, r.stderr
+    # info leaves gaps out of its figures, and a value its unit makes infinite is an error.
+    gappy = os.path.join(tmp, "gappy.txt")
+    with open(gappy, "w") as f:
+        f.write("0 nan 0 9.8\n0.01 0.1 0 9.8\n0.02 0.3 0 9.7\n")
+    r = run("info", gappy, "--columns", "t,ax,ay,az", "--gaps", "ax")
+    assert r.returncode == 0 and "nan" not in r.stdout and "1 of 3 samples are gaps" in r.stdout, r.stdout
+    assert "mean          0.2" in r.stdout, r.stdout
+    big = os.path.join(tmp, "big.txt")
+    with open(big, "w") as f:
+        f.write("0 1e308 0 1\n0.01 1 0 1\n")
+    r = run("info", big, "--columns", "t,ax,ay,az", "--accel-unit", "g")
+    assert r.returncode == 1 and "data row 1: ax = 1e+308 times 9.80665" in r.stderr, r.stderr
+
+
 @pytest.fixture(scope="module")
 def mcap_file(run, converted):
     out_mcap = os.path.join(converted.tmp, "imu0.mcap")

@@ -36,6 +36,18 @@ TEST(DeviceUri, ParsesSchemeAddressAndKeys) {
   EXPECT_EQ(parse_device_uri("mock:static?rate=400").keys.at("rate"), "400");
 }
 
+TEST(DeviceUri, AddressesAndValuesArePercentDecoded) {
+  // Found in review: `imukit demo -o "/tmp/a&b"` failed, its path pasted into a mock URI.
+  const std::string path = "/tmp/a&b c%?/p=1.json";
+  EXPECT_EQ(percent_encode(path), "/tmp/a%26b%20c%25%3F/p%3D1.json");
+  const DeviceUri u = parse_device_uri("mock:static?profile=" + percent_encode(path) + "&rate=100");
+  EXPECT_EQ(u.keys.at("profile"), path);
+  EXPECT_EQ(u.keys.at("rate"), "100");
+  EXPECT_EQ(parse_device_uri("file:my%20capture.bin?codec=xsens").address, "my capture.bin");
+  EXPECT_EQ(error_offset("mock:static?profile=/a%2"), 22);
+  EXPECT_EQ(error_offset("file:%zz?codec=xsens"), 5);
+}
+
 TEST(DeviceUri, ErrorsPointAtTheOffendingByte) {
   EXPECT_EQ(error_offset("ttyUSB0"), 0);
   EXPECT_EQ(error_offset("bluetooth:aa"), 0);
