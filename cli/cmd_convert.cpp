@@ -52,6 +52,26 @@ const ImuSeries& only_stream(const Recording& r, const std::string& out) {
   return r.streams.begin()->second;
 }
 
+// What the output format cannot hold is said, not dropped silently (found in review): EuRoC CSV
+// and .npy hold accelerometer and gyroscope, MCAP the magnetometer too; temperature none of them.
+void warn_of_dropped_channels(const Recording& r, const std::string& ext) {
+  for (const auto& [name, s] : r.streams) {
+    std::string lost;
+    if (s.has_mag() && ext != ".mcap") lost = "magnetometer";
+    if (s.temperature_c.size() > 0)
+      lost += (lost.empty() ? "" : " and ") + std::string("temperature");
+    if (!lost.empty()) {
+      fmt::print(stderr, "imukit: warning: convert: {}'s {} not written ({} holds {})\n", name,
+                 lost,
+                 ext == ".mcap" ? "MCAP"
+                 : ext.empty()  ? "a folder of EuRoC CSVs"
+                                : ext,
+                 ext == ".mcap" ? "accelerometer, gyroscope and magnetometer"
+                                : "accelerometer and gyroscope");
+    }
+  }
+}
+
 int run_convert(const std::vector<std::string>& tokens, const std::string& out, bool recover) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
   if (inputs.size() != 1) throw UsageError("convert: give exactly one input file (and -o OUT)");
@@ -62,7 +82,7 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     }
     std::error_code ec;
     if (fs::equivalent(inputs.front().path, out, ec)) {
-      throw Error(
+      throw UsageError(
           fmt::format("convert --recover: {} is the input; write the recovered file to a "
                       "new name",
                       out));
@@ -93,6 +113,8 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
   for (const auto& [name, series] : r.streams)
     series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
+  if (ext == ".mcap" || ext == ".csv" || ext == ".npy" || ext.empty())
+    warn_of_dropped_channels(r, ext);
   if (ext == ".mcap") {
     capture::write_recording_mcap(out, r);
     fmt::print("wrote {} ({} streams, {} events)\n", out, r.streams.size(), r.events.size());

@@ -214,7 +214,9 @@ int run_record(const RecordArgs& args) {
     }
   };
   fmt::print("recording {} device(s) to {}{}\n", devices.size(), args.output,
-             args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s) : " until Ctrl-C");
+             args.duration_s > 0 ? fmt::format(" for {} s", args.duration_s)
+             : args.samples > 0  ? fmt::format(" until {} samples per device", args.samples)
+                                 : std::string(" until Ctrl-C"));
   if (options.guide) {
     fmt::print(
         "guided multi-position capture: first hold the device still for {:g} s (the initial "

@@ -93,6 +93,14 @@ def test_found_in_review_2026_11_26(run, converted):
     r = run("convert", acc, "--columns", "t,ax,ay,az", "-o", keep)
     assert r.returncode == 1 and open(keep).read() == "keep me\n", r.stderr
     assert sorted(os.listdir(tmp)).count("keep.csv") == 1 and not [n for n in os.listdir(tmp) if n.endswith(".tmp")]
+    # Channels the output cannot hold are named (they were dropped silently).
+    mag = os.path.join(tmp, "mag.txt")
+    with open(mag, "w") as f:
+        f.write("0 0 0 9.8 0 0 0 20 0 40 25\n0.01 0 0 9.8 0 0 0 20 0 40 25\n")
+    r = run("convert", mag, "--columns", "t,ax,ay,az,gx,gy,gz,mx,my,mz,temp", "-o", os.path.join(tmp, "mag.csv"))
+    assert r.returncode == 0 and "mag's magnetometer and temperature not written" in r.stderr, r.stderr
+    r = run("convert", mag, "--columns", "t,ax,ay,az,gx,gy,gz,mx,my,mz,temp", "-o", os.path.join(tmp, "mag.mcap"))
+    assert r.returncode == 0 and "mag's temperature not written (MCAP holds" in r.stderr, r.stderr
     # Unit options without --columns are refused, not ignored.
     r = run("convert", converted.out_csv, "--accel-unit", "g", "-o", os.path.join(tmp, "g.csv"))
     assert r.returncode == 2 and "--accel-unit describe(s) column-mapped text" in r.stderr, r.stderr
