@@ -68,7 +68,9 @@ void write_block(std::FILE* out, const std::string& name, const fmt::memory_buff
 }  // namespace
 
 void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesView& series) {
-  if (!series.has_accel() || !series.has_gyro()) {
+  // No samples is a header alone (reads back as no samples); a channel is present when it has
+  // samples, so an empty series has neither.
+  if (series.size() > 0 && (!series.has_accel() || !series.has_gyro())) {
     throw Error(fmt::format("{}: an EuRoC CSV needs both accelerometer and gyroscope", name));
   }
   fmt::memory_buffer buffer;

@@ -291,6 +291,7 @@ name; chi2_per_dof, points, covariance_inflation.)doc")
           p.gyroscope->noise =
               hwmodel::noise_estimate(hwmodel::characterize_triad(series.t, series.gyro, o));
         }
+        if (series.size() == 0) throw Error("characterize: the series holds no samples");
         if (!p.accelerometer && !p.gyroscope)
           throw Error("characterize: the series holds neither accelerometer nor gyroscope samples");
         return p;

@@ -98,6 +98,13 @@ class EurocCsv(unittest.TestCase):
             t2, g2, a2 = euroc(path)
             np.testing.assert_array_equal(t2, t)
             np.testing.assert_array_equal(a2, a)
+            # No samples: a header alone that reads back as no samples (found in review: "needs
+            # both accelerometer and gyroscope"), and characterize says what is missing.
+            empty = os.path.join(tmp, "empty.csv")
+            imukit.write_euroc_csv(empty, t[:0], a[:0], g[:0])
+            self.assertEqual(len(imukit.read_euroc_csv(empty)), 0)
+            with self.assertRaisesRegex(imukit.Error, "characterize: the series holds no samples"):
+                imukit.characterize(imukit.Series(t[:0], accel=a[:0], gyro=g[:0]))
             # float32 input is converted (documented): the values are the float32 ones.
             imukit.write_euroc_csv(path, t, a.astype(np.float32), g)
             np.testing.assert_array_equal(imukit.read_euroc_csv(path).accel, a.astype(np.float32).astype(np.float64))
