@@ -109,9 +109,30 @@ void check_updatable_file(const std::string& path, std::string_view what) {
 }
 
 void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write) {
+  struct stat st {};
+  const bool exists = ::stat(path.c_str(), &st) == 0;
+  if (exists && !S_ISREG(st.st_mode)) {
+    // A device, FIFO or terminal (/dev/stdout): written in place, since renaming a file over
+    // it would replace the device node itself.
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
+    try {
+      write(f);
+    } catch (...) {
+      std::fclose(f);
+      throw;
+    }
+    if (std::fclose(f) != 0) fail(path, fmt::format("write failed: {}", std::strerror(errno)));
+    return;
+  }
+  // Through a symbolic link the file it names is replaced, and the link stays.
+  std::error_code ec;
+  const std::filesystem::path resolved =
+      exists ? std::filesystem::canonical(path, ec) : std::filesystem::path(path);
+  const std::string target = ec ? path : resolved.string();
   // Beside the target, so the rename stays within one file system; the process id keeps two
   // writers of one path apart.
-  const std::string temporary = fmt::format("{}.{}.tmp", path, static_cast<long>(::getpid()));
+  const std::string temporary = fmt::format("{}.{}.tmp", target, static_cast<long>(::getpid()));
   std::FILE* f = std::fopen(temporary.c_str(), "wb");
   if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
   const auto discard = [&] { std::remove(temporary.c_str()); };
@@ -130,7 +151,7 @@ void write_file_atomically(const std::string& path, const std::function<void(std
     discard();
     fail(path, fmt::format("write failed: {}", std::strerror(e)));
   }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+  if (std::rename(temporary.c_str(), target.c_str()) != 0) {
     const int e = errno;
     discard();
     fail(path, fmt::format("cannot replace the file: {}", std::strerror(e)));

@@ -1,7 +1,9 @@
 #include "imukit/core/input_file.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <fstream>
 #include <string>
@@ -62,6 +64,23 @@ TEST(OutputFile, AFailedWriteLeavesTheEarlierFileAndNoTemporary) {
   EXPECT_EQ(files, 1u);
   write_text_file(path, "new\n");
   EXPECT_EQ(read_regular_file(path, 1 << 20, "test output"), "new\n");
+  // A symbolic link still points at its file, now replaced; a device is written in place, never
+  // replaced by a file (renaming over /dev/stdout would).
+  std::filesystem::create_symlink(path, dir / "link.csv");
+  write_text_file((dir / "link.csv").string(), "through the link\n");
+  EXPECT_TRUE(std::filesystem::is_symlink(dir / "link.csv"));
+  EXPECT_EQ(read_regular_file(path, 1 << 20, "test output"), "through the link\n");
+  // A FIFO stands for /dev/stdout and devices (a test must not risk a real device node).
+  const std::string fifo = (dir / "fifo").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  write_text_file(fifo, "to the reader\n");
+  char got[64] = {};
+  EXPECT_EQ(::read(reader, got, sizeof got), 14);
+  EXPECT_EQ(std::string(got), "to the reader\n");
+  ::close(reader);
+  EXPECT_TRUE(std::filesystem::is_fifo(fifo));
   // A folder that does not exist: named, nothing created.
   expect_io_error([&] { write_text_file((dir / "no" / "x.csv").string(), "x"); },
                   {"no/x.csv", "cannot open for writing"});
