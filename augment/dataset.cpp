@@ -210,6 +210,10 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
   j["channels"] = channels;
   j["shape"] = {shape.windows, shape.samples, shape.channels};
   j["rate_hz"] = info.rate_hz;
+  if (info.gravity_world) {
+    const Eigen::Vector3d& g = *info.gravity_world;
+    j["gravity_world_mps2"] = {g.x(), g.y(), g.z()};
+  }
   j["window"] = info.window;
   j["stride"] = info.stride;
   j["units"] = info.normalized ? json{{"accelerometer", "z-score"}, {"gyroscope", "z-score"}}
@@ -357,6 +361,7 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   }
   d.info = base_info(policy, options);
   d.info.mode = "ppda";
+  d.info.gravity_world = scene.options.gravity_world;
   d.info.sensors = aug.sensor_names();
   d.info.rate_hz = aug.rate_hz();
   if (options.normalize) normalize(d.X, C, d.info);

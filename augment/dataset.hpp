@@ -70,6 +70,7 @@ struct DatasetInfo {
   std::size_t batch_size = 0;
   bool normalized = false;
   std::vector<double> channel_mean, channel_std;  // when normalized
+  std::optional<Eigen::Vector3d> gravity_world;   // PPDA: the scene's, as simulated (m/s^2)
 };
 
 // Writes X.npy, y.npy, sub_policy.npy (int64, the sub-policy index per window, -1 = none) and

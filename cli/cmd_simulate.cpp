@@ -127,7 +127,18 @@ sim::Scene quick_scene(const SimulateArgs& a) {
         a.presets.begin() + static_cast<std::ptrdiff_t>(i))
       throw UsageError("simulate: --preset " + name + " is given twice");
     sim::SceneSensor s = sim::preset_sensor(name, scene.body);
-    if (!a.hardware.empty()) s.hardware = to_hardware_model(read_profile(a.hardware));
+    if (!a.hardware.empty()) {
+      try {
+        s.hardware = to_hardware_model(read_profile(a.hardware));
+      } catch (const IoError&) {
+        throw;
+      } catch (const Error& e) {
+        // The profile reads, but is not a model of SI signals (a calibration of raw counts):
+        // say which file (found in review: the message named none).
+        const std::string what = e.what();
+        throw Error(what.rfind(a.hardware, 0) == 0 ? what : a.hardware + ": " + what);
+      }
+    }
     scene.sensors.push_back(std::move(s));
   }
   return scene;
@@ -251,18 +262,26 @@ int run_simulate(const SimulateArgs& a) {
   for (sim::SceneSensor& s : scene.sensors) {
     if (!s.spec.outputs.accelerometer || !s.spec.outputs.gyroscope) {
       throw Error("simulate: sensor " + s.spec.name +
-                  ": an EuRoC CSV needs both accelerometer and gyroscope");
+                  ": the EuRoC CSV and the MCAP sensor_msgs/Imu outputs carry accelerometer and "
+                  "gyroscope together, so list both in its outputs (the Python API simulates any "
+                  "of them)");
     }
     if (!s.hardware) continue;
     try {
       validate_hardware_model(*s.hardware, rate);
     } catch (const Error& e) {
-      // Usually a sensor simulated at a motion capture's frame rate (60-120 Hz) with the
-      // bandwidth of a sensor sampling much faster: simulate at the sensor's own rate.
+      // A bandwidth error is usually a sensor simulated at a motion capture's frame rate
+      // (60-120 Hz) with the bandwidth of a sensor sampling much faster: simulate at the
+      // sensor's own rate. Other errors (the clock's) get no such hint (found in review).
+      const bool bandwidth = std::string(e.what()).find("bandwidth_hz") != std::string::npos;
       const double own = std::max(s.hardware->accelerometer.rate_hz, s.hardware->gyroscope.rate_hz);
       throw Error(fmt::format(
-          "sensor {}: {}; simulate at a rate above twice the bandwidth with --rate{}", s.spec.name,
-          e.what(), own > 0 ? fmt::format(" (the profile's own rate: --rate {:g})", own) : ""));
+          "sensor {}: {}{}", s.spec.name, e.what(),
+          !bandwidth
+              ? std::string()
+              : fmt::format(
+                    "; simulate at a rate above twice the bandwidth with --rate{}",
+                    own > 0 ? fmt::format(" (the profile's own rate: --rate {:g})", own) : "")));
     }
   }
   for (const std::string& w : scene.warnings) fmt::print(stderr, "warning: {}\n", w);

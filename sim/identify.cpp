@@ -1536,6 +1536,7 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
 
   IdentifyResult res;
   res.motion_start_ns = o.motion_start_ns;
+  res.gravity_world = o.gravity_world;
   const CoarseTiming coarse = initial_timing(body, motion, imu, o, h_imu);
   const double kappa0 = coarse.clock_rate;
   res.coarse_clock_rate = kappa0;
@@ -1635,6 +1636,7 @@ std::string placement_json(const IdentifyResult& r, const Body& body) {
     segs.push_back(
         {{"joint", body.joint(static_cast<std::size_t>(joint)).name}, {"length_m", num(len)}});
   j["segments"] = segs;
+  j["gravity_world_mps2"] = vec(r.gravity_world);  // the value used (DESIGN.md)
   {
     const CorrectionSpline& c = r.correction;
     json corr = {{"kind", c.dims == 0 ? "none" : c.dims == 1 ? "twist" : "rotation"}};

@@ -160,13 +160,14 @@ struct IdentifyResult {
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
   Eigen::Vector3d accel_scale = Eigen::Vector3d::Zero();  // s_a: measured = (1 + s_a) true
   Eigen::Vector3d gyro_scale = Eigen::Vector3d::Zero();
-  double time_offset_s = 0.0;                           // see the model above
-  double coarse_time_offset_s = 0.0;                    // from the cross-correlation
-  double clock_rate = 0.0;                              // dimensionless (1e-6 = 1 ppm)
-  double coarse_clock_rate = 0.0;                       // from the coarse search (or 0)
-  TimeNs motion_start_ns = 0;                           // options.motion_start_ns
-  TimeNs t_ref_ns = 0;                                  // IMU time the clock rate is referred to
-  std::vector<std::pair<int, double>> segment_lengths;  // (joint, identified length m)
+  double time_offset_s = 0.0;                             // see the model above
+  double coarse_time_offset_s = 0.0;                      // from the cross-correlation
+  double clock_rate = 0.0;                                // dimensionless (1e-6 = 1 ppm)
+  double coarse_clock_rate = 0.0;                         // from the coarse search (or 0)
+  TimeNs motion_start_ns = 0;                             // options.motion_start_ns
+  Eigen::Vector3d gravity_world = kStandardGravityWorld;  // options.gravity_world, as used
+  TimeNs t_ref_ns = 0;                                    // IMU time the clock rate is referred to
+  std::vector<std::pair<int, double>> segment_lengths;    // (joint, identified length m)
 
   std::vector<ParameterEstimate> parameters;
   std::vector<std::string> unobservable;  // names of parameters the data do not determine

@@ -687,6 +687,8 @@ The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
               augment::generate_dataset(names, streams, policy, l, o));
         }
         const sim::Scene& scene = scene_of(source);
+        // As the command: the scene's seed unless one is given (found in review: 0 here).
+        if (!options && !overrides.contains("seed")) o.seed = scene.seed;
         py::gil_scoped_release release;
         return std::make_shared<augment::Dataset>(augment::generate_dataset(scene, policy, l, o));
       },
@@ -695,8 +697,8 @@ The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
 The dataset `imukit augment` writes, in memory: from a Scene (PPDA: one sub-policy per batch of
 batch_size windows) or from recorded Series (a dict name -> Series, or a list with
 stream_names; the policy's STDA counterparts). labels: int64 per sample (or None). options: a
-DatasetOptions (default: DatasetOptions()); any of its fields given as keywords override it
-(generate_dataset(scene, policy, window=50, seed=8)). The same seed gives the same arrays as the
+DatasetOptions (default: DatasetOptions() with a Scene's own seed, as the command); any of its
+fields given as keywords override it (generate_dataset(scene, policy, window=50, seed=8)). The same seed gives the same arrays as the
 command, whatever the thread count.)doc");
 }
 

@@ -90,6 +90,7 @@ TEST(Dataset, WriterOutputReadsBack) {
   info.stride = 1;
   info.mode = "ppda";
   info.policy_json = format_policy(builtin_policy("paper"));
+  info.gravity_world = Eigen::Vector3d(0, 0, -9.81);
   write_dataset(dir, X, shape, y, sp, info);
   const NpyArray xa = read_npy(dir + "/X.npy");
   EXPECT_EQ(xa.dtype, NpyDtype::float32);
@@ -104,6 +105,7 @@ TEST(Dataset, WriterOutputReadsBack) {
   EXPECT_EQ(j["channels"][4], "watch.gy");
   EXPECT_EQ(j["policy"]["builtin"], "paper");
   EXPECT_EQ(j["units"]["gyroscope"], "rad/s");
+  EXPECT_EQ(j["gravity_world_mps2"], nlohmann::json({0.0, 0.0, -9.81}));
   EXPECT_THROW(write_dataset(dir, X, {3, 3, 6}, y, sp, info), Error);
 }
 
@@ -131,6 +133,8 @@ TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
   EXPECT_EQ(a.X, b.X);
   EXPECT_EQ(a.sub_policy, b.sub_policy);
   EXPECT_EQ(a.shape, (BatchShape{30, 50, 6}));
+  ASSERT_TRUE(a.info.gravity_world.has_value());  // the value simulated with, for dataset.json
+  EXPECT_EQ(*a.info.gravity_world, scene.options.gravity_world);
   PpdaOptions po;
   po.window = 50;
   const std::size_t nbase = PpdaAugmenter(scene, po).window_starts(50).size();

@@ -225,6 +225,19 @@ class Datasets(unittest.TestCase):
         np.testing.assert_array_equal(ds.sub_policy, sub)
         np.testing.assert_array_equal(ds.X, X)
         self.assertTrue(np.shares_memory(ds.X, ds.X))
+        # Without a seed both take the scene's own (found in review: Python took 0).
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "scene.json")
+            with open(path, "w") as f:
+                json.dump(SCENE, f)
+            out = os.path.join(tmp, "ds")
+            r = run_cli("augment", "--scene", path, "--policy", "imukit", "--window", 50, "--stride", 25,
+                        "--count", 16, "--batch-size", 8, "-o", out)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            X = np.load(os.path.join(out, "X.npy"))
+        ds = imukit.generate_dataset(scene, imukit.read_policy("imukit"), window=50, stride=25, count=16,
+                                     batch_size=8)
+        np.testing.assert_array_equal(ds.X, X)
 
     def test_options_object(self):
         # imukit.DatasetOptions: the C++ fields and defaults, but threads 0 (all cores) in Python.

@@ -72,6 +72,7 @@ class Recovery(unittest.TestCase):
     def test_json_is_the_placement_format(self):
         j = json.loads(self.r.to_json())
         self.assertEqual(j["schema"], "imukit.placement/1")
+        self.assertEqual(j["gravity_world_mps2"], [0.0, 0.0, -9.80665])  # the value used (DESIGN.md)
         self.assertEqual(j["correction"]["kind"], "twist")
         self.assertEqual(len(j["correction"]["control_rad"][0]), len(self.r.correction["control_rad"]))
         self.assertAlmostEqual(j["fit"]["fidelity_after"]["gyro"]["correlation"][2],
