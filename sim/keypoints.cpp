@@ -29,7 +29,9 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kMinBoneDeviationM = 0.05;
 // Limits that keep every sum of squares, time in ns and buffer finite and sane.
 constexpr double kMaxCoordinateM = 1e6;
-constexpr double kShortBoneM = 0.01;  // a bone shorter than this has no reliable direction
+constexpr double kShortBoneM = 0.01;          // a bone shorter than this has no reliable direction
+constexpr double kShrunkBoneFraction = 0.5;   // of its median length: the tracking failed
+constexpr double kShrinkCheckedBoneM = 0.10;  // bones this long or longer are checked for it
 constexpr double kMaxDurationS = 1e7;
 constexpr int64_t kMaxOutputFrames = 10'000'000;
 
@@ -1351,6 +1353,20 @@ std::vector<Eigen::Matrix3Xd> smooth_keypoints(const Cleaned& c, const KeypointM
   return S;
 }
 
+// Sorts time stretches and joins those that overlap or touch.
+void merge_stretches(std::vector<std::pair<TimeNs, TimeNs>>& stretches) {
+  std::sort(stretches.begin(), stretches.end());
+  std::vector<std::pair<TimeNs, TimeNs>> merged;
+  for (const auto& iv : stretches) {
+    if (!merged.empty() && iv.first <= merged.back().second) {
+      merged.back().second = std::max(merged.back().second, iv.second);
+    } else {
+      merged.push_back(iv);
+    }
+  }
+  stretches = std::move(merged);
+}
+
 // Filled stretches: runs of two or more input frames with some keypoint missing, and the jumps,
 // into out.invalid_motion.
 void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
@@ -1382,16 +1398,7 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
     const double e = std::min(duration, c.t[static_cast<std::size_t>(f)] - c.t.front() + reach);
     out.invalid_motion.emplace_back(from_seconds(b), from_seconds(e));
   }
-  std::sort(out.invalid_motion.begin(), out.invalid_motion.end());
-  std::vector<std::pair<TimeNs, TimeNs>> merged;
-  for (const auto& iv : out.invalid_motion) {
-    if (!merged.empty() && iv.first <= merged.back().second) {
-      merged.back().second = std::max(merged.back().second, iv.second);
-    } else {
-      merged.push_back(iv);
-    }
-  }
-  out.invalid_motion = std::move(merged);
+  merge_stretches(out.invalid_motion);
 }
 
 // Step 5, one segment's twist: the angle (rad) about the bone at each output frame from the
@@ -1530,6 +1537,32 @@ std::vector<std::vector<Quaterniond>> segment_rotations(
     }
     rep.length_m = median(len);
     rep.length_iqr_m = quantile(len, 0.75) - quantile(len, 0.25);
+    // Where the smoothed bone shrinks below half its length, keypoint tracking failed and the
+    // smoothing bridged it (found in review: on UTD-MHAD a forearm of 23 cm went to 4 cm beside
+    // a wrist jumping 0.4 m, and its direction spun at 140 rad/s): invalid motion, as a jump.
+    // Hands and feet (4-8 cm from Kinect) are too short for it: their keypoints' noise alone
+    // halves them (UTD-MHAD a1_s1_t1: 58 frames of a 6 cm hand).
+    if (rep.length_m >= kShrinkCheckedBoneM) {
+      std::vector<int64_t> shrunk;
+      for (int64_t k = 0; k < N; ++k)
+        if ((Se.col(k) - So.col(k)).norm() < kShrunkBoneFraction * rep.length_m)
+          shrunk.push_back(k);
+      for (std::size_t i = 0; i < shrunk.size();) {
+        std::size_t j = i;
+        while (j + 1 < shrunk.size() && shrunk[j + 1] == shrunk[j] + 1) ++j;
+        out.invalid_motion.emplace_back(
+            from_seconds(t_out[static_cast<std::size_t>(shrunk[i])] - c.t.front()),
+            from_seconds(t_out[static_cast<std::size_t>(shrunk[j])] - c.t.front()));
+        i = j + 1;
+      }
+      if (!shrunk.empty()) {
+        merge_stretches(out.invalid_motion);
+        out.warnings.push_back(fmt::format(
+            "segment {}: shorter than half its length ({:.3f} m) in {} output frames ({}): "
+            "keypoint tracking failed there; marked invalid",
+            s.joint, rep.length_m, shrunk.size(), frame_list(shrunk)));
+      }
+    }
     out.segments.push_back(rep);
   }
   return Rw;

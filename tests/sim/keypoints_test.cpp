@@ -409,6 +409,33 @@ TEST(MotionFromKeypoints, AStillPoseGivesAStillMotionAndDegenerateInputNoNaN) {
                                  0),
             0u)
       << short_bones[0];
+  // A forearm shrunk to a tenth of its length for half a second (tracking failed): invalid
+  // motion with a warning, even with every repair off (found in review on UTD-MHAD, where the
+  // smoothing bridged such frames and the forearm spun at 140 rad/s).
+  Keypoints shrunk = keypoints_of(body, still, topo);
+  for (int64_t f = 15; f < 30; ++f) {
+    const Vector3d e = shrunk.positions.col(col("left_elbow", f));
+    shrunk.positions.col(col("left_wrist", f)) =
+        e + 0.1 * (shrunk.positions.col(col("left_wrist", f)) - e);
+  }
+  KeypointMotionOptions raw;
+  raw.fix_swaps = false;
+  raw.drop_frozen_frames = false;
+  raw.max_bone_deviation = 0.0;
+  raw.jump_speed_mps = 0.0;
+  EXPECT_TRUE(
+      motion_from_keypoints(keypoints_of(body, still, topo), topo, raw).invalid_motion.empty());
+  const KeypointMotion sr = motion_from_keypoints(shrunk, topo, raw);
+  ASSERT_EQ(sr.invalid_motion.size(), 1u);
+  // Inside the shrunk half second (0.5 to 0.97 s) and about as long.
+  EXPECT_GE(sr.invalid_motion[0].first, from_seconds(0.45));
+  EXPECT_LE(sr.invalid_motion[0].first, from_seconds(0.6));
+  EXPECT_GE(sr.invalid_motion[0].second, from_seconds(0.85));
+  EXPECT_LE(sr.invalid_motion[0].second, from_seconds(1.02));
+  bool named = false;
+  for (const std::string& w : sr.warnings)
+    named |= w.rfind("segment left_elbow: shorter than half its length", 0) == 0;
+  EXPECT_TRUE(named) << ::testing::PrintToString(sr.warnings);
   for (std::size_t j = 0; j < d.body.size(); ++j) {
     EXPECT_TRUE(d.body.joint(j).offset_parent_joint.allFinite());
     for (int64_t f = 0; f < d.motion.frames(); ++f)
