@@ -40,7 +40,21 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   if (args.output.empty())
     throw UsageError("characterize: say where the profile goes with -o profile.json");
   check_profile_to_update(args.output);  // before the work
+  if (!args.kalibr.empty()) check_updatable_file(args.kalibr, "Kalibr file");
   const auto runs = load_runs(inputs);
+  if (!args.kalibr.empty()) {
+    // Kalibr's imu.yaml describes both; a missing triad written as 0 would tell Kalibr's filter
+    // that sensor is perfect (found in review), so it is refused before any file is written.
+    const bool acc = std::any_of(runs.begin(), runs.end(),
+                                 [](const LoadedRun& r) { return r.series.has_accel(); });
+    const bool gyr = std::any_of(runs.begin(), runs.end(),
+                                 [](const LoadedRun& r) { return r.series.has_gyro(); });
+    if (!acc || !gyr) {
+      throw Error(fmt::format("--kalibr {}: Kalibr's imu.yaml needs accelerometer and gyroscope "
+                              "noise; the input has no {}",
+                              args.kalibr, acc ? "gyroscope" : "accelerometer"));
+    }
+  }
   CharacterizeOptions options;
   options.gravity = args.gravity;
   options.points_per_decade = args.points_per_decade;
@@ -61,14 +75,6 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
         for (const auto& a : t->axes) v = std::max(v, a.fit.value[size_t(term)]);
       return v;
     };
-    // Kalibr's imu.yaml describes both; a missing triad written as 0 would tell Kalibr's filter
-    // that sensor is perfect (found in review).
-    if (!acc || !gyr) {
-      throw Error(
-          fmt::format("--kalibr {}: Kalibr's imu.yaml needs accelerometer and gyroscope "
-                      "noise; {} has no {}",
-                      args.kalibr, r.noise_run, acc ? "gyroscope" : "accelerometer"));
-    }
     auto out = fmt::output_file(args.kalibr);
     out.print(
         "# written by imukit characterize from {}; continuous-time densities (Kalibr convention)\n"

@@ -113,8 +113,27 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
   for (const auto& [name, series] : r.streams)
     series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
-  if (ext == ".mcap" || ext == ".csv" || ext == ".npy" || ext.empty())
+  if (ext == ".mcap" || ext == ".csv" || ext == ".npy" || ext.empty()) {
     warn_of_dropped_channels(r, ext);
+    // Pose columns are read by `identify --pose`, not kept in an IMU recording.
+    std::string pose;
+    std::size_t from = 0;
+    const std::string& cols = inputs.front().columns;
+    while (from <= cols.size() && !cols.empty()) {
+      const std::size_t comma = std::min(cols.find(',', from), cols.size());
+      const std::string name = cols.substr(from, comma - from);
+      if (name == "qw" || name == "qx" || name == "qy" || name == "qz" || name == "px" ||
+          name == "py" || name == "pz")
+        pose += (pose.empty() ? "" : ",") + name;
+      from = comma + 1;
+    }
+    if (!pose.empty()) {
+      fmt::print(stderr,
+                 "imukit: warning: convert: the pose columns {} are not written (a recording holds "
+                 "IMU channels; `identify --pose` reads them)\n",
+                 pose);
+    }
+  }
   if (ext == ".mcap") {
     capture::write_recording_mcap(out, r);
     fmt::print("wrote {} ({} streams, {} events)\n", out, r.streams.size(), r.events.size());

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -96,46 +97,26 @@ std::string read_regular_file(const std::string& path, std::size_t max_bytes,
   return text;
 }
 
-void check_updatable_file(const std::string& path, std::string_view what) {
-  struct stat st {};
-  if (::stat(path.c_str(), &st) == 0) check_regular(path, st.st_mode, what);
-  // Written through a temporary beside it: the folder must exist and take new files.
-  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
-  const std::string folder = parent.empty() ? std::string(".") : parent.string();
-  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
-    fail(path, fmt::format("the folder of the {} does not exist", what));
-  if (::access(folder.c_str(), W_OK | X_OK) != 0)
-    fail(path, fmt::format("the folder of the {} is not writable: {}", what, std::strerror(errno)));
+namespace {
+
+// The file `path` names once its symbolic links are followed, dangling ones included (a link to
+// a file not yet written names where it will be): outputs are checked and replaced there.
+std::filesystem::path link_target(const std::string& path) {
+  std::filesystem::path p(path);
+  for (int hops = 0; hops < 40; ++hops) {
+    std::error_code ec;
+    if (!std::filesystem::is_symlink(std::filesystem::symlink_status(p, ec)) || ec) break;
+    const std::filesystem::path to = std::filesystem::read_symlink(p, ec);
+    if (ec) break;
+    p = to.is_absolute() ? to : p.parent_path() / to;
+  }
+  return p;
 }
 
-void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write) {
-  struct stat st {};
-  const bool exists = ::stat(path.c_str(), &st) == 0;
-  if (exists && !S_ISREG(st.st_mode)) {
-    // A device, FIFO or terminal (/dev/stdout): written in place, since renaming a file over
-    // it would replace the device node itself.
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
-    try {
-      write(f);
-    } catch (...) {
-      std::fclose(f);
-      throw;
-    }
-    if (std::fclose(f) != 0) fail(path, fmt::format("write failed: {}", std::strerror(errno)));
-    return;
-  }
-  // Through a symbolic link the file it names is replaced, and the link stays.
-  std::error_code ec;
-  const std::filesystem::path resolved =
-      exists ? std::filesystem::canonical(path, ec) : std::filesystem::path(path);
-  const std::string target = ec ? path : resolved.string();
-  // Beside the target, so the rename stays within one file system; the process id keeps two
-  // writers of one path apart.
-  const std::string temporary = fmt::format("{}.{}.tmp", target, static_cast<long>(::getpid()));
-  std::FILE* f = std::fopen(temporary.c_str(), "wb");
-  if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
-  const auto discard = [&] { std::remove(temporary.c_str()); };
+// Writes through `write` into f, then closes it; throws as the writer does.
+void write_and_close(const std::string& path, std::FILE* f,
+                     const std::function<void(std::FILE*)>& write,
+                     const std::function<void()>& discard) {
   try {
     write(f);
   } catch (...) {
@@ -151,6 +132,73 @@ void write_file_atomically(const std::string& path, const std::function<void(std
     discard();
     fail(path, fmt::format("write failed: {}", std::strerror(e)));
   }
+}
+
+}  // namespace
+
+void check_updatable_file(const std::string& path, std::string_view what) {
+  const std::filesystem::path target = link_target(path);
+  struct stat st {};
+  if (::stat(target.c_str(), &st) == 0) {
+    check_regular(path, st.st_mode, what);
+    if (::access(target.c_str(), W_OK) != 0)
+      fail(path, fmt::format("the {} is not writable: {}", what, std::strerror(errno)));
+  }
+  // Written through a temporary beside it: the folder must exist and take new files.
+  const std::filesystem::path parent = target.parent_path();
+  const std::string folder = parent.empty() ? std::string(".") : parent.string();
+  if (::stat(folder.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    fail(path, fmt::format("the folder of the {} does not exist", what));
+  if (::access(folder.c_str(), W_OK | X_OK) != 0)
+    fail(path, fmt::format("the folder of the {} is not writable: {}", what, std::strerror(errno)));
+}
+
+void write_file_atomically(const std::string& path, const std::function<void(std::FILE*)>& write) {
+  const std::filesystem::path target = link_target(path);
+  struct stat st {};
+  const bool exists = ::stat(target.c_str(), &st) == 0;
+  // A device, FIFO or terminal (/dev/stdout) is written in place: renaming a file over it would
+  // replace the device node itself. So is a file with other hard links, which would otherwise
+  // keep the old content under their names.
+  if (exists && (!S_ISREG(st.st_mode) || st.st_nlink > 1)) {
+    std::FILE* f = std::fopen(target.c_str(), "wb");
+    if (f == nullptr) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
+    write_and_close(path, f, write, [] {});
+    return;
+  }
+  // A read-only file stays read-only, as opening it for writing would have said.
+  if (exists && ::access(target.c_str(), W_OK) != 0)
+    fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
+  // A temporary of a unique short name in the target's folder (one file system for the rename;
+  // O_EXCL and a per-process counter keep concurrent writers of one path, threads included,
+  // apart), created 0666 less the umask as any new file, given an existing file's mode, then
+  // renamed over the file.
+  static std::atomic<uint64_t> counter{0};
+  const std::filesystem::path folder = target.parent_path().empty() ? "." : target.parent_path();
+  std::string temporary;
+  int fd = -1;
+  for (int attempt = 0; attempt < 100 && fd < 0; ++attempt) {
+    temporary = (folder / fmt::format(".imukit-{}-{}.tmp", static_cast<long>(::getpid()),
+                                      counter.fetch_add(1)))
+                    .string();
+    fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd < 0 && errno != EEXIST) break;
+  }
+  if (fd < 0) fail(path, fmt::format("cannot open for writing: {}", std::strerror(errno)));
+  if (exists) {
+    // The owner's too where allowed (root); otherwise the file becomes the writer's.
+    if (::fchown(fd, st.st_uid, st.st_gid) != 0) errno = 0;
+    ::fchmod(fd, st.st_mode & 07777);
+  }
+  std::FILE* f = ::fdopen(fd, "wb");
+  if (f == nullptr) {
+    const int e = errno;
+    ::close(fd);
+    std::remove(temporary.c_str());
+    fail(path, fmt::format("cannot open for writing: {}", std::strerror(e)));
+  }
+  const auto discard = [&] { std::remove(temporary.c_str()); };
+  write_and_close(path, f, write, discard);
   if (std::rename(temporary.c_str(), target.c_str()) != 0) {
     const int e = errno;
     discard();

@@ -51,6 +51,8 @@ std::string percent_decode(const std::string& uri, std::size_t offset, const std
     const int lo = room ? hex_digit(s[i + 2]) : -1;
     if (hi < 0 || lo < 0)
       fail(uri, offset + i, "'%' must be followed by two hex digits (%25 is '%' itself)");
+    // A NUL would end the path the OS sees early (found in review: it opened a shorter path).
+    if (hi == 0 && lo == 0) fail(uri, offset + i, "%00 (a NUL byte) cannot be part of a URI");
     out += static_cast<char>(hi * 16 + lo);
     i += 2;
   }

@@ -101,6 +101,12 @@ def test_found_in_review_2026_11_26(run, converted):
     assert r.returncode == 0 and "mag's magnetometer and temperature not written" in r.stderr, r.stderr
     r = run("convert", mag, "--columns", "t,ax,ay,az,gx,gy,gz,mx,my,mz,temp", "-o", os.path.join(tmp, "mag.mcap"))
     assert r.returncode == 0 and "mag's temperature not written (MCAP holds" in r.stderr, r.stderr
+    pose = os.path.join(tmp, "pose.txt")
+    with open(pose, "w") as f:
+        f.write("0 1 0 0 0 0 0 0 0 0 9.8 0 0 0\n0.01 1 0 0 0 0 0 0 0 0 9.8 0 0 0\n")
+    r = run("convert", pose, "--columns", "t,qw,qx,qy,qz,px,py,pz,ax,ay,az,gx,gy,gz", "-o",
+            os.path.join(tmp, "pose.mcap"))
+    assert r.returncode == 0 and "the pose columns qw,qx,qy,qz,px,py,pz are not written" in r.stderr, r.stderr
     # Unit options without --columns are refused, not ignored.
     r = run("convert", converted.out_csv, "--accel-unit", "g", "-o", os.path.join(tmp, "g.csv"))
     assert r.returncode == 2 and "--accel-unit describe(s) column-mapped text" in r.stderr, r.stderr

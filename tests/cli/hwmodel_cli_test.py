@@ -98,9 +98,11 @@ def test_output_problems_are_io_errors_and_found_before_the_work(run, workdir):
     assert r.returncode == 1 and "Kalibr's imu.yaml needs accelerometer and gyroscope noise" in r.stderr, \
         r.stderr
     assert not os.path.exists(os.path.join(workdir, "acc.yaml"))
+    assert not os.path.exists(os.path.join(workdir, "acc.json")), "refused before the profile is written"
     six = os.path.join(workdir, "six.txt")
     np.savetxt(six, np.column_stack([np.arange(n) / 100.0, rng.normal(0, 0.01, (n, 3)),
                                      rng.normal(0, 0.02, (n, 3)) + [0, 0, 9.8]]), fmt="%.6f")
     r = run("characterize", six, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", os.path.join(workdir, "six.json"),
             "--kalibr", os.path.join(workdir, "no", "k.yaml"))
     assert r.returncode == 3 and "no/k.yaml" in r.stderr and "internal" not in r.stderr, r.stderr
+    assert not os.path.exists(os.path.join(workdir, "six.json")), "refused before the profile is written"

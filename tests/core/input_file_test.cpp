@@ -1,12 +1,16 @@
 #include "imukit/core/input_file.hpp"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <fstream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "imukit/core/column_text.hpp"
 #include "imukit/core/error.hpp"
@@ -81,6 +85,41 @@ TEST(OutputFile, AFailedWriteLeavesTheEarlierFileAndNoTemporary) {
   EXPECT_EQ(std::string(got), "to the reader\n");
   ::close(reader);
   EXPECT_TRUE(std::filesystem::is_fifo(fifo));
+  // Found in review of the above: the file keeps its mode, other hard links see the new content,
+  // a dangling link is written through (the link stays), and threads writing one path at once
+  // never collide on a temporary (one name per process did: a third of 1200 writes failed).
+  ::chmod(path.c_str(), 0600);
+  write_text_file(path, "private\n");
+  struct stat st {};
+  ASSERT_EQ(::stat(path.c_str(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777, 0600u);
+  std::filesystem::create_hard_link(path, dir / "hard.csv");
+  write_text_file((dir / "hard.csv").string(), "both names\n");
+  EXPECT_EQ(read_regular_file(path, 1 << 20, "test output"), "both names\n");
+  std::filesystem::create_symlink("later.csv", dir / "dangling.csv");
+  write_text_file((dir / "dangling.csv").string(), "made through the link\n");
+  EXPECT_TRUE(std::filesystem::is_symlink(dir / "dangling.csv"));
+  EXPECT_EQ(read_regular_file((dir / "later.csv").string(), 1 << 20, "test output"),
+            "made through the link\n");
+  const std::string shared = (dir / "shared.json").string();
+  std::vector<std::thread> writers;
+  std::atomic<int> failures{0};
+  for (int w = 0; w < 4; ++w) {
+    writers.emplace_back([&, w] {
+      for (int k = 0; k < 100; ++k) {
+        try {
+          write_text_file(shared, fmt::format("{{\"writer\": {}, \"k\": {}}}\n", w, k));
+        } catch (const Error&) {
+          ++failures;
+        }
+      }
+    });
+  }
+  for (std::thread& t : writers) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_EQ(read_regular_file(shared, 1 << 20, "test output").rfind("{\"writer\": ", 0), 0u);
+  for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+    EXPECT_EQ(e.path().filename().string().rfind(".imukit-", 0), std::string::npos) << e.path();
   // A folder that does not exist: named, nothing created.
   expect_io_error([&] { write_text_file((dir / "no" / "x.csv").string(), "x"); },
                   {"no/x.csv", "cannot open for writing"});

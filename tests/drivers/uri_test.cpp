@@ -46,6 +46,7 @@ TEST(DeviceUri, AddressesAndValuesArePercentDecoded) {
   EXPECT_EQ(parse_device_uri("file:my%20capture.bin?codec=xsens").address, "my capture.bin");
   EXPECT_EQ(error_offset("mock:static?profile=/a%2"), 22);
   EXPECT_EQ(error_offset("file:%zz?codec=xsens"), 5);
+  EXPECT_EQ(error_offset("file:/tmp/t.txt%00garbage?codec=text"), 15);
 }
 
 TEST(DeviceUri, ErrorsPointAtTheOffendingByte) {

@@ -191,6 +191,10 @@ class Format(unittest.TestCase):
                    r"recordings\[0\]\.scene\.time_offset_s: expected seconds, got True")
             expect(ok, r"classes: a name appears twice", {"classes": ["x", "x"]})
             with open(index, "w") as f:
+                f.write('{"schema": "imukit.recordings/1", "rate_hz": 50, "rate_hz": 100}')
+            with self.assertRaisesRegex(rf.FormatError, r"recordings\.json: duplicate key 'rate_hz'"):
+                rf.read_recordings(d)
+            with open(index, "w") as f:
                 f.write('{"schema": \n oops')
             with self.assertRaisesRegex(rf.FormatError, r"recordings\.json:2:2: Expecting value"):
                 rf.read_recordings(d)

@@ -132,12 +132,24 @@ def _require(cond, msg):
         raise FormatError(msg)
 
 
+def _unique_keys(pairs):
+    """A JSON object that gives no key twice (as every imukit JSON reader requires)."""
+    out = {}
+    for k, v in pairs:
+        if k in out:
+            raise FormatError(f"duplicate key '{k}': each key may appear once in an object")
+        out[k] = v
+    return out
+
+
 def read_recordings(folder):
     """Reads `folder/recordings.json` and the arrays it names; FormatError on anything malformed."""
     index = os.path.join(folder, "recordings.json")
     try:
         with open(index, encoding="utf-8") as f:
-            doc = json.load(f)
+            doc = json.load(f, object_pairs_hook=_unique_keys)
+    except FormatError as e:
+        raise FormatError(f"{index}: {e}") from None
     except FileNotFoundError:
         raise FormatError(f"{index}: no such file") from None
     except json.JSONDecodeError as e:
