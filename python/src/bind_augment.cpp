@@ -79,6 +79,10 @@ void require_writable_batch(const py::array& a, const char* what) {
 // the target's memory directly.
 py::array target_for(const py::array& x_in, py::handle out_obj, const char* what) {
   const py::array x = native_float(x_in, what);
+  if (out_obj.is(x_in) && !x.is(x_in)) {
+    throw py::type_error(std::string(what) + ": an array of dtype " + dtype_name(x_in) +
+                         " (another byte order) cannot be augmented in place; leave out=None");
+  }
   batch_shape(x, what);
   if (out_obj.is_none()) {
     py::array out(x.dtype(), std::vector<py::ssize_t>(x.shape(), x.shape() + x.ndim()));

@@ -56,6 +56,9 @@ class Stda(unittest.TestCase):
         be = imukit.stda(before.astype(">f4"), "magnitude_scaling", 5, sigma=0.1)
         self.assertEqual(be.dtype, np.float32)
         np.testing.assert_array_equal(be, y)
+        swapped = before.astype(">f4")
+        with self.assertRaisesRegex(TypeError, "cannot be augmented in place"):
+            imukit.stda(swapped, "magnitude_scaling", 5, sigma=0.1, out=swapped)
         with self.assertRaisesRegex(TypeError, "starts: expected int64 sample indices, got int32"):
             imukit.window_labels(np.zeros(100, np.int64), np.zeros(1, np.int32), 50)
         with self.assertRaisesRegex(imukit.Error, r"window 0 \(samples -10 to -10 \+ 50\) is outside the 100 labels"):
