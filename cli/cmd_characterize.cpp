@@ -50,9 +50,10 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
     const bool gyr = std::any_of(runs.begin(), runs.end(),
                                  [](const LoadedRun& r) { return r.series.has_gyro(); });
     if (!acc || !gyr) {
-      throw Error(fmt::format("--kalibr {}: Kalibr's imu.yaml needs accelerometer and gyroscope "
-                              "noise; the input has no {}",
-                              args.kalibr, acc ? "gyroscope" : "accelerometer"));
+      throw Error(
+          fmt::format("--kalibr {}: Kalibr's imu.yaml needs accelerometer and gyroscope "
+                      "noise; the input has no {}",
+                      args.kalibr, acc ? "gyroscope" : "accelerometer"));
     }
   }
   CharacterizeOptions options;

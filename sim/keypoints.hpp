@@ -123,7 +123,8 @@ struct Keypoints {
 // Files (docs/formats.md, "Keypoints"): CSV with a header `t,<kp>_x,<kp>_y,<kp>_z,...` (t in s;
 // columns in any order, every topology keypoint once; `nan` or an empty field = missing), or
 // NumPy .npy of shape (frames, keypoints, 3) float32/float64 with times from rate_hz (a CSV
-// without a t column needs rate_hz too; one with a t column refuses it). Errors name the file, line and column or byte.
+// without a t column needs rate_hz too; one with a t column refuses it). Errors name the file, line
+// and column or byte.
 Keypoints read_keypoints(const std::string& path, const KeypointTopology& topology,
                          std::optional<double> rate_hz = std::nullopt);
 Keypoints parse_keypoints_csv(std::string_view text, const std::string& source_name,
