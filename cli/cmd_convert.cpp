@@ -117,15 +117,12 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     warn_of_dropped_channels(r, ext);
     // Pose columns are read by `identify --pose`, not kept in an IMU recording.
     std::string pose;
-    std::size_t from = 0;
-    const std::string& cols = inputs.front().columns;
-    while (from <= cols.size() && !cols.empty()) {
-      const std::size_t comma = std::min(cols.find(',', from), cols.size());
-      const std::string name = cols.substr(from, comma - from);
-      if (name == "qw" || name == "qx" || name == "qy" || name == "qz" || name == "px" ||
-          name == "py" || name == "pz")
-        pose += (pose.empty() ? "" : ",") + name;
-      from = comma + 1;
+    if (!inputs.front().columns.empty()) {
+      const ColumnSpec spec = column_spec(inputs.front());
+      for (const Column c :
+           {Column::qw, Column::qx, Column::qy, Column::qz, Column::px, Column::py, Column::pz}) {
+        if (spec.has(c)) pose += (pose.empty() ? "" : ",") + std::string(column_name(c));
+      }
     }
     if (!pose.empty()) {
       fmt::print(stderr,

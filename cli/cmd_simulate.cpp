@@ -273,7 +273,11 @@ int run_simulate(const SimulateArgs& a) {
       // A bandwidth error is usually a sensor simulated at a motion capture's frame rate
       // (60-120 Hz) with the bandwidth of a sensor sampling much faster: simulate at the
       // sensor's own rate. Other errors (the clock's) get no such hint (found in review).
-      const bool bandwidth = std::string(e.what()).find("bandwidth_hz") != std::string::npos;
+      const auto too_wide = [&](const TriadModel& t) {
+        return t.bandwidth_hz > 0.0 && !(t.bandwidth_hz < 0.5 * rate);
+      };
+      const bool bandwidth = too_wide(s.hardware->accelerometer) ||
+                             too_wide(s.hardware->gyroscope) || too_wide(s.hardware->magnetometer);
       const double own = std::max(s.hardware->accelerometer.rate_hz, s.hardware->gyroscope.rate_hz);
       throw Error(fmt::format(
           "sensor {}: {}{}", s.spec.name, e.what(),
