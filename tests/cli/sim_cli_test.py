@@ -198,3 +198,14 @@ def test_options_that_would_be_ignored_are_usage_errors(run, workdir, scene_run)
     assert r.returncode == 2 and "--preset left_wrist_watch is given twice" in r.stderr, r.stderr
     r = run("simulate", scene_run.path, "-o", os.path.join(workdir, "bogus"), "--method", "bogus")
     assert r.returncode == 2 and "simulate --method:" in r.stderr, r.stderr
+
+
+def test_hardware_errors_name_the_file_and_hint_only_at_a_bandwidth(run, workdir):
+    # Found in review: the --rate hint followed every hardware error, the clock's too.
+    walk = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+    prof = os.path.join(workdir, "fast_clock.json")
+    with open(prof, "w") as f:
+        json.dump({"schema": "imukit.profile/1", "clock": {"error_ppm": 20000}}, f)
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--hardware", prof, "-o",
+            os.path.join(workdir, "clk"))
+    assert r.returncode == 1 and "clock.error_ppm is 20000" in r.stderr and "--rate" not in r.stderr, r.stderr
