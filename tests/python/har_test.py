@@ -292,6 +292,7 @@ class Augmentation(unittest.TestCase):
             X0, y0 = aug.batch(0, index, seed=1)
             real = self.W.recording[index] == 0
             self.assertEqual(aug.unfitted_windows, int(real.sum()))
+            self.assertEqual(aug.implausible_windows, 0)
             np.testing.assert_allclose(X0[-int(real.sum()):], self.st(self.W.X[index[real]]), atol=1e-6)
         finally:
             self.R.recordings[0].scene = scene
@@ -313,7 +314,8 @@ class Augmentation(unittest.TestCase):
         index = np.arange(len(W))
         X, _ = aug.batch(0, index, seed=1)
         n1 = int((W.recording == 1).sum())
-        self.assertEqual(aug.unfitted_windows, n1)
+        self.assertEqual(aug.implausible_windows, n1)
+        self.assertEqual(aug.unfitted_windows, 0)
         np.testing.assert_allclose(X[-n1:], self.st(np.zeros_like(W.X[:n1])), atol=1e-6)
         f = experiments.window_fidelity(R, 50, 25)
         self.assertEqual(f["implausible_windows"], n1)

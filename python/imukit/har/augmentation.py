@@ -93,9 +93,10 @@ class PpdaSource:
         self.method = method
         self._augmenters = {}
         self._usable = {}  # (recording, start) -> bool
-        self._identity_policy = imukit.read_policy(policy) if isinstance(policy, str) else policy
-        self._identity = next(k for k in range(len(self._identity_policy))
-                              if self._identity_policy[k].is_identity)
+        # The sub-policy that re-simulates with nothing changed (usable(), window_fidelity).
+        self.identity_policy = imukit.read_policy(policy) if isinstance(policy, str) else policy
+        self.identity = next(k for k in range(len(self.identity_policy))
+                             if self.identity_policy[k].is_identity)
 
     def augmenter(self, i):
         a = self._augmenters.get(i)
@@ -133,27 +134,31 @@ class PpdaSource:
         same motion, so such a window stays real under all of them. Cached per window."""
         recording = np.asarray(recording)
         start = np.asarray(start)
-        out = np.zeros(len(recording), bool)
         todo = {}
         for i, s0 in zip(recording.tolist(), start.tolist()):
             if self.has_scene(i) and (i, s0) not in self._usable:
                 todo.setdefault(i, []).append(s0)
         for i, starts in todo.items():
             starts = np.unique(np.asarray(starts, np.int64))
-            T = self.window
-            sim = np.empty((len(starts), T, self.recordings[i].samples.shape[1]), np.float32)
-            self.apply(self._identity, np.full(len(starts), i), starts, imukit.Rng(0), self._identity_policy, sim)
+            sim = np.empty((len(starts), self.window, self.recordings[i].samples.shape[1]), np.float32)
+            self.resimulate(np.full(len(starts), i), starts, sim)
             for s0, x in zip(starts.tolist(), sim):
-                real = self.recordings[i].samples[s0:s0 + T]
-                ok = True
-                for lo, margin in zip((0, 3), self.PEAK_MARGIN):
-                    cols = np.concatenate([np.arange(lo, lo + 3) + c for c in range(0, real.shape[1], 6)])
-                    peak_real = np.abs(real[:, cols]).max()
-                    ok &= bool(np.abs(x[:, cols]).max() <= self.PEAK_FACTOR * peak_real + margin)
-                self._usable[(i, s0)] = ok
-        for k, (i, s0) in enumerate(zip(recording.tolist(), start.tolist())):
-            out[k] = self.has_scene(i) and self._usable[(i, s0)]
-        return out
+                self._usable[(i, s0)] = self.plausible(self.recordings[i].samples[s0:s0 + self.window], x)
+        return np.array([self.has_scene(i) and self._usable[(i, s0)]
+                         for i, s0 in zip(recording.tolist(), start.tolist())], bool)
+
+    def resimulate(self, recording, start, out):
+        """The windows re-simulated with nothing changed (fitted biases added) into out."""
+        return self.apply(self.identity, recording, start, imukit.Rng(0), self.identity_policy, out)
+
+    def plausible(self, real, sim):
+        """Whether the re-simulation sim (T, C) of the real window (T, C) peaks at most
+        PEAK_FACTOR times the real peak plus PEAK_MARGIN, accelerometer and gyroscope each."""
+        for lo, margin in zip((0, 3), self.PEAK_MARGIN):
+            cols = np.concatenate([np.arange(lo, lo + 3) + c for c in range(0, real.shape[1], 6)])
+            if np.abs(sim[:, cols]).max() > self.PEAK_FACTOR * np.abs(real[:, cols]).max() + margin:
+                return False
+        return True
 
     def scene_starts(self, i, starts):
         """The scene's sample index of each real window start (kept inside the scene)."""
@@ -195,7 +200,9 @@ class BatchAugmenter:
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
-        self.unfitted_windows = 0  # PPDA windows left real: no fitted scene, or not usable()
+        # PPDA windows left real: no fitted scene, or an implausible re-simulation (usable())
+        self.unfitted_windows = 0
+        self.implausible_windows = 0
         self.augmented_windows = 0
         self._specs = {}
 
@@ -234,6 +241,9 @@ class BatchAugmenter:
         t0 = time.perf_counter()
         fitted = self.ppda.usable(rec, w.start[index])
         self.imukit_seconds += time.perf_counter() - t0
+        scene = np.array([self.ppda.has_scene(i) for i in rec.tolist()], bool)
+        self.unfitted_windows += int((~scene).sum())
+        self.implausible_windows += int((scene & ~fitted).sum())
         index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
         n = int(fitted.sum())
         X = np.empty((len(index),) + w.X.shape[1:], np.float32)
@@ -241,6 +251,5 @@ class BatchAugmenter:
         self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n])
         self.imukit_seconds += time.perf_counter() - t0
         X[n:] = w.X[index[n:]]
-        self.unfitted_windows += len(index) - n
         self.augmented_windows += n
         return self.standardize(X, out=X), w.y[index]

@@ -161,6 +161,7 @@ def run_one(run):
     result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)
     result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
     result["unfitted_windows"] = augmenter.unfitted_windows
+    result["implausible_windows"] = augmenter.implausible_windows
     return dict(run, **result)
 
 
@@ -346,10 +347,10 @@ def window_fidelity(recordings, window, stride, policy="paper"):
     Wf = W.subset(fitted)
     X = np.empty_like(Wf.X)
     source = augmentation.PpdaSource(recordings, window, policy=policy)
-    source.apply(0, Wf.recording, Wf.start, 1, imukit.read_policy(policy), X)
+    source.resimulate(Wf.recording, Wf.start, X)
     # Figures over every fitted window, the implausible ones (which training keeps real) included.
     out = {"windows": int(len(W)), "fitted_windows": int(fitted.sum()),
-           "implausible_windows": int((~source.usable(Wf.recording, Wf.start)).sum())}
+           "implausible_windows": sum(not source.plausible(r, x) for r, x in zip(Wf.X, X))}
     for name, lo in (("accel", 0), ("gyro", 3)):
         real, sim = Wf.X[..., lo:lo + 3], X[..., lo:lo + 3]
         rc = real - real.mean(axis=1, keepdims=True)
