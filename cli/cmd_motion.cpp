@@ -110,7 +110,9 @@ int run_motion(const MotionArgs& a) {
     sim::write_quaternion_csv(a.output, r.body, r.motion);
   }
   if (!a.body_json.empty())
-    write_text_file(a.body_json, nlohmann::json::parse(sim::body_json(r.body)).dump(2) + "\n");
+    write_text_file(
+        a.body_json,
+        nlohmann::json::parse(sim::body_json(r.body, /*with_schema=*/true)).dump(2) + "\n");
   if (!a.report.empty()) write_text_file(a.report, report_of(r, a).dump(2) + "\n");
   if (!a.quiet) {
     for (const std::string& w : r.warnings) fmt::print(stderr, "imukit: warning: {}\n", w);

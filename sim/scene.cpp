@@ -193,9 +193,12 @@ void parse_body(const json& root, const std::string& source, bool body_from_moti
     if (body_from_motion)
       fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
     const json& b = root["body"];
-    only_keys(b, {"default_humanoid", "joints"}, source, "body");
+    only_keys(b, {"schema", "default_humanoid", "joints"}, source, "body");
     if (b.contains("default_humanoid") == b.contains("joints"))
       fail(source, "body", "expected one of default_humanoid or joints");
+    // A body file of `imukit motion --body-json` pasted in whole keeps its schema.
+    if (b.contains("schema") && b["schema"] != std::string(kBodySchema))
+      fail(source, "body.schema", "expected \"" + std::string(kBodySchema) + "\" or no schema");
   }
   if (root.contains("body") && root["body"].contains("joints")) {
     scene.body = body_of_joints(root["body"]["joints"], source);
@@ -425,7 +428,7 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
 }
 }  // namespace
 
-std::string body_json(const Body& body) {
+std::string body_json(const Body& body, bool with_schema) {
   json joints = json::array();
   for (const Joint& j : body.joints()) {
     json o;
@@ -437,7 +440,9 @@ std::string body_json(const Body& body) {
     if (j.end_offset) o["end_offset_m"] = {j.end_offset->x(), j.end_offset->y(), j.end_offset->z()};
     joints.push_back(o);
   }
-  return json{{"joints", joints}}.dump();
+  json out{{"joints", joints}};
+  if (with_schema) out["schema"] = kBodySchema;
+  return out.dump();
 }
 
 SceneSensor preset_sensor(std::string_view preset, const Body& body, std::string name) {

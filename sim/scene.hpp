@@ -25,6 +25,9 @@
 namespace imukit::sim {
 
 inline constexpr std::string_view kSceneSchema = "imukit.scene/1";
+// A body written on its own (`imukit motion --body-json`): a scene's "body" object that also
+// names its schema, so the file can be pasted into a scene as it is.
+inline constexpr std::string_view kBodySchema = "imukit.body/1";
 
 struct SceneSensor {
   SensorSpec spec;
@@ -60,8 +63,9 @@ double scene_rate_hz(const Scene& scene);
 int64_t scene_sample_count(const Scene& scene);
 
 // The body as a scene's "body" object, {"joints": [{"name", "parent", "offset_m",
-// "end_offset_m"}]} (docs/formats.md), as JSON text that parse_scene reads back to the same body.
-std::string body_json(const Body& body);
+// "end_offset_m"}]} (docs/formats.md), as JSON text that parse_scene reads back to the same body;
+// with_schema adds "schema": kBodySchema (a file of its own).
+std::string body_json(const Body& body, bool with_schema = false);
 
 // Streams the scene: for each chunk and sensor, sink(sensor, measured, truth) where truth is
 // the noiseless block (null unless ground_truth) and measured the block after the sensor's

@@ -120,7 +120,12 @@ def test_npy_keypoints_to_quaternion_csv(keypoints, csv_run):
 
 def test_quaternion_csv_and_body_simulate_as_a_scene(run, keypoints, csv_run):
     k = keypoints
-    scene = {"schema": "imukit.scene/1", "body": json.load(open(k.body)),
+    body = json.load(open(k.body))
+    with open(k.qcsv) as f:
+        joints = f.readline().count("_qw")
+    assert body.get("schema") == "imukit.body/1" and len(body.get("joints", [])) == joints, \
+        f"the body file names its schema and holds the motion's {joints} joints"
+    scene = {"schema": "imukit.scene/1", "body": body,
              "motion": {"quaternion_csv": "m.csv"}, "simulation": {"method": "spline", "rate_hz": 50},
              "sensors": [{"preset": "right_wrist_watch"}]}
     with open(os.path.join(k.tmp, "scene.json"), "w") as f:

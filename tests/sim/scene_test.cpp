@@ -71,6 +71,29 @@ TEST(Scene, ErrorsNameThePathOrLine) {
   EXPECT_NE(message("[6E666]").find("s.json"), std::string::npos);
 }
 
+TEST(Scene, ABodyFileWithItsSchemaPastesIntoASceneAndReadsBackTheSameBody) {
+  const Scene original = parse_scene(kScene, "scene.json", "");
+  const std::string body = body_json(original.body, /*with_schema=*/true);
+  ASSERT_NE(body.find("\"schema\":\"imukit.body/1\""), std::string::npos) << body;
+  std::string text = kScene;
+  const std::string humanoid = R"({"default_humanoid": {"height_m": 1.8}})";
+  text.replace(text.find(humanoid), humanoid.size(), body);
+  const Scene pasted = parse_scene(text, "scene.json", "");
+  ASSERT_EQ(pasted.body.size(), original.body.size());
+  for (std::size_t j = 0; j < pasted.body.size(); ++j) {
+    EXPECT_EQ(pasted.body.joint(j).name, original.body.joint(j).name);
+    EXPECT_EQ(pasted.body.joint(j).parent, original.body.joint(j).parent);
+    EXPECT_EQ(pasted.body.joint(j).offset_parent_joint, original.body.joint(j).offset_parent_joint);
+  }
+  text.replace(text.find("imukit.body/1"), 13, "imukit.body/9");
+  try {
+    parse_scene(text, "scene.json", "");
+    ADD_FAILURE() << "a body of another schema was read";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("body.schema"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Scene, RunIsDeterministicAndHardwareAddsTheStatedNoise) {
   Scene a = parse_scene(kScene, "scene.json", "");
   Scene b = parse_scene(kScene, "scene.json", "");
