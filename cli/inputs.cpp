@@ -146,27 +146,29 @@ void refuse_column_options(const InputArg& input) {
   }
 }
 
+// An MCAP recording, its options checked by the caller.
+Recording read_mcap_recording(const InputArg& input) {
+  capture::RecordingRead read = capture::read_recording_mcap(input.path);
+  if (read.recording.streams.empty()) {
+    // An empty file, or one cut before its first complete chunk: nothing to work on.
+    std::string why = read.summary.truncation_note;
+    if (why.rfind(input.path + ": ", 0) == 0) why.erase(0, input.path.size() + 2);
+    throw Error(fmt::format("{}: holds no IMU samples{}", input.path,
+                            read.summary.complete ? "" : " (" + why + ")"));
+  }
+  if (!read.summary.complete) {
+    fmt::print(stderr, "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
+               read.summary.truncation_note);
+  }
+  return std::move(read.recording);
+}
+
 }  // namespace
 
 Recording load_recording(const InputArg& input) {
   (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
   if (input.columns.empty()) refuse_column_options(input);
-  if (input.columns.empty() && is_mcap(input.path)) {
-    capture::RecordingRead read = capture::read_recording_mcap(input.path);
-    if (read.recording.streams.empty()) {
-      // An empty file, or one cut before its first complete chunk: nothing to work on.
-      std::string why = read.summary.truncation_note;
-      if (why.rfind(input.path + ": ", 0) == 0) why.erase(0, input.path.size() + 2);
-      throw Error(fmt::format("{}: holds no IMU samples{}", input.path,
-                              read.summary.complete ? "" : " (" + why + ")"));
-    }
-    if (!read.summary.complete) {
-      fmt::print(stderr,
-                 "imukit: note: {} (imukit convert --recover rewrites it as a valid file)\n",
-                 read.summary.truncation_note);
-    }
-    return std::move(read.recording);
-  }
+  if (input.columns.empty() && is_mcap(input.path)) return read_mcap_recording(input);
   Recording r;
   r.streams[std::filesystem::path(input.path).stem().string()] = load_imu_series(input);
   return r;
@@ -176,7 +178,7 @@ ImuSeries load_imu_series(const InputArg& input, Recording* context) {
   (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
   if (input.columns.empty()) refuse_column_options(input);
   if (input.columns.empty() && is_mcap(input.path)) {
-    Recording r = load_recording(input);
+    Recording r = read_mcap_recording(input);
     if (r.streams.size() != 1) {
       throw Error(fmt::format("{}: holds {} IMU streams; this command reads one", input.path,
                               r.streams.size()));
