@@ -906,6 +906,8 @@ struct Cleaned {
   std::vector<double> t;       // s
   Eigen::Matrix3Xd p;          // input frame, column f * J + j
   std::vector<uint8_t> valid;  // f * J + j
+  // Jumps (flag_jumps): a keypoint seen at frame first, next seen at frame second.
+  std::vector<std::pair<int64_t, int64_t>> jump_steps;
 
   std::size_t idx(int64_t f, std::size_t j) const { return static_cast<std::size_t>(f) * J + j; }
   Eigen::Index col(int64_t f, std::size_t j) const { return static_cast<Eigen::Index>(idx(f, j)); }
@@ -1148,30 +1150,45 @@ void drop_bone_outliers(Cleaned& c, const KeypointTopology& topo, const Keypoint
 // Step 2: jumps, a keypoint that steps faster than jump_speed_mps between two frames, and more
 // than three times as fast as in the steps before and after (a tracking failure snapping back,
 // not a fast swing). Kept (the data may be right), but named and left out of identification.
-void flag_jumps(const Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
+// A keypoint missing for some frames is measured across them, from the frame before to the
+// frame it is back in: a jump hidden by the gap (found in review: a wrist back 0.38 m away
+// after its dropped frames) is one too. c.jump_steps gets each jump's (from, to) frames.
+void flag_jumps(Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
   const int64_t F = c.F;
   const std::size_t J = c.J;
-  std::vector<int64_t> jumps;
-  const auto speed = [&](int64_t f, std::size_t j) {  // step f-1 -> f, 0 when unknown
-    if (f < 1 || f >= F || !c.valid[c.idx(f, j)] || !c.valid[c.idx(f - 1, j)]) return 0.0;
-    return (c.p.col(c.col(f, j)) - c.p.col(c.col(f - 1, j))).norm() /
-           (c.t[static_cast<std::size_t>(f)] - c.t[static_cast<std::size_t>(f - 1)]);
+  const auto seen = [&](int64_t f, std::size_t j) { return c.valid[c.idx(f, j)] != 0; };
+  const auto speed = [&](int64_t a, int64_t b, std::size_t j) {  // frame a -> b, 0 when unknown
+    if (a < 0 || b >= F || !seen(a, j) || !seen(b, j)) return 0.0;
+    return (c.p.col(c.col(b, j)) - c.p.col(c.col(a, j))).norm() /
+           (c.t[static_cast<std::size_t>(b)] - c.t[static_cast<std::size_t>(a)]);
   };
-  for (int64_t f = 1; f < F; ++f) {
-    for (std::size_t j = 0; j < J; ++j) {
-      const double v = speed(f, j);
-      if (v > opt.jump_speed_mps && v > 3.0 * std::max(speed(f - 1, j), speed(f + 1, j))) {
-        jumps.push_back(f);
-        break;
-      }
+  std::vector<std::pair<int64_t, int64_t>> steps;
+  for (std::size_t j = 0; j < J; ++j) {
+    for (int64_t a = 0; a + 1 < F; ++a) {
+      if (!seen(a, j)) continue;
+      int64_t b = a + 1;
+      while (b < F && !seen(b, j)) ++b;
+      if (b == F) break;
+      const double v = speed(a, b, j);
+      if (v > opt.jump_speed_mps && v > 3.0 * std::max(speed(a - 1, a, j), speed(b, b + 1, j)))
+        steps.emplace_back(a, b);
+      a = b - 1;
     }
   }
+  std::sort(steps.begin(), steps.end());
+  steps.erase(std::unique(steps.begin(), steps.end()), steps.end());
+  std::vector<int64_t> jumps;
+  for (const auto& [a, b] : steps) jumps.push_back(b);
+  std::sort(jumps.begin(), jumps.end());
+  jumps.erase(std::unique(jumps.begin(), jumps.end()), jumps.end());
+  c.jump_steps = std::move(steps);
   out.jump_frames = jumps;
   if (!jumps.empty())
     out.warnings.push_back("keypoints jump faster than " +
                            std::to_string(opt.jump_speed_mps).substr(0, 4) +
-                           " m/s (a tracking failure?) into input frames " + frame_list(jumps) +
-                           ": kept, and listed in invalid_motion");
+                           " m/s (a tracking failure?), from the frame before or across missing "
+                           "frames, into input frames " +
+                           frame_list(jumps) + ": kept, and listed in invalid_motion");
 }
 
 // The number of input frames flagged for any reason.
@@ -1391,11 +1408,12 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
     }
     f = g + 1;
   }
-  // Jumps, widened by the smoothing's reach (half a period of the cut-off) on each side.
+  // Jumps (with the frames they cross), widened by the smoothing's reach (half a period of the
+  // cut-off) on each side.
   const double reach = 0.5 / opt.cutoff_hz;
-  for (const int64_t f : out.jump_frames) {
-    const double b = std::max(0.0, c.t[static_cast<std::size_t>(f - 1)] - c.t.front() - reach);
-    const double e = std::min(duration, c.t[static_cast<std::size_t>(f)] - c.t.front() + reach);
+  for (const auto& [from, to] : c.jump_steps) {
+    const double b = std::max(0.0, c.t[static_cast<std::size_t>(from)] - c.t.front() - reach);
+    const double e = std::min(duration, c.t[static_cast<std::size_t>(to)] - c.t.front() + reach);
     out.invalid_motion.emplace_back(from_seconds(b), from_seconds(e));
   }
   merge_stretches(out.invalid_motion);

@@ -145,9 +145,10 @@ struct KeypointMotionOptions {
   // A bone longer or shorter than its median by more than this fraction (and 5 cm) drops the
   // keypoint of its two that jumped in that frame (0: never drop).
   double max_bone_deviation = 0.3;
-  // A keypoint stepping faster than this between two frames, and three times faster than in
-  // the neighbouring steps, is a jump: named in a warning and its stretch (widened by
-  // 0.5 / cutoff_hz on each side) put in invalid_motion; the data are kept (0: no check).
+  // A keypoint stepping faster than this between two frames it is seen in (consecutive, or
+  // across the frames it is missing in), and three times faster than in the neighbouring
+  // steps, is a jump: named in a warning and its stretch (widened by 0.5 / cutoff_hz on each
+  // side) put in invalid_motion; the data are kept (0: no check).
   double jump_speed_mps = 4.0;
   // Secondary directions closer than these angles to the bone carry no twist information
   // (weight 0) and beyond the second full weight; in between a smooth ramp.

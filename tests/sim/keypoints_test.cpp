@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "imukit/core/error.hpp"
@@ -348,6 +349,46 @@ TEST(MotionFromKeypoints, NamesJumpsAndListsTheirStretchesForIdentification) {
   // A fast but smooth motion (the clean data) has none.
   o.jump_speed_mps = 0.5;
   EXPECT_TRUE(motion_from_keypoints(keypoints_of(body, truth, topo), topo, o).jump_frames.empty());
+}
+
+TEST(MotionFromKeypoints, AJumpAcrossMissingFramesIsAJumpWidenedFromTheLastFrameSeen) {
+  // Found in review (UTD-MHAD a14_s1_t1): the wrist's frames dropped, then back 0.38 m away;
+  // the step was measured only between consecutive frames, so the gap hid it.
+  const Body body = kinect_body();
+  const Motion truth = hinge_motion(body, 20.0, 121);
+  const KeypointTopology topo = keypoint_topology("kinect_v1_20");
+  Keypoints k = keypoints_of(body, truth, topo);
+  const auto J = static_cast<Eigen::Index>(topo.keypoints.size());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (int f = 49; f < 58; ++f) {
+    for (const char* n : {"right_elbow", "right_wrist", "right_hand"}) {
+      auto x = k.positions.col(f * J + topo.keypoint_index(n));
+      if (f == 49)
+        x.setConstant(nan);  // lost in frame 49
+      else
+        x += Vector3d(0.6, 0, 0);  // then stuck 60 cm off until frame 57
+    }
+  }
+  KeypointMotionOptions o;
+  o.max_bone_deviation = 0.0;
+  o.cutoff_hz = 4.0;
+  const KeypointMotion r = motion_from_keypoints(k, topo, o);
+  EXPECT_EQ(r.jump_frames, (std::vector<int64_t>{50, 58}));
+  // 0.6 m from frame 48 to 50 (0.1 s: 6 m/s, where the arm moves at well under 1 m/s): the
+  // jump into 50 spans frames 48-50, widened by 0.5 / 4 Hz on each side.
+  ASSERT_EQ(r.invalid_motion.size(), 2u);
+  EXPECT_EQ(r.invalid_motion[0],
+            std::make_pair(from_seconds(48 / 20.0 - 0.125), from_seconds(50 / 20.0 + 0.125)));
+  EXPECT_EQ(r.invalid_motion[1],
+            std::make_pair(from_seconds(57 / 20.0 - 0.125), from_seconds(58 / 20.0 + 0.125)));
+  // A gap the keypoint crosses at its own pace is filled, not a jump: only frames 47-49 listed.
+  Keypoints clean = keypoints_of(body, truth, topo);
+  for (int f = 47; f < 50; ++f)
+    clean.positions.col(f * J + topo.keypoint_index("right_wrist")).setConstant(nan);
+  const KeypointMotion c = motion_from_keypoints(clean, topo, o);
+  EXPECT_TRUE(c.jump_frames.empty());
+  ASSERT_EQ(c.invalid_motion.size(), 1u);
+  EXPECT_EQ(c.invalid_motion[0], std::make_pair(from_seconds(47 / 20.0), from_seconds(49 / 20.0)));
 }
 
 TEST(MotionFromKeypoints, AStillPoseGivesAStillMotionAndDegenerateInputNoNaN) {
