@@ -100,10 +100,26 @@ bool run_gnuplot(const std::filesystem::path& dir, const std::string& name,
 
 namespace {
 
+constexpr double kBadNoiseFitChi2PerDof = 100.0;
+
 void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& tn) {
-  fmt::print("{} ({} samples, tau0 {:.6g} s measured from the time stamps{})\n", name,
-             tn.allan.sampling.samples, tn.allan.tau0_s,
-             tn.allan.uniform ? "" : "; NOT uniformly sampled: jitter above 1 % of the period");
+  const SamplingStats& st = tn.allan.sampling;
+  fmt::print("{} ({} samples, tau0 {:.6g} s measured from the time stamps{})\n", name, st.samples,
+             tn.allan.tau0_s,
+             st.gaps > 0 || tn.allan.uniform
+                 ? ""
+                 : "; NOT uniformly sampled: jitter above 1 % of the period");
+  if (st.gaps > 0) {
+    // Not jitter: samples are missing, and the curve treats those either side as neighbours.
+    fmt::print(
+        "  warning: {} gap(s) in the time stamps (periods above 1.5x the median {:.6g} s; {:.4g} s "
+        "in all, {:.2g} % of the span, the longest {:.4g} s): tau0 is the mean period between "
+        "them; the samples either side of a gap are taken as neighbours, so a long gap biases "
+        "the long-tau terms (B, K); a record without gaps is better\n",
+        st.gaps, st.median_period_s, to_seconds(st.gap_duration),
+        100.0 * static_cast<double>(st.gap_duration) / static_cast<double>(st.duration),
+        st.max_period_s);
+  }
   fmt::print(
       "  axis  fit: N [{u}/sqrt(Hz)]      B [{u}]              K [{u}/s/sqrt(Hz)]   chi2/dof | "
       "slopes: N@1s      B=min/0.664   K@3s\n",
@@ -120,6 +136,7 @@ void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& 
     const auto& s = tn.axes[size_t(ax)].slopes;
     auto pm = [](double v, double sd, bool active, double upper) {
       if (active) return fmt::format("{:.4g} +- {:.2g}", v, sd);
+      if (!std::isfinite(upper)) return std::string("0 (undetermined)");
       return upper > 0 ? fmt::format("0 (< {:.3g})", upper) : std::string("0 (not seen)");
     };
     auto rd = [](const hwmodel::SlopeReading& r) {
@@ -130,6 +147,16 @@ void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& 
                pm(f.value[2], f.sigma[2], f.active[2], f.upper[2]),
                pm(f.value[3], f.sigma[3], f.active[3], f.upper[3]), f.chi2_per_dof, rd(s.white),
                rd(s.bias_instability), rd(s.random_walk));
+    if (!f.note.empty()) fmt::print("        note: {}\n", f.note);
+    // Real sensors fit with chi2/dof of about 1 to 30 (docs/validation.md); a record with
+    // motion in it, 1e4 and more (found in review: a multi-position session gave a profile).
+    if (f.chi2_per_dof > kBadNoiseFitChi2PerDof) {
+      fmt::print(
+          "        warning: the noise model does not describe this curve (chi2/dof {:.3g}): was "
+          "the device still? Motion, vibration or a temperature drift is not noise; these "
+          "numbers are no noise model\n",
+          f.chi2_per_dof);
+    }
   }
 }
 
@@ -214,26 +241,21 @@ void print_calibration(const char* name, const hwmodel::TriadCalibration& c, boo
 
 // Why a calibration found too few poses, and what to do. Its stillness threshold is a multiple
 // of the initial period's variance, so an initial period that was not still makes the device
-// look still while it turns: the usual cause. A shorter initial period that finds enough poses
-// names the fix.
+// look still while it turns: the usual cause. A shorter initial period is named only when the
+// accelerometer then calibrates (found in review: halving suggestions that never helped).
 std::string too_few_poses_hint(const ImuSeries& s, const hwmodel::CalibrationOptions& opt) {
   for (double init = opt.detector.init_static_s / 2; init >= 1.0; init /= 2) {
-    hwmodel::StaticDetectorOptions d = opt.detector;
-    d.init_static_s = init;
-    for (int k = 1; k <= opt.max_threshold_factor; ++k) {
-      d.threshold_factor = double(k);
-      std::size_t found = 0;
-      try {
-        found = hwmodel::detect_static_intervals(s.t, s.accel, d).size();
-      } catch (const Error&) {
-        break;
-      }
-      if (int(found) >= opt.min_poses) {
-        return fmt::format(
-            "the device was not still for all of them (--init-static {:g} finds {} poses); the "
-            "initial static period sets the stillness threshold",
-            init, found);
-      }
+    hwmodel::CalibrationOptions shorter = opt;
+    shorter.detector.init_static_s = init;
+    shorter.calibrate_gyro = false;
+    try {
+      const hwmodel::CalibrationResult r =
+          hwmodel::calibrate(s.t, s.accel, Eigen::Matrix3Xd(3, 0), shorter);
+      return fmt::format(
+          "the device was not still for all of them (with --init-static {:g} the accelerometer "
+          "calibrates from {} poses); the initial static period sets the stillness threshold",
+          init, r.poses.size());
+    } catch (const Error&) {
     }
   }
   return fmt::format(
@@ -248,10 +270,15 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
                                      const CharacterizeOptions& options) {
   if (runs.empty()) throw Error("characterize: no recordings to characterize");
   CharacterizeResult r;
-  // Noise from the longest recording; turn-on bias across all of them.
-  const auto longest = std::max_element(
-      runs.begin(), runs.end(),
-      [](const LoadedRun& a, const LoadedRun& b) { return a.series.size() < b.series.size(); });
+  // Noise from the longest recording (in time: the long-tau terms need hours, and a 2 h record
+  // at 1 Hz has fewer samples than 80 s at 100 Hz); turn-on bias across all of them.
+  const auto span_of = [](const ImuSeries& s) {
+    return s.empty() ? TimeNs{0} : s.t.back() - s.t.front();
+  };
+  const auto longest =
+      std::max_element(runs.begin(), runs.end(), [&](const LoadedRun& a, const LoadedRun& b) {
+        return span_of(a.series) < span_of(b.series);
+      });
   const ImuSeries& s = longest->series;
   r.noise_run = longest->name;
   fmt::print("noise from {} ({} recordings given)\n", longest->name, runs.size());
@@ -336,8 +363,7 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
   opt.detector.init_static_s = options.init_static_s;
   try {
     out.fit = hwmodel::calibrate(s.t, s.accel, out.gyro ? s.gyro : Eigen::Matrix3Xd(3, 0), opt);
-  } catch (const Error& e) {
-    if (std::string(e.what()).find("static poses") == std::string::npos) throw;
+  } catch (const hwmodel::TooFewPosesError& e) {
     throw Error(fmt::format("{} with the first {:g} s as the initial static period; {}", e.what(),
                             options.init_static_s, too_few_poses_hint(s, opt)));
   }

@@ -82,7 +82,11 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t) {
     while (below + count[v] <= n / 2) below += count[v++];
     median = lo + static_cast<TimeNs>(v);
     for (std::size_t u = 0; u < range; ++u) {
-      if (2 * (lo + static_cast<TimeNs>(u)) > 3 * median) s.gaps += count[u];
+      const TimeNs p = lo + static_cast<TimeNs>(u);
+      if (2 * p > 3 * median) {
+        s.gaps += count[u];
+        s.gap_duration += p * static_cast<TimeNs>(count[u]);
+      }
     }
   } else {
     std::vector<TimeNs> periods(n);
@@ -91,10 +95,13 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t) {
                      periods.end());
     median = periods[n / 2];
     for (TimeNs p : periods) {
-      if (2 * p > 3 * median) ++s.gaps;
+      if (2 * p > 3 * median) ++s.gaps, s.gap_duration += p;
     }
   }
   s.median_period_s = to_seconds(median);
+  s.mean_period_between_gaps_s =
+      s.gaps < n ? to_seconds(s.duration - s.gap_duration) / static_cast<double>(n - s.gaps)
+                 : s.mean_period_s;
   return s;
 }
 

@@ -21,7 +21,11 @@ struct SamplingStats {
   double max_period_s = 0.0;
   double period_std_s = 0.0;  // standard deviation of the periods (jitter)
   std::size_t gaps = 0;       // periods longer than 1.5 median periods
-  std::size_t repeated = 0;   // periods of zero (equal time stamps)
+  TimeNs gap_duration = 0;    // the sum of those periods
+  // The mean of the other periods: the sampling period of a stream with samples missing (the
+  // mean over the whole span counts each gap as periods that have no sample).
+  double mean_period_between_gaps_s = 0.0;
+  std::size_t repeated = 0;  // periods of zero (equal time stamps)
 
   // True when the periods differ from the median by more than `tolerance` (relative) anywhere:
   // the stream is not uniformly sampled, and methods that assume it should say so.

@@ -74,7 +74,9 @@ struct DeviationCurve {
 };
 
 struct AllanResult {
-  SamplingStats sampling;  // from the time stamps; tau0 = sampling.mean_period_s
+  // From the time stamps; tau0 = sampling.mean_period_s, or with gaps (samples missing)
+  // sampling.mean_period_between_gaps_s: the samples either side of a gap count as neighbours.
+  SamplingStats sampling;
   double tau0_s = 0.0;
   bool uniform = true;  // false: time stamps jitter by more than 1 % of the median period
   std::vector<int64_t> factors;

@@ -49,17 +49,30 @@ struct AccelResidual {
   double g2_;
 };
 
+// Parameters near 1 and 0 whatever the input's units: the raw reading x enters as
+// unit * (x - offset) with the starting scale and bias fixed in it, and the fit's scale factors
+// `s` multiply that (start 1) and its biases `b` are in SI units (start 0). Fitted on raw counts
+// directly (found in review: 32-bit offset-binary counts near 3e9 with scales near 2e-9), the
+// solver's relative step test stopped at the starting guess: 1-3 % scale errors, exit 0.
 struct GyroResidual {
   GyroResidual(const Eigen::Matrix3Xd* gyro, std::vector<double> dt, int64_t begin,
-               const Eigen::Vector3d& u_from, const Eigen::Vector3d& u_to)
-      : gyro_(gyro), dt_(std::move(dt)), begin_(begin), u_from_(u_from), u_to_(u_to) {}
+               const Eigen::Vector3d& u_from, const Eigen::Vector3d& u_to,
+               const Eigen::Vector3d& offset, const Eigen::Vector3d& unit)
+      : gyro_(gyro),
+        dt_(std::move(dt)),
+        begin_(begin),
+        u_from_(u_from),
+        u_to_(u_to),
+        offset_(offset),
+        unit_(unit) {}
   template <typename T>
   bool operator()(const T* m, const T* s, const T* b, T* r) const {
     // q_from_to: orientation of the sensor at the end relative to the start, integrated
     // sample by sample with the exact exponential of each (constant) rate step.
     T q[4] = {T(1), T(0), T(0), T(0)};
     for (size_t k = 0; k < dt_.size(); ++k) {
-      const auto col = gyro_->col(begin_ + static_cast<int64_t>(k));
+      const Eigen::Vector3d col =
+          unit_.cwiseProduct(gyro_->col(begin_ + static_cast<int64_t>(k)) - offset_);
       const T x[3] = {T(col.x()), T(col.y()), T(col.z())};
       T w[3];
       gyro_model(m, s, b, x, w);
@@ -81,6 +94,7 @@ struct GyroResidual {
   std::vector<double> dt_;
   int64_t begin_;
   Eigen::Vector3d u_from_, u_to_;
+  Eigen::Vector3d offset_, unit_;
 };
 
 // Rank of a problem's Jacobian at the current parameters. Each column is scaled by the size of
@@ -312,13 +326,16 @@ CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen
   CalibrationResult best;
   bool have = false;
   std::string last_error = "no threshold factor gave enough static poses";
+  bool too_few = true;  // every factor failed for want of poses
   for (int k = 1; k <= options.max_threshold_factor; ++k) {
     StaticDetectorOptions d = options.detector;
     d.threshold_factor = static_cast<double>(k);
     const auto iv = detect_static_intervals(t, accel, d);
     if (static_cast<int>(iv.size()) < options.min_poses) {
-      last_error = "only " + std::to_string(iv.size()) + " static poses found (at least " +
-                   std::to_string(options.min_poses) + " are needed)";
+      if (too_few) {
+        last_error = "only " + std::to_string(iv.size()) + " static poses found (at least " +
+                     std::to_string(options.min_poses) + " are needed)";
+      }
       continue;
     }
     const auto means = pose_means(accel, iv);
@@ -326,7 +343,9 @@ CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen
     try {
       c = fit_accelerometer(means, options.gravity, options.max_iterations);
     } catch (const Error& e) {
+      // A fit that failed with enough poses says more than a factor that found too few.
       last_error = e.what();
+      too_few = false;
       continue;
     }
     CalibrationResult r;
@@ -336,6 +355,7 @@ CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen
     norm_errors(c, means, options.gravity, r.accel_norm_error, r.accel_rms, r.accel_max);
     if (!have || r.accel_rms < best.accel_rms) best = std::move(r), have = true;
   }
+  if (!have && too_few) throw TooFewPosesError("calibration: " + last_error);
   if (!have) throw Error("calibration: " + last_error);
   return best;
 }
@@ -387,13 +407,15 @@ void fit_gyroscope(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
                    const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options,
                    CalibrationResult& best) {
   const auto& iv = best.poses;
-  // Bias from the first static pose (the initial static period), then refined with the rest.
-  double m[6] = {0, 0, 0, 0, 0, 0}, s[3] = {1, 1, 1}, b[3];
+  // Bias from the first static pose (the initial static period), then refined with the rest;
+  // the starting scale from the rotation angles. Both are fixed in the residual (GyroResidual),
+  // the fitted s and b are relative to them.
+  double m[6] = {0, 0, 0, 0, 0, 0}, s[3] = {1, 1, 1}, b[3] = {0, 0, 0};
   const Eigen::Vector3d b0 = interval_mean(gyro, iv.front());
-  for (int a = 0; a < 3; ++a) b[a] = b0(a);
   ceres::Problem problem;
   std::vector<Eigen::Vector3d> dirs;
   for (const auto& i : iv) dirs.push_back(best.accel.apply(interval_mean(accel, i)).normalized());
+  const Eigen::Vector3d unit = Eigen::Vector3d::Constant(initial_gyro_scale(t, gyro, iv, dirs, b0));
   for (size_t p = 0; p + 1 < iv.size(); ++p) {
     // From the middle of pose p to the middle of pose p+1: the static parts at both ends carry
     // the bias into the fit and cost nothing in rotation.
@@ -403,11 +425,11 @@ void fit_gyroscope(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
       dt.push_back(to_seconds(t[static_cast<size_t>(q + 1)] - t[static_cast<size_t>(q)]));
     problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<GyroResidual, 3, 6, 3, 3>(
-            new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1])),
+            new GyroResidual(&gyro, std::move(dt), from, dirs[p], dirs[p + 1], b0, unit)),
         nullptr, m, s, b);
   }
-  const double scale = initial_gyro_scale(t, gyro, iv, dirs, b0);
-  for (double& v : s) v = scale;
+  // The biases are in SI units here: one unit is the meaningful change (reference 1 = 1 / s
+  // at s = 1).
   auto refs = [&] { return column_references(6, s); };
   int cols = 0;
   const int rank_before = jacobian_rank(problem, refs(), &cols);
@@ -429,8 +451,11 @@ void fit_gyroscope(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
     throw Error("gyroscope calibration did not converge: " + summary.BriefReport());
   }
   best.gyro.T << 1, m[0], m[1], m[2], 1, m[3], m[4], m[5], 1;
-  best.gyro.scale = Eigen::Vector3d(s[0], s[1], s[2]);
-  best.gyro.bias = Eigen::Vector3d(b[0], b[1], b[2]);
+  // s_fit (unit (x - b0) - b_fit) = (s_fit unit) (x - (b0 + b_fit / unit)), per axis.
+  for (int a = 0; a < 3; ++a) {
+    best.gyro.scale(a) = unit(a) * s[a];
+    best.gyro.bias(a) = b0(a) + b[a] / unit(a);
+  }
   gyro_residual_angles(problem, m, s, b, best);
 }
 

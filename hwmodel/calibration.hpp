@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "imukit/core/error.hpp"
 #include "imukit/core/imu_series.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/units.hpp"
@@ -104,8 +105,15 @@ struct CalibrationResult {
   double seconds = 0.0;  // wall time of the optimisation
 };
 
-// accel and gyro share the time stamps t (raw counts or SI). Throws imukit::Error for too few
-// poses, rank deficiency, or a non-converging fit.
+// calibrate()'s error when no stillness threshold found min_poses static poses (not for the
+// other failures: a caller may suggest another initial static period for this one only).
+class TooFewPosesError : public Error {
+ public:
+  using Error::Error;
+};
+
+// accel and gyro share the time stamps t (raw counts or SI). Throws TooFewPosesError for too
+// few poses, imukit::Error for rank deficiency or a non-converging fit.
 CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
                             const Eigen::Matrix3Xd& gyro, const CalibrationOptions& options);
 

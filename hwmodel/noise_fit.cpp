@@ -4,6 +4,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "imukit/core/error.hpp"
@@ -287,14 +288,32 @@ Eigen::MatrixXd active_covariance(const Eigen::MatrixXd& Aw, const std::vector<E
                                   double inflation) {
   Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(Aw.cols(), Aw.cols());
   if (act.empty()) return cov;
+  // Columns scaled to unit norm, so the rank test sees how far apart the terms' shapes are and
+  // not their magnitudes (Q and R differ by orders).
   Eigen::MatrixXd Aa(Aw.rows(), static_cast<Eigen::Index>(act.size()));
-  for (size_t k = 0; k < act.size(); ++k) Aa.col(static_cast<Eigen::Index>(k)) = Aw.col(act[k]);
-  const Eigen::MatrixXd info = Aa.transpose() * Aa;
-  const Eigen::MatrixXd inv =
-      info.ldlt().solve(Eigen::MatrixXd::Identity(info.rows(), info.cols()));
+  Eigen::VectorXd norm(Aa.cols());
+  for (size_t k = 0; k < act.size(); ++k) {
+    const auto c = static_cast<Eigen::Index>(k);
+    Aa.col(c) = Aw.col(act[k]);
+    norm(c) = Aa.col(c).norm();
+    if (norm(c) > 0.0) Aa.col(c) /= norm(c);
+  }
+  const Eigen::MatrixXd info = Aa.transpose() * Aa;  // unit diagonal
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(info);
+  // More terms than points, or terms the curve cannot tell apart (found in review: a 60 s
+  // record gave a singular system whose inverse claimed B at 5 sigma): their variances are
+  // unbounded, so no interval excludes 0.
+  if (norm.minCoeff() <= 0.0 || eig.eigenvalues().minCoeff() <= 1e-12) {
+    for (const Eigen::Index a : act) cov(a, a) = std::numeric_limits<double>::infinity();
+    return cov;
+  }
+  const Eigen::MatrixXd inv = eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+                              eig.eigenvectors().transpose();
   for (size_t i = 0; i < act.size(); ++i)
-    for (size_t j = 0; j < act.size(); ++j)
-      cov(act[i], act[j]) = inv(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+    for (size_t j = 0; j < act.size(); ++j) {
+      const auto a = static_cast<Eigen::Index>(i), b = static_cast<Eigen::Index>(j);
+      cov(act[i], act[j]) = inv(a, b) / (norm(a) * norm(b));
+    }
   return cov * inflation;
 }
 
@@ -310,7 +329,7 @@ void set_terms(NoiseFit& fit, const std::vector<int>& terms, const Eigen::Vector
     fit.value[t] = std::sqrt(sq);
     fit.active[t] = sq > 0.0;
     fit.sigma[t] = sq > 0.0 ? sd_sq / (2.0 * std::sqrt(sq)) : 0.0;
-    fit.lower[t] = std::sqrt(std::max(0.0, sq - z * sd_sq));
+    fit.lower[t] = std::isfinite(sd_sq) ? std::sqrt(std::max(0.0, sq - z * sd_sq)) : 0.0;
     fit.upper[t] = std::sqrt(sq + z * sd_sq);
   }
 }
@@ -548,8 +567,13 @@ SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<doub
 namespace imukit::hwmodel {
 
 namespace {
+// One GLS fit of the options' terms. The covariance of the estimates comes from the fit's own
+// model (refined twice), or, given covariance_model, from that model alone: the elimination
+// compares nested models under one covariance, where chi^2 differences are meaningful.
 NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& adev,
-                  const std::vector<int64_t>& factors, int64_t n, const NoiseFitOptions& options) {
+                  const std::vector<int64_t>& factors, int64_t n, const NoiseFitOptions& options,
+                  const std::array<double, kNoiseTerms>* covariance_model = nullptr,
+                  double* chi2_out = nullptr) {
   if (tau_s.size() != adev.size() || tau_s.size() != factors.size()) {
     throw Error("noise fit: tau, deviation and factor lists differ in length");
   }
@@ -583,10 +607,11 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   Eigen::VectorXd x2(cols);
   Eigen::MatrixXd Aw;
   double chi2 = 0.0;
-  for (int it = 0; it < 2; ++it) {
+  for (int it = 0; it < (covariance_model != nullptr ? 1 : 2); ++it) {
     // The covariance needs some noise in the model; a floor of white noise at 1e-6 of the
     // first point's level keeps it positive definite when the fit zeroed every noise term.
-    std::array<double, kNoiseTerms> model = fit.value;
+    std::array<double, kNoiseTerms> model =
+        covariance_model != nullptr ? *covariance_model : fit.value;
     model[kWhite] =
         std::max(model[kWhite], 1e-6 * adev[use.front()] * std::sqrt(tau_s[use.front()]));
     Eigen::MatrixXd sigma(rows, rows);
@@ -629,7 +654,47 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   fit.upper.fill(0.0);
   fit.active.fill(false);
   set_terms(fit, terms, x2, cov, z);
+  if (chi2_out != nullptr) *chi2_out = chi2;
   return fit;
+}
+}  // namespace
+
+namespace {
+// On a curve too short to tell the terms apart, keeps in `options` only one selected term and
+// says why; otherwise changes nothing and returns "". A short record's curve starts at the
+// shortest taus, where white noise rules every MEMS sensor: N. A span cut by tau_min_s is
+// wherever the caller looked: the term whose log-log slope (Q -1, N -1/2, B 0, K +1/2, R +1)
+// is nearest the curve's own least-squares slope (on a few points the slope alone is too
+// noisy to pick N against Q or B: a third of 50-sample white-noise axes went wrong).
+std::string limit_terms_to_the_span(const std::vector<double>& tau_s,
+                                    const std::vector<double>& adev,
+                                    const std::vector<int64_t>& factors, int64_t n,
+                                    NoiseFitOptions& options) {
+  const std::vector<size_t> use = usable_points(tau_s, adev, options, [&](size_t k) {
+    return factors[k] >= 1 && n + 1 - 2 * factors[k] >= 2;
+  });
+  const std::vector<int> terms = selected_terms(options);
+  const double decades = std::log10(tau_s[use.back()] / tau_s[use.front()]);
+  if (terms.size() <= 1 || decades >= kMinDecadesForAllTerms) return "";
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (const size_t k : use) {
+    const double x = std::log10(tau_s[k]), y = std::log10(adev[k]);
+    sx += x, sy += y, sxx += x * x, sxy += x * y;
+  }
+  const auto m = static_cast<double>(use.size());
+  const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
+  int keep = terms.front();
+  for (const int t : terms) {
+    if (std::abs(slope - 0.5 * (t - 2)) < std::abs(slope - 0.5 * (keep - 2))) keep = t;
+  }
+  const bool from_the_first_tau = tau_s[use.front()] <= tau_s.front() * (1 + 1e-12);
+  if (from_the_first_tau && options.terms[kWhite]) keep = kWhite;
+  options.terms.fill(false);
+  options.terms[static_cast<size_t>(keep)] = true;
+  return fmt::format(
+      "the fitted taus span {:.2g} decades (fewer than {:g}): too short to tell the noise terms "
+      "apart; only {} fitted (the curve's slope is {:.2f})",
+      decades, kMinDecadesForAllTerms, noise_term_name(keep), slope);
 }
 }  // namespace
 
@@ -637,32 +702,40 @@ NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector
                              const std::vector<int64_t>& factors, int64_t n,
                              const NoiseFitOptions& options) {
   // Backward elimination: a term whose interval reaches zero is not detected; it is dropped
-  // (the weakest first, by value / sigma) and the rest refitted, and reported as 0 with the
-  // upper bound of the last fit that held it. Without this a random walk that happens to
-  // wander low at long tau lends a spurious floor to B.
+  // and the rest refitted, and reported as 0 with the upper bound of the last fit that held it.
+  // Without this a random walk that happens to wander low at long tau lends a spurious floor to
+  // B. Of several such terms the one whose removal raises chi^2 least goes first (the same as
+  // the smallest value / sigma where the terms are well apart; where the curve cannot tell them
+  // apart (a short record) value / sigma is meaningless and dropped the white noise itself).
   NoiseFitOptions opt = options;
+  const std::string note = limit_terms_to_the_span(tau_s, adev, factors, n, opt);
   NoiseFit fit = gls_once(tau_s, adev, factors, n, opt);
   std::array<double, kNoiseTerms> dropped_upper{};
   std::array<bool, kNoiseTerms> dropped{};
   for (int round = 0; round < kNoiseTerms; ++round) {
-    int weakest = -1;
-    double weakest_score = 1e300;
     int selected = 0;
     for (int t = 0; t < kNoiseTerms; ++t) selected += opt.terms[static_cast<size_t>(t)];
+    std::vector<int> undetected;
     for (int t = 0; t < kNoiseTerms; ++t) {
-      if (!opt.terms[static_cast<size_t>(t)] || !fit.active[static_cast<size_t>(t)] ||
-          fit.lower[static_cast<size_t>(t)] > 0.0)
-        continue;
-      const double score =
-          fit.sigma[static_cast<size_t>(t)] > 0
-              ? fit.value[static_cast<size_t>(t)] / fit.sigma[static_cast<size_t>(t)]
-              : 0.0;
-      if (score < weakest_score) weakest_score = score, weakest = t;
+      if (opt.terms[static_cast<size_t>(t)] && fit.active[static_cast<size_t>(t)] &&
+          !(fit.lower[static_cast<size_t>(t)] > 0.0))
+        undetected.push_back(t);
     }
-    if (weakest < 0 || selected <= 1) break;
-    dropped[static_cast<size_t>(weakest)] = true;
-    dropped_upper[static_cast<size_t>(weakest)] = fit.upper[static_cast<size_t>(weakest)];
-    opt.terms[static_cast<size_t>(weakest)] = false;
+    if (undetected.empty() || selected <= 1) break;
+    int drop = undetected.front();
+    if (undetected.size() > 1) {
+      double best_chi2 = std::numeric_limits<double>::infinity();
+      for (const int t : undetected) {
+        NoiseFitOptions without = opt;
+        without.terms[static_cast<size_t>(t)] = false;
+        double c = 0.0;
+        (void)gls_once(tau_s, adev, factors, n, without, &fit.value, &c);
+        if (c < best_chi2) drop = t, best_chi2 = c;
+      }
+    }
+    dropped[static_cast<size_t>(drop)] = true;
+    dropped_upper[static_cast<size_t>(drop)] = fit.upper[static_cast<size_t>(drop)];
+    opt.terms[static_cast<size_t>(drop)] = false;
     fit = gls_once(tau_s, adev, factors, n, opt);
   }
   for (int t = 0; t < kNoiseTerms; ++t) {
@@ -673,7 +746,11 @@ NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector
       fit.upper[static_cast<size_t>(t)] = dropped_upper[static_cast<size_t>(t)];
       fit.active[static_cast<size_t>(t)] = false;
     }
+    if (options.terms[static_cast<size_t>(t)] && !opt.terms[static_cast<size_t>(t)] &&
+        !dropped[static_cast<size_t>(t)])
+      fit.upper[static_cast<size_t>(t)] = std::numeric_limits<double>::infinity();
   }
+  fit.note = note;
   return fit;
 }
 

@@ -202,7 +202,7 @@ rate_hz. The GIL is released and the axes are shared among `threads` threads (0:
   py::class_<NoiseFit>(m, "NoiseFit", R"doc(
 Noise-model coefficients Q (quantisation), N (white noise density), B (bias instability),
 K (rate random walk), R (rate ramp): value, sigma, lower, upper and active as dicts by term
-name; chi2_per_dof, points, covariance_inflation.)doc")
+name; chi2_per_dof, points, covariance_inflation, note.)doc")
       .def_property_readonly("value", &fit_dict)
       .def_property_readonly("sigma",
                              [](const NoiseFit& f) {
@@ -233,6 +233,8 @@ name; chi2_per_dof, points, covariance_inflation.)doc")
       .def_readonly("chi2_per_dof", &NoiseFit::chi2_per_dof)
       .def_readonly("points", &NoiseFit::points)
       .def_readonly("covariance_inflation", &NoiseFit::covariance_inflation)
+      .def_readonly("note", &NoiseFit::note,
+                    "why selected terms were not fitted (a curve too short), or ''")
       .def("__getitem__",
            [](const NoiseFit& f, const std::string& term) {
              for (int k = 0; k < hwmodel::kNoiseTerms; ++k) {

@@ -24,6 +24,8 @@ TEST(AnalyzeSampling, MeasuresRateJitterGapsAndRepeats) {
   EXPECT_DOUBLE_EQ(s.min_period_s, 0.0);
   EXPECT_DOUBLE_EQ(s.max_period_s, 0.030);
   EXPECT_EQ(s.gaps, 1u);
+  EXPECT_EQ(s.gap_duration, 30'000'000);
+  EXPECT_DOUBLE_EQ(s.mean_period_between_gaps_s, 0.041 / 5.0);  // {10,11,10,0,10} ms
   EXPECT_EQ(s.repeated, 1u);
   EXPECT_FALSE(s.is_uniform());
   // Population std of {10,11,10,30,0,10} ms about their mean 71/6 ms.
@@ -76,13 +78,18 @@ TEST(AnalyzeSampling, MedianAndGapsAgreeWithSortedPeriodsOnEveryPath) {
       std::sort(sorted.begin(), sorted.end());
       const TimeNs median = sorted[sorted.size() / 2];
       std::size_t gaps = 0, repeated = 0;
-      for (TimeNs p : periods) gaps += 2 * p > 3 * median, repeated += p == 0;
+      TimeNs gap_duration = 0;
+      for (TimeNs p : periods) {
+        gaps += 2 * p > 3 * median, repeated += p == 0;
+        if (2 * p > 3 * median) gap_duration += p;
+      }
       const SamplingStats s = analyze_sampling(t);
       SCOPED_TRACE(testing::Message() << "jitter " << jitter << " count " << count);
       EXPECT_EQ(s.median_period_s, to_seconds(median));
       EXPECT_EQ(s.min_period_s, to_seconds(sorted.front()));
       EXPECT_EQ(s.max_period_s, to_seconds(sorted.back()));
       EXPECT_EQ(s.gaps, gaps);
+      EXPECT_EQ(s.gap_duration, gap_duration);
       EXPECT_EQ(s.repeated, repeated);
     }
   }

@@ -404,6 +404,46 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   EXPECT_LT(z_rms, 1.35);
 }
 
+// Found in review: on a short record of white noise (50 samples: 9 taus over 1.1 decades) the
+// GLS fit "detected" Q or B and dropped N on a fifth of the axes (B at 5 sigma on a 60 s
+// record), with chi^2/dof up to 1e24 when every term was dropped. Such a curve now gets N
+// alone, with a note; its other terms are undetermined (upper bound infinite).
+TEST(NoiseFit, AShortRecordOfWhiteNoiseGetsNAloneAndSaysWhy) {
+  const double N = 1e-3, rate = 100.0;
+  AllanOptions opt;
+  opt.modified = false;
+  opt.hadamard = false;
+  for (const int64_t n : {int64_t(8), int64_t(50), int64_t(300)}) {
+    std::vector<TimeNs> t(static_cast<size_t>(n));
+    for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate);
+    Rng rng(static_cast<uint64_t>(n));
+    std::vector<double> ratio;
+    for (int rec = 0; rec < 20; ++rec) {
+      Eigen::MatrixXd y(3, n);
+      for (int64_t i = 0; i < n; ++i)
+        for (Eigen::Index r = 0; r < 3; ++r) y(r, i) = N * std::sqrt(rate) * rng.normal();
+      const AllanResult res = allan_deviation(t, y, opt);
+      for (Eigen::Index r = 0; r < 3; ++r) {
+        std::vector<double> dev(res.tau_s.size());
+        for (size_t k = 0; k < dev.size(); ++k) dev[k] = res.allan.deviation(r, Eigen::Index(k));
+        const NoiseFit fit = fit_noise_model_gls(res.tau_s, dev, res.factors, n);
+        SCOPED_TRACE(::testing::Message() << n << " samples, record " << rec << ", axis " << r);
+        ASSERT_TRUE(fit.active[kWhite]);
+        for (const int term : {kQuantization, kBiasInstability, kRandomWalk, kRamp}) {
+          EXPECT_FALSE(fit.active[static_cast<size_t>(term)]);
+          EXPECT_TRUE(std::isinf(fit.upper[static_cast<size_t>(term)]));
+        }
+        EXPECT_NE(fit.note.find("only N fitted"), std::string::npos) << fit.note;
+        EXPECT_LT(fit.chi2_per_dof, 20.0);
+        ratio.push_back(fit.value[kWhite] / N);
+      }
+    }
+    std::sort(ratio.begin(), ratio.end());
+    // The median of 60 axes' N within 10 % (8 samples: 2 taus, one estimate of a few dof).
+    EXPECT_NEAR(ratio[ratio.size() / 2], 1.0, 0.1) << n << " samples";
+  }
+}
+
 TEST(NoiseFit, RejectsTooFewPoints) {
   EXPECT_THROW(fit_noise_model({1.0}, {1.0}, {10.0}), Error);
   EXPECT_THROW(fit_noise_model({1.0, 2.0}, {1.0}, {10.0, 10.0}), Error);
