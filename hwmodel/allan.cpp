@@ -625,6 +625,16 @@ AllanResult grid_and_sampling(std::span<const TimeNs> t,
     throw Error("Allan deviation: at least 8 samples are needed, got " + std::to_string(n));
   AllanResult r;
   r.sampling = analyze_sampling(t);
+  if (r.sampling.min_period_s < 0) {
+    // Found in review: two swapped stamps only set uniform = false (Python's t; files are
+    // checked line by line when read).
+    const auto back = std::adjacent_find(t.begin(), t.end(), std::greater<>());
+    const auto i = back - t.begin();
+    throw Error(
+        fmt::format("Allan deviation: time stamp {} ({} ns) is after the next one ({} ns): "
+                    "the times must not decrease",
+                    i, *back, *(back + 1)));
+  }
   if (!(r.sampling.duration > 0)) throw Error("Allan deviation: the time stamps span no time");
   // The mean period measured from the time stamps, never a nominal rate (seed-summary s. 3).
   // Where samples are missing (periods above 1.5 median ones), the mean of the other periods:

@@ -438,6 +438,19 @@ TEST(AllanDeviation, OverflowingVariancesAreAnErrorNamingTheSample) {
 TEST(AllanDeviation, RejectsBadInput) {
   Eigen::MatrixXd y = Eigen::MatrixXd::Ones(1, 100);
   const auto t = uniform_times(100, 10.0);
+  {
+    auto swapped = t;
+    std::swap(swapped[40], swapped[41]);
+    try {
+      allan_deviation(swapped, y);
+      ADD_FAILURE() << "swapped time stamps were accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(
+                    "time stamp 40 (5100000000 ns) is after the next one (5000000000 ns)"),
+                std::string::npos)
+          << e.what();
+    }
+  }
   EXPECT_THROW(allan_deviation(std::span(t).first(5), y.leftCols(5)), Error);
   y(0, 50) = std::nan("");
   EXPECT_THROW(allan_deviation(t, y), Error);
