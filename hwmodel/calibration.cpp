@@ -478,6 +478,20 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
         n, options.min_poses));
   }
   CalibrationResult best = fit_accelerometer_poses(t, accel, options);
+  if (options.calibrate_gyro) {
+    // A dead gyroscope (found in review: all zeros) was told to "rotate about each of the three
+    // axes" by the rank check; rotations between poses always move a live one.
+    for (int a = 0; a < 3; ++a) {
+      if (n > 0 && (gyro.row(a).array() == gyro(a, 0)).all()) {
+        throw Error(fmt::format(
+            "gyroscope calibration: the gyroscope's {} axis reads {:g} in every sample although "
+            "the device turned between its poses (a dead or disconnected gyroscope?); calibrate "
+            "the "
+            "accelerometer alone (imukit calibrate --no-gyro)",
+            "xyz"[a], gyro(a, 0)));
+      }
+    }
+  }
   if (options.calibrate_gyro) fit_gyroscope(t, accel, gyro, options, best);
   best.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return best;

@@ -165,6 +165,24 @@ TEST(Calibration, ReportsRankDeficiencyWhenPosesTiltOnlyAboutOneAxis) {
   }
 }
 
+TEST(Calibration, ADeadGyroscopeIsSaidToBeDeadNotUnexcited) {
+  Synthetic s = make_session(many_poses(12, 4), accel_truth(), gyro_truth(), 9.81, 0.5, 9);
+  s.gyro.row(1).setZero();
+  CalibrationOptions opt;
+  opt.gravity = 9.81;
+  try {
+    calibrate(s.t, s.accel, s.gyro, opt);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("the gyroscope's y axis reads 0 in every sample"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("--no-gyro"), std::string::npos) << e.what();
+  }
+  opt.calibrate_gyro = false;  // the accelerometer alone still calibrates
+  EXPECT_GE(calibrate(s.t, s.accel, s.gyro, opt).poses.size(), 9u);
+}
+
 TEST(Calibration, RejectsTooFewPoses) {
   std::vector<TimeNs> t;
   Eigen::Matrix3Xd a = Eigen::Matrix3Xd::Zero(3, 7000), w = Eigen::Matrix3Xd::Zero(3, 7000);
