@@ -106,3 +106,53 @@ def test_output_problems_are_io_errors_and_found_before_the_work(run, workdir):
             "--kalibr", os.path.join(workdir, "no", "k.yaml"))
     assert r.returncode == 3 and "no/k.yaml" in r.stderr and "internal" not in r.stderr, r.stderr
     assert not os.path.exists(os.path.join(workdir, "six.json")), "refused before the profile is written"
+
+
+def test_characterize_says_what_its_records_cannot_give(run, workdir):
+    # Found in review (2026-11-26): a gap was called jitter and biased N; a short record "detected"
+    # B with N = 0; a record with motion gave a profile without a word; the noise came from the
+    # record with the most samples, not the longest.
+    rng = np.random.default_rng(3)
+
+    def write(name, t, gyr, acc):
+        path = os.path.join(workdir, name)
+        np.savetxt(path, np.column_stack([t, gyr, acc]), fmt="%.9f")
+        return path
+
+    def white(n, rate, density):
+        return rng.normal(0.0, density * np.sqrt(rate), (n, 3))
+
+    # 40 min at 100 Hz of white noise with 10 min missing in the middle.
+    t = np.arange(240000) / 100.0
+    t[120000:] += 600.0
+    gap = write("gap.txt", t, white(240000, 100.0, 1e-3), white(240000, 100.0, 1e-2) + [0, 0, 9.8])
+    r = run("characterize", gap, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", os.path.join(workdir, "g.json"))
+    p = json.load(open(os.path.join(workdir, "g.json"))) if r.returncode == 0 else {}
+    nd = np.array(p.get("gyroscope", {}).get("noise", {}).get("noise_density", [0, 0, 0]))
+    assert r.returncode == 0 and "tau0 0.01 s" in r.stdout and "1 gap(s) in the time stamps" in r.stdout \
+        and "jitter" not in r.stdout and np.all(np.abs(nd / 1e-3 - 1) < 0.02), \
+        f"a gap: tau0 10 ms, a warning naming it, N within 2 % ({nd}; {r.stdout[:400]})"
+    # 60 s at 1 Hz: too short for anything but N.
+    short = write("short.txt", np.arange(60.0), white(60, 1.0, 1e-3), white(60, 1.0, 1e-2) + [0, 0, 9.8])
+    r = run("characterize", short, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", os.path.join(workdir, "s.json"))
+    p = json.load(open(os.path.join(workdir, "s.json"))) if r.returncode == 0 else {}
+    noise = p.get("gyroscope", {}).get("noise", {})
+    assert r.returncode == 0 and r.stdout.count("only N fitted") == 6 \
+        and np.all(np.array(noise.get("noise_density", [0, 0, 0])) > 0) \
+        and np.all(np.array(noise.get("bias_instability", [1, 1, 1])) == 0), \
+        f"60 s at 1 Hz: N alone on every axis, with the note ({r.stdout[:600]})"
+    # A record with motion: a sinusoidal turn on every axis.
+    tm = np.arange(60000) / 100.0
+    moving = white(60000, 100.0, 1e-3) + np.sin(2 * np.pi * 0.05 * tm)[:, None]
+    motion = write("motion.txt", tm, moving, white(60000, 100.0, 1e-2) + [0, 0, 9.8])
+    r = run("characterize", motion, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", os.path.join(workdir, "m.json"))
+    assert r.returncode == 0 and r.stdout.count("the noise model does not describe this curve") >= 3, \
+        f"motion: a warning per gyroscope axis ({r.stdout[:600]})"
+    # Two records: 2 h at 1 Hz (7200 samples) and 80 s at 100 Hz (8000): the noise from the 2 h.
+    long = write("long.txt", np.arange(7200.0), white(7200, 1.0, 1e-3), white(7200, 1.0, 1e-2) + [0, 0, 9.8])
+    brief = write("brief.txt", 5000 + np.arange(8000) / 100.0, white(8000, 100.0, 1e-3),
+                  white(8000, 100.0, 1e-2) + [0, 0, 9.8])
+    r = run("characterize", brief, "--columns", "t,gx,gy,gz,ax,ay,az", long, "--columns", "t,gx,gy,gz,ax,ay,az",
+            "-o", os.path.join(workdir, "two.json"))
+    assert r.returncode == 0 and r.stdout.startswith(f"noise from {long} "), \
+        f"the noise from the longest record in time ({r.stdout.splitlines()[:1]})"
