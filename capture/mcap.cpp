@@ -108,11 +108,20 @@ uint32_t mcap_crc32(std::span<const uint8_t> data, uint32_t crc) {
 
 McapWriter::McapWriter(const std::string& path, McapWriterOptions options)
     : path_(path), options_(std::move(options)) {
-  file_ = std::fopen(path.c_str(), "wb");
+  file_ = std::fopen(path.c_str(), options_.create_new ? "wbx" : "wb");
   if (!file_) {
     throw IoError(InputLocation{path, {}, {}, {}},
                   std::string("cannot open for writing: ") + std::strerror(errno));
   }
+  write_start();
+}
+
+McapWriter::McapWriter(std::FILE* file, const std::string& path, McapWriterOptions options)
+    : path_(path), options_(std::move(options)), file_(file), owns_file_(false) {
+  write_start();
+}
+
+void McapWriter::write_start() {
   write_raw(kMagic);
   std::vector<uint8_t> body;
   ByteWriter w(body);
@@ -127,7 +136,7 @@ McapWriter::~McapWriter() {
   } catch (...) {
     // Everything flushed before the failure stays readable; close() reports errors to callers
     // that want them.
-    if (file_) std::fclose(file_);
+    if (file_ && owns_file_) std::fclose(file_);
     file_ = nullptr;
   }
 }
@@ -396,7 +405,7 @@ void McapWriter::close() {
   write_raw(kMagic);
   const bool flushed = std::fflush(file_) == 0;
   const int saved = errno;
-  const bool closed = std::fclose(file_) == 0;
+  const bool closed = !owns_file_ || std::fclose(file_) == 0;
   file_ = nullptr;
   if (!flushed || !closed) {
     throw IoError(InputLocation{path_, {}, {}, {}},
@@ -1094,15 +1103,13 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
   return read_mcap(bytes, source_name, McapHandlers{nullptr, nullptr, on_message}, options);
 }
 
-McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
-                             const McapMessageEdit& edit, const McapReadOptions& options,
-                             const std::vector<McapMetadata>& extra_metadata) {
-  // First pass: what the file declares (schemas, channels, metadata); second: the messages.
-  McapReadSummary summary = read_mcap(in, nullptr, options);
-  McapWriterOptions wo;
-  wo.profile = summary.profile;
-  wo.library = summary.library.empty() ? "imukit" : summary.library;
-  McapWriter writer(out_path, wo);
+namespace {
+
+// The schemas, channels, metadata (extra_metadata replacing records of the same name) and
+// messages (through edit) of `in` into writer, which it closes.
+void copy_into(McapWriter& writer, const std::string& in, const McapReadSummary& summary,
+               const McapMessageEdit& edit, const McapReadOptions& options,
+               const std::vector<McapMetadata>& extra_metadata) {
   std::map<uint16_t, uint16_t> schema_map;
   std::map<uint16_t, uint16_t> channel_map;
   std::map<uint16_t, const McapChannel*> channels;
@@ -1132,6 +1139,24 @@ McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
       },
       options);
   writer.close();
+}
+
+}  // namespace
+
+McapReadSummary rewrite_mcap(const std::string& in, const std::string& out_path,
+                             const McapMessageEdit& edit, const McapReadOptions& options,
+                             const std::vector<McapMetadata>& extra_metadata) {
+  // First pass: what the file declares (schemas, channels, metadata); second: the messages.
+  McapReadSummary summary = read_mcap(in, nullptr, options);
+  McapWriterOptions wo;
+  wo.profile = summary.profile;
+  wo.library = summary.library.empty() ? "imukit" : summary.library;
+  // Through a temporary renamed over out_path when complete: a full disk or a bad message
+  // leaves no truncated file under the final name, and an earlier file there as it was.
+  write_file_atomically(out_path, [&](std::FILE* file) {
+    McapWriter writer(file, out_path, wo);
+    copy_into(writer, in, summary, edit, options, extra_metadata);
+  });
   return summary;
 }
 

@@ -65,12 +65,18 @@ struct McapWriterOptions {
   int zstd_level = 3;
   std::size_t chunk_bytes = 1 << 20;         // uncompressed size that closes a chunk
   uint64_t chunk_duration_ns = 250'000'000;  // log-time span that closes a chunk
+  // Create the file only if nothing is at the path yet (O_EXCL): a live recording must never
+  // truncate a file another recording left behind.
+  bool create_new = false;
 };
 
 class McapWriter {
  public:
   // Creates (truncates) the file and writes magic and header. Throws imukit::Error on failure.
   explicit McapWriter(const std::string& path, McapWriterOptions options = {});
+  // Writes into `file`, already open for writing and owned by the caller, who closes it (e.g.
+  // the temporary of write_file_atomically); `path` names it in messages. close() flushes it.
+  McapWriter(std::FILE* file, const std::string& path, McapWriterOptions options = {});
   // Closes the file if close() was not called; errors are swallowed there (what was flushed
   // stays readable), so call close() to see them.
   ~McapWriter();
@@ -103,10 +109,12 @@ class McapWriter {
   void write_raw(std::span<const uint8_t> bytes);
   void write_record(uint8_t opcode, std::span<const uint8_t> body);
   void close_chunk();
+  void write_start();
 
   std::string path_;
   McapWriterOptions options_;
   std::FILE* file_ = nullptr;
+  bool owns_file_ = true;
   uint64_t offset_ = 0;
   uint32_t data_crc_ = 0;  // running CRC-32 of everything written before Data End
   bool closed_ = false;
@@ -188,7 +196,8 @@ McapReadSummary read_mcap(std::span<const uint8_t> bytes, const std::string& sou
 // (it may point m.data at its own storage, which must outlive the call) or leave it out (by
 // returning false). Schemas, channels and metadata are copied as they are (plus
 // `extra_metadata`, which replaces records of the same name). Reads as `options` say (e.g.
-// recovering).
+// recovering). `out` is written through a temporary beside it and renamed over it only when
+// complete (write_file_atomically): a failure leaves an earlier file at `out` as it was.
 using McapMessageEdit = std::function<bool(const McapChannel& channel, McapMessageView& m)>;
 McapReadSummary rewrite_mcap(const std::string& in, const std::string& out,
                              const McapMessageEdit& edit, const McapReadOptions& options = {},

@@ -8,6 +8,7 @@
 
 #include "imukit/capture/ros_messages.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -23,19 +24,9 @@ void require_finite(const std::array<double, 3>& v, const std::string& where, co
   }
 }
 
-}  // namespace
-
-void write_recording_mcap(const std::string& path, const Recording& recording,
-                          const std::map<std::string, ImuCovariance>& covariance,
-                          const McapWriterOptions& options) {
-  // Checked before the file is opened, so a refused recording leaves an earlier file as it was.
-  for (const auto& [name, series] : recording.streams) {
-    if (!series.has_accel() || !series.has_gyro()) {
-      throw Error(fmt::format(
-          "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
-    }
-  }
-  McapWriter writer(path, options);
+// The recording's metadata, streams and events into writer, which it closes.
+void write_recording(McapWriter& writer, const Recording& recording,
+                     const std::map<std::string, ImuCovariance>& covariance) {
   McapMetadataMap meta(recording.metadata.begin(), recording.metadata.end());
   writer.write_metadata("imukit.recording", meta);
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
@@ -90,6 +81,26 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
     }
   }
   writer.close();
+}
+
+}  // namespace
+
+void write_recording_mcap(const std::string& path, const Recording& recording,
+                          const std::map<std::string, ImuCovariance>& covariance,
+                          const McapWriterOptions& options) {
+  // Checked before the file is opened, so a refused recording leaves an earlier file as it was.
+  for (const auto& [name, series] : recording.streams) {
+    if (!series.has_accel() || !series.has_gyro()) {
+      throw Error(fmt::format(
+          "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
+    }
+  }
+  // Through a temporary renamed over path when complete: a failure (a full disk, a value the
+  // encoder refuses) leaves no truncated file under the final name and an earlier file as it was.
+  write_file_atomically(path, [&](std::FILE* file) {
+    McapWriter writer(file, path, options);
+    write_recording(writer, recording, covariance);
+  });
 }
 
 namespace {

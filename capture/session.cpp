@@ -509,7 +509,24 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
   // crash leaves the temporary file readable up to its last chunk.
   const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
-  McapWriter writer(live_path, options.mcap);
+  McapWriterOptions live_options = options.mcap;
+  if (options.finalize) {
+    // A partial file here is what a crashed recording kept: opening it would truncate it and
+    // the end of this recording would delete it.
+    std::error_code ec;
+    if (std::filesystem::symlink_status(live_path, ec).type() !=
+        std::filesystem::file_type::not_found) {
+      const std::filesystem::path out(options.path);
+      const std::string recovered =
+          (out.parent_path() / (out.stem().string() + ".recovered.mcap")).string();
+      throw IoError(fmt::format(
+          "record: {} already exists (an earlier recording to {} did not finish); recover it "
+          "with `imukit convert --recover {} -o {}`, or remove it, then record again",
+          live_path, options.path, live_path, recovered));
+    }
+    live_options.create_new = true;  // and no other recording may create it meanwhile
+  }
+  McapWriter writer(live_path, live_options);
   const SessionChannels channels = open_channels(writer, devices, options);
   start_readers(devices);
   Pump pump{writer, devices, options, channels.sync_schema, Live{channels.event_channel, options}};

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <mutex>
@@ -181,8 +182,15 @@ int run_record(const RecordArgs& args) {
     throw UsageError(
         "record: a virtual-clock mock runs as fast as it can: give --duration or --samples");
   }
+  // Ctrl-C, kill and a closed terminal stop the recording cleanly (flushed, refitted, closed).
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
+  std::signal(SIGHUP, on_signal);
+  // A closed pipe (stdout, or an fd: device) and a file over the size limit would kill the
+  // process with the file open; ignored, they are write errors (EPIPE, EFBIG) that end the
+  // device or the recording with its error and exit 3, the file closed.
+  std::signal(SIGPIPE, SIG_IGN);
+  std::signal(SIGXFSZ, SIG_IGN);
   const bool tty = ::isatty(STDOUT_FILENO) != 0;
   auto last_plain = std::chrono::steady_clock::now();
   capture::SessionOptions options;
@@ -228,6 +236,11 @@ int run_record(const RecordArgs& args) {
   if (tty) fmt::print("\n");
   const std::string silent = print_report(report);
   fmt::print("wrote {}\n", args.output);
+  if (std::fflush(stdout) != 0) {
+    throw IoError(fmt::format("record: the report could not be written to standard output: {} "
+                              "(the recording {} is complete)",
+                              std::strerror(errno), args.output));
+  }
   if (!silent.empty())
     throw IoError(fmt::format("record: no samples from {} (see the end reason above)", silent));
   return 0;
@@ -271,8 +284,8 @@ IMUKIT_REGISTER_COMMAND(
               "--no-refit", args->no_refit,
               "keep the online clock fit instead of refitting over the whole file at the end");
           sub.footer(
-              "Stops at --duration/--samples, on Ctrl-C or SIGTERM (the file is flushed and "
-              "closed), or\n"
+              "Stops at --duration/--samples, on Ctrl-C, SIGTERM or SIGHUP (the file is flushed "
+              "and closed), or\n"
               "when every device is gone. While recording, FILE.partial.mcap is readable up to "
               "its\n"
               "last chunk at any moment (after a crash, `imukit convert --recover` completes it); "

@@ -1,11 +1,52 @@
 #include "imukit/drivers/codec.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
 #include "imukit/core/error.hpp"
 
 namespace imukit::drivers {
+
+namespace {
+
+bool all_finite(const std::array<double, 3>& v) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+// Every value field, whether its channel bit is set or not: the recorder writes accel and gyro
+// of every sample.
+bool sample_is_finite(const Sample& s) {
+  return all_finite(s.accel) && all_finite(s.gyro) && all_finite(s.mag) &&
+         all_finite(s.angles_rad) && std::isfinite(s.temperature_c) && std::isfinite(s.tick_hz);
+}
+
+}  // namespace
+
+void Codec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+  const std::size_t first = out.size();
+  decode(data, host_time, out);
+  drop_non_finite(out, first);
+}
+
+void Codec::finish(TimeNs host_time, std::vector<Sample>& out) {
+  const std::size_t first = out.size();
+  decode_end(host_time, out);
+  drop_non_finite(out, first);
+}
+
+void Codec::drop_non_finite(std::vector<Sample>& out, std::size_t first) {
+  const auto bad = std::remove_if(out.begin() + static_cast<std::ptrdiff_t>(first), out.end(),
+                                  [](const Sample& s) { return !sample_is_finite(s); });
+  const auto n = static_cast<uint64_t>(out.end() - bad);
+  if (n == 0) return;
+  out.erase(bad, out.end());
+  // The frame passed its checksum but its value is unusable: corrupt, and the sample is lost.
+  stats_.samples_non_finite += n;
+  stats_.frames_corrupt += n;
+  stats_.samples_dropped += n;
+  stats_.samples_decoded -= n;
+}
 
 double option_double(const CodecOptions& options, const std::string& key, double fallback) {
   const auto it = options.find(key);

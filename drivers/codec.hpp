@@ -42,12 +42,15 @@ class Codec {
   // The transport is open (host clock `now`): queue start-up commands.
   virtual void start(TimeNs /*now*/) {}
   // Bytes (or one report) that arrived at host_time; decoded samples are appended to out.
-  virtual void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) = 0;
+  // Every codec's samples pass through here, so a sample with a NaN or infinite value (a
+  // device's bad float, or a unit scale that overflowed) is dropped and counted for all of them
+  // (samples_non_finite) instead of reaching a recording that no reader would then accept.
+  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out);
   // Called between reads (host clock now): e.g. periodic time-sync requests.
   virtual void tick(TimeNs /*now*/) {}
-  // End of stream: hand out anything complete that was held back. host_time is when the last
-  // bytes arrived (what the held-back data is stamped with).
-  virtual void finish(TimeNs /*host_time*/, std::vector<Sample>& /*out*/) {}
+  // End of stream: hand out anything complete that was held back, and count what is cut off.
+  // host_time is when the last bytes arrived (what the held-back data is stamped with).
+  void finish(TimeNs host_time, std::vector<Sample>& out);
 
   // Bytes received but not yet decided on (an unfinished frame or line).
   virtual std::size_t bytes_pending() const { return 0; }
@@ -68,11 +71,20 @@ class Codec {
   const CodecStats& stats() const { return stats_; }
 
  protected:
+  // What feed() and finish() do for this codec: decode into out, counting in stats_.
+  virtual void decode(std::span<const uint8_t> data, TimeNs host_time,
+                      std::vector<Sample>& out) = 0;
+  virtual void decode_end(TimeNs /*host_time*/, std::vector<Sample>& /*out*/) {}
+
   void queue(std::span<const uint8_t> bytes) {
     outgoing_.insert(outgoing_.end(), bytes.begin(), bytes.end());
   }
   CodecStats stats_;
   std::vector<uint8_t> outgoing_;
+
+ private:
+  // Removes the samples from out[first] on that hold a non-finite value, counting them.
+  void drop_non_finite(std::vector<Sample>& out, std::size_t first);
 };
 
 // Codec options as given in a device URI's query (docs/devices.md lists the keys per codec).

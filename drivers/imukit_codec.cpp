@@ -48,7 +48,11 @@ const char* nack_reason(proto::NackCode code) {
 
 }  // namespace
 
-ImukitCodec::ImukitCodec(ImukitCodecOptions options) : opt_(options) {}
+ImukitCodec::ImukitCodec(ImukitCodecOptions options) : opt_(options) {
+  // Decoding only (a replay), no Configure sets the rate: the rate given is the one the stream
+  // was made at, and it times the samples of every block. (Live, the Configure sets it again.)
+  if (opt_.rate_hz > 0) rate_mhz_ = static_cast<uint32_t>(std::llround(opt_.rate_hz * 1000.0));
+}
 
 template <class M>
 void ImukitCodec::send(const M& m) {
@@ -102,19 +106,32 @@ void ImukitCodec::tick(TimeNs now) {
   }
 }
 
-void ImukitCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+void ImukitCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
+                         std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
   decoder_.feed(data.data(), data.size(),
                 [&](const proto::Frame& f) { on_frame(f, host_time, out); });
   sync_frame_stats();
 }
 
+void ImukitCodec::decode_end(TimeNs /*host_time*/, std::vector<Sample>& /*out*/) {
+  // A frame cut by the end of the stream never gets its delimiter: it is a corrupt frame, and
+  // its bytes are discarded rather than pending forever.
+  if (cut_at_end_bytes_ == 0 && decoder_.pending() > 0) {
+    cut_at_end_bytes_ = decoder_.pending();
+    sync_frame_stats();
+  }
+}
+
 void ImukitCodec::sync_frame_stats() {
   // The frame decoder owns byte accounting; mirror it so the codec's invariant holds.
   const proto::DecoderStats& d = decoder_.stats();
   stats_.bytes_accepted = d.bytes_accepted;
-  stats_.bytes_discarded = d.bytes_discarded;
-  stats_.frames_corrupt = d.frames_rejected();
+  stats_.bytes_discarded = d.bytes_discarded + cut_at_end_bytes_;
+  // Samples Codec::feed dropped for a non-finite value are corrupt frames too, as is a frame
+  // cut by the end of the stream.
+  stats_.frames_corrupt =
+      d.frames_rejected() + stats_.samples_non_finite + (cut_at_end_bytes_ > 0 ? 1 : 0);
 }
 
 void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<Sample>& out) {
@@ -219,8 +236,10 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
 void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
                            std::vector<Sample>& out) {
   if (started_ && !stream_acked_) {
-    // Not our stream yet: what the Stop flushed, or the stream of an earlier session.
+    // Not our stream yet: what the Stop flushed, the stream of an earlier session, or ours
+    // when the Start's Ack was lost on the link. Not recorded, so counted as dropped.
     ++stats_.frames_other;
+    stats_.samples_dropped += b.count;
     return;
   }
   int64_t first = index_.unwrap(b.sample_index);

@@ -43,9 +43,10 @@ class ImukitCodec : public Codec {
 
   std::string name() const override { return "imukit"; }
   void start(TimeNs now) override;
-  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
   void tick(TimeNs now) override;
-  std::size_t bytes_pending() const override { return decoder_.pending(); }
+  std::size_t bytes_pending() const override {
+    return cut_at_end_bytes_ > 0 ? 0 : decoder_.pending();
+  }
 
   const std::optional<proto::DeviceInfo>& device_info() const { return info_; }
   std::span<const SyncPoint> sync_points() const override { return sync_; }
@@ -54,6 +55,10 @@ class ImukitCodec : public Codec {
   // Log lines the device sent.
   const std::vector<std::string>& device_log() const { return log_; }
   bool streaming() const { return started_; }
+
+ protected:
+  void decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void decode_end(TimeNs host_time, std::vector<Sample>& out) override;
 
  private:
   template <class M>
@@ -82,7 +87,8 @@ class ImukitCodec : public Codec {
   std::vector<SyncPoint> sync_;
   std::vector<proto::Nack> nacks_;
   std::vector<std::string> log_;
-  proto::SampleBlock block_;  // scratch: large, kept out of the stack
+  proto::SampleBlock block_;          // scratch: large, kept out of the stack
+  std::size_t cut_at_end_bytes_ = 0;  // bytes of a frame the end of the stream cut off
 };
 
 // Encodes a host->device message as a frame (for tests and tools).

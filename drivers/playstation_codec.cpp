@@ -81,8 +81,8 @@ void PlaystationCodec::on_feature_report(uint8_t, std::span<const uint8_t> repor
   set_calibration(parse_playstation_calibration(model_, report));
 }
 
-void PlaystationCodec::feed(std::span<const uint8_t> r, TimeNs host_time,
-                            std::vector<Sample>& out) {
+void PlaystationCodec::decode(std::span<const uint8_t> r, TimeNs host_time,
+                              std::vector<Sample>& out) {
   stats_.bytes_received += r.size();
   if (r.size() != kInputReportSize || r[0] != 0x01) {
     // Another report (a Bluetooth-mode or vendor report) or a truncated one.

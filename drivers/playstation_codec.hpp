@@ -57,7 +57,6 @@ class PlaystationCodec : public Codec {
     return model_ == PlaystationModel::kDualShock4 ? "dualshock4" : "dualsense";
   }
   bool report_based() const override { return true; }
-  void feed(std::span<const uint8_t> report, TimeNs host_time, std::vector<Sample>& out) override;
   std::vector<FeatureRequest> feature_requests() const override;
   void on_feature_report(uint8_t id, std::span<const uint8_t> report) override;
   void set_calibration(const PsCalibration& c) {
@@ -66,6 +65,9 @@ class PlaystationCodec : public Codec {
   }
   bool calibrated() const { return calibrated_; }
   const PsCalibration& calibration() const { return calibration_; }
+
+ protected:
+  void decode(std::span<const uint8_t> report, TimeNs host_time, std::vector<Sample>& out) override;
 
  private:
   PlaystationModel model_;

@@ -61,13 +61,19 @@ struct CodecStats {
   uint64_t bytes_discarded = 0;  // garbage, corrupt frames, unparseable lines
   uint64_t frames_ok = 0;        // valid frames (samples or not)
   // Checksum, length, format or framing errors. Codecs that resynchronise byte by byte
-  // (WitMotion, Xsens) count a stretch of rejected bytes between two valid frames once.
+  // count the frames a stretch of rejected bytes held: WitMotion ceil(bytes / 11), Xsens one per
+  // damaged frame by the length its header gives (one for bytes up to the next valid frame when
+  // the preamble or the length itself is what was damaged).
+  // Each sample dropped for a non-finite value (samples_non_finite) counts here too.
   uint64_t frames_corrupt = 0;
   uint64_t frames_other = 0;     // valid frames that carry no sample (acks, info, logs)
   uint64_t samples_decoded = 0;  // samples handed out
   // Samples the device made that never arrived: gaps in its sample counter, or (for devices
   // without one) frames whose loss left a sample incomplete.
   uint64_t samples_dropped = 0;
+  // Samples decoded from a valid frame but holding a NaN or infinite value: never handed out,
+  // counted in frames_corrupt and samples_dropped as well (Codec::feed does this for every codec).
+  uint64_t samples_non_finite = 0;
   uint64_t counter_resets = 0;  // counter repeated or jumped back (device restarted its stream)
   uint64_t device_errors = 0;   // error messages the device itself sent
 };

@@ -41,7 +41,7 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
 
 TextCodec::TextCodec(TextCodecOptions options) : opt_(options) {}
 
-void TextCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+void TextCodec::decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
   for (const uint8_t c : data) {
     if (c == '\n') {
@@ -71,7 +71,7 @@ void TextCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vecto
   }
 }
 
-void TextCodec::finish(TimeNs host_time, std::vector<Sample>& out) {
+void TextCodec::decode_end(TimeNs host_time, std::vector<Sample>& out) {
   if (overlong_) {
     stats_.bytes_discarded += overlong_bytes_;
     ++stats_.frames_corrupt;

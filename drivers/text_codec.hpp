@@ -24,12 +24,14 @@ class TextCodec : public Codec {
  public:
   explicit TextCodec(TextCodecOptions options = {});
   std::string name() const override { return "text"; }
-  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(TimeNs host_time, std::vector<Sample>& out) override;
   // An overlong line's bytes are held (not yet discarded) until its newline.
   std::size_t bytes_pending() const override { return line_.size() + overlong_bytes_; }
 
   static constexpr std::size_t kMaxLine = 512;
+
+ protected:
+  void decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void decode_end(TimeNs host_time, std::vector<Sample>& out) override;
 
  private:
   void on_line(std::size_t raw_size, TimeNs host_time, std::vector<Sample>& out);

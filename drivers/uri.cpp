@@ -228,10 +228,20 @@ OpenedDevice open_device(const std::string& text) {
       if (r.ec != std::errc() || r.ptr != u.address.data() + u.address.size() || fd < 0) {
         throw Error("fd:" + u.address + ": expected a file descriptor number");
       }
-      d.codec = make_codec(codec_for(u, std::nullopt), u.keys);
       const int flags = fcntl(fd, F_GETFL);
       if (flags < 0) throw TransportError(os_error("fd " + u.address, errno));
       const bool writable = (flags & O_ACCMODE) != O_RDONLY;
+      CodecOptions o = u.keys;
+      if (!writable) {
+        // Nothing can reach the device through a read-only descriptor (a pipe, a file on
+        // stdin): the codec decodes what comes, as for file:, instead of waiting for answers to
+        // commands it could not send.
+        if (option_bool(o, "commands", false))
+          throw Error("fd " + u.address +
+                      " is open read-only, so commands cannot be sent: remove commands=true");
+        o["commands"] = "false";
+      }
+      d.codec = make_codec(codec_for(u, std::nullopt), o);
       d.transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, writable);
     } else if (u.scheme == "serial") {
       const int64_t baud = option_int(u.keys, "baud", 115200);

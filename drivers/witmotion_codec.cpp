@@ -70,6 +70,7 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
       return;
     }
     expected_types_ = group_types_;
+    frames_per_group_ = frames_in_group_;
     learned_ = true;
   }
   if (learned_ && (group_types_ & expected_types_) != expected_types_) {
@@ -81,8 +82,20 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
   out.push_back(current_);
 }
 
-void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
-                          std::vector<Sample>& out) {
+void WitmotionCodec::count_damage() {
+  if (rejected_bytes_ == 0) return;
+  // Every frame is kFrame bytes: a stretch of rejected bytes held this many frames (a frame cut
+  // short counts as one). A stretch of at least a whole group's frames also took the samples
+  // of those groups, which no frame that arrived shows (emit() counts only samples some frame
+  // of which arrived).
+  const uint64_t frames = (rejected_bytes_ + kFrame - 1) / kFrame;
+  stats_.frames_corrupt += frames;
+  if (frames_per_group_ > 0) stats_.samples_dropped += frames / frames_per_group_;
+  rejected_bytes_ = 0;
+}
+
+void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
+                            std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
   buf_.insert(buf_.end(), data.begin(), data.end());
   const double accel_lsb = opt_.accel_range_g * kStandardGravity / 32768.0;
@@ -93,6 +106,7 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
     while (p < buf_.size() && buf_[p] != kHeader) ++p;
     if (p != head_) {
       stats_.bytes_discarded += p - head_;
+      rejected_bytes_ += p - head_;
       pending_error_ = true;
     }
     head_ = p;
@@ -102,16 +116,15 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
     for (std::size_t i = 0; i < 10; ++i) sum = static_cast<uint8_t>(sum + f[i]);
     const uint8_t type = f[1];
     if (sum != f[10] || type < 0x50 || type > 0x5F) {
-      // Resynchronise on the next header byte; the header bytes inside one damaged frame fail
-      // too, so a stretch of failures between valid frames counts as one corrupt frame.
-      if (!resyncing_) ++stats_.frames_corrupt;
-      resyncing_ = true;
+      // Resynchronise on the next header byte; the stretch of rejected bytes is counted in
+      // frames when the next valid frame ends it (count_damage).
       ++stats_.bytes_discarded;
+      ++rejected_bytes_;
       ++head_;
       pending_error_ = true;
       continue;
     }
-    resyncing_ = false;
+    count_damage();
     stats_.bytes_accepted += kFrame;
     ++stats_.frames_ok;
     head_ += kFrame;
@@ -123,9 +136,12 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
       last_type_ = 0;
       group_had_error_ = false;
       pending_error_ = false;
+      frames_in_group_ = 0;
       current_ = Sample{};
       current_.host_time = host_time;
-    } else if (type > 0x54 || type < 0x51) {
+    }
+    if (in_group_) ++frames_in_group_;
+    if (type > 0x54 || type < 0x51) {
       ++stats_.frames_other;
       continue;
     }
@@ -180,10 +196,12 @@ void WitmotionCodec::feed(std::span<const uint8_t> data, TimeNs host_time,
   }
 }
 
-void WitmotionCodec::finish(TimeNs /*host_time*/, std::vector<Sample>& out) {
+void WitmotionCodec::decode_end(TimeNs /*host_time*/, std::vector<Sample>& out) {
   // Bytes of an unfinished frame at the end are lost.
   stats_.bytes_discarded += buf_.size() - head_;
+  rejected_bytes_ += buf_.size() - head_;
   head_ = buf_.size();
+  count_damage();
   emit(out);
 }
 

@@ -8,7 +8,10 @@
 // carried their acceleration frame. A sample is the group of frames from one 0x51 to the next;
 // the codec learns which types a group holds from the first group without damage around it (a
 // damaged group before it is dropped), and a later group missing one of them (its frame was
-// corrupted or lost) is counted as a dropped sample instead of being emitted half-filled.
+// corrupted or lost) is counted as a dropped sample instead of being emitted half-filled. A
+// stretch of rejected bytes counts as ceil(bytes / 11) corrupt frames, and when it holds at
+// least a whole group's frames, as that many groups' samples dropped too (a sample all of whose
+// frames were damaged leaves no frame to show it).
 //
 // Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
 #pragma once
@@ -35,12 +38,15 @@ class WitmotionCodec : public Codec {
   explicit WitmotionCodec(WitmotionCodecOptions options = {});
   std::string name() const override { return "witmotion"; }
   void start(TimeNs now) override;
-  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(TimeNs host_time, std::vector<Sample>& out) override;
   std::size_t bytes_pending() const override { return buf_.size() - head_; }
+
+ protected:
+  void decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void decode_end(TimeNs host_time, std::vector<Sample>& out) override;
 
  private:
   void emit(std::vector<Sample>& out);
+  void count_damage();
 
   WitmotionCodecOptions opt_;
   std::vector<uint8_t> buf_;
@@ -51,8 +57,10 @@ class WitmotionCodec : public Codec {
   uint8_t expected_types_ = 0;  // learned from the first complete group
   bool learned_ = false;
   bool group_had_error_ = false;
-  bool pending_error_ = false;  // corruption seen since the last accel frame
-  bool resyncing_ = false;      // bytes rejected since the last valid frame
+  bool pending_error_ = false;     // corruption seen since the last accel frame
+  uint64_t rejected_bytes_ = 0;    // bytes rejected since the last valid frame
+  uint64_t frames_in_group_ = 0;   // valid frames since the group's acceleration frame
+  uint64_t frames_per_group_ = 0;  // frames of the first clean group (0: not learned yet)
   Sample current_;
   uint64_t sequence_ = 0;
 };

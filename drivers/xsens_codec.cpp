@@ -153,13 +153,15 @@ void XsensCodec::start(TimeNs) {
   }
 }
 
-void XsensCodec::feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
+void XsensCodec::decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
   buf_.insert(buf_.end(), data.begin(), data.end());
   parse(host_time, out, false);
 }
 
-void XsensCodec::finish(TimeNs host_time, std::vector<Sample>& out) { parse(host_time, out, true); }
+void XsensCodec::decode_end(TimeNs host_time, std::vector<Sample>& out) {
+  parse(host_time, out, true);
+}
 
 void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) {
   for (;;) {
@@ -167,6 +169,13 @@ void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) 
     std::size_t p = head_;
     while (p < buf_.size() && buf_[p] != xsens::kPreamble) ++p;
     stats_.bytes_discarded += p - head_;
+    // Bytes that are no frame, beyond the frame already counted: a frame whose preamble was
+    // damaged. Its length is unknown, so what is rejected up to the next valid frame is part
+    // of it.
+    if (p != head_ && base_ + p > damaged_until_) {
+      ++stats_.frames_corrupt;
+      damaged_until_ = UINT64_MAX;
+    }
     head_ = p;
     const std::size_t avail = buf_.size() - head_;
     if (avail == 0) break;
@@ -197,15 +206,19 @@ void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) 
     }
     if (bad) {
       // Not a frame here (corruption, or a data byte that looked like a preamble): drop the
-      // preamble byte and resynchronise on the next one. Preamble bytes inside one damaged
-      // frame fail too, so a stretch of failures between valid frames counts as one.
-      if (!resyncing_) ++stats_.frames_corrupt;
-      resyncing_ = true;
+      // preamble byte and resynchronise on the next one. Preamble bytes inside the frame that
+      // failed (up to the end its length gives) fail too but are not frames of their own; a
+      // failure beyond it is the next damaged frame.
+      if (base_ + head_ >= damaged_until_) {
+        ++stats_.frames_corrupt;
+        const bool length_known = avail >= header && len <= xsens::kMaxDataLength;
+        damaged_until_ = length_known ? base_ + head_ + header + len + 1 : UINT64_MAX;
+      }
       ++stats_.bytes_discarded;
       ++head_;
       continue;
     }
-    resyncing_ = false;
+    damaged_until_ = 0;
     const std::size_t total = header + len + 1;
     stats_.bytes_accepted += total;
     ++stats_.frames_ok;
@@ -215,6 +228,7 @@ void XsensCodec::parse(TimeNs host_time, std::vector<Sample>& out, bool at_end) 
   // Compact once the consumed prefix dominates.
   if (head_ > 4096 && head_ * 2 > buf_.size()) {
     buf_.erase(buf_.begin(), buf_.begin() + static_cast<std::ptrdiff_t>(head_));
+    base_ += head_;
     head_ = 0;
   }
 }

@@ -76,11 +76,13 @@ class XsensCodec : public Codec {
   explicit XsensCodec(XsensCodecOptions options = {});
   std::string name() const override { return "xsens"; }
   void start(TimeNs now) override;
-  void feed(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
-  void finish(TimeNs host_time, std::vector<Sample>& out) override;
   std::size_t bytes_pending() const override { return buf_.size() - head_; }
   // MIDs of the non-data messages received (acks, errors), in order.
   const std::vector<uint8_t>& messages() const { return messages_; }
+
+ protected:
+  void decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) override;
+  void decode_end(TimeNs host_time, std::vector<Sample>& out) override;
 
  private:
   void parse(TimeNs host_time, std::vector<Sample>& out, bool at_end);
@@ -90,7 +92,10 @@ class XsensCodec : public Codec {
   XsensCodecOptions opt_;
   std::vector<uint8_t> buf_;
   std::size_t head_ = 0;
-  bool resyncing_ = false;  // bytes rejected since the last valid frame
+  uint64_t base_ = 0;  // stream offset of buf_[0]
+  // Stream offset up to which rejected bytes belong to the damaged frame counted last (the end
+  // its length gives; UINT64_MAX when unknown: up to the next valid frame); 0 after a valid one.
+  uint64_t damaged_until_ = 0;
   CounterUnwrapper counter_{16};
   CounterUnwrapper time_{32};
   uint64_t decoded_ = 0;

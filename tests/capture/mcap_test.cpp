@@ -274,6 +274,32 @@ TEST(Mcap, NotAnMcapFileIsRejectedAtByteZero) {
   }
 }
 
+// A rewrite that fails half way (here the edit throws, as a full disk would) leaves the file
+// that was at the output before, byte for byte, and no temporary beside it.
+TEST(Mcap, AFailedRewriteLeavesTheEarlierFileAndNoTemporary) {
+  testing::TempDir dir;
+  const std::string in = (dir / "in.mcap").string();
+  const std::string out = (dir / "out.mcap").string();
+  write_file(in, 2000, 1000.0);  // 4000 messages, 8 chunks
+  write_file(out, 10, 1000.0);
+  const std::vector<uint8_t> earlier = slurp(out);
+  int seen = 0;
+  const McapMessageEdit fail_late = [&](const McapChannel&, McapMessageView&) {
+    if (++seen == 3000) throw IoError("out.mcap: write failed: No space left on device");
+    return true;
+  };
+  EXPECT_THROW(rewrite_mcap(in, out, fail_late), IoError);
+  EXPECT_EQ(seen, 3000);
+  EXPECT_EQ(slurp(out), earlier);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 2);
+  // The same rewrite without the failure replaces it.
+  rewrite_mcap(in, out, nullptr);
+  McapReadSummary s;
+  EXPECT_EQ(read_all(out, &s).size(), 4000u);
+  EXPECT_TRUE(s.complete);
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 2);
+}
+
 TEST(Mcap, DiskFullIsAClearErrorAndEarlierChunksStayReadable) {
   if (!std::filesystem::exists("/dev/full")) GTEST_SKIP() << "/dev/full is not available";
   try {

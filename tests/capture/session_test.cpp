@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/capture/ros_messages.hpp"
+#include "imukit/core/error.hpp"
 #include "imukit/drivers/imukit_codec.hpp"
 #include "imukit/drivers/mock_device.hpp"
 #include "imukit/drivers/uri.hpp"
@@ -229,6 +231,32 @@ TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
 // Samples lost before the first one written (the link dropped the first frames) are invisible
 // to the counter gaps between written samples but not to the codec, whose count reaches the
 // report and the file's metadata.
+// A partial file at the live path is what a crashed recording kept: a new recording to the same
+// output refuses to start, says how to recover it, and leaves it exactly as it was.
+TEST(Session, RefusesToStartOverThePartialFileOfACrashedRecording) {
+  testing::TempDir dir;
+  const std::string out = (dir / "rec.mcap").string();
+  const std::string partial = (dir / "rec.partial.mcap").string();
+  const std::string kept = "what the crash left";
+  std::ofstream(partial, std::ios::binary) << kept;
+  const auto mock = drivers::make_mock_device("static", {{"rate", "1000"}, {"clock", "virtual"}});
+  SessionOptions options;
+  options.path = out;
+  options.max_samples = 10;
+  try {
+    record_session(one_kilohertz_mock(*mock), options);
+    FAIL() << "recorded over " << partial;
+  } catch (const IoError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(partial + " already exists"), std::string::npos) << m;
+    EXPECT_NE(m.find("imukit convert --recover " + partial), std::string::npos) << m;
+  }
+  std::ifstream in(partial, std::ios::binary);
+  const std::string after((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(after, kept);
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(Session, LossesBeforeTheFirstSampleAreInTheCodecCount) {
   testing::TempDir dir;
   // The first seed of the mock's link whose first frames are lost (each frame is lost with

@@ -4,6 +4,8 @@
 run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
 import os
+import resource
+import signal
 from types import SimpleNamespace
 
 import numpy as np
@@ -158,3 +160,32 @@ def test_cut_recording_reads_with_a_note_and_recovers(run, converted, mcap_file)
     assert r.returncode == 0, "convert --recover exits 0"
     r = run("info", fixed)
     assert r.returncode == 0 and "the file ends" not in r.stderr, "the recovered file is complete"
+
+
+def limited_file_size(limit_bytes):
+    """A preexec_fn: files may grow to limit_bytes (writes past it fail with EFBIG, as on a full
+    disk; SIGXFSZ ignored, so the failure is a write error and not a killed process)."""
+    def apply():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    return apply
+
+
+@pytest.mark.parametrize("recover", [False, True], ids=["convert", "convert_recover"])
+def test_a_failed_mcap_write_leaves_the_earlier_file(run, workdir, recover):
+    """`convert` to .mcap (and `convert --recover`) that runs out of space mid-file: exit 3 naming
+    the output, the file that was there before unchanged, no temporary left behind."""
+    folder = os.path.join(workdir, "atomic_" + ("recover" if recover else "convert"))
+    os.makedirs(folder)
+    src = os.path.join(folder, "src.mcap")
+    out = os.path.join(folder, "out.mcap")
+    assert run("record", "mock:static?rate=1000&clock=virtual", "--duration", "20", "-o", src).returncode == 0
+    assert run("record", "mock:static?rate=100&clock=virtual", "--duration", "1", "-o", out).returncode == 0
+    earlier = open(out, "rb").read()
+    assert os.path.getsize(src) > 200_000 and len(earlier) < 50_000
+    args = ["convert", "--recover", src, "-o", out] if recover else ["convert", src, "-o", out]
+    r = run(*args, preexec_fn=limited_file_size(100_000))
+    assert r.returncode == 3, f"a failed write exits 3 ({r.returncode}: {r.stderr.strip()})"
+    assert "out.mcap" in r.stderr and "File too large" in r.stderr, r.stderr
+    assert open(out, "rb").read() == earlier, "the earlier file is unchanged"
+    assert sorted(os.listdir(folder)) == ["out.mcap", "src.mcap"], "and no temporary is left"

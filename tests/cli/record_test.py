@@ -4,9 +4,12 @@ virtual-time recording has exactly the requested duration.
 
 run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
+import math
 import os
+import resource
 import re
 import signal
+import struct
 import subprocess
 import time
 
@@ -75,3 +78,103 @@ def test_unknown_uri_key_is_one_line(imukit, workdir):
                        capture_output=True, text=True)
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1 and "rat" in r.stderr, \
         f"an unknown URI key is a one-line error ({r.stderr.strip()})"
+
+
+def xsens_frame(payload):
+    """An Xsens MTData2 frame (preamble, bus id, message id, length, payload, checksum)."""
+    f = bytes([0xFA, 0xFF, 0x36, len(payload)]) + payload
+    return f + bytes([(-sum(f[1:])) & 0xFF])
+
+
+def xsens_packet(counter, accel_x):
+    """Packet counter, SampleTimeFine (10 kHz ticks, 100 Hz), float32 acceleration and rate of turn."""
+    item = lambda i, data: struct.pack(">HB", i, len(data)) + data
+    return xsens_frame(item(0x1020, struct.pack(">H", counter)) +
+                       item(0x1060, struct.pack(">I", 100 * counter)) +
+                       item(0x4020, struct.pack(">3f", accel_x, 0.0, 9.81)) +
+                       item(0x8020, struct.pack(">3f", 0.01, 0.02, 0.03)))
+
+
+def test_a_non_finite_sample_is_dropped_and_the_recording_stays_readable(imukit, workdir):
+    """One NaN or Inf from a device: that sample is dropped and counted, the rest is recorded."""
+    stream = os.path.join(workdir, "nan.bin")
+    with open(stream, "wb") as f:
+        for n in range(1000):
+            f.write(xsens_packet(n, {10: math.nan, 11: math.inf, 12: -math.inf}.get(n, 0.0)))
+    out = os.path.join(workdir, "nan.mcap")
+    r = subprocess.run([imukit, "record", f"file:{stream}?codec=xsens", "-o", out],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "997 samples" in r.stdout and "corrupt frames 3," in r.stdout, r.stdout
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert r.returncode == 0, f"info reads the recording ({r.stderr.strip()})"
+    assert samples_in(r.stdout) == 997, r.stdout
+
+
+def test_a_crashed_recordings_partial_file_is_never_overwritten(imukit, workdir):
+    """Recording again to the output of a crashed recording: refused, naming the partial file and
+    the command that recovers it, which then works; the partial file is untouched."""
+    out = os.path.join(workdir, "again.mcap")
+    partial = os.path.join(workdir, "again.partial.mcap")
+    # What a crash leaves: a live file without the refit (--no-refit writes it under its name).
+    r = subprocess.run([imukit, "record", "mock:static?rate=200&clock=virtual", "--samples", "1000",
+                        "--no-refit", "-o", partial], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    crashed = open(partial, "rb").read()
+    r = subprocess.run([imukit, "record", "mock:static?rate=200&clock=virtual", "--duration", "1",
+                        "-o", out], capture_output=True, text=True)
+    assert r.returncode == 3, f"refused with exit 3 ({r.returncode}: {r.stderr.strip()})"
+    recover = f"imukit convert --recover {partial} -o {os.path.join(workdir, 'again.recovered.mcap')}"
+    assert f"{partial} already exists" in r.stderr and recover in r.stderr, r.stderr
+    assert open(partial, "rb").read() == crashed and not os.path.exists(out), "the partial file is untouched"
+    r = subprocess.run([imukit, *recover.split()[1:]], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([imukit, "info", os.path.join(workdir, "again.recovered.mcap")], capture_output=True,
+                       text=True)
+    assert samples_in(r.stdout) == 1000, r.stdout
+
+
+def test_sighup_stops_cleanly_like_sigterm(imukit, workdir):
+    """A closed terminal (SIGHUP): the same clean stop as SIGTERM, complete refitted file."""
+    out = os.path.join(workdir, "hup.mcap")
+    p = subprocess.Popen([imukit, "record", "mock:static?rate=500&clock=real", "-o", out],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True)
+    time.sleep(1.5)
+    p.send_signal(signal.SIGHUP)
+    stdout, stderr = p.communicate(timeout=30)
+    assert p.returncode == 0, f"SIGHUP ends the recording with exit 0 ({p.returncode}: {stderr.strip()})"
+    assert "stopped: stopped by signal" in stdout, stdout
+    assert not os.path.exists(os.path.join(workdir, "hup.partial.mcap")), "the final file replaced the live one"
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert r.returncode == 0 and "the file ends" not in r.stderr and samples_in(r.stdout) >= 500, r.stdout + r.stderr
+
+
+def test_a_file_over_the_size_limit_is_an_io_error_not_a_kill(imukit, workdir):
+    """RLIMIT_FSIZE reached (SIGXFSZ left at its default, which kills): exit 3 naming the file,
+    and the live file closed and readable up to its last chunk."""
+    out = os.path.join(workdir, "fsize.mcap")
+    limit = 60_000
+    r = subprocess.run([imukit, "record", "mock:static?rate=1000&clock=virtual", "--duration", "60", "-o", out],
+                       capture_output=True, text=True,
+                       preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit)))
+    assert r.returncode == 3, f"exit 3, not killed by SIGXFSZ ({r.returncode}: {r.stderr.strip()})"
+    live = os.path.join(workdir, "fsize.partial.mcap")
+    assert "fsize.partial.mcap" in r.stderr and "File too large" in r.stderr, r.stderr
+    assert os.path.getsize(live) == limit
+    r = subprocess.run([imukit, "info", live], capture_output=True, text=True)
+    assert r.returncode == 0 and samples_in(r.stdout) > 0, r.stdout + r.stderr
+
+
+def test_a_closed_stdout_pipe_is_an_io_error_not_a_kill(imukit, workdir):
+    """stdout a pipe nobody reads any more (SIGPIPE): the recording completes, the failed report
+    is exit 3 with a message, not a death by SIGPIPE."""
+    out = os.path.join(workdir, "pipe.mcap")
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    r = subprocess.run([imukit, "record", "mock:static?rate=1000&clock=virtual", "--samples", "2000", "-o", out],
+                       stdout=write_end, stderr=subprocess.PIPE, text=True)
+    os.close(write_end)
+    assert r.returncode == 3, f"exit 3, not killed by SIGPIPE ({r.returncode}: {r.stderr.strip()})"
+    assert "Broken pipe" in r.stderr and "pipe.mcap is complete" in r.stderr, r.stderr
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert r.returncode == 0 and samples_in(r.stdout) == 2000, r.stdout + r.stderr

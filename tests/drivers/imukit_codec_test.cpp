@@ -2,9 +2,17 @@
 
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <set>
 
+#include "imukit/core/error.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/uri.hpp"
 #include "support/example_models.hpp"
+#include "support/test_data.hpp"
 #include "test_util.hpp"
 
 namespace imukit::drivers {
@@ -18,8 +26,10 @@ struct Stream {
   int samples = 0;
 };
 
-// DeviceInfo, then `blocks` SampleBlocks of 8 samples; raw accel x = sample index mod 30000.
-Stream make_stream(int blocks, uint32_t first_index = 0, uint32_t first_tick = 0) {
+// DeviceInfo (100 Hz its first rate), then `blocks` SampleBlocks of 8 samples made at rate_hz;
+// raw accel x = sample index mod 30000.
+Stream make_stream(int blocks, uint32_t first_index = 0, uint32_t first_tick = 0,
+                   uint32_t rate_hz = 100) {
   Stream s;
   uint16_t seq = 0;
   auto add = [&](const auto& m) {
@@ -32,9 +42,9 @@ Stream make_stream(int blocks, uint32_t first_index = 0, uint32_t first_tick = 0
   for (int b = 0; b < blocks; ++b) {
     proto::SampleBlock blk;
     blk.sample_index = first_index + 8u * static_cast<uint32_t>(b);
-    // The device's rule: tick of sample i = floor(i * 32768 * 1000 / 100000).
-    blk.first_tick =
-        first_tick + static_cast<uint32_t>(uint64_t{8u * static_cast<uint32_t>(b)} * 32768u / 100u);
+    // The device's rule: tick of sample i = floor(i * 32768 * 1000 / rate_mhz).
+    blk.first_tick = first_tick + static_cast<uint32_t>(uint64_t{8u * static_cast<uint32_t>(b)} *
+                                                        32768u / rate_hz);
     blk.count = 8;
     blk.channels = proto::kChannelAccel | proto::kChannelGyro;
     for (int i = 0; i < 8; ++i) {
@@ -188,6 +198,84 @@ TEST(ImukitCodec, BlocksBeforeDeviceInfoAreCountedNotGuessed) {
   codec.feed(tail, 0, out);
   EXPECT_TRUE(out.empty());
   EXPECT_EQ(codec.stats().samples_dropped, 24u);
+}
+
+// A frame the end of the stream cuts off is a corrupt frame, its bytes discarded, not pending.
+TEST(ImukitCodec, AFrameCutByTheEndOfTheStreamIsCorrupt) {
+  const Stream st = make_stream(10);
+  const std::vector<uint8_t> cut(st.bytes.begin(), st.bytes.end() - 9);
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(cut, 0, out);
+  codec.finish(0, out);
+  const std::size_t last_frame = st.bytes.size() - st.block_start[9];
+  EXPECT_EQ(out.size(), 72u);
+  EXPECT_EQ(codec.stats().frames_corrupt, 1u);
+  EXPECT_EQ(codec.bytes_pending(), 0u);
+  EXPECT_EQ(codec.stats().bytes_discarded, last_frame - 9);
+  testing::expect_byte_accounting(codec);
+}
+
+// A replay (no commands) of a stream made at 1 kHz by a device whose first listed rate is
+// 100 Hz: rate=1000 times the samples, 1 ms apart on the device clock, not 10 ms.
+TEST(ImukitCodec, AReplayIsTimedAtTheRateGiven) {
+  const Stream st = make_stream(50, 0, 0, 1000);
+  ImukitCodec codec(ImukitCodecOptions{false, 1000.0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 0, out);
+  codec.finish(0, out);
+  ASSERT_EQ(out.size(), 400u);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    EXPECT_EQ(out[i].device_time, ticks_to_ns(static_cast<int64_t>(i * 32768 / 1000), 32768));
+  EXPECT_EQ(out[399].device_time, 398'986'816);  // 13074 ticks of 32768 Hz
+  EXPECT_EQ(codec.stats().counter_resets, 0u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+}
+
+// Samples that arrive after our Start but before its Ack are not recorded: counted as dropped.
+TEST(ImukitCodec, BlocksBeforeTheStartAckAreCountedAsDropped) {
+  ImukitCodec codec(ImukitCodecOptions{true, 100.0, 8, 0, 0});
+  codec.start(0);
+  const Stream st = make_stream(3);
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 0, out);  // the DeviceInfo (Stop, Configure, Start go out), 3 blocks
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(codec.stats().samples_dropped, 24u);
+  EXPECT_EQ(codec.stats().samples_decoded, 0u);
+}
+
+// A read-only descriptor (a pipe or a file on stdin) cannot carry commands: the codec decodes
+// what comes instead of waiting for an Ack that never comes, and commands=true is refused.
+TEST(ImukitCodec, AReadOnlyDescriptorDecodesWithoutCommands) {
+  const Stream st = make_stream(50);
+  imukit::testing::TempDir dir;
+  const std::string path = (dir / "capture.bin").string();
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(f, nullptr);
+    std::fwrite(st.bytes.data(), 1, st.bytes.size(), f);
+    std::fclose(f);
+  }
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  const std::string uri = "fd:" + std::to_string(fd) + "?codec=imukit";
+  try {
+    open_device(uri + "&commands=true");
+    ADD_FAILURE() << "commands=true on a read-only descriptor was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("fd " + std::to_string(fd) + " is open read-only"),
+              std::string::npos)
+        << e.what();
+  }
+  OpenedDevice d = open_device(uri);
+  std::atomic<bool> stop{false};
+  std::vector<Sample> out;
+  const EndReason end = DeviceReader::run(*d.transport, *d.codec, ReaderOptions{}, stop, out);
+  ::close(fd);
+  EXPECT_EQ(end.kind, EndKind::kEndOfStream);
+  EXPECT_EQ(out.size(), 400u);
+  EXPECT_EQ(d.codec->stats().samples_decoded, 400u);
+  EXPECT_EQ(d.codec->stats().samples_dropped, 0u);
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
 #include <numbers>
 #include <set>
@@ -97,6 +98,22 @@ TEST(TextCodec, AnOverlongLineIsPendingUntilItsNewlineThenDiscarded) {
   EXPECT_EQ(codec.stats().bytes_discarded, 601u);
   EXPECT_EQ(codec.stats().frames_corrupt, 1u);
   EXPECT_EQ(out.size(), 1u);
+}
+
+TEST(TextCodec, AValueThatOverflowsItsUnitScaleIsDroppedAndCounted) {
+  // 1e308 parses as finite; in g it is 9.8e308 m/s^2, which is +inf.
+  TextCodec codec(text_codec_options({{"accel_unit", "g"}}));
+  std::vector<Sample> out;
+  codec.feed(bytes("1,0,0,1,0,0,0\n2,1e308,0,1,0,0,0\n3,0,0,1,0,0,0\n"), 5000, out);
+  codec.finish(5000, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].sequence, 0u);
+  EXPECT_EQ(out[1].sequence, 2u);
+  EXPECT_EQ(out[1].accel[2], kStandardGravity);
+  EXPECT_EQ(codec.stats().samples_non_finite, 1u);
+  EXPECT_EQ(codec.stats().frames_corrupt, 1u);
+  EXPECT_EQ(codec.stats().samples_dropped, 1u);
+  EXPECT_EQ(codec.stats().samples_decoded, 2u);
 }
 
 TEST(TextCodec, LastLineWithoutNewlineIsKept) {

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 
+#include <cmath>
 #include <numbers>
 #include <set>
 
@@ -165,6 +167,32 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     EXPECT_EQ(codec.stats().frames_corrupt, 1u);
     testing::expect_byte_accounting(codec);
   }
+}
+
+// Samples all of whose frames arrive damaged leave no frame to show them: the stretch of
+// rejected bytes does (a whole group's worth per sample), and corrupt frames count frames, not
+// stretches. Sample 10: its 4 frames bad; samples 30 and 31: all 8 frames bad; sample 50: its
+// gyroscope frame bad.
+TEST(WitmotionCodec, WhollyDamagedSamplesAreDroppedAndEveryBadFrameCounted) {
+  Stream st = make_stream(100);
+  for (int sample : {10, 30, 31}) {
+    for (int k = 0; k < 4; ++k) st.bytes[st.frame_start[4 * sample + k] + 10] ^= 1;
+  }
+  st.bytes[st.frame_start[4 * 50 + 1] + 10] ^= 1;
+  WitmotionCodec codec;
+  Rng rng(4);
+  const auto out = testing::feed_split(codec, st.bytes, rng, 30);
+  const CodecStats& s = codec.stats();
+  EXPECT_EQ(out.size(), 96u);
+  EXPECT_EQ(s.samples_decoded, 96u);
+  EXPECT_EQ(s.samples_dropped, 4u);
+  EXPECT_EQ(s.frames_corrupt, 13u);
+  EXPECT_EQ(s.frames_ok, 387u);
+  for (const Sample& x : out) {
+    const auto i = static_cast<int>(std::lround(x.accel[0] / (16 * kStandardGravity / 32768.0)));
+    EXPECT_TRUE(i != 10 && i != 30 && i != 31 && i != 50) << i;
+  }
+  testing::expect_byte_accounting(codec);
 }
 
 TEST(WitmotionCodec, RateCommandsFollowTheRegisterMap) {

@@ -4,6 +4,7 @@
 
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -215,6 +216,34 @@ TEST(XsensCodec, SplitAnywhereGivesTheSameSamplesAndUnwrapsCounters) {
   }
 }
 
+TEST(XsensCodec, NonFiniteSamplesAreDroppedAndCountedAsCorrupt) {
+  // Checksums are fine; the floats are NaN, +inf and -inf in packets 10, 11 and 12.
+  std::vector<uint8_t> stream;
+  for (int i = 0; i < 100; ++i) {
+    float base = 1.0f;
+    if (i == 10) base = std::numeric_limits<float>::quiet_NaN();
+    if (i == 11) base = std::numeric_limits<float>::infinity();
+    if (i == 12) base = -std::numeric_limits<float>::infinity();
+    const auto f = synthetic_packet(static_cast<uint16_t>(i), 100u * i, base);
+    stream.insert(stream.end(), f.begin(), f.end());
+  }
+  XsensCodec codec;
+  Rng rng(3);
+  const auto out = testing::feed_split(codec, stream, rng, 50);
+  const CodecStats& s = codec.stats();
+  ASSERT_EQ(out.size(), 97u);
+  EXPECT_EQ(s.samples_non_finite, 3u);
+  EXPECT_EQ(s.frames_corrupt, 3u);
+  EXPECT_EQ(s.samples_dropped, 3u);
+  EXPECT_EQ(s.samples_decoded, 97u);
+  EXPECT_EQ(s.frames_ok, 100u);
+  for (const Sample& x : out) {
+    EXPECT_TRUE(x.sequence < 10 || x.sequence > 12) << x.sequence;
+    EXPECT_EQ(x.accel[0], 1.0);
+  }
+  testing::expect_byte_accounting(codec);
+}
+
 TEST(XsensCodec, CorruptionIsDetectedAndEveryLostPacketCounted) {
   std::vector<uint8_t> stream;
   std::vector<std::size_t> starts;
@@ -246,6 +275,27 @@ TEST(XsensCodec, CorruptionIsDetectedAndEveryLostPacketCounted) {
     EXPECT_FALSE(hit.count(static_cast<int>(x.sequence)));
     EXPECT_EQ(x.device_time, static_cast<int64_t>(x.sequence) * 1000 * 100'000);
   }
+}
+
+// Corrupt frames count frames, not stretches of damage: three packets in a row with a bad
+// checksum are three, and a packet whose preamble was damaged is one more.
+TEST(XsensCodec, EveryDamagedFrameIsCountedOnce) {
+  std::vector<uint8_t> stream;
+  for (int i = 0; i < 1000; ++i) {
+    auto f = synthetic_packet(static_cast<uint16_t>(i), 100u * i, 1.0f);
+    if (i == 100 || i == 101 || i == 102) f.back() ^= 1;
+    if (i == 500) f[0] = 0xFB;
+    stream.insert(stream.end(), f.begin(), f.end());
+  }
+  XsensCodec codec;
+  Rng rng(8);
+  const auto out = testing::feed_split(codec, stream, rng, 300);
+  const CodecStats& s = codec.stats();
+  EXPECT_EQ(out.size(), 996u);
+  EXPECT_EQ(s.frames_corrupt, 4u);
+  EXPECT_EQ(s.samples_dropped, 4u);
+  EXPECT_EQ(s.frames_ok, 996u);
+  testing::expect_byte_accounting(codec);
 }
 
 TEST(XsensCodec, ExtendedLengthFramesDecode) {
