@@ -356,6 +356,27 @@ TEST(AllanVarianceCovariance, IsPositiveSemiDefiniteOnTheDefaultGrid) {
   EXPECT_GE(smallest_relative_eigenvalue({2e-5, 1e-3, 1e-4, 3e-5, 0.0}, n), -1e-12);
 }
 
+// The GLS fit (as `imukit characterize`) of each of 3 axes of n samples of white noise of
+// density N at rate_hz, drawn from rng.
+std::vector<NoiseFit> gls_fits_of_white_noise(double N, double rate_hz, int64_t n, Rng& rng) {
+  std::vector<TimeNs> t(static_cast<size_t>(n));
+  for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate_hz);
+  Eigen::MatrixXd y(3, n);
+  for (int64_t i = 0; i < n; ++i)
+    for (Eigen::Index r = 0; r < 3; ++r) y(r, i) = N * std::sqrt(rate_hz) * rng.normal();
+  AllanOptions opt;
+  opt.modified = false;
+  opt.hadamard = false;
+  const AllanResult res = allan_deviation(t, y, opt);
+  std::vector<NoiseFit> fits;
+  for (Eigen::Index r = 0; r < 3; ++r) {
+    std::vector<double> dev(res.tau_s.size());
+    for (size_t k = 0; k < dev.size(); ++k) dev[k] = res.allan.deviation(r, Eigen::Index(k));
+    fits.push_back(fit_noise_model_gls(res.tau_s, dev, res.factors, n));
+  }
+  return fits;
+}
+
 TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   // Pure white noise (N = 1e-3 at 100 Hz, 3e5 samples; seeds 1-10 x 3 axes). The GLS fit's
   // chi^2 / dof must be near 1 (its mean over 30 axes of about 46 dof each varies by +-0.04);
@@ -367,23 +388,11 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   // gives 0.95, 0 of 30 and 0.99.
   const double N = 1e-3, rate = 100.0;
   const int64_t n = 300000;
-  std::vector<TimeNs> t(static_cast<size_t>(n));
-  for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate);
-  AllanOptions opt;
-  opt.modified = false;
-  opt.hadamard = false;
   double chi2_sum = 0.0, z2_sum = 0.0;
   int axes = 0, false_ramps = 0;
   for (uint64_t seed = 1; seed <= 10; ++seed) {
     Rng rng(seed);
-    Eigen::MatrixXd y(3, n);
-    for (int64_t i = 0; i < n; ++i)
-      for (Eigen::Index r = 0; r < 3; ++r) y(r, i) = N * std::sqrt(rate) * rng.normal();
-    const AllanResult res = allan_deviation(t, y, opt);
-    for (Eigen::Index r = 0; r < 3; ++r) {
-      std::vector<double> dev(res.tau_s.size());
-      for (size_t k = 0; k < dev.size(); ++k) dev[k] = res.allan.deviation(r, Eigen::Index(k));
-      const NoiseFit fit = fit_noise_model_gls(res.tau_s, dev, res.factors, n);
+    for (const NoiseFit& fit : gls_fits_of_white_noise(N, rate, n, rng)) {
       ++axes;
       chi2_sum += fit.chi2_per_dof;
       false_ramps += fit.active[kRamp];
@@ -410,24 +419,12 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
 // alone, with a note; its other terms are undetermined (upper bound infinite).
 TEST(NoiseFit, AShortRecordOfWhiteNoiseGetsNAloneAndSaysWhy) {
   const double N = 1e-3, rate = 100.0;
-  AllanOptions opt;
-  opt.modified = false;
-  opt.hadamard = false;
   for (const int64_t n : {int64_t(8), int64_t(50), int64_t(300)}) {
-    std::vector<TimeNs> t(static_cast<size_t>(n));
-    for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate);
     Rng rng(static_cast<uint64_t>(n));
     std::vector<double> ratio;
     for (int rec = 0; rec < 20; ++rec) {
-      Eigen::MatrixXd y(3, n);
-      for (int64_t i = 0; i < n; ++i)
-        for (Eigen::Index r = 0; r < 3; ++r) y(r, i) = N * std::sqrt(rate) * rng.normal();
-      const AllanResult res = allan_deviation(t, y, opt);
-      for (Eigen::Index r = 0; r < 3; ++r) {
-        std::vector<double> dev(res.tau_s.size());
-        for (size_t k = 0; k < dev.size(); ++k) dev[k] = res.allan.deviation(r, Eigen::Index(k));
-        const NoiseFit fit = fit_noise_model_gls(res.tau_s, dev, res.factors, n);
-        SCOPED_TRACE(::testing::Message() << n << " samples, record " << rec << ", axis " << r);
+      for (const NoiseFit& fit : gls_fits_of_white_noise(N, rate, n, rng)) {
+        SCOPED_TRACE(::testing::Message() << n << " samples, record " << rec);
         ASSERT_TRUE(fit.active[kWhite]);
         for (const int term : {kQuantization, kBiasInstability, kRandomWalk, kRamp}) {
           EXPECT_FALSE(fit.active[static_cast<size_t>(term)]);
