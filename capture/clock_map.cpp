@@ -134,11 +134,16 @@ void ClockMapper::refit() const {
     a_ = p.y - b_ * p.x;
     // A host clock that stepped back can tilt the envelope down, and a file replayed faster than
     // it was recorded lays it almost flat; no device clock is off by half its rate, so such a
-    // fit falls back to the nominal rate through the edge's first point (a clock map must not
-    // run backwards, nor squeeze seconds of samples into the milliseconds of a replay).
+    // fit falls back to the nominal rate (a clock map must not run backwards, nor squeeze
+    // seconds of samples into the milliseconds of a replay). The line of slope 1 must still lie
+    // under every packet (no sample is made after it arrives, and receive jitter is never
+    // negative), so it goes through the hull vertex with the smallest y - x: the minimum of a
+    // linear function over the points is at a vertex of their lower hull. A replay thus maps
+    // its samples to end at the last one's arrival, as if it had been recorded live just then.
     if (!(b_ > kMinRate && b_ < 1.0 / kMinRate && std::isfinite(a_))) {
       b_ = 1.0;
-      a_ = p.y - p.x;
+      a_ = std::numeric_limits<double>::infinity();
+      for (const Point& h : hull_) a_ = std::min(a_, h.y - h.x);
     }
   }
   // Latency from the least disturbed ping: envelope minus the ping's mid-point estimate.

@@ -79,8 +79,9 @@ class ClockMapper {
   // Host time of a device tick under the current fit; before two packets arrived, the first
   // packet's offset at the nominal rate. Non-decreasing in the tick: a fitted rate that is not
   // within a factor 2 of the nominal one (a host clock that stepped, a file replayed at once) is
-  // replaced by the nominal rate. Saturates at the int64 range for ticks absurdly far from the
-  // first packet's.
+  // replaced by the nominal rate, on the line of that slope under every packet (receive jitter
+  // stays >= 0; a replay's samples end at the last one's arrival). Saturates at the int64 range for
+  // ticks absurdly far from the first packet's.
   TimeNs map(uint64_t device_ticks) const;
   bool ready() const { return packets_ >= 2; }
   // Statistics of the fit (a pass over the kept residual samples: call at the end, or rarely).

@@ -130,10 +130,13 @@ void reader_thread(Device& d, bool wait_when_full) {
 }
 
 // The sample rate on the host clock: from the device clock span and the fitted skew where the
-// device has a clock (receive times would fold the link's jitter into it), else from receive times.
+// device has a clock (receive times would fold the link's jitter into it), else from receive
+// times, which only a live device gives: a replay's are when the bytes were read (found in
+// review: a WitMotion file replay measured 1e7 Hz), so without a clock it has no rate.
 void set_rate(const Device& d, DeviceProgress& p) {
   p.rate_hz = 0.0;
-  if (d.written < 2) return;
+  p.rate_unknown = d.written > 0 && !d.has_device_time && d.spec.device.transport->replay();
+  if (d.written < 2 || p.rate_unknown) return;
   double host_span = to_seconds(d.last_host - d.first_host);
   if (d.has_device_time) host_span = to_seconds(d.device_span) / (1.0 + p.clock.skew_ppm * 1e-6);
   // Sample numbers, not samples written: dropped samples were made at the device's rate too.
@@ -466,14 +469,16 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
                      const std::string& live_path, SessionReport report) {
   for (auto& d : devices) {
     const DeviceProgress p = progress_of(*d);
-    writer.write_metadata("imukit.session." + d->spec.name,
-                          {{"samples", std::to_string(p.samples)},
-                           {"samples_dropped", std::to_string(p.dropped)},
-                           {"codec_samples_dropped", std::to_string(p.codec_dropped)},
-                           {"frames_corrupt", std::to_string(p.frames_corrupt)},
-                           {"backpressure_dropped", std::to_string(p.backpressure)},
-                           {"end_reason", p.end_reason},
-                           {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}});
+    McapMetadataMap entries{{"samples", std::to_string(p.samples)},
+                            {"samples_dropped", std::to_string(p.dropped)},
+                            {"codec_samples_dropped", std::to_string(p.codec_dropped)},
+                            {"frames_corrupt", std::to_string(p.frames_corrupt)},
+                            {"backpressure_dropped", std::to_string(p.backpressure)},
+                            {"end_reason", p.end_reason},
+                            {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}};
+    // `imukit info` reads this instead of measuring a rate from times that are not sample times.
+    if (p.rate_unknown) entries["rate"] = kRateUnknownNote;
+    writer.write_metadata("imukit.session." + d->spec.name, entries);
   }
   writer.close();
 
@@ -500,6 +505,23 @@ std::string partial_path(const std::string& path) {
   return (p.parent_path() / (p.stem().string() + ".partial.mcap")).string();
 }
 
+void check_no_partial_recording(const std::string& path) {
+  // A partial file here is what a crashed recording kept: opening it would truncate it and the
+  // end of this recording would delete it.
+  const std::string live_path = partial_path(path);
+  std::error_code ec;
+  if (std::filesystem::symlink_status(live_path, ec).type() ==
+      std::filesystem::file_type::not_found)
+    return;
+  const std::filesystem::path out(path);
+  const std::string recovered =
+      (out.parent_path() / (out.stem().string() + ".recovered.mcap")).string();
+  throw IoError(fmt::format(
+      "record: {} already exists (an earlier recording to {} did not finish); recover it "
+      "with `imukit convert --recover {} -o {}`, or remove it, then record again",
+      live_path, path, live_path, recovered));
+}
+
 SessionReport record_session(std::vector<SessionDevice> specs, const SessionOptions& options) {
   if (specs.empty()) throw Error("record: name at least one device");
   Devices devices;
@@ -511,19 +533,7 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
   McapWriterOptions live_options = options.mcap;
   if (options.finalize) {
-    // A partial file here is what a crashed recording kept: opening it would truncate it and
-    // the end of this recording would delete it.
-    std::error_code ec;
-    if (std::filesystem::symlink_status(live_path, ec).type() !=
-        std::filesystem::file_type::not_found) {
-      const std::filesystem::path out(options.path);
-      const std::string recovered =
-          (out.parent_path() / (out.stem().string() + ".recovered.mcap")).string();
-      throw IoError(fmt::format(
-          "record: {} already exists (an earlier recording to {} did not finish); recover it "
-          "with `imukit convert --recover {} -o {}`, or remove it, then record again",
-          live_path, options.path, live_path, recovered));
-    }
+    check_no_partial_recording(options.path);
     live_options.create_new = true;  // and no other recording may create it meanwhile
   }
   McapWriter writer(live_path, live_options);
@@ -574,6 +584,17 @@ std::optional<RawImuMessage> decode_raw(std::span<const uint8_t> data, const std
   }
 }
 
+// Samples kept and missing by sample_index over a device's raw messages in file order, as the
+// session counts its gaps: an index that goes back (a restarted stream) adds nothing.
+struct IndexGaps {
+  uint64_t kept = 0, missing = 0, last = 0;
+  void add(uint64_t index) {
+    if (kept > 0 && index > last) missing += index - last - 1;
+    last = index;
+    ++kept;
+  }
+};
+
 // What refit's first pass learns from a recording: its channels by kind (device names after
 // "/imu/") and every device's clock, fed with its (ticks, receive time) pairs and time-sync
 // exchanges.
@@ -581,6 +602,8 @@ struct ClockScan {
   std::map<std::string, DeviceClock> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
   std::optional<uint16_t> event_channel;
+  std::map<std::string, IndexGaps> gaps;  // per device, over its raw messages in file order
+  std::vector<McapMetadata> metadata;     // the records the file holds
 };
 
 ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
@@ -607,6 +630,7 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = scan.raw_channels.find(m.channel_id); it != scan.raw_channels.end()) {
       const auto raw = decode_raw(m.data, in, read.recover);
+      if (raw) scan.gaps[it->second].add(raw->sample_index);
       if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
         scan.clocks.try_emplace(it->second, 1e9)
             .first->second.add_sample(*ns, raw->host_receive_time);
@@ -624,9 +648,29 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
       }
     }
   };
-  read_mcap(in, handlers, read);
+  scan.metadata = read_mcap(in, handlers, read).metadata;
   for (auto& [name, clock] : scan.clocks) clock.flush();
   return scan;
+}
+
+// What a crash leaves of a device's loss counts: its session record is written when the
+// recording closes (the counts are known only then), so a recording cut short has none. The
+// samples missing between the ones kept still show as gaps in their sample_index; the codec's
+// counts, the corrupt frames and the recorder's refusals do not. The record for the recovered
+// file says so (docs/formats.md).
+McapMetadata recovered_session_record(const std::string& device, const IndexGaps& g) {
+  const std::string lost = "unknown: lost with the crash";
+  return {"imukit.session." + device,
+          {{"samples", std::to_string(g.kept)},
+           {"samples_dropped", std::to_string(g.missing)},
+           {"codec_samples_dropped", lost},
+           {"frames_corrupt", lost},
+           {"backpressure_dropped", lost},
+           {"end_reason", "the recording did not finish (recovered by imukit convert --recover)"},
+           {"recovered",
+            "samples_dropped is the samples missing by sample_index gaps between the samples "
+            "kept (damaged chunks and the recorder's own refusals included); the session's other "
+            "loss counts were lost with the crash"}}};
 }
 
 // The clock fits as metadata records of the refitted file, so `imukit info` can show them.
@@ -749,11 +793,21 @@ class Retimer {
 // then messages that do not decode are left out (counted in `undecodable`).
 std::map<std::string, ClockFit> refit(const std::string& in, const std::string& out,
                                       const McapReadOptions& read, McapReadSummary* summary,
-                                      uint64_t* undecodable) {
+                                      uint64_t* undecodable,
+                                      std::map<std::string, RecoveredLosses>* losses) {
   const ClockScan scan = scan_clocks(in, read);
   Retimer retimer(scan, in, read.recover);
-  const McapReadSummary s =
-      rewrite_mcap(in, out, std::ref(retimer), read, clock_fit_records(scan.clocks));
+  std::vector<McapMetadata> records = clock_fit_records(scan.clocks);
+  if (losses) {
+    for (const auto& [device, g] : scan.gaps) {
+      const std::string name = "imukit.session." + device;
+      const bool closed = std::any_of(scan.metadata.begin(), scan.metadata.end(),
+                                      [&](const McapMetadata& m) { return m.name == name; });
+      (*losses)[device] = RecoveredLosses{g.kept, g.missing, !closed};
+      if (!closed) records.push_back(recovered_session_record(device, g));
+    }
+  }
+  const McapReadSummary s = rewrite_mcap(in, out, std::ref(retimer), read, records);
   if (summary) *summary = s;
   if (undecodable) *undecodable = retimer.dropped();
   std::map<std::string, ClockFit> fits;
@@ -765,14 +819,14 @@ std::map<std::string, ClockFit> refit(const std::string& in, const std::string& 
 
 std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
                                                        const std::string& out) {
-  return refit(in, out, McapReadOptions{}, nullptr, nullptr);
+  return refit(in, out, McapReadOptions{}, nullptr, nullptr, nullptr);
 }
 
 RecoveredRecording recover_recording(const std::string& in, const std::string& out) {
   RecoveredRecording r;
   McapReadOptions read;
   read.recover = true;
-  r.clocks = refit(in, out, read, &r.read, &r.undecodable_messages);
+  r.clocks = refit(in, out, read, &r.read, &r.undecodable_messages, &r.losses);
   return r;
 }
 

@@ -45,6 +45,9 @@ struct DeviceProgress {
   std::size_t queue_high_water = 0;
   double rate_hz = 0.0;  // the device's sample rate on the host clock (sample numbers over
                          // the device clock span, corrected by the fitted skew)
+  // A replay of a device without a sample clock: its receive times are when the bytes were
+  // read, so it has no rate (rate_hz 0) and its times are not sample times.
+  bool rate_unknown = false;
   bool ended = false;
   std::string end_reason;
   ClockFit clock;
@@ -78,6 +81,11 @@ struct SessionOptions {
   std::function<void(const std::string& device, const PoseEvent&)> on_pose;
 };
 
+// What rate_unknown means, for reports and the recording's metadata.
+inline constexpr const char* kRateUnknownNote =
+    "unknown: a replay of a device without a sample clock, whose times are when the bytes were "
+    "read, not when the samples were made (give rate= in the URI to time them)";
+
 struct SessionReport {
   std::vector<DeviceProgress> devices;
   std::string stop_reason;
@@ -86,6 +94,11 @@ struct SessionReport {
 // Where a session writes while it records (FILE.partial.mcap for FILE.mcap): readable up to its
 // last chunk at any moment, replaced by FILE.mcap when the session ends.
 std::string partial_path(const std::string& path);
+
+// Throws IoError (saying how to recover it) when partial_path(path) exists: what a crashed
+// recording to `path` kept, which a new recording would truncate and then delete. record_session
+// checks it too; a caller checks it before opening any device, so the refusal comes first.
+void check_no_partial_recording(const std::string& path);
 
 // Records until the duration, the sample limit, `stop`, or the loss of every device. Throws
 // imukit::Error only for problems with the output file; device failures end that device's
@@ -102,10 +115,20 @@ std::map<std::string, ClockFit> refit_recording_clocks(const std::string& in,
 // on disk, rewritten as a complete file: every intact chunk is kept, damaged records are skipped
 // (McapReadOptions::recover), and the clocks are refitted over the samples kept, as at the end
 // of a normal recording. Messages that do not decode are left out.
+//
+// A recording that did not close has no session record (its loss counts are written at the
+// end): the recovered file gets one per device saying what the samples kept still show, the
+// samples missing by sample_index gaps, and that the other counts were lost with the crash.
+struct RecoveredLosses {
+  uint64_t samples = 0;           // raw messages kept
+  uint64_t missing_by_index = 0;  // gaps in sample_index between them
+  bool counts_lost = false;       // no session record: the recording did not close
+};
 struct RecoveredRecording {
   McapReadSummary read;  // what the damaged file held: truncation note, damage, counts
   std::map<std::string, ClockFit> clocks;
   uint64_t undecodable_messages = 0;
+  std::map<std::string, RecoveredLosses> losses;  // by device name
 };
 RecoveredRecording recover_recording(const std::string& in, const std::string& out);
 

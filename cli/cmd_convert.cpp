@@ -107,6 +107,13 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
       fmt::print("  {}: clock refitted over {} packets ({:+.3f} ppm)\n", device, fit.packets,
                  fit.skew_ppm);
     }
+    for (const auto& [device, l] : r.losses) {
+      if (!l.counts_lost) continue;
+      fmt::print(
+          "  {}: {} samples kept, {} missing by sample_index gaps; the codec's, corrupt-frame and "
+          "recorder loss counts were lost with the crash\n",
+          device, l.samples, l.missing_by_index);
+    }
     return 0;
   }
   const Recording r = load_recording(inputs.front());

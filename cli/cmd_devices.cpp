@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "command.hpp"
+#include "imukit/capture/session.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/drivers/devices.hpp"
 #include "imukit/drivers/reader.hpp"
@@ -52,6 +53,7 @@ int read_device(const DevicesOptions& o) {
   drivers::OpenedDevice dev = drivers::open_device(o.read_uri);
   const std::string what = dev.transport->describe();
   const std::string codec = dev.codec->name();
+  const bool replay = dev.transport->replay();
   drivers::DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
   reader.start();
   const bool ended = reader.wait(static_cast<int>(o.seconds * 1000));
@@ -64,7 +66,9 @@ int read_device(const DevicesOptions& o) {
     const bool dev_time = s.front().has_device_time && s.back().has_device_time;
     const TimeNs span = dev_time ? s.back().device_time - s.front().device_time
                                  : s.back().host_time - s.front().host_time;
-    if (span > 0) {
+    if (!dev_time && replay) {
+      fmt::print("  rate {}\n", capture::kRateUnknownNote);
+    } else if (span > 0) {
       // By the sample counter, so dropped samples do not lower the rate.
       const auto steps = static_cast<double>(s.back().sequence - s.front().sequence);
       fmt::print("  rate {:.3f} Hz by the {} clock\n", steps / to_seconds(span),

@@ -48,12 +48,16 @@ void print_triad(const char* name, const char* unit, const Eigen::Matrix3Xd& m) 
                m.cols());
 }
 
-void print_stream(const std::string& title, const ImuSeries& s) {
+// `rate_note`: what the recorder said of the stream's rate when its times cannot give one (a
+// replay of a device without a sample clock); then no rate is measured from them.
+void print_stream(const std::string& title, const ImuSeries& s, const std::string& rate_note) {
   const SamplingStats st = analyze_sampling(s.t);
   fmt::print("{}: {} samples over {:.3f} s ({:.6f} .. {:.6f} s)\n", title, st.samples,
              to_seconds(st.duration), s.empty() ? 0.0 : to_seconds(s.t.front()),
              s.empty() ? 0.0 : to_seconds(s.t.back()));
-  if (st.samples >= 2) {
+  if (!rate_note.empty()) {
+    fmt::print("  rate   {}\n", rate_note);
+  } else if (st.samples >= 2) {
     fmt::print("  rate   {:.4f} Hz measured from the time stamps (mean period {:.6f} ms)\n",
                st.mean_rate_hz, st.mean_period_s * 1e3);
     fmt::print("  period median {:.6f} ms, min {:.6f} ms, max {:.6f} ms, jitter (std) {:.3f} us\n",
@@ -78,9 +82,10 @@ int run_info(const std::vector<std::string>& tokens) {
   for (const InputArg& input : inputs) {
     const Recording r = load_recording(input);
     for (const auto& [name, series] : r.streams) {
+      const auto note = r.metadata.find("imukit.session." + name + ".rate");
       print_stream(
           r.streams.size() == 1 && r.metadata.empty() ? input.path : input.path + " " + name,
-          series);
+          series, note == r.metadata.end() ? std::string() : note->second);
     }
     for (const auto& [key, value] : r.metadata) fmt::print("  metadata {} = {}\n", key, value);
     for (const Event& e : r.events) {

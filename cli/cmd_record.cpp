@@ -75,10 +75,12 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   std::string line;
   for (const auto& d : devices) {
     if (!line.empty()) line += " | ";
-    line +=
-        fmt::format("{}: {} samples {:.1f} Hz, dropped {}, corrupt {}, backlog max {}{}", d.name,
-                    d.samples, d.rate_hz, d.dropped, d.frames_corrupt, d.queue_high_water,
-                    d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
+    line += fmt::format("{}: {} samples {}, dropped {}, corrupt {}, backlog max {}{}", d.name,
+                        d.samples,
+                        d.rate_unknown ? std::string("rate unknown (replay without sample clock)")
+                                       : fmt::format("{:.1f} Hz", d.rate_hz),
+                        d.dropped, d.frames_corrupt, d.queue_high_water,
+                        d.backpressure ? fmt::format(", RECORDER LOST {}", d.backpressure) : "");
   }
   return line;
 }
@@ -138,11 +140,14 @@ std::string print_report(const capture::SessionReport& report) {
     // The backlog is how far the writer fell behind the device (the queue between them): near
     // the capacity, samples were about to be lost.
     fmt::print(
-        "{}: {} samples at {:.3f} Hz; missing (counter gaps) {}, lost as the codec counts them "
+        "{}: {} samples {}; missing (counter gaps) {}, lost as the codec counts them "
         "{}, corrupt frames {}, lost by the recorder {}, largest backlog {} of {} samples; "
         "ended: {}\n",
-        d.name, d.samples, d.rate_hz, d.dropped, d.codec_dropped, d.frames_corrupt, d.backpressure,
-        d.queue_high_water, queue_capacity, d.end_reason);
+        d.name, d.samples,
+        d.rate_unknown ? fmt::format("(rate {})", capture::kRateUnknownNote)
+                       : fmt::format("at {:.3f} Hz", d.rate_hz),
+        d.dropped, d.codec_dropped, d.frames_corrupt, d.backpressure, d.queue_high_water,
+        queue_capacity, d.end_reason);
     if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
     if (d.clock.packets > 1) {
       fmt::print(
@@ -172,6 +177,9 @@ int run_record(const RecordArgs& args) {
     throw UsageError(fmt::format("record: the output must be a .mcap file, got {}",
                                  quote_excerpt(args.output, 200)));
   }
+  // Before any device is opened (a device may be reset or configured by opening it) and before
+  // "recording ..." is printed: a crashed recording's partial file stops this one.
+  if (!args.no_refit) capture::check_no_partial_recording(args.output);
   std::vector<capture::SessionDevice> devices = open_devices(args);
   // A virtual-clock mock makes data as fast as the disk takes it: without a limit it would fill
   // the disk before anyone reached for Ctrl-C. A guide is a limit only if it can complete.
@@ -237,9 +245,10 @@ int run_record(const RecordArgs& args) {
   const std::string silent = print_report(report);
   fmt::print("wrote {}\n", args.output);
   if (std::fflush(stdout) != 0) {
-    throw IoError(fmt::format("record: the report could not be written to standard output: {} "
-                              "(the recording {} is complete)",
-                              std::strerror(errno), args.output));
+    throw IoError(
+        fmt::format("record: the report could not be written to standard output: {} "
+                    "(the recording {} is complete)",
+                    std::strerror(errno), args.output));
   }
   if (!silent.empty())
     throw IoError(fmt::format("record: no samples from {} (see the end reason above)", silent));

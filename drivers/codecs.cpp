@@ -15,6 +15,14 @@ std::vector<std::string> codec_names() {
   return {"imukit", "xsens", "witmotion", "dualshock4", "dualsense", "text"};
 }
 
+std::vector<std::string> codec_keys(const std::string& name) {
+  if (name == "imukit") return {"rate", "commands", "block", "ping_s"};
+  if (name == "xsens") return {"rate", "mag_rate"};
+  if (name == "witmotion") return {"rate", "commands", "accel_range_g", "gyro_range_dps"};
+  if (name == "text") return {"time_unit", "accel_unit", "gyro_unit"};
+  return {};  // dualshock4, dualsense: nothing to configure
+}
+
 std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& options) {
   const double rate = option_double(options, "rate", 0.0);
   if (rate < 0) throw Error("rate=" + options.at("rate") + ": must be positive");
@@ -43,6 +51,7 @@ std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& o
   if (name == "witmotion") {
     WitmotionCodecOptions o;
     o.rate_hz = rate;
+    o.send_commands = option_bool(options, "commands", true);
     if (rate > 0) witmotion_rate_commands(rate);  // validate now, not at start
     o.accel_range_g = option_double(options, "accel_range_g", 16.0);
     o.gyro_range_dps = option_double(options, "gyro_range_dps", 2000.0);

@@ -17,4 +17,8 @@ std::unique_ptr<Codec> make_codec(const std::string& name, const CodecOptions& o
 // Names make_codec() knows, for help texts.
 std::vector<std::string> codec_names();
 
+// The URI keys codec `name` reads (besides `codec` itself), so that a key it would not read is
+// refused instead of silently doing nothing (docs/devices.md). Empty for an unknown name.
+std::vector<std::string> codec_keys(const std::string& name);
+
 }  // namespace imukit::drivers

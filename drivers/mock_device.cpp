@@ -265,7 +265,11 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   MockOptions o;
   o.rate_hz = option_double(keys, "rate", 400.0);
   if (!(o.rate_hz > 0 && o.rate_hz <= 16000)) throw Error("rate: expected 0 < rate <= 16000 Hz");
-  o.seed = static_cast<uint64_t>(option_int(keys, "seed", 1));
+  const int64_t seed = option_int(keys, "seed", 1);
+  // A negative seed would wrap to a huge unsigned one (found in review: seed=-1 ran as
+  // 18446744073709551615): refused, so a seed means what it says.
+  if (seed < 0) throw Error("seed=" + keys.at("seed") + ": expected an integer >= 0");
+  o.seed = static_cast<uint64_t>(seed);
   o.drop = option_double(keys, "drop", 0.0);
   o.flip = option_double(keys, "flip", 0.0);
   if (o.drop < 0 || o.drop > 1) throw Error("drop: expected a probability in [0, 1]");

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -20,7 +21,10 @@ TimeNs host_now() {
 std::string os_error(const std::string& what, int err) { return what + ": " + std::strerror(err); }
 
 FdTransport::FdTransport(int fd, bool owns, std::string name, bool writable)
-    : fd_(fd), owns_(owns), name_(std::move(name)), writable_(writable) {}
+    : fd_(fd), owns_(owns), name_(std::move(name)), writable_(writable) {
+  struct stat st {};
+  replay_ = ::fstat(fd_, &st) == 0 && S_ISREG(st.st_mode);
+}
 
 FdTransport::~FdTransport() {
   if (owns_ && fd_ >= 0) ::close(fd_);

@@ -50,6 +50,10 @@ class Transport {
   // virtual time): a consumer may then wait instead of dropping data, since nothing is lost
   // in an OS buffer meanwhile.
   virtual bool virtual_time() const { return false; }
+  // True when reads come as fast as storage gives them (a file replayed, a regular file on an
+  // fd): receive times then say when the bytes were read, not when the samples were made, so
+  // they give no sample rate.
+  virtual bool replay() const { return false; }
 };
 
 class ByteTransport : public Transport {
@@ -86,6 +90,8 @@ class FdTransport : public ByteTransport {
   void write(std::span<const uint8_t> bytes) override;
   bool can_write() const override { return writable_; }
   std::string describe() const override { return name_; }
+  // A regular file (open_file, or one given as an fd): a replay. Pipes and ttys are live.
+  bool replay() const override { return replay_; }
   int fd() const { return fd_; }
 
  private:
@@ -93,6 +99,7 @@ class FdTransport : public ByteTransport {
   bool owns_;
   std::string name_;
   bool writable_;
+  bool replay_ = false;
 };
 
 // An in-memory byte stream (tests, benchmarks, fuzzers): hands out `chunk` bytes per read (all

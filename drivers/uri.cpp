@@ -22,6 +22,22 @@ const std::vector<std::string> kCodecKeys = {
     "codec",         "rate",           "commands",  "block",      "ping_s",   "mag_rate",
     "accel_range_g", "gyro_range_dps", "time_unit", "accel_unit", "gyro_unit"};
 
+// The keys each mock reads (make_mock_device); its codec, imukit, reads its own besides.
+const std::vector<std::string> kMockKeys = {
+    "rate",     "seed",       "profile",          "drop",
+    "flip",     "drift_ppm",  "latency_us",       "jitter_us",
+    "stall_ms", "stall_at_s", "disconnect_after", "clock",
+    "gravity"};
+const std::vector<std::string> kMockStaticKeys = {"quat"};
+const std::vector<std::string> kMockPosesKeys = {"hold_s", "move_s", "init_s", "poses"};
+
+std::vector<std::string> transport_keys(const std::string& scheme) {
+  if (scheme == "serial") return {"baud", "flow"};
+  if (scheme == "hid") return {"serial"};
+  if (scheme == "usb") return {"interface", "ep_in", "ep_out"};
+  return {};
+}
+
 const std::vector<std::string> kSchemes = {"serial", "hid", "usb", "file", "fd", "mock"};
 
 [[noreturn]] void fail(const std::string& uri, std::size_t offset, const std::string& what) {
@@ -103,6 +119,43 @@ std::string codec_for(const DeviceUri& u, std::optional<KnownDevice> known) {
               names + ")");
 }
 
+std::string joined(const std::vector<std::string>& items) {
+  std::string list;
+  for (const auto& k : items) list += (list.empty() ? "" : ", ") + k;
+  return list;
+}
+
+// Every key of the URI must be read by its transport, its mock or its codec: a key that would
+// do nothing (a mock:poses key on mock:static, a text codec's key on an Xsens replay) is refused,
+// never silently ignored (found in review: `mock:static?poses=3` recorded a static device).
+void check_keys_are_used(const DeviceUri& u, const std::string& codec) {
+  const std::vector<std::string> names = codec_names();
+  if (std::find(names.begin(), names.end(), codec) == names.end()) return;  // make_codec says so
+  std::vector<std::string> accepted{"codec"};
+  std::string what;
+  if (u.scheme == "mock") {
+    const auto& own = u.address == "poses" ? kMockPosesKeys : kMockStaticKeys;
+    accepted.insert(accepted.end(), kMockKeys.begin(), kMockKeys.end());
+    accepted.insert(accepted.end(), own.begin(), own.end());
+    what = "mock:" + u.address + " (imukit codec)";
+  } else {
+    const std::vector<std::string> t = transport_keys(u.scheme);
+    accepted.insert(accepted.end(), t.begin(), t.end());
+    what = u.scheme + ": with codec " + codec;
+  }
+  for (const auto& k : codec_keys(codec)) {
+    if (std::find(accepted.begin(), accepted.end(), k) == accepted.end()) accepted.push_back(k);
+  }
+  for (const auto& [key, value] : u.keys) {
+    if (std::find(accepted.begin(), accepted.end(), key) != accepted.end()) continue;
+    std::size_t at = u.text.find("?" + key + "=");
+    if (at == std::string::npos) at = u.text.find("&" + key + "=");
+    fail(u.text, at == std::string::npos ? 0 : at + 1,
+         "key '" + key + "' does nothing for " + what + " (keys it accepts: " + joined(accepted) +
+             ")");
+  }
+}
+
 }  // namespace
 
 std::string percent_encode(std::string_view text) {
@@ -125,16 +178,14 @@ std::string percent_encode(std::string_view text) {
 
 std::vector<std::string> uri_keys(const std::string& scheme) {
   std::vector<std::string> keys = kCodecKeys;
-  if (scheme == "serial") {
-    keys.insert(keys.end(), {"baud", "flow"});
-  } else if (scheme == "hid") {
-    keys.push_back("serial");
-  } else if (scheme == "usb") {
-    keys.insert(keys.end(), {"interface", "ep_in", "ep_out"});
-  } else if (scheme == "mock") {
-    keys.insert(keys.end(), {"seed", "profile", "drop", "flip", "drift_ppm", "latency_us",
-                             "jitter_us", "stall_ms", "stall_at_s", "disconnect_after", "clock",
-                             "quat", "hold_s", "move_s", "init_s", "poses", "gravity"});
+  const std::vector<std::string> t = transport_keys(scheme);
+  keys.insert(keys.end(), t.begin(), t.end());
+  if (scheme == "mock") {
+    for (const auto* list : {&kMockKeys, &kMockStaticKeys, &kMockPosesKeys}) {
+      for (const auto& k : *list) {
+        if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+      }
+    }
   }
   return keys;
 }
@@ -209,18 +260,23 @@ OpenedDevice open_device(const std::string& text) {
   };
   with_context([&] {
     if (u.scheme == "mock") {
-      d.transport = make_mock_device(u.address, u.keys);
-      CodecOptions o = u.keys;
-      if (o.count("codec") && o.at("codec") != "imukit") {
+      if (u.keys.count("codec") && u.keys.at("codec") != "imukit") {
         throw Error("mock devices speak the imukit protocol: codec must be imukit");
       }
+      if (u.address == "static" || u.address == "poses") check_keys_are_used(u, "imukit");
+      d.transport = make_mock_device(u.address, u.keys);
+      CodecOptions o = u.keys;
       o.erase("codec");
       if (!o.count("rate")) o["rate"] = "400";
       d.codec = make_codec("imukit", o);
     } else if (u.scheme == "file") {
+      const std::string codec = codec_for(u, std::nullopt);
+      check_keys_are_used(u, codec);
       CodecOptions o = u.keys;
+      if (option_bool(o, "commands", false))
+        throw Error("file: is a replay, so commands cannot be sent: remove commands=true");
       o["commands"] = "false";
-      d.codec = make_codec(codec_for(u, std::nullopt), o);
+      d.codec = make_codec(codec, o);
       d.transport = FdTransport::open_file(u.address);
     } else if (u.scheme == "fd") {
       int fd = -1;
@@ -231,6 +287,8 @@ OpenedDevice open_device(const std::string& text) {
       const int flags = fcntl(fd, F_GETFL);
       if (flags < 0) throw TransportError(os_error("fd " + u.address, errno));
       const bool writable = (flags & O_ACCMODE) != O_RDONLY;
+      const std::string codec = codec_for(u, std::nullopt);
+      check_keys_are_used(u, codec);
       CodecOptions o = u.keys;
       if (!writable) {
         // Nothing can reach the device through a read-only descriptor (a pipe, a file on
@@ -241,7 +299,7 @@ OpenedDevice open_device(const std::string& text) {
                       " is open read-only, so commands cannot be sent: remove commands=true");
         o["commands"] = "false";
       }
-      d.codec = make_codec(codec_for(u, std::nullopt), o);
+      d.codec = make_codec(codec, o);
       d.transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, writable);
     } else if (u.scheme == "serial") {
       const int64_t baud = option_int(u.keys, "baud", 115200);
@@ -253,7 +311,9 @@ OpenedDevice open_device(const std::string& text) {
       for (const AttachedDevice& a : list_serial_ports()) {
         if (a.path == u.address && a.usb) known = find_known_device(a.vid, a.pid, false);
       }
-      d.codec = make_codec(codec_for(u, known), u.keys);
+      const std::string codec = codec_for(u, known);
+      check_keys_are_used(u, codec);
+      d.codec = make_codec(codec, u.keys);
       d.transport =
           std::make_unique<SerialTransport>(u.address, static_cast<int>(baud), flow == "rtscts");
     } else if (u.scheme == "hid") {
@@ -267,7 +327,9 @@ OpenedDevice open_device(const std::string& text) {
         parse_vid_pid(u.address, vid, pid);
         known = find_known_device(vid, pid, true);
       }
-      d.codec = make_codec(codec_for(u, known), u.keys);
+      const std::string codec = codec_for(u, known);
+      check_keys_are_used(u, codec);
+      d.codec = make_codec(codec, u.keys);
       if (!d.codec->report_based())
         throw Error("codec " + d.codec->name() + " reads byte streams, not HID reports");
       if (u.address[0] == '/') {
@@ -278,7 +340,9 @@ OpenedDevice open_device(const std::string& text) {
     } else {  // usb
       uint16_t vid = 0, pid = 0;
       parse_vid_pid(u.address, vid, pid);
-      d.codec = make_codec(codec_for(u, find_known_device(vid, pid, false)), u.keys);
+      const std::string codec = codec_for(u, find_known_device(vid, pid, false));
+      check_keys_are_used(u, codec);
+      d.codec = make_codec(codec, u.keys);
       const int64_t iface = option_int(u.keys, "interface", 0);
       if (iface < 0 || iface > 255) throw Error("interface: expected 0..255");
       d.transport = std::make_unique<UsbBulkTransport>(vid, pid, static_cast<int>(iface),

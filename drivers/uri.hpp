@@ -37,7 +37,9 @@ struct OpenedDevice {
 };
 
 // Opens what the URI names. The codec comes from `codec=`, else from the known VID/PID table
-// (devices.hpp), else it is an error that says to name one. Throws imukit::Error (bad URI or
+// (devices.hpp), else it is an error that says to name one. A key that neither the transport,
+// the mock nor the codec reads (codec_keys(), codecs.hpp) is an error naming the key, its byte
+// and the keys accepted, checked before anything is opened. Throws imukit::Error (bad URI or
 // option) or TransportError (the OS refused, with its message).
 OpenedDevice open_device(const std::string& uri);
 

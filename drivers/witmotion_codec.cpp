@@ -54,7 +54,7 @@ std::vector<uint8_t> witmotion_frame(uint8_t type, const int16_t v[4]) {
 WitmotionCodec::WitmotionCodec(WitmotionCodecOptions options) : opt_(options) {}
 
 void WitmotionCodec::start(TimeNs) {
-  if (opt_.rate_hz > 0) queue(witmotion_rate_commands(opt_.rate_hz));
+  if (opt_.send_commands && opt_.rate_hz > 0) queue(witmotion_rate_commands(opt_.rate_hz));
 }
 
 void WitmotionCodec::emit(std::vector<Sample>& out) {
@@ -77,7 +77,17 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
     ++stats_.samples_dropped;  // a frame of this sample was corrupted or lost
     return;
   }
-  current_.sequence = sequence_++;
+  if (!opt_.send_commands && opt_.rate_hz > 0) {
+    const uint64_t slot = group_slot_;
+    current_.sequence = slot;
+    current_.has_device_time = true;
+    current_.device_ticks = slot;
+    current_.tick_hz = opt_.rate_hz;
+    current_.device_time =
+        static_cast<TimeNs>(std::llround(static_cast<double>(slot) * 1e9 / opt_.rate_hz));
+  } else {
+    current_.sequence = sequence_++;
+  }
   ++stats_.samples_decoded;
   out.push_back(current_);
 }
@@ -139,6 +149,9 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
       frames_in_group_ = 0;
       current_ = Sample{};
       current_.host_time = host_time;
+      // The group's slot in the stream: every sample before it, handed out or dropped (the
+      // losses up to this frame are counted by now; later ones are after it).
+      group_slot_ = stats_.samples_decoded + stats_.samples_dropped;
     }
     if (in_group_) ++frames_in_group_;
     if (type > 0x54 || type < 0x51) {

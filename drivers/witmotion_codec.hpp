@@ -13,6 +13,12 @@
 // least a whole group's frames, as that many groups' samples dropped too (a sample all of whose
 // frames were damaged leaves no frame to show it).
 //
+// A replay (decode only) reads bytes as fast as storage gives them, so receive times say nothing
+// of when the samples were made. Given the rate the stream was made at, the codec times sample
+// slot n (dropped samples included, so they leave a gap in `sequence` as a counter would) at
+// n / rate on a device clock of `rate` ticks per second; without it samples carry receive times
+// only and have no rate (capture/ says so instead of measuring one).
+//
 // Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
 #pragma once
 
@@ -28,9 +34,12 @@ std::vector<uint8_t> witmotion_rate_commands(double rate_hz);
 std::vector<uint8_t> witmotion_frame(uint8_t type, const int16_t v[4]);
 
 struct WitmotionCodecOptions {
-  double rate_hz = 0;  // 0: leave the device's rate alone
+  // With commands: the rate to set (0: leave the device's rate alone). Decoding only (a replay):
+  // the rate the stream was made at, which times its samples (0: they have only receive times).
+  double rate_hz = 0;
   double accel_range_g = 16.0;
   double gyro_range_dps = 2000.0;
+  bool send_commands = true;  // false: decode only (a replay of a capture)
 };
 
 class WitmotionCodec : public Codec {
@@ -63,6 +72,7 @@ class WitmotionCodec : public Codec {
   uint64_t frames_per_group_ = 0;  // frames of the first clean group (0: not learned yet)
   Sample current_;
   uint64_t sequence_ = 0;
+  uint64_t group_slot_ = 0;  // decode only with a rate: the current group's slot (its tick)
 };
 
 }  // namespace imukit::drivers

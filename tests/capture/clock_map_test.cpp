@@ -112,6 +112,32 @@ TEST(ClockMapper, OnePacketUsesTheNominalRate) {
   EXPECT_EQ(mapper.map(1000), 4'000'000'000);
 }
 
+// A file replayed as fast as it can be read: 10 s of device time arrive within 9 ms, the
+// envelope is nearly flat and the fit falls back to the nominal rate. That line must still be a
+// lower envelope: receive jitter is never negative and no sample is mapped after its arrival.
+// Packet i: device second i, received i ms after the first. The line of slope 1 under all of
+// them passes through the last (y - x = 0.009 - 9 = -8.991 s), so the residuals are
+// 8.991 - 0.999 i s: mean 4.4955 s, max 8.991 s, min 0. (The old fallback went through the
+// first packet: residuals -0.999 i s, mean -4.4955 s.)
+TEST(ClockMapper, ReplayFallbackStaysALowerEnvelope) {
+  const TimeNs host0 = 1'700'000'000'000'000'000;
+  ClockMapper mapper(1e9);
+  for (int i = 0; i < 10; ++i)
+    mapper.add_packet(static_cast<uint64_t>(i) * 1'000'000'000ull, host0 + i * 1'000'000);
+  const ClockFit fit = mapper.fit();
+  EXPECT_EQ(fit.skew_ppm, 0.0);
+  EXPECT_NEAR(fit.jitter_mean_s, 4.4955, 1e-9);
+  EXPECT_NEAR(fit.jitter_max_s, 8.991, 1e-9);
+  EXPECT_NEAR(fit.jitter_std_s, 0.999 * std::sqrt(8.25), 1e-9);  // 0.999 x std of 0..9
+  for (int i = 0; i < 10; ++i) {
+    const TimeNs received = host0 + i * 1'000'000;
+    EXPECT_LE(mapper.map(static_cast<uint64_t>(i) * 1'000'000'000ull), received) << i;
+  }
+  EXPECT_EQ(mapper.map(9'000'000'000ull), host0 + 9'000'000);  // the last sample: its arrival
+  EXPECT_EQ(mapper.map(0), host0 - 8'991'000'000);             // 9 s of device time before it
+  EXPECT_EQ(mapper.map(1'000'000'000ull) - mapper.map(0), 1'000'000'000);
+}
+
 // Blocks of 8 samples arriving together: only each block's last sample enters the fit, so the
 // jitter statistics describe the link, not the device's buffering.
 TEST(ClockMapper, SamplesOfAPacketCountOnceAsItsLastSample) {

@@ -12,6 +12,7 @@
 #include "imukit/drivers/imukit_codec.hpp"
 #include "imukit/drivers/mock_device.hpp"
 #include "imukit/drivers/uri.hpp"
+#include "imukit/drivers/witmotion_codec.hpp"
 #include "support/test_data.hpp"
 
 namespace imukit::capture {
@@ -228,6 +229,64 @@ TEST(Session, OnlineTimesNeverGoBackAndRecoveryRefitsTheClockOverWhatWasKept) {
   }
 }
 
+// Found in review: a crash lost every loss count (the session record is written at close) and
+// `convert --recover` did not rebuild any. A recording of a mock that drops 10 % of its frames,
+// cut just before its session record (what kill -9 at the very end leaves): the recovered file's
+// record gives the samples kept and those missing by sample_index gaps between them (counted
+// here from the raw messages: 2000 kept, 248 missing, seed 4, as many as the finished session
+// counted), and says the rest was lost.
+TEST(Session, RecoveryRebuildsTheLossesTheSampleIndexShows) {
+  testing::TempDir dir;
+  const auto mock = drivers::make_mock_device(
+      "static", {{"rate", "1000"}, {"drop", "0.1"}, {"seed", "4"}, {"clock", "virtual"}});
+  SessionOptions options;
+  options.path = (dir / "live.mcap").string();
+  options.finalize = false;
+  options.max_samples = 2000;
+  const SessionReport report = record_session(one_kilohertz_mock(*mock), options);
+  const DeviceProgress& d = report.devices.at(0);
+  ASSERT_EQ(d.samples, 2000u);
+  ASSERT_EQ(d.backpressure, 0u);  // virtual time: the queue waits, so gaps are the link's alone
+
+  const std::string bytes = testing::read_file(options.path);
+  // The session record: opcode 0x0C, record length (8 bytes), name length (4), name.
+  const std::size_t name_at = bytes.find("imukit.session.mock");
+  ASSERT_NE(name_at, std::string::npos);
+  const std::string cut = (dir / "cut.mcap").string();
+  {
+    std::ofstream out(cut, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), static_cast<std::streamsize>(name_at - 13));
+  }
+  const std::string fixed = (dir / "fixed.mcap").string();
+  const RecoveredRecording r = recover_recording(cut, fixed);
+  const auto rows = raw_rows(fixed, "mock");
+  uint64_t missing = 0;
+  for (std::size_t i = 1; i < rows.size(); ++i) missing += rows[i].index - rows[i - 1].index - 1;
+  EXPECT_EQ(rows.size(), 2000u);
+  EXPECT_EQ(missing, 248u);
+  EXPECT_EQ(missing, d.dropped);
+  ASSERT_EQ(r.losses.count("mock"), 1u);
+  EXPECT_EQ(r.losses.at("mock").samples, rows.size());
+  EXPECT_EQ(r.losses.at("mock").missing_by_index, missing);
+  EXPECT_TRUE(r.losses.at("mock").counts_lost);
+  const RecordingRead recovered = read_recording_mcap(fixed);
+  const auto& meta = recovered.recording.metadata;
+  EXPECT_EQ(meta.at("imukit.session.mock.samples"), std::to_string(rows.size()));
+  EXPECT_EQ(meta.at("imukit.session.mock.samples_dropped"), std::to_string(missing));
+  EXPECT_EQ(meta.at("imukit.session.mock.codec_samples_dropped"), "unknown: lost with the crash");
+  EXPECT_EQ(meta.at("imukit.session.mock.frames_corrupt"), "unknown: lost with the crash");
+  EXPECT_EQ(meta.at("imukit.session.mock.backpressure_dropped"), "unknown: lost with the crash");
+  EXPECT_EQ(meta.count("imukit.session.mock.recovered"), 1u);
+
+  // A file that closed keeps its own record: recovery does not replace it.
+  const RecoveredRecording closed = recover_recording(options.path, fixed);
+  EXPECT_FALSE(closed.losses.at("mock").counts_lost);
+  const RecordingRead closed_back = read_recording_mcap(fixed);
+  const auto& kept = closed_back.recording.metadata;
+  EXPECT_EQ(kept.at("imukit.session.mock.codec_samples_dropped"), std::to_string(d.codec_dropped));
+  EXPECT_EQ(kept.count("imukit.session.mock.recovered"), 0u);
+}
+
 // Samples lost before the first one written (the link dropped the first frames) are invisible
 // to the counter gaps between written samples but not to the codec, whose count reaches the
 // report and the file's metadata.
@@ -365,6 +424,56 @@ TEST(Session, ARestartAndADamagedTickLeaveAValidRecording) {
   EXPECT_NEAR(to_seconds(t[299] - t[150]), 1.49, 1e-6);
   // The damaged sample sits where its place puts it: one period after its neighbour.
   EXPECT_NEAR(to_seconds(t[50] - t[49]), 0.01, 1e-6);
+}
+
+// A WitMotion replay: the device has no sample clock and a file is read in milliseconds, so its
+// receive times give no rate (found in review: 9946335 Hz). Without rate= the rate is unknown,
+// in the report and in the file's metadata; with rate=100 the samples are timed at 100 Hz and
+// the clock map of the replay stays a lower envelope (receive jitter never negative; found in
+// review: -4752405.9 us on an Xsens replay).
+TEST(Session, AReplayWithoutASampleClockHasNoRateUnlessOneIsGiven) {
+  testing::TempDir dir;
+  const std::string bin = (dir / "wit.bin").string();
+  {
+    std::ofstream out(bin, std::ios::binary);
+    for (int n = 0; n < 1000; ++n) {
+      for (const uint8_t type : {0x51, 0x52, 0x53}) {
+        const int16_t v[4] = {0, 0, 2048, static_cast<int16_t>(type == 0x52 ? n % 100 : 0)};
+        const auto f = drivers::witmotion_frame(type, v);
+        out.write(reinterpret_cast<const char*>(f.data()), static_cast<std::streamsize>(f.size()));
+      }
+    }
+  }
+  const auto record = [&](const std::string& uri, const std::string& name) {
+    std::vector<SessionDevice> devices;
+    devices.push_back({"wit", uri, drivers::open_device(uri), std::nullopt});
+    SessionOptions options;
+    options.path = (dir / name).string();
+    return record_session(std::move(devices), options).devices.at(0);
+  };
+  const DeviceProgress plain = record("file:" + bin + "?codec=witmotion", "plain.mcap");
+  EXPECT_EQ(plain.samples, 1000u);
+  EXPECT_TRUE(plain.rate_unknown);
+  EXPECT_EQ(plain.rate_hz, 0.0);
+  const RecordingRead plain_back = read_recording_mcap((dir / "plain.mcap").string());
+  EXPECT_EQ(plain_back.recording.metadata.at("imukit.session.wit.rate"), kRateUnknownNote);
+
+  const DeviceProgress timed = record("file:" + bin + "?codec=witmotion&rate=100", "timed.mcap");
+  EXPECT_EQ(timed.samples, 1000u);
+  EXPECT_FALSE(timed.rate_unknown);
+  EXPECT_NEAR(timed.rate_hz, 100.0, 1e-9);
+  EXPECT_EQ(timed.dropped, 0u);
+  EXPECT_GE(timed.clock.jitter_mean_s, 0.0);
+  EXPECT_GE(timed.clock.jitter_max_s, timed.clock.jitter_mean_s);
+  const RecordingRead back = read_recording_mcap((dir / "timed.mcap").string());
+  EXPECT_EQ(back.recording.metadata.count("imukit.session.wit.rate"), 0u);
+  EXPECT_EQ(back.recording.metadata.at("imukit.clock.wit.skew_ppm"), "0.0000");
+  EXPECT_EQ(back.recording.metadata.at("imukit.clock.wit.jitter_mean_us").rfind('-', 0),
+            std::string::npos);
+  const auto& t = back.recording.streams.at("wit").t;
+  ASSERT_EQ(t.size(), 1000u);
+  EXPECT_EQ(t[999] - t[0], 9'990'000'000);
+  for (std::size_t i = 1; i < t.size(); ++i) ASSERT_EQ(t[i] - t[i - 1], 10'000'000) << i;
 }
 
 TEST(Session, GuidedMultiPositionCaptureStopsAfterTheWantedPoses) {

@@ -127,6 +127,13 @@ def test_a_crashed_recordings_partial_file_is_never_overwritten(imukit, workdir)
     recover = f"imukit convert --recover {partial} -o {os.path.join(workdir, 'again.recovered.mcap')}"
     assert f"{partial} already exists" in r.stderr and recover in r.stderr, r.stderr
     assert open(partial, "rb").read() == crashed and not os.path.exists(out), "the partial file is untouched"
+    # Found in review: the refusal came after "recording ..." and after the devices were opened.
+    assert "recording" not in r.stdout, r.stdout
+    missing = os.path.join(workdir, "no-such-capture.bin")
+    r = subprocess.run([imukit, "record", f"file:{missing}?codec=xsens", "-o", out], capture_output=True, text=True)
+    assert r.returncode == 3 and f"{partial} already exists" in r.stderr, \
+        f"the partial file is checked before the device is opened ({r.returncode}: {r.stderr.strip()})"
+    assert "no-such-capture.bin" not in r.stderr and r.stdout == "", r.stdout + r.stderr
     r = subprocess.run([imukit, *recover.split()[1:]], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     r = subprocess.run([imukit, "info", os.path.join(workdir, "again.recovered.mcap")], capture_output=True,
@@ -178,3 +185,75 @@ def test_a_closed_stdout_pipe_is_an_io_error_not_a_kill(imukit, workdir):
     assert "Broken pipe" in r.stderr and "pipe.mcap is complete" in r.stderr, r.stderr
     r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
     assert r.returncode == 0 and samples_in(r.stdout) == 2000, r.stdout + r.stderr
+
+
+def witmotion_bytes(groups):
+    """WitMotion frames 0x51, 0x52, 0x53 per sample (docs/devices.md), as a board streams them."""
+    out = bytearray()
+    for n in range(groups):
+        for kind, values in ((0x51, (0, 0, 2048, 2500)), (0x52, (n % 100, 0, 0, 0)), (0x53, (0, 0, 0, 0))):
+            frame = bytes([0x55, kind]) + struct.pack("<4h", *values)
+            out += frame + bytes([sum(frame) & 0xFF])
+    return bytes(out)
+
+
+def test_a_replay_without_a_sample_clock_has_no_rate_unless_given(imukit, workdir):
+    """Found in review: a WitMotion file replay reported about 1e7 Hz (receive times of a file read
+    at once). Without rate= the rate is unknown, said so in the report and in `info`; with rate=100
+    the 1000 samples are 100 Hz apart: 9.990 s, 100.000 Hz."""
+    capture = os.path.join(workdir, "wit.bin")
+    with open(capture, "wb") as f:
+        f.write(witmotion_bytes(1000))
+    out = os.path.join(workdir, "wit.mcap")
+    r = subprocess.run([imukit, "record", f"file:{capture}?codec=witmotion", "-o", out],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "wit_bin: 1000 samples (rate unknown: a replay of a device without a sample clock" in r.stdout, r.stdout
+    assert " Hz" not in r.stdout.split("wit_bin: 1000 samples")[1].split(";")[0], r.stdout
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert r.returncode == 0 and "  rate   unknown: a replay of a device without a sample clock" in r.stdout, r.stdout
+    assert "measured from the time stamps" not in r.stdout, r.stdout
+    os.remove(out)
+    r = subprocess.run([imukit, "record", f"file:{capture}?codec=witmotion&rate=100", "-o", out],
+                       capture_output=True, text=True)
+    assert r.returncode == 0 and "wit_bin: 1000 samples at 100.000 Hz; missing (counter gaps) 0" in r.stdout, r.stdout
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert "1000 samples over 9.990 s" in r.stdout and "rate   100.0000 Hz measured" in r.stdout, r.stdout
+    jitter = float(re.search(r"jitter_mean_us = (-?[0-9.]+)", r.stdout).group(1))
+    assert 0 <= jitter <= 9.99e6, r.stdout
+
+
+def test_receive_jitter_of_a_replay_is_never_negative(imukit, workdir):
+    """Found in review: a replay's clock fit fell back to the nominal rate through the first packet,
+    no lower envelope: jitter_mean_us -99948 on a text replay. Now every residual is >= 0, at most
+    the 9.99 s of device time the replay squeezed into milliseconds, and the last sample's time
+    is no later than its arrival."""
+    capture = os.path.join(workdir, "replay.txt")
+    with open(capture, "w") as f:
+        f.write("".join(f"{10 * i},0,0,9.81,0,0,0\n" for i in range(1000)))
+    out = os.path.join(workdir, "replay.mcap")
+    r = subprocess.run([imukit, "record", f"file:{capture}?codec=text&time_unit=ms", "-o", out],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"receive jitter mean (-?[0-9.]+) us, std [0-9.]+ us, max (-?[0-9.]+) us", r.stdout)
+    assert m and 0 <= float(m.group(1)) <= float(m.group(2)) <= 9.99e6, r.stdout
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert "1000 samples over 9.990 s" in r.stdout, r.stdout
+    assert float(re.search(r"jitter_mean_us = (-?[0-9.]+)", r.stdout).group(1)) >= 0, r.stdout
+
+
+def test_a_uri_key_that_would_do_nothing_is_refused(imukit, workdir):
+    """Found in review: `mock:static?poses=3`, `accel_range_g` on a mock and `time_unit`/`block` on
+    an Xsens replay were accepted and ignored, and seed=-1 ran as 18446744073709551615."""
+    out = os.path.join(workdir, "keys.mcap")
+    capture = os.path.join(workdir, "empty.bin")
+    open(capture, "wb").close()
+    cases = [("mock:static?poses=3&clock=virtual", "key 'poses' does nothing for mock:static"),
+             ("mock:static?accel_range_g=2&clock=virtual", "key 'accel_range_g' does nothing for mock:static"),
+             (f"file:{capture}?codec=xsens&time_unit=s&block=3",
+              "key 'block' does nothing for file: with codec xsens (keys it accepts: codec, rate, mag_rate)"),
+             ("mock:static?seed=-1&clock=virtual", "seed=-1: expected an integer >= 0")]
+    for uri, message in cases:
+        r = subprocess.run([imukit, "record", uri, "--samples", "10", "-o", out], capture_output=True, text=True)
+        assert r.returncode != 0 and message in r.stderr and uri in r.stderr, (uri, r.returncode, r.stderr)
+        assert len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out), r.stderr

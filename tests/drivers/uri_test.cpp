@@ -1,6 +1,7 @@
 #include "imukit/drivers/uri.hpp"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cstdio>
@@ -123,6 +124,75 @@ TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
     EXPECT_EQ(replayed[i].accel, live_samples[i].accel);
   }
   EXPECT_NEAR(replayed[0].accel[2], -9.80665, 16 * 9.80665 / 32768);  // upside down
+}
+
+// The error open_device gives for `uri` ("" if it opens).
+std::string open_error(const std::string& uri, int64_t* offset = nullptr) {
+  try {
+    open_device(uri);
+  } catch (const Error& e) {
+    if (offset) *offset = e.where() ? e.where()->byte_offset.value_or(-1) : -1;
+    return e.what();
+  }
+  return "";
+}
+
+// Found in review: keys that do nothing were accepted (docs/devices.md: an unknown key is an
+// error, never ignored). Each is refused naming the key, its byte, the URI and what is accepted.
+TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
+  testing::TempDir dir;
+  const std::string path = (dir / "cap.bin").string();
+  std::fclose(std::fopen(path.c_str(), "w"));
+  int64_t at = -1;
+  std::string e = open_error("mock:static?poses=3", &at);
+  EXPECT_NE(e.find("device URI 'mock:static?poses=3'"), std::string::npos) << e;
+  EXPECT_NE(e.find("key 'poses' does nothing for mock:static"), std::string::npos) << e;
+  EXPECT_NE(e.find("quat"), std::string::npos) << e;    // mock:static's own key is listed
+  EXPECT_EQ(e.find("hold_s"), std::string::npos) << e;  // mock:poses' keys are not
+  EXPECT_EQ(at, 12);
+  e = open_error("mock:static?rate=100&accel_range_g=2", &at);
+  EXPECT_NE(e.find("key 'accel_range_g' does nothing for mock:static"), std::string::npos) << e;
+  EXPECT_EQ(at, 21);
+  e = open_error("mock:poses?quat=1,0,0,0", &at);
+  EXPECT_NE(e.find("key 'quat' does nothing for mock:poses"), std::string::npos) << e;
+  const std::string xsens = "file:" + path + "?codec=xsens&time_unit=s&block=3";
+  e = open_error(xsens, &at);
+  EXPECT_NE(e.find("key 'block' does nothing for file: with codec xsens (keys it accepts: "
+                   "codec, rate, mag_rate)"),
+            std::string::npos)
+      << e;
+  EXPECT_EQ(at, static_cast<int64_t>(xsens.find("block")));
+  e = open_error("file:" + path + "?codec=text&rate=100");
+  EXPECT_NE(e.find("key 'rate' does nothing for file: with codec text (keys it accepts: codec, "
+                   "time_unit, accel_unit, gyro_unit)"),
+            std::string::npos)
+      << e;
+  e = open_error("file:" + path + "?codec=imukit&commands=true");
+  EXPECT_NE(e.find("remove commands=true"), std::string::npos) << e;
+  // seed=-1 ran as seed 18446744073709551615.
+  e = open_error("mock:static?seed=-1");
+  EXPECT_NE(e.find("seed=-1: expected an integer >= 0"), std::string::npos) << e;
+  // Keys that are read still open.
+  EXPECT_EQ(open_error("mock:poses?poses=3&hold_s=1&move_s=1&init_s=1&seed=0&clock=virtual"), "");
+  EXPECT_EQ(open_error("mock:static?quat=1,0,0,0&block=4&ping_s=0&clock=virtual"), "");
+  EXPECT_EQ(open_error("file:" + path + "?codec=text&time_unit=s&accel_unit=g&gyro_unit=dps"), "");
+  EXPECT_EQ(open_error("file:" + path + "?codec=witmotion&rate=100&accel_range_g=2"), "");
+  EXPECT_EQ(open_error("file:" + path + "?codec=xsens&mag_rate=50"), "");
+}
+
+// A file (or a regular file on an fd) is a replay: its receive times are read times.
+TEST(DeviceUri, FilesAreReplaysAndPipesAreLive) {
+  testing::TempDir dir;
+  const std::string path = (dir / "cap.bin").string();
+  std::fclose(std::fopen(path.c_str(), "w"));
+  EXPECT_TRUE(open_device("file:" + path + "?codec=witmotion").transport->replay());
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  EXPECT_FALSE(
+      open_device("fd:" + std::to_string(fds[0]) + "?codec=witmotion").transport->replay());
+  ::close(fds[0]);
+  ::close(fds[1]);
+  EXPECT_FALSE(open_device("mock:static?clock=virtual").transport->replay());
 }
 
 TEST(DeviceUri, FdMustBeOpen) {

@@ -206,5 +206,50 @@ TEST(WitmotionCodec, RateCommandsFollowTheRegisterMap) {
   EXPECT_EQ(codec.take_outgoing()[8], 0x06);
 }
 
+// A replay (decode only) given the rate the stream was made at: sample slot n is timed n / rate
+// on a device clock of `rate` ticks per second, and a group lost whole leaves a gap in the
+// sequence as a counter would. 10 groups at 100 Hz, group 4's 44 bytes zeroed: 9 samples with
+// sequence (and ticks) 0, 1, 2, 3, 5, ..., 9 at 0, 10, 20, 30, 50, ..., 90 ms; 1 dropped. (The old
+// codec had no such option and stamped receive times only.)
+TEST(WitmotionCodec, AReplayWithARateIsTimedBySampleSlot) {
+  Stream st = make_stream(10);
+  std::fill(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[16]),
+            st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[20]), 0);
+  WitmotionCodecOptions o;
+  o.rate_hz = 100;
+  o.send_commands = false;
+  WitmotionCodec codec(o);
+  codec.start(0);
+  EXPECT_TRUE(codec.take_outgoing().empty());  // a replay gets no rate command
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 7000, out);  // all at once, as a file replay reads it
+  codec.finish(7000, out);
+  ASSERT_EQ(out.size(), 9u);
+  EXPECT_EQ(codec.stats().samples_dropped, 1u);
+  const std::vector<uint64_t> slots = {0, 1, 2, 3, 5, 6, 7, 8, 9};
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    EXPECT_EQ(out[i].sequence, slots[i]) << i;
+    EXPECT_TRUE(out[i].has_device_time);
+    EXPECT_EQ(out[i].device_ticks, slots[i]);
+    EXPECT_EQ(out[i].tick_hz, 100.0);
+    EXPECT_EQ(out[i].device_time, static_cast<TimeNs>(slots[i]) * 10'000'000) << i;
+    EXPECT_EQ(out[i].host_time, 7000);
+  }
+  // Without a rate a replay's samples have receive times only; with commands, a rate is the
+  // rate to set and times stay receive times (a live device's bytes arrive when made).
+  for (const bool commands : {false, true}) {
+    WitmotionCodecOptions plain;
+    plain.rate_hz = commands ? 100 : 0;
+    plain.send_commands = commands;
+    WitmotionCodec c(plain);
+    std::vector<Sample> v;
+    c.feed(make_stream(3).bytes, 7000, v);
+    c.finish(7000, v);
+    ASSERT_EQ(v.size(), 3u);
+    EXPECT_FALSE(v[2].has_device_time);
+    EXPECT_EQ(v[2].sequence, 2u);
+  }
+}
+
 }  // namespace
 }  // namespace imukit::drivers
