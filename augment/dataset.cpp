@@ -330,6 +330,8 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   po.window = options.window;
   po.method = options.method;
   PpdaAugmenter aug(scene, po);
+  // Every sub-policy up front: a bad one drawn late would fail hours into the run.
+  for (const SubPolicy& sub : policy.sub_policies) aug.check(sub);
   const std::vector<int64_t> base = aug.window_starts(options.stride);
   if (!labels.empty() && labels.size() < static_cast<std::size_t>(aug.sample_count()))
     throw Error(

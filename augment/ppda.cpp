@@ -74,31 +74,94 @@ std::array<double, 4> lagrange4(double x, int64_t s0) {
   return w;
 }
 
-// q_k <- exp(s_k log q_k) for n unit quaternions stored as Eigen keeps them (x, y, z, w): the
-// same rotation axis with s times the (shortest-arc) angle. With w >= 0, half-angle
-// h = atan2(|v|, w) and q' = (cos(s h), v sin(s h) / |v|); at |v| = 0 that is the identity
-// itself, and near it sin(s h) / |v| -> s / w stays accurate. The hot loop of amplitude
-// augmentation, so built from core/lane_math's branch-free functions: it vectorises.
-// (core's scale_rotation does the same through so3_log and so3_exp.)
+// q_k <- exp(s_k log q_k) for n unit quaternions stored as Eigen keeps them (x, y, z, w), the n
+// frames of one joint over a window: the same rotation axis with s_k times the angle. Each
+// frame's (shortest-arc) form, sign w >= 0, has the half-angle h = atan2(|v|, w) in [0, pi/2]
+// about the axis d = v / |v|; every h + m pi (m whole) about d is the same rotation, and the log
+// must follow the motion: of those, each frame takes the half-angle phi nearest the previous
+// frame's (projected on its axis), so phi is continuous in time. Shortest arc frame by frame
+// made phi jump from pi/2 to -pi/2 wherever the rotation crossed pi, and s phi then jumped by
+// (1 - s) pi (a joint near pi under s = 1.3: 290 rad/s where the motion has 1.2). Motions that
+// never cross pi keep m = 0 and the shortest-arc bits. Then q' = (cos(s phi), d sin(s phi)); at
+// |v| = 0 the axis is arbitrary and the identity stays itself, and near it sin(s phi) / |v| ->
+// s / w stays accurate. The hot loop of amplitude augmentation: the first and last passes are
+// built from core/lane_math's branch-free functions and vectorise; the middle one, a scalar
+// scan, runs only for a joint that leaves the shortest arc in the window. phi, norm, cosine:
+// scratch of n doubles each.
+// (core's scale_rotation does the same through so3_log and so3_exp, frame by frame.)
 [[gnu::always_inline]] inline void scale_angles_kernel(double* __restrict q,
-                                                       const double* __restrict s, std::size_t n) {
+                                                       const double* __restrict s,
+                                                       double* __restrict phi,
+                                                       double* __restrict norm,
+                                                       double* __restrict cosine, std::size_t n) {
+  // 1. Each frame's shortest-arc form, in place: |v|, h, and the cosine between neighbouring
+  //    frames' axes (0 beside a frame with no axis).
   for (std::size_t i = 0; i < n; ++i) {
     const double sign = q[4 * i + 3] < 0.0 ? -1.0 : 1.0;
     const double x = sign * q[4 * i], y = sign * q[4 * i + 1], z = sign * q[4 * i + 2];
     const double w = sign * q[4 * i + 3];
-    const double nv = __builtin_sqrt(x * x + y * y + z * z);
-    const lane::SinCos sc = lane::sincos_small(s[i] * lane::atan2_first_quadrant(nv, w));
-    const double k = sc.sin / (nv > 0.0 ? nv : 1.0);
-    q[4 * i] = k * x;
-    q[4 * i + 1] = k * y;
-    q[4 * i + 2] = k * z;
+    q[4 * i] = x;
+    q[4 * i + 1] = y;
+    q[4 * i + 2] = z;
+    q[4 * i + 3] = w;
+    norm[i] = __builtin_sqrt(x * x + y * y + z * z);
+    phi[i] = lane::atan2_first_quadrant(norm[i], w);
+  }
+  // Whether any frame would leave the shortest arc were its predecessor on it: if none, by
+  // induction every frame stays there (phi = h), and the scan below, a chain of dependent
+  // operations, is skipped -- the usual case, a window in which no joint crosses pi.
+  constexpr double kPi = 3.14159265358979323846;
+  constexpr double kInvPi = 1.0 / kPi;
+  int off_arc = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double* a = q + 4 * (i - 1);
+    const double* b = q + 4 * i;
+    const double den = norm[i - 1] * norm[i];
+    const double dot = (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2];
+    cosine[i] = dot / (den > 0.0 ? den : 1.0);
+    off_arc += lane::round_small((phi[i - 1] * cosine[i] - phi[i]) * kInvPi) != 0.0 ? 1 : 0;
+  }
+  // 2. The continuous half-angle: the candidate h + m pi nearest the previous frame's phi
+  //    projected on this frame's axis. A frame exactly at +-identity has no axis of its own:
+  //    it keeps the previous frame's (its vector part becomes that unit axis), so a joint that
+  //    turns through a whole turn and back does not lose count there.
+  bool axis_replaced = false;
+  for (std::size_t i = 1; i < n && off_arc > 0; ++i) {
+    double c = cosine[i];
+    if (axis_replaced) {
+      const double* a = q + 4 * (i - 1);
+      const double* b = q + 4 * i;
+      c = norm[i] > 0.0 ? ((a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]) / norm[i] : 1.0;
+      axis_replaced = false;
+    }
+    if (norm[i] == 0.0) {
+      const double m = lane::round_small(phi[i - 1] * kInvPi);
+      if (m == 0.0 || norm[i - 1] == 0.0) continue;  // still the identity (or no axis yet)
+      phi[i] = kPi * m;
+      for (int k = 0; k < 3; ++k) q[4 * i + k] = q[4 * (i - 1) + k] / norm[i - 1];
+      norm[i] = 1.0;
+      axis_replaced = true;
+      continue;
+    }
+    const double m = lane::round_small((phi[i - 1] * c - phi[i]) * kInvPi);
+    phi[i] += kPi * m;
+  }
+  // 3. q' = (d sin(s phi), cos(s phi)).
+  for (std::size_t i = 0; i < n; ++i) {
+    const lane::SinCos sc = lane::sincos_small(s[i] * phi[i]);
+    const double k = sc.sin / (norm[i] > 0.0 ? norm[i] : 1.0);
+    q[4 * i] = k * q[4 * i];
+    q[4 * i + 1] = k * q[4 * i + 1];
+    q[4 * i + 2] = k * q[4 * i + 2];
     q[4 * i + 3] = sc.cos;
   }
 }
-// Built for the baseline, AVX2 and AVX-512 (core/isa.hpp): the loop vectorises to the machine's
-// width, with the same bits in every variant.
+// Built for the baseline, AVX2 and AVX-512 (core/isa.hpp): passes 1 and 3 vectorise to the
+// machine's width, with the same bits in every variant.
 IMUKIT_ISA_VARIANTS(void, scale_angles, scale_angles_kernel,
-                    (double* q, const double* s, std::size_t n), (q, s, n))
+                    (double* q, const double* s, double* phi, double* norm, double* cosine,
+                     std::size_t n),
+                    (q, s, phi, norm, cosine, n))
 
 // The window's rotations of one joint: for window frame j, the 4-point Lagrange combination
 // (weights w[4j..4j+3]) of the source rotations s0[j] .. s0[j]+3, each sign-aligned with the
@@ -303,6 +366,7 @@ struct PpdaAugmenter::Impl {
     std::vector<TimeNs> times;
     std::vector<double> u, x;  // per window frame: output position, source frame position
     std::vector<double> scale;
+    std::vector<double> half_angle, axis_norm, axis_cosine;  // scale_angles' scratch
     std::vector<int64_t> ref, s0;  // per window frame (interpolate_rotations)
     std::vector<double> weights, exact;
     Eigen::Matrix3Xd f, w;      // one sensor's signals
@@ -624,6 +688,9 @@ void PpdaAugmenter::Impl::warp_amplitude(const AmplitudeOp& amplitude, Worker& w
     }
   }
   wk.scale.resize(static_cast<std::size_t>(F));
+  wk.half_angle.resize(static_cast<std::size_t>(F));
+  wk.axis_norm.resize(static_cast<std::size_t>(F));
+  wk.axis_cosine.resize(static_cast<std::size_t>(F));
   for (int joint : chosen) {
     if (amplitude.method == WarpMethod::scaling) {
       const double a = rng.normal(1.0, amplitude.sigma);
@@ -651,6 +718,7 @@ void PpdaAugmenter::Impl::warp_amplitude(const AmplitudeOp& amplitude, Worker& w
       Eigen::Map<Eigen::VectorXd>(wk.scale.data(), F) = wk.basis * kv;
     }
     scale_angles(wm.rotation(0, static_cast<std::size_t>(joint)).coeffs().data(), wk.scale.data(),
+                 wk.half_angle.data(), wk.axis_norm.data(), wk.axis_cosine.data(),
                  static_cast<std::size_t>(F));
   }
 }
@@ -776,6 +844,24 @@ void PpdaAugmenter::Impl::check_start(int64_t start) const {
     throw Error(fmt::format("augment: window start {} outside 0 .. {}", start, samples - T));
 }
 
+int PpdaAugmenter::max_amplitude_knots(std::size_t window) {
+  if (window < 1) return 0;
+  return std::max(0, static_cast<int>((window - 1) / kMinAmplitudeKnotSpacing) - 1);
+}
+
+void PpdaAugmenter::check(const SubPolicy& sub) const {
+  const std::size_t T = impl_->options.window;
+  const AmplitudeOp& a = sub.amplitude;
+  if (a.method == WarpMethod::warping && a.knots > max_amplitude_knots(T)) {
+    throw Error(fmt::format(
+        "augment: sub-policy {}: amplitude warping with {} knots on windows of {} samples puts "
+        "them {:.3g} samples apart; at most {} knots ({} samples apart or more): a joint angle "
+        "scaled faster than that is no human movement",
+        sub.describe(), a.knots, T, static_cast<double>(T - 1) / (a.knots + 1),
+        max_amplitude_knots(T), kMinAmplitudeKnotSpacing));
+  }
+}
+
 Carriers PpdaAugmenter::Impl::carriers_for(const SubPolicy& sub) const {
   return sub.placement.keeps_positions() ? make_fixed_carriers(sensors)
                                          : make_carriers(carrier_joints(body, sensors, sub));
@@ -790,6 +876,7 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
                             starts.size(), T, C));
   }
   for (int64_t s : starts) m.check_start(s);
+  check(sub);
   const Carriers carriers = m.carriers_for(sub);
   const Rng root(rng.next_u64());
   if (log != nullptr) log->assign(starts.size(), PpdaWindowLog{});
@@ -826,6 +913,7 @@ void PpdaAugmenter::apply_window(const SubPolicy& sub, int64_t start, Rng& rng,
   if (out.size() != T * C)
     throw Error(fmt::format("augment: output of {} values for {} x {}", out.size(), T, C));
   m.check_start(start);
+  check(sub);
   const Carriers carriers = m.carriers_for(sub);
   Impl::Worker wk;
   wk.simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);

@@ -69,6 +69,19 @@ class PpdaAugmenter {
   // Base window starts (sample indices) every `stride` samples: 0, stride, ... while a window fits.
   std::vector<int64_t> window_starts(std::size_t stride) const;
 
+  // Amplitude warping's curve is sampled on the window's frames and differentiated twice by the
+  // simulator (the joint's angle times the curve), whose stencils span 3 frames: knots closer
+  // than kMinAmplitudeKnotSpacing samples are not resolved, and the curve turns into noise that
+  // the derivatives amplify (98 knots on 100 samples read 20,499 m/s^2, found in review,
+  // 2026-11-26). At most max_amplitude_knots(window) interior knots, (T - 1) / 3 - 1: 32 on 100
+  // samples, 5 on 20 (the grids' 2 and 4 fit); 0, a straight line, is always allowed.
+  static constexpr std::size_t kMinAmplitudeKnotSpacing = 3;
+  static int max_amplitude_knots(std::size_t window);
+  // Throws imukit::Error naming the sub-policy when it cannot be applied to this augmenter's
+  // windows (amplitude knots beyond max_amplitude_knots). apply() checks its sub-policy; a
+  // caller with a whole policy checks them all up front.
+  void check(const SubPolicy& sub) const;
+
   // Simulates window k starting at sample starts[k] under `sub` into out (starts.size() x
   // window x channels floats, C order). threads: 0 = hardware concurrency. A speed-scaled window
   // covers b times the base span around the base window's centre, moved inside the motion when

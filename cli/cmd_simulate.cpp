@@ -375,13 +375,16 @@ IMUKIT_REGISTER_COMMAND(
               "-o FILE.mcap writes one sensor_msgs/Imu topic per sensor instead");
           sub.add_option("--method", a->method,
                          "Derivative method: fd (default), spline, or reference (comparison only)");
+          // The simulator's own limits (sim::RateLimits): a rate below them once hung the run.
           sub.add_option("--rate", a->rate_hz,
-                         "Sensor sample rate in Hz (default: the motion's frame rate)")
-              ->check(sample_rate_range());
+                         "Sensor sample rate in Hz, 1/3600 to 1e6 (default: the motion's frame "
+                         "rate)")
+              ->check(real_in(sim::RateLimits::min_hz, sim::RateLimits::max_hz, "Hz"));
           sub.add_option("--seed", a->seed, "Seed of the hardware noise")->check(seed_range());
           sub.add_option("--gravity", a->gravity,
                          fmt::format("Gravity magnitude in m/s^2 (default {})", kStandardGravity))
-              ->check(gravity_range());
+              // The simulator's own limits, as for a scene's simulation.gravity.
+              ->check(real_in(sim::GravityLimits::min_m_s2, sim::GravityLimits::max_m_s2, "m/s^2"));
           sub.add_option("--bvh", a->bvh, "Quick form: a BVH motion file");
           add_bvh_options(sub, a->bvh_args);
           sub.add_option("--preset", a->presets,

@@ -260,28 +260,33 @@ std::vector<int> Body::children(int j) const {
   return c;
 }
 
-Eigen::Vector3d Body::segment_end(int j) const {
+int Body::segment_child(int j) const {
   const std::vector<int> kids = children(j);
-  if (!kids.empty()) {
-    // Subtree depth picks the limb's continuation (the elbow, not a twist helper or the thumb).
-    std::function<int(int)> depth = [&](int k) {
-      int d = 0;
-      for (int c : children(k)) d = std::max(d, 1 + depth(c));
-      return d;
-    };
-    int best = kids.front();
-    int best_depth = -1;
-    double best_len = -1.0;
-    for (int k : kids) {
-      const int d = depth(k);
-      const double len = joints_[static_cast<std::size_t>(k)].offset_parent_joint.norm();
-      if (d > best_depth || (d == best_depth && len > best_len)) {
-        best = k;
-        best_depth = d;
-        best_len = len;
-      }
+  if (kids.empty()) return -1;
+  // Subtree depth picks the limb's continuation (the elbow, not a twist helper or the thumb).
+  std::function<int(int)> depth = [&](int k) {
+    int d = 0;
+    for (int c : children(k)) d = std::max(d, 1 + depth(c));
+    return d;
+  };
+  int best = kids.front();
+  int best_depth = -1;
+  double best_len = -1.0;
+  for (int k : kids) {
+    const int d = depth(k);
+    const double len = joints_[static_cast<std::size_t>(k)].offset_parent_joint.norm();
+    if (d > best_depth || (d == best_depth && len > best_len)) {
+      best = k;
+      best_depth = d;
+      best_len = len;
     }
-    const Eigen::Vector3d o = joints_[static_cast<std::size_t>(best)].offset_parent_joint;
+  }
+  return best;
+}
+
+Eigen::Vector3d Body::segment_end(int j) const {
+  if (const int child = segment_child(j); child >= 0) {
+    const Eigen::Vector3d o = joints_[static_cast<std::size_t>(child)].offset_parent_joint;
     if (o.norm() > 0.0) return o;
   }
   const Joint& jj = joints_[static_cast<std::size_t>(j)];

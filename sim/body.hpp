@@ -51,6 +51,9 @@ class Body {
   // the chain to the distal limb end: the one with the longest subtree, ties to the first), else
   // end_offset, else the continuation of the parent's offset. Zero for a lone root.
   Eigen::Vector3d segment_end(int j) const;
+  // The child segment_end's segment points to, or -1 for a leaf. When that child sits at j's
+  // origin the segment has no length (segment_end then falls back as for a leaf).
+  int segment_child(int j) const;
   // Neutral-pose joint positions in the world frame (root at the origin).
   std::vector<Eigen::Vector3d> neutral_positions() const;
   // Unit forward direction of the body at the neutral pose: up x right, where right points from

@@ -1698,8 +1698,7 @@ Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResul
   require_simulatable(motion, "fitted_motion");
   if (!motion.frame_count()) throw Error("fitted_motion: the motion must have a finite length");
   if (frames < 2) throw Error("fitted_motion: at least 2 frames are needed");
-  if (!(rate_hz > 0.0 && std::isfinite(rate_hz)))
-    throw Error("fitted_motion: the frame rate must be positive");
+  check_rate(rate_hz, "fitted_motion: the frame rate");
   if (!std::isfinite(r.time_offset_s) || !std::isfinite(r.clock_rate))
     throw Error("fitted_motion: the time offset or clock rate was not identified");
   const int joint = r.placement.joint;

@@ -1674,8 +1674,8 @@ Motion relative_motion(const KeypointTopology& topo, const KeypointMotionOptions
 KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointTopology& topo,
                                      const KeypointMotionOptions& opt) {
   validate_topology(topo, "topology " + topo.name);
-  if (!(opt.rate_hz > 0.0 && opt.rate_hz <= 1e4))
-    throw Error("motion_from_keypoints: rate_hz must be in (0, 1e4]");
+  if (!(opt.rate_hz >= RateLimits::min_hz && opt.rate_hz <= 1e4))
+    throw Error("motion_from_keypoints: rate_hz must be in [1/3600, 1e4]");
   if (!(opt.cutoff_hz > 0.0 && std::isfinite(opt.cutoff_hz)))
     throw Error("motion_from_keypoints: cutoff_hz must be positive");
   if (!(opt.max_bone_deviation >= 0.0))

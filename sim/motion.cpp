@@ -40,12 +40,38 @@ void Motion::read(int64_t first, int64_t count, std::span<const int> joints, Mot
   }
 }
 
-std::vector<std::string> Motion::validate_and_normalize(const Body* body) {
+std::optional<double> normalize_rotation(Eigen::Quaterniond& q) {
+  assert(q.coeffs().allFinite());
+  const double n = q.norm();
+  // The plain norm where its squares can neither overflow nor lose bits to underflow (and the
+  // same bits as ever); otherwise scaled by the largest component first: a component of 1e155
+  // squared to inf and q / inf gave the zero quaternion, one of 1e-300 squared to 0.
+  if (n > 1e-100 && n < 1e100) {
+    q.coeffs() /= n;
+    return n;
+  }
+  const double largest = q.coeffs().cwiseAbs().maxCoeff();
+  if (largest == 0.0) return std::nullopt;
+  const Eigen::Vector4d scaled = q.coeffs() / largest;  // components in [-1, 1], one of them +-1
+  const double scaled_norm = scaled.norm();
+  q.coeffs() = scaled / scaled_norm;
+  return largest * scaled_norm;
+}
+
+std::vector<std::string> Motion::validate_and_normalize(const Body* body, const FrameLines* lines) {
   const auto joint_name = [&](std::size_t j) {
     if (body != nullptr && body->size() == joints_) return body->joint(j).name;
     std::string s = "#";  // appended, not operator+: gcc 12 -Wrestrict false positive
     s += std::to_string(j);
     return s;
+  };
+  // "file:line: " of frame f when the lines are known, "motion: " otherwise.
+  const auto where = [&](int64_t f) -> std::string {
+    if (lines == nullptr || static_cast<std::size_t>(f) >= lines->line.size()) return "motion: ";
+    InputLocation at;
+    at.file = lines->file;
+    at.line = lines->line[static_cast<std::size_t>(f)];
+    return at.to_string() + ": ";
   };
   std::vector<std::string> warnings;
   int64_t off = 0;
@@ -54,20 +80,20 @@ std::vector<std::string> Motion::validate_and_normalize(const Body* body) {
   std::size_t worst_joint = 0;
   for (int64_t f = 0; f < frames_; ++f) {
     if (!translation_.col(f).allFinite()) {
-      throw Error("motion: frame " + std::to_string(f) + ": root translation is not finite");
+      throw Error(where(f) + "frame " + std::to_string(f) + ": root translation is not finite");
     }
     for (std::size_t j = 0; j < joints_; ++j) {
       Eigen::Quaterniond& q = rotation(f, j);
       if (!q.coeffs().allFinite()) {
-        throw Error("motion: frame " + std::to_string(f) + ", joint " + joint_name(j) +
+        throw Error(where(f) + "frame " + std::to_string(f) + ", joint " + joint_name(j) +
                     ": quaternion is not finite");
       }
-      const double n = q.norm();
-      if (!(n > 1e-12)) {
-        throw Error("motion: frame " + std::to_string(f) + ", joint " + joint_name(j) +
-                    ": quaternion has zero norm");
+      const std::optional<double> n = normalize_rotation(q);
+      if (!n) {
+        throw Error(where(f) + "frame " + std::to_string(f) + ", joint " + joint_name(j) +
+                    ": quaternion is all zeros (no rotation to normalise)");
       }
-      const double dev = std::abs(n - 1.0);
+      const double dev = std::abs(*n - 1.0);
       if (dev > kQuaternionNormTolerance) {
         ++off;
         if (dev > worst) {
@@ -76,23 +102,28 @@ std::vector<std::string> Motion::validate_and_normalize(const Body* body) {
           worst_joint = j;
         }
       }
-      q.coeffs() /= n;
     }
   }
   if (off > 0) {
     std::ostringstream s;
-    s << "motion: " << off << " quaternions had norms further than " << kQuaternionNormTolerance
-      << " from 1 and were renormalised (worst |1 - |q|| = " << worst << " at frame " << worst_frame
-      << ", joint " << joint_name(worst_joint) << ")";
+    s << where(worst_frame) << off << " quaternions had norms further than "
+      << kQuaternionNormTolerance << " from 1 and were renormalised (worst |1 - |q|| = " << worst
+      << " at frame " << worst_frame << ", joint " << joint_name(worst_joint) << ")";
     warnings.push_back(s.str());
   }
   return warnings;
 }
 
-void require_simulatable(const MotionSource& motion, const std::string& what) {
-  if (!(std::isfinite(motion.rate_hz()) && motion.rate_hz() > 0.0)) {
-    throw Error(what + ": the motion's frame rate must be finite and positive");
+void check_rate(double rate_hz, const std::string& what) {
+  if (!rate_within_limits(rate_hz)) {
+    std::ostringstream s;
+    s << what << " " << rate_hz << " Hz is outside " << RateLimits::text;
+    throw Error(s.str());
   }
+}
+
+void require_simulatable(const MotionSource& motion, const std::string& what) {
+  check_rate(motion.rate_hz(), what + ": the motion's frame rate");
   if (const auto n = motion.frame_count(); n && *n < 2) {
     throw Error(what + ": the motion has " + std::to_string(*n) +
                 " frame(s); simulation needs at least 2 (velocities and accelerations are "
@@ -239,8 +270,8 @@ QuaternionColumns quaternion_columns(const std::vector<Field>& fields, const Bod
 }
 
 // The frame rate from the t column: a uniform step within the rates a BVH may state.
-double rate_from_times(const std::vector<double>& times, int64_t frames,
-                       const std::string& source_name) {
+double rate_from_times(const std::vector<double>& times, int64_t frames, const FrameLines& lines) {
+  const std::string& source_name = lines.file;
   if (frames < 2) {
     throw Error(InputLocation{source_name, std::nullopt, std::nullopt, std::nullopt},
                 "motion has " + std::to_string(frames) +
@@ -259,9 +290,11 @@ double rate_from_times(const std::vector<double>& times, int64_t frames,
   for (int64_t f = 1; f < frames; ++f) {
     const double step = times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
     if (std::abs(step - dt) > 1e-6 * dt) {
-      throw Error(InputLocation{source_name, f + 2, 1, std::nullopt},
-                  "t is not uniform (step " + std::to_string(step) + " s, mean " +
-                      std::to_string(dt) + " s)");
+      // The frame's own line (f + 2 was off by the blank lines skipped before it).
+      throw Error(
+          InputLocation{source_name, lines.line[static_cast<std::size_t>(f)], 1, std::nullopt},
+          "t is not uniform (step " + std::to_string(step) + " s, mean " + std::to_string(dt) +
+              " s)");
     }
   }
   return 1.0 / dt;
@@ -315,32 +348,57 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
   std::vector<double> times;
   std::vector<double> values;  // row-major, fields.size() per row
   const std::size_t width = fields.size();
+  // Per joint in the file, the fields of its w, x, y, z.
+  std::vector<std::array<std::size_t, 4>> joint_fields(body.size(), {width, width, width, width});
+  for (std::size_t i = 0; i < width; ++i) {
+    if (cols.role[i] >= 10) {
+      const auto j = static_cast<std::size_t>((cols.role[i] - 10) / 4);
+      joint_fields[j][static_cast<std::size_t>((cols.role[i] - 10) % 4)] = i;
+    }
+  }
+  FrameLines frame_lines{source_name, {}};
   while ((line = reader.next())) {
     if (line->empty()) continue;
+    // This row's frame: the rows before it (counted before its t is stored, so every message
+    // about the row names the same frame).
+    const auto frame = static_cast<int64_t>(frame_lines.line.size());
     split_fields(*line, fields);
     if (fields.size() != width) {
       throw Error(at(1), "expected " + std::to_string(width) + " fields, got " +
                              std::to_string(fields.size()));
     }
+    const std::size_t row = values.size();
     for (std::size_t i = 0; i < width; ++i) {
       const auto v = parse_double(fields[i].text);
       if (!v)
         throw Error(at(fields[i].column), "not a number: " + quote_excerpt(fields[i].text, 24));
       if (!std::isfinite(*v)) {
         throw Error(at(fields[i].column),
-                    "frame " + std::to_string(times.size()) + ": value is not finite");
+                    "frame " + std::to_string(frame) + ": value is not finite");
       }
       values.push_back(*v);
       if (cols.role[i] == 0) times.push_back(*v);
     }
     if (!cols.have_t) times.push_back(0.0);
+    // A quaternion of four zeros has no direction to normalise to; any other finite one does.
+    for (std::size_t j = 0; j < body.size(); ++j) {
+      const std::array<std::size_t, 4>& jf = joint_fields[j];
+      if (jf[0] == width) continue;  // joint not in the file: identity
+      if (values[row + jf[0]] == 0.0 && values[row + jf[1]] == 0.0 && values[row + jf[2]] == 0.0 &&
+          values[row + jf[3]] == 0.0) {
+        throw Error(at(fields[jf[0]].column),
+                    "frame " + std::to_string(frame) + ", joint " + body.joint(j).name +
+                        ": quaternion is all zeros (no rotation to normalise)");
+      }
+    }
+    frame_lines.line.push_back(reader.line_number());
   }
   const auto frames = static_cast<int64_t>(values.size() / std::max<std::size_t>(width, 1));
-  const double rate = rate_hz ? *rate_hz : rate_from_times(times, frames, source_name);
+  const double rate = rate_hz ? *rate_hz : rate_from_times(times, frames, frame_lines);
   // A t column beside a given rate must agree with it (found in review: it was ignored, so a
   // file with gaps or another rate was read at the given one without a word).
   if (rate_hz && cols.have_t && frames >= 2) {
-    const double from_t = rate_from_times(times, frames, source_name);
+    const double from_t = rate_from_times(times, frames, frame_lines);
     if (std::abs(from_t - rate) > 1e-6 * rate) {
       std::ostringstream what;
       what << "the t column steps at " << from_t << " Hz, the given rate is " << rate
@@ -349,7 +407,7 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     }
   }
   Motion m = quaternion_motion(values, cols.role, rate, body);
-  std::vector<std::string> w = m.validate_and_normalize(&body);
+  std::vector<std::string> w = m.validate_and_normalize(&body, &frame_lines);
   if (warnings != nullptr) warnings->insert(warnings->end(), w.begin(), w.end());
   return m;
 }

@@ -11,7 +11,9 @@
 // Quaternion hygiene: validate_and_normalize() renormalises every rotation (so |q| never scales
 // a vector, the reference's defect 3), records a warning when some norm was further than
 // kQuaternionNormTolerance from 1, and throws imukit::Error naming the frame and joint of a
-// non-finite or zero quaternion or translation.
+// non-finite or zero quaternion or translation. Any finite quaternion that is not all zeros is
+// a rotation, from 1e-300 to 1e300: it is divided by its largest component before the norm is
+// taken, so the norm neither overflows nor underflows.
 #pragma once
 
 #include <Eigen/Core>
@@ -29,6 +31,16 @@
 namespace imukit::sim {
 
 inline constexpr double kQuaternionNormTolerance = 1e-6;
+
+// Where a motion's frames were read from, for messages: the file and each frame's line.
+struct FrameLines {
+  std::string file;
+  std::vector<int64_t> line;  // per frame
+};
+
+// q / |q| in place, and |q| (inf when it overflows; the unit quaternion is right regardless),
+// or nullopt, q untouched, when q is all zeros. Precondition: q is finite.
+std::optional<double> normalize_rotation(Eigen::Quaterniond& q);
 
 // Frames [first_frame, first_frame + frames) for the joints asked for.
 struct MotionChunk {
@@ -105,9 +117,11 @@ class Motion : public MotionSource {
   Eigen::Ref<Eigen::Vector3d> root_translation(int64_t frame) { return translation_.col(frame); }
   Eigen::Vector3d root_translation(int64_t frame) const { return translation_.col(frame); }
 
-  // See the header comment. Joint names (for messages) come from body when it matches.
+  // See the header comment. Joint names (for messages) come from body when it matches; frame
+  // lines, when given, put the file and line of the frame in front of each message.
   // Returns the warnings (empty when every norm was within tolerance).
-  std::vector<std::string> validate_and_normalize(const Body* body = nullptr);
+  std::vector<std::string> validate_and_normalize(const Body* body = nullptr,
+                                                  const FrameLines* lines = nullptr);
   // Bytes held by the samples.
   std::size_t memory_bytes() const {
     return rotations_.size() * sizeof(Eigen::Quaterniond) +
@@ -122,8 +136,24 @@ class Motion : public MotionSource {
   std::vector<Eigen::Quaterniond> rotations_;
 };
 
+// The rates a simulation takes, of motion frames and of sensor samples alike: one an hour (a
+// BVH's or a quaternion CSV's longest frame time, 3600 s) to 1 MHz. Below about 1e-10 Hz a
+// period no longer fits int64 nanoseconds (9.2e18 ns): sample times overflowed and counting the
+// samples never ended (found in review, 2026-11-26).
+struct RateLimits {
+  static constexpr double min_hz = 1.0 / 3600.0;
+  static constexpr double max_hz = 1e6;
+  static constexpr const char* text = "[1/3600 (one an hour), 1e6] Hz";
+};
+inline bool rate_within_limits(double rate_hz) {
+  return rate_hz >= RateLimits::min_hz && rate_hz <= RateLimits::max_hz;
+}
+// Throws imukit::Error "<what> <rate> Hz is outside [1/3600 ..., 1e6] Hz" unless the rate is
+// within RateLimits.
+void check_rate(double rate_hz, const std::string& what);
+
 // Throws imukit::Error unless the motion can be differentiated: at least 2 frames (a 0- or
-// 1-frame motion has no velocity) and a finite positive rate.
+// 1-frame motion has no velocity) and a rate within RateLimits.
 void require_simulatable(const MotionSource& motion, const std::string& what);
 
 // A smooth motion for tests and long scenes: every joint rotates about a fixed random axis by a

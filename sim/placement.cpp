@@ -81,7 +81,36 @@ const PlacementPreset& placement_preset(std::string_view name) {
   throw Error("unknown placement preset '" + std::string(name) + "' (presets: " + known + ")");
 }
 
+namespace {
+
+// Why joint's segment has no long axis, or empty when it has one. A root without one takes the
+// trunk's axis (anatomical_frame); any other segment of zero length -- its limb's next joint on
+// its origin (a BVH thigh of offset 0), or a leaf with no length -- cannot carry a position
+// along it or a turn about it. segment_end then fell back to the joint's own offset, along the
+// parent bone, and a preset was silently placed crosswise (found in review, 2026-11-26).
+std::string zero_length_reason(const Body& body, int joint) {
+  if (body.joint(static_cast<std::size_t>(joint)).parent < 0) return {};
+  const int child = body.segment_child(joint);
+  if (child >= 0) {
+    const Joint& c = body.joint(static_cast<std::size_t>(child));
+    if (c.offset_parent_joint.norm() < 1e-9) return "its next joint '" + c.name + "' sits on it";
+    return {};
+  }
+  if (body.segment_end(joint).norm() < 1e-9) return "it is a leaf without length";
+  return {};
+}
+
+std::string zero_length_message(const Body& body, int joint, const std::string& reason) {
+  const std::string& name = body.joint(static_cast<std::size_t>(joint)).name;
+  return "segment '" + name + "' (" + segment_name(name) + ") has zero length (" + reason +
+         "): no long axis to place a sensor along";
+}
+
+}  // namespace
+
 Eigen::Matrix3d anatomical_frame(const Body& body, int joint) {
+  if (const std::string why = zero_length_reason(body, joint); !why.empty())
+    throw Error(zero_length_message(body, joint, why));
   Eigen::Vector3d L = body.segment_end(joint);
   if (L.norm() < 1e-9) L = Eigen::Vector3d::UnitZ();  // a lone root: take the trunk's axis
   L.normalize();
@@ -102,12 +131,17 @@ Eigen::Matrix3d anatomical_frame(const Body& body, int joint) {
   return F;
 }
 
-Placement resolve_preset(const PlacementPreset& preset, const Body& body) {
+Placement resolve_preset(const PlacementPreset& preset, const Body& body, std::string_view sensor) {
+  const std::string who = sensor.empty() || sensor == preset.name
+                              ? "preset " + preset.name
+                              : "sensor '" + std::string(sensor) + "': preset " + preset.name;
   const auto j = body.find(preset.joint);
   if (!j) {
-    throw Error("preset " + preset.name + " needs segment '" + preset.joint + "' (" +
-                segment_name(preset.joint) + "), which this body does not have");
+    throw Error(who + " needs segment '" + preset.joint + "' (" + segment_name(preset.joint) +
+                "), which this body does not have");
   }
+  if (const std::string why = zero_length_reason(body, *j); !why.empty())
+    throw Error(who + ": " + zero_length_message(body, *j, why));
   const Eigen::Matrix3d F = anatomical_frame(body, *j);
   Placement p;
   p.joint = *j;
@@ -121,14 +155,14 @@ Placement resolve_preset(const PlacementPreset& preset, const Body& body) {
   return p;
 }
 
-Placement preset_placement(std::string_view preset, const Body& body) {
-  return resolve_preset(placement_preset(preset), body);
+Placement preset_placement(std::string_view preset, const Body& body, std::string_view sensor) {
+  return resolve_preset(placement_preset(preset), body, sensor);
 }
 
 PlacementPreset describe_placement(const Placement& placement, const Body& body, std::string name) {
   const Joint& joint = body.joint(static_cast<std::size_t>(placement.joint));
   const double length = body.segment_end(placement.joint).norm();
-  if (length < 1e-9) {
+  if (length < 1e-9 || !zero_length_reason(body, placement.joint).empty()) {
     throw Error("placement of " + name + ": segment '" + joint.name +
                 "' has no length to measure a position along");
   }

@@ -52,13 +52,18 @@ const std::vector<PlacementPreset>& placement_presets();
 // Throws imukit::Error listing the preset names when `name` is unknown.
 const PlacementPreset& placement_preset(std::string_view name);
 
-// The anatomical frame (columns L, A, N) of joint j, in the joint's frame.
+// The anatomical frame (columns L, A, N) of joint j, in the joint's frame. A root without length
+// takes the trunk's axis (+z) as L; any other segment of zero length (its limb's next joint on
+// its origin) has no L: imukit::Error naming the segment.
 Eigen::Matrix3d anatomical_frame(const Body& body, int joint);
 
-// The preset on this body. Throws imukit::Error if the body has no such segment.
-Placement resolve_preset(const PlacementPreset& preset, const Body& body);
+// The preset on this body. Throws imukit::Error if the body has no such segment or it has zero
+// length (not a root), naming the sensor (when given and not the preset's own name), the preset
+// and the segment.
+Placement resolve_preset(const PlacementPreset& preset, const Body& body,
+                         std::string_view sensor = {});
 // The preset called `preset` on this body (unknown names and missing segments throw, as above).
-Placement preset_placement(std::string_view preset, const Body& body);
+Placement preset_placement(std::string_view preset, const Body& body, std::string_view sensor = {});
 
 // The inverse: `placement` on `body` as a preset named `name` (its segment's canonical joint, the
 // position as a fraction along the segment plus offsets across it, the axes in the anatomical

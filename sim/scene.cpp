@@ -223,7 +223,11 @@ void parse_motion(const json& m, const std::string& source, const std::string& b
                   std::shared_ptr<Motion> loaded, Scene& scene) {
   if (m.contains("quaternion_csv")) {
     std::optional<double> rate;
-    if (m.contains("rate_hz")) rate = number(m["rate_hz"], source, "motion.rate_hz");
+    if (m.contains("rate_hz")) {
+      rate = number(m["rate_hz"], source, "motion.rate_hz");
+      if (!rate_within_limits(*rate))
+        fail(source, "motion.rate_hz", std::string("must be in ") + RateLimits::text);
+    }
     loaded = std::make_shared<Motion>(read_quaternion_csv(
         resolve(base_dir, string_of(m["quaternion_csv"], source, "motion.quaternion_csv")),
         scene.body, rate, &scene.warnings));
@@ -279,13 +283,16 @@ void parse_simulation(const json& s, const std::string& source, Scene& scene) {
   }
   if (s.contains("rate_hz")) {
     scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
-    if (!(scene.options.rate_hz > 0.0 && scene.options.rate_hz <= 1e6))
-      fail(source, "simulation.rate_hz", "must be in (0, 1e6] Hz");
+    if (!rate_within_limits(scene.options.rate_hz))
+      fail(source, "simulation.rate_hz", std::string("must be in ") + RateLimits::text);
   }
   if (s.contains("gravity")) {
     scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
-    if (!(scene.options.gravity_world.norm() <= 100.0))
-      fail(source, "simulation.gravity", "expected at most 100 m/s^2 (the Earth's is 9.81)");
+    try {
+      check_gravity(scene.options.gravity_world, "simulation.gravity");
+    } catch (const Error& e) {
+      throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, e.what());
+    }
   }
   if (s.contains("magnetic_field")) {
     scene.options.magnetic_field_world =
@@ -378,7 +385,7 @@ SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& sourc
     if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
     s.preset = string_of(js["preset"], source, path + ".preset");
     try {
-      s.spec.placement = preset_placement(s.preset, scene.body);
+      s.spec.placement = preset_placement(s.preset, scene.body, s.spec.name);
     } catch (const Error& e) {
       fail(source, path + ".preset", e.what());
     }
@@ -449,7 +456,7 @@ SceneSensor preset_sensor(std::string_view preset, const Body& body, std::string
   SceneSensor s;
   s.preset = std::string(preset);
   s.spec.name = name.empty() ? s.preset : std::move(name);
-  s.spec.placement = preset_placement(preset, body);
+  s.spec.placement = preset_placement(preset, body, s.spec.name);
   return s;
 }
 

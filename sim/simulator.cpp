@@ -9,6 +9,7 @@
 #include <limits>
 #include <numbers>
 #include <optional>
+#include <sstream>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/isa.hpp"
@@ -1251,14 +1252,27 @@ Simulator::~Simulator() = default;
 Simulator::Simulator(Simulator&&) noexcept = default;
 Simulator& Simulator::operator=(Simulator&&) noexcept = default;
 
+void check_gravity(const Eigen::Vector3d& gravity_world, const std::string& what) {
+  const double g = gravity_world.stableNorm();  // 1e300 reads as itself, not inf
+  if (!(g >= GravityLimits::min_m_s2 && g <= GravityLimits::max_m_s2)) {
+    std::ostringstream message;
+    message << what << ": |g| = " << g << " m/s^2 is outside " << GravityLimits::text;
+    throw Error(message.str());
+  }
+}
+
 double sample_rate_hz(const SimulationOptions& options, const MotionSource& motion) {
-  return options.rate_hz > 0.0 ? options.rate_hz : motion.rate_hz();
+  // Only 0 means the motion's rate: a negative or NaN rate is passed on, for sample_count to
+  // refuse, not replaced.
+  return options.rate_hz != 0.0 ? options.rate_hz : motion.rate_hz();
 }
 
 int64_t sample_count(double motion_rate_hz, int64_t frames, double rate) {
   if (frames < 1) return 0;
-  if (!(std::isfinite(rate) && rate > 0.0))
-    throw Error("simulation: the sample rate must be finite and positive");
+  // Every rate that reaches the sample clock passes here: within the limits a period fits
+  // int64 ns with room to spare (at 1e-10 Hz it overflowed and the search below never ended).
+  check_rate(rate, "simulation: the sample rate");
+  check_rate(motion_rate_hz, "simulation: the motion's frame rate");
   int64_t n =
       static_cast<int64_t>(std::floor(static_cast<double>(frames - 1) / motion_rate_hz * rate));
   n = std::max<int64_t>(n - 2, 0);
@@ -1266,7 +1280,13 @@ int64_t sample_count(double motion_rate_hz, int64_t frames, double rate) {
   const auto inside = [&](int64_t k) {
     return position_in_motion(clock(k), motion_rate_hz, frames).has_value();
   };
-  while (inside(n + 1)) ++n;
+  // The estimate is a sample or two short of the last sample inside (rounding); the search is
+  // bounded all the same, so no input can make it spin.
+  for (int step = 0; inside(n + 1); ++step) {
+    if (step == 64)
+      throw Error("simulation: cannot count the samples at " + std::to_string(rate) + " Hz");
+    ++n;
+  }
   while (n > 0 && !inside(n)) --n;
   return n + 1;
 }

@@ -75,6 +75,17 @@ struct SensorSpec {
   SensorOutputs outputs;
 };
 
+// The gravity a simulation takes, |g_world| in m/s^2: 0.1 (a small asteroid's is less, no
+// wearable's) to 100, checked the same way for a scene's simulation.gravity, simulate --gravity
+// and Python's Scene(gravity=): a scene once took [0, 0, 0] that --gravity refused.
+struct GravityLimits {
+  static constexpr double min_m_s2 = 0.1;
+  static constexpr double max_m_s2 = 100.0;
+  static constexpr const char* text = "[0.1, 100] m/s^2 (the Earth's is 9.81)";
+};
+// Throws imukit::Error "<what>: |g| = N m/s^2 is outside [0.1, 100] m/s^2 ..." unless within.
+void check_gravity(const Eigen::Vector3d& gravity_world, const std::string& what);
+
 struct SimulationOptions {
   DerivativeMethod method = DerivativeMethod::fd;
   Eigen::Vector3d gravity_world = kStandardGravityWorld;

@@ -137,10 +137,12 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
   s.motion = std::move(motion);
   s.frames = frames ? frames : s.motion->frame_count();
   s.options.method = sim::parse_derivative_method(method);
-  if (rate_hz != 0.0 && !(rate_hz > 0.0 && rate_hz <= 1e6))
-    throw Error("Scene: rate_hz must be in (0, 1e6] Hz");
+  if (rate_hz != 0.0) sim::check_rate(rate_hz, "Scene: rate_hz");
   s.options.rate_hz = rate_hz;
-  if (!gravity.is_none()) s.options.gravity_world = gravity_argument(gravity);
+  if (!gravity.is_none()) {
+    s.options.gravity_world = gravity_argument(gravity);
+    sim::check_gravity(s.options.gravity_world, "Scene: gravity");
+  }
   if (!magnetic_field.is_none()) {
     s.options.magnetic_field_world = vector3(magnetic_field, "magnetic_field");
     // Tesla, as in scene files (the Earth's field is 25-65 uT).
@@ -220,8 +222,7 @@ std::shared_ptr<sim::Motion> motion_from_arrays(py::handle rotations_obj,
     throw Error("Motion.from_arrays: " + std::to_string(joints) + " joints, the body has " +
                 std::to_string(body->size()));
   }
-  if (!(rate_hz > 0.0 && std::isfinite(rate_hz)))
-    throw Error("Motion.from_arrays: rate_hz must be positive");
+  sim::check_rate(rate_hz, "Motion.from_arrays: rate_hz");
   auto m = std::make_shared<sim::Motion>(rate_hz, static_cast<std::size_t>(joints), frames);
   const double* q = rot.data();
   for (py::ssize_t f = 0; f < frames; ++f) {

@@ -1,6 +1,6 @@
 // PPDA: closed forms for speed and amplitude on a sinusoidal joint, placement through the
 // carriers' affine field against a direct simulation, hardware ranges, every grid sub-policy,
-// and thread-count independence.
+// joints through pi, and thread-count independence.
 #include "imukit/augment/ppda.hpp"
 
 #include <gtest/gtest.h>
@@ -10,7 +10,9 @@
 #include <numbers>
 #include <utility>
 
+#include "imukit/augment/stda.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/core/interpolation.hpp"
 #include "imukit/core/isa.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/so3.hpp"
@@ -212,6 +214,135 @@ TEST(Ppda, AmplitudeScalingMultipliesTheJointAngleExactly) {
     for (std::size_t i = 0; i < 100; ++i) {
       EXPECT_NEAR(y[i * 6 + 5], a * id[i * 6 + 5], 1e-9);
       EXPECT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);
+    }
+  }
+}
+
+// The sinusoid scene's arm turning about the vertical by angle(t) instead.
+sim::Scene turning_scene(double (*angle)(double), int64_t frames = 1000) {
+  sim::Scene scene = sinusoid_scene(frames);
+  auto m = std::static_pointer_cast<sim::Motion>(scene.motion);
+  for (int64_t f = 0; f < frames; ++f)
+    m->rotation(f, 1) = so3_exp(Vector3d(0, 0, angle(static_cast<double>(f) / m->rate_hz())));
+  return scene;
+}
+// Around pi: theta = pi + 0.3 sin(2 pi 0.7 t) crosses pi every 0.71 s; and a steady spin at
+// 2 rad/s, through pi at t = pi / 2 + k pi.
+double around_pi(double t) { return kPi + 0.3 * std::sin(2 * kPi * 0.7 * t); }
+double around_pi_d(double t) { return 0.3 * 2 * kPi * 0.7 * std::cos(2 * kPi * 0.7 * t); }
+double spin(double t) { return 2.0 * t; }
+// A turn a second, its rotation at t = 2 s (frame 200) set to exactly -1: a frame with no axis
+// of its own, which the window from sample 103 reaches a whole turn (half-angle pi) after it
+// started at the shortest arc.
+double whole_turn_spin(double t) { return 2 * kPi * t; }
+
+// The log must follow the motion through pi. Shortest arc frame by frame flipped the axis at
+// each crossing, so s theta jumped by 2 pi (1 - s) in one frame: 290 rad/s and 21,684 m/s^2 on
+// a joint whose gyro peaks at 1.24 rad/s. About a fixed axis the scaled angle is s theta up to
+// a whole turn, so the gyro is exactly s theta' and the tangential and centripetal forces s and
+// s^2 times the plain ones (1e-9, as AmplitudeScalingMultipliesTheJointAngleExactly).
+TEST(Ppda, AmplitudeScalingFollowsAJointThroughPi) {
+  for (double (*angle)(double) : {around_pi, spin, whole_turn_spin}) {
+    const sim::Scene scene = turning_scene(angle);
+    if (angle == whole_turn_spin) {
+      std::static_pointer_cast<sim::Motion>(scene.motion)->rotation(200, 1) =
+          Quaterniond(-1, 0, 0, 0);
+    }
+    PpdaAugmenter aug(scene);
+    SubPolicy sub;
+    sub.amplitude.method = WarpMethod::scaling;
+    sub.amplitude.sigma = 0.3;
+    for (const int64_t start : {100, 103, 150, 250, 420, 700}) {
+      const std::vector<double> id = run_window(aug, SubPolicy{}, start, 1);
+      for (uint64_t seed : {1u, 2u, 3u}) {
+        PpdaWindowLog log;
+        const std::vector<double> y = run_window(aug, sub, start, seed, &log);
+        ASSERT_EQ(log.amplitude.size(), 1u);
+        const double a = log.amplitude[0];
+        for (std::size_t i = 0; i < 100; ++i) {
+          ASSERT_NEAR(y[i * 6 + 5], a * id[i * 6 + 5], 1e-9) << start << " " << seed << " " << i;
+          ASSERT_NEAR(y[i * 6 + 1], a * id[i * 6 + 1], 1e-9) << start << " " << seed << " " << i;
+          ASSERT_NEAR(y[i * 6 + 0], a * a * id[i * 6 + 0], 1e-9) << start << " " << i;
+          ASSERT_NEAR(y[i * 6 + 2], 9.80665, 1e-9);
+          ASSERT_NEAR(y[i * 6 + 3], 0.0, 1e-9);
+          ASSERT_NEAR(y[i * 6 + 4], 0.0, 1e-9);
+        }
+      }
+    }
+  }
+}
+
+// Amplitude warping scales by a curve s(u) over the window, u the sample position: the angle
+// s(u) theta~ about the fixed axis, theta~ the log followed from the window's start (theta less
+// the whole turn that puts it in (-pi, pi] there), so the gyro is s theta' + s_u theta~ / dt.
+// Before, each crossing of pi added a jump of 2 pi (1 - s) as under scaling (hundreds of rad/s).
+// Tolerance 1.5e-3 rad/s on gyro peaks of 5 rad/s (the spline simulator's derivative of the
+// scaled angle), 0.03 beside the curve's knots.
+TEST(Ppda, AmplitudeWarpingFollowsAJointThroughPi) {
+  const sim::Scene scene = turning_scene(around_pi);
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.amplitude.method = WarpMethod::warping;
+  sub.amplitude.sigma = 0.3;
+  sub.amplitude.knots = 4;
+  const double dt = 0.01;
+  // Starts where theta is 0.18 to 0.29 rad from pi, so the branch is clear from the start.
+  for (const int64_t start : {100, 200, 300}) {
+    const double t0 = static_cast<double>(start) * dt;
+    ASSERT_GT(std::abs(around_pi(t0) - kPi), 0.15);
+    const double turn = around_pi(t0) > kPi ? 2 * kPi : 0.0;
+    for (uint64_t seed : {1u, 2u, 3u}) {
+      PpdaWindowLog log;
+      const std::vector<double> y = run_window(aug, sub, start, seed, &log);
+      ASSERT_EQ(log.amplitude.size(), 6u);  // K + 2 knot values of the one joint
+      const Interpolant curve = warp_curve_interpolant(log.amplitude, 100);
+      for (std::size_t i = 0; i < 100; ++i) {
+        const double u = static_cast<double>(i), e = 1e-4;
+        const std::vector<double> at = {u - e, u, u + e};
+        Eigen::MatrixXd s(1, 3);
+        curve.evaluate(at, s);
+        const double s_u = (s(0, 2) - s(0, 0)) / (2 * e);
+        const double t = t0 + u * dt;
+        const double expected = s(0, 1) * around_pi_d(t) + s_u * (around_pi(t) - turn) / dt;
+        // Within 1.5 samples of a knot of the curve s''' jumps and the spline's derivative misses
+        // by up to 0.018 rad/s.
+        bool near_knot = false;
+        for (int m = 1; m <= 4; ++m) near_knot |= std::abs(u - 99.0 * m / 5.0) < 1.5;
+        ASSERT_NEAR(y[i * 6 + 5], expected, near_knot ? 0.03 : 1.5e-3)
+            << start << " " << seed << " " << i;
+      }
+    }
+  }
+}
+
+// Amplitude warping's knots stay 3 samples apart or more (PpdaAugmenter::max_amplitude_knots):
+// 98 knots on 100 samples read 20,499 m/s^2 on a procedural scene whose plain peak is 16
+// (found in review, 2026-11-26). 32 knots on 100 samples run; 33 are refused, naming the
+// sub-policy, the spacing and the limit.
+TEST(Ppda, AmplitudeWarpingKnotsStayThreeSamplesApart) {
+  EXPECT_EQ(PpdaAugmenter::max_amplitude_knots(100), 32);
+  EXPECT_EQ(PpdaAugmenter::max_amplitude_knots(20), 5);
+  EXPECT_EQ(PpdaAugmenter::max_amplitude_knots(2), 0);
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.amplitude.method = WarpMethod::warping;
+  sub.amplitude.sigma = 0.4;
+  sub.amplitude.knots = 32;
+  const std::vector<double> y = run_window(aug, sub, 500, 1);
+  for (double v : y) ASSERT_TRUE(std::isfinite(v));
+  for (const int knots : {33, 98}) {
+    sub.amplitude.knots = knots;
+    try {
+      (void)run_window(aug, sub, 500, 1);
+      ADD_FAILURE() << knots << " knots accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "augment: sub-policy " + sub.describe() + ": amplitude warping with " +
+                    std::to_string(knots) + " knots on windows of 100 samples puts them " +
+                    (knots == 33 ? "2.91" : "1") +
+                    " samples apart; at most 32 knots (3 samples apart or more): a joint angle "
+                    "scaled faster than that is no human movement");
     }
   }
 }

@@ -209,3 +209,57 @@ def test_hardware_errors_name_the_file_and_hint_only_at_a_bandwidth(run, workdir
     r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--hardware", prof, "-o",
             os.path.join(workdir, "clk"))
     assert r.returncode == 1 and "clock.error_ppm is 20000" in r.stderr and "--rate" not in r.stderr, r.stderr
+
+
+def test_extreme_rates_and_quaternions_are_errors_not_hangs_or_aborts(run, workdir):
+    """Found in review (2026-11-26): --rate 1e-10 and a scene's rate_hz 1e-300 hung at 100 % CPU
+    (a period beyond int64 ns), and a quaternion CSV value of 1e155 aborted the process
+    (SIGABRT in so3_log). Rates are one an hour to 1 MHz; any finite quaternion but zero is a
+    rotation, and four zeros are an error at the row's line and the joint's qw column."""
+    csv = os.path.join(workdir, "huge_q.csv")
+    with open(csv, "w") as f:
+        f.write("t,pelvis_qw,pelvis_qx,pelvis_qy,pelvis_qz\n")
+        for k in range(20):
+            f.write(f"{k * 0.01:.2f},{'1e155' if k == 4 else '1'},0,0,{'0.02' if k == 4 else '0'}\n")
+    scene = {"schema": "imukit.scene/1",
+             "body": {"joints": [{"name": "pelvis", "parent": None, "offset_m": [0, 0, 0]}]},
+             "motion": {"quaternion_csv": "huge_q.csv"},
+             "sensors": [{"name": "s", "segment": "pelvis", "position_m": [0.1, 0, 0]}]}
+    spath = os.path.join(workdir, "huge_q.json")
+    json.dump(scene, open(spath, "w"))
+    r = run("simulate", spath, "-o", os.path.join(workdir, "huge_q"), timeout=60)
+    _, t, g, a = euroc(os.path.join(workdir, "huge_q", "s.csv"))
+    assert r.returncode == 0 and len(t) == 20 and np.max(np.abs(np.linalg.norm(a, axis=1) - 9.80665)) < 1e-9 \
+        and np.max(np.abs(g)) < 1e-9, f"1e155 is the identity: still, |acc| = g ({r.returncode}, {r.stderr})"
+    assert "huge_q.csv:6: 1 quaternions had norms further than 1e-06" in r.stderr, r.stderr
+    with open(csv, "a") as f:
+        f.write("0.20,0,0,0,0\n")
+    r = run("simulate", spath, "-o", os.path.join(workdir, "zero_q"), timeout=60)
+    assert r.returncode == 1 and \
+        "huge_q.csv:22:6: frame 20, joint pelvis: quaternion is all zeros" in r.stderr, r.stderr
+    walk = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--rate", "1e-10", "-o",
+            os.path.join(workdir, "slow"), timeout=60)
+    assert r.returncode == 2 and "--rate: must be a number in [0.000277778, 1e6] Hz, got '1e-10'" in r.stderr, \
+        r.stderr
+    slow = dict(SCENE, simulation={"rate_hz": 1e-300})
+    spath = os.path.join(workdir, "slow.json")
+    json.dump(slow, open(spath, "w"))
+    r = run("simulate", spath, "-o", os.path.join(workdir, "slow2"), timeout=60)
+    assert r.returncode == 1 and "simulation.rate_hz: must be in [1/3600 (one an hour), 1e6] Hz" in r.stderr, \
+        r.stderr
+
+
+def test_gravity_range_is_the_same_in_a_scene_and_on_the_command_line(run, workdir):
+    """Found in review (2026-11-26): a scene's simulation.gravity [0, 0, 0] was accepted while
+    --gravity refused anything under 0.1 m/s^2. Both take 0.1 to 100 m/s^2."""
+    path = os.path.join(workdir, "zero_g.json")
+    json.dump(dict(SCENE, simulation={"gravity": [0, 0, 0]}), open(path, "w"))
+    r = run("simulate", path, "-o", os.path.join(workdir, "zero_g"))
+    assert r.returncode == 1 and \
+        "zero_g.json: simulation.gravity: |g| = 0 m/s^2 is outside [0.1, 100] m/s^2" in r.stderr, r.stderr
+    walk = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "--gravity", "0.05", "-o",
+            os.path.join(workdir, "low_g"))
+    assert r.returncode == 2 and "--gravity: must be a number in [0.1, 100] m/s^2, got '0.05'" in r.stderr, \
+        r.stderr

@@ -169,6 +169,17 @@ class Ppda(unittest.TestCase):
         windows = np.stack([ref[s:s + 50] for s in starts])
         np.testing.assert_allclose(x[1:-1], windows[1:-1], rtol=0, atol=1e-6 * np.max(np.abs(windows)))
 
+    def test_amplitude_knots_stay_three_samples_apart(self):
+        """Found in review (2026-11-26): 98 amplitude knots on 100-sample windows read
+        20,499 m/s^2. At most (T - 1) / 3 - 1 knots: 15 on these 50-sample windows."""
+        starts = self.aug.window_starts(50)
+        x = self.aug.apply({"amplitude": {"method": "warping", "sigma": 0.4, "knots": 15}}, starts, 3)
+        self.assertTrue(np.all(np.isfinite(x)))
+        with self.assertRaisesRegex(
+                imukit.Error, r"amplitude warping with 16 knots on windows of 50 samples puts them 2\.88 "
+                              r"samples apart; at most 15 knots \(3 samples apart or more\)"):
+            self.aug.apply({"amplitude": {"method": "warping", "sigma": 0.4, "knots": 16}}, starts, 3)
+
     def test_by_index_description_dict_and_object_agree(self):
         starts = self.aug.window_starts(50)
         k = 417

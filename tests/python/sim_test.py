@@ -228,3 +228,38 @@ class Errors(unittest.TestCase):
         names = [p["name"] for p in imukit.placement_presets()]
         self.assertEqual(len(names), 12)
         self.assertIn("left_wrist_watch", names)
+
+    def test_rates_and_quaternions_at_the_limits(self):
+        """Found in review (2026-11-26): Scene(rate_hz=1e-10) was accepted and simulate() then hung
+        at 100 % CPU; a quaternion of 1e155 normalised to zero (and the simulator aborted), one of
+        1e-300 was refused as zero norm. Rates are one an hour to 1 MHz; any finite quaternion but
+        zero is a rotation (to 4e-16)."""
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), frames=50)
+        for rate in (1e-10, 1e-300, 2.7e-4, -1.0, 2e6):
+            with self.assertRaisesRegex(
+                    imukit.Error, r"^Scene: rate_hz .* Hz is outside \[1/3600 \(one an hour\), 1e6\] Hz$"):
+                imukit.Scene(body, motion, rate_hz=rate)
+        rot = np.zeros((40, len(body), 4))
+        rot[..., 0] = 1.0
+        # Gravity as a scene's simulation.gravity and simulate --gravity: 0.1 to 100 m/s^2.
+        for g in (0.0, 0.05, [0, 0, 0], [0, 0, -100.5]):
+            with self.assertRaisesRegex(imukit.Error, r"^Scene: gravity: \|g\| = .* m/s\^2 is outside \[0\.1, 100\]"):
+                imukit.Scene(body, motion, gravity=g)
+        self.assertEqual(imukit.Scene(body, motion, gravity=0.1).gravity_world[2], -0.1)
+        with self.assertRaisesRegex(imukit.Error, "^Motion.from_arrays: rate_hz 1e-12 Hz is outside"):
+            imukit.Motion.from_arrays(rot, None, rate_hz=1e-12, body=body)
+        rot[5, 1] = [1e155, 0.0, 0.0, 1e155]
+        rot[6, 1] = [1e-300, 0.0, 0.0, 0.0]
+        with self.assertWarnsRegex(RuntimeWarning, "2 quaternions had norms further than 1e-06"):
+            m = imukit.Motion.from_arrays(rot, None, rate_hz=100.0, body=body)
+        scene = imukit.Scene(body, m, rate_hz=1.0 / 3600.0)
+        scene.add_sensor(preset="chest_strap")
+        self.assertEqual(len(scene.simulate()["chest_strap"].t), 1)  # 0.39 s: one sample an hour
+        P, Q = imukit.world_poses(body, m)
+        spine = np.asarray(Q)[:, 1]  # under the still pelvis: its own rotation
+        np.testing.assert_allclose(spine[5], [math.sqrt(0.5), 0, 0, math.sqrt(0.5)], rtol=0, atol=4e-16)
+        np.testing.assert_allclose(spine[6], [1, 0, 0, 0], rtol=0, atol=4e-16)
+        rot[7, 1] = 0.0
+        with self.assertRaisesRegex(imukit.Error, "frame 7, joint .*: quaternion is all zeros"):
+            imukit.Motion.from_arrays(rot, None, rate_hz=100.0, body=body)

@@ -82,7 +82,21 @@ TEST(BadInput, SceneSeedsAreWholeNumbersInRange) {
 TEST(BadInput, SceneMagnitudesMustBePhysical) {
   expect_error(
       [] { parse_scene(procedural_scene("", R"("gravity": [0, 0, -1e300])"), "s.json", ""); },
-      {"simulation.gravity", "at most 100 m/s^2"});
+      {"s.json: simulation.gravity: |g| = 1e+300 m/s^2 is outside [0.1, 100] m/s^2"});
+  // The same range as simulate --gravity (sim::GravityLimits): [0, 0, 0] was accepted here
+  // while --gravity refused anything under 0.1 (found in review, 2026-11-26).
+  for (const char* g : {"[0, 0, 0]", "[0, 0.05, -0.05]", "[0, 0, -100.5]"}) {
+    expect_error(
+        [&] { parse_scene(procedural_scene("", std::string(R"("gravity": )") + g), "s.json", ""); },
+        {"s.json: simulation.gravity: |g| = ",
+         " m/s^2 is outside [0.1, 100] m/s^2 (the Earth's "
+         "is 9.81)"});
+  }
+  for (const char* g : {"[0, 0, -0.1]", "[0, 0, -100]", "[3, 4, 0]"}) {
+    EXPECT_NO_THROW(
+        parse_scene(procedural_scene("", std::string(R"("gravity": )") + g), "s.json", ""))
+        << g;
+  }
   expect_error(
       [] {
         parse_scene(R"({"schema": "imukit.scene/1", "motion": {"procedural": {"rate_hz": 1e300,

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "imukit/core/error.hpp"
 
@@ -106,6 +109,100 @@ TEST(Motion, NonFiniteValuesNameFrameAndJoint) {
     EXPECT_EQ(e.where()->line, 3);
     EXPECT_EQ(e.where()->column, 5);
   }
+}
+
+// Any finite quaternion but zero is a rotation. A component of 1e155 squared to inf, q / inf
+// gave the zero quaternion and the simulator aborted in so3_log (found in review, 2026-11-26);
+// 1e-300 squared to 0 and was refused as "zero norm". Expected: the unit quaternion, to 4e-16 (2
+// ulp).
+TEST(Motion, HugeAndTinyQuaternionsNormaliseWithoutOverflow) {
+  const std::string text =
+      "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n"
+      "0,1,0,0,0\n"
+      "0.01,1e155,0,0,0.02\n"
+      "0.02,1e-300,0,0,0\n"
+      "0.03,1e300,-1e300,0,0\n"
+      "0.04,0,0,4.9e-324,0\n"
+      "0.05,3e-160,0,4e-160,0\n";
+  std::vector<std::string> warnings;
+  const Motion m = parse_quaternion_csv(text, "big.csv", small_body(), std::nullopt, &warnings);
+  const double h = std::sqrt(0.5);
+  const Eigen::Vector4d expected[] = {{0, 0, 0, 1},  {2e-157, 0, 0, 1}, {0, 0, 0, 1},
+                                      {-h, 0, 0, h}, {0, 1, 0, 0},      {0, 0.8, 0, 0.6}};
+  for (int64_t f = 0; f < 6; ++f) {
+    for (int k = 0; k < 4; ++k)
+      EXPECT_NEAR(m.rotation(f, 1).coeffs()[k], expected[f][k], 4e-16) << f << " " << k;
+  }
+  // Every rotation but the first was off; the worst (|q| = 1e300, frame 3) is on line 5.
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].rfind("big.csv:5: 5 quaternions had norms", 0), 0u) << warnings[0];
+  EXPECT_NE(warnings[0].find("at frame 3, joint left_elbow"), std::string::npos) << warnings[0];
+  // A Motion built in memory goes through the same normalisation.
+  Motion direct(100.0, 1, 2);
+  direct.rotation(1, 0) = Eigen::Quaterniond(1e200, 0, 0, 1e200);
+  (void)direct.validate_and_normalize();
+  EXPECT_NEAR(direct.rotation(1, 0).w(), h, 4e-16);
+  EXPECT_NEAR(direct.rotation(1, 0).z(), h, 4e-16);
+}
+
+// Only four zeros cannot be normalised: the error names the file, the row's line, the column of
+// the joint's qw, the frame and the joint (before: "motion: frame 2, joint left_elbow:
+// quaternion has zero norm", no file or line).
+TEST(Motion, AnAllZeroQuaternionIsAnErrorAtItsLineAndColumn) {
+  const std::string text =
+      "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n"
+      "0,1,0,0,0\n"
+      "0.01,1,0,0,0\n"
+      "0.02,0,0,0,-0\n"
+      "0.03,1,0,0,0\n";
+  try {
+    parse_quaternion_csv(text, "zero.csv", small_body());
+    ADD_FAILURE() << "accepted a zero quaternion";
+  } catch (const Error& e) {
+    ASSERT_TRUE(e.where().has_value()) << e.what();
+    EXPECT_EQ(e.where()->file, "zero.csv");
+    EXPECT_EQ(e.where()->line, 4);
+    EXPECT_EQ(e.where()->column, 6);
+    EXPECT_EQ(e.reason(),
+              "frame 2, joint left_elbow: quaternion is all zeros (no rotation to normalise)");
+  }
+}
+
+// Every message about a row names the same frame: the rows before it, blank lines not counted
+// (a NaN in a quaternion column said frame 5 where one in t said frame 4, found in review,
+// 2026-11-26), and the line is the row's own (a non-uniform t was put 1 line early per blank
+// line skipped before it).
+TEST(Motion, CsvMessagesNameTheRowsFrameAndLine) {
+  const std::string head =
+      "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n0,1,0,0,0\n\n"
+      "0.01,1,0,0,0\n0.02,1,0,0,0\n0.03,1,0,0,0\n";
+  // Line 7 is frame 4.
+  for (const auto& [row, column] : std::vector<std::pair<std::string, int64_t>>{
+           {"nan,1,0,0,0", 1}, {"0.04,1,nan,0,0", 8}, {"0.04,0,0,0,0", 6}}) {
+    try {
+      parse_quaternion_csv(head + row + "\n0.05,1,0,0,0\n", "rows.csv", small_body());
+      ADD_FAILURE() << row;
+    } catch (const Error& e) {
+      ASSERT_TRUE(e.where().has_value()) << e.what();
+      EXPECT_EQ(e.where()->line, 7) << row;
+      EXPECT_EQ(e.where()->column, column) << row;
+      EXPECT_EQ(e.reason().rfind("frame 4", 0), 0u) << e.what();
+    }
+  }
+  try {
+    parse_quaternion_csv(head + "0.05,1,0,0,0\n", "rows.csv", small_body());
+    ADD_FAILURE() << "a skipped step accepted";
+  } catch (const Error& e) {
+    // Steps of 0.01 s against a mean of 0.0125 s: frame 1, after the blank line, is the first
+    // off (was line 3, the blank one).
+    EXPECT_EQ(e.where()->line, 4) << e.what();
+  }
+  std::vector<std::string> warnings;
+  (void)parse_quaternion_csv(head + "0.04,2,0,0,0\n", "rows.csv", small_body(), std::nullopt,
+                             &warnings);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0].rfind("rows.csv:7: 1 quaternions had norms", 0), 0u) << warnings[0];
+  EXPECT_NE(warnings[0].find("at frame 4, joint left_elbow"), std::string::npos) << warnings[0];
 }
 
 // Found by fuzzing (fuzz/quaternion_csv_fuzz.cpp, issue 16): a t column stepping by 3.3e20 s gave

@@ -89,6 +89,48 @@ TEST(Placement, PresetsNeedTheirSegment) {
   EXPECT_NO_THROW(preset_placement("waist_belt", b));
 }
 
+// A preset needs its segment's long axis. With the thigh's offset 0 (the knee on the hip) the
+// pocket phone was silently laid crosswise -- L fell back to the hip's own offset from the
+// pelvis -- and read gravity on -y instead of +x (found in review, 2026-11-26). Now an error
+// names the sensor, the preset and the segment; a lone root still takes the trunk's axis (+z),
+// and the same body with a 40 cm thigh places the phone with x along -L (up).
+TEST(Placement, APresetOnAZeroLengthSegmentIsAnErrorNamingSensorPresetAndSegment) {
+  for (const double thigh : {0.0, 0.4}) {
+    Body b;
+    b.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
+    b.add_joint("right_hip", 0, Eigen::Vector3d(-0.1, 0, 0));
+    b.add_joint("right_knee", 1, Eigen::Vector3d(0, 0, -thigh));
+    b.add_joint("right_ankle", 2, Eigen::Vector3d(0, 0, -0.4));
+    if (thigh > 0.0) {
+      const Placement p = preset_placement("right_front_pocket_phone", b, "phone");
+      const Eigen::Vector3d x = p.q_joint_sensor.toRotationMatrix().col(0);
+      EXPECT_LT((x - Eigen::Vector3d::UnitZ()).norm(), 0.3);  // about up (the preset's tilts)
+      EXPECT_NEAR(p.p_joint_sensor.z(), -0.25 * thigh, 1e-15);
+      continue;
+    }
+    try {
+      (void)preset_placement("right_front_pocket_phone", b, "phone");
+      ADD_FAILURE() << "placed on a zero-length thigh";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "sensor 'phone': preset right_front_pocket_phone: segment 'right_hip' "
+                "(right_thigh) has zero length (its next joint 'right_knee' sits on it): no long "
+                "axis to place a sensor along");
+    }
+    EXPECT_THROW((void)anatomical_frame(b, 1), Error);
+    Placement on_thigh;
+    on_thigh.joint = 1;
+    EXPECT_THROW((void)describe_placement(on_thigh, b, "s"), Error);
+    // The other segments still carry presets.
+    EXPECT_EQ(preset_placement("waist_belt", b, "belt").joint, 0);
+  }
+  // A lone root has no length either, but takes the trunk's axis.
+  Body lone;
+  lone.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
+  EXPECT_EQ(anatomical_frame(lone, 0).col(0), Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(preset_placement("waist_belt", lone, "belt").joint, 0);
+}
+
 TEST(Placement, EulerConventionsAreExplicit) {
   const Eigen::Vector3d a(0.1, -0.2, 0.3);
   const Eigen::Matrix3d X = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitX()).toRotationMatrix();

@@ -71,6 +71,58 @@ TEST(Scene, ErrorsNameThePathOrLine) {
   EXPECT_NE(message("[6E666]").find("s.json"), std::string::npos);
 }
 
+// A scene's rates are checked where they are read, against the simulator's own limits (one an
+// hour to 1 MHz): simulation.rate_hz 1e-300 was accepted as in (0, 1e6] and the run then hung
+// at 100 % CPU counting samples (found in review, 2026-11-26). motion.rate_hz of a quaternion
+// CSV is held to the same.
+TEST(Scene, RatesOutsideOneAnHourTo1MHzAreErrorsNamingTheField) {
+  for (const char* rate : {"1e-300", "1e-10", "0.0002", "0", "-5", "2e6"}) {
+    std::string text = kScene;
+    text.replace(text.find("\"rate_hz\": 200"), 14, std::string("\"rate_hz\": ") + rate);
+    try {
+      (void)parse_scene(text, "s.json", "");
+      ADD_FAILURE() << "simulation.rate_hz " << rate << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()),
+                "s.json: simulation.rate_hz: must be in [1/3600 (one an hour), 1e6] Hz");
+    }
+  }
+  std::string slowest = kScene;
+  slowest.replace(slowest.find("\"rate_hz\": 200"), 14, "\"rate_hz\": 0.000277777777777778");
+  EXPECT_NEAR(parse_scene(slowest, "s.json", "").options.rate_hz, 1.0 / 3600.0, 1e-18);
+  const std::string csv_scene = R"({"schema": "imukit.scene/1",
+    "body": {"joints": [{"name": "pelvis", "parent": null, "offset_m": [0, 0, 0]}]},
+    "motion": {"quaternion_csv": "m.csv", "rate_hz": 1e-12},
+    "sensors": [{"name": "s", "segment": "pelvis", "position_m": [0, 0, 0]}]})";
+  try {
+    (void)parse_scene(csv_scene, "c.json", "");
+    ADD_FAILURE() << "motion.rate_hz 1e-12 accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "c.json: motion.rate_hz: must be in [1/3600 (one an hour), 1e6] Hz");
+  }
+}
+
+// The zero-length segment error reaches a scene's reader with the sensor's JSON path and name.
+TEST(Scene, APresetOnAZeroLengthSegmentNamesTheSensor) {
+  const std::string text = R"({"schema": "imukit.scene/1",
+    "body": {"joints": [{"name": "pelvis", "parent": null, "offset_m": [0, 0, 0]},
+                        {"name": "right_hip", "parent": "pelvis", "offset_m": [-0.1, 0, 0]},
+                        {"name": "right_knee", "parent": "right_hip", "offset_m": [0, 0, 0]},
+                        {"name": "right_ankle", "parent": "right_knee", "offset_m": [0, 0, -0.4]}]},
+    "motion": {"procedural": {"rate_hz": 100, "duration_s": 2, "seed": 1}},
+    "sensors": [{"name": "phone", "preset": "right_front_pocket_phone"}]})";
+  try {
+    (void)parse_scene(text, "z.json", "");
+    ADD_FAILURE() << "placed on a zero-length thigh";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "z.json: sensors[0].preset: sensor 'phone': preset right_front_pocket_phone: "
+              "segment 'right_hip' (right_thigh) has zero length (its next joint 'right_knee' "
+              "sits on it): no long axis to place a sensor along");
+  }
+}
+
 TEST(Scene, ABodyFileWithItsSchemaPastesIntoASceneAndReadsBackTheSameBody) {
   const Scene original = parse_scene(kScene, "scene.json", "");
   const std::string body = body_json(original.body, /*with_schema=*/true);

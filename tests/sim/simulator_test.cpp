@@ -134,6 +134,37 @@ TEST(Simulator, EveryFrameIsASampleAtRatesWhoseFrameTimesAreRounded) {
   }
 }
 
+// Rates are one an hour to 1 MHz (RateLimits), checked where every simulation counts its
+// samples. At 1e-10 Hz a period (1e19 ns) overflowed int64 and the count's search never ended
+// (found in review, 2026-11-26); now the count is refused with the rate and the limits, and the
+// floor itself works: a 9.99 s motion has one sample at 1/3600 Hz, a 2-hour one at 1/3600 Hz
+// exactly three.
+TEST(Simulator, SampleRatesOutsideTheLimitsAreRefusedAndTheFloorWorks) {
+  // The rates that hung come last, and an accepted rate ends the test: on the old code it
+  // fails at 2.7e-4 Hz rather than hang.
+  for (const double rate : {2.7e-4, 0.0, -100.0, 1.1e6, 1e-10, 1e-300}) {
+    try {
+      (void)sample_count(100.0, 1000, rate);
+      FAIL() << "sample rate " << rate << " Hz accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("simulation: the sample rate ", 0), 0u) << e.what();
+      EXPECT_NE(std::string(e.what()).find("Hz is outside [1/3600 (one an hour), 1e6] Hz"),
+                std::string::npos)
+          << e.what();
+    }
+    try {
+      (void)sample_count(rate, 1000, 100.0);
+      FAIL() << "motion rate " << rate << " Hz accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("simulation: the motion's frame rate ", 0), 0u)
+          << e.what();
+    }
+  }
+  EXPECT_EQ(sample_count(100.0, 1000, RateLimits::min_hz), 1);
+  EXPECT_EQ(sample_count(RateLimits::min_hz, 3, RateLimits::min_hz), 3);
+  EXPECT_EQ(sample_count(100.0, 1000, RateLimits::max_hz), 9990001);
+}
+
 // A joint turning by nearly pi per frame (found in review): two such steps make a two-step
 // rotation near 2 pi, which the on-frame spline's series took for a small one (3.1 rad per frame
 // at 100 Hz read 414.7 rad/s). Both paths and fd now read the constant rate, up to pi per frame.
