@@ -8,6 +8,7 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/sim/bvh.hpp"
+#include "imukit/sim/simulator.hpp"
 
 namespace imukit::cli {
 namespace {
@@ -63,7 +64,10 @@ CLI::Validator whole_in(int64_t lo, int64_t hi, const std::string& unit) {
       "in " + range, "whole_in");
 }
 
-CLI::Validator gravity_range() { return real_in(0.1, 100.0, "m/s^2"); }
+// One range for every command and for scenes (sim::GravityLimits, checked by check_gravity).
+CLI::Validator gravity_range() {
+  return real_in(sim::GravityLimits::min_m_s2, sim::GravityLimits::max_m_s2, "m/s^2");
+}
 CLI::Validator seed_range() { return whole_in(0, std::numeric_limits<int64_t>::max()); }
 CLI::Validator bvh_scale_range() {
   return real_in(sim::BvhLimits::min_scale, sim::BvhLimits::max_scale, "m per BVH unit");
