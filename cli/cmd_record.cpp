@@ -16,6 +16,7 @@
 #include "command.hpp"
 #include "imukit/capture/session.hpp"
 #include "imukit/core/error.hpp"
+#include "imukit/drivers/codecs.hpp"
 #include "imukit/drivers/transport.hpp"
 #include "imukit/drivers/uri.hpp"
 #include "options.hpp"
@@ -85,15 +86,34 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   return line;
 }
 
-// The devices of the command line, each with its stream name (a --rate goes into URIs without
-// their own rate=).
+// Whether the device of `uri` takes a rate= (its codec reads it), as far as the URI says: a
+// mock speaks the imukit protocol, codec= names the codec, and a device found by its USB id
+// (no codec=) is assumed to.
+bool takes_a_rate(const drivers::DeviceUri& uri) {
+  const auto given = uri.keys.find("codec");
+  const std::string codec =
+      uri.scheme == "mock" ? "imukit" : (given != uri.keys.end() ? given->second : "");
+  if (codec.empty()) return true;
+  const std::vector<std::string> keys = drivers::codec_keys(codec);
+  return std::find(keys.begin(), keys.end(), "rate") != keys.end();
+}
+
+// The devices of the command line, each with its stream name. A --rate goes into the URIs
+// without their own rate= whose device takes one; the others are named in a note (found in
+// review: appended to a text replay's URI, it made the URI check refuse a key never typed).
 std::vector<capture::SessionDevice> open_devices(const RecordArgs& args) {
   std::vector<capture::SessionDevice> devices;
   std::set<std::string> used;
   for (std::string text : args.uris) {
-    if (args.rate_hz > 0 && text.find("rate=") == std::string::npos) {
-      text +=
-          (text.find('?') == std::string::npos ? "?" : "&") + fmt::format("rate={}", args.rate_hz);
+    if (args.rate_hz > 0) {
+      const drivers::DeviceUri given = drivers::parse_device_uri(text);
+      if (given.keys.count("rate") == 0 && takes_a_rate(given)) {
+        text += (text.find('?') == std::string::npos ? "?" : "&") +
+                fmt::format("rate={}", args.rate_hz);
+      } else if (given.keys.count("rate") == 0) {
+        fmt::print(stderr, "imukit: note: --rate {:g}: {} has no rate to configure; not used\n",
+                   args.rate_hz, text);
+      }
     }
     const drivers::DeviceUri uri = drivers::parse_device_uri(text);
     capture::SessionDevice d;
@@ -272,7 +292,8 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--samples", args->samples, "stop each device after this many samples")
               ->check(whole_in(1, 1'000'000'000'000'000));
           sub.add_option("--rate", args->rate_hz,
-                         "output data rate to configure (Hz), for URIs without rate=")
+                         "output data rate to configure (Hz), for the URIs without rate= whose "
+                         "device takes one")
               ->check(sample_rate_range());
           sub.add_option("--no-data-timeout", args->no_data_timeout_s,
                          "stop a device that sends no sample for this long, s of wall-clock time "

@@ -106,10 +106,10 @@ void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& 
   const SamplingStats& st = tn.allan.sampling;
   fmt::print("{} ({} samples, tau0 {:.6g} s measured from the time stamps{})\n", name, st.samples,
              tn.allan.tau0_s,
-             st.gaps > 0 || tn.allan.uniform
+             st.samples_missing() || tn.allan.uniform
                  ? ""
                  : "; NOT uniformly sampled: jitter above 1 % of the period");
-  if (st.gaps > 0) {
+  if (st.samples_missing()) {
     // Not jitter: samples are missing, and the curve treats those either side as neighbours.
     fmt::print(
         "  warning: {} gap(s) in the time stamps (periods above 1.5x the median {:.6g} s; {:.4g} s "

@@ -37,6 +37,11 @@ bool SamplingStats::is_uniform(double tolerance) const {
          min_period_s >= median_period_s * (1.0 - tolerance);
 }
 
+bool SamplingStats::samples_missing() const {
+  return gaps > 0 && median_period_s > 0.0 && mean_period_between_gaps_s > 0.0 &&
+         max_offset_from_mean_grid_s > 2.0 * median_period_s;
+}
+
 SamplingStats analyze_sampling(std::span<const TimeNs> t) {
   SamplingStats s;
   s.samples = t.size();
@@ -51,15 +56,19 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t) {
   double sum_sq = 0.0;
   const double mean_ns = static_cast<double>(s.duration) / static_cast<double>(n);
   TimeNs lo = t[1] - t[0], hi = lo;
+  double max_offset_ns = 0.0;
   for (std::size_t i = 0; i < n; ++i) {
     const TimeNs p = t[i + 1] - t[i];
     const double d = static_cast<double>(p) - mean_ns;
     sum_sq += d * d;
+    max_offset_ns = std::max(max_offset_ns, std::abs(static_cast<double>(t[i + 1] - t[0]) -
+                                                     static_cast<double>(i + 1) * mean_ns));
     if (p == 0) ++s.repeated;
     lo = std::min(lo, p);
     hi = std::max(hi, p);
   }
   s.period_std_s = std::sqrt(sum_sq / static_cast<double>(n)) * 1e-9;
+  s.max_offset_from_mean_grid_s = max_offset_ns * 1e-9;
   s.min_period_s = to_seconds(lo);
   s.max_period_s = to_seconds(hi);
   // The median (the period of rank n / 2, 0-based) and the gaps: by counting when the periods

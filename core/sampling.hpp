@@ -25,11 +25,20 @@ struct SamplingStats {
   // The mean of the other periods: the sampling period of a stream with samples missing (the
   // mean over the whole span counts each gap as periods that have no sample).
   double mean_period_between_gaps_s = 0.0;
+  // The largest distance of a stamp from the uniform grid through the first and last ones
+  // (t_0 + i mean period): a stream sampled uniformly with jittered or rounded stamps stays
+  // within its jitter of it, one with samples missing drifts off by their periods.
+  double max_offset_from_mean_grid_s = 0.0;
   std::size_t repeated = 0;  // periods of zero (equal time stamps)
 
   // True when the periods differ from the median by more than `tolerance` (relative) anywhere:
   // the stream is not uniformly sampled, and methods that assume it should say so.
   bool is_uniform(double tolerance = 0.01) const;
+  // Samples are missing: there are gaps, and they move the stamps off the uniform grid by more
+  // than two median periods. Long periods balanced by short ones (stamps rounded to 1 ms at
+  // 800 Hz: periods of 1 and 2 ms; or jitter) are no gaps in the sampling, and a handful of
+  // missing samples changes the mean period by no more than their count over n.
+  bool samples_missing() const;
 };
 
 // Needs non-decreasing times; fewer than 2 samples give zero periods and rates.

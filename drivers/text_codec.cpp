@@ -136,7 +136,17 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
     return;
   }
   const double t_ns = v[0] * opt_.time_scale_ns;
-  if (!(std::abs(t_ns) < 9e18)) {
+  Sample s;
+  for (int k = 0; k < 3; ++k) {
+    s.accel[k] = v[1 + k] * opt_.accel_scale;
+    s.gyro[k] = v[4 + k] * opt_.gyro_scale;
+  }
+  // A value its unit scale makes infinite (1e308 g) is a bad line like one that does not parse:
+  // refused here, before it takes a sequence number (the sequence is this codec's own count of
+  // lines, so a gap in it would count the line a second time; found in review).
+  const bool scaled_finite =
+      std::isfinite(s.accel[0] + s.accel[1] + s.accel[2] + s.gyro[0] + s.gyro[1] + s.gyro[2]);
+  if (!(std::abs(t_ns) < 9e18) || !scaled_finite) {
     stats_.bytes_discarded += raw_size;
     ++stats_.frames_corrupt;
     ++stats_.samples_dropped;
@@ -144,15 +154,10 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
   }
   stats_.bytes_accepted += raw_size;
   ++stats_.frames_ok;
-  Sample s;
   s.host_time = host_time;
   s.device_time = std::llround(t_ns);
   s.has_device_time = true;
   s.sequence = sequence_++;
-  for (int k = 0; k < 3; ++k) {
-    s.accel[k] = v[1 + k] * opt_.accel_scale;
-    s.gyro[k] = v[4 + k] * opt_.gyro_scale;
-  }
   s.channels = kHasAccel | kHasGyro;
   ++stats_.samples_decoded;
   out.push_back(s);

@@ -74,8 +74,9 @@ struct DeviationCurve {
 };
 
 struct AllanResult {
-  // From the time stamps; tau0 = sampling.mean_period_s, or with gaps (samples missing)
-  // sampling.mean_period_between_gaps_s: the samples either side of a gap count as neighbours.
+  // From the time stamps; tau0 = sampling.mean_period_s, or where samples are missing
+  // (sampling.samples_missing()) sampling.mean_period_between_gaps_s: the samples either side
+  // of a gap count as neighbours.
   SamplingStats sampling;
   double tau0_s = 0.0;
   bool uniform = true;  // false: time stamps jitter by more than 1 % of the median period

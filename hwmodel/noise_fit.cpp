@@ -660,12 +660,13 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
 }  // namespace
 
 namespace {
-// On a curve too short to tell the terms apart, keeps in `options` only one selected term and
-// says why; otherwise changes nothing and returns "". A short record's curve starts at the
-// shortest taus, where white noise rules every MEMS sensor: N. A span cut by tau_min_s is
-// wherever the caller looked: the term whose log-log slope (Q -1, N -1/2, B 0, K +1/2, R +1)
-// is nearest the curve's own least-squares slope (on a few points the slope alone is too
-// noisy to pick N against Q or B: a third of 50-sample white-noise axes went wrong).
+// On a curve too short to tell the terms apart, keeps in `options` only N and says why;
+// otherwise changes nothing and returns "". A short record's curve starts at the shortest taus,
+// where white noise rules every MEMS sensor. A span cut short by tau_min_s is an error: it lies
+// wherever the caller looked, and neither the curve's slope (on a few points too noisy to pick
+// N against Q or B: a third of 50-sample white-noise axes went wrong) nor a lone term's GLS fit
+// (found in review: B alone at 13 sigma above every point of hfi_static's accelerometer beyond
+// 30 s) is a model of it.
 std::string limit_terms_to_the_span(const std::vector<double>& tau_s,
                                     const std::vector<double>& adev,
                                     const std::vector<int64_t>& factors, int64_t n,
@@ -676,25 +677,21 @@ std::string limit_terms_to_the_span(const std::vector<double>& tau_s,
   const std::vector<int> terms = selected_terms(options);
   const double decades = std::log10(tau_s[use.back()] / tau_s[use.front()]);
   if (terms.size() <= 1 || decades >= kMinDecadesForAllTerms) return "";
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (const size_t k : use) {
-    const double x = std::log10(tau_s[k]), y = std::log10(adev[k]);
-    sx += x, sy += y, sxx += x * x, sxy += x * y;
-  }
-  const auto m = static_cast<double>(use.size());
-  const double slope = (m * sxy - sx * sy) / (m * sxx - sx * sx);
-  int keep = terms.front();
-  for (const int t : terms) {
-    if (std::abs(slope - 0.5 * (t - 2)) < std::abs(slope - 0.5 * (keep - 2))) keep = t;
-  }
   const bool from_the_first_tau = tau_s[use.front()] <= tau_s.front() * (1 + 1e-12);
-  if (from_the_first_tau && options.terms[kWhite]) keep = kWhite;
+  if (!from_the_first_tau || !options.terms[kWhite]) {
+    throw Error(fmt::format(
+        "noise fit: the fitted taus ({:.4g} to {:.4g} s) span {:.2g} decades, fewer than the {:g} "
+        "needed to tell the noise terms apart{}",
+        tau_s[use.front()], tau_s[use.back()], decades, kMinDecadesForAllTerms,
+        from_the_first_tau ? "; select N or one term alone"
+                           : ": fit from a shorter tau (tau_min_s, --fit-tau-min)"));
+  }
   options.terms.fill(false);
-  options.terms[static_cast<size_t>(keep)] = true;
+  options.terms[kWhite] = true;
   return fmt::format(
-      "the fitted taus span {:.2g} decades (fewer than {:g}): too short to tell the noise terms "
-      "apart; only {} fitted (the curve's slope is {:.2f})",
-      decades, kMinDecadesForAllTerms, noise_term_name(keep), slope);
+      "the fitted taus span {:.2g} decades (fewer than {:g}; a short record): too short to tell "
+      "the noise terms apart; only N fitted",
+      decades, kMinDecadesForAllTerms);
 }
 }  // namespace
 

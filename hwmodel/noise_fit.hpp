@@ -59,8 +59,9 @@ struct NoiseFit {
   double chi2_per_dof = 0.0;          // of the last weighted fit
   int points = 0;                     // taus used
   double covariance_inflation = 1.0;  // correlation factor times max(1, chi2/dof)
-  // Why selected terms were not fitted (empty when all were): a GLS fit on a curve whose taus
-  // span fewer than kMinDecadesForAllTerms fits one term (its upper bounds are then infinite).
+  // Why selected terms were not fitted (empty when all were): a GLS fit on a short record's
+  // curve, spanning fewer than kMinDecadesForAllTerms, fits N alone (the others' upper bounds
+  // are then infinite).
   std::string note;
 };
 
@@ -93,9 +94,9 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
 // allan.hpp's edf, cross-correlated between the two factors), and the fit is whitened with it;
 // then re-fitted with the new model's covariance. Neighbouring overlapping estimates are
 // correlated (above 0.9 at 10 points per decade), so a fit that ignores it reports intervals
-// several times too narrow and trades K against B where a random walk wanders. On a curve
-// spanning fewer than kMinDecadesForAllTerms decades only the selected term whose slope is
-// nearest the curve's own is fitted, and `note` says so.
+// several times too narrow and trades K against B where a random walk wanders. On a short
+// record's curve (from its first tau) spanning fewer than kMinDecadesForAllTerms decades only N
+// is fitted, and `note` says so; a span that tau_min_s cuts that short is an imukit::Error.
 NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector<double>& adev,
                              const std::vector<int64_t>& factors, int64_t n,
                              const NoiseFitOptions& options = {});

@@ -257,3 +257,24 @@ def test_a_uri_key_that_would_do_nothing_is_refused(imukit, workdir):
         r = subprocess.run([imukit, "record", uri, "--samples", "10", "-o", out], capture_output=True, text=True)
         assert r.returncode != 0 and message in r.stderr and uri in r.stderr, (uri, r.returncode, r.stderr)
         assert len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out), r.stderr
+
+
+def test_rate_goes_only_to_devices_that_take_one(imukit, workdir):
+    """Found in review: `record --rate` appended rate= to every URI without one, so a text replay
+    (whose codec has no rate) was refused for a key the user never typed. Now the rate goes to the
+    devices that take one, and the others are named in a note."""
+    capture = os.path.join(workdir, "rate.txt")
+    with open(capture, "w") as f:
+        f.write("".join(f"{10 * i},0,0,9.81,0,0,0\n" for i in range(100)))
+    out = os.path.join(workdir, "rate.mcap")
+    text_uri = f"file:{capture}?codec=text&time_unit=ms"
+    r = subprocess.run([imukit, "record", text_uri, "--rate", "100", "-o", out], capture_output=True, text=True)
+    assert r.returncode == 0 and f"--rate 100: {text_uri} has no rate to configure; not used" in r.stderr, \
+        (r.returncode, r.stderr)
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert "100 samples over 0.990 s" in r.stdout, r.stdout
+    # A mock takes it: 200 Hz virtual clock, 400 samples over 1.995 s.
+    r = subprocess.run([imukit, "record", "mock:static?clock=virtual", "--rate", "200", "--samples", "400",
+                        "-o", out], capture_output=True, text=True)
+    info = subprocess.run([imukit, "info", out], capture_output=True, text=True).stdout
+    assert r.returncode == 0 and "400 samples over 1.995 s" in info, (r.stderr, info)

@@ -107,10 +107,11 @@ TEST(TextCodec, AValueThatOverflowsItsUnitScaleIsDroppedAndCounted) {
   codec.feed(bytes("1,0,0,1,0,0,0\n2,1e308,0,1,0,0,0\n3,0,0,1,0,0,0\n"), 5000, out);
   codec.finish(5000, out);
   ASSERT_EQ(out.size(), 2u);
+  // Refused like a line that does not parse: no sequence number taken, so no counter gap counts
+  // it a second time (found in review: "missing (counter gaps) 1" beside the codec's own 1).
   EXPECT_EQ(out[0].sequence, 0u);
-  EXPECT_EQ(out[1].sequence, 2u);
+  EXPECT_EQ(out[1].sequence, 1u);
   EXPECT_EQ(out[1].accel[2], kStandardGravity);
-  EXPECT_EQ(codec.stats().samples_non_finite, 1u);
   EXPECT_EQ(codec.stats().frames_corrupt, 1u);
   EXPECT_EQ(codec.stats().samples_dropped, 1u);
   EXPECT_EQ(codec.stats().samples_decoded, 2u);

@@ -441,6 +441,35 @@ TEST(NoiseFit, AShortRecordOfWhiteNoiseGetsNAloneAndSaysWhy) {
   }
 }
 
+// Found in review: a span cut to 0.5-1.2 decades by tau_min got one term by the curve's slope,
+// and its GLS fit could lie above every point (hfi_static's accelerometer from 30 s: B alone at
+// 13 sigma). Such a cut is an error saying why.
+TEST(NoiseFit, ASpanCutTooShortByTauMinIsAnError) {
+  Rng rng(21);
+  const double N = 1e-3, rate = 100.0;
+  const int64_t n = 200000;
+  std::vector<TimeNs> t(static_cast<size_t>(n));
+  for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate);
+  Eigen::MatrixXd y(1, n);
+  for (int64_t i = 0; i < n; ++i) y(0, i) = N * std::sqrt(rate) * rng.normal();
+  const AllanResult res = allan_deviation(t, y);
+  std::vector<double> dev(res.tau_s.size());
+  for (size_t k = 0; k < dev.size(); ++k) dev[k] = res.allan.deviation(0, Eigen::Index(k));
+  NoiseFitOptions o;
+  o.tau_min_s = 30.0;
+  try {
+    fit_noise_model_gls(res.tau_s, dev, res.factors, n, o);
+    ADD_FAILURE() << "a span of 1.2 decades was fitted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("fewer than the 2 needed"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("--fit-tau-min"), std::string::npos) << e.what();
+  }
+  o.tau_min_s = 0.1;  // 2.7 decades left: all five terms, N found
+  const NoiseFit fit = fit_noise_model_gls(res.tau_s, dev, res.factors, n, o);
+  EXPECT_TRUE(fit.note.empty());
+  EXPECT_NEAR(fit.value[kWhite] / N, 1.0, 0.02);
+}
+
 TEST(NoiseFit, RejectsTooFewPoints) {
   EXPECT_THROW(fit_noise_model({1.0}, {1.0}, {10.0}), Error);
   EXPECT_THROW(fit_noise_model({1.0, 2.0}, {1.0}, {10.0, 10.0}), Error);
