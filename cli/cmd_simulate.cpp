@@ -15,6 +15,7 @@
 #include "imukit/capture/ros_messages.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/core/euroc_csv.hpp"
+#include "imukit/core/input_file.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
@@ -144,12 +145,13 @@ sim::Scene quick_scene(const SimulateArgs& a) {
   return scene;
 }
 
-// The simulation as a recording: /imu/<sensor> (and /imu/<sensor>/truth for the noiseless
-// signals) as sensor_msgs/msg/Imu, times in ns since the start of the motion, streamed in
-// constant memory; the description goes into an "imukit.simulation" metadata record.
-int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
-                         const std::string& description) {
-  capture::McapWriter writer(path);
+// The simulation as a recording into `file` (named `path` in messages): /imu/<sensor> (and
+// /imu/<sensor>/truth for the noiseless signals) as sensor_msgs/msg/Imu, times in ns since the
+// start of the motion, streamed in constant memory; the description goes into an
+// "imukit.simulation" metadata record.
+int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string& path,
+                           const std::string& description) {
+  capture::McapWriter writer(file, path);
   writer.write_metadata("imukit.simulation", {{"description", description}});
   const uint16_t schema =
       writer.add_schema(capture::kImuSchemaName, "ros2msg", capture::kImuSchemaText);
@@ -215,6 +217,16 @@ int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
     samples += static_cast<int64_t>(m.t.size());
   });
   writer.close();
+  return samples;
+}
+
+// simulate_into_mcap through a temporary renamed over `path` when complete, like every finished
+// MCAP file (a run stopped by an error or a full disk leaves an earlier file there as it was).
+int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
+                         const std::string& description) {
+  int64_t samples = 0;
+  write_file_atomically(
+      path, [&](std::FILE* file) { samples = simulate_into_mcap(scene, file, path, description); });
   return samples;
 }
 

@@ -3,6 +3,7 @@
 
 run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
+import json
 import os
 import resource
 import signal
@@ -189,3 +190,23 @@ def test_a_failed_mcap_write_leaves_the_earlier_file(run, workdir, recover):
     assert "out.mcap" in r.stderr and "File too large" in r.stderr, r.stderr
     assert open(out, "rb").read() == earlier, "the earlier file is unchanged"
     assert sorted(os.listdir(folder)) == ["out.mcap", "src.mcap"], "and no temporary is left"
+
+
+def test_a_failed_simulation_to_mcap_leaves_the_earlier_file(run, workdir):
+    """Found in review: `simulate -o FILE.mcap` wrote in place, so a run that failed mid-file left
+    a truncated file under the final name. Now it goes through a temporary like every finished
+    MCAP file: exit 3, the file that was there before unchanged, no temporary left."""
+    folder = os.path.join(workdir, "atomic_simulate")
+    os.makedirs(folder)
+    scene = os.path.join(folder, "scene.json")
+    with open(scene, "w") as f:
+        json.dump({"schema": "imukit.scene/1",
+                   "motion": {"procedural": {"rate_hz": 100, "duration_s": 60, "seed": 1}},
+                   "simulation": {"rate_hz": 400}, "sensors": [{"preset": "left_wrist_watch"}]}, f)
+    out = os.path.join(folder, "out.mcap")
+    assert run("record", "mock:static?rate=100&clock=virtual", "--duration", "1", "-o", out).returncode == 0
+    earlier = open(out, "rb").read()
+    r = run("simulate", scene, "-o", out, preexec_fn=limited_file_size(100_000))
+    assert r.returncode == 3 and "File too large" in r.stderr, (r.returncode, r.stderr)
+    assert open(out, "rb").read() == earlier, "the earlier file is unchanged"
+    assert sorted(os.listdir(folder)) == ["out.mcap", "scene.json"], "and no temporary is left"
