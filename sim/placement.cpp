@@ -84,20 +84,34 @@ const PlacementPreset& placement_preset(std::string_view name) {
 namespace {
 
 // Why joint's segment has no long axis, or empty when it has one. A root without one takes the
-// trunk's axis (anatomical_frame); any other segment of zero length -- its limb's next joint on
-// its origin (a BVH thigh of offset 0), or a leaf with no length -- cannot carry a position
-// along it or a turn about it. segment_end then fell back to the joint's own offset, along the
-// parent bone, and a preset was silently placed crosswise (found in review, 2026-11-26).
+// trunk's axis (anatomical_frame). Any other segment of zero length (its limb's next joint on
+// its origin, or a leaf with no length) borrows segment_end's fallback, the joint's own offset
+// from its parent: along the bone before it where that bone leads only here (the CMU
+// skeleton's hand after the forearm, Spine1 after Spine), crosswise where the parent is the
+// root or branches (a thigh of offset 0 after the pelvis points sideways; found in review,
+// 2026-11-26, placed without a word). Only the second is refused (a first fix refused both
+// and broke presets on the shipped CMU BVHs).
 std::string zero_length_reason(const Body& body, int joint) {
-  if (body.joint(static_cast<std::size_t>(joint)).parent < 0) return {};
+  const Joint& self = body.joint(static_cast<std::size_t>(joint));
+  if (self.parent < 0) return {};
+  std::string why;
   const int child = body.segment_child(joint);
   if (child >= 0) {
     const Joint& c = body.joint(static_cast<std::size_t>(child));
-    if (c.offset_parent_joint.norm() < 1e-9) return "its next joint '" + c.name + "' sits on it";
-    return {};
+    if (c.offset_parent_joint.norm() >= 1e-9) return {};
+    why = "its next joint '" + c.name + "' sits on it";
+  } else {
+    if (body.segment_end(joint).norm() >= 1e-9) return {};  // its end site, or its own offset
+    why = "it is a leaf without length";
   }
-  if (body.segment_end(joint).norm() < 1e-9) return "it is a leaf without length";
-  return {};
+  // The parent's bone goes on into this segment: the parent is a bone (not the root, whose
+  // offset to its children is no bone) and this is its only child.
+  const Joint& parent = body.joint(static_cast<std::size_t>(self.parent));
+  int siblings = 0;
+  for (const Joint& j : body.joints()) siblings += j.parent == self.parent;
+  if (parent.parent >= 0 && siblings == 1 && self.offset_parent_joint.norm() >= 1e-9) return {};
+  return why + ", and the offset from '" + parent.name +
+         "' is no bone leading into it (the root, or a branching joint)";
 }
 
 std::string zero_length_message(const Body& body, int joint, const std::string& reason) {

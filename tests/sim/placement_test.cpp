@@ -114,8 +114,9 @@ TEST(Placement, APresetOnAZeroLengthSegmentIsAnErrorNamingSensorPresetAndSegment
     } catch (const Error& e) {
       EXPECT_EQ(std::string(e.what()),
                 "sensor 'phone': preset right_front_pocket_phone: segment 'right_hip' "
-                "(right_thigh) has zero length (its next joint 'right_knee' sits on it): no long "
-                "axis to place a sensor along");
+                "(right_thigh) has zero length (its next joint 'right_knee' sits on it, and the "
+                "offset from 'pelvis' is no bone leading into it (the root, or a branching "
+                "joint)): no long axis to place a sensor along");
     }
     EXPECT_THROW((void)anatomical_frame(b, 1), Error);
     Placement on_thigh;
@@ -123,6 +124,18 @@ TEST(Placement, APresetOnAZeroLengthSegmentIsAnErrorNamingSensorPresetAndSegment
     EXPECT_THROW((void)describe_placement(on_thigh, b, "s"), Error);
     // The other segments still carry presets.
     EXPECT_EQ(preset_placement("waist_belt", b, "belt").joint, 0);
+  }
+  // A zero-length segment after a bone that leads only into it takes that bone's axis (the CMU
+  // skeleton's hand, whose finger joints sit on its origin): a ring on the forearm's line.
+  {
+    Body arm;
+    arm.add_joint("pelvis", -1, Eigen::Vector3d::Zero());
+    arm.add_joint("right_shoulder", 0, Eigen::Vector3d(-0.2, 0, 0.5));
+    arm.add_joint("right_elbow", 1, Eigen::Vector3d(-0.3, 0, 0));
+    arm.add_joint("right_wrist", 2, Eigen::Vector3d(-0.25, 0, 0));
+    arm.add_joint("right_hand", 3, Eigen::Vector3d::Zero());  // a finger joint on its origin
+    EXPECT_EQ(anatomical_frame(arm, 3).col(0), Eigen::Vector3d(-1, 0, 0));
+    EXPECT_NO_THROW((void)preset_placement("right_index_ring", arm, "ring"));
   }
   // A lone root has no length either, but takes the trunk's axis.
   Body lone;

@@ -119,7 +119,8 @@ TEST(Scene, APresetOnAZeroLengthSegmentNamesTheSensor) {
     EXPECT_EQ(std::string(e.what()),
               "z.json: sensors[0].preset: sensor 'phone': preset right_front_pocket_phone: "
               "segment 'right_hip' (right_thigh) has zero length (its next joint 'right_knee' "
-              "sits on it): no long axis to place a sensor along");
+              "sits on it, and the offset from 'pelvis' is no bone leading into it (the root, or "
+              "a branching joint)): no long axis to place a sensor along");
   }
 }
 
