@@ -51,13 +51,12 @@ def walk(path):
     return out
 
 
-def chunk_counts(path, topic=TOPIC):
-    """Messages of `topic` in each complete chunk whose records pass their CRC-32 (None for a chunk
-    that does not), in file order."""
-    records = walk(path)
-    channel, counts = None, []
-    for op, _, body in records:
-        if op == 0x04:
+def topic_messages_per_chunk(path, topic):
+    """Per complete chunk of an MCAP file, in file order: the bodies of its Message records on
+    `topic`, or None for a chunk whose records fail their CRC-32."""
+    channel, chunks = None, []
+    for op, _, body in walk(path):
+        if op == 0x04:  # Channel: id 2, schema id 2, topic (length-prefixed)
             n = u32(body, 4)
             if body[8:8 + n].decode(errors="replace") == topic:
                 channel = int.from_bytes(body[0:2], "little")
@@ -73,16 +72,23 @@ def chunk_counts(path, topic=TOPIC):
         else:
             plain = records_bytes
         if len(plain) != size or zlib.crc32(plain) != crc:
-            counts.append(None)
+            chunks.append(None)
             continue
-        count, at = 0, 0
+        messages, at = [], 0
         while at + 9 <= len(plain):
             rop, rn = plain[at], u64(plain, at + 1)
-            if rop == 0x05 and int.from_bytes(plain[at + 9:at + 11], "little") == channel:
-                count += 1
+            rec = plain[at + 9:at + 9 + rn]
+            if rop == 0x05 and int.from_bytes(rec[0:2], "little") == channel:
+                messages.append(rec)
             at += 9 + rn
-        counts.append(count)
-    return counts
+        chunks.append(messages)
+    return chunks
+
+
+def chunk_counts(path, topic=TOPIC):
+    """Messages of `topic` in each complete chunk whose records pass their CRC-32 (None for a chunk
+    that does not), in file order."""
+    return [None if m is None else len(m) for m in topic_messages_per_chunk(path, topic)]
 
 
 def kept(path):
@@ -255,28 +261,9 @@ def test_damaged_recording(workdir, closed_recording, case):
 def raw_sample_indices(path, topic=TOPIC + "/raw"):
     """sample_index of every RawImu message of `topic` in the complete, intact chunks of an MCAP
     file, in file order (CDR: 4-byte header, stamp 8, host_receive_time_ns 8, then the index)."""
-    channel, out = None, []
-    for op, _, body in walk(path):
-        if op == 0x04:
-            n = u32(body, 4)
-            if body[8:8 + n].decode(errors="replace") == topic:
-                channel = int.from_bytes(body[0:2], "little")
-        if op != 0x06:
-            continue
-        clen = u32(body, 28)
-        rlen = u64(body, 32 + clen)
-        records_bytes = body[40 + clen:40 + clen + rlen]
-        if body[32:32 + clen] == b"zstd":
-            records_bytes = subprocess.run(["zstd", "-d", "-c", "-q"], input=records_bytes,
-                                           capture_output=True).stdout
-        at = 0
-        while at + 9 <= len(records_bytes):
-            rop, rn = records_bytes[at], u64(records_bytes, at + 1)
-            rec = records_bytes[at + 9:at + 9 + rn]
-            if rop == 0x05 and int.from_bytes(rec[0:2], "little") == channel:
-                out.append(u64(rec, 22 + 4 + 16))  # after channel 2, sequence 4, two times 16
-            at += 9 + rn
-    return out
+    return [u64(rec, 22 + 4 + 16)  # after channel 2, sequence 4, two times 16
+            for messages in topic_messages_per_chunk(path, topic) if messages is not None
+            for rec in messages]
 
 
 def test_recovery_after_kill_9_reports_the_samples_missing_by_index(imukit, workdir):
