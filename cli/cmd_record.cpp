@@ -86,13 +86,10 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   return line;
 }
 
-// Whether the device of `uri` takes a rate= (its codec reads it), as far as the URI says: a
-// mock speaks the imukit protocol, codec= names the codec, and a device found by its USB id
-// (no codec=) is assumed to.
+// Whether the device of `uri` takes a rate= (its codec reads it), as far as the URI says; a
+// device found by its USB id (no codec named) is assumed to.
 bool takes_a_rate(const drivers::DeviceUri& uri) {
-  const auto given = uri.keys.find("codec");
-  const std::string codec =
-      uri.scheme == "mock" ? "imukit" : (given != uri.keys.end() ? given->second : "");
+  const std::string codec = drivers::codec_named_by(uri);
   if (codec.empty()) return true;
   const std::vector<std::string> keys = drivers::codec_keys(codec);
   return std::find(keys.begin(), keys.end(), "rate") != keys.end();
@@ -105,17 +102,17 @@ std::vector<capture::SessionDevice> open_devices(const RecordArgs& args) {
   std::vector<capture::SessionDevice> devices;
   std::set<std::string> used;
   for (std::string text : args.uris) {
-    if (args.rate_hz > 0) {
-      const drivers::DeviceUri given = drivers::parse_device_uri(text);
-      if (given.keys.count("rate") == 0 && takes_a_rate(given)) {
+    // Parsed once: the stream name reads only scheme and address, which a rate= leaves alone.
+    const drivers::DeviceUri uri = drivers::parse_device_uri(text);
+    if (args.rate_hz > 0 && uri.keys.count("rate") == 0) {
+      if (takes_a_rate(uri)) {
         text += (text.find('?') == std::string::npos ? "?" : "&") +
                 fmt::format("rate={}", args.rate_hz);
-      } else if (given.keys.count("rate") == 0) {
+      } else {
         fmt::print(stderr, "imukit: note: --rate {:g}: {} has no rate to configure; not used\n",
                    args.rate_hz, text);
       }
     }
-    const drivers::DeviceUri uri = drivers::parse_device_uri(text);
     capture::SessionDevice d;
     d.name = stream_name(uri, used);
     d.uri = text;

@@ -110,8 +110,7 @@ uint8_t parse_endpoint(const std::map<std::string, std::string>& keys, const std
 }
 
 std::string codec_for(const DeviceUri& u, std::optional<KnownDevice> known) {
-  auto it = u.keys.find("codec");
-  if (it != u.keys.end()) return it->second;
+  if (std::string named = codec_named_by(u); !named.empty()) return named;
   if (known && *known->codec) return known->codec;
   std::string names;
   for (const auto& n : codec_names()) names += (names.empty() ? "" : ", ") + n;
@@ -157,6 +156,12 @@ void check_keys_are_used(const DeviceUri& u, const std::string& codec) {
 }
 
 }  // namespace
+
+std::string codec_named_by(const DeviceUri& uri) {
+  if (uri.scheme == "mock") return "imukit";
+  const auto it = uri.keys.find("codec");
+  return it != uri.keys.end() ? it->second : std::string();
+}
 
 std::string percent_encode(std::string_view text) {
   static constexpr char kHex[] = "0123456789ABCDEF";

@@ -30,6 +30,10 @@ struct DeviceUri {
 // byte offset of the problem.
 DeviceUri parse_device_uri(const std::string& text);
 
+// The codec a URI names without opening anything: imukit for a mock, its codec= otherwise;
+// empty where only the device would tell (a known USB id, docs/devices.md).
+std::string codec_named_by(const DeviceUri& uri);
+
 // A transport and the codec that reads it, ready for a DeviceReader.
 struct OpenedDevice {
   std::unique_ptr<Transport> transport;
