@@ -215,6 +215,11 @@ void DeviceClock::accept(const Stamp& s) {
   ++seg.accepted;
 }
 
+bool DeviceClock::would_continue(uint64_t device_ticks, TimeNs host_receive) const {
+  return last_accepted_ &&
+         follows(segments_.back().last, Stamp{next_k_, device_ticks, host_receive});
+}
+
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive) {
   const Stamp s{next_k_++, device_ticks, host_receive};
   const bool was_accepted = last_accepted_;

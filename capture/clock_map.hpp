@@ -152,6 +152,10 @@ class DeviceClock {
   // True when the sample just added continues the one before it on the same clock (neither is
   // an outlier, no restart between): its tick step is elapsed device time.
   bool continues() const { return continues_; }
+  // What continues() would say of a sample with this tick and receive time if it were added
+  // next: lets a caller decide on a sample (e.g. whether it is inside a recording's duration)
+  // before it enters the fit.
+  bool would_continue(uint64_t device_ticks, TimeNs host_receive) const;
   // The online time of the sample just added: the fit of its segment, slewed so that it never
   // goes before the previous sample's; outliers advance by the host time elapsed.
   TimeNs online_time();

@@ -63,6 +63,10 @@ struct Device {
   // device time elapsed. Restarts and outliers add nothing.
   uint64_t sequence_span = 0;
   TimeNs device_span = 0;
+  // Device time elapsed since the first sample written, summed over steps between samples that
+  // continue one another on one clock (a restart or an outlier adds nothing): what the duration
+  // limit measures for a device with a clock.
+  TimeNs clock_elapsed = 0;
   // Samples missing between consecutive written samples (sequence gaps), less those the queue
   // refused.
   uint64_t gaps = 0;
@@ -152,6 +156,8 @@ DeviceProgress progress_of(Device& d) {
     const std::lock_guard lock(d.mutex);
     p.codec_dropped = d.stats.samples_dropped;
     p.frames_corrupt = d.stats.frames_corrupt;
+    p.non_finite = d.stats.samples_non_finite;
+    p.before_start = d.stats.samples_before_start;
     p.end_reason = d.silent_reason.empty() ? d.end_reason : d.silent_reason;
   }
   p.backpressure = d.backpressure.load();
@@ -186,6 +192,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
   if (s.has_device_time) {
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
     t = d.clock.online_time();
+    if (d.has_device_time && d.clock.continues()) d.clock_elapsed += s.device_time - d.last_device;
   }
   // Raw first: the offline refit maps the raw message and gives its time to the IMU message
   // that follows it.
@@ -348,6 +355,17 @@ void start_readers(Devices& devices) {
   }
 }
 
+// How long after the device's first sample written `s` was made, as the duration limit
+// measures it: on the device's clock where the samples have one, else by receive times. Not by
+// receive times where there is a clock: the samples of a block share its receive time, so the
+// limit took in the whole block that arrived in time (found in review: 2008 samples for
+// --duration 2 at 1 kHz, in blocks of 8).
+TimeNs time_since_first(const Device& d, const drivers::Sample& s) {
+  if (!s.has_device_time || !d.has_device_time) return s.host_time - d.first_host;
+  const bool continues = d.clock.would_continue(static_cast<uint64_t>(s.device_time), s.host_time);
+  return d.clock_elapsed + (continues ? s.device_time - d.last_device : 0);
+}
+
 // The writer's side of a running session: moves what the reader threads queue into the file.
 struct Pump {
   McapWriter& writer;
@@ -364,7 +382,7 @@ struct Pump {
     if (d.guide && d.guide->done()) {
       d.full = true;
     } else if (options.duration_s > 0 && d.written > 0 &&
-               to_seconds(s.host_time - d.first_host) > options.duration_s) {
+               to_seconds(time_since_first(d, s)) >= options.duration_s) {
       d.full = true;
     } else if (options.max_samples && d.written >= options.max_samples) {
       d.full = true;
@@ -409,7 +427,9 @@ std::string Pump::run() {
         const std::lock_guard lock(d->mutex);
         d->silent_reason = fmt::format(
             "no data for {:g} s{}", options.no_data_timeout_s,
-            d->written == 0 ? " since the start (check the baud rate and codec in the URI)" : "");
+            d->written == 0
+                ? fmt::format(" since the start ({})", d->spec.device.transport->when_silent())
+                : "");
         d->stop.store(true);
       }
     }
@@ -473,6 +493,8 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
                             {"samples_dropped", std::to_string(p.dropped)},
                             {"codec_samples_dropped", std::to_string(p.codec_dropped)},
                             {"frames_corrupt", std::to_string(p.frames_corrupt)},
+                            {"samples_non_finite", std::to_string(p.non_finite)},
+                            {"samples_before_start", std::to_string(p.before_start)},
                             {"backpressure_dropped", std::to_string(p.backpressure)},
                             {"end_reason", p.end_reason},
                             {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}};
@@ -665,6 +687,8 @@ McapMetadata recovered_session_record(const std::string& device, const IndexGaps
            {"samples_dropped", std::to_string(g.missing)},
            {"codec_samples_dropped", lost},
            {"frames_corrupt", lost},
+           {"samples_non_finite", lost},
+           {"samples_before_start", lost},
            {"backpressure_dropped", lost},
            {"end_reason", "the recording did not finish (recovered by imukit convert --recover)"},
            {"recovered",

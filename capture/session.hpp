@@ -41,7 +41,12 @@ struct DeviceProgress {
   uint64_t codec_dropped = 0;   // every loss the codec saw (also past the end, and for devices
                                 // without a counter, samples of frames that did not arrive)
   uint64_t frames_corrupt = 0;  // frames that failed their checksum or format
-  uint64_t backpressure = 0;    // samples the recorder's own queue had to refuse
+  // Samples dropped for a NaN or infinite value (in codec_dropped and frames_corrupt too).
+  uint64_t non_finite = 0;
+  // Samples of an earlier session's stream discarded at the start (CodecStats::
+  // samples_before_start): not losses of this recording.
+  uint64_t before_start = 0;
+  uint64_t backpressure = 0;  // samples the recorder's own queue had to refuse
   std::size_t queue_high_water = 0;
   double rate_hz = 0.0;  // the device's sample rate on the host clock (sample numbers over
                          // the device clock span, corrected by the fitted skew)
@@ -55,7 +60,12 @@ struct DeviceProgress {
 
 struct SessionOptions {
   std::string path;  // output .mcap
-  // Stop when every device has delivered this much host time (0: no limit).
+  // Per device, the samples made within this many seconds of its first one written are kept
+  // (0: no limit): those whose time since the first is in [0, duration_s), measured on the
+  // device's own clock where its samples have one (a clock restart adds nothing), else on their
+  // receive times. A device at a steady rate thus gives duration_s * rate samples (2000 for 2 s
+  // at 1 kHz); the final, refitted times span that device time scaled by the fitted skew (a few
+  // ppm). The session stops when every device is past it.
   double duration_s = 0.0;
   uint64_t max_samples = 0;  // per device (0: no limit)
   // A device that delivers no sample for this long of wall-clock time (from the start, or since

@@ -54,6 +54,7 @@ int read_device(const DevicesOptions& o) {
   const std::string what = dev.transport->describe();
   const std::string codec = dev.codec->name();
   const bool replay = dev.transport->replay();
+  const std::string when_silent = dev.transport->when_silent();
   drivers::DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
   reader.start();
   const bool ended = reader.wait(static_cast<int>(o.seconds * 1000));
@@ -81,11 +82,18 @@ int read_device(const DevicesOptions& o) {
   fmt::print("  bytes {} (accepted {}, discarded {}), frames ok {}, corrupt {}, other {}\n",
              st.bytes_received, st.bytes_accepted, st.bytes_discarded, st.frames_ok,
              st.frames_corrupt, st.frames_other);
-  fmt::print("  samples decoded {}, dropped {}, counter resets {}, device errors {}\n",
-             st.samples_decoded, st.samples_dropped, st.counter_resets, st.device_errors);
+  // Non-finite samples are also in dropped (and their frames in corrupt); samples before the
+  // start belong to an earlier session's stream and are no loss (CodecStats).
+  fmt::print(
+      "  samples decoded {}, dropped {} (with a non-finite value {}), counter resets {}, device "
+      "errors {}, before the stream's start {} (not losses)\n",
+      st.samples_decoded, st.samples_dropped, st.samples_non_finite, st.counter_resets,
+      st.device_errors, st.samples_before_start);
   const char* kinds[] = {"running", "stopped", "end of stream", "error"};
   fmt::print("  ended: {}{}\n", kinds[static_cast<int>(end.kind)],
              end.message.empty() ? "" : ": " + end.message);
+  if (st.bytes_received == 0 && end.kind == drivers::EndKind::kStopped)
+    fmt::print("  nothing arrived in {:g} s: {}\n", o.seconds, when_silent);
   return end.kind == drivers::EndKind::kError ? kIo : kOk;
 }
 

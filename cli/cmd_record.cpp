@@ -86,12 +86,12 @@ std::string progress_line(const std::vector<capture::DeviceProgress>& devices) {
   return line;
 }
 
-// Whether the device of `uri` takes a rate= (its codec reads it), as far as the URI says; a
-// device found by its USB id (no codec named) is assumed to.
+// Whether the device of `uri` takes a rate= (its codec reads it, also when it only decodes), as
+// far as the URI says; a device found by its USB id (no codec named) is assumed to.
 bool takes_a_rate(const drivers::DeviceUri& uri) {
   const std::string codec = drivers::codec_named_by(uri);
   if (codec.empty()) return true;
-  const std::vector<std::string> keys = drivers::codec_keys(codec);
+  const std::vector<std::string> keys = drivers::codec_keys(codec, !drivers::sends_commands(uri));
   return std::find(keys.begin(), keys.end(), "rate") != keys.end();
 }
 
@@ -284,7 +284,9 @@ IMUKIT_REGISTER_COMMAND(
                          "device URIs (see `imukit devices` and docs/devices.md)")
               ->required();
           sub.add_option("-o,--output", args->output, "output FILE.mcap")->required();
-          sub.add_option("--duration", args->duration_s, "stop after this many seconds of data")
+          sub.add_option("--duration", args->duration_s,
+                         "keep the samples made in the first this many seconds of each device "
+                         "(by its own clock where it has one; docs/formats.md)")
               ->check(real_in(0, 1e7, "s", LowEnd::open));
           sub.add_option("--samples", args->samples, "stop each device after this many samples")
               ->check(whole_in(1, 1'000'000'000'000'000));

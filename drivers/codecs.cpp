@@ -15,9 +15,15 @@ std::vector<std::string> codec_names() {
   return {"imukit", "xsens", "witmotion", "dualshock4", "dualsense", "text"};
 }
 
-std::vector<std::string> codec_keys(const std::string& name) {
-  if (name == "imukit") return {"rate", "commands", "block", "ping_s"};
-  if (name == "xsens") return {"rate", "mag_rate"};
+std::vector<std::string> codec_keys(const std::string& name, bool decode_only) {
+  // Decoding only, imukit's and WitMotion's rate= is the rate the stream was made at, which
+  // times its samples; an Xsens stream is timed by its own SampleTimeFine, so its rate= and
+  // mag_rate= only ever configure a device.
+  if (name == "imukit")
+    return decode_only ? std::vector<std::string>{"rate", "commands"}
+                       : std::vector<std::string>{"rate", "commands", "block", "ping_s"};
+  if (name == "xsens")
+    return decode_only ? std::vector<std::string>{} : std::vector<std::string>{"rate", "mag_rate"};
   if (name == "witmotion") return {"rate", "commands", "accel_range_g", "gyro_range_dps"};
   if (name == "text") return {"time_unit", "accel_unit", "gyro_unit"};
   return {};  // dualshock4, dualsense: nothing to configure

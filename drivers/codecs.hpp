@@ -19,6 +19,10 @@ std::vector<std::string> codec_names();
 
 // The URI keys codec `name` reads (besides `codec` itself), so that a key it would not read is
 // refused instead of silently doing nothing (docs/devices.md). Empty for an unknown name.
-std::vector<std::string> codec_keys(const std::string& name);
+// `decode_only` (a replay, a read-only fd, commands=false: nothing is sent to the device) leaves
+// only the keys that change the decoding: one that would configure the device does nothing then
+// (found in review: rate= on an Xsens replay was accepted and ignored, and `record --rate` added
+// it).
+std::vector<std::string> codec_keys(const std::string& name, bool decode_only = false);
 
 }  // namespace imukit::drivers

@@ -235,11 +235,13 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
 
 void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
                            std::vector<Sample>& out) {
-  if (started_ && !stream_acked_) {
-    // Not our stream yet: what the Stop flushed, the stream of an earlier session, or ours
-    // when the Start's Ack was lost on the link. Not recorded, so counted as dropped.
+  if (opt_.send_commands && !stream_acked_) {
+    // Not our stream yet (before the DeviceInfo or between our Start and its Ack): the stream
+    // of an earlier session, the block our Stop flushed, or ours when the Start's Ack was lost
+    // on the link. Not recorded, and no loss of this session, whose stream begins at the Ack
+    // (found in review: an earlier session's leftovers were counted as dropped samples).
     ++stats_.frames_other;
-    stats_.samples_dropped += b.count;
+    stats_.samples_before_start += b.count;
     return;
   }
   int64_t first = index_.unwrap(b.sample_index);

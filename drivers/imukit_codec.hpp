@@ -5,15 +5,15 @@
 // by an earlier session refuses Configure and Start, and numbers its samples from its own start),
 // Configure (rate, every channel the device has, range index 0, samples per block) when a rate
 // was asked for, then Start. The stream is ours from the Ack of that Start: sample blocks before
-// it (what the Stop flushed, an earlier session's stream) are not decoded, and sample 0 of ours
-// is the first expected. Until that Ack the three are sent again every retry_ns (a frame lost on
-// the link); a refused Configure or Start ends the stream with the device's reason, except
-// "not allowed in this state" (a Stop that was lost: the next round stops the device again).
-// Raw counts are scaled with the DeviceInfo's per-range scale and offset. Sample i of a block is
-// stamped on the device clock at first_tick + floor(i * tick_hz * 1000 / rate_mhz) ticks, the
-// device's own stepping rule, unwrapped to 64 bits (32-bit ticks, half-range rule). Gaps in the
-// 32-bit cumulative sample index are counted as dropped samples; a backwards jump (a new
-// streaming session) as a counter reset.
+// it (what the Stop flushed, an earlier session's stream) are not decoded and count in
+// samples_before_start, not as losses, and sample 0 of ours is the first expected. Until that Ack
+// the three are sent again every retry_ns (a frame lost on the link); a refused Configure or Start
+// ends the stream with the device's reason, except "not allowed in this state" (a Stop that was
+// lost: the next round stops the device again). Raw counts are scaled with the DeviceInfo's
+// per-range scale and offset. Sample i of a block is stamped on the device clock at first_tick +
+// floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
+// (32-bit ticks, half-range rule). Gaps in the 32-bit cumulative sample index are counted as
+// dropped samples; a backwards jump (a new streaming session) as a counter reset.
 //
 // Time sync: every ping_interval a Ping carrying the host send time goes out; each Pong is kept
 // as a SyncPoint (host send, host receive, device rx/tx ticks) for capture/ to fit the clock map.

@@ -1,6 +1,7 @@
 #include "imukit/drivers/mock_device.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -58,6 +59,25 @@ MockDevice::MockDevice(std::shared_ptr<SignalSource> source, MockOptions options
   t.ranges[0].scale = 1.0f / 256.0f;
   model_ = std::make_unique<proto::DeviceModel>(static_cast<proto::Hal&>(*this), info_);
   real_start_ = host_now();
+  if (opt_.streams_from_power_on) power_on_stream();
+}
+
+// The firmware of a device that cannot be commanded starts itself: the mock gives its own model
+// GetDeviceInfo, whose answer goes to the host (so that a decoding codec can scale the counts),
+// and Start, whose Ack goes nowhere (nobody asked). Found in review: with commands=false the
+// mock waited for a Start that never came, and no sample ever arrived.
+void MockDevice::power_on_stream() {
+  const auto request = [&](const auto& message, uint16_t sequence) {
+    uint8_t frame[proto::kMaxFrameSize];
+    model_->on_bytes(frame, proto::encode_message(message, sequence, frame, sizeof frame));
+  };
+  // A profile that cannot run at the rate would be refused (Nack) where nobody hears it: say so.
+  validate_hardware_model(opt_.hardware, opt_.rate_hz);
+  request(proto::GetDeviceInfo{}, 0);
+  mute_ = true;
+  request(proto::Start{}, 1);
+  mute_ = false;
+  assert(model_->state() == proto::DeviceState::kStreaming);
 }
 
 MockDevice::~MockDevice() = default;
@@ -133,6 +153,7 @@ bool MockDevice::read_sensors(uint32_t tick, uint8_t channels, proto::SensorSamp
 }
 
 bool MockDevice::write(const uint8_t* data, std::size_t n) {
+  if (mute_) return true;
   // The block flushed as the device goes is the last frame that leaves it.
   if (gone_ && flushed_after_gone_) return true;
   if (gone_) flushed_after_gone_ = true;
@@ -293,6 +314,8 @@ std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
   if (clock != "real" && clock != "virtual")
     throw Error("clock=" + clock + ": expected real or virtual");
   o.virtual_time = clock == "virtual";
+  // The host will send nothing (the URI's codec only decodes): the device starts by itself.
+  o.streams_from_power_on = !option_bool(keys, "commands", true);
   const std::string profile = option_string(keys, "profile", "");
   if (!profile.empty()) o.hardware = to_hardware_model(read_profile(profile));
   const double gravity = option_double(keys, "gravity", kStandardGravity);

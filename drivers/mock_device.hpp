@@ -45,6 +45,10 @@ struct MockOptions {
   double stall_at_s = 1.0;        // ...starting here (true time)
   uint64_t disconnect_after = 0;  // samples; 0 = never
   bool virtual_time = true;
+  // A device that cannot be commanded (URI commands=false: the codec only decodes): at power-on
+  // it sends its DeviceInfo, then streams in its default configuration (rate_hz, every sensor,
+  // 8 samples per block), as firmware that starts by itself does.
+  bool streams_from_power_on = false;
   TimeNs epoch = 1'700'000'000'000'000'000;  // host time at t = 0 in virtual time
   uint32_t tick_hz = 1'000'000;
   double accel_range_g = 16.0;
@@ -94,6 +98,7 @@ class MockDevice : public ByteTransport, private proto::Hal {
   bool store_calibration(const uint8_t* blob, std::size_t n) override;
   std::size_t load_calibration(uint8_t* out, std::size_t capacity) override;
 
+  void power_on_stream();
   void advance_to(TimeNs t);
   void draw_errors(double rate_hz);
   TimeNs device_ticks_at(TimeNs t) const;
@@ -121,6 +126,7 @@ class MockDevice : public ByteTransport, private proto::Hal {
   uint64_t samples_in_dropped_ = 0;
   uint64_t bytes_flipped_ = 0;
   uint64_t samples_made_ = 0;
+  bool mute_ = false;  // what the device writes goes nowhere (its answers to itself at power-on)
   bool gone_ = false;
   bool flushed_after_gone_ = false;
   std::vector<uint8_t> calibration_;
@@ -130,7 +136,8 @@ class MockDevice : public ByteTransport, private proto::Hal {
 // Mock URIs: `mock:static` and `mock:poses` with the keys of docs/devices.md (rate, seed,
 // profile, drop, flip, drift_ppm, latency_us, jitter_us, stall_ms, stall_at_s,
 // disconnect_after, clock=virtual|real, quat=w,x,y,z for static, hold_s/move_s/poses for
-// poses, gravity). Throws imukit::Error naming the key for a bad value.
+// poses, gravity; and the codec's commands=false, which makes it stream from power-on). Throws
+// imukit::Error naming the key for a bad value.
 std::unique_ptr<MockDevice> make_mock_device(const std::string& kind,
                                              const std::map<std::string, std::string>& keys);
 

@@ -74,6 +74,11 @@ struct CodecStats {
   // Samples decoded from a valid frame but holding a NaN or infinite value: never handed out,
   // counted in frames_corrupt and samples_dropped as well (Codec::feed does this for every codec).
   uint64_t samples_non_finite = 0;
+  // Samples of a stream that is not this session's, discarded as the session starts: what a
+  // device left streaming by an earlier session sent before the Ack of our Start (the rest of
+  // its stream, and the block our Stop flushed), or ours when that Ack was lost and the start-up
+  // was repeated. Not losses of this session, so not in samples_dropped.
+  uint64_t samples_before_start = 0;
   uint64_t counter_resets = 0;  // counter repeated or jumped back (device restarted its stream)
   uint64_t device_errors = 0;   // error messages the device itself sent
 };

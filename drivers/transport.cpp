@@ -23,7 +23,15 @@ std::string os_error(const std::string& what, int err) { return what + ": " + st
 FdTransport::FdTransport(int fd, bool owns, std::string name, bool writable)
     : fd_(fd), owns_(owns), name_(std::move(name)), writable_(writable) {
   struct stat st {};
-  replay_ = ::fstat(fd_, &st) == 0 && S_ISREG(st.st_mode);
+  const bool known = ::fstat(fd_, &st) == 0;
+  replay_ = known && S_ISREG(st.st_mode);
+  fifo_ = known && S_ISFIFO(st.st_mode);
+}
+
+std::string FdTransport::when_silent() const {
+  // A FIFO opened without waiting for its writer (open_file), or a pipe.
+  if (fifo_) return "nothing was written to the FIFO or pipe: has a writer opened it?";
+  return ByteTransport::when_silent();
 }
 
 FdTransport::~FdTransport() {
@@ -31,9 +39,26 @@ FdTransport::~FdTransport() {
 }
 
 std::unique_ptr<FdTransport> FdTransport::open_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Without O_NONBLOCK, opening a FIFO waits for a writer, forever if none comes (found in
+  // review). With it the FIFO opens at once; poll() then waits for its bytes within each read's
+  // timeout (Linux reports no hang-up before a writer has come), so a FIFO nobody writes to is a
+  // silent device that `record --no-data-timeout` ends, and Ctrl-C works meanwhile. Reads of
+  // regular files ignore the flag, and read() takes EAGAIN as "nothing yet".
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) throw TransportError(os_error("cannot open " + path, errno));
-  return std::make_unique<FdTransport>(fd, true, "file " + path, false);
+  struct stat st {};
+  const int err = ::fstat(fd, &st) == 0 ? 0 : errno;
+  // A directory opens too, and its reads fail with EISDIR: refused here, before any reading
+  // (found in review: `file:.` ended as "read failed" and `devices --read` exited 0).
+  if (err != 0 || S_ISDIR(st.st_mode)) {
+    ::close(fd);
+    throw TransportError(err != 0 ? os_error("cannot open " + path, err)
+                                  : "cannot read " + path +
+                                        ": it is a directory (file: names a capture file, a "
+                                        "FIFO or a device node)");
+  }
+  const bool fifo = S_ISFIFO(st.st_mode);
+  return std::make_unique<FdTransport>(fd, true, (fifo ? "FIFO " : "file ") + path, false);
 }
 
 ReadResult FdTransport::read(std::span<uint8_t> buf, int timeout_ms) {

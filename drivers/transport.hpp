@@ -54,6 +54,8 @@ class Transport {
   // fd): receive times then say when the bytes were read, not when the samples were made, so
   // they give no sample rate.
   virtual bool replay() const { return false; }
+  // What to check when nothing at all arrives, for the message that says so.
+  virtual std::string when_silent() const { return "check the baud rate and codec in the URI"; }
 };
 
 class ByteTransport : public Transport {
@@ -83,7 +85,9 @@ class FdTransport : public ByteTransport {
  public:
   FdTransport(int fd, bool owns, std::string name, bool writable = true);
   ~FdTransport() override;
-  // Opens a file for replay (read only). Throws TransportError with strerror.
+  // Opens a file for replay, or a FIFO or device node to read (read only), never waiting: a
+  // FIFO without a writer opens at once and is read like a silent device. Throws TransportError
+  // with strerror, or naming a directory as one.
   static std::unique_ptr<FdTransport> open_file(const std::string& path);
 
   ReadResult read(std::span<uint8_t> buf, int timeout_ms) override;
@@ -92,6 +96,7 @@ class FdTransport : public ByteTransport {
   std::string describe() const override { return name_; }
   // A regular file (open_file, or one given as an fd): a replay. Pipes and ttys are live.
   bool replay() const override { return replay_; }
+  std::string when_silent() const override;
   int fd() const { return fd_; }
 
  private:
@@ -100,6 +105,7 @@ class FdTransport : public ByteTransport {
   std::string name_;
   bool writable_;
   bool replay_ = false;
+  bool fifo_ = false;
 };
 
 // An in-memory byte stream (tests, benchmarks, fuzzers): hands out `chunk` bytes per read (all

@@ -130,19 +130,21 @@ std::string joined(const std::vector<std::string>& items) {
 void check_keys_are_used(const DeviceUri& u, const std::string& codec) {
   const std::vector<std::string> names = codec_names();
   if (std::find(names.begin(), names.end(), codec) == names.end()) return;  // make_codec says so
+  const bool decode_only = !sends_commands(u);
   std::vector<std::string> accepted{"codec"};
   std::string what;
   if (u.scheme == "mock") {
     const auto& own = u.address == "poses" ? kMockPosesKeys : kMockStaticKeys;
     accepted.insert(accepted.end(), kMockKeys.begin(), kMockKeys.end());
     accepted.insert(accepted.end(), own.begin(), own.end());
-    what = "mock:" + u.address + " (imukit codec)";
+    what =
+        "mock:" + u.address + (decode_only ? " (imukit codec, decoding only)" : " (imukit codec)");
   } else {
     const std::vector<std::string> t = transport_keys(u.scheme);
     accepted.insert(accepted.end(), t.begin(), t.end());
-    what = u.scheme + ": with codec " + codec;
+    what = u.scheme + ": with codec " + codec + (decode_only ? ", decoding only" : "");
   }
-  for (const auto& k : codec_keys(codec)) {
+  for (const auto& k : codec_keys(codec, decode_only)) {
     if (std::find(accepted.begin(), accepted.end(), k) == accepted.end()) accepted.push_back(k);
   }
   for (const auto& [key, value] : u.keys) {
@@ -156,6 +158,22 @@ void check_keys_are_used(const DeviceUri& u, const std::string& codec) {
 }
 
 }  // namespace
+
+bool sends_commands(const DeviceUri& uri) {
+  if (uri.scheme == "file") return false;
+  if (uri.scheme == "fd") {
+    // A descriptor that is not open sends nothing either; open_device says it is not open.
+    int fd = -1;
+    const auto r = std::from_chars(uri.address.data(), uri.address.data() + uri.address.size(), fd);
+    const int flags = r.ec == std::errc() ? fcntl(fd, F_GETFL) : -1;
+    if (flags < 0 || (flags & O_ACCMODE) == O_RDONLY) return false;
+  }
+  try {
+    return option_bool(uri.keys, "commands", true);
+  } catch (const Error&) {
+    return true;  // not a boolean: make_codec refuses it, naming the key
+  }
+}
 
 std::string codec_named_by(const DeviceUri& uri) {
   if (uri.scheme == "mock") return "imukit";

@@ -34,6 +34,10 @@ DeviceUri parse_device_uri(const std::string& text);
 // empty where only the device would tell (a known USB id, docs/devices.md).
 std::string codec_named_by(const DeviceUri& uri);
 
+// Whether the device of `uri` is sent commands: not for file:, an fd: open read-only or
+// commands=false, where the codec only decodes and only codec_keys(codec, true) do something.
+bool sends_commands(const DeviceUri& uri);
+
 // A transport and the codec that reads it, ready for a DeviceReader.
 struct OpenedDevice {
   std::unique_ptr<Transport> transport;

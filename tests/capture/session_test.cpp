@@ -316,6 +316,29 @@ TEST(Session, RefusesToStartOverThePartialFileOfACrashedRecording) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// Found in review: --duration 2 at 1 kHz kept 2008 samples. The limit compared receive times,
+// which the 8 samples of a block share, so the block received 2.000 s after the first took in
+// samples made up to 2.007 s after it. Now the samples made in [0, duration) after the first
+// are kept, by the device clock: 2000 for 2 s, and 11 (0 to 10 ms) for 10.5 ms, inside a block.
+TEST(Session, ADurationKeepsExactlyTheSamplesMadeWithinIt) {
+  testing::TempDir dir;
+  for (const auto& [duration_s, expected] :
+       std::vector<std::pair<double, uint64_t>>{{2.0, 2000}, {0.0105, 11}}) {
+    const auto mock = drivers::make_mock_device("static", {{"rate", "1000"}, {"clock", "virtual"}});
+    SessionOptions options;
+    options.path = (dir / "rec.mcap").string();
+    options.duration_s = duration_s;
+    const SessionReport report = record_session(one_kilohertz_mock(*mock), options);
+    EXPECT_EQ(report.stop_reason, "limit reached");
+    EXPECT_EQ(report.devices.at(0).samples, expected) << duration_s;
+    const auto rows = raw_rows(options.path, "mock");
+    ASSERT_EQ(rows.size(), expected) << duration_s;
+    EXPECT_EQ(rows.front().index, 0u);
+    EXPECT_EQ(rows.back().index, expected - 1);
+    EXPECT_EQ(rows.back().device_ns - rows.front().device_ns, (expected - 1) * 1'000'000);
+  }
+}
+
 TEST(Session, LossesBeforeTheFirstSampleAreInTheCodecCount) {
   testing::TempDir dir;
   // The first seed of the mock's link whose first frames are lost (each frame is lost with

@@ -68,8 +68,15 @@ def test_virtual_time_gives_the_exact_duration(imukit, workdir):
     assert r.returncode == 0, "a virtual-time recording succeeds"
     r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
     n = samples_in(r.stdout)
-    assert 6000 <= n <= 6001, f"30 s at 200 Hz gives 6000 samples ({n})"
+    assert n == 6000, f"30 s at 200 Hz gives 6000 samples ({n})"
     assert elapsed < 20, f"in less than real time ({elapsed:.1f} s)"
+    # Found in review: 2 s at 1 kHz gave 2008 samples (the block that arrived at 2.000 s after the
+    # first one, holding samples made up to 2.007 s). The samples made in [0, 2 s) are kept.
+    r = subprocess.run([imukit, "record", "mock:static?rate=1000&clock=virtual", "-o", out,
+                        "--duration", "2"], capture_output=True, text=True)
+    assert r.returncode == 0 and "mock_static: 2000 samples at 1000.000 Hz" in r.stdout, r.stdout + r.stderr
+    r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
+    assert "2000 samples over 1.999 s" in r.stdout, r.stdout
 
 
 def test_unknown_uri_key_is_one_line(imukit, workdir):
@@ -109,6 +116,14 @@ def test_a_non_finite_sample_is_dropped_and_the_recording_stays_readable(imukit,
     r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
     assert r.returncode == 0, f"info reads the recording ({r.stderr.strip()})"
     assert samples_in(r.stdout) == 997, r.stdout
+    # Found in review: the count of samples dropped for a non-finite value reached neither the
+    # recording's metadata nor `devices --read`; now both, beside the other counts.
+    for key, value in (("samples_non_finite", 3), ("frames_corrupt", 3), ("codec_samples_dropped", 3),
+                       ("samples_before_start", 0)):
+        assert f"metadata imukit.session.nan_bin.{key} = {value}\n" in r.stdout, r.stdout
+    r = subprocess.run([imukit, "devices", "--read", f"file:{stream}?codec=xsens"], capture_output=True, text=True)
+    assert r.returncode == 0 and ("  samples decoded 997, dropped 3 (with a non-finite value 3), counter resets 0, "
+                                  "device errors 0, before the stream's start 0 (not losses)\n") in r.stdout, r.stdout
 
 
 def test_a_crashed_recordings_partial_file_is_never_overwritten(imukit, workdir):
@@ -251,7 +266,7 @@ def test_a_uri_key_that_would_do_nothing_is_refused(imukit, workdir):
     cases = [("mock:static?poses=3&clock=virtual", "key 'poses' does nothing for mock:static"),
              ("mock:static?accel_range_g=2&clock=virtual", "key 'accel_range_g' does nothing for mock:static"),
              (f"file:{capture}?codec=xsens&time_unit=s&block=3",
-              "key 'block' does nothing for file: with codec xsens (keys it accepts: codec, rate, mag_rate)"),
+              "key 'block' does nothing for file: with codec xsens, decoding only (keys it accepts: codec)"),
              ("mock:static?seed=-1&clock=virtual", "seed=-1: expected an integer >= 0")]
     for uri, message in cases:
         r = subprocess.run([imukit, "record", uri, "--samples", "10", "-o", out], capture_output=True, text=True)
@@ -273,8 +288,72 @@ def test_rate_goes_only_to_devices_that_take_one(imukit, workdir):
         (r.returncode, r.stderr)
     r = subprocess.run([imukit, "info", out], capture_output=True, text=True)
     assert "100 samples over 0.990 s" in r.stdout, r.stdout
+    # Found in review: an Xsens replay took the rate= and did nothing with it (rate= only configures an Xsens
+    # device; a replay is timed by its SampleTimeFine, here 100 Hz): now it is named in the note, and rate= in
+    # its URI is refused.
+    capture = os.path.join(workdir, "rate.xsens")
+    with open(capture, "wb") as f:
+        f.write(b"".join(xsens_packet(n, 0.0) for n in range(100)))
+    xsens_uri = f"file:{capture}?codec=xsens"
+    r = subprocess.run([imukit, "record", xsens_uri, "--rate", "50", "-o", out], capture_output=True, text=True)
+    assert r.returncode == 0 and f"--rate 50: {xsens_uri} has no rate to configure; not used" in r.stderr, \
+        (r.returncode, r.stderr)
+    assert "rate_xsens: 100 samples at 100.000 Hz" in r.stdout, r.stdout
+    r = subprocess.run([imukit, "record", xsens_uri + "&rate=50", "-o", out], capture_output=True, text=True)
+    assert r.returncode == 1 and "key 'rate' does nothing for file: with codec xsens, decoding only" in r.stderr, \
+        (r.returncode, r.stderr)
     # A mock takes it: 200 Hz virtual clock, 400 samples over 1.995 s.
     r = subprocess.run([imukit, "record", "mock:static?clock=virtual", "--rate", "200", "--samples", "400",
                         "-o", out], capture_output=True, text=True)
     info = subprocess.run([imukit, "info", out], capture_output=True, text=True).stdout
     assert r.returncode == 0 and "400 samples over 1.995 s" in info, (r.stderr, info)
+
+
+def test_a_fifo_without_a_writer_does_not_block_and_a_directory_is_refused(imukit, workdir):
+    """Found in review: `file:` on a FIFO nobody writes to blocked forever in open(), and `file:.`
+    ended as "read failed" with `devices --read` exiting 0. Now the FIFO opens at once and is a
+    silent device (a note in `devices --read`, --no-data-timeout in `record`), a writer that comes
+    later is read, and a directory is a one-line error naming it, exit 3."""
+    fifo = os.path.join(workdir, "stream.fifo")
+    os.mkfifo(fifo)
+    uri = f"file:{fifo}?codec=xsens"
+    r = subprocess.run([imukit, "devices", "--read", uri, "--seconds", "1"], capture_output=True, text=True,
+                       timeout=30)
+    assert r.returncode == 0 and f"FIFO {fifo} (xsens codec): 0 samples" in r.stdout, r.stdout + r.stderr
+    assert "nothing arrived in 1 s: nothing was written to the FIFO or pipe: has a writer opened it?" in r.stdout, \
+        r.stdout
+    out = os.path.join(workdir, "fifo.mcap")
+    r = subprocess.run([imukit, "record", uri, "--no-data-timeout", "1", "-o", out], capture_output=True,
+                       text=True, timeout=30)
+    assert r.returncode == 3, (r.returncode, r.stderr)
+    assert "ended: no data for 1 s since the start (nothing was written to the FIFO or pipe" in r.stdout, r.stdout
+    # A writer that opens the FIFO after the reader did: every packet is read, then its close ends the stream.
+    p = subprocess.Popen([imukit, "record", uri, "-o", out], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    with open(fifo, "wb") as w:
+        w.write(b"".join(xsens_packet(n, 0.0) for n in range(100)))
+    stdout, stderr = p.communicate(timeout=30)
+    assert p.returncode == 0 and "stream_fifo: 100 samples" in stdout, stdout + stderr
+    os.remove(out)
+    for command in (["devices", "--read", f"file:{workdir}?codec=xsens"],
+                    ["record", f"file:{workdir}?codec=xsens", "--duration", "1", "-o", out]):
+        r = subprocess.run([imukit, *command], capture_output=True, text=True, timeout=30)
+        assert r.returncode == 3 and r.stderr.strip().splitlines() == [
+            f"imukit: error: cannot read {workdir}: it is a directory (file: names a capture file, a FIFO or a "
+            "device node)"], (command, r.returncode, r.stderr)
+        assert not os.path.exists(out) and "recording" not in r.stdout, r.stdout
+
+
+def test_a_mock_without_commands_streams_from_power_on(imukit, workdir):
+    """Found in review: `mock:...?commands=false` never started (the codec only decodes, so no Start
+    was sent) and the recording ended with no samples. Such a mock starts by itself, as a device
+    that cannot be commanded: 2 s at 1 kHz give 2000 samples, none lost."""
+    out = os.path.join(workdir, "nocommands.mcap")
+    r = subprocess.run([imukit, "record", "mock:static?rate=1000&clock=virtual&commands=false", "--duration", "2",
+                        "--no-data-timeout", "5", "-o", out], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert ("mock_static: 2000 samples at 1000.000 Hz; missing (counter gaps) 0, lost as the codec counts them 0, "
+            "corrupt frames 0") in r.stdout, r.stdout
+    r = subprocess.run([imukit, "devices", "--read", "mock:static?rate=1000&clock=virtual&commands=false&"
+                        "disconnect_after=800"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and ": 800 samples\n  rate 1000.000 Hz by the device clock" in r.stdout, r.stdout

@@ -232,16 +232,44 @@ TEST(ImukitCodec, AReplayIsTimedAtTheRateGiven) {
   EXPECT_EQ(codec.stats().samples_dropped, 0u);
 }
 
-// Samples that arrive after our Start but before its Ack are not recorded: counted as dropped.
-TEST(ImukitCodec, BlocksBeforeTheStartAckAreCountedAsDropped) {
+// Found in review: what a device left streaming by an earlier session still sent when this
+// session started (the rest of its stream before our DeviceInfo arrived, and between our Start
+// and its Ack, the Stop's flush included) counted as dropped samples of this session. They are
+// not its samples: discarded, counted in samples_before_start (16 + 24 here), none dropped, and
+// our stream is decoded from its sample 0 on.
+TEST(ImukitCodec, AnEarlierSessionsBlocksBeforeTheStartAckAreNoLoss) {
   ImukitCodec codec(ImukitCodecOptions{true, 100.0, 8, 0, 0});
   codec.start(0);
-  const Stream st = make_stream(3);
+  const Stream earlier = make_stream(5, 1000);  // DeviceInfo, then the earlier stream's blocks
+  const auto blocks = [&](std::size_t from, std::size_t to) {
+    return std::vector<uint8_t>(
+        earlier.bytes.begin() + static_cast<std::ptrdiff_t>(earlier.block_start[from]),
+        to < earlier.block_start.size()
+            ? earlier.bytes.begin() + static_cast<std::ptrdiff_t>(earlier.block_start[to])
+            : earlier.bytes.end());
+  };
   std::vector<Sample> out;
-  codec.feed(st.bytes, 0, out);  // the DeviceInfo (Stop, Configure, Start go out), 3 blocks
-  EXPECT_TRUE(out.empty());
-  EXPECT_EQ(codec.stats().samples_dropped, 24u);
-  EXPECT_EQ(codec.stats().samples_decoded, 0u);
+  codec.feed(blocks(0, 2), 0, out);  // before our DeviceInfo
+  codec.feed(std::vector<uint8_t>(
+                 earlier.bytes.begin(),
+                 earlier.bytes.begin() + static_cast<std::ptrdiff_t>(earlier.block_start[0])),
+             1, out);  // DeviceInfo: GetDeviceInfo was sequence 0; Stop 1, Configure 2, Start 3
+  codec.feed(blocks(2, 5), 2, out);  // before the Ack of our Start
+  proto::Ack ack;
+  ack.request_type = static_cast<uint8_t>(proto::MessageType::kStart);
+  ack.request_sequence = 3;
+  codec.feed(encode_imukit_message(ack, 7), 3, out);
+  const Stream ours = make_stream(2);
+  codec.feed(
+      std::vector<uint8_t>(ours.bytes.begin() + static_cast<std::ptrdiff_t>(ours.block_start[0]),
+                           ours.bytes.end()),
+      4, out);
+  ASSERT_EQ(out.size(), 16u);
+  for (std::size_t i = 0; i < out.size(); ++i) EXPECT_EQ(out[i].sequence, i);
+  EXPECT_EQ(codec.stats().samples_before_start, 40u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+  EXPECT_EQ(codec.stats().samples_decoded, 16u);
+  EXPECT_EQ(codec.stats().counter_resets, 0u);
 }
 
 // A read-only descriptor (a pipe or a file on stdin) cannot carry commands: the codec decodes

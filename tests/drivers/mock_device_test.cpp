@@ -349,8 +349,12 @@ TEST(MockDevice, SlowRatesStreamAlthoughTheFirstBlockComesAfterTheRetryTime) {
 // firmware kept going) refused the next session's Configure (the session ended) and, without a
 // rate, kept its own numbering, so every sample it had made before counted as dropped. The
 // start-up now stops it first: the second session's samples are numbered from 0, none dropped.
+// Found in review too: what the earlier stream sent after the last block read counted as
+// dropped. With 20 ms of latency that is 80 ms of samples (that block's 20 ms on the link, then
+// GetDeviceInfo up, DeviceInfo down and Stop up), 16 at 200 Hz, all before the Ack of our
+// Start: discarded as not this session's (samples_before_start), and none on a fresh device.
 TEST(MockDevice, ADeviceLeftStreamingIsStoppedAndStartedAgain) {
-  OpenedDevice dev = open_device("mock:static?rate=200&clock=virtual");
+  OpenedDevice dev = open_device("mock:static?rate=200&clock=virtual&latency_us=20000");
   for (const double asked_rate : {200.0, 0.0}) {
     for (int session = 0; session < 2; ++session) {
       ImukitCodec codec(ImukitCodecOptions{true, asked_rate, 8, 0, 0});
@@ -364,10 +368,39 @@ TEST(MockDevice, ADeviceLeftStreamingIsStoppedAndStartedAgain) {
       ASSERT_GE(out.size(), 500u) << asked_rate << " " << session;
       EXPECT_EQ(out.front().sequence, 0u) << asked_rate << " " << session;
       EXPECT_EQ(codec.stats().samples_dropped, 0u) << asked_rate << " " << session;
+      const bool fresh_device = asked_rate == 200.0 && session == 0;
+      EXPECT_EQ(codec.stats().samples_before_start, fresh_device ? 0u : 16u)
+          << asked_rate << " " << session;
       for (std::size_t i = 1; i < out.size(); ++i)
         ASSERT_EQ(out[i].sequence, out[i - 1].sequence + 1) << i;
     }
   }
+}
+
+// Found in review: with commands=false (the codec only decodes) the mock waited for a Start
+// that never came and no sample arrived. A device that cannot be commanded streams from
+// power-on: its DeviceInfo first (the only other frame: no Ack, nobody asked), then samples from
+// index 0, 5 ms apart at 200 Hz, none lost; the host sends nothing.
+TEST(MockDevice, WithoutCommandsItStreamsFromPowerOn) {
+  OpenedDevice dev =
+      open_device("mock:static?rate=200&clock=virtual&commands=false&disconnect_after=400");
+  const auto* mock = dynamic_cast<MockDevice*>(dev.transport.get());
+  ASSERT_NE(mock, nullptr);
+  // On its own thread with a deadline: a mock that never starts would never disconnect.
+  DeviceReader reader(std::move(dev.transport), std::move(dev.codec));
+  reader.start();
+  ASSERT_TRUE(reader.wait(10'000)) << "no end of stream: the mock did not stream";
+  EXPECT_EQ(reader.end_reason().kind, EndKind::kEndOfStream) << reader.end_reason().message;
+  const std::vector<Sample> samples = reader.take();
+  ASSERT_EQ(samples.size(), 400u);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    EXPECT_EQ(samples[i].sequence, i);
+    EXPECT_EQ(samples[i].device_time, static_cast<TimeNs>(i) * 5'000'000);
+    EXPECT_NEAR(samples[i].accel[2], 9.80665, 16 * 9.80665 / 32768);
+  }
+  EXPECT_EQ(reader.stats().samples_dropped, 0u);
+  EXPECT_EQ(reader.stats().frames_other, 1u);
+  EXPECT_EQ(mock->model().link_stats().frames_ok, 2u);  // its own GetDeviceInfo and Start
 }
 
 TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {

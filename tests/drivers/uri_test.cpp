@@ -157,14 +157,34 @@ TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
   EXPECT_NE(e.find("key 'quat' does nothing for mock:poses"), std::string::npos) << e;
   const std::string xsens = "file:" + path + "?codec=xsens&time_unit=s&block=3";
   e = open_error(xsens, &at);
-  EXPECT_NE(e.find("key 'block' does nothing for file: with codec xsens (keys it accepts: "
-                   "codec, rate, mag_rate)"),
+  EXPECT_NE(e.find("key 'block' does nothing for file: with codec xsens, decoding only (keys it "
+                   "accepts: codec)"),
             std::string::npos)
       << e;
   EXPECT_EQ(at, static_cast<int64_t>(xsens.find("block")));
   e = open_error("file:" + path + "?codec=text&rate=100");
-  EXPECT_NE(e.find("key 'rate' does nothing for file: with codec text (keys it accepts: codec, "
-                   "time_unit, accel_unit, gyro_unit)"),
+  EXPECT_NE(e.find("key 'rate' does nothing for file: with codec text, decoding only (keys it "
+                   "accepts: codec, time_unit, accel_unit, gyro_unit)"),
+            std::string::npos)
+      << e;
+  // Found in review: an Xsens replay took rate= (and mag_rate=) and did nothing with them: they
+  // only configure a device, and a replay is timed by the packets' own SampleTimeFine. So are
+  // the imukit codec's block= and ping_s= where it only decodes.
+  for (const std::string key : {"rate=100", "mag_rate=50"}) {
+    e = open_error("file:" + path + "?codec=xsens&" + key);
+    EXPECT_NE(e.find("key '" + key.substr(0, key.find('=')) +
+                     "' does nothing for file: with codec xsens, decoding only (keys it accepts: "
+                     "codec)"),
+              std::string::npos)
+        << e;
+  }
+  e = open_error("file:" + path + "?codec=imukit&rate=1000&block=4");
+  EXPECT_NE(e.find("key 'block' does nothing for file: with codec imukit, decoding only (keys it "
+                   "accepts: codec, rate, commands)"),
+            std::string::npos)
+      << e;
+  e = open_error("mock:static?commands=false&ping_s=0");
+  EXPECT_NE(e.find("key 'ping_s' does nothing for mock:static (imukit codec, decoding only)"),
             std::string::npos)
       << e;
   e = open_error("file:" + path + "?codec=imukit&commands=true");
@@ -177,7 +197,7 @@ TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
   EXPECT_EQ(open_error("mock:static?quat=1,0,0,0&block=4&ping_s=0&clock=virtual"), "");
   EXPECT_EQ(open_error("file:" + path + "?codec=text&time_unit=s&accel_unit=g&gyro_unit=dps"), "");
   EXPECT_EQ(open_error("file:" + path + "?codec=witmotion&rate=100&accel_range_g=2"), "");
-  EXPECT_EQ(open_error("file:" + path + "?codec=xsens&mag_rate=50"), "");
+  EXPECT_EQ(open_error("file:" + path + "?codec=imukit&rate=1000&commands=false"), "");
 }
 
 // A file (or a regular file on an fd) is a replay: its receive times are read times.
