@@ -31,6 +31,17 @@ double measured_rate_hz(std::span<const TimeNs> t, std::string_view what) {
   return static_cast<double>(t.size() - 1) / (static_cast<double>(span) * 1e-9);
 }
 
+void check_rate(double rate_hz, const std::string& what) {
+  if (!rate_within_limits(rate_hz)) {
+    throw Error(fmt::format("{} {:g} Hz is outside {}", what, rate_hz, RateLimits::text));
+  }
+}
+
+void check_period(double period_s, const std::string& what) {
+  const double ns = std::round(period_s * 1e9);
+  check_rate(ns >= 1.0 ? 1e9 / ns : 1.0 / period_s, what);
+}
+
 bool SamplingStats::is_uniform(double tolerance) const {
   if (samples < 3) return true;
   return max_period_s <= median_period_s * (1.0 + tolerance) &&

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "imukit/core/time.hpp"
@@ -52,5 +53,25 @@ SamplingStats analyze_sampling(std::span<const TimeNs> t);
 // (analyze_sampling keeps its own mean_rate_hz = 1 / mean_period_s, zero for such input.)
 double mean_period_s(std::span<const TimeNs> t, std::string_view what);
 double measured_rate_hz(std::span<const TimeNs> t, std::string_view what);
+
+// The rates imukit takes, of sensor samples and motion frames alike (a simulation, an Allan
+// deviation): one an hour (a BVH's or a quaternion CSV's longest frame time, 3600 s) to 1 MHz.
+// Below about 1e-10 Hz a period no longer fits int64 nanoseconds (9.2e18 ns): sample times
+// overflowed and counting the samples never ended (found in review, 2026-11-26).
+struct RateLimits {
+  static constexpr double min_hz = 1.0 / 3600.0;
+  static constexpr double max_hz = 1e6;
+  static constexpr const char* text = "[1/3600 (one an hour), 1e6] Hz";
+};
+inline bool rate_within_limits(double rate_hz) {
+  return rate_hz >= RateLimits::min_hz && rate_hz <= RateLimits::max_hz;
+}
+// Throws imukit::Error "<what> <rate> Hz is outside [1/3600 ..., 1e6] Hz" unless the rate is
+// within RateLimits.
+void check_rate(double rate_hz, const std::string& what);
+// check_rate for the rate of a period measured from int64 ns time stamps: the period is taken
+// to the nanosecond first, so a 1 MHz stream's mean period (1000 ns, a bit short of 1e-6 s in
+// binary) does not read as 1e6 Hz plus a rounding. period_s > 0.
+void check_period(double period_s, const std::string& what);
 
 }  // namespace imukit

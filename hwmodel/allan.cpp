@@ -465,36 +465,79 @@ double term_covariance(Deviation kind, int64_t m, double l, int alpha) {
   return c;
 }
 
-// Mean of each axis. For interleaved axes the flat run of values is summed in kLanes lanes
-// (lane l holds axis l mod k, as in the kernels), a pass at the speed of memory where Eigen's
-// row-wise mean of a 6-row matrix takes about 2.5 times longer. The mean only keeps S small (it
-// cancels in every difference), so a plain sum is exact enough.
-Eigen::VectorXd axis_means(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
+// Per axis, the mean and a power of two near the largest |sample|. The cumulative sums are
+// built from y / scale - mean / scale, so the squares the kernels take are of order 1 whatever
+// the signal's unit (found in review: white noise of 1e-170 squared to 0 and read as a constant
+// axis, one sample of 1e200 to infinity); the deviations are multiplied back. A power of two
+// divides exactly, so a record scaled by 2^k gives the same bits times 2^k.
+struct AxisLevels {
+  Eigen::VectorXd mean;
+  Eigen::VectorXd scale;
+};
+
+// For interleaved axes the flat run of values is summed in kLanes lanes (lane l holds axis
+// l mod k, as in the kernels), a pass at the speed of memory where Eigen's row-wise mean of a
+// 6-row matrix takes about 2.5 times longer. The mean only keeps S small (it cancels in every
+// difference), so a plain sum is exact enough. A NaN or infinity makes the mean non-finite.
+AxisLevels axis_levels(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
   const int axes = int(samples.rows());
   const auto n = int64_t(samples.cols());
-  if (samples.outerStride() != axes || !lane_kernels_serve(axes)) return samples.rowwise().mean();
-  const double* p = samples.data();
-  const int64_t total = n * axes;
-  double lanes[kLanes] = {};
-  int64_t f = 0;
-  for (; f + kLanes <= total; f += kLanes)
-    for (int l = 0; l < kLanes; ++l) lanes[l] += p[f + l];
-  for (int l = 0; f < total; ++f, ++l) lanes[l] += p[f];
-  Eigen::VectorXd mean = Eigen::VectorXd::Zero(axes);
-  for (int l = 0; l < kLanes; ++l) mean(l % axes) += lanes[l];
-  return mean / double(n);
+  AxisLevels out;
+  Eigen::VectorXd largest;
+  if (samples.outerStride() != axes || !lane_kernels_serve(axes)) {
+    out.mean = samples.rowwise().mean();
+    largest = samples.cwiseAbs().rowwise().maxCoeff();
+  } else {
+    const double* p = samples.data();
+    const int64_t total = n * axes;
+    double lanes[kLanes] = {}, peaks[kLanes] = {};
+    int64_t f = 0;
+    for (; f + kLanes <= total; f += kLanes) {
+      for (int l = 0; l < kLanes; ++l) {
+        lanes[l] += p[f + l];
+        peaks[l] = std::max(peaks[l], std::abs(p[f + l]));
+      }
+    }
+    for (int l = 0; f < total; ++f, ++l) {
+      lanes[l] += p[f];
+      peaks[l] = std::max(peaks[l], std::abs(p[f]));
+    }
+    out.mean = Eigen::VectorXd::Zero(axes);
+    largest = Eigen::VectorXd::Zero(axes);
+    for (int l = 0; l < kLanes; ++l) {
+      out.mean(l % axes) += lanes[l];
+      largest(l % axes) = std::max(largest(l % axes), peaks[l]);
+    }
+    out.mean /= double(n);
+  }
+  out.scale.resize(axes);
+  for (int a = 0; a < axes; ++a) {
+    // 2^-1023 to 2^1022: both the scale and its inverse stay finite (an axis of zeros gets 1).
+    const int e = largest(a) > 0.0 ? std::clamp(std::ilogb(largest(a)), -1022, 1023) : 0;
+    out.scale(a) = std::ldexp(1.0, e);
+  }
+  // Finite samples whose sum overflows (values near 1e308): the mean of the scaled samples.
+  if (!out.mean.allFinite() && samples.allFinite()) {
+    out.mean = (samples.array().colwise() / out.scale.array()).rowwise().mean().matrix();
+    out.mean = out.mean.cwiseProduct(out.scale);
+  }
+  return out;
 }
 
-// S_0 = 0, S_{i+1} = S_i + (y_i - mean), Kahan-compensated per axis (independent chains, so the
-// axes run side by side). The caller has checked that the means are finite, which they are only
-// if every sample is (a NaN or infinity anywhere makes its axis' sum NaN or infinite); returns
-// false if the sums overflow nonetheless (seen at the end: infinity and NaN propagate).
+// S_0 = 0, S_{i+1} = S_i + (y_i / scale - mean / scale), Kahan-compensated per axis
+// (independent chains, so the axes run side by side). The caller has checked that the means are
+// finite, which they are only if every sample is (a NaN or infinity anywhere makes its axis' sum
+// NaN or infinite). Scaled samples are below 2 in magnitude, so the sums cannot overflow.
 template <int A>
-bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen::VectorXd& mean,
+void build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const AxisLevels& levels,
                   double* S, int axes) {
   const int k = A > 0 ? A : axes;
-  double sum[16] = {}, comp[16] = {}, mu[16] = {};
-  for (int a = 0; a < k; ++a) mu[a] = mean(a), S[a] = 0.0;
+  double sum[16] = {}, comp[16] = {}, mu[16] = {}, inv[16] = {};
+  for (int a = 0; a < k; ++a) {
+    inv[a] = 1.0 / levels.scale(a);
+    mu[a] = levels.mean(a) * inv[a];
+    S[a] = 0.0;
+  }
   const auto n = int64_t(samples.cols());
   const double* base = samples.data();
   const int64_t stride = samples.outerStride();
@@ -502,16 +545,13 @@ bool build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const Eigen:
     const double* col = base + i * stride;
     double* out = S + (i + 1) * k;
     for (int a = 0; a < k; ++a) {
-      const double y = (col[a] - mu[a]) - comp[a];
+      const double y = (col[a] * inv[a] - mu[a]) - comp[a];
       const double t = sum[a] + y;
       comp[a] = (t - sum[a]) - y;
       sum[a] = t;
       out[a] = t;
     }
   }
-  bool finite = true;
-  for (int a = 0; a < k; ++a) finite = finite && std::isfinite(sum[a]) && std::isfinite(comp[a]);
-  return finite;
 }
 
 }  // namespace
@@ -586,9 +626,9 @@ double equivalent_dof(Deviation kind, int64_t n, int64_t m, int alpha) {
 std::pair<double, double> deviation_interval(double dev, double nu, double confidence) {
   assert(confidence > 0.0 && confidence < 1.0 && nu > 0.0);
   const double tail = 0.5 * (1.0 - confidence);
-  const double var = dev * dev;
-  const double lo = std::sqrt(nu * var / chi_square_quantile(1.0 - tail, nu));
-  const double hi = std::sqrt(nu * var / chi_square_quantile(tail, nu));
+  // dev times the factor, not the square root of nu dev^2 / q: dev^2 underflows for 1e-170.
+  const double lo = dev * std::sqrt(nu / chi_square_quantile(1.0 - tail, nu));
+  const double hi = dev * std::sqrt(nu / chi_square_quantile(tail, nu));
   return {lo, hi};
 }
 
@@ -646,6 +686,8 @@ AllanResult grid_and_sampling(std::span<const TimeNs> t,
   // 20 % short (found in review of the first version).
   r.tau0_s = r.sampling.samples_missing() ? r.sampling.mean_period_between_gaps_s
                                           : r.sampling.mean_period_s;
+  // The rates imukit takes everywhere (RateLimits), at the stamps' resolution.
+  check_period(r.tau0_s, "Allan deviation: the time stamps' sample rate");
   r.uniform = r.sampling.is_uniform();
   r.factors = options.factors.empty()
                   ? log_spaced_factors(n, options.points_per_decade, options.max_factor)
@@ -663,32 +705,31 @@ AllanResult grid_and_sampling(std::span<const TimeNs> t,
   return r;
 }
 
-// S: the cumulative sums of the mean-free samples, Kahan-compensated, axes x (n+1), sample-major.
-std::unique_ptr<double[]> cumulative_sums(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
+// S: the cumulative sums of the mean-free samples over levels.scale, Kahan-compensated,
+// axes x (n+1), sample-major.
+std::unique_ptr<double[]> cumulative_sums(const Eigen::Ref<const Eigen::MatrixXd>& samples,
+                                          const AxisLevels& levels) {
   const auto n = int64_t(samples.cols());
   const int axes = int(samples.rows());
-  const Eigen::VectorXd mean = axis_means(samples);
-  if (!mean.allFinite()) throw Error("Allan deviation: the samples contain NaN or infinity");
+  if (!levels.mean.allFinite()) throw Error("Allan deviation: the samples contain NaN or infinity");
   // Not value-initialised: every entry is written below, and zeroing 345 MB first (6 axes of
   // 7.2 M samples) would cost a full extra pass over memory.
   std::unique_ptr<double[]> S_storage(new double[size_t(n + 1) * size_t(axes)]);
   double* const S = S_storage.get();
-  bool finite = true;
   switch (axes) {
     case 1:
-      finite = build_cumsum<1>(samples, mean, S, axes);
+      build_cumsum<1>(samples, levels, S, axes);
       break;
     case 3:
-      finite = build_cumsum<3>(samples, mean, S, axes);
+      build_cumsum<3>(samples, levels, S, axes);
       break;
     case 6:
-      finite = build_cumsum<6>(samples, mean, S, axes);
+      build_cumsum<6>(samples, levels, S, axes);
       break;
     default:
-      finite = build_cumsum<0>(samples, mean, S, axes);
+      build_cumsum<0>(samples, levels, S, axes);
       break;
   }
-  if (!finite) throw Error("Allan deviation: the cumulative sums of the samples overflow");
   return S_storage;
 }
 
@@ -948,9 +989,11 @@ Eigen::MatrixXi noise_types(const Eigen::MatrixXd& slope_source, const std::vect
   return alpha;
 }
 
-// The deviation curves of r (their terms, edf and confidence intervals) from the variances.
+// The deviation curves of r (their terms, edf and confidence intervals) from the variances
+// of the scaled samples (see AxisLevels): each axis' deviations times its scale.
 void fill_curves(AllanResult& r, const std::vector<Deviation>& kinds, const Variances& variance,
-                 const Eigen::MatrixXi& alpha, int64_t n, const AllanOptions& options) {
+                 const Eigen::VectorXd& scale, const Eigen::MatrixXi& alpha, int64_t n,
+                 const AllanOptions& options) {
   const auto axes = alpha.rows();
   const size_t grid = r.factors.size();
   for (Deviation d : kinds) {
@@ -959,7 +1002,7 @@ void fill_curves(AllanResult& r, const std::vector<Deviation>& kinds, const Vari
                                                          : r.hadamard;
     c.computed = true;
     const Eigen::MatrixXd& v = variance.at(d);
-    c.deviation = v.cwiseMax(0.0).cwiseSqrt();
+    c.deviation = scale.asDiagonal() * v.cwiseMax(0.0).cwiseSqrt();
     c.lower.resize(axes, Eigen::Index(grid));
     c.upper.resize(axes, Eigen::Index(grid));
     c.edf.resize(axes, Eigen::Index(grid));
@@ -992,7 +1035,8 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   AllanResult r = grid_and_sampling(t, samples, options);
   const auto n = int64_t(samples.cols());
   const int axes = int(samples.rows());
-  const std::unique_ptr<double[]> S = cumulative_sums(samples);
+  const AxisLevels levels = axis_levels(samples);
+  const std::unique_ptr<double[]> S = cumulative_sums(samples, levels);
   const Sums sums{S.get(), n, axes};
 
   std::vector<Deviation> kinds;
@@ -1010,24 +1054,11 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
   // that throws (bad_alloc) stops the rest and is rethrown here.
   parallel_for(tasks.size(), options.threads, [&](std::size_t i, unsigned) { tasks[i](); });
   add_partials(sums, r.factors, plan, partials, options, variance);
-  for (const auto& [kind, v] : variance) {
-    if (v.allFinite()) continue;
-    // Finite sums whose squared differences overflow (found in review: one value of 1e200
-    // among 0.01s gave infinite deviations, and the fit "fewer than 2 usable points").
-    Eigen::Index axis = 0, sample = 0;
-    const Eigen::VectorXd mean = samples.rowwise().mean();
-    (samples.colwise() - mean).cwiseAbs().maxCoeff(&axis, &sample);
-    throw Error(fmt::format(
-        "Allan deviation: the variances overflow: sample {} of axis {} is {:g}, too large for "
-        "its squared differences",
-        sample, axis, samples(axis, sample)));
-  }
-
   // ADEV's slopes when computed.
   const Eigen::MatrixXd& slope_source =
       options.allan ? variance.at(Deviation::kAllan) : variance.at(kinds.front());
   const Eigen::MatrixXi alpha = noise_types(slope_source, r.tau_s, options);
-  fill_curves(r, kinds, variance, alpha, n, options);
+  fill_curves(r, kinds, variance, levels.scale, alpha, n, options);
   return r;
 }
 

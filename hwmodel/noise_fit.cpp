@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/sampling.hpp"
 #include "imukit/hwmodel/chi_square.hpp"
 
 namespace imukit::hwmodel {
@@ -452,7 +453,10 @@ std::vector<int> selected_terms(const NoiseFitOptions& options) {
 
 }  // namespace
 
-NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<double>& adev,
+namespace {
+
+// fit_noise_model on a curve of order 1 (see DeviationScale).
+NoiseFit fit_independent(const std::vector<double>& tau_s, const std::vector<double>& adev,
                          const std::vector<double>& edf, const NoiseFitOptions& options) {
   if (tau_s.size() != adev.size() || tau_s.size() != edf.size()) {
     throw Error("noise fit: tau, deviation and edf lists differ in length");
@@ -520,6 +524,44 @@ NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<dou
   return fit;
 }
 
+// The fits square the deviations and the GLS covariance takes their fourth powers: a curve of
+// 1e-170 (or 1e200) under- (over-) flowed to "fewer than 2 usable points" (found in review). So
+// they fit adev / scale, scale the power of two at or below the largest finite deviation, and
+// multiply the coefficients back; a power of two divides exactly, so a curve times 2^k gives
+// the same fit times 2^k.
+class DeviationScale {
+ public:
+  explicit DeviationScale(const std::vector<double>& adev) {
+    double largest = 0.0;
+    for (const double a : adev)
+      if (std::isfinite(a)) largest = std::max(largest, std::abs(a));
+    // 2^-1023 to 2^1022 (as allan.cpp): the scale and its inverse stay finite.
+    const int e = largest > 0.0 ? std::clamp(std::ilogb(largest), -1022, 1023) : 0;
+    scale_ = std::ldexp(1.0, e);
+    inverse_ = std::ldexp(1.0, -e);
+    scaled_.reserve(adev.size());
+    for (const double a : adev) scaled_.push_back(a * inverse_);
+  }
+  const std::vector<double>& scaled() const { return scaled_; }
+  NoiseFit restore(NoiseFit f) const {
+    for (auto* v : {&f.value, &f.sigma, &f.lower, &f.upper})
+      for (double& x : *v) x *= scale_;
+    return f;
+  }
+
+ private:
+  double scale_ = 1.0, inverse_ = 1.0;
+  std::vector<double> scaled_;
+};
+
+}  // namespace
+
+NoiseFit fit_noise_model(const std::vector<double>& tau_s, const std::vector<double>& adev,
+                         const std::vector<double>& edf, const NoiseFitOptions& options) {
+  const DeviationScale s(adev);
+  return s.restore(fit_independent(tau_s, s.scaled(), edf, options));
+}
+
 SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<double>& adev,
                           const std::vector<double>& lower, const std::vector<double>& upper) {
   SlopeReadings out;
@@ -582,6 +624,8 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   });
   const std::vector<int> terms = selected_terms(options);
   const double tau0 = tau_s[use.front()] / static_cast<double>(factors[use.front()]);
+  // The rates an Allan deviation takes (RateLimits).
+  check_period(tau0, "noise fit: the sample rate (factor / tau)");
 
   // Start from the independent-points fit (edf of white FM is enough for a first model).
   std::vector<double> t1, a1, e1;
@@ -593,7 +637,7 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
   }
   NoiseFitOptions first = options;
   first.correct_for_correlation = false;
-  NoiseFit fit = fit_noise_model(t1, a1, e1, first);
+  NoiseFit fit = fit_independent(t1, a1, e1, first);
 
   const auto rows = static_cast<Eigen::Index>(use.size());
   const auto cols = static_cast<Eigen::Index>(terms.size());
@@ -695,9 +739,11 @@ std::string limit_terms_to_the_span(const std::vector<double>& tau_s,
 }
 }  // namespace
 
-NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector<double>& adev,
-                             const std::vector<int64_t>& factors, int64_t n,
-                             const NoiseFitOptions& options) {
+namespace {
+// fit_noise_model_gls on a curve of order 1 (see DeviationScale).
+NoiseFit gls_eliminating(const std::vector<double>& tau_s, const std::vector<double>& adev,
+                         const std::vector<int64_t>& factors, int64_t n,
+                         const NoiseFitOptions& options) {
   // Backward elimination: a term whose interval reaches zero is not detected; it is dropped
   // and the rest refitted, and reported as 0 with the upper bound of the last fit that held it.
   // Without this a random walk that happens to wander low at long tau lends a spurious floor to
@@ -749,6 +795,14 @@ NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector
   }
   fit.note = note;
   return fit;
+}
+}  // namespace
+
+NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector<double>& adev,
+                             const std::vector<int64_t>& factors, int64_t n,
+                             const NoiseFitOptions& options) {
+  const DeviationScale s(adev);
+  return s.restore(gls_eliminating(tau_s, s.scaled(), factors, n, options));
 }
 
 }  // namespace imukit::hwmodel

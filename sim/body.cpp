@@ -1,5 +1,7 @@
 #include "imukit/sim/body.hpp"
 
+#include <fmt/core.h>
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -341,6 +343,11 @@ Body body_from_joints(const std::vector<std::string>& names, const std::vector<i
     }
     if (!offsets.col(static_cast<Eigen::Index>(i)).allFinite())
       throw Error(at + ": the offset is not finite");
+    if (const Eigen::Vector3d o = offsets.col(static_cast<Eigen::Index>(i));
+        o.cwiseAbs().maxCoeff() > PlausibilityLimits::max_position_m) {
+      throw Error(fmt::format("{}: the offset ({:g} {:g} {:g}) m is beyond {:g} m (not metres?)",
+                              at, o.x(), o.y(), o.z(), PlausibilityLimits::max_position_m));
+    }
     for (std::size_t k = 0; k < i; ++k) {
       if (names[k] == names[i]) throw Error(at + ": duplicate joint name");
     }

@@ -20,6 +20,26 @@
 
 namespace imukit::sim {
 
+// What a human-body simulation takes as positions and angles. Beyond them an input is corrupt or
+// in another unit, and the simulator's derivatives lose all precision (found in review: Euler
+// angles of 1e300 deg, sensor positions of 1e300 m and a root translation of 1e17 m, where a
+// double's spacing is 16 m, passed without a word). The readers refuse them as errors naming the
+// place (file:line:column, or the JSON path), not as warnings: no recording of a body comes near
+// them, and a warning would let the nonsense through into the signals.
+//  - max_position_m, 1e6 m (1000 km, as keypoints' coordinates): root translations, joint
+//    offsets, End Sites, sensor positions. Beyond any one recording of a walk, a run or a ride;
+//    there a double's spacing, 1.2e-10 m, puts second differences at 1 kHz 2e-4 m/s^2 off, below
+//    a MEMS accelerometer's noise.
+//  - max_euler_deg, 1e7 deg (27,778 turns: a week of turning round once every 22 s, as the
+//    unwrapped angles of a long BVH grow; 1e6 deg would refuse a day of it). There the angle's
+//    rounding in radians, 2e-11 rad, puts angular accelerations at 1 kHz 8e-5 rad/s^2 off.
+// BVH keeps its tighter bound on lengths (BvhLimits::max_length_m): there it catches a wrong
+// scale.
+struct PlausibilityLimits {
+  static constexpr double max_position_m = 1e6;
+  static constexpr double max_euler_deg = 1e7;
+};
+
 struct Joint {
   std::string name;                                               // canonical when known
   std::string source_name;                                        // as the input spelled it

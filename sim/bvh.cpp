@@ -57,6 +57,7 @@ class Tokenizer {
     if (!next(t))
       throw Error(InputLocation{name_, line_, col_, std::nullopt},
                   std::string("unexpected end of file: expected ") + what);
+    last_ = t;
     return t;
   }
   void expect(std::string_view word) {
@@ -75,6 +76,8 @@ class Tokenizer {
     throw Error(InputLocation{name_, t.line, t.column, std::nullopt}, what);
   }
   int64_t line() const { return line_; }
+  // The token read last (a number's, for messages about its value).
+  const Token& last() const { return last_; }
   std::size_t remaining() const { return text_.size() - pos_; }
 
  private:
@@ -83,6 +86,7 @@ class Tokenizer {
   std::size_t pos_ = 0;
   int64_t line_ = 1;
   int64_t col_ = 1;
+  Token last_;
 };
 
 enum class Channel { xpos, ypos, zpos, xrot, yrot, zrot };
@@ -92,6 +96,7 @@ struct RawJoint {
   int parent = -1;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   std::optional<Eigen::Vector3d> end;
+  Token offset_at, end_at;  // their first values, for messages
   std::vector<Channel> channels;
 };
 
@@ -111,7 +116,10 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
   }
   tz.expect("{");
   tz.expect("OFFSET");
-  for (int i = 0; i < 3; ++i) j.offset(i) = tz.number("an OFFSET value");
+  for (int i = 0; i < 3; ++i) {
+    j.offset(i) = tz.number("an OFFSET value");
+    if (i == 0) j.offset_at = tz.last();
+  }
   const Token ch = tz.expect_any("CHANNELS");
   if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got " + quote_excerpt(ch.text, 24));
   const Token nt = tz.expect_any("a channel count");
@@ -152,10 +160,14 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
       tz.expect("Site");
       tz.expect("{");
       tz.expect("OFFSET");
+      RawJoint& parent_joint = joints[static_cast<std::size_t>(self)];
       Eigen::Vector3d e;
-      for (int i = 0; i < 3; ++i) e(i) = tz.number("an OFFSET value");
+      for (int i = 0; i < 3; ++i) {
+        e(i) = tz.number("an OFFSET value");
+        if (i == 0) parent_joint.end_at = tz.last();
+      }
       tz.expect("}");
-      joints[static_cast<std::size_t>(self)].end = e;
+      parent_joint.end = e;
     } else {
       tz.fail(t, "expected JOINT, End Site or '}', got " + quote_excerpt(t.text, 24));
     }
@@ -238,14 +250,15 @@ class Lengths {
   }
 
   // Lengths and positions beyond BvhLimits::max_length_m are not a body on the Earth's surface
-  // but a wrong scale or a corrupt file; refused where they are read. what() names the value.
+  // but a wrong scale or a corrupt file; refused where they are read. what() names the value,
+  // `at` is its first number's token.
   template <class What>
-  void check(const Eigen::Vector3d& v, const What& what) const {
+  void check(const Eigen::Vector3d& v, const What& what, const Token& at) const {
     if (v.cwiseAbs().maxCoeff() <= max_value_) return;
-    throw Error(fmt::format(
-        "{}: {} ({:g} {:g} {:g}) is beyond {:g} m at scale {:g}: a wrong "
-        "scale or a corrupt file",
-        source_name_, what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options_.scale));
+    throw Error(InputLocation{source_name_, at.line, at.column, std::nullopt},
+                fmt::format("{} ({:g} {:g} {:g}) is beyond {:g} m at scale {:g}: a wrong "
+                            "scale or a corrupt file",
+                            what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options_.scale));
   }
 
  private:
@@ -263,9 +276,14 @@ void add_joints(const std::vector<RawJoint>& raw, const Lengths& lengths,
   const std::vector<std::string> canon = canonicalize_joint_names(names);
   bool ignored_positions = false;
   for (std::size_t i = 0; i < raw.size(); ++i) {
-    lengths.check(raw[i].offset, [&] { return "the OFFSET of " + quote_excerpt(raw[i].name); });
-    if (raw[i].end)
-      lengths.check(*raw[i].end, [&] { return "the End Site of " + quote_excerpt(raw[i].name); });
+    lengths.check(
+        raw[i].offset, [&] { return "the OFFSET of " + quote_excerpt(raw[i].name); },
+        raw[i].offset_at);
+    if (raw[i].end) {
+      lengths.check(
+          *raw[i].end, [&] { return "the End Site of " + quote_excerpt(raw[i].name); },
+          raw[i].end_at);
+    }
     out.body.add_joint(
         canon[i], raw[i].parent,
         raw[i].parent < 0 ? Eigen::Vector3d::Zero() : lengths.to_world(raw[i].offset), raw[i].name);
@@ -311,8 +329,18 @@ Motion read_frames(Tokenizer& tz, const std::vector<RawJoint>& raw, const Motion
     for (std::size_t i = 0; i < raw.size(); ++i) {
       Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
       Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+      Token pos_at;  // the first position value's
       for (Channel c : raw[i].channels) {
         const double v = tz.number("a channel value");
+        const bool rotation = c == Channel::xrot || c == Channel::yrot || c == Channel::zrot;
+        if (rotation && std::abs(v) > PlausibilityLimits::max_euler_deg) {
+          tz.fail(tz.last(),
+                  fmt::format("frame {}, joint {}: rotation {:g} deg is beyond {:g} deg: no "
+                              "motion turns that far, and there rounding swamps its derivatives "
+                              "(a corrupt file?)",
+                              f, quote_excerpt(raw[i].name), v, PlausibilityLimits::max_euler_deg));
+        }
+        if (!rotation && pos_at.line == 0) pos_at = tz.last();
         switch (c) {
           case Channel::xpos:
             pos.x() = v;
@@ -330,7 +358,8 @@ Motion read_frames(Tokenizer& tz, const std::vector<RawJoint>& raw, const Motion
       }
       motion.rotation(f, i) = qC * q * qC.conjugate();
       if (i == 0) {
-        lengths.check(pos, [&] { return fmt::format("the root position of frame {}", f); });
+        lengths.check(
+            pos, [&] { return fmt::format("the root position of frame {}", f); }, pos_at);
         motion.root_translation(f) = root_offset + lengths.to_world(pos);
       }
     }

@@ -1,5 +1,7 @@
 #include "imukit/sim/motion.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cmath>
@@ -82,6 +84,13 @@ std::vector<std::string> Motion::validate_and_normalize(const Body* body, const 
     if (!translation_.col(f).allFinite()) {
       throw Error(where(f) + "frame " + std::to_string(f) + ": root translation is not finite");
     }
+    if (const auto p = translation_.col(f);
+        p.cwiseAbs().maxCoeff() > PlausibilityLimits::max_position_m) {
+      throw Error(
+          fmt::format("{}frame {}: root translation ({:g} {:g} {:g}) m is beyond {:g} m "
+                      "(not metres?)",
+                      where(f), f, p.x(), p.y(), p.z(), PlausibilityLimits::max_position_m));
+    }
     for (std::size_t j = 0; j < joints_; ++j) {
       Eigen::Quaterniond& q = rotation(f, j);
       if (!q.coeffs().allFinite()) {
@@ -112,14 +121,6 @@ std::vector<std::string> Motion::validate_and_normalize(const Body* body, const 
     warnings.push_back(s.str());
   }
   return warnings;
-}
-
-void check_rate(double rate_hz, const std::string& what) {
-  if (!rate_within_limits(rate_hz)) {
-    std::ostringstream s;
-    s << what << " " << rate_hz << " Hz is outside " << RateLimits::text;
-    throw Error(s.str());
-  }
 }
 
 void require_simulatable(const MotionSource& motion, const std::string& what) {
@@ -375,6 +376,13 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       if (!std::isfinite(*v)) {
         throw Error(at(fields[i].column),
                     "frame " + std::to_string(frame) + ": value is not finite");
+      }
+      // Validated again with the Motion; here where the column is known.
+      if (cols.role[i] >= 1 && cols.role[i] <= 3 &&
+          std::abs(*v) > PlausibilityLimits::max_position_m) {
+        throw Error(at(fields[i].column),
+                    fmt::format("frame {}: root translation {:g} m is beyond {:g} m (not metres?)",
+                                frame, *v, PlausibilityLimits::max_position_m));
       }
       values.push_back(*v);
       if (cols.role[i] == 0) times.push_back(*v);

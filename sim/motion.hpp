@@ -26,6 +26,7 @@
 #include <string_view>
 #include <vector>
 
+#include "imukit/core/sampling.hpp"
 #include "imukit/sim/body.hpp"
 
 namespace imukit::sim {
@@ -136,21 +137,10 @@ class Motion : public MotionSource {
   std::vector<Eigen::Quaterniond> rotations_;
 };
 
-// The rates a simulation takes, of motion frames and of sensor samples alike: one an hour (a
-// BVH's or a quaternion CSV's longest frame time, 3600 s) to 1 MHz. Below about 1e-10 Hz a
-// period no longer fits int64 nanoseconds (9.2e18 ns): sample times overflowed and counting the
-// samples never ended (found in review, 2026-11-26).
-struct RateLimits {
-  static constexpr double min_hz = 1.0 / 3600.0;
-  static constexpr double max_hz = 1e6;
-  static constexpr const char* text = "[1/3600 (one an hour), 1e6] Hz";
-};
-inline bool rate_within_limits(double rate_hz) {
-  return rate_hz >= RateLimits::min_hz && rate_hz <= RateLimits::max_hz;
-}
-// Throws imukit::Error "<what> <rate> Hz is outside [1/3600 ..., 1e6] Hz" unless the rate is
-// within RateLimits.
-void check_rate(double rate_hz, const std::string& what);
+// The rates a simulation takes (core/sampling.hpp), here under the names sim has always used.
+using imukit::check_rate;
+using imukit::rate_within_limits;
+using imukit::RateLimits;
 
 // Throws imukit::Error unless the motion can be differentiated: at least 2 frames (a 0- or
 // 1-frame motion has no velocity) and a rate within RateLimits.

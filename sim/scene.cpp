@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
@@ -39,6 +40,20 @@ Eigen::Vector3d vec3(const json& j, const std::string& source, const std::string
   if (!j.is_array() || j.size() != 3) fail(source, path, "expected an array of 3 numbers");
   return {number(j[0], source, path + "[0]"), number(j[1], source, path + "[1]"),
           number(j[2], source, path + "[2]")};
+}
+
+// A position in metres within PlausibilityLimits::max_position_m (a joint offset, a sensor
+// position).
+Eigen::Vector3d position(const json& j, const std::string& source, const std::string& path) {
+  const Eigen::Vector3d v = vec3(j, source, path);
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(v(k)) > PlausibilityLimits::max_position_m) {
+      fail(source, fmt::format("{}[{}]", path, k),
+           fmt::format("{:g} m is beyond {:g} m (not metres?)", v(k),
+                       PlausibilityLimits::max_position_m));
+    }
+  }
+  return v;
 }
 
 std::string string_of(const json& j, const std::string& source, const std::string& path) {
@@ -87,9 +102,18 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
     if (!j["intrinsic"].is_boolean()) fail(source, path + ".intrinsic", "expected true or false");
     const std::string unit = string_of(j["unit"], source, path + ".unit");
     if (unit != "deg" && unit != "rad") fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
+    const Eigen::Vector3d angles = vec3(j["euler"], source, path + ".euler");
+    const double to_deg = unit == "deg" ? 1.0 : 180.0 / std::numbers::pi;
+    for (int k = 0; k < 3; ++k) {
+      if (std::abs(angles(k) * to_deg) > PlausibilityLimits::max_euler_deg) {
+        fail(source, fmt::format("{}.euler[{}]", path, k),
+             fmt::format("{:g} {} is beyond {:g} deg: no placement turns that far (a corrupt "
+                         "file?)",
+                         angles(k), unit, PlausibilityLimits::max_euler_deg));
+      }
+    }
     try {
-      return euler_to_quaternion(vec3(j["euler"], source, path + ".euler"),
-                                 string_of(j["order"], source, path + ".order"),
+      return euler_to_quaternion(angles, string_of(j["order"], source, path + ".order"),
                                  j["intrinsic"].get<bool>(), unit == "deg");
     } catch (const Error& e) {
       fail(source, path + ".order", e.what());
@@ -125,9 +149,9 @@ Body body_of_joints(const json& joints, const std::string& source) {
     }
     parents.push_back(parent);
     if (!j.contains("offset_m")) fail(source, path + ".offset_m", "missing");
-    offsets.col(static_cast<Eigen::Index>(i)) = vec3(j["offset_m"], source, path + ".offset_m");
+    offsets.col(static_cast<Eigen::Index>(i)) = position(j["offset_m"], source, path + ".offset_m");
     ends.push_back(j.contains("end_offset_m")
-                       ? std::optional(vec3(j["end_offset_m"], source, path + ".end_offset_m"))
+                       ? std::optional(position(j["end_offset_m"], source, path + ".end_offset_m"))
                        : std::nullopt);
   }
   Body body;
@@ -395,7 +419,7 @@ SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& sourc
     if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
     s.spec.placement.joint = *j;
     if (js.contains("position_m"))
-      s.spec.placement.p_joint_sensor = vec3(js["position_m"], source, path + ".position_m");
+      s.spec.placement.p_joint_sensor = position(js["position_m"], source, path + ".position_m");
     if (js.contains("rotation"))
       s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
   } else {

@@ -1,5 +1,7 @@
 #include "imukit/sim/simulator.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -1228,6 +1230,12 @@ Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, Simulati
     const double n = s.placement.q_joint_sensor.norm();
     if (!std::isfinite(n) || n < 1e-12 || !s.placement.p_joint_sensor.allFinite()) {
       throw Error("sensor " + s.name + ": placement is not finite");
+    }
+    if (const Vector3d& p = s.placement.p_joint_sensor;
+        p.cwiseAbs().maxCoeff() > PlausibilityLimits::max_position_m) {
+      throw Error(
+          fmt::format("sensor {}: position ({:g} {:g} {:g}) m is beyond {:g} m (not metres?)",
+                      s.name, p.x(), p.y(), p.z(), PlausibilityLimits::max_position_m));
     }
     s.placement.q_joint_sensor.coeffs() /= n;
   }

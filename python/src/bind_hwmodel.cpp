@@ -5,6 +5,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/imu_series.hpp"
 #include "imukit/core/profile.hpp"
+#include "imukit/core/sampling.hpp"
 #include "imukit/hwmodel/allan.hpp"
 #include "imukit/hwmodel/characterize.hpp"
 #include "imukit/hwmodel/noise_fit.hpp"
@@ -82,6 +83,8 @@ std::shared_ptr<AllanResult> allan(py::handle samples_obj, py::handle t_obj,
       throw py::value_error(
           "allan_deviation: give the sample times t (int64 ns) or a positive rate_hz");
     }
+    // Before the times are made: at 1e-10 Hz they overflowed int64 (found in review).
+    check_rate(*rate_hz, "allan_deviation: rate_hz");
     uniform.resize(static_cast<std::size_t>(n));
     for (py::ssize_t i = 0; i < n; ++i)
       uniform[static_cast<std::size_t>(i)] = sample_time(0, i, *rate_hz);

@@ -412,8 +412,8 @@ TEST(AllanDeviation, LogGridHasRequestedDensity) {
 }
 
 TEST(AllanDeviation, RejectsNonFiniteSamplesAnywhere) {
-  // Checked through the axis means (a NaN or infinity anywhere makes its axis' sum non-finite)
-  // and the final cumulative sums (overflow), not sample by sample.
+  // Checked through the axis means (a NaN or infinity anywhere makes its axis' sum non-finite),
+  // not sample by sample.
   const auto t = uniform_times(200, 10.0);
   for (const int axes : {1, 5, 6}) {
     for (const double bad : {std::nan(""), HUGE_VAL, -HUGE_VAL}) {
@@ -424,41 +424,92 @@ TEST(AllanDeviation, RejectsNonFiniteSamplesAnywhere) {
       }
     }
   }
-  // Finite samples with a finite mean (0) whose cumulative sums overflow (1e309 at the middle).
-  Eigen::MatrixXd big(1, 200);
-  for (Eigen::Index i = 0; i < 200; ++i) big(0, i) = i < 100 ? 1e307 : -1e307;
-  EXPECT_THROW(allan_deviation(t, big), Error);
 }
 
-// Finite sums whose squares overflow (an axis of 1e300s, as a corrupt file gives): an error
-// naming the sample (found in review: infinite deviations, then a fit's "fewer than 2 usable
-// points"). The noise type of a NaN slope stays defined (it was undefined behaviour in the
-// conversion to an int, caught by UBSan in the bad-input sweep, when such curves came back).
-TEST(AllanDeviation, OverflowingVariancesAreAnErrorNamingTheSample) {
+// The deviations of a record scaled by s are s times the record's (found in review: white
+// noise of 1e-170 came back all 0, its squares underflowed, and the fit found "fewer than 2
+// usable points"; one value of 1e200, or an axis of +-1e300, squared to infinity, and 1e307s
+// overflowed the cumulative sums). Every sample is divided by a power of two near the largest
+// before anything is squared: a power-of-two scale gives the same bits, any other one the same
+// deviations to rounding. The noise type of a NaN slope stays defined (it was undefined
+// behaviour in the conversion to an int, caught by UBSan in the bad-input sweep).
+TEST(AllanDeviation, DeviationsScaleWithTheSamplesFromTinyToHuge) {
   EXPECT_EQ(alpha_from_avar_slope(std::nan("")), 0);
   const auto t = uniform_times(300, 100.0);
-  Eigen::MatrixXd y(2, 300);
+  Eigen::MatrixXd unit(4, 300);
   Rng rng(5);
   for (Eigen::Index i = 0; i < 300; ++i) {
-    y(0, i) = 0.01 * rng.normal();
-    y(1, i) = (i % 2 ? 1e300 : -1e300);
+    unit(0, i) = 0.01 * rng.normal();
+    unit(1, i) = i % 2 ? 1.0 : -1.0;
+    unit(2, i) = i == 100 ? 1.0 : 0.0;  // one value, the rest 0
+    unit(3, i) = i < 150 ? 1.0 : -1.0;  // a step: its sums reach 150 times the value
   }
-  try {
-    allan_deviation(t, y);
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("sample 0 of axis 1 is -1e+300"), std::string::npos)
-        << e.what();
+  const AllanResult r1 = allan_deviation(t, unit);
+  for (const double s : {1e-170, 1e-300, 1e200, 1e300, 1e307}) {
+    const AllanResult rs = allan_deviation(t, unit * s);
+    for (const Deviation d : {Deviation::kAllan, Deviation::kModifiedAllan, Deviation::kHadamard}) {
+      const DeviationCurve &c1 = r1.curve(d), &cs = rs.curve(d);
+      ASSERT_TRUE(cs.deviation.allFinite()) << s;
+      // Relative to each axis' largest: +-1's HDEV is 0 at even factors, 3e-17 times 1e-170.
+      const auto off = [&](const Eigen::MatrixXd& scaled, const Eigen::MatrixXd& one) {
+        return ((scaled / s - one).array().abs().colwise() / one.rowwise().maxCoeff().array())
+            .maxCoeff();
+      };
+      EXPECT_LT(off(cs.deviation, c1.deviation), 1e-12) << s << " " << int(d);
+      EXPECT_LT(off(cs.upper, c1.upper), 1e-12) << s << " " << int(d);
+      EXPECT_EQ(cs.alpha, c1.alpha) << s;
+    }
   }
-  y.row(1).setZero();
-  y(1, 100) = 1e200;  // one value: the sums stay finite, the squared differences do not
-  try {
-    allan_deviation(t, y);
-    ADD_FAILURE() << "no error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("sample 100 of axis 1 is 1e+200"), std::string::npos)
-        << e.what();
+  // +-1: ADEV(tau0) = sqrt(2) exactly as the definition gives it.
+  EXPECT_NEAR(allan_deviation(t, unit * 1e300).allan.deviation(1, 0), std::sqrt(2.0) * 1e300,
+              1e-12 * 1e300);
+  for (const int k : {-900, -600, 600, 900}) {
+    const double s = std::ldexp(1.0, k);
+    const AllanResult rs = allan_deviation(t, unit * s);
+    EXPECT_EQ(rs.allan.deviation, r1.allan.deviation * s) << k;
+    EXPECT_EQ(rs.modified.lower, r1.modified.lower * s) << k;
   }
+}
+
+// A record whose samples are all equal has deviations of exactly 0 (characterize calls such an
+// axis constant) at any magnitude, down to the smallest subnormal: the scaling of the tiny and
+// huge ones above makes no noise of its own.
+TEST(AllanDeviation, ARecordOfEqualSamplesHasZeroDeviationsAtAnyMagnitude) {
+  const auto t = uniform_times(1000, 10.0);
+  for (const double c : {0.0, 0.1, 9.80665, -1e-170, 1e300, -1.7e308, 4.9e-324}) {
+    const AllanResult r = allan_deviation(t, Eigen::MatrixXd::Constant(3, 1000, c));
+    EXPECT_TRUE(r.allan.deviation.isZero(0.0)) << c;
+    EXPECT_TRUE(r.modified.deviation.isZero(0.0)) << c;
+    EXPECT_TRUE(r.hadamard.deviation.isZero(0.0)) << c;
+  }
+}
+
+// Rates are limited to [1/3600, 1e6] Hz everywhere (RateLimits): the time stamps' mean period,
+// to the nanosecond, gives the rate (found in review: only Python's rate_hz was unchecked, and
+// overflowed building its times; here the bound is the same).
+TEST(AllanDeviation, TheTimeStampsRateMustBeWithinTheRateLimits) {
+  const Eigen::MatrixXd y = Eigen::MatrixXd::Random(1, 100);
+  std::vector<TimeNs> t(100);
+  const auto message = [&](TimeNs period_ns) {
+    for (std::size_t i = 0; i < t.size(); ++i) t[i] = TimeNs(i) * period_ns;
+    try {
+      allan_deviation(t, y);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(message(1000), "");               // 1 MHz
+  EXPECT_EQ(message(3'600'000'000'000), "");  // one an hour
+  EXPECT_EQ(message(999),
+            "Allan deviation: the time stamps' sample rate 1.001e+06 Hz is outside [1/3600 (one "
+            "an hour), 1e6] Hz");
+  EXPECT_EQ(message(3'600'000'000'001),
+            "Allan deviation: the time stamps' sample rate 0.000277778 Hz is outside [1/3600 (one "
+            "an hour), 1e6] Hz");
+  EXPECT_EQ(message(1),
+            "Allan deviation: the time stamps' sample rate 1e+09 Hz is outside [1/3600 (one an "
+            "hour), 1e6] Hz");
 }
 
 TEST(AllanDeviation, RejectsBadInput) {

@@ -72,6 +72,33 @@ TEST(Characterize, AConstantAxisIsMarkedAndTheOthersAreFitted) {
   EXPECT_EQ((*e.random_walk)(2), 0.0);
 }
 
+// Found in review: white noise of 1e-170 was called constant (its squares underflowed to 0)
+// while an axis of equal samples must still be. Noise at 1e-170 gives the 1.0 noise's N times
+// 1e-170 (to 1e-12), at any magnitude an axis of equal samples is constant.
+TEST(Characterize, TinyNoiseIsNoiseAndEqualSamplesAreConstantAtAnyMagnitude) {
+  const int64_t n = 20'000;
+  Rng rng(3);
+  std::vector<TimeNs> t(static_cast<std::size_t>(n));
+  Eigen::Matrix3Xd x(3, n);
+  for (int64_t i = 0; i < n; ++i) {
+    t[static_cast<std::size_t>(i)] = i * 10'000'000;
+    x(0, i) = rng.normal();
+    x(1, i) = 0.3 * rng.normal();
+    x(2, i) = 1.0;
+  }
+  const TriadNoise one = characterize_triad(t, x);
+  for (const double s : {1e-170, 1e-300, 1e300}) {
+    const TriadNoise tiny = characterize_triad(t, x * s);
+    for (std::size_t a = 0; a < 2; ++a) {
+      EXPECT_FALSE(tiny.axes[a].constant) << s << " " << a;
+      const double n1 = one.axes[a].fit.value[kWhite];
+      EXPECT_NEAR(tiny.axes[a].fit.value[kWhite] / s, n1, 1e-12 * n1) << s << " " << a;
+    }
+    EXPECT_TRUE(tiny.axes[2].constant) << s;
+    EXPECT_EQ(tiny.axes[2].fit.value[kWhite], 0.0) << s;
+  }
+}
+
 TEST(Characterize, CalibrationSectionIsTheForwardModel) {
   TriadCalibration c;
   c.T << 1.0, 0.01, -0.02, 0.0, 1.0, 0.03, 0.0, 0.0, 1.0;

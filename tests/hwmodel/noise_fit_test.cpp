@@ -510,5 +510,56 @@ TEST(NoiseFit, RejectsAConfidenceOutsideZeroOneAndUnusableEdfsOrFactors) {
   EXPECT_THROW(fit_noise_model_gls(tau, adev, zero, 1'000'000), Error);
 }
 
+// A curve scaled by s gives the fit times s (found in review: white noise of 1e-170, whose
+// squares underflow, gave "fewer than 2 usable points"; the GLS covariance takes fourth powers).
+// The fits divide the curve by a power of two near its largest point and multiply the
+// coefficients back: a power of two gives the same bits, any other scale the same fit to
+// rounding. Also: the GLS fit's rate, factor / tau, is within RateLimits.
+TEST(NoiseFit, FitsScaleWithTheCurveFromTinyToHuge) {
+  const Curve c = simulate(3e-3, 1e-3, 0.0, 1.0, 100.0, 100.0, 200'000, 7);
+  const NoiseFit gls1 = fit_noise_model_gls(c.tau, c.adev, c.factors, c.n);
+  const NoiseFit ind1 = fit_noise_model(c.tau, c.adev, c.edf);
+  ASSERT_GT(gls1.value[kWhite], 0.0);
+  ASSERT_GT(gls1.value[kRandomWalk], 0.0);
+  const auto scaled = [&](double s) {
+    std::vector<double> a = c.adev;
+    for (double& x : a) x *= s;
+    return a;
+  };
+  for (const double s : {1e-170, 1e-300, 1e200, 1e300}) {
+    const NoiseFit gls = fit_noise_model_gls(c.tau, scaled(s), c.factors, c.n);
+    const NoiseFit ind = fit_noise_model(c.tau, scaled(s), c.edf);
+    EXPECT_EQ(gls.active, gls1.active) << s;
+    EXPECT_EQ(ind.active, ind1.active) << s;
+    for (size_t k = 0; k < kNoiseTerms; ++k) {
+      EXPECT_NEAR(gls.value[k] / s, gls1.value[k], 1e-12 * gls1.value[k]) << s << " " << k;
+      EXPECT_NEAR(gls.sigma[k] / s, gls1.sigma[k], 1e-12 * gls1.sigma[k]) << s << " " << k;
+      EXPECT_NEAR(ind.value[k] / s, ind1.value[k], 1e-12 * ind1.value[k]) << s << " " << k;
+      if (std::isfinite(gls1.upper[k])) {
+        EXPECT_NEAR(gls.upper[k] / s, gls1.upper[k], 1e-12 * gls1.upper[k]) << s << " " << k;
+      }
+    }
+  }
+  for (const int e : {-900, 900}) {
+    const double s = std::ldexp(1.0, e);
+    const NoiseFit gls = fit_noise_model_gls(c.tau, scaled(s), c.factors, c.n);
+    for (size_t k = 0; k < kNoiseTerms; ++k) {
+      EXPECT_EQ(gls.value[k], gls1.value[k] * s) << e << " " << k;
+      EXPECT_EQ(gls.upper[k], gls1.upper[k] * s) << e << " " << k;
+    }
+  }
+  // tau0 = tau / factor of 1 ns (1e9 Hz): outside [1/3600, 1e6] Hz.
+  std::vector<double> fast = c.tau;
+  for (size_t k = 0; k < fast.size(); ++k) fast[k] = double(c.factors[k]) * 1e-9;
+  try {
+    fit_noise_model_gls(fast, c.adev, c.factors, c.n);
+    ADD_FAILURE() << "a 1 GHz curve was fitted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "noise fit: the sample rate (factor / tau) 1e+09 Hz is outside [1/3600 (one an "
+              "hour), 1e6] Hz");
+  }
+}
+
 }  // namespace
 }  // namespace imukit::hwmodel

@@ -133,6 +133,27 @@ class CharacterizeInPython(unittest.TestCase):
             imukit.characterize(imukit.Series(np.arange(100, dtype=np.int64) * 10_000_000, mag=np.ones((100, 3))))
 
 
+class ScaleInvariance(unittest.TestCase):
+    def test_tiny_and_huge_noise_gives_the_same_relative_fit(self):
+        """Found in review: white noise of amplitude 1e-170 came back with deviations of 0 (the
+        squares underflowed) and no fit. Deviations and fits scale with the samples, to 1e-12;
+        samples all equal still give deviations of exactly 0, at any magnitude."""
+        x = np.random.default_rng(1).standard_normal(1000)
+        one = imukit.allan_deviation(x, rate_hz=100.0)
+        fit1 = one.fit(0)
+        for s in (1e-170, 1e-300, 1e300):
+            res = imukit.allan_deviation(x * s, rate_hz=100.0)
+            np.testing.assert_allclose(res.allan.deviation / s, one.allan.deviation, rtol=1e-12, atol=0)
+            fit = res.fit(0)
+            for term in ("N", "B", "K"):
+                self.assertLessEqual(abs(fit.value[term] / s - fit1.value[term]), 1e-12 * fit1.value[term])
+                self.assertLessEqual(abs(fit.upper[term] / s - fit1.upper[term]), 1e-12 * fit1.upper[term])
+            self.assertGreater(fit.value["N"], 0.0)
+        for c in (0.1, 1e-170, -1e300):
+            res = imukit.allan_deviation(np.full((500, 3), c), rate_hz=100.0)
+            self.assertTrue(np.all(res.allan.deviation == 0.0))
+
+
 class BadInput(unittest.TestCase):
     def test_errors(self):
         t, _, gyro = white_recording(n=100)
@@ -146,6 +167,14 @@ class BadInput(unittest.TestCase):
             imukit.allan_deviation(gyro.reshape(10, 10, 3), t)
         with self.assertRaisesRegex(ValueError, "rate_hz"):
             imukit.allan_deviation(gyro)
+        # Rates are one an hour to 1 MHz as everywhere (found in review: 1e-10 Hz overflowed
+        # building the times, "cannot create std::vector larger than max_size()").
+        for rate in (1e-10, 2.7e-4, 1.000001e6, 1e300):
+            with self.assertRaisesRegex(imukit.Error, r"^allan_deviation: rate_hz .* Hz is outside "
+                                                      r"\[1/3600 \(one an hour\), 1e6\] Hz$"):
+                imukit.allan_deviation(gyro, rate_hz=rate)
+        self.assertEqual(imukit.allan_deviation(gyro, rate_hz=1.0 / 3600).tau0_s, 3600.0)
+        self.assertAlmostEqual(imukit.allan_deviation(gyro, rate_hz=1e6).tau0_s, 1e-6, delta=1e-18)
         with self.assertRaises(imukit.Error) as e:
             imukit.allan_deviation(gyro[:5], t[:5])
         self.assertIn("8 samples", str(e.exception))

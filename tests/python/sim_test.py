@@ -263,3 +263,22 @@ class Errors(unittest.TestCase):
         rot[7, 1] = 0.0
         with self.assertRaisesRegex(imukit.Error, "frame 7, joint .*: quaternion is all zeros"):
             imukit.Motion.from_arrays(rot, None, rate_hz=100.0, body=body)
+
+    def test_positions_beyond_1e6_m_are_errors(self):
+        """Found in review: a root translation of 1e17 m (double spacing 16 m) and a sensor 1e300 m
+        from its joint were simulated without a word. Positions are bounded at 1e6 m
+        (sim::PlausibilityLimits), from arrays as from files."""
+        body = imukit.Body.default_humanoid()
+        rot = np.zeros((10, len(body), 4))
+        rot[..., 0] = 1.0
+        tr = np.zeros((10, 3))
+        tr[4, 0] = 1e17
+        with self.assertRaisesRegex(
+                imukit.Error, r"^motion: frame 4: root translation \(1e\+17 0 0\) m is beyond 1e\+06 m \(not metres\?\)$"):
+            imukit.Motion.from_arrays(rot, tr, rate_hz=100.0, body=body)
+        tr[4, 0] = -1e6
+        m = imukit.Motion.from_arrays(rot, tr, rate_hz=100.0, body=body)
+        scene = imukit.Scene(body, m)
+        scene.add_sensor("far", joint="pelvis", position_m=[0.0, 1e300, 0.0])
+        with self.assertRaisesRegex(imukit.Error, r"sensor far: position \(0 1e\+300 0\) m is beyond 1e\+06 m"):
+            scene.simulate()

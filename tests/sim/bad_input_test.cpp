@@ -9,7 +9,9 @@
 #include "imukit/core/error.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/identify.hpp"
+#include "imukit/sim/motion.hpp"
 #include "imukit/sim/scene.hpp"
+#include "imukit/sim/simulator.hpp"
 #include "support/expect_error.hpp"
 
 namespace imukit::sim {
@@ -44,10 +46,11 @@ TEST(BadInput, BvhScaleAndLengthsMustBePhysical) {
                {"f.bvh: the BVH scale must be in [1e-05, 100]"});
   expect_error([&] { parse_bvh(bvh("0.01", kFrames), "f.bvh", {.scale = std::nan("")}); },
                {"BVH scale"});
+  // At the value's line and column (found in review: only the file was named).
   expect_error([&] { parse_bvh(bvh("0.01", "1e300 0 0 0 0 0 0 0 0\n" + kFrames), "f.bvh"); },
-               {"the root position of frame 0", "beyond 10000 m"});
+               {"f.bvh:19:1: the root position of frame 0 (1e+300 0 0) is beyond 10000 m"});
   expect_error([&] { parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh"); },
-               {"the OFFSET of 'Spine'", "beyond 10000 m at scale 1"});
+               {"f.bvh:8:12: the OFFSET of 'Spine'", "beyond 10000 m at scale 1"});
   // The same file in centimetres is fine.
   EXPECT_NO_THROW(parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh", {.scale = 0.01}));
 }
@@ -57,6 +60,87 @@ TEST(BadInput, BvhTokensAreQuotedShortAndEscaped) {
   expect_error([] { parse_bvh("root:x:0:0:root:/root:/bin/bash\n", "passwd"); },
                {"passwd:1:1: expected 'HIERARCHY', got 'root:x:0:0:root:/root:/b...' (31 bytes)"});
   expect_error([] { parse_bvh("\x01\x02\xff", "bin"); }, {"got '\\x01\\x02\\xFF'"});
+}
+
+// Found in review: Euler angles of 1e300 deg, a sensor 1e300 m from its joint and a root
+// translation of 1e17 m (double spacing 16 m) were simulated without a word. Each reader refuses
+// what PlausibilityLimits bounds (1e6 m, 1e7 deg) where the value is, and the types' own checks
+// (Motion, body_from_joints, Simulator) catch what comes from elsewhere (Python's arrays).
+TEST(BadInput, BvhEulerAnglesBeyondTheLimitAreErrorsAtTheirLineAndColumn) {
+  const std::string kZeros = "0 0 0 0 0 0 0 0 0\n";  // one frame
+  expect_error([&] { parse_bvh(bvh("0.01", kZeros + "0 0 0 0 0 0 0 0 1e300\n"), "f.bvh"); },
+               {"f.bvh:20:17: frame 1, joint 'Spine': rotation 1e+300 deg is beyond 1e+07 deg"});
+  // Also the root's, and just past the limit; exactly at it (27,778 turns) is read.
+  expect_error([&] { parse_bvh(bvh("0.01", "0 0 0 -1.0000001e7 0 0 0 0 0\n" + kZeros), "f.bvh"); },
+               {"f.bvh:19:7: frame 0, joint 'Hips': rotation -1e+07 deg is beyond 1e+07 deg"});
+  EXPECT_NO_THROW(parse_bvh(bvh("0.01", "0 0 0 1e7 -1e7 0 0 0 1e7\n" + kZeros), "f.bvh"));
+}
+
+TEST(BadInput, ScenePositionsAndEulerAnglesBeyondTheLimitsAreErrorsNamingTheField) {
+  const auto scene = [](const std::string& joints, const std::string& sensor) {
+    return R"({"schema": "imukit.scene/1", "body": {"joints": [
+      {"name": "pelvis", "parent": null, "offset_m": [0, 0, 1]}, )" +
+           joints + R"(]}, "motion": {"procedural": {"rate_hz": 100, "duration_s": 1}},
+      "sensors": [{"name": "s", "segment": "x", )" +
+           sensor + "}]}";
+  };
+  const std::string x = R"({"name": "x", "parent": "pelvis", "offset_m": [0.1, 0, 0]})";
+  const std::string euler = R"("rotation": {"order": "XYZ", "intrinsic": true, "euler": )";
+  expect_error([&] { parse_scene(scene(x, R"("position_m": [0, 1e300, 0])"), "s.json", ""); },
+               {"s.json: sensors[0].position_m[1]: 1e+300 m is beyond 1e+06 m (not metres?)"});
+  expect_error(
+      [&] { parse_scene(scene(x, euler + R"([0, 1e300, 0], "unit": "deg"})"), "s.json", ""); },
+      {"s.json: sensors[0].rotation.euler[1]: 1e+300 deg is beyond 1e+07 deg"});
+  // 2e5 rad is 1.15e7 deg; 1.7e5 rad, 9.7e6 deg, is read.
+  expect_error(
+      [&] { parse_scene(scene(x, euler + R"([0, 0, 2e5], "unit": "rad"})"), "s.json", ""); },
+      {"s.json: sensors[0].rotation.euler[2]: 200000 rad is beyond 1e+07 deg"});
+  EXPECT_NO_THROW(parse_scene(scene(x, euler + R"([0, 0, 1.7e5], "unit": "rad"})"), "s.json", ""));
+  expect_error(
+      [&] {
+        parse_scene(scene(R"({"name": "x", "parent": "pelvis", "offset_m": [1e300, 0, 0]})",
+                          R"("position_m": [0, 0, 0])"),
+                    "s.json", "");
+      },
+      {"s.json: body.joints[1].offset_m[0]: 1e+300 m is beyond 1e+06 m"});
+  expect_error(
+      [&] {
+        parse_scene(scene(R"({"name": "x", "parent": "pelvis", "offset_m": [0, 0, 0],
+                               "end_offset_m": [0, 0, -2e6]})",
+                          R"("position_m": [0, 0, 0])"),
+                    "s.json", "");
+      },
+      {"s.json: body.joints[1].end_offset_m[2]: -2e+06 m is beyond 1e+06 m"});
+  EXPECT_NO_THROW(parse_scene(scene(x, R"("position_m": [0, 1e6, 0])"), "s.json", ""));
+}
+
+TEST(BadInput, RootTranslationsBodyOffsetsAndSensorPositionsBeyond1e6MetresAreErrors) {
+  const Body body = Body::default_humanoid();
+  expect_error(
+      [&] {
+        parse_quaternion_csv("t,root_x,root_y,root_z\n0,0,0,0\n0.01,1e17,0,0\n0.02,0,0,0\n",
+                             "q.csv", body, std::nullopt, nullptr);
+      },
+      {"q.csv:3:6: frame 1: root translation 1e+17 m is beyond 1e+06 m (not metres?)"});
+  Motion m(100.0, 1, 3);
+  m.root_translation(2) = Eigen::Vector3d(0, -1e17, 0);
+  expect_error([&] { m.validate_and_normalize(); },
+               {"motion: frame 2: root translation (0 -1e+17 0) m is beyond 1e+06 m"});
+  m.root_translation(2) = Eigen::Vector3d(0, -1e6, 0);
+  EXPECT_NO_THROW(m.validate_and_normalize());
+  Eigen::Matrix3Xd offsets = Eigen::Matrix3Xd::Zero(3, 2);
+  offsets(0, 1) = 1e300;
+  expect_error(
+      [&] {
+        body_from_joints({"pelvis", "x"}, {-1, 0}, offsets, "b");
+      },
+      {"b: joint 1 ('x'): the offset (1e+300 0 0) m is beyond 1e+06 m (not metres?)"});
+  SensorSpec spec;
+  spec.name = "s";
+  spec.placement.joint = 0;
+  spec.placement.p_joint_sensor = Eigen::Vector3d(0, 0, 1e300);
+  expect_error([&] { Simulator(body, {spec}, {}); },
+               {"sensor s: position (0 0 1e+300) m is beyond 1e+06 m (not metres?)"});
 }
 
 std::string procedural_scene(const std::string& motion_extra, const std::string& simulation) {
