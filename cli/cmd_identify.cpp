@@ -492,7 +492,7 @@ IMUKIT_REGISTER_COMMAND(
                      "--init left_wrist_watch \\\n"
                      "      -o placement.json --plot plots\n"
                      "  imukit identify --imu 02_undisturbed_slow_rotation_B.csv --columns "
-                     "t,ax,ay,az,gx,gy,gz,_*\n"
+                     "'t,ax,ay,az,gx,gy,gz,_*' \\\n"
                      "      --pose 02_undisturbed_slow_rotation_B.csv --columns "
                      "t,_9,qw,qx,qy,qz,px,py,pz,_ \\\n"
                      "      --gaps qw,qx,qy,qz,px,py,pz -o placement.json\n");

@@ -323,7 +323,7 @@ IMUKIT_REGISTER_COMMAND(
               "it.\n\n"
               "Examples:\n"
               "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
-              "  imukit record serial:/dev/ttyUSB0?codec=witmotion hid:054c:09cc -o session.mcap\n"
+              "  imukit record 'serial:/dev/ttyUSB0?codec=witmotion' hid:054c:09cc -o session.mcap\n"
               "  imukit record 'mock:poses?clock=virtual&poses=12&profile=examples/profiles/"
               "wrist_watch_imu.json' \\\n"
               "      --guide multipos --poses 12 --duration 600 -o poses.mcap\n"

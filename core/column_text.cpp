@@ -71,6 +71,22 @@ bool is_blank_line(std::string_view line) {
   return true;
 }
 
+// Why the columns `present` name a triad in part ("the accelerometer needs all three columns
+// ax,ay,az"), or empty when every triad is whole or absent.
+std::string partial_triad(const std::bitset<kColumnCount>& present) {
+  constexpr std::array<std::pair<Column, const char*>, 3> kTriads = {
+      {{Column::ax, "accelerometer"}, {Column::gx, "gyroscope"}, {Column::mx, "magnetometer"}}};
+  for (const auto& [x, what] : kTriads) {
+    const std::size_t first = index(x);
+    const int n = int(present[first]) + int(present[first + 1]) + int(present[first + 2]);
+    if (n != 0 && n != 3) {
+      return fmt::format("the {} needs all three columns {},{},{}", what, kNames[first],
+                         kNames[first + 1], kNames[first + 2]);
+    }
+  }
+  return {};
+}
+
 ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
                        const HeaderCheck& check_header) {
   if (spec.columns.empty())
@@ -127,6 +143,15 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
           throw Error(where(f.column),
                       fmt::format("{}: {} is not a finite decimal time that fits in int64 ns",
                                   describe(), quote_excerpt(f.text, 24)));
+        }
+        if (spec.integer_time &&
+            f.text.find_first_not_of("0123456789", f.text.starts_with('-') ? 1 : 0) !=
+                std::string_view::npos) {
+          throw Error(
+              where(f.column),
+              fmt::format("{}: {} is not an integer number of {} (this format's times "
+                          "are written as integers)",
+                          describe(), quote_excerpt(f.text, 24), time_unit_name(spec.time_unit)));
         }
         if (!table.t.empty() && *t < table.t.back()) {
           throw Error(
@@ -252,6 +277,15 @@ bool ColumnSpec::has(Column c) const {
   return false;
 }
 
+void ColumnSpec::require_whole_triads() const {
+  std::bitset<kColumnCount> present;
+  for (const auto& col : columns) {
+    if (col) present.set(index(*col));
+  }
+  if (const std::string why = partial_triad(present); !why.empty())
+    throw Error(fmt::format("--columns '{}': {}", to_string(), why));
+}
+
 std::string ColumnSpec::to_string() const {
   std::string out;
   std::size_t skipped = 0;
@@ -292,16 +326,11 @@ ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {
     throw Error(InputLocation{table.source, {}, {}, {}},
                 "no time column: name one with t in --columns");
   }
-  const auto triad = [&](Column x, double factor, Eigen::Matrix3Xd& out, const char* what) {
+  if (const std::string why = partial_triad(table.present); !why.empty())
+    throw Error(InputLocation{table.source, {}, {}, {}}, why);
+  const auto triad = [&](Column x, double factor, Eigen::Matrix3Xd& out) {
     const std::size_t first = index(x);
-    const int present = int(table.has(x)) + int(table.has(static_cast<Column>(first + 1))) +
-                        int(table.has(static_cast<Column>(first + 2)));
-    if (present == 0) return;
-    if (present != 3) {
-      throw Error(InputLocation{table.source, {}, {}, {}},
-                  fmt::format("the {} needs all three columns {},{},{}", what, kNames[first],
-                              kNames[first + 1], kNames[first + 2]));
-    }
+    if (!table.has(x)) return;
     out.resize(3, static_cast<Eigen::Index>(table.rows));
     for (std::size_t axis = 0; axis < 3; ++axis) {
       const std::vector<double>& v = table.values[first + axis];
@@ -320,9 +349,9 @@ ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {
   };
   ImuSeries series;
   series.t = table.t;
-  triad(Column::ax, scale.accel, series.accel, "accelerometer");
-  triad(Column::gx, scale.gyro, series.gyro, "gyroscope");
-  triad(Column::mx, scale.mag, series.mag, "magnetometer");
+  triad(Column::ax, scale.accel, series.accel);
+  triad(Column::gx, scale.gyro, series.gyro);
+  triad(Column::mx, scale.mag, series.mag);
   if (table.has(Column::temp)) {
     series.temperature_c = Eigen::Map<const Eigen::VectorXd>(table[Column::temp].data(),
                                                              static_cast<Eigen::Index>(table.rows));

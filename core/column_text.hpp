@@ -57,12 +57,19 @@ struct ColumnSpec {
   std::vector<std::optional<Column>> columns;  // file column -> name, nullopt = skipped
   bool ignore_extra = false;                   // the map ended with "_*"
   TimeUnit time_unit = TimeUnit::s;
+  // Times are whole numbers of time_unit, written as plain integers (EuRoC's nanoseconds): a
+  // fraction or an exponent is an error rather than rounded.
+  bool integer_time = false;
   std::bitset<kColumnCount> gappy;
 
   // Parses "--columns" and "--gaps" text; throws imukit::Error naming the bad token.
   static ColumnSpec parse(std::string_view columns, std::string_view gaps = {},
                           TimeUnit time_unit = TimeUnit::s);
   bool has(Column c) const;
+  // Throws imukit::Error (no location: the map is the command line's) when the map names a
+  // triad (ax..az, gx..gz, mx..mz) in part, which to_imu_series refuses; a reader of IMU samples
+  // calls it before reading any row, so the map's mistake is not hidden behind a row's.
+  void require_whole_triads() const;
   // The map written back in the grammar, e.g. "t,ax,ay,az,_2".
   std::string to_string() const;
 };

@@ -12,7 +12,12 @@ namespace imukit {
 namespace {
 
 const ColumnSpec& euroc_spec() {
-  static const ColumnSpec spec = ColumnSpec::parse("t,gx,gy,gz,ax,ay,az", {}, TimeUnit::ns);
+  // EuRoC's timestamps are integer nanoseconds (found in review: 1000.5 and 1e3 were read).
+  static const ColumnSpec spec = [] {
+    ColumnSpec s = ColumnSpec::parse("t,gx,gy,gz,ax,ay,az", {}, TimeUnit::ns);
+    s.integer_time = true;
+    return s;
+  }();
   return spec;
 }
 

@@ -161,9 +161,9 @@ void validate_hardware_model(const HardwareModel& model, const SensorRates& rate
   check_finite(model.magnetometer.soft_iron, "magnetometer.soft_iron");
   // The clock: a crystal is off by tens of ppm; 1 % is a broken device, not a clock error. Jitter
   // above a tenth of the period would reorder samples (the simulator clips draws at 0.45 periods).
-  if (!(std::abs(model.clock.error_ppm) <= 1e4))
-    fail(fmt::format("clock.error_ppm is {}, expected a finite number within +-1e4 ppm",
-                     model.clock.error_ppm));
+  if (!(std::abs(model.clock.error_ppm) <= ClockModel::kMaxErrorPpm))
+    fail(fmt::format("clock.error_ppm is {}, expected a finite number within +-{:g} ppm",
+                     model.clock.error_ppm, ClockModel::kMaxErrorPpm));
   const double fastest =
       std::max({rates.accelerometer_hz, rates.gyroscope_hz, rates.magnetometer_hz});
   if (!(model.clock.jitter_s >= 0.0 && std::isfinite(model.clock.jitter_s)) ||

@@ -71,6 +71,9 @@ struct MagnetometerModel : TriadModel {
 // k / (f (1 + error_ppm 1e-6)) plus a white timing jitter of 1-sigma jitter_s, while the device
 // stamps it k / f.
 struct ClockModel {
+  // A crystal is off by tens of ppm; beyond this, a broken device (validate_hardware_model and
+  // the profile reader refuse it).
+  static constexpr double kMaxErrorPpm = 1e4;
   double error_ppm = 0.0;  // frequency error of the device clock, ppm (+ = runs fast)
   double jitter_s = 0.0;   // 1-sigma jitter of each sample instant, s
   bool ideal() const { return error_ppm == 0.0 && jitter_s == 0.0; }

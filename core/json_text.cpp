@@ -69,6 +69,93 @@ std::size_t json_key_offset(std::string_view text, std::size_t n) {
   return text.size();
 }
 
+namespace {
+
+std::size_t skip_blanks(std::string_view text, std::size_t i) {
+  while (i < text.size() &&
+         (text[i] == ' ' || text[i] == '\t' || text[i] == '\n' || text[i] == '\r'))
+    ++i;
+  return i;
+}
+
+// One past the string whose opening quote is at i.
+std::size_t skip_string(std::string_view text, std::size_t i) {
+  for (++i; i < text.size() && text[i] != '"'; ++i) {
+    if (text[i] == '\\') ++i;
+  }
+  return std::min(i + 1, text.size());
+}
+
+// One past the value that starts at i (well-formed text: brackets only need counting).
+std::size_t skip_value(std::string_view text, std::size_t i) {
+  int depth = 0;
+  for (; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '"') {
+      i = skip_string(text, i) - 1;
+    } else if (c == '{' || c == '[') {
+      ++depth;
+    } else if (c == '}' || c == ']') {
+      if (depth == 0) return i;  // a scalar ends at its container's end
+      --depth;
+    } else if (c == ',' && depth == 0) {
+      return i;
+    }
+    if (depth == 0 && (c == '"' || c == '}' || c == ']')) return i + 1;
+  }
+  return i;
+}
+
+}  // namespace
+
+std::size_t json_path_offset(std::string_view text, std::string_view path) {
+  std::size_t at = skip_blanks(text, 0);
+  while (!path.empty()) {
+    if (path.front() == '.') {
+      path.remove_prefix(1);
+      continue;
+    }
+    if (path.front() == '[') {
+      const std::size_t close = path.find(']');
+      std::size_t n = 0;
+      for (std::size_t k = 1; k < close && k < path.size(); ++k)
+        n = n * 10 + static_cast<std::size_t>(path[k] - '0');
+      if (close == std::string_view::npos || at >= text.size() || text[at] != '[') return at;
+      std::size_t i = skip_blanks(text, at + 1);
+      for (std::size_t k = 0; k < n; ++k) {
+        i = skip_blanks(text, skip_value(text, i));
+        if (i >= text.size() || text[i] != ',') return at;
+        i = skip_blanks(text, i + 1);
+      }
+      if (i >= text.size() || text[i] == ']') return at;
+      at = i;
+      path.remove_prefix(close + 1);
+      continue;
+    }
+    const std::size_t end = std::min(path.find('.'), path.find('['));
+    const std::string_view key = path.substr(0, end);
+    if (at >= text.size() || text[at] != '{') return at;
+    std::size_t i = skip_blanks(text, at + 1);
+    bool found = false;
+    while (i < text.size() && text[i] == '"') {
+      const std::size_t key_end = skip_string(text, i);
+      const bool match = text.substr(i + 1, key_end - i - 2) == key;
+      i = skip_blanks(text, key_end);                       // at the colon
+      i = skip_blanks(text, std::min(i + 1, text.size()));  // at the value
+      if (match) {
+        found = true;
+        break;
+      }
+      i = skip_blanks(text, skip_value(text, i));
+      if (i < text.size() && text[i] == ',') i = skip_blanks(text, i + 1);
+    }
+    if (!found) return at;
+    at = i;
+    path.remove_prefix(std::min(end, path.size()));
+  }
+  return at;
+}
+
 // nlohmann's messages start with "[json.exception.parse_error.101] parse error at line 1,
 // column 2: "; the location is printed our way, so keep only what went wrong.
 std::string json_error_reason(std::string message) {

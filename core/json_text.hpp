@@ -31,6 +31,12 @@ std::string json_error_reason(std::string message);
 // document order; text.size() when there are fewer keys.
 std::size_t json_key_offset(std::string_view text, std::size_t n);
 
+// Byte offset of the value at `path` in well-formed JSON text: object keys joined by '.', array
+// elements as [i] ("accelerometer.noise.allan.adev[1][3]"), "" for the root. Where the path
+// leaves the document (a missing key), the offset of the deepest value it reaches, so an error
+// about a key that is absent points at the object that lacks it.
+std::size_t json_path_offset(std::string_view text, std::string_view path);
+
 namespace detail {
 
 // Builds the document from nlohmann's SAX events, recording where a parse error happened (its

@@ -122,11 +122,19 @@ struct DeviceProfile {
   bool operator==(const DeviceProfile&) const = default;
 };
 
-// Parses profile JSON. Throws imukit::Error: a syntax error names source_name:line:column; a
-// semantic error names the JSON path ("accelerometer.noise.noise_density: expected an array of
-// 3 numbers, got a string"); a missing or unknown schema is rejected. Unknown keys are ignored.
+// Parses profile JSON. Throws imukit::Error naming source_name:line:column; a semantic error
+// also names the JSON path ("accelerometer.noise.noise_density: expected an array of 3 numbers,
+// got a string") and points at its value (or, for a missing key, at the object that lacks it);
+// a missing or unknown schema is rejected. Unknown keys are ignored.
 DeviceProfile parse_profile(std::string_view text, const std::string& source_name);
 DeviceProfile read_profile(const std::string& path);
+
+// Reads the profile at `path` (as read_profile) and checks it for a hardware model run at
+// rate_hz: the rules of validate_hardware_model that depend on the rate (a bandwidth below half
+// of it, a bias-instability band starting 5 samples in, clock jitter at most a tenth of its
+// period), so a failure names path:line:column and the file's key
+// (accelerometer.limits.bandwidth) rather than the model's field (bandwidth_hz).
+DeviceProfile read_profile_for_rate(const std::string& path, double rate_hz);
 
 // JSON text of the profile (ends with a newline). Throws imukit::Error naming the field if a
 // number is not finite or a value would not read back (the writer checks what the reader does).

@@ -51,6 +51,7 @@ bool LineReader::refill() {
   end_ = pending;
   if (end_ == buffer_.size()) {
     if (buffer_.size() >= kMaxLineBytes) {
+      check_text(std::string_view(buffer_.data(), end_), line_number_ + 1);  // why, if it can
       throw Error(InputLocation{source_name_, line_number_ + 1, {}, {}},
                   fmt::format("line longer than {} MiB: not a text file?", kMaxLineBytes >> 20));
     }
@@ -96,7 +97,30 @@ std::optional<std::string_view> LineReader::next() {
   }
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
   ++line_number_;
+  check_text(line, line_number_);
   return line;
+}
+
+// A file that is not line-oriented text would otherwise be read as one huge line (bare CR line
+// ends: "expected 7 columns, found 1201") or as rows of binary noise quoted in the messages
+// (found in review); say what it is instead.
+void LineReader::check_text(std::string_view line, int64_t number) const {
+  if (number == 1 && line.starts_with("\x89MCAP")) {
+    throw Error(InputLocation{source_name_, 1, 1, {}}, "an MCAP recording (binary), not text");
+  }
+  std::size_t text_end = line.size();  // before a run of CRs at the end, which trim() removes
+  while (text_end > 0 && line[text_end - 1] == '\r') --text_end;
+  for (std::size_t i = 0; i < text_end; ++i) {
+    const auto c = static_cast<unsigned char>(line[i]);
+    if (c >= 0x20 || c == '\t') continue;
+    const InputLocation where{source_name_, number, static_cast<int64_t>(i + 1), {}};
+    if (c == '\r') {
+      throw Error(where,
+                  "a carriage return (\\r) inside a line: the file's lines end with a bare CR "
+                  "(classic Mac OS); save it with \\n or \\r\\n line ends");
+    }
+    throw Error(where, fmt::format("control byte 0x{:02X}: a binary file, not text", c));
+  }
 }
 
 void split_fields(std::string_view line, std::vector<Field>& out) {

@@ -26,7 +26,8 @@ class LineReader {
   LineReader(const LineReader&) = delete;
   LineReader& operator=(const LineReader&) = delete;
 
-  // The next line, valid until the next call; nullopt at the end of the input.
+  // The next line, valid until the next call; nullopt at the end of the input. Throws
+  // imukit::Error, at the line, when the input is not line-oriented text (check_text).
   std::optional<std::string_view> next();
   // 1-based number of the line last returned.
   int64_t line_number() const { return line_number_; }
@@ -34,6 +35,9 @@ class LineReader {
 
  private:
   bool refill();
+  // Throws imukit::Error at a line that shows the input is not line-oriented text: an MCAP
+  // recording, a bare CR inside it (CR-only line ends), or another control byte (binary data).
+  void check_text(std::string_view line, int64_t number) const;
 
   std::string source_name_;
   std::FILE* file_ = nullptr;

@@ -128,12 +128,17 @@ TEST(ColumnText, MalformedLinesNameFileLineAndColumn) {
                           ColumnSpec::parse("t,ax,ay,az", {}, TimeUnit::ms));
       },
       {"ms.csv:2:1", "('1250.5' after 1500 on the row before, in ms)"});
-  // Bytes of the file are quoted escaped and short, never raw.
+  // Bytes of the file are quoted escaped and short, never raw; a control byte is binary data.
+  expect_error(
+      [&] {
+        parse_column_text("0,1,2,3\n1,\xff\xfezzzzzzzzzzzzzzzzzzzzzzzzzz,2,3\n", "bad.csv", spec);
+      },
+      {"'\\xFF\\xFEzzzzzzzzzzzzzzzzzzzzzz...' (28 bytes) is not a number"});
   expect_error(
       [&] {
         parse_column_text("0,1,2,3\n1,\x01\x02zzzzzzzzzzzzzzzzzzzzzzzzzz,2,3\n", "bad.csv", spec);
       },
-      {"'\\x01\\x02zzzzzzzzzzzzzzzzzzzzzz...' (28 bytes) is not a number"});
+      {"bad.csv:2:3: control byte 0x01: a binary file, not text"});
   expect_error([&] { parse_column_text("0,1,2,3\nx1,1,2,3\n", "bad.csv", spec); },
                {"bad.csv:2:1", "'x1'"});
   expect_error([&] { parse_column_text("0,1,2,3\n1,1,2,\n", "bad.csv", spec); },
@@ -152,6 +157,18 @@ TEST(ColumnText, ToImuSeriesScalesAndChecksTriads) {
   expect_error([&] { to_imu_series(partial); }, {"accelerometer needs all three columns"});
   const ColumnTable no_time = parse_column_text("1 2 3\n", "m", ColumnSpec::parse("ax,ay,az"));
   expect_error([&] { to_imu_series(no_time); }, {"no time column"});
+}
+
+// Found in review: a partial triad was found only once the rows were read (after a row's column
+// count error, if any); a reader of IMU samples can now refuse the map first.
+TEST(ColumnSpec, RequireWholeTriadsNamesTheMapAndTheTriad) {
+  expect_error([] { ColumnSpec::parse("t,ax,_*").require_whole_triads(); },
+               {"--columns 't,ax,_*': the accelerometer needs all three columns ax,ay,az"});
+  expect_error([] { ColumnSpec::parse("t,ax,ay,az,gz").require_whole_triads(); },
+               {"--columns 't,ax,ay,az,gz': the gyroscope needs all three columns gx,gy,gz"});
+  expect_error([] { ColumnSpec::parse("mx,my").require_whole_triads(); },
+               {"the magnetometer needs all three columns mx,my,mz"});
+  EXPECT_NO_THROW(ColumnSpec::parse("t,_,ax,ay,az,gx,gy,gz,temp,qw,px,_*").require_whole_triads());
 }
 
 // Every numeric text file in shared/data reads with an appropriate map (DESIGN.md promise).

@@ -68,6 +68,13 @@ TEST(EurocCsv, MalformedLinesAreRejectedWithTheLineNumber) {
       {"1,0,0,0,0,inf,9.8\n", "x.csv:3:11: column 6 (ay): infinite value"},
       {"1,0,0,0,0,0,-Infinity\n", "x.csv:3:13: column 7 (az): infinite value"},
       {"abc,0,0,0,0,0,9.8\n", "x.csv:3:1: column 1 (t): 'abc' is not a finite decimal time"},
+      // Found in review: EuRoC's integer nanoseconds were read from a fraction or an exponent.
+      {"1000.5,0,0,0,0,0,9.8\n",
+       "x.csv:3:1: column 1 (t): '1000.5' is not an integer number of ns (this format's times are "
+       "written as integers)"},
+      {"1e3,0,0,0,0,0,9.8\n",
+       "x.csv:3:1: column 1 (t): '1e3' is not an integer number of ns (this format's times are "
+       "written as integers)"},
   };
   for (const Case& c : cases) {
     const std::string text = header + "\n0,0,0,0,0,0,9.8\n" + c.body;

@@ -54,5 +54,22 @@ TEST(JsonText, AKeyGivenTwiceInOneObjectIsAnErrorAtItsSecondOccurrence) {
                Error);
 }
 
+TEST(JsonText, PathOffsetFindsTheValueOrItsDeepestAncestor) {
+  // Strings holding brackets, commas and escaped quotes do not confuse the scan.
+  const std::string_view text =
+      R"({"a": "x,]}\"", "b": [{"c": 1}, {"c": [10, "]", {"d": null}]}], "e": {}})";
+  const auto at = [&](std::string_view path) {
+    return std::string(text.substr(json_path_offset(text, path), 6));
+  };
+  EXPECT_EQ(json_path_offset(text, ""), 0u);
+  EXPECT_EQ(at("a"), R"("x,]}\)");
+  EXPECT_EQ(at("b[1].c[2].d"), "null}]");
+  EXPECT_EQ(at("b[1].c[1]"), R"("]", {)");
+  EXPECT_EQ(at("b[0].c"), "1}, {\"");
+  EXPECT_EQ(at("e.missing"), "{}}");  // the object lacking the key
+  EXPECT_EQ(at("b[5]"), at("b"));     // past the array's end: the array
+  EXPECT_EQ(at("(top level)"), at(""));
+}
+
 }  // namespace
 }  // namespace imukit

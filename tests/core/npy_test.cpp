@@ -97,5 +97,63 @@ TEST(Npy, MalformedFilesNameTheByteOffset) {
   expect(longer, "header longer than the file");
 }
 
+// Found in review: the header was searched for each key's text, so `(3 1)`, a dict never closed
+// and a key inside another value were read; a 9-byte start of a valid file was "missing the
+// magic". The header is a Python literal dict, parsed strictly, each error at its byte.
+TEST(Npy, HeaderIsParsedAsAPythonDictWithByteOffsets) {
+  const std::string data(24, '\0');  // 3 doubles
+  const auto file = [&](const std::string& dict) {
+    const std::string header = dict + "\n";
+    std::string f("\x93NUMPY\x01\x00", 8);
+    f += static_cast<char>(header.size() & 0xFF);
+    f += static_cast<char>(header.size() >> 8);
+    return f + header + data;
+  };
+  const auto error = [](const std::string& bytes) -> std::string {
+    try {
+      parse_npy(std::span<const std::byte>(reinterpret_cast<const std::byte*>(bytes.data()),
+                                           bytes.size()),
+                "h.npy");
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string head = "{'descr': '<f8', 'fortran_order': False, 'shape': ";
+  EXPECT_EQ(error(file(head + "(3 1), }")),
+            "h.npy: byte 63: not a valid .npy: expected ',' or ')' after a dimension of the shape");
+  EXPECT_EQ(error(file(head + "(3,), ")),
+            "h.npy: byte 67: not a valid .npy: header dict is not closed (expected a key in "
+            "quotes, or '}' before its end)");
+  EXPECT_EQ(error(file(head + "(3,), 'x': 'fortran_order': True}")),
+            "h.npy: byte 66: not a valid .npy: unknown key 'x' (a .npy header has descr, "
+            "fortran_order and shape)");
+  EXPECT_EQ(error(file(head + "(3), }")),
+            "h.npy: byte 61: not a valid .npy: a one-dimensional shape is written (N,)");
+  EXPECT_EQ(error(file(head + "(3,), 'descr': '<f8'}")),
+            "h.npy: byte 66: not a valid .npy: key 'descr' given twice");
+  EXPECT_EQ(error(file(head + "(3,)} x")),
+            "h.npy: byte 66: not a valid .npy: text after the header's closing '}'");
+  EXPECT_EQ(error(file("{'descr': '<f8', 'shape': (3,)}")),
+            "h.npy: byte 10: not a valid .npy: header has no 'fortran_order'");
+  // What Python writes or accepts: any key order, double quotes, no trailing comma, blanks.
+  EXPECT_EQ(error(file("{'shape': (3,), \"descr\": \"<f8\", 'fortran_order': False}")), "");
+  EXPECT_EQ(error(file(head + "( 3 , ) , }   ")), "");
+  // () is a scalar: one value.
+  EXPECT_NE(error(file(head + "(), }")).find("shape needs 8 bytes of data but the file has 24"),
+            std::string::npos);
+  // Truncated inside the preamble: said so, at the end of the file.
+  const std::string good = file(head + "(3,), }");
+  EXPECT_EQ(error(good.substr(0, 9)),
+            "h.npy: byte 9: not a valid .npy: truncated: 9 bytes, but the magic, version and "
+            "header length take 10");
+  EXPECT_EQ(error(good.substr(0, 3)),
+            "h.npy: byte 3: not a valid .npy: truncated: 3 bytes, but the magic, version and "
+            "header length take 10");
+  EXPECT_EQ(error("\x93NUMPX\x01"),
+            "h.npy: byte 0: not a valid .npy: missing the \\x93NUMPY magic");
+  EXPECT_EQ(error(""), "h.npy: byte 0: not a valid .npy: missing the \\x93NUMPY magic");
+}
+
 }  // namespace
 }  // namespace imukit

@@ -107,6 +107,30 @@ TEST(LineReader, ReadsFilesLongerThanItsBlockAndLinesLongerThanItsBuffer) {
   EXPECT_FALSE(r.next().has_value());
 }
 
+// Found in review: a file with CR-only line ends was one line of 1201 fields, and an MCAP file
+// given with --columns was read as rows of binary noise.
+TEST(LineReader, SaysWhenTheInputIsNotLineOrientedText) {
+  const auto error = [](std::string_view text) -> std::string {
+    try {
+      LineReader r(text, "f.txt");
+      while (r.next()) {
+      }
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_EQ(error("0 1 2\r1 2 3\r"),
+            "f.txt:1:6: a carriage return (\\r) inside a line: the file's lines end with a bare CR "
+            "(classic Mac OS); save it with \\n or \\r\\n line ends");
+  EXPECT_EQ(error(std::string_view("\x89MCAP0\r\n\x01\x00\x00", 10)),
+            "f.txt:1:1: an MCAP recording (binary), not text");
+  EXPECT_EQ(error(std::string_view("0 1 2\n3 \x00 5\n", 12)),
+            "f.txt:2:3: control byte 0x00: a binary file, not text");
+  // CR LF, CR CR LF and tabs are text.
+  EXPECT_EQ(error("0\t1\r\n1\t2\r\r\n\r\n"), "");
+}
+
 TEST(LineReader, MissingFileNamesThePath) {
   try {
     LineReader r("/nonexistent/imukit.csv");
