@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <string>
@@ -512,8 +513,10 @@ AxisLevels axis_levels(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
   }
   out.scale.resize(axes);
   for (int a = 0; a < axes; ++a) {
-    // 2^-1023 to 2^1022: both the scale and its inverse stay finite (an axis of zeros gets 1).
-    const int e = largest(a) > 0.0 ? std::clamp(std::ilogb(largest(a)), -1022, 1023) : 0;
+    // 2^-1022 to 2^1022: the scale and its inverse are both finite normal numbers (2^1023's
+    // inverse would be subnormal). An axis of zeros gets 1; one whose largest |y| is 2^1023 or
+    // more is scaled to below 4, one of subnormals only to below 1.
+    const int e = largest(a) > 0.0 ? std::clamp(std::ilogb(largest(a)), -1022, 1022) : 0;
     out.scale(a) = std::ldexp(1.0, e);
   }
   // Finite samples whose sum overflows (values near 1e308): the mean of the scaled samples.
@@ -527,7 +530,8 @@ AxisLevels axis_levels(const Eigen::Ref<const Eigen::MatrixXd>& samples) {
 // S_0 = 0, S_{i+1} = S_i + (y_i / scale - mean / scale), Kahan-compensated per axis
 // (independent chains, so the axes run side by side). The caller has checked that the means are
 // finite, which they are only if every sample is (a NaN or infinity anywhere makes its axis' sum
-// NaN or infinite). Scaled samples are below 2 in magnitude, so the sums cannot overflow.
+// NaN or infinite). Scaled samples and means are below 4 in magnitude (see axis_levels), so the
+// sums, at most 8 n, cannot overflow.
 template <int A>
 void build_cumsum(const Eigen::Ref<const Eigen::MatrixXd>& samples, const AxisLevels& levels,
                   double* S, int axes) {
@@ -1027,6 +1031,39 @@ void fill_curves(AllanResult& r, const std::vector<Deviation>& kinds, const Vari
   }
 }
 
+// Finite samples whose deviations (each axis' scale times the root of a variance of order 1)
+// or intervals are beyond the largest double: an error naming the axis and its sample furthest
+// from the mean, not infinities in the result (found in review: samples alternating +-1.5e308
+// gave an ADEV of inf with intervals of inf, a fit from the other points, Q = 1.2e306, and
+// `characterize` failed writing the profile without naming its input).
+void check_curves_finite(const AllanResult& r, const std::vector<Deviation>& kinds,
+                         const Eigen::Ref<const Eigen::MatrixXd>& samples,
+                         const AxisLevels& levels) {
+  for (Eigen::Index a = 0; a < samples.rows(); ++a) {
+    for (Deviation d : kinds) {
+      const DeviationCurve& c = r.curve(d);
+      for (Eigen::Index k = 0; k < c.deviation.cols(); ++k) {
+        const bool deviation_finite = std::isfinite(c.deviation(a, k));
+        if (deviation_finite && std::isfinite(c.lower(a, k)) && std::isfinite(c.upper(a, k)))
+          continue;
+        // Found among the scaled samples: y - mean itself may overflow.
+        Eigen::Index sample = 0;
+        const double inv = 1.0 / levels.scale(a);
+        (samples.row(a).array() * inv - levels.mean(a) * inv).abs().maxCoeff(&sample);
+        const char* name = d == Deviation::kAllan           ? "Allan deviation"
+                           : d == Deviation::kModifiedAllan ? "modified Allan deviation"
+                                                            : "Hadamard deviation";
+        throw Error(fmt::format(
+            "Allan deviation: axis {}: the {} at tau {:g} s{} is beyond the largest double "
+            "({:g}): sample {} of axis {} is {:g}, too large for its differences",
+            a, name, r.tau_s[static_cast<std::size_t>(k)],
+            deviation_finite ? ", or its confidence interval," : "",
+            std::numeric_limits<double>::max(), sample, a, samples(a, sample)));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 AllanResult allan_deviation(std::span<const TimeNs> t,
@@ -1059,6 +1096,7 @@ AllanResult allan_deviation(std::span<const TimeNs> t,
       options.allan ? variance.at(Deviation::kAllan) : variance.at(kinds.front());
   const Eigen::MatrixXi alpha = noise_types(slope_source, r.tau_s, options);
   fill_curves(r, kinds, variance, levels.scale, alpha, n, options);
+  check_curves_finite(r, kinds, samples, levels);
   return r;
 }
 

@@ -535,8 +535,8 @@ class DeviationScale {
     double largest = 0.0;
     for (const double a : adev)
       if (std::isfinite(a)) largest = std::max(largest, std::abs(a));
-    // 2^-1023 to 2^1022 (as allan.cpp): the scale and its inverse stay finite.
-    const int e = largest > 0.0 ? std::clamp(std::ilogb(largest), -1022, 1023) : 0;
+    // 2^-1022 to 2^1022 (as allan.cpp): the scale and its inverse are finite normal numbers.
+    const int e = largest > 0.0 ? std::clamp(std::ilogb(largest), -1022, 1022) : 0;
     scale_ = std::ldexp(1.0, e);
     inverse_ = std::ldexp(1.0, -e);
     scaled_.reserve(adev.size());

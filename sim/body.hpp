@@ -26,16 +26,28 @@ namespace imukit::sim {
 // double's spacing is 16 m, passed without a word). The readers refuse them as errors naming the
 // place (file:line:column, or the JSON path), not as warnings: no recording of a body comes near
 // them, and a warning would let the nonsense through into the signals.
-//  - max_position_m, 1e6 m (1000 km, as keypoints' coordinates): root translations, joint
-//    offsets, End Sites, sensor positions. Beyond any one recording of a walk, a run or a ride;
-//    there a double's spacing, 1.2e-10 m, puts second differences at 1 kHz 2e-4 m/s^2 off, below
-//    a MEMS accelerometer's noise.
+//  - max_root_translation_m, 3e7 m (30,000 km): where the body is in the world, which may be
+//    geodetic (UTM northings reach 1e7 m, Web Mercator 2.0e7 m, ECEF 6.4e6 m on the ground and
+//    2.7e7 m at the GPS satellites; 1e6 m refused them all, review of 2026-11-26). The bound is
+//    set by precision: the simulator differences the translations against the frame's own, which
+//    is exact, so only the inputs' own rounding, half a double's spacing each, reaches the
+//    accelerations. Below 2^25 m = 3.4e7 m the spacing is at most 2^-28 m = 3.7e-9 m, and a
+//    second difference of three rounded values is off by 0.71 spacings rms (2 at most) times the
+//    frame rate squared: at 1 kHz, a fast motion-capture rate, 2.6e-3 m/s^2 rms (7.5e-3 at most),
+//    below the white noise of the quietest MEMS accelerometers sampled there (ADXL355, 22.5
+//    ug/sqrt(Hz) over 500 Hz: 4.9e-3 m/s^2 rms; a phone's ICM-42688, 70 ug/sqrt(Hz): 1.5e-2);
+//    at 100 Hz 100 times less. At 1e8 m (spacing 1.5e-8 m) 1 kHz would be 1.1e-2 m/s^2 rms, and
+//    at 1e17 m (16 m) nothing is left.
+//  - max_position_m, 1e6 m (1000 km, as keypoints' coordinates): joint offsets, End Sites and
+//    sensor positions, lengths within a body for which 1000 km is already a wrong unit; there a
+//    double's spacing, 1.2e-10 m, puts second differences at 1 kHz 2e-4 m/s^2 off.
 //  - max_euler_deg, 1e7 deg (27,778 turns: a week of turning round once every 22 s, as the
 //    unwrapped angles of a long BVH grow; 1e6 deg would refuse a day of it). There the angle's
 //    rounding in radians, 2e-11 rad, puts angular accelerations at 1 kHz 8e-5 rad/s^2 off.
-// BVH keeps its tighter bound on lengths (BvhLimits::max_length_m): there it catches a wrong
-// scale.
+// BVH keeps its tighter bound on lengths and root positions (BvhLimits::max_length_m): there it
+// catches a wrong scale.
 struct PlausibilityLimits {
+  static constexpr double max_root_translation_m = 3e7;
   static constexpr double max_position_m = 1e6;
   static constexpr double max_euler_deg = 1e7;
 };

@@ -2,6 +2,7 @@
 
 #include <fmt/core.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -96,7 +97,7 @@ struct RawJoint {
   int parent = -1;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   std::optional<Eigen::Vector3d> end;
-  Token offset_at, end_at;  // their first values, for messages
+  std::array<Token, 3> offset_at, end_at;  // where each value is, for messages
   std::vector<Channel> channels;
 };
 
@@ -118,7 +119,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
   tz.expect("OFFSET");
   for (int i = 0; i < 3; ++i) {
     j.offset(i) = tz.number("an OFFSET value");
-    if (i == 0) j.offset_at = tz.last();
+    j.offset_at[static_cast<std::size_t>(i)] = tz.last();
   }
   const Token ch = tz.expect_any("CHANNELS");
   if (ch.text != "CHANNELS") tz.fail(ch, "expected 'CHANNELS', got " + quote_excerpt(ch.text, 24));
@@ -164,7 +165,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
       Eigen::Vector3d e;
       for (int i = 0; i < 3; ++i) {
         e(i) = tz.number("an OFFSET value");
-        if (i == 0) parent_joint.end_at = tz.last();
+        parent_joint.end_at[static_cast<std::size_t>(i)] = tz.last();
       }
       tz.expect("}");
       parent_joint.end = e;
@@ -250,12 +251,23 @@ class Lengths {
   }
 
   // Lengths and positions beyond BvhLimits::max_length_m are not a body on the Earth's surface
-  // but a wrong scale or a corrupt file; refused where they are read. what() names the value,
-  // `at` is its first number's token.
+  // but a wrong scale or a corrupt file; refused where they are read. what() names the vector,
+  // at[k] is where its component k was read (line 0 for a channel the file lacks, whose value is
+  // 0), and the error points at the first value beyond the limit in the file (found in review: it
+  // pointed at the line's first value, `t1.bvh:21:1` for the 99999 in column 5).
   template <class What>
-  void check(const Eigen::Vector3d& v, const What& what, const Token& at) const {
+  void check(const Eigen::Vector3d& v, const What& what, const std::array<Token, 3>& at) const {
     if (v.cwiseAbs().maxCoeff() <= max_value_) return;
-    throw Error(InputLocation{source_name_, at.line, at.column, std::nullopt},
+    const Token* first = nullptr;
+    for (std::size_t k = 0; k < 3; ++k) {
+      const Token& t = at[k];
+      if (!(std::abs(v(static_cast<Eigen::Index>(k))) > max_value_) || t.line == 0) continue;
+      if (first == nullptr || t.line < first->line ||
+          (t.line == first->line && t.column < first->column))
+        first = &t;
+    }
+    if (first == nullptr) first = &at[0];  // not reached: the values beyond were read (finite)
+    throw Error(InputLocation{source_name_, first->line, first->column, std::nullopt},
                 fmt::format("{} ({:g} {:g} {:g}) is beyond {:g} m at scale {:g}: a wrong "
                             "scale or a corrupt file",
                             what(), v.x(), v.y(), v.z(), BvhLimits::max_length_m, options_.scale));
@@ -329,7 +341,7 @@ Motion read_frames(Tokenizer& tz, const std::vector<RawJoint>& raw, const Motion
     for (std::size_t i = 0; i < raw.size(); ++i) {
       Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
       Eigen::Vector3d pos = Eigen::Vector3d::Zero();
-      Token pos_at;  // the first position value's
+      std::array<Token, 3> pos_at;  // where x, y and z were read
       for (Channel c : raw[i].channels) {
         const double v = tz.number("a channel value");
         const bool rotation = c == Channel::xrot || c == Channel::yrot || c == Channel::zrot;
@@ -340,16 +352,18 @@ Motion read_frames(Tokenizer& tz, const std::vector<RawJoint>& raw, const Motion
                               "(a corrupt file?)",
                               f, quote_excerpt(raw[i].name), v, PlausibilityLimits::max_euler_deg));
         }
-        if (!rotation && pos_at.line == 0) pos_at = tz.last();
         switch (c) {
           case Channel::xpos:
             pos.x() = v;
+            pos_at[0] = tz.last();
             break;
           case Channel::ypos:
             pos.y() = v;
+            pos_at[1] = tz.last();
             break;
           case Channel::zpos:
             pos.z() = v;
+            pos_at[2] = tz.last();
             break;
           default:
             q = q * axis_rotation(c, v);

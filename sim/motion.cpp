@@ -85,11 +85,10 @@ std::vector<std::string> Motion::validate_and_normalize(const Body* body, const 
       throw Error(where(f) + "frame " + std::to_string(f) + ": root translation is not finite");
     }
     if (const auto p = translation_.col(f);
-        p.cwiseAbs().maxCoeff() > PlausibilityLimits::max_position_m) {
-      throw Error(
-          fmt::format("{}frame {}: root translation ({:g} {:g} {:g}) m is beyond {:g} m "
-                      "(not metres?)",
-                      where(f), f, p.x(), p.y(), p.z(), PlausibilityLimits::max_position_m));
+        p.cwiseAbs().maxCoeff() > PlausibilityLimits::max_root_translation_m) {
+      throw Error(fmt::format(
+          "{}frame {}: root translation ({:g} {:g} {:g}) m is beyond {:g} m (not metres?)",
+          where(f), f, p.x(), p.y(), p.z(), PlausibilityLimits::max_root_translation_m));
     }
     for (std::size_t j = 0; j < joints_; ++j) {
       Eigen::Quaterniond& q = rotation(f, j);
@@ -379,10 +378,10 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
       }
       // Validated again with the Motion; here where the column is known.
       if (cols.role[i] >= 1 && cols.role[i] <= 3 &&
-          std::abs(*v) > PlausibilityLimits::max_position_m) {
+          std::abs(*v) > PlausibilityLimits::max_root_translation_m) {
         throw Error(at(fields[i].column),
                     fmt::format("frame {}: root translation {:g} m is beyond {:g} m (not metres?)",
-                                frame, *v, PlausibilityLimits::max_position_m));
+                                frame, *v, PlausibilityLimits::max_root_translation_m));
       }
       values.push_back(*v);
       if (cols.role[i] == 0) times.push_back(*v);

@@ -471,6 +471,55 @@ TEST(AllanDeviation, DeviationsScaleWithTheSamplesFromTinyToHuge) {
   }
 }
 
+// Finite samples whose deviations or intervals are beyond the largest double are an error
+// naming the axis and its sample furthest from the mean (found in review: with the scaling above
+// the overflow check had gone, and +-1.5e308 gave an ADEV of inf with intervals of inf, a fit of
+// Q = 1.2e306 from the other points, and `characterize` failed only writing the profile).
+TEST(AllanDeviation, DeviationsBeyondTheLargestDoubleAreAnErrorNamingTheSample) {
+  const auto t = uniform_times(300, 100.0);
+  const auto message = [&](const Eigen::MatrixXd& y) {
+    try {
+      allan_deviation(t, y);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  Eigen::MatrixXd y(6, 300);
+  for (Eigen::Index i = 0; i < 300; ++i) {
+    for (Eigen::Index a = 0; a < 6; ++a) y(a, i) = 0.01 * double(a + 1) * (i % 3 == 0 ? 1 : -1);
+  }
+  EXPECT_EQ(message(y), "");
+  // Axis 4 alternates +-1.5e308: ADEV(tau0) = sqrt(2) 1.5e308. Sample 0 is the first largest.
+  for (Eigen::Index i = 0; i < 300; ++i) y(4, i) = i % 2 ? -1.5e308 : 1.5e308;
+  EXPECT_EQ(message(y),
+            "Allan deviation: axis 4: the Allan deviation at tau 0.01 s is beyond the largest "
+            "double (1.79769e+308): sample 0 of axis 4 is 1.5e+308, too large for its "
+            "differences");
+  // One axis alone, and the sample furthest from the mean named: +-1.7e308 after a first 1e308
+  // has a mean of -2.3e305, so the first +1.7e308 (sample 2), not the first -1.7e308.
+  Eigen::MatrixXd one(1, 300);
+  for (Eigen::Index i = 0; i < 300; ++i) one(0, i) = i % 2 ? -1.7e308 : 1.7e308;
+  one(0, 0) = 1e308;
+  EXPECT_EQ(message(one),
+            "Allan deviation: axis 0: the Allan deviation at tau 0.01 s is beyond the largest "
+            "double (1.79769e+308): sample 2 of axis 0 is 1.7e+308, too large for its "
+            "differences");
+  // A finite ADEV of 1.77e308 whose interval's upper bound is not.
+  for (Eigen::Index i = 0; i < 300; ++i) one(0, i) = i % 2 ? -1.25e308 : 1.25e308;
+  EXPECT_EQ(message(one),
+            "Allan deviation: axis 0: the Allan deviation at tau 0.01 s, or its confidence "
+            "interval, is beyond the largest double (1.79769e+308): sample 0 of axis 0 is "
+            "1.25e+308, too large for its differences");
+  // Just below: every number finite.
+  for (Eigen::Index i = 0; i < 300; ++i) one(0, i) = i % 2 ? -1e308 : 1e308;
+  AllanOptions adev_only;
+  adev_only.modified = adev_only.hadamard = false;
+  const AllanResult r = allan_deviation(t, one, adev_only);
+  EXPECT_TRUE(r.allan.deviation.allFinite() && r.allan.upper.allFinite());
+  EXPECT_NEAR(r.allan.deviation(0, 0), std::sqrt(2.0) * 1e308, 1e-12 * 1e308);
+}
+
 // A record whose samples are all equal has deviations of exactly 0 (characterize calls such an
 // axis constant) at any magnitude, down to the smallest subnormal: the scaling of the tiny and
 // huge ones above makes no noise of its own.

@@ -153,6 +153,24 @@ class ScaleInvariance(unittest.TestCase):
             res = imukit.allan_deviation(np.full((500, 3), c), rate_hz=100.0)
             self.assertTrue(np.all(res.allan.deviation == 0.0))
 
+    def test_deviations_beyond_the_largest_double_are_an_error(self):
+        """Found in review: samples alternating +-1.5e308 gave allan.deviation[0][0] = inf with
+        intervals of inf and no error, and fit(0) a Q of 1.2e306 from the other points. The
+        error names the axis and its sample furthest from the mean; +-1e308 is still finite."""
+        n = 2000
+        w = np.where(np.arange(n) % 2 == 0, 1.5e308, -1.5e308)
+        x = np.stack([np.random.default_rng(2).standard_normal(n), w, np.zeros(n)], axis=1)
+        with self.assertRaisesRegex(
+                imukit.Error, r"^Allan deviation: axis 1: the Allan deviation at tau 0\.01 s is beyond the "
+                              r"largest double \(1\.79769e\+308\): sample 0 of axis 1 is 1\.5e\+308, too "
+                              r"large for its differences$"):
+            imukit.allan_deviation(x, rate_hz=100.0)
+        res = imukit.allan_deviation(w / 1.5, rate_hz=100.0)
+        for curve in (res.allan, res.modified, res.hadamard):
+            for a in (curve.deviation, curve.lower, curve.upper):
+                self.assertTrue(np.all(np.isfinite(a)))
+        self.assertAlmostEqual(res.allan.deviation[0][0] / 1e308, math.sqrt(2.0), delta=1e-12)
+
 
 class BadInput(unittest.TestCase):
     def test_errors(self):

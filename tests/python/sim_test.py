@@ -264,17 +264,20 @@ class Errors(unittest.TestCase):
         with self.assertRaisesRegex(imukit.Error, "frame 7, joint .*: quaternion is all zeros"):
             imukit.Motion.from_arrays(rot, None, rate_hz=100.0, body=body)
 
-    def test_positions_beyond_1e6_m_are_errors(self):
+    def test_positions_beyond_their_limits_are_errors(self):
         """Found in review: a root translation of 1e17 m (double spacing 16 m) and a sensor 1e300 m
-        from its joint were simulated without a word. Positions are bounded at 1e6 m
-        (sim::PlausibilityLimits), from arrays as from files."""
+        from its joint were simulated without a word. Root translations are bounded at 3e7 m and
+        other positions at 1e6 m (sim::PlausibilityLimits), from arrays as from files."""
         body = imukit.Body.default_humanoid()
         rot = np.zeros((10, len(body), 4))
         rot[..., 0] = 1.0
         tr = np.zeros((10, 3))
         tr[4, 0] = 1e17
         with self.assertRaisesRegex(
-                imukit.Error, r"^motion: frame 4: root translation \(1e\+17 0 0\) m is beyond 1e\+06 m \(not metres\?\)$"):
+                imukit.Error, r"^motion: frame 4: root translation \(1e\+17 0 0\) m is beyond 3e\+07 m \(not metres\?\)$"):
+            imukit.Motion.from_arrays(rot, tr, rate_hz=100.0, body=body)
+        tr[4, 0] = -3.0000001e7
+        with self.assertRaisesRegex(imukit.Error, r"^motion: frame 4: root translation \(-3e\+07 0 0\) m is beyond"):
             imukit.Motion.from_arrays(rot, tr, rate_hz=100.0, body=body)
         tr[4, 0] = -1e6
         m = imukit.Motion.from_arrays(rot, tr, rate_hz=100.0, body=body)
@@ -282,3 +285,31 @@ class Errors(unittest.TestCase):
         scene.add_sensor("far", joint="pelvis", position_m=[0.0, 1e300, 0.0])
         with self.assertRaisesRegex(imukit.Error, r"sensor far: position \(0 1e\+300 0\) m is beyond 1e\+06 m"):
             scene.simulate()
+
+    def test_geodetic_root_translations_are_simulated(self):
+        """Found in review: root translations above 1e6 m were refused as "not metres?", a UTM
+        northing of 5.4e6 m and an ECEF origin among them. Up to 3e7 m they are simulated, and
+        their rounding (a double's spacing, at most 3.7e-9 m there) moves the accelerations of a
+        1 kHz motion by 0.71 spacings times the rate squared rms, 2 at most (6 at the first and
+        last frames, where the stencil is one-sided): below a MEMS accelerometer's noise."""
+        body = imukit.Body.default_humanoid()
+        rate = 1000.0
+        n = 2000
+        t = np.arange(n) / rate
+        rot = np.zeros((n, len(body), 4))
+        rot[..., 0] = 1.0
+        walk = np.stack([1.3 * t, 0.2 * np.sin(2 * np.pi * 0.9 * t), 0.05 * np.sin(2 * np.pi * 1.8 * t)], axis=1)
+
+        def accel(origin):
+            m = imukit.Motion.from_arrays(rot, walk + np.asarray(origin), rate_hz=rate, body=body)
+            scene = imukit.Scene(body, m, rate_hz=rate)
+            scene.add_sensor("s", joint="pelvis")
+            return scene.simulate()["s"].accel
+
+        at_origin = accel((0.0, 0.0, 0.0))
+        for origin in ((5e5, 5.4e6, 300.0), (4.2e6, 1.7e5, 4.8e6), (0.0, 9.99e6, 0.0), (2.9e7, 0.0, -2.99e7)):
+            spacing = np.spacing(np.abs(walk + np.asarray(origin)).max(axis=0))  # per axis
+            off = np.abs(accel(origin) - at_origin) / (spacing * rate**2)
+            self.assertLessEqual(off[1:-1].max(), 2.0 + 1e-6, origin)
+            self.assertLessEqual(off.max(), 6.0 + 1e-6, origin)
+            self.assertLess(np.abs(accel(origin) - at_origin).max(), 2.3e-2, origin)

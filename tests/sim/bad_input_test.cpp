@@ -50,9 +50,39 @@ TEST(BadInput, BvhScaleAndLengthsMustBePhysical) {
   expect_error([&] { parse_bvh(bvh("0.01", "1e300 0 0 0 0 0 0 0 0\n" + kFrames), "f.bvh"); },
                {"f.bvh:19:1: the root position of frame 0 (1e+300 0 0) is beyond 10000 m"});
   expect_error([&] { parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh"); },
-               {"f.bvh:8:12: the OFFSET of 'Spine'", "beyond 10000 m at scale 1"});
+               {"f.bvh:8:14: the OFFSET of 'Spine'", "beyond 10000 m at scale 1"});
   // The same file in centimetres is fine.
   EXPECT_NO_THROW(parse_bvh(bvh("0.01", kFrames, "0 2e4 0"), "f.bvh", {.scale = 0.01}));
+}
+
+// The line and column are the value's beyond the limit, the first in the file when several are
+// (found in review: `0.5 99999 2.0 ...` was reported at its first value, column 1, not 5).
+TEST(BadInput, BvhPositionsAndOffsetsBeyondTheLimitAreErrorsAtTheValue) {
+  const std::string kZeros = "0 0 0 0 0 0 0 0 0\n";
+  expect_error([&] { parse_bvh(bvh("0.01", kZeros + "0.5 99999 2.0 0 0 0 0 0 0\n"), "f.bvh"); },
+               {"f.bvh:20:5: the root position of frame 1 (0.5 99999 2) is beyond 10000 m at "
+                "scale 1: a wrong scale or a corrupt file"});
+  expect_error([&] { parse_bvh(bvh("0.01", "0 0 -2e4 0 0 0 0 0 0\n" + kZeros), "f.bvh"); },
+               {"f.bvh:19:5: the root position of frame 0 (0 0 -20000)"});
+  // Two beyond: the first in the file, also when the channels list z before x.
+  expect_error([&] { parse_bvh(bvh("0.01", kZeros + "3e4 0 -2e4 0 0 0 0 0 0\n"), "f.bvh"); },
+               {"f.bvh:20:1: the root position of frame 1 (30000 0 -20000)"});
+  std::string zyx = bvh("0.01", kZeros + "0 2e4 5e4 0 0 0 0 0 0\n");
+  zyx.replace(zyx.find("Xposition Yposition Zposition"), 29, "Zposition Yposition Xposition");
+  expect_error([&] { parse_bvh(zyx, "f.bvh"); },
+               {"f.bvh:20:3: the root position of frame 1 (50000 20000 0)"});
+  // OFFSETs: a joint's (line 8, "    OFFSET 0 0 -3e4"), the root's (line 4) and an End Site's
+  // (line 12).
+  expect_error([&] { parse_bvh(bvh("0.01", kFrames, "0 0 -3e4"), "f.bvh"); },
+               {"f.bvh:8:16: the OFFSET of 'Spine' (0 0 -30000) is beyond 10000 m"});
+  std::string root = bvh("0.01", kFrames);
+  root.replace(root.find("OFFSET 0 0 0"), 12, "OFFSET 0 9e9 0");
+  expect_error([&] { parse_bvh(root, "f.bvh"); },
+               {"f.bvh:4:12: the OFFSET of 'Hips' (0 9e+09 0) is beyond 10000 m"});
+  std::string end = bvh("0.01", kFrames);
+  end.replace(end.find("OFFSET 0 1 0\n    }"), 12, "OFFSET 0 1 -5e4");
+  expect_error([&] { parse_bvh(end, "f.bvh"); },
+               {"f.bvh:12:18: the End Site of 'Spine' (0 1 -50000) is beyond 10000 m"});
 }
 
 TEST(BadInput, BvhTokensAreQuotedShortAndEscaped) {
@@ -64,8 +94,9 @@ TEST(BadInput, BvhTokensAreQuotedShortAndEscaped) {
 
 // Found in review: Euler angles of 1e300 deg, a sensor 1e300 m from its joint and a root
 // translation of 1e17 m (double spacing 16 m) were simulated without a word. Each reader refuses
-// what PlausibilityLimits bounds (1e6 m, 1e7 deg) where the value is, and the types' own checks
-// (Motion, body_from_joints, Simulator) catch what comes from elsewhere (Python's arrays).
+// what PlausibilityLimits bounds (root translations 3e7 m, other positions 1e6 m, 1e7 deg) where
+// the value is, and the types' own checks (Motion, body_from_joints, Simulator) catch what comes
+// from elsewhere (Python's arrays).
 TEST(BadInput, BvhEulerAnglesBeyondTheLimitAreErrorsAtTheirLineAndColumn) {
   const std::string kZeros = "0 0 0 0 0 0 0 0 0\n";  // one frame
   expect_error([&] { parse_bvh(bvh("0.01", kZeros + "0 0 0 0 0 0 0 0 1e300\n"), "f.bvh"); },
@@ -114,19 +145,29 @@ TEST(BadInput, ScenePositionsAndEulerAnglesBeyondTheLimitsAreErrorsNamingTheFiel
   EXPECT_NO_THROW(parse_scene(scene(x, R"("position_m": [0, 1e6, 0])"), "s.json", ""));
 }
 
-TEST(BadInput, RootTranslationsBodyOffsetsAndSensorPositionsBeyond1e6MetresAreErrors) {
+TEST(BadInput, RootTranslationsBeyond3e7AndOtherPositionsBeyond1e6MetresAreErrors) {
   const Body body = Body::default_humanoid();
   expect_error(
       [&] {
         parse_quaternion_csv("t,root_x,root_y,root_z\n0,0,0,0\n0.01,1e17,0,0\n0.02,0,0,0\n",
                              "q.csv", body, std::nullopt, nullptr);
       },
-      {"q.csv:3:6: frame 1: root translation 1e+17 m is beyond 1e+06 m (not metres?)"});
+      {"q.csv:3:6: frame 1: root translation 1e+17 m is beyond 3e+07 m (not metres?)"});
+  expect_error(
+      [&] {
+        parse_quaternion_csv("t,root_x,root_y,root_z\n0,0,0,0\n0.01,0,0,-3.0000001e7\n", "q.csv",
+                             body, std::nullopt, nullptr);
+      },
+      {"q.csv:3:10: frame 1: root translation -3e+07 m is beyond 3e+07 m (not metres?)"});
   Motion m(100.0, 1, 3);
   m.root_translation(2) = Eigen::Vector3d(0, -1e17, 0);
+  expect_error(
+      [&] { m.validate_and_normalize(); },
+      {"motion: frame 2: root translation (0 -1e+17 0) m is beyond 3e+07 m (not metres?)"});
+  m.root_translation(2) = Eigen::Vector3d(0, -1e8, 0);
   expect_error([&] { m.validate_and_normalize(); },
-               {"motion: frame 2: root translation (0 -1e+17 0) m is beyond 1e+06 m"});
-  m.root_translation(2) = Eigen::Vector3d(0, -1e6, 0);
+               {"motion: frame 2: root translation (0 -1e+08 0) m is beyond 3e+07 m"});
+  m.root_translation(2) = Eigen::Vector3d(0, -3e7, 3e7);
   EXPECT_NO_THROW(m.validate_and_normalize());
   Eigen::Matrix3Xd offsets = Eigen::Matrix3Xd::Zero(3, 2);
   offsets(0, 1) = 1e300;
@@ -141,6 +182,29 @@ TEST(BadInput, RootTranslationsBodyOffsetsAndSensorPositionsBeyond1e6MetresAreEr
   spec.placement.p_joint_sensor = Eigen::Vector3d(0, 0, 1e300);
   expect_error([&] { Simulator(body, {spec}, {}); },
                {"sensor s: position (0 0 1e+300) m is beyond 1e+06 m (not metres?)"});
+}
+
+// Found in review: the root translation's bound of 1e6 m refused geodetic coordinates (a UTM
+// northing of 5.4e6 m, an ECEF origin). Root translations go to 3e7 m, where a double's spacing,
+// 3.7e-9 m, still keeps the accelerations within a MEMS accelerometer's noise (sim_test.py
+// -k geodetic simulates them); 1e17 m stays an error (above).
+TEST(BadInput, GeodeticRootTranslationsAreRead) {
+  const Body body = Body::default_humanoid();
+  const Motion utm = parse_quaternion_csv(
+      "t,root_x,root_y,root_z,pelvis_qw,pelvis_qx,pelvis_qy,pelvis_qz\n"
+      "0.0,500000.0,5400000.0,300,1,0,0,0\n"
+      "0.01,500000.014,5400000.0,300,1,0,0,0\n"
+      "0.02,500000.028,5400000.001,300,1,0,0,0\n",
+      "utm.csv", body, std::nullopt, nullptr);
+  EXPECT_EQ(utm.root_translation(2), Eigen::Vector3d(500000.028, 5400000.001, 300));
+  const Motion southern = parse_quaternion_csv(  // UTM south: false northing 1e7 m
+      "t,root_x,root_y,root_z\n0,834000,9999999.5,0\n0.01,834000,9999999.6,0\n", "s.csv", body,
+      std::nullopt, nullptr);
+  EXPECT_EQ(southern.root_translation(1).y(), 9999999.6);
+  Motion ecef(100.0, 1, 3);
+  for (int64_t f = 0; f < 3; ++f) ecef.root_translation(f) = Eigen::Vector3d(4.2e6, 1.7e5, 4.8e6);
+  ecef.root_translation(2) = Eigen::Vector3d(2.66e7, -3e7, 0);  // a GPS satellite's radius
+  EXPECT_NO_THROW(ecef.validate_and_normalize());
 }
 
 std::string procedural_scene(const std::string& motion_extra, const std::string& simulation) {
