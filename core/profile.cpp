@@ -88,17 +88,25 @@ std::string join(const std::string& path, const char* key) {
   return path.empty() ? std::string(key) : path + "." + key;
 }
 
+// The path in an error about the document itself (not an object).
+constexpr const char* kTopLevel = "(top level)";
+
 // Checks a parsed profile. Given the text it was parsed from, an error names the line and
 // column of the value at fault; without (the writer checks what it is about to write), the path.
+// With a prefix, the profile is the value at that path of `text` (parse_inline_profile), and
+// paths in errors are the whole path from the document's root.
 class Reader {
  public:
-  explicit Reader(std::string source, std::string_view text = {})
-      : source_(std::move(source)), text_(text) {}
+  explicit Reader(std::string source, std::string_view text = {}, std::string prefix = {})
+      : source_(std::move(source)), text_(text), prefix_(std::move(prefix)) {}
 
   [[noreturn]] void fail(const std::string& path, const std::string& what) const {
+    const std::string full = prefix_.empty()     ? path
+                             : path == kTopLevel ? prefix_
+                                                 : prefix_ + "." + path;
     throw Error(text_.empty() ? InputLocation{source_, {}, {}, {}}
-                              : locate_in_text(text_, json_path_offset(text_, path), source_),
-                path + ": " + what);
+                              : locate_in_text(text_, json_path_offset(text_, full), source_),
+                full + ": " + what);
   }
 
   const Json* member(const Json& object, const char* key) const {
@@ -206,6 +214,7 @@ class Reader {
 
   std::string source_;
   std::string_view text_;
+  std::string prefix_;
 };
 
 void Reader::schema(const Json& root) const {
@@ -346,7 +355,7 @@ void Reader::sensor(const Json& j, const std::string& path, SensorProfile& out) 
 }
 
 DeviceProfile Reader::profile(const Json& root) const {
-  if (!root.is_object()) fail("(top level)", "expected a JSON object, got " + describe(root));
+  if (!root.is_object()) fail(kTopLevel, "expected a JSON object, got " + describe(root));
   schema(root);
   units(root);
   DeviceProfile p;
@@ -663,6 +672,19 @@ void apply_triad(const SensorProfile& s, const char* name, TriadModel& t) {
 DeviceProfile parse_profile(std::string_view text, const std::string& source_name) {
   const Json root = parse_json(text, source_name);
   return Reader(source_name, text).profile(root);
+}
+
+DeviceProfile parse_inline_profile(std::string_view profile_text, std::string_view document,
+                                   std::string_view json_path, const std::string& source_name) {
+  Json root;
+  try {
+    root = parse_json(profile_text, source_name);
+  } catch (const Error& e) {
+    // Not from a serialised value; said at the value in the document all the same.
+    throw Error(locate_in_text(document, json_path_offset(document, json_path), source_name),
+                std::string(json_path) + ": " + e.reason());
+  }
+  return Reader(source_name, document, std::string(json_path)).profile(root);
 }
 
 DeviceProfile read_profile(const std::string& path) {

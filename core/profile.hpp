@@ -127,6 +127,14 @@ struct DeviceProfile {
 // got a string") and points at its value (or, for a missing key, at the object that lacks it);
 // a missing or unknown schema is rejected. Unknown keys are ignored.
 DeviceProfile parse_profile(std::string_view text, const std::string& source_name);
+// A profile inline in another JSON document, such as a scene's sensors[i].hardware:
+// `profile_text` is the profile's own JSON (the caller's serialisation of the value), `document`
+// the text of the file it sits in at `json_path` (json_path_offset's syntax,
+// "sensors[0].hardware"). Errors are parse_profile's, at their line and column in `document` and
+// named by the whole path: "scene.json:8:40: sensors[0].hardware.clock.error_ppm: ...". The
+// document is only searched for an error, so reading many inline profiles stays linear.
+DeviceProfile parse_inline_profile(std::string_view profile_text, std::string_view document,
+                                   std::string_view json_path, const std::string& source_name);
 DeviceProfile read_profile(const std::string& path);
 
 // Reads the profile at `path` (as read_profile) and checks it for a hardware model run at

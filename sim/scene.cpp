@@ -369,14 +369,18 @@ SensorOutputs parse_sensor_outputs(const json& o, const std::string& source,
 }
 
 // A sensor's "hardware": a device profile (inline or a file name), checked at the simulation
-// rate (the motion's when the scene sets none).
-void parse_sensor_hardware(const json& h, const std::string& source, const std::string& path,
-                           const std::string& base_dir, const Scene& scene, SceneSensor& s) {
+// rate (the motion's when the scene sets none). An inline profile's errors name the scene's line
+// and column and the whole JSON path ("scene.json:8:40: sensors[0].hardware.clock.error_ppm:
+// ..."), not a place in the one-line serialisation the reader is given.
+void parse_sensor_hardware(const json& h, std::string_view text, const std::string& source,
+                           const std::string& path, const std::string& base_dir, const Scene& scene,
+                           SceneSensor& s) {
+  std::optional<DeviceProfile> inline_profile;  // its errors are located already: not wrapped
+  if (!h.is_string())
+    inline_profile = parse_inline_profile(h.dump(), text, path + ".hardware", source);
   try {
-    const DeviceProfile profile = h.is_string()
-                                      ? read_profile(resolve(base_dir, h.get<std::string>()))
-                                      : parse_profile(h.dump(), source + ":" + path + ".hardware");
-    s.hardware = to_hardware_model(profile);
+    s.hardware = to_hardware_model(
+        inline_profile ? *inline_profile : read_profile(resolve(base_dir, h.get<std::string>())));
     validate_hardware_model(*s.hardware, scene_rate_hz(scene));
     if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
       s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
@@ -388,8 +392,9 @@ void parse_sensor_hardware(const json& h, const std::string& source, const std::
 
 // "sensors"[i]: name, placement (a preset or a segment with position and rotation), outputs and
 // hardware; `scene` holds the body, the motion and the sensors before it.
-SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& source,
-                         const std::string& base_dir, const Scene& scene) {
+SceneSensor parse_sensor(const json& js, std::size_t i, std::string_view text,
+                         const std::string& source, const std::string& base_dir,
+                         const Scene& scene) {
   const std::string path = "sensors[" + std::to_string(i) + "]";
   only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
             source, path);
@@ -427,7 +432,7 @@ SceneSensor parse_sensor(const json& js, std::size_t i, const std::string& sourc
   }
   if (js.contains("outputs")) s.spec.outputs = parse_sensor_outputs(js["outputs"], source, path);
   if (js.contains("hardware"))
-    parse_sensor_hardware(js["hardware"], source, path, base_dir, scene, s);
+    parse_sensor_hardware(js["hardware"], text, source, path, base_dir, scene, s);
   return s;
 }
 
@@ -454,7 +459,7 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
     fail(source, "sensors", "expected a non-empty array");
   }
   for (std::size_t i = 0; i < root["sensors"].size(); ++i)
-    scene.sensors.push_back(parse_sensor(root["sensors"][i], i, source, base_dir, scene));
+    scene.sensors.push_back(parse_sensor(root["sensors"][i], i, text, source, base_dir, scene));
   return scene;
 }
 }  // namespace

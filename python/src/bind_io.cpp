@@ -89,7 +89,13 @@ DeviceProfile profile_from(py::handle obj) {
   if (py::isinstance<DeviceProfile>(obj)) return obj.cast<DeviceProfile>();
   if (py::isinstance<py::dict>(obj)) {
     const std::string text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
-    return parse_profile(text, "<dict>");
+    try {
+      return parse_profile(text, "<dict>");
+    } catch (const Error& e) {
+      // A line and column in json.dumps' one-line text would point nowhere the caller can see:
+      // the error names the dict and the JSON path only ("<dict>: clock.error_ppm: ...").
+      throw Error(InputLocation{"<dict>", {}, {}, {}}, e.reason());
+    }
   }
   if (py::isinstance<py::str>(obj)) return read_profile(obj.cast<std::string>());
   throw py::type_error("expected an imukit.Profile, a profile dict or a file name");

@@ -175,6 +175,26 @@ def test_unknown_preset_names_the_json_path(run, workdir):
     assert r.returncode != 0 and "sensors[0].preset" in r.stderr, "unknown preset names the JSON path"
 
 
+def test_inline_hardware_errors_name_the_scene_line_column_and_whole_path(run, workdir):
+    # Found in review: an inline profile was read from a one-line copy, so the error named a
+    # column in that copy ("s.json: sensors[0].hardware: s.json:sensors[0].hardware:1:23: ...").
+    path = os.path.join(workdir, "inline_hw.json")
+    lines = ['{"schema": "imukit.scene/1",',
+             ' "body": {"default_humanoid": {"height_m": 1.8}},',
+             ' "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 5}},',
+             ' "sensors": [{"name": "watch", "preset": "left_wrist_watch",',
+             '   "hardware": {"schema": "imukit.profile/1",',
+             '                "clock": {"error_ppm": 1e5}}}]}']
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    column = lines[5].index("1e5") + 1
+    r = run("simulate", path, "-o", os.path.join(workdir, "inline_hw_out"))
+    assert r.returncode == 1 and r.stderr.startswith(
+        f"imukit: error: {path}:6:{column}: sensors[0].hardware.clock.error_ppm: "
+        "100000 ppm is not within +-10000 ppm"), r.stderr
+    assert r.stderr.count(path) == 1, r.stderr
+
+
 def test_bvh_quick_form(run, workdir, data_file):
     walk = data_file("mocap", "scaled_131_01_walk.bvh")
     r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "-o", os.path.join(workdir, "walk"))

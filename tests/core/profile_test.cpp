@@ -359,6 +359,40 @@ TEST(Profile, SemanticErrorsPointAtTheValue) {
             "");
 }
 
+// A profile inline in another document (a scene's sensors[i].hardware), given as its own text:
+// errors at the line and column of the document, named by the whole path; a valid one reads as
+// parse_profile would.
+TEST(Profile, InlineProfileErrorsAreLocatedInTheDocumentWithTheWholePath) {
+  const std::string document =
+      "{\"sensors\": [{\"name\": \"a\", \"hardware\": 5},\n"
+      "  {\"hardware\": {\"schema\": \"imukit.profile/1\",\n"
+      "     \"clock\": {\"error_ppm\": 1e5}}}]}";
+  const auto error = [&](std::string_view profile, std::string_view path) {
+    try {
+      parse_inline_profile(profile, document, path, "s.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // The profile's text as the caller serialised it: one line, keys sorted.
+  EXPECT_EQ(error(R"({"clock":{"error_ppm":100000.0},"schema":"imukit.profile/1"})",
+                  "sensors[1].hardware"),
+            "s.json:3:29: sensors[1].hardware.clock.error_ppm: 100000 ppm is not within +-10000 "
+            "ppm");
+  EXPECT_EQ(error("5", "sensors[0].hardware"),
+            "s.json:1:40: sensors[0].hardware: expected a JSON object, got 5");
+  EXPECT_EQ(error(R"({"name":"a"})", "sensors[0]"),
+            "s.json:1:14: sensors[0].schema: missing; a device profile has \"schema\": "
+            "\"imukit.profile/1\"");
+  EXPECT_EQ(error("{", "sensors[1].hardware"),
+            "s.json:2:16: sensors[1].hardware: syntax error while parsing object key - unexpected "
+            "end of input; expected string literal");
+  EXPECT_EQ(parse_inline_profile(R"({"schema": "imukit.profile/1", "clock": {"error_ppm": 40}})",
+                                 document, "sensors[1].hardware", "s.json"),
+            parse_profile(R"({"schema": "imukit.profile/1", "clock": {"error_ppm": 40}})", "p"));
+}
+
 // The rules that depend on the rate a model runs at, in the file's terms (found in review: the
 // simulator said "accelerometer.bandwidth_hz is 80 Hz" and named no file).
 TEST(Profile, ReadForRateChecksTheRateRulesAtTheFilesKeys) {

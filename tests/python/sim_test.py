@@ -195,6 +195,33 @@ class Errors(unittest.TestCase):
             self.assertEqual(e.exception.line, 2)
             self.assertEqual(str(e.exception), cli_error("simulate", path, "-o", os.path.join(tmp, "o")))
 
+    def test_inline_hardware_errors_name_the_scene_line_column_and_whole_path(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "inline_hw.json")
+            hardware = dict(HARDWARE, clock={"error_ppm": 1e5})
+            text = json.dumps(dict(SCENE, sensors=[dict(SCENE["sensors"][0], hardware=hardware)]),
+                              indent=1)
+            with open(path, "w") as f:
+                f.write(text)
+            at = text.index("100000.0")
+            line = text.count("\n", 0, at) + 1
+            column = at - text.rfind("\n", 0, at)
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_scene(path)
+            self.assertEqual((e.exception.file, e.exception.line, e.exception.column),
+                             (path, line, column))
+            self.assertEqual(str(e.exception),
+                             f"{path}:{line}:{column}: sensors[0].hardware.clock.error_ppm: "
+                             "100000 ppm is not within +-10000 ppm")
+            self.assertEqual(str(e.exception), cli_error("simulate", path, "-o", os.path.join(tmp, "o")))
+
+    def test_hardware_dict_errors_name_the_json_path_not_a_column_of_a_copy(self):
+        scene = python_scene()
+        with self.assertRaises(imukit.Error) as e:
+            scene.add_sensor("x", preset="chest_strap", hardware=dict(HARDWARE, clock={"error_ppm": 1e5}))
+        self.assertEqual(str(e.exception), "<dict>: clock.error_ppm: 100000 ppm is not within +-10000 ppm")
+        self.assertEqual((e.exception.file, e.exception.line, e.exception.column), ("<dict>", None, None))
+
     def test_api_misuse(self):
         body = imukit.Body.default_humanoid()
         motion = imukit.ProceduralMotion(len(body), frames=50)

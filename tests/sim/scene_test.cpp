@@ -426,6 +426,40 @@ TEST(SceneClock, BadClockParametersAreErrorsNamingTheField) {
   EXPECT_EQ(message(R"({"error_ppm": -50, "jitter_s": 4e-4})"), "no error");
 }
 
+// An inline hardware profile was read from a one-line re-serialisation, so its errors named a
+// column in that copy ("s.json: sensors[0].hardware: s.json:sensors[0].hardware:1:23: ...").
+// They name the scene file's line and column of the value at fault and its whole JSON path.
+TEST(Scene, InlineHardwareErrorsNameTheSceneLineColumnAndWholePath) {
+  const auto message = [](const std::string& text) {
+    try {
+      parse_scene(text, "s.json", "");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  std::string bad = kScene;
+  const std::string key = "\"schema\": \"imukit.profile/1\",";
+  bad.replace(bad.find(key), key.size(), key + "\n       \"clock\": {\"error_ppm\": 1e5},");
+  EXPECT_EQ(message(bad),
+            "s.json:10:31: sensors[0].hardware.clock.error_ppm: 100000 ppm is not within "
+            "+-10000 ppm");
+  bad = kScene;
+  bad.replace(bad.find("[0.001, 0.001, 0.001]"), 21, "\"x\"");
+  EXPECT_EQ(message(bad),
+            "s.json:10:64: sensors[0].hardware.accelerometer.noise.noise_density: expected an "
+            "array of 3 numbers, got a string");
+  // The second sensor's index, a missing key at its object, a value that is not an object.
+  bad = kScene;
+  bad.replace(bad.find("\"outputs\": [\"gyroscope\""), 0, "\"hardware\": {\"gravity\": 9.8}, ");
+  EXPECT_EQ(message(bad),
+            "s.json:14:18: sensors[1].hardware.schema: missing; a device profile has \"schema\": "
+            "\"imukit.profile/1\"");
+  bad = kScene;
+  bad.replace(bad.find("\"outputs\": [\"gyroscope\""), 0, "\"hardware\": 5, ");
+  EXPECT_EQ(message(bad), "s.json:14:18: sensors[1].hardware: expected a JSON object, got 5");
+}
+
 // --- magnetometer hardware ---------------------------------------------------------------------
 
 TEST(SceneMagnetometer, HardIronAddsItsOffsetSoftIronItsMatrixNoiseItsDensity) {
