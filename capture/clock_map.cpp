@@ -200,9 +200,28 @@ bool DeviceClock::follows(const Stamp& a, const Stamp& b) const {
   return static_cast<double>(b.ticks - a.ticks) / tick_hz_ <= *host_elapsed + kMaxLeadS;
 }
 
+bool DeviceClock::bridges_gap(const Segment& seg, const Stamp& b) const {
+  const Stamp& a = seg.last;
+  const Stamp& r = seg.run;
+  if (!a.index || !b.index || !r.index) return false;
+  if (*b.index <= *a.index || b.ticks < a.ticks || *a.index <= *r.index || a.ticks <= r.ticks)
+    return false;
+  // Both clocks of the device, its tick and its sample counter, say the same time elapsed.
+  const double per_index =
+      static_cast<double>(a.ticks - r.ticks) / static_cast<double>(*a.index - *r.index);
+  const double expected = static_cast<double>(*b.index - *a.index) * per_index;
+  return std::abs(static_cast<double>(b.ticks - a.ticks) - expected) <=
+         0.5 * per_index + kGapTolerance * expected;
+}
+
+bool DeviceClock::continues_segment(const Stamp& b) const {
+  const Segment& seg = segments_.back();
+  return follows(seg.last, b) || bridges_gap(seg, b);
+}
+
 void DeviceClock::begin_segment(const Stamp& s) {
   if (!segments_.empty()) segments_.back().mapper.flush();
-  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, 0});
+  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0});
   segment_starts_.push_back(s.k);
 }
 
@@ -211,17 +230,20 @@ void DeviceClock::accept(const Stamp& s) {
   Segment& seg = segments_.back();
   seg.mapper.add_sample(s.ticks, s.host);
   if (seg.accepted == 0) seg.first = s;
+  if (seg.accepted == 0 || !s.index || !seg.last.index || *s.index <= *seg.last.index) seg.run = s;
   seg.last = s;
   ++seg.accepted;
 }
 
-bool DeviceClock::would_continue(uint64_t device_ticks, TimeNs host_receive) const {
+bool DeviceClock::would_continue(uint64_t device_ticks, TimeNs host_receive,
+                                 std::optional<uint64_t> sample_index) const {
   return last_accepted_ &&
-         follows(segments_.back().last, Stamp{next_k_, device_ticks, host_receive});
+         continues_segment(Stamp{next_k_, device_ticks, host_receive, sample_index});
 }
 
-void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive) {
-  const Stamp s{next_k_++, device_ticks, host_receive};
+void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
+                             std::optional<uint64_t> sample_index) {
+  const Stamp s{next_k_++, device_ticks, host_receive, sample_index};
   const bool was_accepted = last_accepted_;
   last_added_ = s;
   if (segments_.empty()) {
@@ -232,7 +254,7 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive) {
     continues_ = false;
     return;
   }
-  if (follows(segments_.back().last, s)) {
+  if (continues_segment(s)) {
     continues_ = was_accepted;
     candidates_.clear();  // they were outliers after all (recorded as such)
     accept(s);

@@ -128,7 +128,11 @@ class ClockMapper {
 // fit (every later packet "goes back") and freezes the online times. So every sample is first
 // checked against the last one accepted: its tick must not go back, nor run ahead of the host
 // time elapsed by more than kMaxLeadS (no packet arrives that much earlier than the one before
-// it). A sample that fails is an outlier: left out of the fit, and timed from the last accepted
+// it), unless its sample index says the same: a tick step that is the index step at the
+// segment's own ticks per index (within half a period and kGapTolerance) is a gap, samples lost
+// while the clock ran on, not a restart (a replay reads a gap of seconds in microseconds of host
+// time; found in review: a replay's gaps of 1 s and more vanished from its time axis). A sample
+// that fails is an outlier: left out of the fit, and timed from the last accepted
 // sample plus its place in the sequence at the segment's mean sample period. kRestartSamples
 // outliers in a row that agree with each other are a restart: they begin a new segment, a new
 // ClockMapper on their own clock. A segment's times begin no earlier than one sample period
@@ -140,6 +144,7 @@ class ClockMapper {
 class DeviceClock {
  public:
   static constexpr double kMaxLeadS = 1.0;
+  static constexpr double kGapTolerance = 1e-3;
   static constexpr std::size_t kRestartSamples = 3;
   // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
   static constexpr double kMaxSlew = 0.1;
@@ -147,15 +152,19 @@ class DeviceClock {
   explicit DeviceClock(double tick_hz);
 
   // The next sample: its (unwrapped) device tick and when it reached the host; samples that
-  // arrived together (the same host time) are one packet (ClockMapper::add_sample).
-  void add_sample(uint64_t device_ticks, TimeNs host_receive);
+  // arrived together (the same host time) are one packet (ClockMapper::add_sample). The sample's
+  // index on the device's counter (drivers::Sample::sequence), where it has one, lets a gap be
+  // told from a restart.
+  void add_sample(uint64_t device_ticks, TimeNs host_receive,
+                  std::optional<uint64_t> sample_index = std::nullopt);
   // True when the sample just added continues the one before it on the same clock (neither is
   // an outlier, no restart between): its tick step is elapsed device time.
   bool continues() const { return continues_; }
   // What continues() would say of a sample with this tick and receive time if it were added
   // next: lets a caller decide on a sample (e.g. whether it is inside a recording's duration)
   // before it enters the fit.
-  bool would_continue(uint64_t device_ticks, TimeNs host_receive) const;
+  bool would_continue(uint64_t device_ticks, TimeNs host_receive,
+                      std::optional<uint64_t> sample_index = std::nullopt) const;
   // The online time of the sample just added: the fit of its segment, slewed so that it never
   // goes before the previous sample's; outliers advance by the host time elapsed.
   TimeNs online_time();
@@ -177,10 +186,12 @@ class DeviceClock {
     std::size_t k = 0;
     uint64_t ticks = 0;
     TimeNs host = 0;
+    std::optional<uint64_t> index;  // on the device's sample counter
   };
   struct Segment {
     ClockMapper mapper;
     Stamp first, last;  // its first and last accepted sample
+    Stamp run;          // the first accepted sample of the latest run of increasing indices
     std::size_t accepted = 0;
   };
   struct Outlier {
@@ -190,6 +201,10 @@ class DeviceClock {
   // b can follow a on one clock: its tick not before a's, nor ahead by more than the host time
   // elapsed plus kMaxLeadS.
   bool follows(const Stamp& a, const Stamp& b) const;
+  // b continues seg across a gap: its tick step from seg's last sample is its index step at the
+  // ticks per index seg's latest run of indices shows.
+  bool bridges_gap(const Segment& seg, const Stamp& b) const;
+  bool continues_segment(const Stamp& b) const;  // follows or bridges_gap, from the last segment
   void begin_segment(const Stamp& s);
   void accept(const Stamp& s);
   double seconds_since_anchor(TimeNs t) const;

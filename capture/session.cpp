@@ -158,6 +158,7 @@ DeviceProgress progress_of(Device& d) {
     p.frames_corrupt = d.stats.frames_corrupt;
     p.non_finite = d.stats.samples_non_finite;
     p.before_start = d.stats.samples_before_start;
+    p.stale = d.stats.samples_stale;
     p.end_reason = d.silent_reason.empty() ? d.end_reason : d.silent_reason;
   }
   p.backpressure = d.backpressure.load();
@@ -190,7 +191,7 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
                   const Live& live) {
   TimeNs t = s.host_time;
   if (s.has_device_time) {
-    d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time);
+    d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence);
     t = d.clock.online_time();
     if (d.has_device_time && d.clock.continues()) d.clock_elapsed += s.device_time - d.last_device;
   }
@@ -362,7 +363,8 @@ void start_readers(Devices& devices) {
 // --duration 2 at 1 kHz, in blocks of 8).
 TimeNs time_since_first(const Device& d, const drivers::Sample& s) {
   if (!s.has_device_time || !d.has_device_time) return s.host_time - d.first_host;
-  const bool continues = d.clock.would_continue(static_cast<uint64_t>(s.device_time), s.host_time);
+  const bool continues =
+      d.clock.would_continue(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence);
   return d.clock_elapsed + (continues ? s.device_time - d.last_device : 0);
 }
 
@@ -495,6 +497,7 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
                             {"frames_corrupt", std::to_string(p.frames_corrupt)},
                             {"samples_non_finite", std::to_string(p.non_finite)},
                             {"samples_before_start", std::to_string(p.before_start)},
+                            {"samples_stale", std::to_string(p.stale)},
                             {"backpressure_dropped", std::to_string(p.backpressure)},
                             {"end_reason", p.end_reason},
                             {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}};
@@ -655,7 +658,7 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
       if (raw) scan.gaps[it->second].add(raw->sample_index);
       if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
         scan.clocks.try_emplace(it->second, 1e9)
-            .first->second.add_sample(*ns, raw->host_receive_time);
+            .first->second.add_sample(*ns, raw->host_receive_time, raw->sample_index);
       }
     } else if (const auto s = scan.sync_channels.find(m.channel_id);
                s != scan.sync_channels.end()) {
@@ -689,6 +692,7 @@ McapMetadata recovered_session_record(const std::string& device, const IndexGaps
            {"frames_corrupt", lost},
            {"samples_non_finite", lost},
            {"samples_before_start", lost},
+           {"samples_stale", lost},
            {"backpressure_dropped", lost},
            {"end_reason", "the recording did not finish (recovered by imukit convert --recover)"},
            {"recovered",

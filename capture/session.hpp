@@ -46,6 +46,9 @@ struct DeviceProgress {
   // Samples of an earlier session's stream discarded at the start (CodecStats::
   // samples_before_start): not losses of this recording.
   uint64_t before_start = 0;
+  // Samples of frames the link repeated or delivered late (CodecStats::samples_stale): not
+  // written again, not losses.
+  uint64_t stale = 0;
   uint64_t backpressure = 0;  // samples the recorder's own queue had to refuse
   std::size_t queue_high_water = 0;
   double rate_hz = 0.0;  // the device's sample rate on the host clock (sample numbers over

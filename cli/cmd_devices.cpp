@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <thread>
 
 #include "command.hpp"
@@ -89,11 +90,24 @@ int read_device(const DevicesOptions& o) {
       "errors {}, before the stream's start {} (not losses)\n",
       st.samples_decoded, st.samples_dropped, st.samples_non_finite, st.counter_resets,
       st.device_errors, st.samples_before_start);
+  if (st.samples_stale > 0) {
+    fmt::print(
+        "  stale samples {} (frames repeated or delivered late: not handed out again, not "
+        "losses)\n",
+        st.samples_stale);
+  }
   const char* kinds[] = {"running", "stopped", "end of stream", "error"};
   fmt::print("  ended: {}{}\n", kinds[static_cast<int>(end.kind)],
              end.message.empty() ? "" : ": " + end.message);
   if (st.bytes_received == 0 && end.kind == drivers::EndKind::kStopped)
     fmt::print("  nothing arrived in {:g} s: {}\n", o.seconds, when_silent);
+  if (s.empty()) {
+    // A test read that gave no sample failed, as `record` says of such a device (found in review:
+    // garbage read as 0 samples, 1 corrupt frame and exit 0).
+    std::fflush(stdout);
+    throw IoError(
+        fmt::format("devices: no samples from {} (see the counts and the end above)", o.read_uri));
+  }
   return end.kind == drivers::EndKind::kError ? kIo : kOk;
 }
 

@@ -1,6 +1,8 @@
 #include "imukit/drivers/imukit_codec.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 
 #include "imukit/core/error.hpp"
@@ -13,6 +15,12 @@ namespace {
 uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
   const uint64_t q = n / r, a = n % r, c = k / r, b = k % r;
   return q * k + a * c + (a * b) / r;
+}
+
+// The 32-bit device tick raw as the 64-bit tick nearest `near` (the half-range rule around a
+// prediction rather than around the last tick seen).
+int64_t tick_near(uint32_t raw, int64_t near) {
+  return near + static_cast<int32_t>(raw - static_cast<uint32_t>(near));
 }
 
 const char* nack_reason(proto::NackCode code) {
@@ -145,7 +153,7 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
         ++stats_.frames_other;
         return;
       }
-      on_block(block_, host_time, out);
+      on_block(block_, decoder_.out_of_order(), host_time, out);
       return;
     }
     case MessageType::kDeviceInfo: {
@@ -180,8 +188,8 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       SyncPoint s;
       s.host_send = static_cast<TimeNs>(p.host_time);
       s.host_receive = host_time;
-      s.device_rx = ticks_to_ns(ticks_.unwrap(p.rx_tick), info_->tick_hz);
-      s.device_tx = ticks_to_ns(ticks_.unwrap(p.tx_tick), info_->tick_hz);
+      s.device_rx = ticks_to_ns(unwrap_tick(p.rx_tick), info_->tick_hz);
+      s.device_tx = ticks_to_ns(unwrap_tick(p.tx_tick), info_->tick_hz);
       sync_.push_back(s);
       return;
     }
@@ -199,7 +207,8 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
         next_index_ = 0;
         index_.reset();
         index_.unwrap(0);
-        ticks_.reset();
+        tick_ref_.reset();
+        last_block_.reset();
       }
       return;
     }
@@ -233,7 +242,7 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
   }
 }
 
-void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
+void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeNs host_time,
                            std::vector<Sample>& out) {
   if (opt_.send_commands && !stream_acked_) {
     // Not our stream yet (before the DeviceInfo or between our Start and its Ack): the stream
@@ -245,15 +254,31 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
     return;
   }
   int64_t first = index_.unwrap(b.sample_index);
+  int skip = 0;  // leading samples of the block that the stream has already passed
   if (have_index_) {
     if (first > next_index_) {
       stats_.samples_dropped += static_cast<uint64_t>(first - next_index_);
     } else if (first < next_index_) {
-      // A new streaming session (index restarts at 0) or a replayed frame.
-      ++stats_.counter_resets;
-      index_.reset();
-      first = index_.unwrap(b.sample_index);
-      ticks_.reset();
+      const std::optional<int64_t> due = out_of_order ? tick_due(first) : std::nullopt;
+      if (due && std::abs(tick_near(b.first_tick, *due) - *due) <=
+                     static_cast<int64_t>(info_->tick_hz) * 500 / rate_mhz_) {
+        // A frame numbered just before the newest, its first tick where this stream's stepping
+        // puts its index (within half a period): the link repeated it or delivered it late (a
+        // device that restarts numbers its frames and its samples anew). Its samples were
+        // handed out, or counted as dropped when a later block skipped them, and the stream
+        // cannot go back for them (found in review: a repeated block counted as a counter
+        // reset, its 8 samples recorded twice and every later time shifted by 80 ms).
+        skip = static_cast<int>(std::min<int64_t>(b.count, next_index_ - first));
+        stats_.samples_stale += static_cast<uint64_t>(skip);
+        if (skip == b.count) return;
+      } else {
+        // A new streaming session (index restarts at 0, the clock somewhere else).
+        ++stats_.counter_resets;
+        index_.reset();
+        first = index_.unwrap(b.sample_index);
+        tick_ref_.reset();
+        last_block_.reset();
+      }
     }
   }
   if (!info_) {
@@ -264,7 +289,13 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
     return;
   }
   const proto::DeviceInfo& info = *info_;
-  const int64_t tick0 = ticks_.unwrap(b.first_tick);
+  // The first tick, unwrapped around where the device's stepping puts it from the last block:
+  // right across a loss of any length (found in review: a loss of 2^31 ticks or more unwrapped
+  // back by 2^32 ticks and gave a 100 Hz stream a rate of 705.755 Hz).
+  const std::optional<int64_t> due = tick_due(first);
+  const int64_t tick0 = due ? tick_near(b.first_tick, *due) : unwrap_tick(b.first_tick);
+  if (skip == 0) last_block_ = BlockStart{first, tick0};
+  tick_ref_ = std::max(tick_ref_.value_or(tick0), tick0);
   const uint64_t per_second_mticks = static_cast<uint64_t>(info.tick_hz) * 1000u;
   auto scale_of = [&](proto::SensorKind kind, float& scale, float& offset) {
     const proto::SensorInfo* s = info.find(kind);
@@ -283,7 +314,7 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
       (b.channels & proto::kChannelMag) && scale_of(proto::SensorKind::kMagnetometer, sm, om);
   const bool ht = (b.channels & proto::kChannelTemperature) &&
                   scale_of(proto::SensorKind::kTemperature, st, ot);
-  for (int i = 0; i < b.count; ++i) {
+  for (int i = skip; i < b.count; ++i) {
     Sample s;
     s.host_time = host_time;
     s.sequence = static_cast<uint64_t>(first + i);
@@ -321,9 +352,37 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, TimeNs host_time,
                              ((b.channels & proto::kChannelTemperature) ? kHasTemperature : 0));
     out.push_back(s);
   }
-  stats_.samples_decoded += b.count;
+  stats_.samples_decoded += static_cast<uint64_t>(b.count - skip);
   next_index_ = first + b.count;
   have_index_ = true;
+}
+
+std::optional<int64_t> ImukitCodec::tick_due(int64_t index) const {
+  if (!last_block_ || !info_ || rate_mhz_ == 0 || index < 0 || last_block_->index < 0)
+    return std::nullopt;
+  // t(n) = t0 + floor(n tick_hz 1000 / rate_mhz) (docs/protocol.md, sample timing).
+  const uint64_t per_second_mticks = static_cast<uint64_t>(info_->tick_hz) * 1000u;
+  // A tick beyond 2^62, or 2^33 s (272 years) of device time, is no real stream's (a crafted
+  // one): not predicted, so that no tick nor its time in ns below can overflow.
+  const double approx = static_cast<double>(last_block_->tick) +
+                        static_cast<double>(index - last_block_->index) *
+                            static_cast<double>(per_second_mticks) / rate_mhz_;
+  if (!(std::abs(approx) < 0x1p62 && std::abs(approx) / info_->tick_hz < 0x1p33 &&
+        std::abs(static_cast<double>(last_block_->tick)) < 0x1p62))
+    return std::nullopt;
+  // Each floor is exact modulo 2^64 (floor_mul_div wraps), so their difference is exact: it is
+  // far inside the int64 range.
+  return last_block_->tick +
+         static_cast<int64_t>(
+             floor_mul_div(static_cast<uint64_t>(index), per_second_mticks, rate_mhz_) -
+             floor_mul_div(static_cast<uint64_t>(last_block_->index), per_second_mticks,
+                           rate_mhz_));
+}
+
+int64_t ImukitCodec::unwrap_tick(uint32_t raw) {
+  const int64_t t = tick_ref_ ? tick_near(raw, *tick_ref_) : int64_t{raw};
+  tick_ref_ = std::max(tick_ref_.value_or(t), t);
+  return t;
 }
 
 }  // namespace imukit::drivers

@@ -12,8 +12,13 @@
 // lost: the next round stops the device again). Raw counts are scaled with the DeviceInfo's
 // per-range scale and offset. Sample i of a block is stamped on the device clock at first_tick +
 // floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
-// (32-bit ticks, half-range rule). Gaps in the 32-bit cumulative sample index are counted as
-// dropped samples; a backwards jump (a new streaming session) as a counter reset.
+// (32-bit ticks, half-range rule around the tick the stepping rule gives the block's index from
+// the last block's, so a loss of any length keeps the time). Gaps in the 32-bit cumulative
+// sample index are counted as dropped samples. A block whose index is behind the stream is a
+// repeat or a late arrival when its frame is numbered just before the newest frame
+// (proto::kReorderWindow) and its first tick is the one due at its index on this stream: its
+// samples already passed are not handed out again (samples_stale). Otherwise the index went
+// back for a new streaming session, counted as a counter reset.
 //
 // Time sync: every ping_interval a Ping carrying the host send time goes out; each Pong is kept
 // as a SyncPoint (host send, host receive, device rx/tx ticks) for capture/ to fit the clock map.
@@ -64,8 +69,13 @@ class ImukitCodec : public Codec {
   template <class M>
   void send(const M& m);
   void on_frame(const proto::Frame& f, TimeNs host_time, std::vector<Sample>& out);
-  void on_block(const proto::SampleBlock& b, TimeNs host_time, std::vector<Sample>& out);
+  void on_block(const proto::SampleBlock& b, bool out_of_order, TimeNs host_time,
+                std::vector<Sample>& out);
   void sync_frame_stats();
+  // The unwrapped tick the device's stepping gives sample `index` of the current stream, when
+  // a block of it was handed out and the rate is known.
+  std::optional<int64_t> tick_due(int64_t index) const;
+  int64_t unwrap_tick(uint32_t raw);  // half-range rule around the latest tick
   void send_configuration();
 
   ImukitCodecOptions opt_;
@@ -79,7 +89,14 @@ class ImukitCodec : public Codec {
   uint16_t start_sequence_ = 0;  // that Start's frame sequence number
   TimeNs last_request_ = 0;
   CounterUnwrapper index_{32};
-  CounterUnwrapper ticks_{32};
+  // The first sample of the last block handed out: index and unwrapped tick, from which the
+  // device's stepping rule gives the tick due at any other index of the stream.
+  struct BlockStart {
+    int64_t index;
+    int64_t tick;
+  };
+  std::optional<BlockStart> last_block_;
+  std::optional<int64_t> tick_ref_;  // the latest unwrapped tick (blocks, pongs)
   int64_t next_index_ = 0;
   bool have_index_ = false;
   TimeNs last_ping_ = 0;

@@ -81,6 +81,10 @@ struct CodecStats {
   uint64_t samples_before_start = 0;
   uint64_t counter_resets = 0;  // counter repeated or jumped back (device restarted its stream)
   uint64_t device_errors = 0;   // error messages the device itself sent
+  // Samples of a frame behind the stream on the same counter and clock (the link repeated the
+  // frame, or delivered it after later ones), not handed out again: no counter reset, and no
+  // loss beyond what the skip over them already counted in samples_dropped. (imukit codec.)
+  uint64_t samples_stale = 0;
 };
 
 // Unwraps a free-running counter of `bits` bits (1..63) to 64 bits with the half-range rule: a

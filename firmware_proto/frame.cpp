@@ -86,15 +86,21 @@ bool FrameDecoder::finish(const uint8_t* enc, size_t enc_size, uint64_t total_by
   frame_.sequence = static_cast<uint16_t>(buf_[2] | buf_[3] << 8);
   frame_.payload = buf_ + kHeaderSize;
   frame_.payload_size = checked - kHeaderSize;
-  if (have_sequence_) {
-    const uint16_t skipped = static_cast<uint16_t>(frame_.sequence - last_sequence_ - 1u);
-    if (skipped != 0) {
-      ++stats_.sequence_gaps;
-      stats_.frames_missed += skipped;
+  const auto behind = static_cast<uint16_t>(last_sequence_ - frame_.sequence);
+  out_of_order_ = have_sequence_ && behind < kReorderWindow;
+  if (out_of_order_) {
+    ++stats_.frames_out_of_order;  // repeated or late: the reference stays at the newest
+  } else {
+    if (have_sequence_) {
+      const uint16_t skipped = static_cast<uint16_t>(frame_.sequence - last_sequence_ - 1u);
+      if (skipped != 0) {
+        ++stats_.sequence_gaps;
+        stats_.frames_missed += skipped;
+      }
     }
+    have_sequence_ = true;
+    last_sequence_ = frame_.sequence;
   }
-  have_sequence_ = true;
-  last_sequence_ = frame_.sequence;
   ++stats_.frames_ok;
   stats_.bytes_accepted += total_bytes;
   return true;

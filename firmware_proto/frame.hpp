@@ -29,6 +29,9 @@ inline constexpr size_t kMinBodySize = kHeaderSize + kCrcSize;
 inline constexpr size_t kMaxBodySize = kMaxCheckedSize + kCrcSize;                  // 659
 inline constexpr size_t kMaxEncodedBodySize = cobs_max_encoded_size(kMaxBodySize);  // 662
 inline constexpr size_t kMaxFrameSize = kMaxEncodedBodySize + 1;  // with the delimiter: 663
+// A link repeats or reorders frames over a few at most; a number further back is taken as the
+// gap forward it also is modulo 2^16 (16 bits cannot tell; hosts count losses by sample index).
+inline constexpr uint16_t kReorderWindow = 16;
 
 // Koopman's CRC tables give CRC-32C Hamming distance 6 for data words up to 5243 bits.
 static_assert(kMaxCheckedSize * 8 <= 5243, "frames must stay inside CRC-32C's HD=6 length");
@@ -100,6 +103,10 @@ struct DecoderStats {
   uint32_t empty_frames = 0;     // a delimiter right after a delimiter (idle fill, not an error)
   uint32_t sequence_gaps = 0;    // valid frames whose sequence did not follow the previous one
   uint32_t frames_missed = 0;    // total frames skipped over by those gaps
+  // Valid frames numbered as the newest one so far or up to kReorderWindow - 1 before it: the
+  // link repeated them or delivered them late. No gap (a repeat once counted 65535 missed
+  // frames), and the newest number stays the reference for the next frame.
+  uint32_t frames_out_of_order = 0;
 
   uint32_t frames_rejected() const {
     return crc_errors + cobs_errors + short_frames + oversize_frames + version_errors;
@@ -115,6 +122,9 @@ class FrameDecoder {
 
   bool has_frame() const { return has_frame_; }
   const Frame& frame() const { return frame_; }
+  // The frame just returned was numbered as the newest before it or up to kReorderWindow - 1
+  // earlier: repeated or delivered late by the link (DecoderStats::frames_out_of_order).
+  bool out_of_order() const { return out_of_order_; }
 
   // Feeds all of data[0, n) and calls on_frame(const Frame&) for each valid frame, in order.
   template <class OnFrame>
@@ -151,6 +161,7 @@ class FrameDecoder {
   bool skipping_ = false;
   bool has_frame_ = false;
   bool have_sequence_ = false;
+  bool out_of_order_ = false;  // beside the other flags: no padding added (firmware RAM)
   uint16_t last_sequence_ = 0;
   Frame frame_;
   DecoderStats stats_;

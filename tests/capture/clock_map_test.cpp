@@ -373,6 +373,54 @@ TEST(DeviceClock, ACorruptTickIsAnOutlierTimedFromItsNeighbours) {
   EXPECT_LT(worst_online_after, 1000);
 }
 
+// A replay (review, 2026-11-26): 50 blocks of 8 samples at 100 Hz on a 1 MHz clock, 25 blocks
+// lost, 50 more, read from a file in microseconds. The tick jump after the gap (2.01 s) ran ahead
+// of the host time by more than kMaxLeadS, so its samples were outliers, then a restart, and the
+// gap vanished from the times. The sample index jumps by the same 2.01 s at 10 000 ticks per
+// index: a gap, one segment, the 2.01 s kept online and offline. A tick that jumps without its
+// index (corrupt), or an index that jumps without its tick, still fits neither side.
+TEST(DeviceClock, AGapTheSampleIndexAgreesWithIsNoRestart) {
+  struct Case {
+    int64_t lost_blocks;
+    uint64_t tick_offset;  // added to the ticks after the gap
+  };
+  for (const Case c : {Case{25, 0}, Case{100, 0}, Case{375, 0}, Case{25, 500'000}}) {
+    DeviceClock clock(1e6);
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    std::vector<uint64_t> ticks;
+    std::vector<TimeNs> online;
+    std::vector<bool> continues;
+    for (int64_t block = 0; block < 100; ++block) {
+      const int64_t b = block < 50 ? block : block + c.lost_blocks;
+      const TimeNs received = host0 + 20'000 * block;  // 20 us per block: a file read at once
+      for (int64_t i = 8 * b; i < 8 * b + 8; ++i) {
+        ticks.push_back(static_cast<uint64_t>(i) * 10'000 + (block < 50 ? 0 : c.tick_offset));
+        clock.add_sample(ticks.back(), received, static_cast<uint64_t>(i));
+        continues.push_back(clock.continues());
+        online.push_back(clock.online_time());
+      }
+    }
+    clock.flush();
+    const bool agrees = c.tick_offset == 0;
+    const TimeNs gap_ns = (8 * c.lost_blocks + 1) * 10'000'000;
+    EXPECT_EQ(clock.fit().segments, agrees ? 1u : 2u) << c.lost_blocks;
+    EXPECT_EQ(continues[400], agrees) << c.lost_blocks;
+    if (!agrees) continue;
+    EXPECT_EQ(clock.time_of(400, ticks[400]) - clock.time_of(399, ticks[399]), gap_ns);
+    EXPECT_EQ(clock.time_of(799, ticks[799]) - clock.time_of(400, ticks[400]), 3'990'000'000);
+    // Online, the interval is the device's own slewed toward the fit by at most kMaxSlew (a
+    // replay's fit ends at the last arrival, which the gap moves back).
+    EXPECT_GE(online[400] - online[399], gap_ns * 9 / 10);
+    EXPECT_LE(online[400] - online[399], gap_ns);
+  }
+  // One damaged tick (index step 1, tick 100 s ahead) is an outlier, not a gap.
+  DeviceClock damaged(1e6);
+  for (uint64_t i = 0; i < 100; ++i)
+    damaged.add_sample(i * 10'000 + (i == 50 ? 100'000'000 : 0), 1'000 * (i / 8), i);
+  EXPECT_EQ(damaged.fit().outliers, 1u);
+  EXPECT_EQ(damaged.fit().segments, 1u);
+}
+
 // What a damaged or crafted file can feed the clock fit during recovery: receive times 2^63 ns
 // apart, ticks going back, a host clock stepping back. Nothing overflows (UBSan checks), such
 // packets are counted and left out, and the map neither runs backwards nor wraps.

@@ -232,6 +232,111 @@ TEST(ImukitCodec, AReplayIsTimedAtTheRateGiven) {
   EXPECT_EQ(codec.stats().samples_dropped, 0u);
 }
 
+// DeviceInfo (frame 0; 32768 Hz clock, 100 Hz), then a SampleBlock of 8 samples for each
+// (frame sequence, sample index), its first tick by the device's rule floor(index * 327.68).
+struct BlockAt {
+  uint16_t seq;
+  int64_t index;
+};
+std::vector<uint8_t> blocks_at(const std::vector<BlockAt>& blocks) {
+  std::vector<uint8_t> bytes;
+  auto add = [&](const auto& m, uint16_t seq) {
+    uint8_t buf[proto::kMaxFrameSize];
+    const std::size_t n = proto::encode_message(m, seq, buf, sizeof buf);
+    bytes.insert(bytes.end(), buf, buf + n);
+  };
+  add(test_info(), 0);
+  for (const BlockAt& b : blocks) {
+    proto::SampleBlock blk;
+    blk.sample_index = static_cast<uint32_t>(b.index);
+    blk.first_tick = static_cast<uint32_t>(b.index * 32768 / 100);
+    blk.count = 8;
+    blk.channels = proto::kChannelAccel | proto::kChannelGyro;
+    add(blk, b.seq);
+  }
+  return bytes;
+}
+
+// Blocks 0..49 (frame k + 1, index 8k), the frames `order` lists (by block number) in between.
+std::vector<BlockAt> fifty_blocks_with(const std::vector<int>& order) {
+  std::vector<BlockAt> v;
+  for (int k : order) v.push_back({static_cast<uint16_t>(k + 1), 8 * k});
+  return v;
+}
+
+std::vector<int> in_order(int from, int to) {
+  std::vector<int> v;
+  for (int k = from; k < to; ++k) v.push_back(k);
+  return v;
+}
+
+// Found in review (2026-11-26, dup2.bin, reorder.bin): a block sent twice (frame 25, index 192)
+// or an old one again after later ones (block 22 after block 24) counted as a counter reset:
+// 408 samples, the repeat's 8 recorded twice with their old ticks (a clock restart for capture/,
+// every later time 80 ms late), and for the late one 16 samples dropped. Its frame is numbered
+// just before the newest and its tick is the one due at its index: stale, not handed out again.
+TEST(ImukitCodec, ARepeatedOrLateBlockIsStaleNotARestart) {
+  std::vector<int> dup = in_order(0, 25), late = in_order(0, 25), overtaken = in_order(0, 22);
+  dup.push_back(24);
+  late.push_back(22);
+  for (int k : {23, 24, 22}) overtaken.push_back(k);
+  for (int k = 25; k < 50; ++k) {
+    dup.push_back(k);
+    late.push_back(k);
+    overtaken.push_back(k);
+  }
+  struct Case {
+    std::vector<int> order;
+    std::size_t samples;
+    uint64_t dropped;
+  };
+  for (const Case& c : {Case{dup, 400, 0}, Case{late, 400, 0}, Case{overtaken, 392, 8}}) {
+    ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+    std::vector<Sample> out;
+    codec.feed(blocks_at(fifty_blocks_with(c.order)), 0, out);
+    ASSERT_EQ(out.size(), c.samples);
+    for (std::size_t i = 1; i < out.size(); ++i) ASSERT_GT(out[i].sequence, out[i - 1].sequence);
+    for (const Sample& s : out)
+      EXPECT_EQ(s.device_time, ticks_to_ns(static_cast<int64_t>(s.sequence * 32768 / 100), 32768));
+    EXPECT_EQ(codec.stats().counter_resets, 0u);
+    EXPECT_EQ(codec.stats().samples_stale, 8u);
+    EXPECT_EQ(codec.stats().samples_dropped, c.dropped);
+    EXPECT_EQ(codec.frame_stats().frames_out_of_order, 1u);
+    EXPECT_EQ(codec.frame_stats().frames_missed, c.dropped / 8);
+  }
+  // A device that restarts numbers its frames and samples anew (restart.bin: even on the same
+  // ticks): a new stream, counted as a counter reset, every sample handed out.
+  std::vector<BlockAt> restart = fifty_blocks_with(in_order(0, 50));
+  for (int k = 0; k < 50; ++k) restart.push_back({static_cast<uint16_t>(k), 8 * k});
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(blocks_at(restart), 0, out);
+  EXPECT_EQ(out.size(), 800u);
+  EXPECT_EQ(codec.stats().counter_resets, 1u);
+  EXPECT_EQ(codec.stats().samples_stale, 0u);
+}
+
+// Found in review (2026-11-26, bigloss.bin): a loss longer than 2^31 ticks unwrapped the next
+// first_tick by the half-range rule around the last one, 2^32 ticks short, and `devices --read`
+// said 705.755 Hz for a 100 Hz stream. The tick is unwrapped around the one the stepping rule
+// gives its index: here 10^7 samples lost, 3.3e9 ticks of 32768 Hz (10^5 s).
+TEST(ImukitCodec, ALossLongerThanHalfTheTickRangeKeepsItsTime) {
+  const int64_t lost = 10'000'000;
+  std::vector<BlockAt> blocks = fifty_blocks_with(in_order(0, 50));
+  for (int k = 0; k < 50; ++k)
+    blocks.push_back({static_cast<uint16_t>(51 + lost / 8 + k), 400 + lost + 8 * k});
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(blocks_at(blocks), 0, out);
+  ASSERT_EQ(out.size(), 800u);
+  EXPECT_EQ(codec.stats().samples_dropped, static_cast<uint64_t>(lost));
+  EXPECT_EQ(codec.stats().counter_resets, 0u);
+  for (const Sample& s : out)
+    EXPECT_EQ(s.device_time, ticks_to_ns(static_cast<int64_t>(s.sequence * 32768 / 100), 32768));
+  // 10^5 s + 10 ms, to the tick.
+  EXPECT_NEAR(to_seconds(out[400].device_time - out[399].device_time), 100'000.01, 1.0 / 32768);
+}
+
 // Found in review: what a device left streaming by an earlier session still sent when this
 // session started (the rest of its stream before our DeviceInfo arrived, and between our Start
 // and its Ack, the Stop's flush included) counted as dropped samples of this session. They are

@@ -218,6 +218,26 @@ TEST(FrameDecoder, CountsSequenceGapsAndMissedFrames) {
   EXPECT_EQ(dec.stats().sequence_gaps, 4u);
 }
 
+// Found in review (2026-11-26): a frame repeated by the link (its number again) counted 65535
+// missed frames, one delivered late 65533 and the next frame 2 more. Both are out of order,
+// flagged on the frame, and the newest number stays the reference: no gap.
+TEST(FrameDecoder, ARepeatedOrLateFrameIsNoGap) {
+  FrameDecoder dec;
+  Bytes stream;
+  for (uint16_t seq : {23, 24, 25, 25, 23, 26, 27}) {
+    const Bytes f = encode_raw(0x82, seq, {0});
+    stream.insert(stream.end(), f.begin(), f.end());
+  }
+  std::vector<bool> flags;
+  dec.feed(stream.data(), stream.size(),
+           [&](const Frame&) { flags.push_back(dec.out_of_order()); });
+  EXPECT_EQ(flags, (std::vector<bool>{false, false, false, true, true, false, false}));
+  EXPECT_EQ(dec.stats().frames_ok, 7u);
+  EXPECT_EQ(dec.stats().frames_out_of_order, 2u);
+  EXPECT_EQ(dec.stats().sequence_gaps, 0u);
+  EXPECT_EQ(dec.stats().frames_missed, 0u);
+}
+
 // ---- corruption -------------------------------------------------------------------------------
 
 // Feeds `wire` (a corrupted frame, delimiter included, or any bytes) followed by a valid
