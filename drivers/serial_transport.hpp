@@ -18,6 +18,7 @@ class SerialTransport : public ByteTransport {
   ReadResult read(std::span<uint8_t> buf, int timeout_ms) override;
   void write(std::span<const uint8_t> bytes) override;
   std::string describe() const override;
+  std::string when_silent() const override { return "check the baud rate and codec in the URI"; }
   int baud() const;
 
  private:

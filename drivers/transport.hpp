@@ -54,8 +54,11 @@ class Transport {
   // fd): receive times then say when the bytes were read, not when the samples were made, so
   // they give no sample rate.
   virtual bool replay() const { return false; }
-  // What to check when nothing at all arrives, for the message that says so.
-  virtual std::string when_silent() const { return "check the baud rate and codec in the URI"; }
+  // What to check when nothing at all arrives, for the message that says so. Transports with
+  // a setting of their own to check (a serial port's baud rate) say so.
+  virtual std::string when_silent() const {
+    return "check the codec in the URI and that the device is streaming";
+  }
 };
 
 class ByteTransport : public Transport {

@@ -1,12 +1,15 @@
 #include "imukit/drivers/reader.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <stdlib.h>
 #include <unistd.h>
 
 #include <stdexcept>
 #include <thread>
 
 #include "imukit/drivers/text_codec.hpp"
+#include "imukit/drivers/transport.hpp"
 
 namespace imukit::drivers {
 namespace {
@@ -86,6 +89,26 @@ TEST(DeviceReader, RunStopsAfterMaxSamples) {
   const EndReason end = DeviceReader::run(t, codec, ReaderOptions{10, 4096, 30}, stop, out);
   EXPECT_EQ(end.kind, EndKind::kStopped);
   EXPECT_EQ(out.size(), 30u);  // a 10-byte read never holds two line ends
+}
+
+// The hint when nothing arrives names what the transport has to check: only a serial port has a
+// baud rate (found in review: a silent pty given as fd:, a mock, HID and USB were told to check
+// a baud rate they do not have).
+TEST(Transport, OnlyASerialPortIsToldToCheckItsBaudRate) {
+  const MemoryTransport memory({});
+  EXPECT_EQ(memory.when_silent(), "check the codec in the URI and that the device is streaming");
+
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const FdTransport pipe_end(fds[0], true, "pipe");
+  ::close(fds[1]);
+  EXPECT_EQ(pipe_end.when_silent(),
+            "nothing was written to the FIFO or pipe: has a writer opened it?");
+
+  const int pty = ::posix_openpt(O_RDWR | O_NOCTTY);
+  ASSERT_GE(pty, 0);
+  const FdTransport terminal(pty, true, "pty");
+  EXPECT_EQ(terminal.when_silent(), "check the codec in the URI and that the device is streaming");
 }
 
 }  // namespace
