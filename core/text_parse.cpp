@@ -108,8 +108,10 @@ void LineReader::check_text(std::string_view line, int64_t number) const {
   if (number == 1 && line.starts_with("\x89MCAP")) {
     throw Error(InputLocation{source_name_, 1, 1, {}}, "an MCAP recording (binary), not text");
   }
-  std::size_t text_end = line.size();  // before a run of CRs at the end, which trim() removes
-  while (text_end > 0 && line[text_end - 1] == '\r') --text_end;
+  // Before the run of blanks at the end, CRs among them, which trim() removes ("0.03\r \n" was
+  // read before the check and must stay so; found in review).
+  std::size_t text_end = line.size();
+  while (text_end > 0 && is_blank(line[text_end - 1])) --text_end;
   for (std::size_t i = 0; i < text_end; ++i) {
     const auto c = static_cast<unsigned char>(line[i]);
     if (c >= 0x20 || c == '\t') continue;

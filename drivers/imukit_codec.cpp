@@ -158,6 +158,10 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
     }
     case MessageType::kDeviceInfo: {
       ++stats_.frames_other;
+      // A device sends its DeviceInfo when it boots (or when asked): the frames after it are
+      // numbered from there, never repeats of frames before it (found in review: a device that
+      // rebooted within 16 frames of its start had its new blocks taken for stale repeats).
+      decoder_.reset_sequence();
       proto::DeviceInfo info;
       const bool parsed = proto::parse_message(f, info) == proto::ParseStatus::kOk;
       bool finite = true;

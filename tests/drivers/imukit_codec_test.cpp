@@ -316,6 +316,22 @@ TEST(ImukitCodec, ARepeatedOrLateBlockIsStaleNotARestart) {
   EXPECT_EQ(codec.stats().samples_stale, 0u);
 }
 
+// Found in review: a device that rebooted 5 blocks into its stream sent its DeviceInfo, then
+// frames 1.. and samples 0.. again on the same ticks; within the 16-frame window of the frames
+// before, its first 40 samples were dropped as stale and the restart left no trace.
+TEST(ImukitCodec, ADeviceRebootingSoonAfterItsStartIsANewStreamNotStaleRepeats) {
+  std::vector<uint8_t> bytes = blocks_at(fifty_blocks_with(in_order(0, 5)));
+  const std::vector<uint8_t> after_boot = blocks_at(fifty_blocks_with(in_order(0, 30)));
+  bytes.insert(bytes.end(), after_boot.begin(), after_boot.end());  // its DeviceInfo first
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(bytes, 0, out);
+  EXPECT_EQ(out.size(), 280u);
+  EXPECT_EQ(codec.stats().counter_resets, 1u);
+  EXPECT_EQ(codec.stats().samples_stale, 0u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+}
+
 // Found in review (2026-11-26, bigloss.bin): a loss longer than 2^31 ticks unwrapped the next
 // first_tick by the half-range rule around the last one, 2^32 ticks short, and `devices --read`
 // said 705.755 Hz for a 100 Hz stream. The tick is unwrapped around the one the stepping rule
