@@ -2,6 +2,8 @@
 
 run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
+import contextlib
+import io
 import os
 import tempfile
 import unittest
@@ -24,6 +26,20 @@ class UtdMhad(unittest.TestCase):
         # Every file of the release has its partner (the 3 trials missing lack both files).
         self.assertEqual(unpaired, [])
         self.assertEqual(trials[0], utd_mhad.TrialId(action=1, subject=1, trial=1))
+
+    def test_subjects_are_named_as_the_dataset_names_them_or_bare(self):
+        self.assertEqual(utd_mhad.parse_subjects("s1,4, s8"), [1, 4, 8])
+        for bad in ("x9", "s", "s0", "1.5", ""):
+            with self.assertRaisesRegex(ValueError, f"subject {bad!r}: expected a subject as s1 or 1"):
+                utd_mhad.parse_subjects(bad)
+        # The fitting batch took "s4" to a traceback (int("s4")); now the list and a clear error.
+        from imukit.datasets import utd_mhad_scenes
+        with tempfile.TemporaryDirectory() as d:
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err), self.assertRaises(SystemExit) as exit:
+                utd_mhad_scenes.main([self.root, d, "--subjects", "s4,s9"])
+            self.assertEqual(exit.exception.code, 2)
+            self.assertIn("--subjects: no trials of subject(s) s9 in", err.getvalue())
 
     def test_converts_g_and_deg_per_s_to_si_and_keeps_the_skeleton_in_frame_order(self):
         trial = utd_mhad.load_trial(self.root, utd_mhad.TrialId(1, 1, 1))

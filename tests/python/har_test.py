@@ -490,6 +490,50 @@ class Experiments(unittest.TestCase):
             self.assertIn("12 of 12 runs already done", log.getvalue())
 
 
+    def test_folds_made_apart_merge_into_one_report_that_names_differing_data(self):
+        with tempfile.TemporaryDirectory() as d:
+            synthetic_recordings(os.path.join(d, "rec"))
+            argv = ["one-at-a-time", "--recordings", os.path.join(d, "rec"), "--tiny", "--epochs", "1",
+                    "--seeds", "1", "--models", "deepconvlstm", "--jobs", "1", "--arms", "baseline"]
+            with contextlib.redirect_stdout(io.StringIO()):
+                har_main(argv + ["--out", os.path.join(d, "a"), "--folds", "s1"])
+                har_main(argv + ["--out", os.path.join(d, "b"), "--folds", "s2,s3"])
+            a, b = (os.path.join(d, x, "one_at_a_time.json") for x in "ab")
+            self.assertEqual([r["test"] for r in load_json(a)["runs"]], ["s1"])
+            self.assertEqual(sorted(r["test"] for r in load_json(b)["runs"]), ["s2", "s3"])
+            with self.assertRaisesRegex(ValueError, r"--folds: no subject\(s\) \['s9'\]"):
+                har_main(argv + ["--out", os.path.join(d, "c"), "--folds", "s9"])
+            with contextlib.redirect_stdout(io.StringIO()):
+                har_main(["merge", "--out", os.path.join(d, "m"), a, b])
+            merged = load_json(os.path.join(d, "m", "one_at_a_time.json"))
+            self.assertEqual(sorted(r["test"] for r in merged["runs"]), ["s1", "s2", "s3"])
+            self.assertEqual(merged["data"]["fingerprints_differ"], [])
+            self.assertAlmostEqual(merged["wall_seconds"],
+                                   load_json(a)["wall_seconds"] + load_json(b)["wall_seconds"], delta=1e-9)
+            with open(os.path.join(d, "m", "one_at_a_time.md"), encoding="utf-8") as f:
+                self.assertIn("Every file was made from the same recordings", f.read())
+            # A run in two files, or other settings, is refused naming the file.
+            with self.assertRaisesRegex(ValueError, r"b/one_at_a_time.json: run baseline\|.*test=s2.* is in .*b/one_at_a_time.json too"):
+                experiments.merge([a, b, b])
+            other = load_json(b)
+            other["settings"]["epochs"] = 2
+            other["data"]["fingerprints"]["s3"] = "0" * 16
+            other["data"]["recordings_without_scene"] = ["r_s3_t1"]
+            c = os.path.join(d, "c.json")
+            with open(c, "w", encoding="utf-8") as f:
+                json.dump(other, f)
+            with self.assertRaisesRegex(ValueError, r"c.json: experiment 'one_at_a_time' with settings .*'epochs': 2"):
+                experiments.merge([a, c])
+            other["settings"]["epochs"] = 1
+            with open(c, "w", encoding="utf-8") as f:
+                json.dump(other, f)
+            with contextlib.redirect_stdout(io.StringIO()):
+                har_main(["merge", "--out", os.path.join(d, "m2"), a, c])
+            with open(os.path.join(d, "m2", "one_at_a_time.md"), encoding="utf-8") as f:
+                self.assertIn("The files' recordings differ for subject(s) s3: 1 recording(s) have a scene "
+                              "in one file and not in another (r_s3_t1).", f.read())
+
+
 class UtdMhadSmoke(unittest.TestCase):
     """The pipeline on real data, small: subject 1 trains, subject 2 validates and tests."""
 

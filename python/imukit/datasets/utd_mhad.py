@@ -37,6 +37,18 @@ ACTIONS = ("right arm swipe to the left", "right arm swipe to the right", "right
            "squat (two arms stretch out)")
 
 _NAME = re.compile(r"^a(\d+)_s(\d+)_t(\d+)_(inertial|skeleton)\.mat$")
+_SUBJECT = re.compile(r"^s?([1-9]\d*)$")
+
+
+def parse_subjects(text):
+    """Subject numbers from a comma list as the dataset names them (`s1,s4`) or bare (`1,4`)."""
+    out = []
+    for item in text.split(","):
+        m = _SUBJECT.match(item.strip())
+        if not m:
+            raise ValueError(f"subject {item.strip()!r}: expected a subject as s1 or 1 (comma separated)")
+        out.append(int(m.group(1)))
+    return out
 
 
 def sensor_site(action):

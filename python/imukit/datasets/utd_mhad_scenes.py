@@ -285,7 +285,7 @@ def main(argv=None):
     ap.add_argument("root", help="the UTD-MHAD folder (Inertial/, Skeleton/)")
     ap.add_argument("out", help="output folder (one sub-folder per trial, fidelity.json/.md)")
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--subjects", default="", help="comma list of subjects (default all)")
+    ap.add_argument("--subjects", default="", help="comma list of subjects, e.g. s1,s4 or 1,4 (default all)")
     ap.add_argument("--limit", type=int, default=0, help="only the first N trials")
     ap.add_argument("--no-rigid", action="store_true", help="skip the comparison fit without the twist")
     ap.add_argument("--correction", choices=("none", "twist", "rotation"), default=FIT["correction"],
@@ -297,7 +297,13 @@ def main(argv=None):
     FIT["knot_spacing_s"] = args.knot_spacing
     trials, unpaired = utd_mhad.list_trials(args.root)
     if args.subjects:
-        keep = {int(s) for s in args.subjects.split(",")}
+        try:
+            keep = set(utd_mhad.parse_subjects(args.subjects))
+        except ValueError as e:
+            ap.error(f"--subjects: {e}")
+        absent = sorted(keep - {t.subject for t in trials})
+        if absent:
+            ap.error(f"--subjects: no trials of subject(s) {', '.join(f's{s}' for s in absent)} in {args.root}")
         trials = [t for t in trials if t.subject in keep]
     if args.limit:
         trials = trials[:args.limit]

@@ -3,6 +3,7 @@
     python3 -m imukit.har one-at-a-time  --utd-mhad DIR --scenes DIR --out DIR [--jobs 2] ...
     python3 -m imukit.har fewer-subjects --utd-mhad DIR --scenes DIR --out DIR ...
     python3 -m imukit.har sim-only       --utd-mhad DIR --scenes DIR --out DIR ...
+    python3 -m imukit.har merge          --out DIR A/<experiment>.json B/<experiment>.json ...
     python3 -m imukit.har report         --out DIR
 
 Each writes DIR/<experiment>.json (every finished run, appended as it ends: rerun the same
@@ -22,7 +23,7 @@ def _data(args):
         source = {"recordings": os.path.abspath(args.recordings)}
     else:
         if args.subjects:
-            subjects = [int(s.lstrip("s")) for s in args.subjects.split(",")]
+            subjects = utd_mhad.reader.parse_subjects(args.subjects)
         R = utd_mhad.load(args.utd_mhad, scenes=args.scenes, subjects=subjects)
         source = {"utd_mhad": os.path.abspath(args.utd_mhad),
                   "scenes": os.path.abspath(args.scenes) if args.scenes else None}
@@ -34,6 +35,10 @@ def _data(args):
     source["fingerprints"] = experiments.subject_fingerprints(R)
     source["subjects"] = R.subjects
     return R, source
+
+
+def _folds(args):
+    return args.folds.split(",") if args.folds else None
 
 
 def main(argv=None):
@@ -57,17 +62,23 @@ def main(argv=None):
     common.add_argument("--policy", default="paper")
     common.add_argument("--tiny", action="store_true", help="tiny models (smoke tests)")
     common.add_argument("--jobs", type=int, default=2, help="worker processes, one torch thread each")
-    one = sub.add_parser("one-at-a-time", parents=[common])
+    folds = argparse.ArgumentParser(add_help=False)
+    folds.add_argument("--folds", help="only the folds testing these subjects (comma separated; "
+                       "default every subject): one experiment split across machines, see `merge`")
+    one = sub.add_parser("one-at-a-time", parents=[common, folds])
     one.add_argument("--seeds", type=int, default=3)
     one.add_argument("--options-all", action="store_true",
                      help="every grid option of each method (default: the middle option)")
     few = sub.add_parser("fewer-subjects", parents=[common])
     few.add_argument("--sizes", default="1,2,4,6")
     few.add_argument("--combinations", type=int, default=10)
-    sim = sub.add_parser("sim-only", parents=[common])
+    sim = sub.add_parser("sim-only", parents=[common, folds])
     sim.add_argument("--seeds", type=int, default=1)
     fid = sub.add_parser("fidelity", parents=[common],
                          help="the identity re-simulation of every window against the real one")
+    mrg = sub.add_parser("merge", help="one experiment's JSONs made apart (--folds) as one, then its report")
+    mrg.add_argument("--out", required=True, help="folder for the merged <experiment>.json and its report")
+    mrg.add_argument("inputs", nargs="+", help="the <experiment>.json files")
     rep = sub.add_parser("report")
     rep.add_argument("--out", required=True)
     args = ap.parse_args(argv)
@@ -79,6 +90,19 @@ def main(argv=None):
             if os.path.exists(path):
                 with open(path, encoding="utf-8") as f:
                     print(report.write(json.load(f), args.out))
+        return 0
+
+    if args.command == "merge":
+        import json
+        doc = experiments.merge(args.inputs)
+        os.makedirs(args.out, exist_ok=True)
+        path = os.path.join(args.out, f"{doc['experiment']}.json")
+        if any(os.path.abspath(p) == os.path.abspath(path) for p in args.inputs):
+            ap.error(f"--out would overwrite the input {path}")
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump(doc, f, indent=1)
+            f.write("\n")
+        print(report.write(doc, args.out))
         return 0
 
     if not (args.utd_mhad or args.recordings):
@@ -101,7 +125,7 @@ def main(argv=None):
     if args.command == "one-at-a-time":
         arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.ONE_AT_A_TIME_ARMS,
                                        options_all=args.options_all)
-        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds)
+        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds, _folds(args))
         name = "one_at_a_time"
     elif args.command == "fewer-subjects":
         arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.FEWER_SUBJECTS_ARMS)
@@ -112,7 +136,7 @@ def main(argv=None):
         name = "fewer_subjects"
     else:
         arms = ["baseline", "sim:identity"]
-        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds)
+        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds, _folds(args))
         name = "sim_only"
     missing = experiments.check_scenes(R, arms)
     source["recordings_without_scene"] = missing
@@ -128,5 +152,15 @@ def main(argv=None):
     return 0
 
 
+def _main_with_clear_errors():
+    # A bad file, a mismatched results JSON or an unknown fold is the user's to fix: one line
+    # naming it, not a traceback.
+    try:
+        return main()
+    except ValueError as e:
+        print(f"python3 -m imukit.har: error: {e}", file=sys.stderr)
+        return 1
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(_main_with_clear_errors())

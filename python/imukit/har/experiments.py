@@ -176,9 +176,16 @@ def loso_splits(subjects):
     return out
 
 
-def one_at_a_time_runs(subjects, arms, models, seeds):
+def one_at_a_time_runs(subjects, arms, models, seeds, folds=None):
+    """Every arm on every leave-one-subject-out fold; `folds` (test subjects) keeps only those
+    folds, so one experiment can be split across machines and its JSONs merged."""
+    if folds is not None:
+        unknown = sorted(set(folds) - set(subjects))
+        if unknown:
+            raise ValueError(f"--folds: no subject(s) {unknown} among {subjects}")
     return [{"arm": a, "model": m, "test": t, "val": v, "train": tr, "seed": s}
-            for m in models for s in range(seeds) for (t, v, tr) in loso_splits(subjects) for a in arms]
+            for m in models for s in range(seeds) for (t, v, tr) in loso_splits(subjects)
+            if folds is None or t in folds for a in arms]
 
 
 def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
@@ -288,6 +295,45 @@ def reuse(runs, store, other_path, log=print):
     if copied:
         log(f"{copied} run(s) taken from {other_path}")
     return copied
+
+
+def merge(paths):
+    """One experiment's JSONs made apart (e.g. `--folds` on two machines) as one document for the
+    report. They must share the experiment and settings, and no run may be in two of them. Where
+    their data differ (a subject's recordings, which recordings have a scene) the merged document
+    says so: `data.parts` keeps each file's data and the tests of its runs, and
+    `data.fingerprints_differ` lists the subjects whose digests disagree, so a table made from
+    it can name what was not trained on the same data."""
+    docs = []
+    for p in paths:
+        with open(p, encoding="utf-8") as f:
+            docs.append(json.load(f))
+    first = docs[0]
+    seen = {}
+    for p, d in zip(paths, docs):
+        if d.get("experiment") != first.get("experiment") or d.get("settings") != first.get("settings"):
+            raise ValueError(f"{p}: experiment {d.get('experiment')!r} with settings {d.get('settings')} "
+                             f"differs from {paths[0]}: {first.get('experiment')!r} with {first.get('settings')}")
+        for r in d.get("runs", []):
+            k = run_key(r)
+            if k in seen:
+                raise ValueError(f"{p}: run {k} is in {seen[k]} too")
+            seen[k] = p
+    digests = {}
+    for d in docs:
+        for s, h in ((d.get("data") or {}).get("fingerprints") or {}).items():
+            digests.setdefault(s, set()).add(h)
+    parts = [{"file": os.path.basename(os.path.dirname(os.path.abspath(p))) + "/" + os.path.basename(p),
+              "tests": sorted({r["test"] for r in d.get("runs", [])}), "runs": len(d.get("runs", [])),
+              "data": d.get("data")} for p, d in zip(paths, docs)]
+    data = dict(first.get("data") or {})
+    data["subjects"] = list(dict.fromkeys(s for d in docs for s in (d.get("data") or {}).get("subjects", [])))
+    data["fingerprints_differ"] = sorted(s for s, h in digests.items() if len(h) > 1)
+    data["parts"] = parts
+    return {"schema": first.get("schema"), "experiment": first.get("experiment"),
+            "settings": first.get("settings"), "data": data,
+            "runs": [r for d in docs for r in d.get("runs", [])],
+            "wall_seconds": sum(d.get("wall_seconds", 0.0) for d in docs)}
 
 
 def execute(runs, store, recordings, settings, jobs=1, log=print):

@@ -208,6 +208,28 @@ def plot(doc, fig, path):
     plt.close(f)
 
 
+def provenance(doc):
+    """For a merged document: which file holds which folds, and where their data differ."""
+    parts = (doc.get("data") or {}).get("parts")
+    if not parts:
+        return []
+    lines = ["#### Merged from", "", "| file | runs | test subjects | recordings without a scene |", "|---|---|---|---|"]
+    for p in parts:
+        lines.append(f"| {p['file']} | {p['runs']} | {', '.join(p['tests'])} | "
+                     f"{len((p.get('data') or {}).get('recordings_without_scene') or [])} |")
+    differ = doc["data"].get("fingerprints_differ") or []
+    lines.append("")
+    if differ:
+        sets = [set((p.get("data") or {}).get("recordings_without_scene") or []) for p in parts]
+        changed = sorted(set.union(*sets) - set.intersection(*sets))
+        lines.append(f"The files' recordings differ for subject(s) {', '.join(differ)}: "
+                     f"{len(changed)} recording(s) have a scene in one file and not in another "
+                     f"({', '.join(changed) or 'none: lengths, channels or rates differ'}).")
+    else:
+        lines.append("Every file was made from the same recordings (per-subject digests agree).")
+    return lines + [""]
+
+
 def write(doc, out_dir):
     """Writes <experiment>.md (and .png) beside the JSON; returns the markdown."""
     exp = doc["experiment"]
@@ -218,6 +240,7 @@ def write(doc, out_dir):
           f"window {s['window']} / stride {s['stride']} samples, batch {s['batch_size']}, up to {s['epochs']} epochs "
           f"(early stop after {s['patience']} without a better validation F1), policy grid `{s['policy']}`"
           f"{', tiny models' if s['tiny'] else ''}.", "", table, "#### Speed", "", speed(doc), ""]
+    md += provenance(doc)
     text = "\n".join(md)
     with open(os.path.join(out_dir, f"{exp}.md"), "w", encoding="utf-8") as f:
         f.write(text)
