@@ -319,6 +319,7 @@ class Augmentation(unittest.TestCase):
         np.testing.assert_allclose(X[-n1:], self.st(np.zeros_like(W.X[:n1])), atol=1e-6)
         f = experiments.window_fidelity(R, 50, 25)
         self.assertEqual(f["implausible_windows"], n1)
+        self.assertEqual(f["outputs"]["usable_windows"], len(W) - n1)
 
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)
@@ -328,6 +329,13 @@ class Augmentation(unittest.TestCase):
             self.assertAlmostEqual(f[kind]["rmse_median"], 0.05, delta=0.005)
             self.assertGreater(f[kind]["correlation"]["q1"], 0.9)
             self.assertEqual(f[kind]["windows_peaking_above_real_max"], 0)
+        # Every PPDA method's output of these clean scenes stays within the widest screen; the
+        # placement (a rotation keeps each vector's norm) within the narrowest.
+        self.assertEqual(f["outputs"]["usable_windows"], len(self.W))
+        self.assertEqual(sorted(f["outputs"]), sorted(list(experiments.PAIRS) + ["usable_windows"]))
+        for method in experiments.PAIRS:
+            self.assertEqual(f["outputs"][method]["above"]["8x"], 0, method)
+        self.assertEqual(f["outputs"]["placement"]["above"]["2x"], 0)
 
     def test_ppda_time_offset_and_scene_sensor_selection(self):
         with tempfile.TemporaryDirectory() as d:

@@ -151,12 +151,14 @@ class PpdaSource:
         """The windows re-simulated with nothing changed (fitted biases added) into out."""
         return self.apply(self.identity, recording, start, imukit.Rng(0), self.identity_policy, out)
 
-    def plausible(self, real, sim):
-        """Whether the re-simulation sim (T, C) of the real window (T, C) peaks at most
-        PEAK_FACTOR times the real peak plus PEAK_MARGIN, accelerometer and gyroscope each."""
+    def plausible(self, real, sim, factor=None):
+        """Whether the re-simulation sim (T, C) of the real window (T, C) peaks at most `factor`
+        (default PEAK_FACTOR) times the real peak plus PEAK_MARGIN, accelerometer and gyroscope
+        each."""
+        factor = self.PEAK_FACTOR if factor is None else factor
         for lo, margin in zip((0, 3), self.PEAK_MARGIN):
             cols = np.concatenate([np.arange(lo, lo + 3) + c for c in range(0, real.shape[1], 6)])
-            if np.abs(sim[:, cols]).max() > self.PEAK_FACTOR * np.abs(real[:, cols]).max() + margin:
+            if np.abs(sim[:, cols]).max() > factor * np.abs(real[:, cols]).max() + margin:
                 return False
         return True
 
