@@ -321,6 +321,34 @@ class Augmentation(unittest.TestCase):
         self.assertEqual(f["implausible_windows"], n1)
         self.assertEqual(f["outputs"]["usable_windows"], len(W) - n1)
 
+    def test_outputs_above_the_output_screen_are_trained_on_as_the_real_window(self):
+        # The identity screen passes every window of these clean scenes; a sub-policy output
+        # that spikes (here one made to, as a sped-up window reading a neighbour's tracking
+        # failure does on UTD-MHAD) is replaced by its real window when the screen is on.
+        src = augmentation.PpdaSource(self.R, 50)
+        self.assertTrue(src.usable(self.W.recording, self.W.start).all())  # screened before the spike
+        apply = src.apply
+
+        def spiking(sub, recording, start, rng, policy, out):
+            apply(sub, recording, start, rng, policy, out)
+            out[0, 10, 3] = 1e3  # rad/s, far above 8x any real window's peak + 10
+            return out
+        src.apply = spiking
+        k = experiments.grid_index("speed_scaling", 3)
+        index = np.arange(len(self.W))
+        on = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src, output_screen=8.0)
+        X, y = on.batch(k, index, seed=4)
+        self.assertEqual((on.implausible_outputs, on.augmented_windows), (1, len(index) - 1))
+        # the batch is ordered by recording (all of them fitted): window 0 of the batch is
+        # the first window of recording 0, index 0
+        np.testing.assert_allclose(X[0], self.st(self.W.X[:1])[0], atol=1e-6)
+        self.assertGreater(np.abs(X[1] - self.st(self.W.X[1:2])[0]).max(), 0.1)
+        off = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src)
+        X0, _ = off.batch(k, index, seed=4)
+        self.assertEqual((off.implausible_outputs, off.augmented_windows), (0, len(index)))
+        self.assertGreater(np.abs(X0[0] - X[0]).max(), 100.0)
+        np.testing.assert_array_equal(X0[1:], X[1:])
+
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)
         self.assertEqual(f["fitted_windows"], len(self.W))
@@ -495,6 +523,21 @@ class Experiments(unittest.TestCase):
             log = io.StringIO()
             with contextlib.redirect_stdout(log):
                 har_main(argv + ["--subjects", "s1,s2,s3"])
+            self.assertIn("12 of 12 runs already done", log.getvalue())
+            # Results written before the output screen existed (no `output_screen` in their
+            # settings) were made without it: they continue with --output-screen 0 only.
+            path = os.path.join(out, "one_at_a_time.json")
+            legacy = load_json(path)
+            self.assertEqual(legacy["settings"]["output_screen"], 8.0)
+            del legacy["settings"]["output_screen"]
+            with open(path, "w", encoding="utf-8") as f:
+                json.dump(legacy, f)
+            with self.assertRaisesRegex(ValueError, "written with other settings"):
+                with contextlib.redirect_stdout(io.StringIO()):
+                    har_main(argv)
+            log = io.StringIO()
+            with contextlib.redirect_stdout(log):
+                har_main(argv + ["--output-screen", "0"])
             self.assertIn("12 of 12 runs already done", log.getvalue())
 
 

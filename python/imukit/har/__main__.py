@@ -62,6 +62,9 @@ def main(argv=None):
     common.add_argument("--policy", default="paper")
     common.add_argument("--tiny", action="store_true", help="tiny models (smoke tests)")
     common.add_argument("--jobs", type=int, default=2, help="worker processes, one torch thread each")
+    common.add_argument("--output-screen", type=float, default=experiments.Settings.output_screen,
+                        help="PPDA outputs above this many times the real peak (+ margin) stay real; "
+                             "0 screens none, as runs before 2026-11-26 (default %(default)g)")
     folds = argparse.ArgumentParser(add_help=False)
     folds.add_argument("--folds", help="only the folds testing these subjects (comma separated; "
                        "default every subject): one experiment split across machines, see `merge`")
@@ -119,7 +122,7 @@ def main(argv=None):
         return 0
     settings = experiments.Settings(window=args.window, stride=args.stride, epochs=args.epochs,
                                      patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
-                                     policy=args.policy)
+                                     policy=args.policy, output_screen=args.output_screen)
     models = args.models.split(",")
     subjects = R.subjects
     if args.command == "one-at-a-time":

@@ -189,7 +189,8 @@ class BatchAugmenter:
     """Makes the standardised training batch for one sub-policy of `policy`: kind "none" (real
     windows), "stda" or "ppda". Times the imukit calls (`imukit_seconds`)."""
 
-    def __init__(self, kind, policy, windows, standardize, ppda=None, resimulate_identity=False):
+    def __init__(self, kind, policy, windows, standardize, ppda=None, resimulate_identity=False,
+                 output_screen=0.0):
         if kind not in ("none", "stda", "ppda"):
             raise ValueError(f"unknown augmentation kind '{kind}'")
         if kind == "ppda" and ppda is None:
@@ -202,9 +203,12 @@ class BatchAugmenter:
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
-        # PPDA windows left real: no fitted scene, or an implausible re-simulation (usable())
+        # PPDA windows left real: no fitted scene, an implausible re-simulation (usable()), or
+        # an output of the drawn sub-policy above `output_screen` (Settings.output_screen)
+        self.output_screen = output_screen
         self.unfitted_windows = 0
         self.implausible_windows = 0
+        self.implausible_outputs = 0
         self.augmented_windows = 0
         self._specs = {}
 
@@ -253,5 +257,12 @@ class BatchAugmenter:
         self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n])
         self.imukit_seconds += time.perf_counter() - t0
         X[n:] = w.X[index[n:]]
+        if self.output_screen > 0:
+            # The identity screen cannot see motion a sub-policy reads beyond the window (sped
+            # up) or an angle its scaling makes jump: such an output is trained on as the real one.
+            bad = [j for j in range(n) if not self.ppda.plausible(w.X[index[j]], X[j], self.output_screen)]
+            X[bad] = w.X[index[bad]]
+            self.implausible_outputs += len(bad)
+            n -= len(bad)
         self.augmented_windows += n
         return self.standardize(X, out=X), w.y[index]

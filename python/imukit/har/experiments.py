@@ -111,6 +111,22 @@ class Settings:
     policy: str = "paper"
     learn_every: int = 4
     learn_lr: float = 0.01
+    # PPDA outputs peaking above this many times the real window's peak (plus the margin) are
+    # trained on as the real window; 0 screens none. 8 = the identity screen's 2 times the
+    # paper grid's fastest speed factor squared (2.0^2, the accelerations of a motion played
+    # twice as fast): no output the grid can make from a usable window exceeds it, while a
+    # sped-up window reading a neighbour's tracking failure does (docs/har.md).
+    output_screen: float = 8.0
+
+
+# Settings keys added after results were written, with the value those results were made with:
+# a JSON without the key continues only under that value.
+LEGACY_SETTINGS = {"output_screen": 0.0}
+
+
+def settings_of(doc):
+    """A results document's settings, keys it predates filled with their LEGACY_SETTINGS value."""
+    return {**LEGACY_SETTINGS, **(doc.get("settings") or {})}
 
 
 def run_key(run):
@@ -148,7 +164,8 @@ def run_one(run):
             _STATE["ppda"] = augmentation.PpdaSource(R, s.window)
         ppda = _STATE["ppda"]
     augmenter = augmentation.BatchAugmenter(arm.kind, policy, tr, standardize, ppda=ppda,
-                                            resimulate_identity=arm.resimulate_identity)
+                                            resimulate_identity=arm.resimulate_identity,
+                                            output_screen=s.output_screen)
     if arm.learned:
         sampler = augmentation.GumbelPolicy(len(policy), run["seed"], lr=s.learn_lr, every=s.learn_every)
     else:
@@ -162,6 +179,7 @@ def run_one(run):
     result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
     result["unfitted_windows"] = augmenter.unfitted_windows
     result["implausible_windows"] = augmenter.implausible_windows
+    result["implausible_outputs"] = augmenter.implausible_outputs
     return dict(run, **result)
 
 
@@ -241,7 +259,7 @@ class ResultStore:
         if os.path.exists(path):
             with open(path, encoding="utf-8") as f:
                 old = json.load(f)
-            if old.get("settings") != self.doc["settings"] or old.get("experiment") != experiment:
+            if settings_of(old) != self.doc["settings"] or old.get("experiment") != experiment:
                 raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
                                  "use another --out or delete it")
             # Found in review: results of another dataset counted as done for this one.
@@ -283,7 +301,7 @@ def reuse(runs, store, other_path, log=print):
         return 0
     with open(other_path, encoding="utf-8") as f:
         other = json.load(f)
-    if other.get("settings") != store.doc["settings"] or data_mismatch(other.get("data"), store.doc["data"]):
+    if settings_of(other) != store.doc["settings"] or data_mismatch(other.get("data"), store.doc["data"]):
         return 0
     have = {run_key(r): r for r in other.get("runs", [])}
     copied = 0
@@ -311,9 +329,9 @@ def merge(paths):
     first = docs[0]
     seen = {}
     for p, d in zip(paths, docs):
-        if d.get("experiment") != first.get("experiment") or d.get("settings") != first.get("settings"):
-            raise ValueError(f"{p}: experiment {d.get('experiment')!r} with settings {d.get('settings')} "
-                             f"differs from {paths[0]}: {first.get('experiment')!r} with {first.get('settings')}")
+        if d.get("experiment") != first.get("experiment") or settings_of(d) != settings_of(first):
+            raise ValueError(f"{p}: experiment {d.get('experiment')!r} with settings {settings_of(d)} "
+                             f"differs from {paths[0]}: {first.get('experiment')!r} with {settings_of(first)}")
         for r in d.get("runs", []):
             k = run_key(r)
             if k in seen:
@@ -331,7 +349,7 @@ def merge(paths):
     data["fingerprints_differ"] = sorted(s for s, h in digests.items() if len(h) > 1)
     data["parts"] = parts
     return {"schema": first.get("schema"), "experiment": first.get("experiment"),
-            "settings": first.get("settings"), "data": data,
+            "settings": settings_of(first), "data": data,
             "runs": [r for d in docs for r in d.get("runs", [])],
             "wall_seconds": sum(d.get("wall_seconds", 0.0) for d in docs)}
 

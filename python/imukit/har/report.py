@@ -4,6 +4,7 @@ import os
 
 import numpy as np
 
+from . import experiments
 from .experiments import PAIRS, parse_arm
 
 
@@ -235,11 +236,13 @@ def write(doc, out_dir):
     exp = doc["experiment"]
     table, fig = {"one_at_a_time": one_at_a_time, "fewer_subjects": fewer_subjects,
                   "sim_only": sim_only}[exp](doc)
-    s = doc["settings"]
+    s = experiments.settings_of(doc)
+    screen = f", PPDA outputs above {s['output_screen']:g}x the real peak kept real" if s["output_screen"] else ""
     md = [f"## {exp.replace('_', ' ')}", "",
           f"window {s['window']} / stride {s['stride']} samples, batch {s['batch_size']}, up to {s['epochs']} epochs "
           f"(early stop after {s['patience']} without a better validation F1), policy grid `{s['policy']}`"
-          f"{', tiny models' if s['tiny'] else ''}.", "", table, "#### Speed", "", speed(doc), ""]
+          f"{', tiny models' if s['tiny'] else ''}"
+          f"{screen}.", "", table, "#### Speed", "", speed(doc), ""]
     md += provenance(doc)
     text = "\n".join(md)
     with open(os.path.join(out_dir, f"{exp}.md"), "w", encoding="utf-8") as f:
