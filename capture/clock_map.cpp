@@ -219,8 +219,18 @@ bool DeviceClock::continues_segment(const Stamp& b) const {
   return follows(seg.last, b) || bridges_gap(seg, b);
 }
 
+std::size_t DeviceClock::candidate_run(const Stamp& b) const {
+  return !candidates_.empty() && follows(candidates_.back(), b) ? candidates_.size() + 1 : 1;
+}
+
 void DeviceClock::begin_segment(const Stamp& s) {
-  if (!segments_.empty()) segments_.back().mapper.flush();
+  if (!segments_.empty()) {
+    Segment& last = segments_.back();
+    last.mapper.flush();
+    // Saturated: only a crafted stream spans 2^64 ticks.
+    if (__builtin_add_overflow(earlier_spans_, last.last.ticks - last.first.ticks, &earlier_spans_))
+      earlier_spans_ = std::numeric_limits<uint64_t>::max();
+  }
   segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0});
   segment_starts_.push_back(s.k);
 }
@@ -235,10 +245,27 @@ void DeviceClock::accept(const Stamp& s) {
   ++seg.accepted;
 }
 
-bool DeviceClock::would_continue(uint64_t device_ticks, TimeNs host_receive,
-                                 std::optional<uint64_t> sample_index) const {
-  return last_accepted_ &&
-         continues_segment(Stamp{next_k_, device_ticks, host_receive, sample_index});
+double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
+                              std::optional<uint64_t> sample_index) const {
+  if (segments_.empty()) return 0.0;
+  const Stamp s{next_k_, device_ticks, host_receive, sample_index};
+  const Segment& seg = segments_.back();
+  const auto since_first = [&](uint64_t ticks) {
+    return static_cast<double>(ticks - seg.first.ticks);
+  };
+  // Summed in ticks and divided once, so that a duration of whole ticks is met exactly.
+  const auto seconds = [&](double ticks_in_segment) {
+    return (static_cast<double>(earlier_spans_) + ticks_in_segment) / tick_hz_;
+  };
+  if (continues_segment(s)) return seconds(since_first(s.ticks));
+  // The outlier that completes a restart: its segment begins after this one, at the first of
+  // the run.
+  if (candidate_run(s) >= kRestartSamples) {
+    return seconds(since_first(seg.last.ticks) +
+                   static_cast<double>(s.ticks - candidates_.front().ticks));
+  }
+  return seconds(since_first(seg.last.ticks) +
+                 static_cast<double>(s.k - seg.last.k) * period_ticks(seg));
 }
 
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
@@ -262,7 +289,7 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     return;
   }
   continues_ = false;
-  if (candidates_.empty() || !follows(candidates_.back(), s)) candidates_.clear();
+  if (candidate_run(s) == 1) candidates_.clear();
   candidates_.push_back(s);
   if (candidates_.size() < kRestartSamples) {
     outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last};
@@ -329,9 +356,9 @@ void DeviceClock::flush() {
   if (!segments_.empty()) segments_.back().mapper.flush();
 }
 
-double DeviceClock::period_s(const Segment& seg) const {
+double DeviceClock::period_ticks(const Segment& seg) const {
   if (seg.accepted < 2) return 0.0;
-  return static_cast<double>(seg.last.ticks - seg.first.ticks) / tick_hz_ /
+  return static_cast<double>(seg.last.ticks - seg.first.ticks) /
          static_cast<double>(seg.last.k - seg.first.k);
 }
 
@@ -340,8 +367,8 @@ TimeNs DeviceClock::segment_time(std::size_t index, uint64_t device_ticks) const
     shifts_.assign(segments_.size(), 0);
     for (std::size_t i = 1; i < segments_.size(); ++i) {
       const Segment& prev = segments_[i - 1];
-      const TimeNs prev_end =
-          offset_by(prev.mapper.map(prev.last.ticks), period_s(prev) + to_seconds(shifts_[i - 1]));
+      const TimeNs prev_end = offset_by(prev.mapper.map(prev.last.ticks),
+                                        period_ticks(prev) / tick_hz_ + to_seconds(shifts_[i - 1]));
       const TimeNs start = segments_[i].mapper.map(segments_[i].first.ticks);
       TimeNs gap = 0;
       if (!__builtin_sub_overflow(prev_end, start, &gap) && gap > 0) shifts_[i] = gap;
@@ -362,7 +389,7 @@ TimeNs DeviceClock::time_of(std::size_t k, uint64_t device_ticks) const {
     const std::size_t index = o->second.segment;
     const Stamp& before = o->second.before;
     return offset_by(segment_time(index, before.ticks),
-                     static_cast<double>(k - before.k) * period_s(segments_[index]));
+                     static_cast<double>(k - before.k) * period_ticks(segments_[index]) / tick_hz_);
   }
   return map_near(k, device_ticks);
 }

@@ -160,11 +160,14 @@ class DeviceClock {
   // True when the sample just added continues the one before it on the same clock (neither is
   // an outlier, no restart between): its tick step is elapsed device time.
   bool continues() const { return continues_; }
-  // What continues() would say of a sample with this tick and receive time if it were added
-  // next: lets a caller decide on a sample (e.g. whether it is inside a recording's duration)
-  // before it enters the fit.
-  bool would_continue(uint64_t device_ticks, TimeNs host_receive,
-                      std::optional<uint64_t> sample_index = std::nullopt) const;
+  // The device time from the first sample to one with this tick and receive time if it were
+  // added next, in seconds, on a clock that runs on through damaged ticks and restarts: within a
+  // segment its tick minus the segment's first, after the spans (first to last accepted sample)
+  // of the segments before it, so a restart adds nothing; a sample that would be an outlier sits
+  // at its place in the sequence, as time_of puts it. Lets a caller decide on a sample (whether
+  // it is inside a recording's duration) before it enters the fit.
+  double elapsed_s(uint64_t device_ticks, TimeNs host_receive,
+                   std::optional<uint64_t> sample_index = std::nullopt) const;
   // The online time of the sample just added: the fit of its segment, slewed so that it never
   // goes before the previous sample's; outliers advance by the host time elapsed.
   TimeNs online_time();
@@ -205,15 +208,19 @@ class DeviceClock {
   // ticks per index seg's latest run of indices shows.
   bool bridges_gap(const Segment& seg, const Stamp& b) const;
   bool continues_segment(const Stamp& b) const;  // follows or bridges_gap, from the last segment
+  // How many outliers in a row that agree with each other b would make (kRestartSamples: a
+  // restart), were it an outlier.
+  std::size_t candidate_run(const Stamp& b) const;
   void begin_segment(const Stamp& s);
   void accept(const Stamp& s);
   double seconds_since_anchor(TimeNs t) const;
-  double period_s(const Segment& seg) const;  // its mean device seconds per accepted sample
+  double period_ticks(const Segment& seg) const;  // its mean ticks per accepted sample
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
 
   double tick_hz_;
   std::vector<Segment> segments_;
   std::vector<std::size_t> segment_starts_;  // k of each segment's first sample
+  uint64_t earlier_spans_ = 0;               // ticks spanned by the segments before the last
   mutable std::vector<TimeNs> shifts_;       // per segment: how far its fit is moved later
   mutable bool shifts_dirty_ = true;
   std::map<std::size_t, Outlier> outliers_;

@@ -65,10 +65,11 @@ struct SessionOptions {
   std::string path;  // output .mcap
   // Per device, the samples made within this many seconds of its first one written are kept
   // (0: no limit): those whose time since the first is in [0, duration_s), measured on the
-  // device's own clock where its samples have one (a clock restart adds nothing), else on their
-  // receive times. A device at a steady rate thus gives duration_s * rate samples (2000 for 2 s
-  // at 1 kHz); the final, refitted times span that device time scaled by the fitted skew (a few
-  // ppm). The session stops when every device is past it.
+  // device's own clock where its samples have one (through damaged ticks, and a clock restart
+  // adds nothing: DeviceClock::elapsed_s), else on their receive times. A device at a steady rate
+  // thus gives duration_s * rate samples (2000 for 2 s at 1 kHz); the final, refitted times span
+  // that device time scaled by the fitted skew (a few ppm). The session stops when every device is
+  // past it.
   double duration_s = 0.0;
   uint64_t max_samples = 0;  // per device (0: no limit)
   // A device that delivers no sample for this long of wall-clock time (from the start, or since

@@ -156,15 +156,28 @@ std::string print_report(const capture::SessionReport& report) {
   for (const auto& d : report.devices) {
     // The backlog is how far the writer fell behind the device (the queue between them): near
     // the capacity, samples were about to be lost.
+    // Named when there are any, in the words of `devices --read`: samples with a non-finite value
+    // (among the codec's losses and its corrupt frames), and two kinds that are no loss, samples
+    // of the device's stream before this recording's began and stale ones (found in review: the
+    // metadata and `info` had them, this report did not).
     fmt::print(
         "{}: {} samples {}; missing (counter gaps) {}, lost as the codec counts them "
-        "{}, corrupt frames {}, lost by the recorder {}, largest backlog {} of {} samples; "
+        "{}{}, corrupt frames {}, lost by the recorder {}, largest backlog {} of {} samples; "
         "ended: {}\n",
         d.name, d.samples,
         d.rate_unknown ? fmt::format("(rate {})", capture::kRateUnknownNote)
                        : fmt::format("at {:.3f} Hz", d.rate_hz),
-        d.dropped, d.codec_dropped, d.frames_corrupt, d.backpressure, d.queue_high_water,
-        queue_capacity, d.end_reason);
+        d.dropped, d.codec_dropped,
+        d.non_finite > 0 ? fmt::format(" (with a non-finite value {})", d.non_finite) : "",
+        d.frames_corrupt, d.backpressure, d.queue_high_water, queue_capacity, d.end_reason);
+    if (d.before_start > 0)
+      fmt::print("  samples before the stream's start {} (not losses)\n", d.before_start);
+    if (d.stale > 0) {
+      fmt::print(
+          "  stale samples {} (frames repeated or delivered late: not handed out again, not "
+          "losses)\n",
+          d.stale);
+    }
     if (d.samples == 0) silent += (silent.empty() ? "" : ", ") + d.name;
     if (d.clock.packets > 1) {
       fmt::print(
@@ -320,7 +333,12 @@ IMUKIT_REGISTER_COMMAND(
               "last chunk at any moment (after a crash, `imukit convert --recover` completes it); "
               "at\n"
               "the end the clocks are refitted over the whole recording and FILE.mcap replaces "
-              "it.\n\n"
+              "it.\n"
+              "The report counts every loss per device; samples with a non-finite value, samples "
+              "of the\n"
+              "device's stream before the recording's start and stale samples (frames repeated or "
+              "late)\n"
+              "are named when there are any (the last two are no loss).\n\n"
               "Examples:\n"
               "  imukit record 'mock:static?rate=1000&clock=virtual' -o still.mcap --duration 60\n"
               "  imukit record 'serial:/dev/ttyUSB0?codec=witmotion' hid:054c:09cc -o "

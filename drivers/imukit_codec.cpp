@@ -17,11 +17,14 @@ uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
   return q * k + a * c + (a * b) / r;
 }
 
-// The 32-bit device tick raw as the 64-bit tick nearest `near` (the half-range rule around a
-// prediction rather than around the last tick seen).
-int64_t tick_near(uint32_t raw, int64_t near) {
+// A 32-bit counter (a device tick, a sample index) raw as the 64-bit value nearest `near` (the
+// half-range rule around a prediction rather than around the last value seen).
+int64_t nearest(uint32_t raw, int64_t near) {
   return near + static_cast<int32_t>(raw - static_cast<uint32_t>(near));
 }
+
+// The range of the 32-bit sample index (docs/protocol.md, section 5.3).
+constexpr int64_t kIndexRange = int64_t{1} << 32;
 
 const char* nack_reason(proto::NackCode code) {
   using proto::NackCode;
@@ -117,9 +120,36 @@ void ImukitCodec::tick(TimeNs now) {
 void ImukitCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
                          std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
-  decoder_.feed(data.data(), data.size(),
-                [&](const proto::Frame& f) { on_frame(f, host_time, out); });
+  while (!data.empty()) {
+    const proto::DecoderStats before = decoder_.stats();
+    data = data.subspan(decoder_.consume(data.data(), data.size()));
+    if (!decoder_.has_frame()) continue;
+    if (decoder_.frame().type == static_cast<uint8_t>(proto::MessageType::kDeviceInfo))
+      begin_numbering(before);
+    on_frame(decoder_.frame(), host_time, out);
+  }
   sync_frame_stats();
+}
+
+void ImukitCodec::begin_numbering(const proto::DecoderStats& before) {
+  // A device sends its DeviceInfo when it boots (or when asked): the frames after it are
+  // numbered from there, never repeats of frames before it (found in review: a device that
+  // rebooted within 16 frames of its start had its new blocks taken for stale repeats). Nor is
+  // its own number compared with theirs: a rebooted device's frame 0 counted as a frame out of
+  // order, or as a gap of up to 65535 missed frames (found in review, 2026-11-27).
+  decoder_.reset_sequence();
+  const proto::DecoderStats& now = decoder_.stats();
+  numbering_restarts_.sequence_gaps += now.sequence_gaps - before.sequence_gaps;
+  numbering_restarts_.frames_missed += now.frames_missed - before.frames_missed;
+  numbering_restarts_.frames_out_of_order += now.frames_out_of_order - before.frames_out_of_order;
+}
+
+proto::DecoderStats ImukitCodec::frame_stats() const {
+  proto::DecoderStats s = decoder_.stats();
+  s.sequence_gaps -= numbering_restarts_.sequence_gaps;
+  s.frames_missed -= numbering_restarts_.frames_missed;
+  s.frames_out_of_order -= numbering_restarts_.frames_out_of_order;
+  return s;
 }
 
 void ImukitCodec::decode_end(TimeNs /*host_time*/, std::vector<Sample>& /*out*/) {
@@ -157,11 +187,7 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       return;
     }
     case MessageType::kDeviceInfo: {
-      ++stats_.frames_other;
-      // A device sends its DeviceInfo when it boots (or when asked): the frames after it are
-      // numbered from there, never repeats of frames before it (found in review: a device that
-      // rebooted within 16 frames of its start had its new blocks taken for stale repeats).
-      decoder_.reset_sequence();
+      ++stats_.frames_other;  // its frame numbering restarted in decode() (begin_numbering)
       proto::DeviceInfo info;
       const bool parsed = proto::parse_message(f, info) == proto::ParseStatus::kOk;
       bool finite = true;
@@ -209,8 +235,6 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
         stream_acked_ = true;
         have_index_ = true;
         next_index_ = 0;
-        index_.reset();
-        index_.unwrap(0);
         tick_ref_.reset();
         last_block_.reset();
       }
@@ -257,34 +281,34 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
     stats_.samples_before_start += b.count;
     return;
   }
-  int64_t first = index_.unwrap(b.sample_index);
+  // The index unwrapped by the half-range rule around the one the stream expects.
+  int64_t first = have_index_ ? nearest(b.sample_index, next_index_) : int64_t{b.sample_index};
   int skip = 0;  // leading samples of the block that the stream has already passed
-  if (have_index_) {
-    if (first > next_index_) {
-      stats_.samples_dropped += static_cast<uint64_t>(first - next_index_);
-    } else if (first < next_index_) {
-      const std::optional<int64_t> due = out_of_order ? tick_due(first) : std::nullopt;
-      if (due && std::abs(tick_near(b.first_tick, *due) - *due) <=
-                     static_cast<int64_t>(info_->tick_hz) * 500 / rate_mhz_) {
-        // A frame numbered just before the newest, its first tick where this stream's stepping
-        // puts its index (within half a period): the link repeated it or delivered it late (a
-        // device that restarts numbers its frames and its samples anew). Its samples were
-        // handed out, or counted as dropped when a later block skipped them, and the stream
-        // cannot go back for them (found in review: a repeated block counted as a counter
-        // reset, its 8 samples recorded twice and every later time shifted by 80 ms).
-        skip = static_cast<int>(std::min<int64_t>(b.count, next_index_ - first));
-        stats_.samples_stale += static_cast<uint64_t>(skip);
-        if (skip == b.count) return;
-      } else {
-        // A new streaming session (index restarts at 0, the clock somewhere else).
-        ++stats_.counter_resets;
-        index_.reset();
-        first = index_.unwrap(b.sample_index);
-        tick_ref_.reset();
-        last_block_.reset();
-      }
+  if (have_index_ && first < next_index_) {
+    if (out_of_order && on_stepping(first, b.first_tick)) {
+      // A frame numbered just before the newest, its first tick where this stream's stepping
+      // puts its index: the link repeated it or delivered it late (a device that restarts
+      // numbers its frames and its samples anew). Its samples were handed out, or counted as
+      // dropped when a later block skipped them, and the stream cannot go back for them (found
+      // in review: a repeated block counted as a counter reset, its 8 samples recorded twice
+      // and every later time shifted by 80 ms).
+      skip = static_cast<int>(std::min<int64_t>(b.count, next_index_ - first));
+      stats_.samples_stale += static_cast<uint64_t>(skip);
+      if (skip == b.count) return;
+    } else if (is_long_loss(first, b.first_tick, host_time)) {
+      first += kIndexRange;  // found in review (2026-11-27): it was taken for a counter reset
+    } else {
+      // A new streaming session (index restarts at 0, the clock somewhere else), which begins
+      // with this block.
+      ++stats_.counter_resets;
+      first = b.sample_index;
+      next_index_ = first;
+      tick_ref_.reset();
+      last_block_.reset();
     }
   }
+  if (have_index_ && first > next_index_)
+    stats_.samples_dropped += static_cast<uint64_t>(first - next_index_);
   if (!info_) {
     // Counts cannot be scaled without the DeviceInfo (a capture that starts mid-stream).
     stats_.samples_dropped += b.count;
@@ -297,8 +321,8 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
   // right across a loss of any length (found in review: a loss of 2^31 ticks or more unwrapped
   // back by 2^32 ticks and gave a 100 Hz stream a rate of 705.755 Hz).
   const std::optional<int64_t> due = tick_due(first);
-  const int64_t tick0 = due ? tick_near(b.first_tick, *due) : unwrap_tick(b.first_tick);
-  if (skip == 0) last_block_ = BlockStart{first, tick0};
+  const int64_t tick0 = due ? nearest(b.first_tick, *due) : unwrap_tick(b.first_tick);
+  if (skip == 0) last_block_ = BlockStart{first, tick0, host_time};
   tick_ref_ = std::max(tick_ref_.value_or(tick0), tick0);
   const uint64_t per_second_mticks = static_cast<uint64_t>(info.tick_hz) * 1000u;
   auto scale_of = [&](proto::SensorKind kind, float& scale, float& offset) {
@@ -383,8 +407,31 @@ std::optional<int64_t> ImukitCodec::tick_due(int64_t index) const {
                            rate_mhz_));
 }
 
+bool ImukitCodec::on_stepping(int64_t index, uint32_t first_tick) const {
+  const std::optional<int64_t> due = tick_due(index);
+  return due && std::abs(nearest(first_tick, *due) - *due) <=
+                    static_cast<int64_t>(info_->tick_hz) * 500 / rate_mhz_;
+}
+
+bool ImukitCodec::is_long_loss(int64_t behind, uint32_t first_tick, TimeNs host_time) const {
+  // The 32-bit index cannot tell a loss of J >= 2^31 samples from a step back of 2^32 - J; the
+  // device's clock can, as it tells a gap from a restart in capture's DeviceClock. On this
+  // stream's stepping at the index ahead and not at the one behind, the tick says a loss.
+  const int64_t ahead = behind + kIndexRange;
+  if (!on_stepping(ahead, first_tick)) return false;
+  if (!on_stepping(behind, first_tick)) return true;
+  // On the stepping at both: the period is a whole number of ticks (or near one), so 2^32
+  // samples are whole tick wraps and the tick cannot tell. The host time can: a loss of J
+  // samples arrives J periods after the last block (J >= 2^31: 24.8 days at 1 kHz), a block of
+  // the stream's past at once (half the loss's time lies far from both; a replay, whose host
+  // times are when the bytes were read, is a step back as the half-range rule reads it).
+  const double loss_ns =
+      static_cast<double>(ahead - next_index_) * 1e12 / static_cast<double>(rate_mhz_);
+  return static_cast<double>(host_time - last_block_->host) >= 0.5 * loss_ns;
+}
+
 int64_t ImukitCodec::unwrap_tick(uint32_t raw) {
-  const int64_t t = tick_ref_ ? tick_near(raw, *tick_ref_) : int64_t{raw};
+  const int64_t t = tick_ref_ ? nearest(raw, *tick_ref_) : int64_t{raw};
   tick_ref_ = std::max(tick_ref_.value_or(t), t);
   return t;
 }

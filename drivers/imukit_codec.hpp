@@ -14,11 +14,14 @@
 // floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
 // (32-bit ticks, half-range rule around the tick the stepping rule gives the block's index from
 // the last block's, so a loss of any length keeps the time). Gaps in the 32-bit cumulative
-// sample index are counted as dropped samples. A block whose index is behind the stream is a
-// repeat or a late arrival when its frame is numbered just before the newest frame
-// (proto::kReorderWindow) and its first tick is the one due at its index on this stream: its
-// samples already passed are not handed out again (samples_stale). Otherwise the index went
-// back for a new streaming session, counted as a counter reset.
+// sample index are counted as dropped samples. A block whose index is behind the stream (by the
+// half-range rule) is a repeat or a late arrival when its frame is numbered just before the
+// newest frame (proto::kReorderWindow) and its first tick is the one due at its index on this
+// stream: its samples already passed are not handed out again (samples_stale). It is a loss of
+// 2^31 samples or more, its index 2^32 further on, when its first tick is due there and not at
+// the index behind (or, where the tick cannot tell the two, the host time since the last block
+// covers half the loss). Otherwise the index went back for a new streaming session, counted as
+// a counter reset.
 //
 // Time sync: every ping_interval a Ping carrying the host send time goes out; each Pong is kept
 // as a SyncPoint (host send, host receive, device rx/tx ticks) for capture/ to fit the clock map.
@@ -56,7 +59,10 @@ class ImukitCodec : public Codec {
   const std::optional<proto::DeviceInfo>& device_info() const { return info_; }
   std::span<const SyncPoint> sync_points() const override { return sync_; }
   const std::vector<proto::Nack>& nacks() const { return nacks_; }
-  const proto::DecoderStats& frame_stats() const { return decoder_.stats(); }
+  // The frame decoder's counts, where a DeviceInfo begins a numbering of its own: its number is
+  // not compared with the frames before it (a device that rebooted numbers from 0 again), so it is
+  // neither out of order nor a sequence gap.
+  proto::DecoderStats frame_stats() const;
   // Log lines the device sent.
   const std::vector<std::string>& device_log() const { return log_; }
   bool streaming() const { return started_; }
@@ -69,17 +75,28 @@ class ImukitCodec : public Codec {
   template <class M>
   void send(const M& m);
   void on_frame(const proto::Frame& f, TimeNs host_time, std::vector<Sample>& out);
+  // A DeviceInfo arrived: the frames after it are numbered from it, and what the decoder counted
+  // for it against the frames before (its stats then minus `before`) is not counted.
+  void begin_numbering(const proto::DecoderStats& before);
   void on_block(const proto::SampleBlock& b, bool out_of_order, TimeNs host_time,
                 std::vector<Sample>& out);
   void sync_frame_stats();
   // The unwrapped tick the device's stepping gives sample `index` of the current stream, when
   // a block of it was handed out and the rate is known.
   std::optional<int64_t> tick_due(int64_t index) const;
+  // Whether a block's first tick is the one the stepping gives `index` (within half a period).
+  bool on_stepping(int64_t index, uint32_t first_tick) const;
+  // A block whose index the half-range rule puts behind the stream (at `behind`) that is
+  // 2^32 samples further on, a loss of 2^31 samples or more (docs/protocol.md, section 5.3).
+  bool is_long_loss(int64_t behind, uint32_t first_tick, TimeNs host_time) const;
   int64_t unwrap_tick(uint32_t raw);  // half-range rule around the latest tick
   void send_configuration();
 
   ImukitCodecOptions opt_;
   proto::FrameDecoder decoder_;
+  // What the decoder counted for DeviceInfo frames against the numbering before them
+  // (sequence_gaps, frames_missed, frames_out_of_order), left out of frame_stats().
+  proto::DecoderStats numbering_restarts_;
   uint16_t tx_sequence_ = 0;
   std::optional<proto::DeviceInfo> info_;
   uint32_t rate_mhz_ = 0;
@@ -88,12 +105,13 @@ class ImukitCodec : public Codec {
   bool stream_acked_ = false;    // the device acknowledged our latest Start
   uint16_t start_sequence_ = 0;  // that Start's frame sequence number
   TimeNs last_request_ = 0;
-  CounterUnwrapper index_{32};
   // The first sample of the last block handed out: index and unwrapped tick, from which the
-  // device's stepping rule gives the tick due at any other index of the stream.
+  // device's stepping rule gives the tick due at any other index of the stream, and when it
+  // arrived.
   struct BlockStart {
     int64_t index;
     int64_t tick;
+    TimeNs host;
   };
   std::optional<BlockStart> last_block_;
   std::optional<int64_t> tick_ref_;  // the latest unwrapped tick (blocks, pongs)

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -300,20 +301,79 @@ TEST(Mcap, AFailedRewriteLeavesTheEarlierFileAndNoTemporary) {
   EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()), {}), 2);
 }
 
+// A disk that holds `capacity` bytes: a FILE* whose writes go to `path` until it is full, then
+// fail as write(2) does on a full disk (what fits, then ENOSPC). A test of the writer's handling
+// of a full disk that touches no device (it wrote to /dev/full before, 2026-11-27 review).
+class SmallDisk {
+ public:
+  SmallDisk(const std::string& path, std::size_t capacity)
+      : out_(path, std::ios::binary | std::ios::trunc), capacity_(capacity) {
+    file_ = fopencookie(this, "wb",
+                        cookie_io_functions_t{nullptr, &SmallDisk::write, nullptr, nullptr});
+    // Unbuffered: every fwrite reaches write() at once, as the writer's flushes would.
+    if (file_) std::setvbuf(file_, nullptr, _IONBF, 0);
+  }
+  ~SmallDisk() {
+    if (file_) std::fclose(file_);
+  }
+  SmallDisk(const SmallDisk&) = delete;
+  SmallDisk& operator=(const SmallDisk&) = delete;
+  std::FILE* file() const { return file_; }
+
+ private:
+  static ssize_t write(void* cookie, const char* data, std::size_t n) {
+    auto& disk = *static_cast<SmallDisk*>(cookie);
+    const std::size_t fits = std::min(n, disk.capacity_ - disk.used_);
+    disk.out_.write(data, static_cast<std::streamsize>(fits));
+    disk.out_.flush();
+    disk.used_ += fits;
+    if (fits < n) errno = ENOSPC;  // stdio writes again for the rest, and would get this
+    return static_cast<ssize_t>(fits);
+  }
+  std::ofstream out_;
+  std::size_t capacity_, used_ = 0;
+  std::FILE* file_ = nullptr;
+};
+
 TEST(Mcap, DiskFullIsAClearErrorAndEarlierChunksStayReadable) {
-  if (!std::filesystem::exists("/dev/full")) GTEST_SKIP() << "/dev/full is not available";
+  testing::TempDir dir;
+  const std::string path = (dir / "full.mcap").string();
+  SmallDisk disk(path, 50'000);
+  ASSERT_NE(disk.file(), nullptr);
+  McapWriterOptions options;
+  options.compression = McapCompression::none;
+  options.chunk_bytes = 4096;  // a dozen chunks fit on the disk
+  uint64_t written = 0;
   try {
-    McapWriter w("/dev/full");
+    McapWriter w(disk.file(), path, options);
     const uint16_t s = w.add_schema("s", "ros2msg", "uint8 x\n");
     const uint16_t c = w.add_channel(s, "/t", "cdr");
-    const std::vector<uint8_t> data(100, 7);
-    for (int i = 0; i < 100000; ++i)
-      w.write_message(c, static_cast<uint64_t>(i) * 1'000'000, 0, data);
+    std::vector<uint8_t> data(100);
+    for (; written < 100'000; ++written) {
+      std::fill(data.begin(), data.end(), static_cast<uint8_t>(written));
+      w.write_message(c, written * 1'000'000, 0, data);
+    }
     w.close();
-    FAIL() << "writing to /dev/full succeeded";
+    FAIL() << "writing 10 MB to a disk of 50 kB succeeded";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("/dev/full"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("No space left on device"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("write failed: No space left on device"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(std::filesystem::file_size(path), 50'000u);
+  // What reached the disk reads back up to its last complete chunk, every message intact.
+  McapReadSummary summary;
+  const std::vector<Msg> kept = read_all(path, &summary);
+  // 32 messages close a chunk of 4096 bytes; the 11th chunk (messages 320..351, the write of the
+  // 352nd closing it) did not fit.
+  EXPECT_FALSE(summary.complete);
+  EXPECT_EQ(summary.chunks, 10u);
+  EXPECT_EQ(written, 351u);
+  ASSERT_EQ(kept.size(), 320u);
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    ASSERT_EQ(kept[i].log_time, i * 1'000'000) << i;
+    ASSERT_EQ(kept[i].data, std::vector<uint8_t>(100, static_cast<uint8_t>(i))) << i;
   }
 }
 

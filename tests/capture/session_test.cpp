@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/capture/ros_messages.hpp"
@@ -336,6 +337,41 @@ TEST(Session, ADurationKeepsExactlyTheSamplesMadeWithinIt) {
     EXPECT_EQ(rows.front().index, 0u);
     EXPECT_EQ(rows.back().index, expected - 1);
     EXPECT_EQ(rows.back().device_ns - rows.front().device_ns, (expected - 1) * 1'000'000);
+  }
+}
+
+// Found in review (2026-11-27): the duration summed the device clock only over the steps between
+// samples the clock fit continued, so a damaged tick took out two steps (into it and out of it)
+// and a restart the steps of the samples that confirmed it. 0.5 s of a 1 kHz text stream kept 520
+// samples with a tick 100 s ahead every 50 samples, 502 with one on the sample at 500 ms, and 503
+// over a restart after 300 samples. Now the device time elapsed runs on through them: within a
+// stretch of clock its tick minus the stretch's first, after the stretches before (a restart adds
+// nothing: 0..299 ms, then 0..200 ms), a damaged tick at its place in the sequence.
+TEST(Session, ADurationCountsDeviceTimeThroughDamagedTicksAndRestarts) {
+  testing::TempDir dir;
+  struct Case {
+    std::string name;
+    std::function<int(int)> t_ms;  // the time stamp of line i
+    uint64_t samples;
+  };
+  for (const Case& c :
+       {Case{"damaged_every_50", [](int i) { return i % 50 == 25 ? i + 100'000 : i; }, 500},
+        Case{"damaged_at_500", [](int i) { return i == 500 ? i + 100'000 : i; }, 500},
+        Case{"restart", [](int i) { return i < 300 ? i : i - 300; }, 501}}) {
+    const std::string log = (dir / (c.name + ".txt")).string();
+    {
+      std::ofstream out(log);
+      for (int i = 0; i < 1000; ++i) out << c.t_ms(i) << ",0,0,9.81,0,0,0\n";
+    }
+    const std::string uri = "file:" + log + "?codec=text";
+    std::vector<SessionDevice> devices;
+    devices.push_back({"text", uri, drivers::open_device(uri), std::nullopt});
+    SessionOptions options;
+    options.path = (dir / (c.name + ".mcap")).string();
+    options.duration_s = 0.5;
+    const SessionReport report = record_session(std::move(devices), options);
+    EXPECT_EQ(report.stop_reason, "limit reached") << c.name;
+    EXPECT_EQ(report.devices.at(0).samples, c.samples) << c.name;
   }
 }
 

@@ -6,6 +6,7 @@ run: pytest (tests/pytest.ini), $IMUKIT_CLI the command under test
 """
 import os
 import re
+import socket
 import struct
 import subprocess
 
@@ -44,15 +45,17 @@ def frame(msg_type, seq, payload):
     return cobs(body + struct.pack("<I", crc32c(body))) + b"\x00"
 
 
-def stream(blocks):
-    """DeviceInfo, then a SampleBlock of 8 samples (accel, gyro; at rest, z up) per (frame sequence,
-    sample index), at 100 Hz on the 1 MHz clock: first tick 10 000 per index."""
+def blocks_of(blocks):
+    """A SampleBlock of 8 samples (accel, gyro; at rest, z up) per (frame sequence, sample index), at
+    100 Hz on the 1 MHz clock: first tick 10 000 per index."""
     sample = struct.pack("<6h", 0, 0, 2048, 0, 0, 0)
-    out = bytearray(DEVICE_INFO)
-    for seq, index in blocks:
-        out += frame(0x82, seq, struct.pack("<IIBB", index & 0xFFFFFFFF, (index * 10000) & 0xFFFFFFFF, 8, 3)
-                     + sample * 8)
-    return bytes(out)
+    return b"".join(frame(0x82, seq, struct.pack("<IIBB", index & 0xFFFFFFFF, (index * 10000) & 0xFFFFFFFF, 8, 3)
+                          + sample * 8) for seq, index in blocks)
+
+
+def stream(blocks):
+    """DeviceInfo, then the SampleBlocks of blocks_of(blocks)."""
+    return DEVICE_INFO + blocks_of(blocks)
 
 
 def write(workdir, name, data):
@@ -129,3 +132,27 @@ def test_a_read_that_decodes_no_sample_fails(imukit, workdir):
     assert ": 0 samples\n" in r.stdout and "corrupt 1," in r.stdout, r.stdout
     assert r.stderr == (f"imukit: error: devices: no samples from file:{path}?codec=imukit (see the counts "
                         "and the end above)\n"), r.stderr
+
+
+def test_record_names_the_samples_before_the_start_and_the_stale_ones(imukit, workdir):
+    # Found in review (2026-11-27): the record summary named neither the samples of an earlier
+    # session's stream nor the stale ones (the metadata, `info` and `devices --read` did). A live
+    # device on a socket: 2 blocks of its earlier stream, its DeviceInfo, the Ack of our Start
+    # (GetDeviceInfo was frame 0, Stop 1, Start 2), then our 50 blocks with block 24 sent twice.
+    ack = frame(0x85, 1, struct.pack("<BH", 0x03, 2))
+    ours = [(k + 2, 8 * k) for k in range(25)] + [(26, 192)] + [(k + 2, 8 * k) for k in range(25, 50)]
+    host, device = socket.socketpair()
+    fd = host.fileno()
+    with host, device:
+        device.sendall(blocks_of([(100, 5000), (101, 5008)]) + DEVICE_INFO + ack + blocks_of(ours))
+        device.shutdown(socket.SHUT_WR)  # the end of the stream; the host's commands still go in
+        out = os.path.join(workdir, "live.mcap")
+        r = subprocess.run([imukit, "record", f"fd:{fd}?codec=imukit", "-o", out], capture_output=True, text=True,
+                           pass_fds=(fd,), timeout=60)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert f"{fd}: 400 samples at 100.000 Hz; missing (counter gaps) 0, lost as the codec counts them 0, " \
+        in r.stdout, r.stdout
+    assert "\n  samples before the stream's start 16 (not losses)\n" in r.stdout, r.stdout
+    assert ("\n  stale samples 8 (frames repeated or delivered late: not handed out again, not losses)\n"
+            in r.stdout), r.stdout
+    assert "non-finite" not in r.stdout, r.stdout

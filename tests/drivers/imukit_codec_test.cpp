@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <optional>
 #include <set>
 
 #include "imukit/core/error.hpp"
@@ -233,12 +234,14 @@ TEST(ImukitCodec, AReplayIsTimedAtTheRateGiven) {
 }
 
 // DeviceInfo (frame 0; 32768 Hz clock, 100 Hz), then a SampleBlock of 8 samples for each
-// (frame sequence, sample index), its first tick by the device's rule floor(index * 327.68).
+// (frame sequence, sample index), its first tick by the device's rule floor(index * 32768 /
+// rate_hz) (327.68 ticks per sample at 100 Hz), or the tick given.
 struct BlockAt {
   uint16_t seq;
   int64_t index;
+  std::optional<uint32_t> first_tick = std::nullopt;
 };
-std::vector<uint8_t> blocks_at(const std::vector<BlockAt>& blocks) {
+std::vector<uint8_t> blocks_at(const std::vector<BlockAt>& blocks, int64_t rate_hz = 100) {
   std::vector<uint8_t> bytes;
   auto add = [&](const auto& m, uint16_t seq) {
     uint8_t buf[proto::kMaxFrameSize];
@@ -249,7 +252,7 @@ std::vector<uint8_t> blocks_at(const std::vector<BlockAt>& blocks) {
   for (const BlockAt& b : blocks) {
     proto::SampleBlock blk;
     blk.sample_index = static_cast<uint32_t>(b.index);
-    blk.first_tick = static_cast<uint32_t>(b.index * 32768 / 100);
+    blk.first_tick = b.first_tick.value_or(static_cast<uint32_t>(b.index * 32768 / rate_hz));
     blk.count = 8;
     blk.channels = proto::kChannelAccel | proto::kChannelGyro;
     add(blk, b.seq);
@@ -332,6 +335,35 @@ TEST(ImukitCodec, ADeviceRebootingSoonAfterItsStartIsANewStreamNotStaleRepeats) 
   EXPECT_EQ(codec.stats().samples_dropped, 0u);
 }
 
+// Found in review (2026-11-27): the DeviceInfo of a rebooted device (frame 0 again) was still
+// compared with the frames before it: 5 frames into the stream it counted as a frame out of
+// order, 50 frames in as a sequence gap of 65485 missed frames. A DeviceInfo begins a numbering of
+// its own: neither, and the frames after it follow it (docs/protocol.md, section 4).
+TEST(ImukitCodec, ADeviceRebootIsNoFrameOutOfOrderNorASequenceGap) {
+  for (const int before_reboot : {5, 50}) {
+    std::vector<uint8_t> bytes = blocks_at(fifty_blocks_with(in_order(0, before_reboot)));
+    const std::vector<uint8_t> after_boot = blocks_at(fifty_blocks_with(in_order(0, 30)));
+    bytes.insert(bytes.end(), after_boot.begin(), after_boot.end());  // its DeviceInfo first
+    ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+    std::vector<Sample> out;
+    codec.feed(bytes, 0, out);
+    EXPECT_EQ(out.size(), static_cast<std::size_t>(8 * (before_reboot + 30))) << before_reboot;
+    EXPECT_EQ(codec.stats().counter_resets, 1u) << before_reboot;
+    EXPECT_EQ(codec.frame_stats().frames_out_of_order, 0u) << before_reboot;
+    EXPECT_EQ(codec.frame_stats().sequence_gaps, 0u) << before_reboot;
+    EXPECT_EQ(codec.frame_stats().frames_missed, 0u) << before_reboot;
+    EXPECT_EQ(codec.frame_stats().frames_ok, static_cast<uint32_t>(2 + before_reboot + 30));
+  }
+  // A frame the link repeats is still out of order, and frames lost still a gap, after it.
+  std::vector<BlockAt> blocks = fifty_blocks_with({0, 1, 2, 2, 5, 6});
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(blocks_at(blocks), 0, out);
+  EXPECT_EQ(codec.frame_stats().frames_out_of_order, 1u);
+  EXPECT_EQ(codec.frame_stats().sequence_gaps, 1u);
+  EXPECT_EQ(codec.frame_stats().frames_missed, 2u);
+}
+
 // Found in review (2026-11-26, bigloss.bin): a loss longer than 2^31 ticks unwrapped the next
 // first_tick by the half-range rule around the last one, 2^32 ticks short, and `devices --read`
 // said 705.755 Hz for a 100 Hz stream. The tick is unwrapped around the one the stepping rule
@@ -351,6 +383,83 @@ TEST(ImukitCodec, ALossLongerThanHalfTheTickRangeKeepsItsTime) {
     EXPECT_EQ(s.device_time, ticks_to_ns(static_cast<int64_t>(s.sequence * 32768 / 100), 32768));
   // 10^5 s + 10 ms, to the tick.
   EXPECT_NEAR(to_seconds(out[400].device_time - out[399].device_time), 100'000.01, 1.0 / 32768);
+}
+
+// 50 blocks of a stream from sample `start` (frames 1..50), then 50 blocks `jump` samples after
+// its end (frames 51..100), their first ticks on the stream's stepping at rate_hz, or
+// (`restarted`) those of a new stream from tick 0.
+std::vector<BlockAt> fifty_blocks_then_a_jump(int64_t start, int64_t jump, int64_t rate_hz,
+                                              bool restarted = false) {
+  std::vector<BlockAt> blocks;
+  for (int k = 0; k < 50; ++k) blocks.push_back({static_cast<uint16_t>(1 + k), start + 8 * k});
+  for (int k = 0; k < 50; ++k) {
+    const auto new_stream_tick = static_cast<uint32_t>(8 * k * 32768 / rate_hz);
+    blocks.push_back({static_cast<uint16_t>(51 + k), start + 400 + jump + 8 * k,
+                      restarted ? std::optional(new_stream_tick) : std::nullopt});
+  }
+  return blocks;
+}
+
+// Found in review (2026-11-27): the sample index is a u32 that wraps (docs/protocol.md, 5.3), so
+// an index 2^31 or more ahead of the stream reads, by the half-range rule, as one behind it: the
+// loss was taken for a counter reset (0 dropped, the samples numbered from the raw index). Where
+// the first tick is on this stream's stepping at the index ahead and not at the one behind, the
+// jump is a loss; a tick of another stream keeps it a reset. (32768 Hz at 100 Hz: 2^32 samples
+// are not a whole number of tick wraps, so the tick tells the two apart; from sample 2^31 on,
+// the index behind is one the stream had.)
+TEST(ImukitCodec, AnIndexJumpOfHalfTheRangeOrMoreIsALossWhenTheTickAgrees) {
+  const int64_t range = int64_t{1} << 32;
+  for (const int64_t start : {int64_t{0}, range / 2}) {
+    for (const int64_t jump : {range / 2 - 16, range / 2, 3 * range / 4, range - 400}) {
+      ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+      std::vector<Sample> out;
+      codec.feed(blocks_at(fifty_blocks_then_a_jump(start, jump, 100)), 0, out);
+      ASSERT_EQ(out.size(), 800u) << start << " " << jump;
+      EXPECT_EQ(codec.stats().samples_dropped, static_cast<uint64_t>(jump)) << start << " " << jump;
+      EXPECT_EQ(codec.stats().counter_resets, 0u) << start << " " << jump;
+      EXPECT_EQ(out[400].sequence, static_cast<uint64_t>(start + 400 + jump));
+      for (const Sample& s : out) {
+        ASSERT_EQ(s.device_ticks - out[0].device_ticks,
+                  s.sequence * 32768 / 100 - static_cast<uint64_t>(start) * 32768 / 100);
+      }
+    }
+    for (const int64_t jump : {range / 2, 3 * range / 4, range - 400}) {
+      ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+      std::vector<Sample> out;
+      codec.feed(blocks_at(fifty_blocks_then_a_jump(start, jump, 100, true)), 0, out);
+      ASSERT_EQ(out.size(), 800u) << start << " " << jump;
+      EXPECT_EQ(codec.stats().samples_dropped, 0u) << start << " " << jump;
+      EXPECT_EQ(codec.stats().counter_resets, 1u) << start << " " << jump;
+      EXPECT_EQ(out[400].sequence, static_cast<uint64_t>((start + 400 + jump) % range));
+      EXPECT_EQ(out[400].device_ticks, 0u);  // the new stream's clock
+    }
+  }
+}
+
+// Where the sample period is a whole number of ticks (128 Hz on 32768 Hz: 256 ticks), 2^32 samples
+// are whole tick wraps: a stream past sample 2^31 has its tick on the stepping at the index ahead
+// and at the one behind alike, so the tick cannot tell a loss of 2^31 samples from a block of
+// the stream's past. The host time does: the loss takes 194 days at 128 Hz, a block of the past
+// arrives at once (a replay, whose host times are read times, keeps the half-range rule's step
+// back).
+TEST(ImukitCodec, WhereTheTickCannotTellAnIndexJumpIsALossOnlyIfTheHostTimeCoversIt) {
+  const int64_t start = int64_t{1} << 31, jump = int64_t{1} << 31;
+  const std::vector<BlockAt> blocks = fifty_blocks_then_a_jump(start, jump, 128);
+  const std::vector<uint8_t> bytes = blocks_at(blocks, 128);
+  const std::size_t first_fifty =
+      blocks_at(std::vector<BlockAt>(blocks.begin(), blocks.begin() + 50), 128).size();
+  const TimeNs jump_ns = jump * kNsPerSecond / 128;
+  for (const TimeNs later : {TimeNs{0}, jump_ns / 2 - 1, jump_ns / 2, jump_ns}) {
+    ImukitCodec codec(ImukitCodecOptions{false, 128.0, 8, 0, 0});
+    std::vector<Sample> out;
+    codec.feed(std::span(bytes).first(first_fifty), 0, out);
+    codec.feed(std::span(bytes).subspan(first_fifty), later, out);
+    ASSERT_EQ(out.size(), 800u) << later;
+    const bool loss = later >= jump_ns / 2;
+    EXPECT_EQ(codec.stats().samples_dropped, loss ? static_cast<uint64_t>(jump) : 0u) << later;
+    EXPECT_EQ(codec.stats().counter_resets, loss ? 0u : 1u) << later;
+    EXPECT_EQ(out[400].sequence, loss ? static_cast<uint64_t>(start + 400 + jump) : 400u) << later;
+  }
 }
 
 // Found in review: what a device left streaming by an earlier session still sent when this
