@@ -267,7 +267,10 @@ int run_simulate(const SimulateArgs& a) {
         "simulate: -o {} is an existing file; give a folder (one CSV per sensor) or FILE.mcap",
         a.output));
   }
-  sim::Scene scene = a.scene.empty() ? quick_scene(a) : sim::read_scene(a.scene);
+  // A --rate is the rate a scene's hardware profiles are checked at, in their own terms.
+  const std::optional<double> rate_hz =
+      a.rate_hz != 0.0 ? std::optional<double>(a.rate_hz) : std::nullopt;
+  sim::Scene scene = a.scene.empty() ? quick_scene(a) : sim::read_scene(a.scene, rate_hz);
   if (!a.method.empty()) {
     try {
       scene.options.method = sim::parse_derivative_method(a.method);
@@ -275,7 +278,7 @@ int run_simulate(const SimulateArgs& a) {
       throw UsageError(std::string("simulate --method: ") + e.what());
     }
   }
-  if (a.rate_hz != 0.0) scene.options.rate_hz = a.rate_hz;
+  if (rate_hz) scene.options.rate_hz = *rate_hz;
   if (a.seed) scene.seed = *a.seed;
   if (a.gravity) scene.options.gravity_world = Eigen::Vector3d(0, 0, -*a.gravity);
   if (a.ground_truth) scene.ground_truth = true;
@@ -406,7 +409,10 @@ IMUKIT_REGISTER_COMMAND(
                          "Sensor sample rate in Hz, 1/3600 to 1e6 (default: the motion's frame "
                          "rate)")
               ->check(real_in(sim::RateLimits::min_hz, sim::RateLimits::max_hz, "Hz"));
-          sub.add_option("--seed", a->seed, "Seed of the hardware noise")->check(seed_range());
+          sub.add_option("--seed", a->seed,
+                         "Seed of the hardware noise, 0 to 2^63 - 1, as a scene's "
+                         "simulation.seed (which it replaces)")
+              ->check(seed_range());
           sub.add_option("--gravity", a->gravity,
                          fmt::format("Gravity magnitude in m/s^2 (default {})", kStandardGravity))
               // The simulator's own limits, as for a scene's simulation.gravity.

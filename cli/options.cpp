@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/simulator.hpp"
 
@@ -68,7 +69,8 @@ CLI::Validator whole_in(int64_t lo, int64_t hi, const std::string& unit) {
 CLI::Validator gravity_range() {
   return real_in(sim::GravityLimits::min_m_s2, sim::GravityLimits::max_m_s2, "m/s^2");
 }
-CLI::Validator seed_range() { return whole_in(0, std::numeric_limits<int64_t>::max()); }
+// A scene's seeds and the Python Scene's take the same range (core/rng.hpp).
+CLI::Validator seed_range() { return whole_in(0, static_cast<int64_t>(kMaxSeed)); }
 CLI::Validator bvh_scale_range() {
   return real_in(sim::BvhLimits::min_scale, sim::BvhLimits::max_scale, "m per BVH unit");
 }

@@ -21,7 +21,7 @@ CLI::Validator whole_in(int64_t lo, int64_t hi, const std::string& unit = "");
 
 // Shared ranges.
 CLI::Validator gravity_range();      // local gravity magnitude: [0.1, 100] m/s^2
-CLI::Validator seed_range();         // [0, 2^63 - 1]
+CLI::Validator seed_range();         // [0, kMaxSeed = 2^63 - 1], a scene's too
 CLI::Validator bvh_scale_range();    // metres per BVH length unit: sim::BvhLimits
 CLI::Validator sample_rate_range();  // (0, 1e6] Hz
 

@@ -47,17 +47,14 @@ void check_elements(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::strin
   }
 }
 
-// Above this magnitude (of the sensor's unit, or as a gain) a parameter describes no sensor, and
-// the simulated samples could overflow to infinity without a word (noise density 1e300 did).
-constexpr double kMaxParameterMagnitude = 1e12;
-
-// Every model parameter: finite, and within kMaxParameterMagnitude.
+// Every model parameter: finite, and within HardwareModel::kMaxParameterMagnitude.
 void check_finite(const Eigen::Ref<const Eigen::MatrixXd>& m, const std::string& name) {
   check_elements(
       m, name, [](double x) { return std::isfinite(x); }, "expected a finite number");
   check_elements(
-      m, name, [](double x) { return std::abs(x) <= kMaxParameterMagnitude; },
-      fmt::format("beyond any sensor's (at most {:g} in magnitude)", kMaxParameterMagnitude));
+      m, name, [](double x) { return std::abs(x) <= HardwareModel::kMaxParameterMagnitude; },
+      fmt::format("beyond any sensor's (at most {:g} in magnitude)",
+                  HardwareModel::kMaxParameterMagnitude));
 }
 
 void check_non_negative(const Eigen::Vector3d& v, const std::string& name) {
@@ -170,8 +167,8 @@ void validate_hardware_model(const HardwareModel& model, const SensorRates& rate
       (fastest > 0.0 && model.clock.jitter_s > 0.1 / fastest)) {
     fail(
         fmt::format("clock.jitter_s is {} s, expected >= 0 and at most a tenth of the sample "
-                    "period",
-                    model.clock.jitter_s));
+                    "period at the fastest rate the model runs at ({} Hz: {:.3g} s)",
+                    model.clock.jitter_s, fastest, 0.1 / fastest));
   }
 }
 

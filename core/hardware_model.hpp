@@ -80,6 +80,10 @@ struct ClockModel {
 };
 
 struct HardwareModel {
+  // Above this magnitude (of the sensor's unit, or as a gain) a parameter describes no sensor,
+  // and the simulated samples could overflow to infinity without a word (noise density 1e300
+  // did). The profile reader refuses it at the file's key, validate_hardware_model in any model.
+  static constexpr double kMaxParameterMagnitude = 1e12;
   TriadModel accelerometer;        // m/s^2
   GyroscopeModel gyroscope;        // rad/s
   MagnetometerModel magnetometer;  // T

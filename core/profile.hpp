@@ -132,9 +132,12 @@ DeviceProfile parse_profile(std::string_view text, const std::string& source_nam
 // the text of the file it sits in at `json_path` (json_path_offset's syntax,
 // "sensors[0].hardware"). Errors are parse_profile's, at their line and column in `document` and
 // named by the whole path: "scene.json:8:40: sensors[0].hardware.clock.error_ppm: ...". The
-// document is only searched for an error, so reading many inline profiles stays linear.
+// document is only searched for an error, so reading many inline profiles stays linear. With
+// rate_hz, the rules that depend on the rate a model runs at are checked too, as
+// read_profile_for_rate does.
 DeviceProfile parse_inline_profile(std::string_view profile_text, std::string_view document,
-                                   std::string_view json_path, const std::string& source_name);
+                                   std::string_view json_path, const std::string& source_name,
+                                   std::optional<double> rate_hz = std::nullopt);
 DeviceProfile read_profile(const std::string& path);
 
 // Reads the profile at `path` (as read_profile) and checks it for a hardware model run at

@@ -10,9 +10,16 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <span>
 
 namespace imukit {
+
+// The largest seed a user may give (imukit simulate --seed, a scene's seeds, the Python Scene):
+// seeds are the integers 0 to 2^63 - 1, the range an int64 holds, so the command line, a JSON
+// integer (read exactly, unlike a number with a fraction or exponent, which is a double and
+// beyond 2^53 not exact) and Python's int all represent every seed (docs/simulation.md, "Seeds").
+inline constexpr uint64_t kMaxSeed = std::numeric_limits<int64_t>::max();
 
 class Rng {
  public:

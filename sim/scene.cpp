@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -168,21 +169,37 @@ Body body_of_joints(const json& joints, const std::string& source) {
 
 namespace {
 Scene parse_scene_impl(std::string_view text, const std::string& source,
-                       const std::string& base_dir);
+                       const std::string& base_dir, std::optional<double> rate_hz);
 
-// Seeds are whole numbers in [0, 2^53]: JSON numbers are doubles, and beyond 2^53 not every
-// whole number is one.
-uint64_t seed_of(const json& j, const std::string& source, const std::string& path) {
-  const double seed = number(j, source, path);
-  if (!(seed >= 0 && seed == std::floor(seed) && seed <= 9007199254740992.0))
-    fail(source, path, fmt::format("expected a whole number in [0, 2^53], got {:g}", seed));
-  return static_cast<uint64_t>(seed);
+// A seed is a JSON integer in [0, kMaxSeed], the range of --seed (core/rng.hpp): the JSON
+// reader keeps integers exact, while a number with a fraction or exponent is a double, which
+// beyond 2^53 is not (9007199254740993 read as a double was 9007199254740992). An error quotes
+// the value as the file writes it, at its line and column.
+uint64_t seed_of(const json& j, std::string_view text, const std::string& source,
+                 const std::string& path) {
+  if (j.is_number_unsigned() && j.get<uint64_t>() <= kMaxSeed) return j.get<uint64_t>();
+  if (j.is_number_integer() && !j.is_number_unsigned() && j.get<int64_t>() >= 0)
+    return static_cast<uint64_t>(j.get<int64_t>());  // only "-0": others >= 0 read unsigned
+  const std::size_t offset = json_path_offset(text, path);
+  std::string written = type_name(j);
+  bool whole_double = false;
+  if (j.is_number()) {
+    const std::size_t end = text.find_first_of(",}] \t\r\n", offset);
+    written = std::string(text.substr(offset, end - offset));
+    const double v = j.get<double>();
+    whole_double = j.is_number_float() && v >= 0 && v < std::ldexp(1.0, 63) && v == std::floor(v);
+  }
+  throw Error(locate_in_text(text, offset, source),
+              fmt::format("{}: expected an integer in [0, {}]{}, got {}", path, kMaxSeed,
+                          whole_double ? " written without a fraction or exponent" : "", written));
 }
 }  // namespace
 
-Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir) {
+Scene parse_scene(std::string_view text, const std::string& source, const std::string& base_dir,
+                  std::optional<double> rate_hz) {
+  assert(!rate_hz || rate_within_limits(*rate_hz));
   try {
-    return parse_scene_impl(text, source, base_dir);
+    return parse_scene_impl(text, source, base_dir, rate_hz);
   } catch (const json::exception& e) {
     // Numbers out of range, invalid UTF-8 in strings, ...: the JSON library's own checks.
     throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt},
@@ -243,8 +260,8 @@ void parse_body(const json& root, const std::string& source, bool body_from_moti
 
 // The rest of "motion" once the body is known: a quaternion CSV or a procedural motion (unless
 // `loaded` holds the BVH motion), checked against the body's joint count.
-void parse_motion(const json& m, const std::string& source, const std::string& base_dir,
-                  std::shared_ptr<Motion> loaded, Scene& scene) {
+void parse_motion(const json& m, std::string_view text, const std::string& source,
+                  const std::string& base_dir, std::shared_ptr<Motion> loaded, Scene& scene) {
   if (m.contains("quaternion_csv")) {
     std::optional<double> rate;
     if (m.contains("rate_hz")) {
@@ -266,7 +283,7 @@ void parse_motion(const json& m, const std::string& source, const std::string& b
       po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
     if (!(po.rate_hz >= 1 && po.rate_hz <= 1e6))
       fail(source, "motion.procedural.rate_hz", "must be a whole number of Hz in [1, 1e6]");
-    if (p.contains("seed")) po.seed = seed_of(p["seed"], source, "motion.procedural.seed");
+    if (p.contains("seed")) po.seed = seed_of(p["seed"], text, source, "motion.procedural.seed");
     if (p.contains("amplitude_rad")) {
       po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
       if (!(po.amplitude_rad >= 0 && po.amplitude_rad <= 10))
@@ -294,7 +311,8 @@ void parse_motion(const json& m, const std::string& source, const std::string& b
 }
 
 // "simulation": method, rate, gravity, magnetic field, seed, chunk size.
-void parse_simulation(const json& s, const std::string& source, Scene& scene) {
+void parse_simulation(const json& s, std::string_view text, const std::string& source,
+                      Scene& scene) {
   only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"}, source,
             "simulation");
   if (s.contains("method")) {
@@ -327,7 +345,7 @@ void parse_simulation(const json& s, const std::string& source, Scene& scene) {
            "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
                std::to_string(scene.options.magnetic_field_world.norm()) + " T");
   }
-  if (s.contains("seed")) scene.seed = seed_of(s["seed"], source, "simulation.seed");
+  if (s.contains("seed")) scene.seed = seed_of(s["seed"], text, source, "simulation.seed");
   if (s.contains("chunk_frames")) {
     const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
     if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
@@ -369,19 +387,24 @@ SensorOutputs parse_sensor_outputs(const json& o, const std::string& source,
 }
 
 // A sensor's "hardware": a device profile (inline or a file name), checked at the simulation
-// rate (the motion's when the scene sets none). An inline profile's errors name the scene's line
-// and column and the whole JSON path ("scene.json:8:40: sensors[0].hardware.clock.error_ppm:
-// ..."), not a place in the one-line serialisation the reader is given.
+// rate (the motion's when the scene sets none) by the profile reader, so an error names the
+// profile's key where it is written (found in review: a clock.jitter_s too large for the rate
+// was said in the hardware model's words, naming neither the profile file nor the line). An
+// inline profile's errors name the scene's line and column and the whole JSON path
+// ("scene.json:8:40: sensors[0].hardware.clock.error_ppm: ..."), not a place in the one-line
+// serialisation the reader is given.
 void parse_sensor_hardware(const json& h, std::string_view text, const std::string& source,
                            const std::string& path, const std::string& base_dir, const Scene& scene,
                            SceneSensor& s) {
+  const double rate = scene_rate_hz(scene);
   std::optional<DeviceProfile> inline_profile;  // its errors are located already: not wrapped
   if (!h.is_string())
-    inline_profile = parse_inline_profile(h.dump(), text, path + ".hardware", source);
+    inline_profile = parse_inline_profile(h.dump(), text, path + ".hardware", source, rate);
   try {
     s.hardware = to_hardware_model(
-        inline_profile ? *inline_profile : read_profile(resolve(base_dir, h.get<std::string>())));
-    validate_hardware_model(*s.hardware, scene_rate_hz(scene));
+        inline_profile ? *inline_profile
+                       : read_profile_for_rate(resolve(base_dir, h.get<std::string>()), rate));
+    validate_hardware_model(*s.hardware, rate);  // a guard: the reader has checked its rules
     if (!s.hardware->gyroscope.g_sensitivity.isZero() && s.spec.outputs.gyroscope) {
       s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
     }
@@ -437,7 +460,7 @@ SceneSensor parse_sensor(const json& js, std::size_t i, std::string_view text,
 }
 
 Scene parse_scene_impl(std::string_view text, const std::string& source,
-                       const std::string& base_dir) {
+                       const std::string& base_dir, std::optional<double> rate_hz) {
   const json root = parse_json_text<json>(text, source);
   only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
             source, "$");
@@ -451,8 +474,9 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
   only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source, "motion");
   std::shared_ptr<Motion> loaded = parse_bvh_motion(m, source, base_dir, scene);
   parse_body(root, source, loaded != nullptr, scene);
-  parse_motion(m, source, base_dir, std::move(loaded), scene);
-  if (root.contains("simulation")) parse_simulation(root["simulation"], source, scene);
+  parse_motion(m, text, source, base_dir, std::move(loaded), scene);
+  if (root.contains("simulation")) parse_simulation(root["simulation"], text, source, scene);
+  if (rate_hz) scene.options.rate_hz = *rate_hz;
   if (root.contains("outputs")) parse_outputs(root["outputs"], source, scene);
   // Sensors.
   if (!root.contains("sensors") || !root["sensors"].is_array() || root["sensors"].empty()) {
@@ -497,9 +521,9 @@ int64_t scene_sample_count(const Scene& scene) {
                       scene_rate_hz(scene));
 }
 
-Scene read_scene(const std::string& path) {
+Scene read_scene(const std::string& path, std::optional<double> rate_hz) {
   const std::string text = read_regular_file(path, kMaxJsonBytes, "scene");
-  return parse_scene(text, path, std::filesystem::path(path).parent_path().string());
+  return parse_scene(text, path, std::filesystem::path(path).parent_path().string(), rate_hz);
 }
 
 namespace {

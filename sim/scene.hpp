@@ -52,10 +52,14 @@ struct Scene {
 
 // Parses scene JSON. Relative file names inside are resolved against base_dir. Throws
 // imukit::Error: JSON syntax errors name source_name:line:column, semantic errors the JSON path
-// ("sensors[1].preset: unknown placement preset ...").
+// ("sensors[1].preset: unknown placement preset ..."). Each sensor's hardware profile is checked
+// at the rate it will run at, in the profile's terms (its file, line, column and key, or the
+// scene's for an inline profile); rate_hz, when given (a command's --rate, within RateLimits),
+// replaces simulation.rate_hz before that check, so a rate given later is not checked in the
+// hardware model's words alone.
 Scene parse_scene(std::string_view text, const std::string& source_name,
-                  const std::string& base_dir);
-Scene read_scene(const std::string& path);
+                  const std::string& base_dir, std::optional<double> rate_hz = std::nullopt);
+Scene read_scene(const std::string& path, std::optional<double> rate_hz = std::nullopt);
 
 // The scene's sensor sample rate: its simulation rate_hz, or the motion's frame rate.
 double scene_rate_hz(const Scene& scene);

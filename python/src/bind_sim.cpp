@@ -6,6 +6,7 @@
 #include "common.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/core/profile.hpp"
+#include "imukit/core/rng.hpp"
 #include "imukit/sim/body.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/motion.hpp"
@@ -20,6 +21,22 @@ namespace {
 
 using sim::Body;
 using sim::MotionSource;
+
+// A seed from Python: an int in [0, kMaxSeed], the range of `imukit simulate --seed` and of a
+// scene file's seeds (core/rng.hpp). As a uint64 argument, 2^63 to 2^64 - 1 were taken here
+// alone, and -1 was "incompatible function arguments" (found in review, 2026-11-26).
+uint64_t seed_argument(const py::object& obj, const std::string& what) {
+  if (!py::isinstance<py::int_>(obj)) {
+    throw py::type_error(what + ": expected an int, got " +
+                         py::str(py::type::of(obj).attr("__name__")).cast<std::string>());
+  }
+  const auto v = py::reinterpret_borrow<py::int_>(obj);
+  if (v < py::int_(0) || v > py::int_(kMaxSeed)) {
+    throw Error(what + ": expected an integer in [0, " + std::to_string(kMaxSeed) + "], got " +
+                py::str(obj).cast<std::string>());
+  }
+  return v.cast<uint64_t>();
+}
 
 // A scene and the lock that keeps two Python threads from streaming its motion at once (the
 // GIL is released while simulating).
@@ -61,7 +78,10 @@ void finish(ImuSeries& s) {
 // The scene run into one Series per sensor (and "<name>.truth" with ground truth): the hardware
 // model, noise seeds and chunking are run_scene's, so the arrays equal `imukit simulate`'s CSV
 // values bit for bit.
-py::dict simulate(SceneHandle& h, std::optional<uint64_t> seed) {
+py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
+  const std::optional<uint64_t> seed =
+      seed_obj.is_none() ? std::nullopt
+                         : std::optional(seed_argument(seed_obj, "Scene.simulate: seed"));
   std::vector<std::shared_ptr<ImuSeries>> measured, truth;
   {
     py::gil_scoped_release release;
@@ -124,7 +144,7 @@ Eigen::Vector3d gravity_argument(py::handle g) {
 
 std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<MotionSource> motion,
                                         std::optional<int64_t> frames, const std::string& method,
-                                        double rate_hz, py::handle gravity, uint64_t seed,
+                                        double rate_hz, py::handle gravity, const py::object& seed,
                                         bool ground_truth, int64_t chunk_frames,
                                         py::handle magnetic_field) {
   auto h = std::make_shared<SceneHandle>();
@@ -154,7 +174,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
   }
   if (chunk_frames < 2) throw Error("Scene: chunk_frames must be at least 2");
   s.options.chunk_frames = chunk_frames;
-  s.seed = seed;
+  s.seed = seed_argument(seed, "Scene: seed");
   s.ground_truth = ground_truth;
   return h;
 }
@@ -373,12 +393,12 @@ renormalises the quaternions (w first).)doc")
 A deterministic smooth motion (sums of sinusoids per joint, integer phases): every frame depends
 on its absolute index only. frames=None makes it endless (give Scene(frames=N)).)doc")
       .def(py::init([](std::size_t joints, double rate_hz, std::optional<int64_t> frames,
-                       uint64_t seed, double amplitude_rad, int harmonics, int64_t period_s,
-                       double translation_amplitude_m, int64_t start_frame) {
+                       const py::object& seed, double amplitude_rad, int harmonics,
+                       int64_t period_s, double translation_amplitude_m, int64_t start_frame) {
              sim::ProceduralMotionOptions o;
              o.rate_hz = rate_hz;
              o.frames = frames;
-             o.seed = seed;
+             o.seed = seed_argument(seed, "ProceduralMotion: seed");
              o.amplitude_rad = amplitude_rad;
              o.harmonics = harmonics;
              o.period_s = period_s;
@@ -435,7 +455,8 @@ on its absolute index only. frames=None makes it endless (give Scene(frames=N)).
 Body + motion + sensors (placement and hardware) + settings, as in an imukit.scene/1 file.
 
 Scene(body, motion, frames=None, method="fd", rate_hz=0 (the motion's), gravity=None (a
-magnitude or a world vector; default 9.80665 down), seed=0, ground_truth=False,
+magnitude or a world vector; default 9.80665 down), seed=0 (an int from 0 to 2^63 - 1, as
+`imukit simulate --seed` and a scene file take), ground_truth=False,
 magnetic_field=None (world vector, T; default the mid-latitude Earth field)),
 then add_sensor(...) per sensor (magnetometer=True adds Series.mag); or read_scene(path) /
 parse_scene(text).
@@ -455,7 +476,9 @@ numbers as `imukit simulate` for the same scene and seed.)doc")
       .def("simulate", &simulate, py::arg("seed") = py::none())
       .def_property(
           "seed", [](const SceneHandle& h) { return h.scene.seed; },
-          [](SceneHandle& h, uint64_t s) { h.scene.seed = s; })
+          [](SceneHandle& h, const py::object& s) {
+            h.scene.seed = seed_argument(s, "Scene.seed");
+          })
       .def_property(
           "ground_truth", [](const SceneHandle& h) { return h.scene.ground_truth; },
           [](SceneHandle& h, bool g) { h.scene.ground_truth = g; })

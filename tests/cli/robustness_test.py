@@ -99,7 +99,8 @@ def test_item_4_negative_seed_and_nan_time_offset(t):
                                       "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": -1}},
                                       "sensors": [{"preset": "left_wrist_watch"}]}))
     rc, out, err = run("simulate", t("seed.json"), "-o", t("sim_seed"))
-    assert one_line_error(rc, err, 1, "motion.procedural.seed: expected a whole number in [0, 2^53], got -1"), \
+    assert one_line_error(rc, err, 1, "motion.procedural.seed: expected an integer in [0, 9223372036854775807], "
+                                      "got -1"), \
         f"4. a scene seed of -1 is refused ({rc}: {err.strip()})"
     rc, out, err = run("identify", "--imu", t("h.csv"), "--motion", WALK, "--init", "left_wrist_watch",
                        "-o", t("p.json"), "--time-offset", "nan")
@@ -327,8 +328,14 @@ def test_command_line_mistakes_are_usage_errors(t):
 def test_profile_ranges_are_checked_where_the_file_says_them(t):
     jitter = write(t("clk.json"), '{"schema": "imukit.profile/1", "clock": {"jitter_s": 1}}')
     ppm = write(t("ppm.json"), '{"schema": "imukit.profile/1",\n "clock": {"error_ppm": 1e5}}')
+    # Found in review (2026-11-26): the model's magnitude limit was said in its words, naming no
+    # file ("hardware model: accelerometer.noise_density[1] is 10000000000000, ...").
+    huge = write(t("huge.json"), '{"schema": "imukit.profile/1",\n'
+                                 ' "accelerometer": {"noise": {"noise_density": [0.001, 1e13, 0.001]}}}')
     watch = PROFILE
     cases = [
+        (huge, f"imukit: error: {huge}:2:55: accelerometer.noise.noise_density[1]: 10000000000000 is beyond "
+               "any sensor's (at most 1e+12 in magnitude)"),
         (jitter, f"imukit: error: {jitter}:1:54: clock.jitter_s: 1 s is more than a tenth of the sample period "
                  "at the rate the model runs at (120 Hz: 0.000833 s)"),
         (ppm, f"imukit: error: {ppm}:2:25: clock.error_ppm: 100000 ppm is not within +-10000 ppm"),

@@ -302,3 +302,113 @@ def test_gravity_range_is_the_same_in_a_scene_and_on_the_command_line(run, workd
             os.path.join(workdir, "low_g"))
     assert r.returncode == 2 and "--gravity: must be a number in [0.1, 100] m/s^2, got '0.05'" in r.stderr, \
         r.stderr
+
+
+MAX_SEED = 2**63 - 1
+
+
+def seed_scene(workdir, name, simulation_seed, procedural_seed="1"):
+    """A one-second scene of one noisy sensor, its seeds written into the JSON text as given (not
+    re-spelt by json.dump), and the (line, column) of simulation.seed's value in it."""
+    lines = ['{"schema": "imukit.scene/1",',
+             f' "motion": {{"procedural": {{"rate_hz": 100, "duration_s": 1, "seed": {procedural_seed}}}}},',
+             f' "simulation": {{"seed": {simulation_seed}}},',
+             ' "sensors": [{"name": "watch", "preset": "left_wrist_watch",',
+             '   "hardware": {"schema": "imukit.profile/1",',
+             '                "accelerometer": {"noise": {"noise_density": [0.002, 0.002, 0.002]}}}}]}']
+    path = os.path.join(workdir, name)
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return path, 3, lines[2].index(simulation_seed) + 1
+
+
+def test_a_seed_is_the_same_number_on_the_command_line_and_in_a_scene(run, workdir):
+    """Found in review (2026-11-26): --seed took up to 2^63 - 1, a scene's simulation.seed at most
+    2^53, read as a double (9007199254740993 became 9007199254740992: other noise than --seed
+    gave). Both take the integers 0 to 2^63 - 1, exactly."""
+    outputs = {}
+    for seed in (0, 9007199254740993, MAX_SEED):
+        scene, _, _ = seed_scene(workdir, f"seed_{seed}.json", str(seed))
+        default, _, _ = seed_scene(workdir, "seed_default.json", "0")
+        r = run("simulate", scene, "-o", os.path.join(workdir, f"scene_{seed}"))
+        assert r.returncode == 0, r.stderr
+        r = run("simulate", default, "--seed", seed, "-o", os.path.join(workdir, f"cli_{seed}"))
+        assert r.returncode == 0, r.stderr
+        for folder in (f"scene_{seed}", f"cli_{seed}"):
+            with open(os.path.join(workdir, folder, "simulation.json")) as f:
+                assert json.load(f)["seed"] == seed, folder
+        with open(os.path.join(workdir, f"scene_{seed}", "watch.csv")) as a, \
+                open(os.path.join(workdir, f"cli_{seed}", "watch.csv")) as b:
+            outputs[seed] = a.read()
+            assert outputs[seed] == b.read(), f"seed {seed}: the scene and --seed give other samples"
+    assert len(set(outputs.values())) == 3, "three seeds, three noise sequences"
+    r = run("simulate", "--help")
+    assert "--seed UINT:in [0, 9223372036854775807]" in r.stdout and \
+        "0 to 2^63 - 1, as a scene's simulation.seed (which it replaces)" in r.stdout, r.stdout
+
+
+def test_one_past_the_seed_range_is_refused_as_written(run, workdir):
+    """Found in review (2026-11-26): the scene's error rounded the value ("got 9.22337e+18") and
+    named no line. Both forms refuse 2^63 and say the value as written; the scene's error names
+    its line, column and JSON path."""
+    default, _, _ = seed_scene(workdir, "past_default.json", "0")
+    r = run("simulate", default, "--seed", MAX_SEED + 1, "-o", os.path.join(workdir, "past_cli"))
+    assert r.returncode == 2 and r.stderr == (
+        "imukit: error: --seed: must be a whole number in [0, 9223372036854775807], got "
+        "'9223372036854775808'; see `imukit simulate --help`\n"), r.stderr
+    for written, expected in (
+            (str(MAX_SEED + 1), "expected an integer in [0, 9223372036854775807], got 9223372036854775808"),
+            ("18446744073709551616", "expected an integer in [0, 9223372036854775807], got 18446744073709551616"),
+            ("-1", "expected an integer in [0, 9223372036854775807], got -1"),
+            ("7.5", "expected an integer in [0, 9223372036854775807], got 7.5"),
+            ("1e3", "expected an integer in [0, 9223372036854775807] written without a fraction or "
+                    "exponent, got 1e3"),
+            ('"7"', "expected an integer in [0, 9223372036854775807], got string")):
+        scene, line, column = seed_scene(workdir, "past.json", written)
+        r = run("simulate", scene, "-o", os.path.join(workdir, "past_scene"))
+        assert r.returncode == 1 and r.stderr == \
+            f"imukit: error: {scene}:{line}:{column}: simulation.seed: {expected}\n", r.stderr
+    scene, _, _ = seed_scene(workdir, "past_motion.json", "0", procedural_seed=str(MAX_SEED + 1))
+    r = run("simulate", scene, "-o", os.path.join(workdir, "past_motion"))
+    assert r.returncode == 1 and r.stderr == (
+        f"imukit: error: {scene}:2:69: motion.procedural.seed: expected an integer in "
+        "[0, 9223372036854775807], got 9223372036854775808\n"), r.stderr
+
+
+def jitter_scene(workdir, name, hardware, rate_hz=100):
+    """A one-second scene at rate_hz of one sensor with `hardware` (a file name or an inline
+    profile, as JSON text on the scene's fifth line)."""
+    lines = ['{"schema": "imukit.scene/1",',
+             ' "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 1}},',
+             f' "simulation": {{"rate_hz": {rate_hz}}},',
+             ' "sensors": [{"name": "watch", "preset": "left_wrist_watch",',
+             f'   "hardware": {hardware}}}]}}']
+    path = os.path.join(workdir, name)
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return path, lines[4]
+
+
+def test_clock_jitter_is_checked_at_the_rate_simulated_in_the_profiles_terms(run, workdir):
+    """Found in review (2026-11-26): a profile with clock.jitter_s and no rate is read (its bound
+    is a tenth of the period of the rate simulated, docs/simulation.md), and refused when a scene
+    ran it by the hardware model's words, naming neither the profile file nor the place of its
+    key; with a scene's rate replaced by --rate, not even the scene. Every path says the file,
+    line, column and key, and the rate."""
+    prof = os.path.join(workdir, "jitter.json")
+    with open(prof, "w") as f:
+        f.write('{"schema": "imukit.profile/1", "clock": {"jitter_s": 0.002}}\n')
+    scene, _ = jitter_scene(workdir, "jitter_file.json", json.dumps("jitter.json"))
+    r = run("simulate", scene, "-o", os.path.join(workdir, "jitter_file"))
+    assert r.returncode == 1 and r.stderr == (
+        f"imukit: error: {scene}: sensors[0].hardware: {prof}:1:54: clock.jitter_s: 0.002 s is more "
+        "than a tenth of the sample period at the rate the model runs at (100 Hz: 0.001 s)\n"), r.stderr
+    inline = '{"schema": "imukit.profile/1", "clock": {"jitter_s": 0.0005}}'
+    scene, line = jitter_scene(workdir, "jitter_inline.json", inline)
+    r = run("simulate", scene, "-o", os.path.join(workdir, "jitter_inline"))
+    assert r.returncode == 0, "5e-4 s is a twentieth of the period at 100 Hz"
+    r = run("simulate", scene, "--rate", 400, "-o", os.path.join(workdir, "jitter_inline_400"))
+    column = line.index("0.0005") + 1
+    assert r.returncode == 1 and r.stderr == (
+        f"imukit: error: {scene}:5:{column}: sensors[0].hardware.clock.jitter_s: 0.0005 s is more "
+        "than a tenth of the sample period at the rate the model runs at (400 Hz: 0.00025 s)\n"), r.stderr

@@ -424,6 +424,24 @@ TEST(HardwareModel, RejectsParametersBeyondAnySensor) {
   EXPECT_EQ(message(m), "accepted");
 }
 
+// The model's own check of clock jitter (a guard for models built in code; a profile's is
+// checked by its reader at the file's key) says the rate it holds the jitter to (found in review,
+// 2026-11-26: "at most a tenth of the sample period" named no rate).
+TEST(HardwareModel, ClockJitterIsAtMostATenthOfTheFastestRatesPeriod) {
+  HardwareModel m;
+  m.clock.jitter_s = 0.002;
+  try {
+    validate_hardware_model(m, SensorRates{100.0, 400.0, 100.0});
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "hardware model: clock.jitter_s is 0.002 s, expected >= 0 and at most a tenth of "
+              "the sample period at the fastest rate the model runs at (400 Hz: 0.00025 s)");
+  }
+  m.clock.jitter_s = 0.00025;
+  EXPECT_NO_THROW(validate_hardware_model(m, SensorRates{100.0, 400.0, 100.0}));
+}
+
 // Amplitude of the sinusoid at `frequency` in x (least-squares fit over whole periods).
 double fitted_amplitude(const std::vector<double>& x, double frequency, double rate) {
   double s = 0.0;

@@ -313,7 +313,7 @@ TEST(Profile, SemanticErrorsNameTheJsonPath) {
       {R"("units": {"accelerometer": "g"})",
        "profile.json: units.accelerometer: expected \"m/s^2\", got \"g\" (imukit.profile/1 is SI "
        "only)"},
-      {R"("accelerometer": {"noise": {"noise_density": [1, 2, 1e308], "random_walk": [0, 0, -0.5]}})",
+      {R"("accelerometer": {"noise": {"noise_density": [1, 2, 1e12], "random_walk": [0, 0, -0.5]}})",
        "profile.json: accelerometer.noise.random_walk[2]: expected >= 0, got -0.5"},
   };
   // Each message names the file, line and column (Profile.SemanticErrorsPointAtTheValue checks
@@ -354,6 +354,46 @@ TEST(Profile, SemanticErrorsPointAtTheValue) {
   EXPECT_EQ(located_error(with_schema(
                 R"("clock": {"jitter_s": 0.0002}, "accelerometer": {"limits": {"rate": 1000}})")),
             "");
+}
+
+// The model's magnitude limit (HardwareModel::kMaxParameterMagnitude) is the reader's too, for
+// every value to_hardware_model makes a model parameter (found in review, 2026-11-26: only the
+// model checked it, "hardware model: accelerometer.noise_density[1] is 10000000000000, beyond
+// any sensor's (at most 1e+12 in magnitude)", naming its own field and no file).
+TEST(Profile, ParametersBeyondAnySensorAreErrorsAtTheFilesKey) {
+  EXPECT_EQ(located_error(with_schema(
+                R"("accelerometer": {"noise": {"noise_density": [0.001, 1e13, 0.001]}})")),
+            "1:85: accelerometer.noise.noise_density[1]: 10000000000000 is beyond any sensor's (at "
+            "most 1e+12 in magnitude)");
+  EXPECT_EQ(located_error(with_schema(R"("gyroscope": {"noise": {"random_walk": [0, 0, 2e12]}})")),
+            "1:78: gyroscope.noise.random_walk[2]: 2000000000000 is beyond any sensor's (at most "
+            "1e+12 in magnitude)");
+  EXPECT_EQ(
+      located_error(with_schema(
+          R"("accelerometer": {"turn_on_bias": {"mean": [-2e12, 0, 0], "spread": [0, 0, 0]}})")),
+      "1:76: accelerometer.turn_on_bias.mean[0]: -2000000000000 is beyond any sensor's (at "
+      "most 1e+12 in magnitude)");
+  EXPECT_EQ(
+      located_error(with_schema(
+          R"("accelerometer": {"calibration": {"scale": [1, 1, 1], "misalignment": [[1, 1e13, 0], [0, 1, 0], [0, 0, 1]], "bias": [0, 0, 0]}})")),
+      "1:107: accelerometer.calibration.misalignment[0][1]: 10000000000000 is beyond any "
+      "sensor's (at most 1e+12 in magnitude)");
+  EXPECT_EQ(located_error(with_schema(
+                R"("gyroscope": {"g_sensitivity": [[0, 0, 0], [0, 0, 0], [0, -1e200, 0]]})")),
+            "1:90: gyroscope.g_sensitivity[2][1]: -1e+200 is beyond any sensor's (at most 1e+12 "
+            "in magnitude)");
+  EXPECT_EQ(located_error(with_schema(R"("magnetometer": {"hard_iron": [1e13, 0, 0]})")),
+            "1:63: magnetometer.hard_iron[0]: 10000000000000 is beyond any sensor's (at most "
+            "1e+12 in magnitude)");
+  // The bound itself is a model validate_hardware_model accepts; uncertainties and the Allan
+  // curve are no model parameters and are not bounded.
+  const std::string at_bound = with_schema(
+      R"("accelerometer": {"noise": {"noise_density": [1e12, 1e12, 1e12], "noise_density_sigma": [1e13, 0, 0]},
+         "turn_on_bias": {"mean": [-1e12, 0, 0], "spread": [1e12, 0, 0]}},
+         "magnetometer": {"hard_iron": [1e12, 0, 0], "soft_iron": [[1e12, 0, 0], [0, 1, 0], [0, 0, 1]]})");
+  EXPECT_EQ(located_error(at_bound), "");
+  EXPECT_NO_THROW(
+      validate_hardware_model(to_hardware_model(parse_profile(at_bound, "p.json")), 100.0));
 }
 
 // A profile inline in another document (a scene's sensors[i].hardware), given as its own text:

@@ -94,6 +94,37 @@ class SimulateLikeTheCli(unittest.TestCase):
         self.assertLess(abs(np.std(diff) / expected - 1), 0.05)
         np.testing.assert_array_equal(a["belt"].accel, b["belt"].accel)  # ideal sensor
 
+    def test_seeds_are_the_commands_integers_0_to_2_pow_63_minus_1(self):
+        # Found in review (2026-11-26): the Python Scene took seeds to 2^64 - 1 (a uint64), which
+        # neither --seed nor a scene file takes, and -1 was "incompatible function arguments".
+        top = 2**63 - 1
+        out = os.path.join(self.tmp.name, "top_seed")
+        r = run_cli("simulate", self.scene_path, "-o", out, "--seed", top)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        sim = python_scene(seed=top).simulate()
+        t, gyro, accel = euroc(os.path.join(out, "watch.csv"))
+        np.testing.assert_array_equal(sim["watch"].accel, accel)
+        self.assertEqual(imukit.read_scene(self.scene_path).simulate(seed=0)["watch"].t.size, 1601)
+        expected = "expected an integer in [0, 9223372036854775807], got "
+        scene = python_scene()
+        for value in (2**63, 2**64, -1):
+            with self.assertRaises(imukit.Error) as e:
+                scene.simulate(seed=value)
+            self.assertEqual(str(e.exception), f"Scene.simulate: seed: {expected}{value}")
+            with self.assertRaises(imukit.Error) as e:
+                scene.seed = value
+            self.assertEqual(str(e.exception), f"Scene.seed: {expected}{value}")
+        with self.assertRaises(imukit.Error) as e:
+            python_scene(seed=2**63)
+        self.assertEqual(str(e.exception), f"Scene: seed: {expected}{2**63}")
+        with self.assertRaises(imukit.Error) as e:
+            imukit.ProceduralMotion(3, frames=10, seed=-1)
+        self.assertEqual(str(e.exception), f"ProceduralMotion: seed: {expected}-1")
+        with self.assertRaises(TypeError) as e:
+            scene.simulate(seed=7.0)
+        self.assertEqual(str(e.exception), "Scene.simulate: seed: expected an int, got float")
+        self.assertEqual(scene.seed, 11)
+
     def test_mcap_output_reads_back_to_the_same_arrays(self):
         path = os.path.join(self.tmp.name, "sim.mcap")
         r = run_cli("simulate", self.scene_path, "-o", path, "--seed", 42)

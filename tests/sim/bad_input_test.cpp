@@ -214,14 +214,16 @@ std::string procedural_scene(const std::string& motion_extra, const std::string&
          R"(}, "sensors": [{"preset": "left_wrist_watch"}]})";
 }
 
+// The range and the exact messages: Scene.SeedsAreTheIntegersFrom0To2Pow63Minus1ReadExactly.
 TEST(BadInput, SceneSeedsAreWholeNumbersInRange) {
   // "seed": -1 was cast to uint64 (undefined behaviour under UBSan).
   expect_error([] { parse_scene(procedural_scene(R"(, "seed": -1)", ""), "s.json", ""); },
-               {"s.json: motion.procedural.seed: expected a whole number in [0, 2^53], got -1"});
+               {"s.json:2:30: motion.procedural.seed: expected an integer in [0, "
+                "9223372036854775807], got -1"});
   expect_error([] { parse_scene(procedural_scene("", R"("seed": 1.5)"), "s.json", ""); },
-               {"simulation.seed"});
+               {"simulation.seed", "got 1.5"});
   expect_error([] { parse_scene(procedural_scene("", R"("seed": 1e300)"), "s.json", ""); },
-               {"simulation.seed"});
+               {"simulation.seed", "got 1e300"});
   const Scene ok =
       parse_scene(procedural_scene(R"(, "seed": 9007199254740992)", R"("seed": 0)"), "s.json", "");
   EXPECT_EQ(ok.seed, 0u);
