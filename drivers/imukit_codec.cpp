@@ -136,7 +136,7 @@ void ImukitCodec::begin_numbering(const proto::DecoderStats& before) {
   // numbered from there, never repeats of frames before it (found in review: a device that
   // rebooted within 16 frames of its start had its new blocks taken for stale repeats). Nor is
   // its own number compared with theirs: a rebooted device's frame 0 counted as a frame out of
-  // order, or as a gap of up to 65535 missed frames (found in review, 2026-11-27).
+  // order, or as a gap of up to 65535 missed frames (found in review, 2026-11-26).
   decoder_.reset_sequence();
   const proto::DecoderStats& now = decoder_.stats();
   numbering_restarts_.sequence_gaps += now.sequence_gaps - before.sequence_gaps;
@@ -296,7 +296,7 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
       stats_.samples_stale += static_cast<uint64_t>(skip);
       if (skip == b.count) return;
     } else if (is_long_loss(first, b.first_tick, host_time)) {
-      first += kIndexRange;  // found in review (2026-11-27): it was taken for a counter reset
+      first += kIndexRange;  // found in review (2026-11-26): it was taken for a counter reset
     } else {
       // A new streaming session (index restarts at 0, the clock somewhere else), which begins
       // with this block.

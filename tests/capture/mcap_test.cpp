@@ -303,7 +303,7 @@ TEST(Mcap, AFailedRewriteLeavesTheEarlierFileAndNoTemporary) {
 
 // A disk that holds `capacity` bytes: a FILE* whose writes go to `path` until it is full, then
 // fail as write(2) does on a full disk (what fits, then ENOSPC). A test of the writer's handling
-// of a full disk that touches no device (it wrote to /dev/full before, 2026-11-27 review).
+// of a full disk that touches no device (it wrote to /dev/full before, 2026-11-26 review).
 class SmallDisk {
  public:
   SmallDisk(const std::string& path, std::size_t capacity)

@@ -340,7 +340,7 @@ TEST(Session, ADurationKeepsExactlyTheSamplesMadeWithinIt) {
   }
 }
 
-// Found in review (2026-11-27): the duration summed the device clock only over the steps between
+// Found in review (2026-11-26): the duration summed the device clock only over the steps between
 // samples the clock fit continued, so a damaged tick took out two steps (into it and out of it)
 // and a restart the steps of the samples that confirmed it. 0.5 s of a 1 kHz text stream kept 520
 // samples with a tick 100 s ahead every 50 samples, 502 with one on the sample at 500 ms, and 503

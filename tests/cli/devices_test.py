@@ -135,7 +135,7 @@ def test_a_read_that_decodes_no_sample_fails(imukit, workdir):
 
 
 def test_record_names_the_samples_before_the_start_and_the_stale_ones(imukit, workdir):
-    # Found in review (2026-11-27): the record summary named neither the samples of an earlier
+    # Found in review (2026-11-26): the record summary named neither the samples of an earlier
     # session's stream nor the stale ones (the metadata, `info` and `devices --read` did). A live
     # device on a socket: 2 blocks of its earlier stream, its DeviceInfo, the Ack of our Start
     # (GetDeviceInfo was frame 0, Stop 1, Start 2), then our 50 blocks with block 24 sent twice.

@@ -113,7 +113,7 @@ def test_a_non_finite_sample_is_dropped_and_the_recording_stays_readable(imukit,
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert "997 samples" in r.stdout and "corrupt frames 3," in r.stdout, r.stdout
-    # Found in review (2026-11-27): the record summary did not say why (the metadata and `info` did).
+    # Found in review (2026-11-26): the record summary did not say why (the metadata and `info` did).
     assert "lost as the codec counts them 3 (with a non-finite value 3), corrupt frames 3," in r.stdout, r.stdout
     assert "before the stream's start" not in r.stdout and "stale" not in r.stdout, r.stdout
     r = subprocess.run([imukit, "info", out], capture_output=True, text=True)

@@ -335,7 +335,7 @@ TEST(ImukitCodec, ADeviceRebootingSoonAfterItsStartIsANewStreamNotStaleRepeats) 
   EXPECT_EQ(codec.stats().samples_dropped, 0u);
 }
 
-// Found in review (2026-11-27): the DeviceInfo of a rebooted device (frame 0 again) was still
+// Found in review (2026-11-26): the DeviceInfo of a rebooted device (frame 0 again) was still
 // compared with the frames before it: 5 frames into the stream it counted as a frame out of
 // order, 50 frames in as a sequence gap of 65485 missed frames. A DeviceInfo begins a numbering of
 // its own: neither, and the frames after it follow it (docs/protocol.md, section 4).
@@ -400,7 +400,7 @@ std::vector<BlockAt> fifty_blocks_then_a_jump(int64_t start, int64_t jump, int64
   return blocks;
 }
 
-// Found in review (2026-11-27): the sample index is a u32 that wraps (docs/protocol.md, 5.3), so
+// Found in review (2026-11-26): the sample index is a u32 that wraps (docs/protocol.md, 5.3), so
 // an index 2^31 or more ahead of the stream reads, by the half-range rule, as one behind it: the
 // loss was taken for a counter reset (0 dropped, the samples numbered from the raw index). Where
 // the first tick is on this stream's stepping at the index ahead and not at the one behind, the
