@@ -41,6 +41,18 @@ class UtdMhad(unittest.TestCase):
             self.assertEqual(exit.exception.code, 2)
             self.assertIn("--subjects: no trials of subject(s) s9 in", err.getvalue())
 
+    def test_the_fitting_batch_checks_its_numbers_where_parsed(self):
+        # Found in review: --threads 0 was a traceback, --limit -1 fitted 860 of 861 trials.
+        from imukit.datasets import utd_mhad_scenes
+        for flag, value in (("--threads", "0"), ("--threads", "-2"), ("--limit", "0"), ("--limit", "-1")):
+            err = io.StringIO()
+            with contextlib.redirect_stderr(err), self.assertRaises(SystemExit) as exit:
+                utd_mhad_scenes.main([self.root, "/nonexistent", flag, value])
+            self.assertEqual(exit.exception.code, 2)
+            self.assertEqual(err.getvalue().splitlines()[-1],
+                             "python3 -m imukit.datasets.utd_mhad_scenes: error: "
+                             f"argument {flag}: expected an integer >= 1, got '{value}'")
+
     def test_converts_g_and_deg_per_s_to_si_and_keeps_the_skeleton_in_frame_order(self):
         trial = utd_mhad.load_trial(self.root, utd_mhad.TrialId(1, 1, 1))
         # First row of a1_s1_t1_inertial.mat: -0.959473 g and 5.221374 deg/s.

@@ -8,8 +8,11 @@ import contextlib
 import io
 import json
 import os
+import signal
+import sys
 import tempfile
 import unittest
+from unittest import mock
 
 import numpy as np
 import torch
@@ -17,7 +20,7 @@ import torch
 import imukit
 from imukit.har import (augmentation, experiments, models, recordings as rf, report, train, utd_mhad,
                         windows)
-from imukit.har.__main__ import main as har_main
+from imukit.har.__main__ import _main_with_clear_errors, main as har_main
 from support import data_file
 
 BVH = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
@@ -60,6 +63,43 @@ def synthetic_recordings(folder, subjects=("s1", "s2", "s3"), trials=2):
     R = rf.Recordings("synthetic", ["right wrist", "left wrist"], recs)
     rf.write_recordings(folder, R)
     return R
+
+
+def noise_recordings(folder, lengths):
+    """A labelled-recordings folder without scenes, cheap to train on: per subject two
+    recordings (classes 0 and 1) of the given length, Gaussian noise."""
+    rng = np.random.default_rng(3)
+    recs = [rf.Recording(f"{s}_c{c}", s, rng.normal(size=(n, 6)), np.full(n, c, np.int64), 50.0, ["w"])
+            for s, n in lengths.items() for c in (0, 1)]
+    rf.write_recordings(folder, rf.Recordings("noise", ["a", "b"], recs))
+    return folder
+
+
+@contextlib.contextmanager
+def deadline(seconds):
+    """Fails the test instead of hanging (found in review: a worker pool whose initializer
+    raised started new workers forever)."""
+    def expire(signum, frame):
+        raise AssertionError(f"still running after {seconds} s")
+    old = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def cli(argv, seconds=120):
+    """`python3 -m imukit.har ARGV` as from a shell: (exit code, stderr)."""
+    err = io.StringIO()
+    with deadline(seconds), mock.patch.object(sys, "argv", ["python3 -m imukit.har"] + argv), \
+            contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        try:
+            code = _main_with_clear_errors()
+        except SystemExit as e:
+            code = e.code
+    return code, err.getvalue()
 
 
 class Models(unittest.TestCase):
@@ -118,6 +158,7 @@ class Metrics(unittest.TestCase):
 class Format(unittest.TestCase):
     def test_round_trip_and_per_sample_labels(self):
         with tempfile.TemporaryDirectory() as d:
+            write_scene(os.path.join(d, "sc"), ["left_wrist_watch"])
             x = np.random.default_rng(0).normal(size=(40, 6))
             lab = np.r_[np.full(20, 1), np.full(10, -1), np.full(10, 0)].astype(np.int64)
             R = rf.Recordings("t", ["a", "b"], [
@@ -198,6 +239,104 @@ class Format(unittest.TestCase):
                 f.write('{"schema": \n oops')
             with self.assertRaisesRegex(rf.FormatError, r"recordings\.json:2:2: Expecting value"):
                 rf.read_recordings(d)
+
+    def test_labels_scenes_and_channel_counts_are_checked_naming_their_file(self):
+        # Found in review (2026-11-26): a label error named the samples file, "labels": 5 was a
+        # TypeError and an .npz an AttributeError traceback; a missing scene file (found hours
+        # later, in PPDA), recordings of two channel counts, a top-level rate_hz of "fast" and
+        # a name of 5 were accepted.
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            np.save(os.path.join(d, "a12.npy"), np.zeros((10, 12)))
+            np.save(os.path.join(d, "half.npy"), np.zeros((10, 6), np.float16))
+            np.save(os.path.join(d, "bad.labels.npy"), np.r_[0, 0, 0, 5, np.zeros(6)].astype(np.int64))
+            np.save(os.path.join(d, "short.labels.npy"), np.zeros(7, np.int64))
+            np.savez(os.path.join(d, "z.npz"), x=np.zeros((10, 6)))
+            index = os.path.join(d, "recordings.json")
+
+            def expect(entries, message, top=None):
+                doc = {"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x", "y"], "recordings": entries}
+                doc.update(top or {})
+                with open(index, "w") as f:
+                    json.dump(doc, f)
+                with self.assertRaises(rf.FormatError) as e:
+                    rf.read_recordings(d)
+                self.assertEqual(str(e.exception), message.replace("D/", d + "/"))
+
+            ok = {"id": "a", "subject": "s", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            per_sample = {k: v for k, v in ok.items() if k != "label"}
+            expect([dict(per_sample, labels="bad.labels.npy")],
+                   "D/recordings.json: recordings[0].labels (D/bad.labels.npy): label 5 of sample 3 is not "
+                   "a class index 0..1 (or -1 for none)")
+            expect([dict(per_sample, labels="short.labels.npy")],
+                   "D/recordings.json: recordings[0].labels (D/short.labels.npy): labels must be int64 of "
+                   "shape (10,), got int64 (7,)")
+            expect([dict(per_sample, labels=5)], "D/recordings.json: recordings[0].labels: expected a file name, got 5")
+            expect([dict(per_sample, labels=None)],
+                   "D/recordings.json: recordings[0].labels: expected a file name, got None")
+            expect([dict(ok, samples="z.npz")],
+                   "D/recordings.json: recordings[0].samples: D/z.npz: an .npz archive, expected a .npy file")
+            expect([dict(per_sample, labels="z.npz")],
+                   "D/recordings.json: recordings[0].labels: D/z.npz: an .npz archive, expected a .npy file")
+            expect([dict(ok, samples="half.npy")],
+                   "D/recordings.json: recordings[0].samples: D/half.npy: dtype float16, expected float32 or float64")
+            expect([dict(ok, scene={"file": "gone/scene.json", "sensors": ["w"]})],
+                   "D/recordings.json: recordings[0].scene.file: D/gone/scene.json: no such file")
+            expect([ok, dict(ok, id="b", samples="a12.npy", sensors=["w", "v"])],
+                   "D/recordings.json: recordings[1] (D/a12.npy): 12 channels where recordings[0] (a) has 6: "
+                   "every recording needs the same channel count")
+            expect([dict(ok, rate_hz=50)], "D/recordings.json: rate_hz: expected a positive number of Hz, got 'fast'",
+                   {"rate_hz": "fast"})
+            expect([dict(ok, rate_hz=0)], "D/recordings.json: recordings[0].rate_hz: expected a positive number "
+                   "of Hz, got 0")
+            expect([ok], "D/recordings.json: name: expected a non-empty string, got 5", {"name": 5})
+
+    def test_big_endian_arrays_are_read_in_native_byte_order(self):
+        # The C++ reader takes either byte order; this one refused >f8 and >i8 (found in review).
+        with tempfile.TemporaryDirectory() as d:
+            x = np.random.default_rng(2).normal(size=(12, 6))
+            y = np.r_[np.zeros(6), np.ones(6)].astype(np.int64)
+            np.save(os.path.join(d, "r.npy"), x.astype(">f8"))
+            np.save(os.path.join(d, "r32.npy"), x.astype(">f4"))
+            np.save(os.path.join(d, "r.labels.npy"), y.astype(">i8"))
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x", "y"], "recordings": [
+                    {"id": "r", "subject": "s", "samples": "r.npy", "sensors": ["w"], "labels": "r.labels.npy"},
+                    {"id": "q", "subject": "s", "samples": "r32.npy", "sensors": ["w"], "label": 1}]}, f)
+            R = rf.read_recordings(d)
+            self.assertEqual((R[0].samples.dtype.str, R[0].labels.dtype.str), ("<f8", "<i8"))
+            np.testing.assert_array_equal(R[0].samples, x)
+            np.testing.assert_array_equal(R[0].labels, y)
+            np.testing.assert_array_equal(R[1].samples, x.astype(np.float32))
+
+    def test_the_writer_checks_every_recording_before_writing_any_file(self):
+        # Found in review: duplicate ids overwrote each other (and made a JSON the reader
+        # refuses), an id with '/' was a FileNotFoundError, and an error in a later recording
+        # left the earlier ones' files behind.
+        x = np.zeros((10, 6))
+
+        def rec(rid, labels=0):
+            return rf.Recording(rid, "s", x, np.broadcast_to(np.asarray(labels, np.int64), (10,)).copy(), 50.0, ["w"])
+        varying = np.r_[np.zeros(5), np.ones(5)]
+        wide = rf.Recording("b", "s", np.zeros((10, 12)), np.zeros(10, np.int64), 50.0, ["w", "v"])
+        not_a_name = "cannot name a file in the folder (no '/', not empty, '.' or '..')"
+        for recs, message in (
+                ([rec("a"), rec("a", 1)], "recordings[1]: duplicate id 'a' (recordings[0])"),
+                ([rec("a/b")], f"recordings[0]: id 'a/b' {not_a_name}"),
+                ([rec("..")], f"recordings[0]: id '..' {not_a_name}"),
+                ([rec("a", varying), rec("a.labels")],
+                 "recordings[1] (a.labels): its file a.labels.npy is recordings[0]'s too"),
+                ([rec("a"), rec("b", 7)],
+                 "recordings[1] (b): label 7 of sample 0 is not a class index 0..1 (or -1 for none)"),
+                ([rec("a"), wide],
+                 "recordings[1] (b): 12 channels where recordings[0] (a) has 6: every recording needs the same "
+                 "channel count")):
+            with tempfile.TemporaryDirectory() as d:
+                out = os.path.join(d, "out")
+                with self.assertRaises(rf.FormatError) as e:
+                    rf.write_recordings(out, rf.Recordings("t", ["x", "y"], recs))
+                self.assertEqual(str(e.exception), message)
+                self.assertFalse(os.path.exists(out))
 
 
 class Windowing(unittest.TestCase):
@@ -392,6 +531,42 @@ class Augmentation(unittest.TestCase):
             with self.assertRaisesRegex(ValueError, "samples at 50 Hz, recording r at 100 Hz"):
                 augmentation.PpdaSource(slow, 50).augmenter(0)
 
+    def test_windows_whose_scene_window_falls_outside_the_scene_stay_real(self):
+        # Found in review: the scene window (start + offset) was clipped into the scene, so near
+        # its ends several real windows were re-simulated as one scene window. The scene has
+        # 100 samples, the recording starts 30 samples (0.6 s) into it and runs 10 samples past
+        # its end: windows of 50 every 10 start at 0, 10, 20, 30, at scene samples 30, 40, 50,
+        # 60; the scene's last window starts at 50, so the fourth has none and stays real.
+        with tempfile.TemporaryDirectory() as d:
+            path = write_scene(d, ["right_wrist_watch"])
+            sim = imukit.read_scene(path).simulate()["right_wrist_watch"]
+            x = np.concatenate([sim.accel, sim.gyro], axis=1)
+            real = np.concatenate([x[30:], x[-10:]])
+            R = rf.Recordings("t", ["a"], [rf.Recording("r", "s", real, np.zeros(80, np.int64), 50.0, ["w"],
+                                                        rf.SceneRef(path, ["right_wrist_watch"], 0.6))])
+            W = windows.make_windows(R, 50, 10)
+            np.testing.assert_array_equal(W.start, [0, 10, 20, 30])
+            src = augmentation.PpdaSource(R, 50)
+            np.testing.assert_array_equal(src.inside_scene(W.recording, W.start), [True, True, True, False])
+            np.testing.assert_array_equal(src.usable(W.recording, W.start), [True, True, True, False])
+            with self.assertRaisesRegex(ValueError, r"^recording r: the window at sample 30 has no scene window "
+                                                    r"inside its scene$"):
+                src.apply(0, W.recording, W.start, imukit.Rng(1), PAPER, np.empty((4, 50, 6), np.float32))
+            st = windows.Standardizer.fit(W.X)
+            aug = augmentation.BatchAugmenter("ppda", PAPER, W, st, ppda=src, resimulate_identity=True)
+            X, _ = aug.batch(0, np.arange(4), seed=1)
+            self.assertEqual((aug.outside_scene_windows, aug.implausible_windows, aug.unfitted_windows,
+                              aug.augmented_windows), (1, 0, 0, 3))
+            np.testing.assert_allclose(X[3], st(W.X[3]), atol=1e-6)                # the real window
+            np.testing.assert_allclose(X[2] * st.std + st.mean, x[50:100], atol=2e-4)  # scene window 50
+            f = experiments.window_fidelity(R, 50, 10)
+            self.assertEqual((f["windows"], f["fitted_windows"], f["outside_scene_windows"],
+                              f["outputs"]["usable_windows"]), (4, 4, 1, 3))
+            # A negative offset: the first windows would start before the scene.
+            R.recordings[0].scene.time_offset_s = -0.1
+            np.testing.assert_array_equal(augmentation.PpdaSource(R, 50).inside_scene(W.recording, W.start),
+                                          [False, True, True, True])
+
     def test_arms_with_the_same_identity_mass_augment_the_same_batches(self):
         a = experiments.parse_arm("stda:amplitude_scaling")
         b = experiments.parse_arm("ppda:hardware:4")
@@ -474,6 +649,31 @@ class Experiments(unittest.TestCase):
             self.assertNotIn(r["val"], r["train"])
             self.assertNotEqual(r["test"], r["val"])
 
+    def test_fewer_subjects_splits_do_not_depend_on_the_other_sizes_or_combinations(self):
+        # Found in review: one random stream for every split, so --combinations 10 did not
+        # contain the 4 splits of --combinations 4, nor --sizes 2 those of --sizes 1,2,4,6.
+        subjects = [f"s{i}" for i in range(1, 9)]
+
+        def splits(sizes, combinations, n):
+            return [(r["test"], r["val"], r["train"]) for r in
+                    experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], sizes, combinations)
+                    if r["n_train"] == n]
+        ten = splits([1, 2, 4, 6], 10, 2)
+        self.assertEqual(splits([2], 4, 2), ten[:4])
+        self.assertEqual(splits([4, 2], 7, 2), ten[:7])
+        self.assertEqual([t for _, _, t in ten[:4]], [["s5", "s8"], ["s4", "s6"], ["s2", "s5"], ["s1", "s3"]])
+        # n = S - 2 is leave-one-subject-out: the one-at-a-time baseline's runs, reused.
+        self.assertEqual(splits([6], 10, 6), experiments.loso_splits(subjects))
+        # No split twice: with 4 subjects a fold has 2 one-subject training sets, so 10
+        # combinations give the 8 there are.
+        four = experiments.fewer_subjects_runs(subjects[:4], ["baseline"], ["m"], [1], 10)
+        self.assertEqual([(r["test"], r["train"]) for r in four],
+                         [("s1", ["s3"]), ("s2", ["s4"]), ("s3", ["s1"]), ("s4", ["s3"]),
+                          ("s1", ["s4"]), ("s2", ["s1"]), ("s3", ["s2"]), ("s4", ["s2"])])
+        with self.assertRaisesRegex(ValueError, r"^--sizes: 7 training subjects: expected 1 to 6 "
+                                                r"\(of 8 subjects one is tested, one validates\)$"):
+            experiments.fewer_subjects_runs(subjects, ["baseline"], ["m"], [2, 7], 1)
+
     def test_command_end_to_end_and_resume(self):
         with tempfile.TemporaryDirectory() as d:
             synthetic_recordings(os.path.join(d, "rec"))
@@ -487,6 +687,7 @@ class Experiments(unittest.TestCase):
             self.assertEqual(len(doc["runs"]), 3 * 4)
             ppda = [r for r in doc["runs"] if r["arm"] == "ppda:placement:1"]
             self.assertTrue(all(r["augmented_windows"] > 0 and r["imukit_seconds"] > 0 for r in ppda))
+            self.assertEqual([r["outside_scene_windows"] for r in ppda], [0, 0, 0])
             learned = [r for r in doc["runs"] if r["arm"] == "ppda:all:learned"]
             self.assertTrue(all(len(r["learned_top"]) == 10 for r in learned))
             with open(os.path.join(out, "one_at_a_time.md"), encoding="utf-8") as f:
@@ -585,6 +786,159 @@ class Experiments(unittest.TestCase):
                               "in one file and not in another (r_s3_t1).", f.read())
 
 
+class CommandErrors(unittest.TestCase):
+    """What the user gets wrong is one line naming the flag, file or subject, exit code 1 (2 for
+    what argparse refuses), before any training; never a traceback or a hang."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory()
+        cls.rec = noise_recordings(os.path.join(cls.tmp.name, "rec"), {"s1": 150, "s2": 150, "s3": 150})
+        # s2's recordings are shorter than a window of 50: no window at all
+        cls.short = noise_recordings(os.path.join(cls.tmp.name, "short"), {"s1": 150, "s2": 30, "s3": 150})
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.tmp.cleanup()
+
+    def run_args(self, out="out", recordings=None):
+        return ["--recordings", recordings or self.rec, "--out", os.path.join(self.tmp.name, out), "--tiny",
+                "--epochs", "1", "--models", "deepconvlstm", "--arms", "baseline", "--jobs", "2"]
+
+    def error(self, argv, code=1):
+        """The one line the command prints for argv (asserting its exit code)."""
+        got, err = cli(argv)
+        self.assertEqual(got, code, err)
+        lines = err.splitlines()
+        self.assertTrue(code == 2 or len(lines) == 1, err)  # argparse prints its usage first
+        return lines[-1]
+
+    def test_a_worker_that_cannot_start_reports_its_error_instead_of_starting_again(self):
+        # Found in review: the pool's initializer raised, and multiprocessing replaced the
+        # worker and ran it again, forever, at full CPU.
+        R = rf.read_recordings(self.rec)
+        settings = experiments.Settings(epochs=1, tiny=True)
+        state = experiments.prepare(R, settings)
+        runs = experiments.one_at_a_time_runs(R.subjects, ["baseline"], ["deepconvlstm"], 1)
+        store = experiments.ResultStore(os.path.join(self.tmp.name, "w.json"), "one_at_a_time", settings, {})
+        with mock.patch.object(train, "set_threads", side_effect=RuntimeError("no thread for this worker")), \
+                deadline(120), self.assertRaisesRegex(RuntimeError, "^no thread for this worker$"):
+            experiments.execute(runs, store, state, jobs=2, log=lambda s: None)
+        self.assertEqual(store.doc["runs"], [])
+
+    def test_settings_and_data_are_checked_before_any_worker_starts(self):
+        # Each hung (--jobs 2) or was a traceback before review.
+        self.assertEqual(self.error(["one-at-a-time"] + self.run_args() + ["--policy", "nope"]),
+                         "python3 -m imukit.har: error: --policy: nope: cannot open for reading: No such file "
+                         "or directory (or name a built-in policy: imukit, paper)")
+        self.assertEqual(self.error(["one-at-a-time"] + self.run_args() + ["--window", "200"]),
+                         "python3 -m imukit.har: error: the fold testing s1 (validation s2) has no training "
+                         "window: subject(s) s3 have no labelled window of 200 samples (recordings shorter "
+                         "than the window, or unlabelled)")
+        R = rf.read_recordings(self.rec)
+        R.recordings[1] = rf.Recording("wide", "s1", np.zeros((150, 12)), np.zeros(150, np.int64), 50.0, ["w", "v"])
+        with self.assertRaisesRegex(rf.FormatError, r"^noise: recordings have different channel counts \[6, 12\]$"):
+            experiments.prepare(R, experiments.Settings())
+
+    def test_folds_without_windows_are_refused_before_training(self):
+        # Found in review: 2 subjects left leave-one-subject-out no training subject (a torch
+        # traceback), and a subject without windows "finished" with val F1 0.0 / test acc NaN.
+        self.assertEqual(self.error(["one-at-a-time", "--subjects", "s1,s2"] + self.run_args()),
+                         "python3 -m imukit.har: error: leave-one-subject-out needs 3 subjects or more (one "
+                         "tested, one validating, the others training), got 2: s1, s2")
+        self.assertEqual(self.error(["one-at-a-time", "--seeds", "1"] + self.run_args("out_short", self.short)),
+                         "python3 -m imukit.har: error: the fold testing s1 (validation s2) has no validation "
+                         "window: subject(s) s2 have no labelled window of 50 samples (recordings shorter "
+                         "than the window, or unlabelled)")
+        self.assertEqual(self.error(["one-at-a-time", "--folds", "s2"] + self.run_args("out_short", self.short)),
+                         "python3 -m imukit.har: error: the fold testing s2 (validation s3) has no test "
+                         "window: subject(s) s2 have no labelled window of 50 samples (recordings shorter "
+                         "than the window, or unlabelled)")
+        self.assertEqual(self.error(["fewer-subjects", "--sizes", "1", "--combinations", "3"]
+                                    + self.run_args("out_short", self.short)),
+                         "python3 -m imukit.har: error: the fold testing s1 (validation s2) has no validation "
+                         "window: subject(s) s2 have no labelled window of 50 samples (recordings shorter "
+                         "than the window, or unlabelled)")
+        # Refused before the results folder is made.
+        self.assertFalse(os.path.exists(os.path.join(self.tmp.name, "out_short")))
+
+    def test_numbers_are_checked_where_they_are_parsed(self):
+        # Found in review: --epochs 0 and --batch-size 0 were tracebacks, --batch-size -4,
+        # --jobs 0, --seeds 0, --combinations -2 ran something else silently, --window 0 was
+        # refused only after the data was read.
+        for command, flag, value, expected in (
+                ("one-at-a-time", "--epochs", "0", "an integer >= 1"),
+                ("one-at-a-time", "--epochs", "-1", "an integer >= 1"),
+                ("one-at-a-time", "--batch-size", "0", "an integer >= 1"),
+                ("one-at-a-time", "--batch-size", "-4", "an integer >= 1"),
+                ("one-at-a-time", "--jobs", "0", "an integer >= 1"),
+                ("one-at-a-time", "--jobs", "-3", "an integer >= 1"),
+                ("one-at-a-time", "--seeds", "0", "an integer >= 1"),
+                ("sim-only", "--seeds", "-1", "an integer >= 1"),
+                ("one-at-a-time", "--window", "1", "an integer >= 2"),
+                ("one-at-a-time", "--window", "0", "an integer >= 2"),
+                ("one-at-a-time", "--stride", "0", "an integer >= 1"),
+                ("one-at-a-time", "--patience", "-1", "an integer >= 0"),
+                ("one-at-a-time", "--epochs", "2.5", "an integer >= 1"),
+                ("one-at-a-time", "--output-screen", "-1", "a number >= 0"),
+                ("one-at-a-time", "--output-screen", "nan", "a number >= 0"),
+                ("one-at-a-time", "--output-screen", "inf", "a number >= 0"),
+                ("fewer-subjects", "--combinations", "-2", "an integer >= 1"),
+                ("fewer-subjects", "--sizes", "-1", "an integer >= 1"),
+                ("fewer-subjects", "--sizes", "1,0", "an integer >= 1"),
+                ("fidelity", "--window", "0", "an integer >= 2")):
+            got = value.split(",")[-1]
+            self.assertEqual(self.error([command, "--recordings", "/nonexistent", "--out", "/nonexistent",
+                                         flag, value], code=2),
+                             f"python3 -m imukit.har {command}: error: argument {flag}: expected {expected}, "
+                             f"got '{got}'")
+
+    def test_missing_and_malformed_inputs_are_named(self):
+        d = self.tmp.name
+        prefix = "python3 -m imukit.har: error: "
+        self.assertEqual(self.error(["one-at-a-time", "--subjects", "s1,zz,s9"] + self.run_args()),
+                         prefix + f"--subjects: no recordings of subject(s) zz, s9 in {self.rec} "
+                                  "(subjects: s1, s2, s3)")
+        self.assertEqual(self.error(["one-at-a-time", "--scenes", d] + self.run_args()),
+                         prefix + "--scenes: only with --utd-mhad (labelled recordings name their scenes in "
+                                  "recordings.json)")
+        self.assertEqual(self.error(["one-at-a-time", "--utd-mhad", "/nonexistent", "--scenes", "/nonexistent/s",
+                                     "--out", d]),
+                         prefix + "--scenes: /nonexistent/s: no such folder")
+        self.assertEqual(self.error(["one-at-a-time", "--utd-mhad", "/nonexistent", "--out", d]),
+                         prefix + "--utd-mhad: /nonexistent/Inertial: no such folder (expected UTD-MHAD's Inertial/)")
+        self.assertEqual(self.error(["fidelity"] + self.run_args()),
+                         prefix + "none of the 30 windows has a fitted scene to compare with: give --scenes "
+                                  "(UTD-MHAD) or recordings with a scene")
+        # Results files: a corrupt one is named (it was not), another JSON or a missing file is
+        # one line (they were a KeyError and a FileNotFoundError traceback).
+        bad = os.path.join(d, "corrupt")
+        os.makedirs(bad, exist_ok=True)
+        with open(os.path.join(bad, "one_at_a_time.json"), "w") as f:
+            f.write('{"experiment": "one_at_a_time",\n "runs": [')
+        path = os.path.join(bad, "one_at_a_time.json")
+        self.assertEqual(self.error(["one-at-a-time"] + self.run_args("corrupt")),
+                         prefix + f"{path}:2:11: Expecting value")
+        self.assertEqual(self.error(["report", "--out", bad]), prefix + f"{path}:2:11: Expecting value")
+        other = os.path.join(d, "other.json")
+        with open(other, "w") as f:
+            json.dump({"schema": rf.SCHEMA, "recordings": []}, f)
+        self.assertEqual(self.error(["merge", "--out", os.path.join(d, "m"), other, other]),
+                         prefix + f"{other}: not an experiment's results (expected the JSON object "
+                                  "`python3 -m imukit.har` writes: experiment, settings, runs)")
+        self.assertEqual(self.error(["merge", "--out", os.path.join(d, "m"), os.path.join(d, "gone.json")]),
+                         prefix + f"{os.path.join(d, 'gone.json')}: No such file or directory")
+        # An --out that cannot be made is the file system's word, naming the path.
+        self.assertEqual(self.error(["one-at-a-time", "--seeds", "1"] +
+                                    self.run_args(os.path.join(self.rec, "recordings.json", "out"))),
+                         prefix + f"{os.path.join(self.rec, 'recordings.json', 'out')}: Not a directory")
+
+    def test_utd_mhad_subjects_that_are_not_there_are_named(self):
+        root = os.path.dirname(data_file("utd_mhad", "README.md"))
+        self.assertEqual(self.error(["one-at-a-time", "--utd-mhad", root, "--subjects", "9", "--out", self.tmp.name]),
+                         f"python3 -m imukit.har: error: --subjects: no recordings of subject(s) s9 in {root}")
+
+
 class UtdMhadSmoke(unittest.TestCase):
     """The pipeline on real data, small: subject 1 trains, subject 2 validates and tests."""
 
@@ -595,7 +949,7 @@ class UtdMhadSmoke(unittest.TestCase):
         self.assertEqual(R.subjects, ["s1", "s2"])
         self.assertEqual(R[0].sensors, ["right_wrist"])
         settings = experiments.Settings(window=50, stride=25, epochs=2, patience=0, batch_size=16, tiny=True)
-        experiments._init_worker(R, settings)
+        experiments._init_worker(experiments.prepare(R, settings))
         for model, arm in (("deepconvlstm", "baseline"), ("attend", "stda:speed_warping")):
             r = experiments.run_one({"arm": arm, "model": model, "test": "s2", "val": "s2",
                                      "train": ["s1"], "seed": 0})

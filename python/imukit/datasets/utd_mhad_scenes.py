@@ -24,6 +24,7 @@ import numpy as np
 
 import imukit
 from imukit.datasets import utd_mhad
+from imukit.har.arguments import number
 
 TOPOLOGY = "kinect_v1_20"
 # Where the sensor sat and what to start from: the site's segment and the nearest preset (its
@@ -281,12 +282,13 @@ def fit_dataset(root, out_dir, threads=2, trials=None, rigid=True, progress=None
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python3 -m imukit.datasets.utd_mhad_scenes",
+                                 description=__doc__.splitlines()[0])
     ap.add_argument("root", help="the UTD-MHAD folder (Inertial/, Skeleton/)")
     ap.add_argument("out", help="output folder (one sub-folder per trial, fidelity.json/.md)")
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--threads", type=number(int, 1), default=2)
     ap.add_argument("--subjects", default="", help="comma list of subjects, e.g. s1,s4 or 1,4 (default all)")
-    ap.add_argument("--limit", type=int, default=0, help="only the first N trials")
+    ap.add_argument("--limit", type=number(int, 1), help="only the first N trials (default all)")
     ap.add_argument("--no-rigid", action="store_true", help="skip the comparison fit without the twist")
     ap.add_argument("--correction", choices=("none", "twist", "rotation"), default=FIT["correction"],
                     help=f"segment correction (default {FIT['correction']})")

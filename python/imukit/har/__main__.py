@@ -14,22 +14,47 @@ import os
 import sys
 
 from . import experiments, recordings as rec_format, report, utd_mhad
+from .arguments import number, numbers
 
 
 def _data(args):
-    subjects = None
+    """The recordings --recordings or --utd-mhad (with --scenes) names, only those of
+    --subjects; ValueError naming the flag for what is not there (found in review: an unknown
+    subject was dropped in silence, a missing --scenes folder was taken as no scenes)."""
+    if args.scenes and not args.utd_mhad:
+        raise ValueError("--scenes: only with --utd-mhad (labelled recordings name their scenes in recordings.json)")
+    if args.scenes and not os.path.isdir(args.scenes):
+        raise ValueError(f"--scenes: {args.scenes}: no such folder")
+    wanted = None
     if args.recordings:
         R = rec_format.read_recordings(args.recordings)
         source = {"recordings": os.path.abspath(args.recordings)}
-    else:
         if args.subjects:
-            subjects = utd_mhad.reader.parse_subjects(args.subjects)
-        R = utd_mhad.load(args.utd_mhad, scenes=args.scenes, subjects=subjects)
+            wanted = [s.strip() for s in args.subjects.split(",")]
+    else:
+        utd_subjects = None
+        if args.subjects:
+            try:
+                utd_subjects = utd_mhad.reader.parse_subjects(args.subjects)
+            except ValueError as e:
+                raise ValueError(f"--subjects: {e}") from None
+            wanted = [f"s{n}" for n in utd_subjects]
+        try:
+            R = utd_mhad.load(args.utd_mhad, scenes=args.scenes, subjects=utd_subjects)
+        except FileNotFoundError as e:
+            raise ValueError(f"--utd-mhad: {e}") from None
         source = {"utd_mhad": os.path.abspath(args.utd_mhad),
                   "scenes": os.path.abspath(args.scenes) if args.scenes else None}
-    if args.subjects and args.recordings:
-        keep = set(args.subjects.split(","))
-        R.recordings = [r for r in R.recordings if r.subject in keep]
+    if wanted:
+        unknown = [s for s in dict.fromkeys(wanted) if s not in R.subjects]
+        if unknown:
+            # (UTD-MHAD is read for the subjects asked for only: there is no list to show)
+            have = f" (subjects: {', '.join(R.subjects)})" if args.recordings else ""
+            raise ValueError(f"--subjects: no recordings of subject(s) {', '.join(unknown)} in "
+                             f"{args.recordings or args.utd_mhad}{have}")
+        R.recordings = [r for r in R.recordings if r.subject in wanted]
+    if not len(R):
+        raise ValueError(f"--utd-mhad: {args.utd_mhad}: no trials")
     source["recordings_count"] = len(R)
     source["rate_hz"] = R.rate_hz  # one rate, or a FormatError before any training
     source["fingerprints"] = experiments.subject_fingerprints(R)
@@ -54,29 +79,32 @@ def main(argv=None):
     common.add_argument("--out", required=True, help="results folder")
     common.add_argument("--models", default="deepconvlstm,attend")
     common.add_argument("--arms", help="comma separated arms (default: the experiment's)")
-    common.add_argument("--window", type=int, default=50)
-    common.add_argument("--stride", type=int, default=25)
-    common.add_argument("--epochs", type=int, default=30)
-    common.add_argument("--patience", type=int, default=10)
-    common.add_argument("--batch-size", type=int, default=64)
+    common.add_argument("--window", type=number(int, 2), default=50, help="samples per window")
+    common.add_argument("--stride", type=number(int, 1), default=25, help="samples between window starts")
+    common.add_argument("--epochs", type=number(int, 1), default=30)
+    common.add_argument("--patience", type=number(int, 0), default=10,
+                        help="stop after this many epochs without a better validation F1 (0: never)")
+    common.add_argument("--batch-size", type=number(int, 1), default=64)
     common.add_argument("--policy", default="paper")
     common.add_argument("--tiny", action="store_true", help="tiny models (smoke tests)")
-    common.add_argument("--jobs", type=int, default=2, help="worker processes, one torch thread each")
-    common.add_argument("--output-screen", type=float, default=experiments.Settings.output_screen,
+    common.add_argument("--jobs", type=number(int, 1), default=2, help="worker processes, one torch thread each")
+    common.add_argument("--output-screen", type=number(float, 0), default=experiments.Settings.output_screen,
                         help="PPDA outputs above this many times the real peak (+ margin) stay real; "
                              "0 screens none, as runs before 2026-11-26 (default %(default)g)")
     folds = argparse.ArgumentParser(add_help=False)
     folds.add_argument("--folds", help="only the folds testing these subjects (comma separated; "
                        "default every subject): one experiment split across machines, see `merge`")
     one = sub.add_parser("one-at-a-time", parents=[common, folds])
-    one.add_argument("--seeds", type=int, default=3)
+    one.add_argument("--seeds", type=number(int, 1), default=3)
     one.add_argument("--options-all", action="store_true",
                      help="every grid option of each method (default: the middle option)")
     few = sub.add_parser("fewer-subjects", parents=[common])
-    few.add_argument("--sizes", default="1,2,4,6")
-    few.add_argument("--combinations", type=int, default=10)
+    few.add_argument("--sizes", type=numbers(int, 1), default=[1, 2, 4, 6],
+                     help="training subject counts (comma separated, default 1,2,4,6)")
+    few.add_argument("--combinations", type=number(int, 1), default=10,
+                     help="splits per size; the splits of fewer are the first of more")
     sim = sub.add_parser("sim-only", parents=[common, folds])
-    sim.add_argument("--seeds", type=int, default=1)
+    sim.add_argument("--seeds", type=number(int, 1), default=1)
     fid = sub.add_parser("fidelity", parents=[common],
                          help="the identity re-simulation of every window against the real one")
     mrg = sub.add_parser("merge", help="one experiment's JSONs made apart (--folds) as one, then its report")
@@ -87,12 +115,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     if args.command == "report":
-        import json
         for name in ("one_at_a_time", "fewer_subjects", "sim_only"):
             path = os.path.join(args.out, f"{name}.json")
             if os.path.exists(path):
-                with open(path, encoding="utf-8") as f:
-                    print(report.write(json.load(f), args.out))
+                print(report.write(experiments.read_results(path), args.out))
         return 0
 
     if args.command == "merge":
@@ -123,6 +149,7 @@ def main(argv=None):
     settings = experiments.Settings(window=args.window, stride=args.stride, epochs=args.epochs,
                                      patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
                                      policy=args.policy, output_screen=args.output_screen)
+    state = experiments.prepare(R, settings)
     models = args.models.split(",")
     subjects = R.subjects
     if args.command == "one-at-a-time":
@@ -132,16 +159,14 @@ def main(argv=None):
         name = "one_at_a_time"
     elif args.command == "fewer-subjects":
         arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.FEWER_SUBJECTS_ARMS)
-        sizes = [int(n) for n in args.sizes.split(",")]
-        if max(sizes) > len(subjects) - 2:
-            ap.error(f"at most {len(subjects) - 2} training subjects (one is tested, one validates)")
-        runs = experiments.fewer_subjects_runs(subjects, arms, models, sizes, args.combinations)
+        runs = experiments.fewer_subjects_runs(subjects, arms, models, args.sizes, args.combinations)
         name = "fewer_subjects"
     else:
         arms = ["baseline", "sim:identity"]
         runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds, _folds(args))
         name = "sim_only"
     missing = experiments.check_scenes(R, arms)
+    experiments.check_splits(runs, state)
     source["recordings_without_scene"] = missing
     os.makedirs(args.out, exist_ok=True)
     store = experiments.ResultStore(os.path.join(args.out, f"{name}.json"), name, settings, source)
@@ -149,20 +174,23 @@ def main(argv=None):
         if other != name:
             experiments.reuse(runs, store, os.path.join(args.out, f"{other}.json"),
                               log=lambda s: print(s, flush=True))
-    experiments.execute(runs, store, R, settings, jobs=args.jobs,
-                        log=lambda s: print(s, flush=True))
+    experiments.execute(runs, store, state, jobs=args.jobs, log=lambda s: print(s, flush=True))
     print(report.write(store.doc, args.out))
     return 0
 
 
 def _main_with_clear_errors():
     # A bad file, a mismatched results JSON or an unknown fold is the user's to fix: one line
-    # naming it, not a traceback.
+    # naming it, not a traceback. Inputs are checked where they are read and raise ValueError;
+    # an OSError here is the file system's (an --out that cannot be written, a full disk).
     try:
         return main()
     except ValueError as e:
         print(f"python3 -m imukit.har: error: {e}", file=sys.stderr)
-        return 1
+    except OSError as e:
+        where = f"{e.filename}: " if e.filename else ""
+        print(f"python3 -m imukit.har: error: {where}{e.strerror or e}", file=sys.stderr)
+    return 1
 
 
 if __name__ == "__main__":

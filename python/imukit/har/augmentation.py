@@ -15,7 +15,8 @@ batch is augmented under it.
   `Augmenter.apply` call per recording, written straight into the batch buffer. A window whose
   re-simulation with nothing changed is implausible next to the real one (`PpdaSource.usable`:
   where Kinect tracking failed, the converted motion can spin a segment) stays real, as do the
-  windows of recordings without a fitted scene.
+  windows of recordings without a fitted scene and those whose scene window would fall outside
+  the scene (`PpdaSource.inside_scene`).
 
 Both kinds share the draws that decide which batches are augmented (`SubPolicySampler`), so two
 arms with the same seed augment the same batches: the same number of augmented windows.
@@ -125,18 +126,20 @@ class PpdaSource:
 
     def usable(self, recording, start):
         """Per window (recording[k], start[k]): whether PPDA may re-simulate it. False without a
-        fitted scene, and where the window re-simulated with nothing changed (fitted biases
-        added) peaks above PEAK_FACTOR times the real window's peak plus PEAK_MARGIN on the
-        accelerometer or the gyroscope: on UTD-MHAD, where Kinect tracking failed (a wrist
-        jumping 0.4 m between frames) the converted forearm spins at 140 rad/s and the
-        re-simulation reads up to 1,287 m/s^2 beside a real peak of 48 (a sensor that saturates
-        at 78); 165 of 4,867 fitted windows, found in review. Every sub-policy re-simulates that
+        fitted scene, where the scene has no window for it (inside_scene), and where the window
+        re-simulated with nothing changed (fitted biases added) peaks above PEAK_FACTOR times
+        the real window's peak plus PEAK_MARGIN on the accelerometer or the gyroscope: on
+        UTD-MHAD, where Kinect tracking failed (a wrist jumping 0.4 m between frames) the
+        converted forearm spins at 140 rad/s and the re-simulation reads up to 1,287 m/s^2
+        beside a real peak of 48 (a sensor that saturates at 78); 165 of 4,867 fitted windows,
+        found in review. Every sub-policy re-simulates that
         same motion, so such a window stays real under all of them. Cached per window."""
         recording = np.asarray(recording)
         start = np.asarray(start)
+        inside = self.inside_scene(recording, start).tolist()
         todo = {}
-        for i, s0 in zip(recording.tolist(), start.tolist()):
-            if self.has_scene(i) and (i, s0) not in self._usable:
+        for i, s0, ok in zip(recording.tolist(), start.tolist(), inside):
+            if ok and (i, s0) not in self._usable:
                 todo.setdefault(i, []).append(s0)
         for i, starts in todo.items():
             starts = np.unique(np.asarray(starts, np.int64))
@@ -144,8 +147,23 @@ class PpdaSource:
             self.resimulate(np.full(len(starts), i), starts, sim)
             for s0, x in zip(starts.tolist(), sim):
                 self._usable[(i, s0)] = self.plausible(self.recordings[i].samples[s0:s0 + self.window], x)
-        return np.array([self.has_scene(i) and self._usable[(i, s0)]
-                         for i, s0 in zip(recording.tolist(), start.tolist())], bool)
+        return np.array([ok and self._usable[(i, s0)]
+                         for i, s0, ok in zip(recording.tolist(), start.tolist(), inside)], bool)
+
+    def inside_scene(self, recording, start):
+        """Per window: whether its scene window (start + the time offset) lies inside its
+        recording's scene; False without a scene. Found in review: the scene window used to be
+        clipped into the scene, so near the scene's ends several real windows became one scene
+        window (a recording of 400 samples with an offset of 2 s in a scene of 401: starts 275 to
+        350 all re-simulated the scene's last window, at 351). Such windows stay real."""
+        recording = np.asarray(recording)
+        start = np.asarray(start)
+        out = np.zeros(len(recording), bool)
+        for i in np.unique(recording).tolist():
+            if self.has_scene(i):
+                m = recording == i
+                out[m] = self.scene_starts(i, start[m])[1]
+        return out
 
     def resimulate(self, recording, start, out):
         """The windows re-simulated with nothing changed (fitted biases added) into out."""
@@ -163,19 +181,25 @@ class PpdaSource:
         return True
 
     def scene_starts(self, i, starts):
-        """The scene's sample index of each real window start (kept inside the scene)."""
+        """The scene's sample index of each real window start of recording i, and whether the
+        scene window there lies inside the scene."""
         a, _, offset, _ = self.augmenter(i)
-        return np.clip(starts + offset, 0, a.sample_count - self.window).astype(np.int64)
+        s = np.asarray(starts, np.int64) + offset
+        return s, (s >= 0) & (s <= a.sample_count - self.window)
 
     def apply(self, sub, recording, start, rng, policy, out):
         """Simulates windows (recording[k], start[k]) under `sub` into out (N, T, C) float32,
-        C-contiguous; the windows of one recording must be consecutive."""
+        C-contiguous; the windows of one recording must be consecutive, and inside its scene
+        (inside_scene)."""
         n = len(recording)
         cut = np.flatnonzero(np.diff(recording)) + 1
         for a0, a1 in zip(np.r_[0, cut], np.r_[cut, n]):
             i = int(recording[a0])
             aug, cols, _, bias = self.augmenter(i)
-            starts = self.scene_starts(i, start[a0:a1])
+            starts, inside = self.scene_starts(i, start[a0:a1])
+            if not inside.all():
+                raise ValueError(f"recording {self.recordings[i].id}: the window at sample "
+                                 f"{int(start[a0:a1][~inside][0])} has no scene window inside its scene")
             if cols is None:
                 aug.apply(sub, starts, rng, policy=policy, out=out[a0:a1], threads=1)
             else:
@@ -203,10 +227,12 @@ class BatchAugmenter:
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
         self.imukit_seconds = 0.0
-        # PPDA windows left real: no fitted scene, an implausible re-simulation (usable()), or
-        # an output of the drawn sub-policy above `output_screen` (Settings.output_screen)
+        # PPDA windows left real: no fitted scene, no scene window (inside_scene), an
+        # implausible re-simulation (usable()), or an output of the drawn sub-policy above
+        # `output_screen` (Settings.output_screen)
         self.output_screen = output_screen
         self.unfitted_windows = 0
+        self.outside_scene_windows = 0
         self.implausible_windows = 0
         self.implausible_outputs = 0
         self.augmented_windows = 0
@@ -241,15 +267,17 @@ class BatchAugmenter:
             self.imukit_seconds += time.perf_counter() - t0
             self.augmented_windows += len(index)
             return X, w.y[index]
-        # Windows without a fitted scene (a failed fit) or whose re-simulation is implausible
-        # (PpdaSource.usable) stay real, at the end.
+        # Windows without a fitted scene (a failed fit), without a scene window or whose
+        # re-simulation is implausible (PpdaSource.usable) stay real, at the end.
         rec = w.recording[index]
         t0 = time.perf_counter()
         fitted = self.ppda.usable(rec, w.start[index])
         self.imukit_seconds += time.perf_counter() - t0
         scene = np.array([self.ppda.has_scene(i) for i in rec.tolist()], bool)
+        inside = self.ppda.inside_scene(rec, w.start[index])
         self.unfitted_windows += int((~scene).sum())
-        self.implausible_windows += int((scene & ~fitted).sum())
+        self.outside_scene_windows += int((scene & ~inside).sum())
+        self.implausible_windows += int((inside & ~fitted).sum())
         index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
         n = int(fitted.sum())
         X = np.empty((len(index),) + w.X.shape[1:], np.float32)

@@ -14,10 +14,12 @@ A *run* is (arm, model, test subject, validation subject, training subjects, see
 appended to the experiment's JSON as soon as it ends, so a killed experiment continues where it
 stopped. Runs are spread over `jobs` worker processes of one torch thread each.
 """
+import collections
 import dataclasses
 import hashlib
 import itertools
 import json
+import math
 import multiprocessing
 import os
 import time
@@ -139,18 +141,57 @@ def run_key(run):
 _STATE = {}
 
 
-def _init_worker(recordings, settings):
-    train.set_threads(1)
+def read_policy(name):
+    """The policy `--policy` names (a built-in grid or an `imukit.policy/1` file)."""
+    try:
+        return imukit.read_policy(name)
+    except imukit.Error as e:
+        raise ValueError(f"--policy: {e}") from None
+
+
+def prepare(recordings, settings):
+    """What every run of an experiment shares: the policy, the windows of every recording and
+    their subjects. Built once, in the process that starts the workers (they inherit it), so a
+    bad window, policy or recordings of different channel counts or rates is one error before
+    any run (found in review: built in the pool's initializer, such an error made
+    multiprocessing start new workers forever)."""
+    policy = read_policy(settings.policy)
+    W = windowing.make_windows(recordings, settings.window, settings.stride)
+    return {"recordings": recordings, "settings": settings, "windows": W, "policy": policy, "ppda": None,
+            "subject": np.array([recordings[i].subject for i in W.recording])}
+
+
+def _init_worker(state):
+    # Never raises: a pool whose initializer raises replaces the worker and calls it again,
+    # forever. The error is kept for run_one, whose error the pool hands to the caller.
     _STATE.clear()
-    _STATE.update(recordings=recordings, settings=settings,
-                  windows=windowing.make_windows(recordings, settings.window, settings.stride),
-                  policy=imukit.read_policy(settings.policy), ppda=None)
-    _STATE["subject"] = np.array([recordings[i].subject for i in _STATE["windows"].recording])
+    try:
+        train.set_threads(1)
+        _STATE.update(state)
+    except Exception as e:
+        _STATE["error"] = e
+
+
+def check_splits(runs, state):
+    """Refuses runs whose training, validation or test subjects have no window (found in
+    review: no training window was a torch traceback, no validation window kept the first
+    epoch's model with validation F1 0.0, no test window reported test accuracy NaN)."""
+    counts = collections.Counter(state["subject"].tolist())
+    for run in runs:
+        for role, subjects in (("training", run["train"]), ("validation", [run["val"]]), ("test", [run["test"]])):
+            if not any(counts[s] for s in subjects):
+                raise ValueError(
+                    f"the fold testing {run['test']} (validation {run['val']}) has no {role} window: "
+                    f"subject(s) {', '.join(subjects) or '(none)'} have no labelled window of "
+                    f"{state['settings'].window} samples (recordings shorter than the window, or unlabelled)")
 
 
 def run_one(run):
     """Trains and tests one run (a dict: arm, model, test, val, train, seed); returns it with
     its results."""
+    if "error" in _STATE:
+        raise _STATE["error"]
+    check_splits([run], _STATE)
     R, s, W, policy = _STATE["recordings"], _STATE["settings"], _STATE["windows"], _STATE["policy"]
     subject = _STATE["subject"]
     arm = parse_arm(run["arm"], len(policy))
@@ -178,6 +219,7 @@ def run_one(run):
     result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)
     result["windows"] = {"train": len(tr), "val": len(va), "test": len(te)}
     result["unfitted_windows"] = augmenter.unfitted_windows
+    result["outside_scene_windows"] = augmenter.outside_scene_windows
     result["implausible_windows"] = augmenter.implausible_windows
     result["implausible_outputs"] = augmenter.implausible_outputs
     return dict(run, **result)
@@ -187,6 +229,9 @@ def run_one(run):
 
 def loso_splits(subjects):
     """Leave-one-subject-out: test subject i, validation subject i + 1 (cyclic), training the rest."""
+    if len(subjects) < 3:
+        raise ValueError(f"leave-one-subject-out needs 3 subjects or more (one tested, one validating, "
+                         f"the others training), got {len(subjects)}: {', '.join(subjects)}")
     out = []
     for i, t in enumerate(subjects):
         v = subjects[(i + 1) % len(subjects)]
@@ -208,20 +253,31 @@ def one_at_a_time_runs(subjects, arms, models, seeds, folds=None):
 
 def fewer_subjects_runs(subjects, arms, models, sizes, combinations, seed=0):
     """For n training subjects: up to `combinations` splits; split j tests subject j mod S,
-    validates on the next one and trains on a random n-subset of the other S - 2 (all of them for
-    n = S - 2: the first `combinations` LOSO folds). Seed 0 for every run (the spread is over
-    subject subsets)."""
-    rng = np.random.default_rng(20250601)
+    validates on the next one and trains on a random n-subset of the other S - 2, listed in the
+    subjects' order (all of them for n = S - 2: the first `combinations` LOSO folds, the runs
+    of one-at-a-time's baseline). Split j draws from its own stream, default_rng([20250601, n,
+    j]), so the splits of fewer combinations are the first ones of more, whatever the other
+    sizes (found in review: one stream for all made them depend on both). A subset the fold
+    already has is drawn again; a fold with every subset taken gets no further split. Seed 0
+    for every run (the spread is over subject subsets)."""
+    folds = loso_splits(subjects)
     runs = []
     for n in sizes:
-        splits = []
-        if n == len(subjects) - 2:
-            splits = loso_splits(subjects)[:combinations]
-        else:
-            for j in range(combinations):
-                t, v = subjects[j % len(subjects)], subjects[(j + 1) % len(subjects)]
-                pool = [s for s in subjects if s not in (t, v)]
-                splits.append((t, v, sorted(rng.choice(pool, size=n, replace=False).tolist())))
+        if not 1 <= n <= len(subjects) - 2:
+            raise ValueError(f"--sizes: {n} training subjects: expected 1 to {len(subjects) - 2} "
+                             f"(of {len(subjects)} subjects one is tested, one validates)")
+        splits, taken = [], collections.defaultdict(set)
+        for j in range(combinations):
+            t, v, rest = folds[j % len(folds)]
+            if len(taken[t]) == math.comb(len(rest), n):
+                continue
+            rng = np.random.default_rng([20250601, n, j])
+            train_set = None
+            while train_set is None or train_set in taken[t]:
+                chosen = set(rng.choice(rest, size=n, replace=False).tolist())
+                train_set = tuple(s for s in rest if s in chosen)
+            taken[t].add(train_set)
+            splits.append((t, v, list(train_set)))
         for m in models:
             for (t, v, tr) in splits:
                 for a in arms:
@@ -241,6 +297,26 @@ def subject_fingerprints(recordings):
     return {s: hashlib.sha256("\n".join(sorted(v)).encode()).hexdigest()[:16] for s, v in rows.items()}
 
 
+def read_results(path):
+    """An experiment's JSON (what ResultStore writes); ValueError naming the file when it cannot
+    be read or is not one (found in review: a corrupt file's error did not say which, another
+    JSON was a KeyError traceback)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            doc = json.load(f)
+    except OSError as e:
+        raise ValueError(f"{path}: {e.strerror}") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}:{e.lineno}:{e.colno}: {e.msg}") from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    if not (isinstance(doc, dict) and isinstance(doc.get("experiment"), str)
+            and isinstance(doc.get("settings"), dict) and isinstance(doc.get("runs"), list)):
+        raise ValueError(f"{path}: not an experiment's results (expected the JSON object "
+                         "`python3 -m imukit.har` writes: experiment, settings, runs)")
+    return doc
+
+
 def data_mismatch(old, new):
     """The subjects whose recordings differ between two experiments' data (older JSONs without
     digests match anything)."""
@@ -257,8 +333,7 @@ class ResultStore:
         self.doc = {"schema": "imukit.har/1", "experiment": experiment,
                     "settings": dataclasses.asdict(settings), "data": data, "runs": []}
         if os.path.exists(path):
-            with open(path, encoding="utf-8") as f:
-                old = json.load(f)
+            old = read_results(path)
             if settings_of(old) != self.doc["settings"] or old.get("experiment") != experiment:
                 raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
                                  "use another --out or delete it")
@@ -299,8 +374,7 @@ def reuse(runs, store, other_path, log=print):
     the one-at-a-time baseline)."""
     if not os.path.exists(other_path):
         return 0
-    with open(other_path, encoding="utf-8") as f:
-        other = json.load(f)
+    other = read_results(other_path)
     if settings_of(other) != store.doc["settings"] or data_mismatch(other.get("data"), store.doc["data"]):
         return 0
     have = {run_key(r): r for r in other.get("runs", [])}
@@ -322,10 +396,7 @@ def merge(paths):
     says so: `data.parts` keeps each file's data and the tests of its runs, and
     `data.fingerprints_differ` lists the subjects whose digests disagree, so a table made from
     it can name what was not trained on the same data."""
-    docs = []
-    for p in paths:
-        with open(p, encoding="utf-8") as f:
-            docs.append(json.load(f))
+    docs = [read_results(p) for p in paths]
     first = docs[0]
     seen = {}
     for p, d in zip(paths, docs):
@@ -354,8 +425,9 @@ def merge(paths):
             "wall_seconds": sum(d.get("wall_seconds", 0.0) for d in docs)}
 
 
-def execute(runs, store, recordings, settings, jobs=1, log=print):
-    """Runs what the store does not have yet, `jobs` at a time; returns the wall time."""
+def execute(runs, store, state, jobs=1, log=print):
+    """Runs what the store does not have yet, `jobs` at a time, from `state` (prepare());
+    returns the wall time."""
     pending = [r for r in runs if run_key(r) not in store.done]
     log(f"{len(runs) - len(pending)} of {len(runs)} runs already done, {len(pending)} to go, {jobs} job(s)")
     t0 = time.perf_counter()
@@ -368,12 +440,12 @@ def execute(runs, store, recordings, settings, jobs=1, log=print):
             f"epoch {r['best_epoch']}/{r['epochs_run']}, {r['seconds']:.0f} s, imukit {100 * r['imukit_share']:.1f} %)")
 
     if jobs <= 1 or len(pending) <= 1:
-        _init_worker(recordings, settings)
+        _init_worker(state)
         for i, run in enumerate(pending):
             finished(i, run_one(run))
     else:
         ctx = multiprocessing.get_context("fork")
-        with ctx.Pool(jobs, initializer=_init_worker, initargs=(recordings, settings),
+        with ctx.Pool(jobs, initializer=_init_worker, initargs=(state,),
                       maxtasksperchild=None) as pool:
             for i, r in enumerate(pool.imap_unordered(run_one, pending)):
                 finished(i, r)
@@ -402,18 +474,27 @@ def check_scenes(recordings, arms):
 
 def window_fidelity(recordings, window, stride, policy="paper"):
     """How close PPDA's starting point is to the real data: every window of a recording with a
-    fitted scene re-simulated under the identity sub-policy (fitted biases added) against the
-    real window, in SI units. Per sensor kind: the per-window, per-axis correlation (median and
-    quartiles), the per-window RMSE (median) beside the real signal's standard deviation, and how
-    many re-simulated windows peak above the largest real value of the whole dataset."""
+    fitted scene (and inside it: `outside_scene_windows` counts the others) re-simulated under
+    the identity sub-policy (fitted biases added) against the real window, in SI units. Per
+    sensor kind: the per-window, per-axis correlation (median and quartiles), the per-window
+    RMSE (median) beside the real signal's standard deviation, and how many re-simulated
+    windows peak above the largest real value of the whole dataset."""
     W = windowing.make_windows(recordings, window, stride)
-    fitted = np.array([recordings[i].scene is not None for i in W.recording])
-    Wf = W.subset(fitted)
+    source = augmentation.PpdaSource(recordings, window, policy=read_policy(policy))
+    fitted = np.array([recordings[i].scene is not None for i in W.recording], bool)
+    inside = source.inside_scene(W.recording, W.start)
+    if not fitted.any():
+        raise ValueError(f"none of the {len(W)} windows has a fitted scene to compare with: "
+                         "give --scenes (UTD-MHAD) or recordings with a scene")
+    if not inside.any():
+        raise ValueError(f"none of the {int(fitted.sum())} windows with a fitted scene lies inside its scene")
+    Wf = W.subset(inside)
     X = np.empty_like(Wf.X)
-    source = augmentation.PpdaSource(recordings, window, policy=policy)
     source.resimulate(Wf.recording, Wf.start, X)
-    # Figures over every fitted window, the implausible ones (which training keeps real) included.
+    # Figures over every fitted window inside its scene, the implausible ones (which training
+    # keeps real) included.
     out = {"windows": int(len(W)), "fitted_windows": int(fitted.sum()),
+           "outside_scene_windows": int((fitted & ~inside).sum()),
            "implausible_windows": sum(not source.plausible(r, x) for r, x in zip(Wf.X, X))}
     for name, lo in (("accel", 0), ("gyro", 3)):
         real, sim = Wf.X[..., lo:lo + 3], X[..., lo:lo + 3]

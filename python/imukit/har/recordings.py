@@ -94,37 +94,57 @@ class Recordings:
         return [i for i, r in enumerate(self.recordings) if r.subject in wanted]
 
 
-def check_recording(rec, classes, where):
-    """Raises FormatError (naming `where`) unless `rec` is consistent."""
+def check_recording(rec, classes, where, what=None, labels_file=None):
+    """Raises FormatError unless `rec` is consistent. Errors name `where` (the JSON path), with
+    `what` (the samples file, or the recording's id) after it for the samples, and the labels
+    file where the labels came from one of their own."""
+    at = f"{where} ({what})" if what else where
+    at_labels = f"{where}.labels ({labels_file})" if labels_file else at
     x = rec.samples
     if not isinstance(x, np.ndarray) or x.ndim != 2 or x.shape[0] < 1:
-        raise FormatError(f"{where}: samples must be an (N >= 1, channels) array, "
+        raise FormatError(f"{at}: samples must be an (N >= 1, channels) array, "
                           f"got {getattr(x, 'shape', type(x).__name__)}")
-    if not rec.sensors or x.shape[1] != 6 * len(rec.sensors):
-        raise FormatError(f"{where}: {x.shape[1]} channels for sensors {rec.sensors}: "
+    if not (isinstance(rec.sensors, list) and rec.sensors and all(isinstance(s, str) for s in rec.sensors)):
+        raise FormatError(f"{at}: sensors must be a non-empty list of names, got {rec.sensors!r}")
+    if x.shape[1] != 6 * len(rec.sensors):
+        raise FormatError(f"{at}: {x.shape[1]} channels for sensors {rec.sensors}: "
                           "expected 6 per sensor (ax ay az gx gy gz)")
     if not np.all(np.isfinite(x)):
         row, col = np.argwhere(~np.isfinite(x))[0]
-        raise FormatError(f"{where}: sample {row} channel {col} is {x[row, col]}")
+        raise FormatError(f"{at}: sample {row} channel {col} is {x[row, col]}")
     if not (np.isfinite(rec.rate_hz) and rec.rate_hz > 0):
-        raise FormatError(f"{where}: rate_hz must be positive, got {rec.rate_hz}")
+        raise FormatError(f"{at}: rate_hz must be positive, got {rec.rate_hz}")
     y = rec.labels
-    if y.shape != (x.shape[0],) or y.dtype != np.int64:
-        raise FormatError(f"{where}: labels must be int64 of shape ({x.shape[0]},), "
-                          f"got {y.dtype} {y.shape}")
+    if not isinstance(y, np.ndarray) or y.shape != (x.shape[0],) or y.dtype != np.int64:
+        raise FormatError(f"{at_labels}: labels must be int64 of shape ({x.shape[0]},), "
+                          f"got {getattr(y, 'dtype', type(y).__name__)} {getattr(y, 'shape', '')}")
     bad = (y < -1) | (y >= len(classes))
     if np.any(bad):
         i = int(np.argmax(bad))
-        raise FormatError(f"{where}: label {y[i]} of sample {i} is not a class index "
+        raise FormatError(f"{at_labels}: label {y[i]} of sample {i} is not a class index "
                           f"0..{len(classes) - 1} (or -1 for none)")
-    if rec.scene is not None and len(rec.scene.sensors) != len(rec.sensors):
-        raise FormatError(f"{where}: scene.sensors {rec.scene.sensors} must name one scene sensor "
+    if rec.scene is None:
+        return
+    # Found in review: a scene that is not there failed only when PPDA first used it, hours
+    # into an experiment.
+    if not os.path.isfile(rec.scene.path):
+        raise FormatError(f"{where}.scene.file: {rec.scene.path}: no such file")
+    if len(rec.scene.sensors) != len(rec.sensors):
+        raise FormatError(f"{where}.scene.sensors: {rec.scene.sensors} must name one scene sensor "
                           f"per recording sensor {rec.sensors}")
-    if rec.scene is not None and rec.scene.bias is not None:
+    if rec.scene.bias is not None:
         b = np.asarray(rec.scene.bias)
         if b.shape != (len(rec.sensors), 6) or not np.all(np.isfinite(b)):
-            raise FormatError(f"{where}: scene.bias must be {len(rec.sensors)} finite rows of 6 "
+            raise FormatError(f"{where}.scene.bias: expected {len(rec.sensors)} finite rows of 6 "
                               f"(ax ay az gx gy gz), got shape {b.shape}")
+
+
+def check_same_channels(rec, first, where):
+    """Windows of all recordings go into one array, so every recording has the channel count
+    of the first."""
+    if rec.samples.shape[1] != first.samples.shape[1]:
+        raise FormatError(f"{where}: {rec.samples.shape[1]} channels where recordings[0] ({first.id}) has "
+                          f"{first.samples.shape[1]}: every recording needs the same channel count")
 
 
 def _require(cond, msg):
@@ -142,6 +162,29 @@ def _unique_keys(pairs):
     return out
 
 
+def _rate(value, where):
+    """A sample rate from the JSON: a positive finite number of Hz."""
+    _require(isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and value > 0,
+             f"{where}: expected a positive number of Hz, got {value!r}")
+    return float(value)
+
+
+def _load_array(path, where, kind, sizes, expected):
+    """The array of a .npy file, in native byte order, whose dtype is of `kind` ('f', 'i') and
+    one of the item `sizes`; FormatError naming `where` and the file otherwise."""
+    try:
+        a = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise FormatError(f"{where}: {path}: {err}") from None
+    if not isinstance(a, np.ndarray):  # np.load opens an .npz archive as well
+        a.close()
+        raise FormatError(f"{where}: {path}: an .npz archive, expected a .npy file")
+    # Either byte order, as the C++ reader takes (a big-endian file is as good a file).
+    _require(a.dtype.kind == kind and a.dtype.itemsize in sizes,
+             f"{where}: {path}: dtype {a.dtype}, expected {expected}")
+    return a.astype(a.dtype.newbyteorder("="), copy=False)
+
+
 def read_recordings(folder):
     """Reads `folder/recordings.json` and the arrays it names; FormatError on anything malformed."""
     index = os.path.join(folder, "recordings.json")
@@ -152,13 +195,19 @@ def read_recordings(folder):
         raise FormatError(f"{index}: {e}") from None
     except FileNotFoundError:
         raise FormatError(f"{index}: no such file") from None
+    except OSError as e:
+        raise FormatError(f"{index}: {e.strerror}") from None
     except json.JSONDecodeError as e:
         raise FormatError(f"{index}:{e.lineno}:{e.colno}: {e.msg}") from None
+    except UnicodeDecodeError as e:
+        raise FormatError(f"{index}: not UTF-8 text ({e.reason} at byte {e.start})") from None
     _require(isinstance(doc, dict), f"{index}: expected a JSON object")
     _require(doc.get("schema") == SCHEMA, f"{index}: schema: expected \"{SCHEMA}\", got {doc.get('schema')!r}")
     known = {"schema", "name", "rate_hz", "classes", "units", "recordings"}
     for k in doc:
         _require(k in known, f"{index}: unknown key '{k}' ({', '.join(sorted(known))})")
+    name = doc.get("name", os.path.basename(os.path.abspath(folder)))
+    _require(isinstance(name, str) and name, f"{index}: name: expected a non-empty string, got {name!r}")
     classes = doc.get("classes")
     _require(isinstance(classes, list) and classes and all(isinstance(c, str) for c in classes),
              f"{index}: classes: expected a non-empty list of class names")
@@ -166,7 +215,8 @@ def read_recordings(folder):
     units = doc.get("units", {"accelerometer": "m/s^2", "gyroscope": "rad/s"})
     _require(units == {"accelerometer": "m/s^2", "gyroscope": "rad/s"},
              f"{index}: units: samples are stored in m/s^2 and rad/s, got {units}")
-    default_rate = doc.get("rate_hz")
+    # Checked even where every recording gives its own: a value no recording reads is still wrong.
+    default_rate = _rate(doc["rate_hz"], f"{index}: rate_hz") if "rate_hz" in doc else None
     entries = doc.get("recordings")
     _require(isinstance(entries, list) and entries, f"{index}: recordings: expected a non-empty list")
     out = []
@@ -185,23 +235,21 @@ def read_recordings(folder):
         rid = e["id"]
         _require(rid not in seen, f"{where}: duplicate id '{rid}'")
         seen.add(rid)
-        rate = e.get("rate_hz", default_rate)
-        _require(isinstance(rate, (int, float)) and not isinstance(rate, bool),
-                 f"{where}: rate_hz missing (here or at the top level)")
+        if "rate_hz" in e:
+            rate = _rate(e["rate_hz"], f"{where}.rate_hz")
+        else:
+            _require(default_rate is not None, f"{where}: rate_hz missing (here or at the top level)")
+            rate = default_rate
         sensors = e["sensors"]
         _require(isinstance(sensors, list) and sensors and all(isinstance(s, str) for s in sensors),
                  f"{where}: sensors: expected a non-empty list of names")
         path = os.path.join(folder, e["samples"])
-        try:
-            x = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as err:
-            raise FormatError(f"{where}.samples: {path}: {err}") from None
-        _require(x.dtype in (np.float32, np.float64), f"{where}.samples: {path}: dtype {x.dtype}, "
-                 "expected float32 or float64")
+        x = _load_array(path, f"{where}.samples", "f", (4, 8), "float32 or float64")
         x = np.ascontiguousarray(x, dtype=np.float64)
         n = len(x) if x.ndim >= 1 else 0
         _require(("label" in e) != ("labels" in e), f"{where}: give either 'label' (one class for the "
                  "whole recording) or 'labels' (an int64 .npy, one per sample)")
+        lpath = None
         if "label" in e:
             lab = e["label"]
             _require(isinstance(lab, int) and not isinstance(lab, bool),
@@ -209,12 +257,10 @@ def read_recordings(folder):
             _require(0 <= lab < len(classes), f"{where}.label: {lab} is not a class index 0..{len(classes) - 1}")
             y = np.full(n, lab, np.int64)
         else:
+            _require(isinstance(e["labels"], str) and e["labels"],
+                     f"{where}.labels: expected a file name, got {e['labels']!r}")
             lpath = os.path.join(folder, e["labels"])
-            try:
-                y = np.load(lpath, allow_pickle=False)
-            except (OSError, ValueError) as err:
-                raise FormatError(f"{where}.labels: {lpath}: {err}") from None
-            _require(y.dtype == np.int64, f"{where}.labels: {lpath}: dtype {y.dtype}, expected int64")
+            y = _load_array(lpath, f"{where}.labels", "i", (8,), "int64")
         scene = None
         if "scene" in e:
             s = e["scene"]
@@ -235,43 +281,77 @@ def read_recordings(folder):
                 raise FormatError(f"{where}.scene.bias: expected rows of 6 numbers") from None
             scene = SceneRef(path=os.path.join(folder, s["file"]), sensors=list(s["sensors"]),
                              time_offset_s=float(offset), bias=bias)
-        rec = Recording(id=rid, subject=e["subject"], samples=x, labels=y, rate_hz=float(rate),
+        rec = Recording(id=rid, subject=e["subject"], samples=x, labels=y, rate_hz=rate,
                         sensors=list(sensors), scene=scene)
-        check_recording(rec, classes, f"{where} ({path})")
+        check_recording(rec, classes, where, path, lpath)
+        if out:
+            check_same_channels(rec, out[0], f"{where} ({path})")
         out.append(rec)
-    return Recordings(name=str(doc.get("name", os.path.basename(os.path.abspath(folder)))),
-                      classes=list(classes), recordings=out)
+    return Recordings(name=name, classes=list(classes), recordings=out)
+
+
+def _file_stem(rid, where):
+    """A recording id as the stem of the files it is written to: one name inside the folder."""
+    seps = {"/", "\0", os.sep, os.altsep} - {None}
+    _require(isinstance(rid, str) and rid not in ("", ".", "..") and not any(c in rid for c in seps),
+             f"{where}: id {rid!r} cannot name a file in the folder (no '/', not empty, '.' or '..')")
+    return rid
 
 
 def write_recordings(folder, recordings):
     """Writes `recordings` as `folder/recordings.json` plus `<id>.npy` (and `<id>.labels.npy` where
-    the labels vary within a recording). Scene paths are written relative to the folder."""
-    os.makedirs(folder, exist_ok=True)
+    the labels vary within a recording). Scene paths are written relative to the folder.
+    Everything is checked before the first file is written (found in review: an error in a
+    later recording left the earlier ones' files and no index), so the folder is either
+    written whole or left as it was, and what is written reads back."""
+    classes = recordings.classes
+    _require(isinstance(recordings.name, str) and recordings.name,
+             f"name: expected a non-empty string, got {recordings.name!r}")
+    _require(isinstance(classes, list) and classes and all(isinstance(c, str) for c in classes)
+             and len(set(classes)) == len(classes), f"classes: expected distinct class names, got {classes!r}")
+    _require(len(recordings.recordings) > 0, "recordings: expected at least one")
     rates = {r.rate_hz for r in recordings.recordings}
     top_rate = rates.pop() if len(rates) == 1 else None
-    entries = []
+    entries, arrays, index_of_id, owner = [], [], {}, {}
     for i, r in enumerate(recordings.recordings):
-        check_recording(r, recordings.classes, f"recordings[{i}] ({r.id})")
-        e = {"id": r.id, "subject": r.subject, "samples": f"{r.id}.npy", "sensors": list(r.sensors)}
-        np.save(os.path.join(folder, e["samples"]), r.samples)
+        where = f"recordings[{i}]"
+        stem = _file_stem(r.id, where)
+        _require(r.id not in index_of_id, f"{where}: duplicate id '{r.id}' (recordings[{index_of_id.get(r.id)}])")
+        index_of_id[r.id] = i
+        _require(isinstance(r.subject, str) and r.subject,
+                 f"{where}.subject: expected a non-empty string, got {r.subject!r}")
+        check_recording(r, classes, where, r.id)
+        if i:
+            check_same_channels(r, recordings.recordings[0], f"{where} ({r.id})")
+        e = {"id": r.id, "subject": r.subject, "samples": f"{stem}.npy", "sensors": list(r.sensors)}
+        files = [(e["samples"], r.samples)]
         if top_rate is None:
             e["rate_hz"] = r.rate_hz
-        if len(r.labels) and np.all(r.labels == r.labels[0]) and r.labels[0] >= 0:
+        if np.all(r.labels == r.labels[0]) and r.labels[0] >= 0:
             e["label"] = int(r.labels[0])
         else:
-            e["labels"] = f"{r.id}.labels.npy"
-            np.save(os.path.join(folder, e["labels"]), r.labels)
+            e["labels"] = f"{stem}.labels.npy"
+            files.append((e["labels"], r.labels))
+        # Ids are unique as the reader requires, and so are the files they name (id "a.labels"
+        # would take the labels file of id "a").
+        for name, _ in files:
+            _require(name not in owner, f"{where} ({r.id}): its file {name} is recordings[{owner.get(name)}]'s too")
+            owner[name] = i
         if r.scene is not None:
             e["scene"] = {"file": os.path.relpath(r.scene.path, folder), "sensors": list(r.scene.sensors),
                           "time_offset_s": r.scene.time_offset_s}
             if r.scene.bias is not None:
                 e["scene"]["bias"] = np.asarray(r.scene.bias).tolist()
         entries.append(e)
-    doc = {"schema": SCHEMA, "name": recordings.name, "classes": list(recordings.classes),
+        arrays += files
+    doc = {"schema": SCHEMA, "name": recordings.name, "classes": list(classes),
            "units": {"accelerometer": "m/s^2", "gyroscope": "rad/s"}}
     if top_rate is not None:
         doc["rate_hz"] = top_rate
     doc["recordings"] = entries
+    os.makedirs(folder, exist_ok=True)
+    for name, a in arrays:
+        np.save(os.path.join(folder, name), a)
     with open(os.path.join(folder, "recordings.json"), "w", encoding="utf-8") as f:
         json.dump(doc, f, indent=1)
         f.write("\n")
