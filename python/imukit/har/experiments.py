@@ -29,6 +29,7 @@ import numpy as np
 import imukit
 
 from . import augmentation, train, windows as windowing
+from .recordings import read_json_file
 
 # The six method pairs of the paper (Table I): the STDA method, the PPDA method, the sub-policy
 # group and its option in the `paper` grid (index = ((a * 9 + s) * 2 + p) * 5 + h), and the
@@ -301,15 +302,7 @@ def read_results(path):
     """An experiment's JSON (what ResultStore writes); ValueError naming the file when it cannot
     be read or is not one (found in review: a corrupt file's error did not say which, another
     JSON was a KeyError traceback)."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            doc = json.load(f)
-    except OSError as e:
-        raise ValueError(f"{path}: {e.strerror}") from None
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path}:{e.lineno}:{e.colno}: {e.msg}") from None
-    except UnicodeDecodeError as e:
-        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    doc = read_json_file(path)
     if not (isinstance(doc, dict) and isinstance(doc.get("experiment"), str)
             and isinstance(doc.get("settings"), dict) and isinstance(doc.get("runs"), list)):
         raise ValueError(f"{path}: not an experiment's results (expected the JSON object "

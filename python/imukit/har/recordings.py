@@ -185,22 +185,28 @@ def _load_array(path, where, kind, sizes, expected):
     return a.astype(a.dtype.newbyteorder("="), copy=False)
 
 
+def read_json_file(path, object_pairs_hook=None):
+    """A JSON file's document; FormatError naming the file (and line:column, or the byte of
+    text that is not UTF-8) when it cannot be read or parsed."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f, object_pairs_hook=object_pairs_hook)
+    except FormatError as e:
+        raise FormatError(f"{path}: {e}") from None
+    except FileNotFoundError:
+        raise FormatError(f"{path}: no such file") from None
+    except OSError as e:
+        raise FormatError(f"{path}: {e.strerror}") from None
+    except json.JSONDecodeError as e:
+        raise FormatError(f"{path}:{e.lineno}:{e.colno}: {e.msg}") from None
+    except UnicodeDecodeError as e:
+        raise FormatError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+
+
 def read_recordings(folder):
     """Reads `folder/recordings.json` and the arrays it names; FormatError on anything malformed."""
     index = os.path.join(folder, "recordings.json")
-    try:
-        with open(index, encoding="utf-8") as f:
-            doc = json.load(f, object_pairs_hook=_unique_keys)
-    except FormatError as e:
-        raise FormatError(f"{index}: {e}") from None
-    except FileNotFoundError:
-        raise FormatError(f"{index}: no such file") from None
-    except OSError as e:
-        raise FormatError(f"{index}: {e.strerror}") from None
-    except json.JSONDecodeError as e:
-        raise FormatError(f"{index}:{e.lineno}:{e.colno}: {e.msg}") from None
-    except UnicodeDecodeError as e:
-        raise FormatError(f"{index}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    doc = read_json_file(index, object_pairs_hook=_unique_keys)
     _require(isinstance(doc, dict), f"{index}: expected a JSON object")
     _require(doc.get("schema") == SCHEMA, f"{index}: schema: expected \"{SCHEMA}\", got {doc.get('schema')!r}")
     known = {"schema", "name", "rate_hz", "classes", "units", "recordings"}
