@@ -927,7 +927,7 @@ class CommandErrors(unittest.TestCase):
                          prefix + f"{other}: not an experiment's results (expected the JSON object "
                                   "`python3 -m imukit.har` writes: experiment, settings, runs)")
         self.assertEqual(self.error(["merge", "--out", os.path.join(d, "m"), os.path.join(d, "gone.json")]),
-                         prefix + f"{os.path.join(d, 'gone.json')}: No such file or directory")
+                         prefix + f"{os.path.join(d, 'gone.json')}: no such file")
         # An --out that cannot be made is the file system's word, naming the path.
         self.assertEqual(self.error(["one-at-a-time", "--seeds", "1"] +
                                     self.run_args(os.path.join(self.rec, "recordings.json", "out"))),
