@@ -243,9 +243,13 @@ void apply_impl(const StdaSpec& spec, const ChannelLayout& layout, std::span<T> 
   if (replay != nullptr) {
     if (replay->method != spec.method || replay->per_window != per ||
         replay->values.size() != per * shape.windows) {
-      throw Error(fmt::format("{}: replayed draws ({} x {} of {}) do not fit {} windows x {} draws",
-                              to_string(spec.method), replay->values.size(), replay->per_window,
-                              to_string(replay->method), shape.windows, per));
+      // Both sides in windows x draws per window (the first figure was the total count).
+      const std::size_t windows =
+          replay->per_window ? replay->values.size() / replay->per_window : 0;
+      throw Error(fmt::format(
+          "{}: replayed draws ({} windows x {} draws of {}) do not fit {} windows x {} draws",
+          to_string(spec.method), windows, replay->per_window, to_string(replay->method),
+          shape.windows, per));
     }
   }
   if (log != nullptr) {

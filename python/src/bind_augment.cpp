@@ -1,7 +1,8 @@
 // augment/: STDA on (N, T, C) arrays in place, policies and sub-policies, PPDA batches of a
 // scene's windows over the C++ thread pool, windowing and datasets; and the seeded Rng.
+#include <algorithm>
 #include <chrono>
-#include <cstring>
+#include <limits>
 #include <memory>
 #include <mutex>
 
@@ -16,8 +17,10 @@
 
 namespace imukit::python {
 
-// bind_sim.cpp's scene handle, shared here through its accessor.
+// bind_sim.cpp's scene handle, shared here through its accessors: the scene and the lock to
+// hold while reading it with the GIL released.
 const sim::Scene& scene_of(py::handle scene);
+std::mutex& scene_mutex(py::handle scene);
 
 namespace {
 
@@ -27,18 +30,27 @@ using augment::Policy;
 using augment::StdaSpec;
 using augment::SubPolicy;
 
-// An int seed makes a fresh Rng(seed); an imukit.Rng is used (and advanced) in place.
+constexpr uint64_t kMaxU64 = std::numeric_limits<uint64_t>::max();
+
+// An int seed makes a fresh Rng(seed) (any uint64, as imukit.Rng takes; a NumPy integer too,
+// True not); an imukit.Rng is used (and advanced) in place.
 Rng& rng_argument(py::handle obj, std::optional<Rng>& storage) {
   if (py::isinstance<Rng>(obj)) return obj.cast<Rng&>();
-  if (py::isinstance<py::int_>(obj)) {
-    const auto v = obj.cast<py::int_>();
-    if (v < py::int_(0)) throw py::value_error("seed: must be a non-negative integer");
-    storage.emplace(obj.cast<uint64_t>());
-    return *storage;
+  if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr())) {
+    throw py::type_error("rng: expected an int seed or an imukit.Rng, got " + type_name(obj));
   }
-  throw py::type_error("rng: expected an int seed or an imukit.Rng");
+  storage.emplace(uint_argument(obj, "rng", kMaxU64));
+  return *storage;
 }
 
+constexpr std::pair<augment::ChannelKind, const char*> kKindNames[] = {
+    {augment::ChannelKind::accelerometer, "accelerometer"},
+    {augment::ChannelKind::gyroscope, "gyroscope"},
+    {augment::ChannelKind::magnetometer, "magnetometer"},
+    {augment::ChannelKind::other, "other"}};
+
+// layout: None (sensors of 6 channels ax ay az gx gy gz when C % 6 == 0, else C channels of
+// kind other), a ChannelLayout, or a list of sensor names (ChannelLayout.imu).
 ChannelLayout layout_argument(py::handle obj, std::size_t channels) {
   if (obj.is_none()) {
     if (channels % 6 == 0) {
@@ -51,7 +63,75 @@ ChannelLayout layout_argument(py::handle obj, std::size_t channels) {
     return other;
   }
   if (py::isinstance<ChannelLayout>(obj)) return obj.cast<ChannelLayout>();
-  return ChannelLayout::imu(obj.cast<std::vector<std::string>>());
+  if (py::isinstance<py::str>(obj) || !py::isinstance<py::iterable>(obj)) {
+    throw py::type_error(
+        "layout: expected a list of sensor names or an imukit.ChannelLayout, got " +
+        type_name(obj));
+  }
+  return ChannelLayout::imu(string_list(obj, "layout"));
+}
+
+// Rotation turns each sensor's 3-axis blocks: with none it returned x unchanged (found in
+// review, 2026-11-26: a (2, 20, 3) batch, whose default layout has no sensors).
+void require_triads(const StdaSpec& spec, const ChannelLayout& layout, py::handle layout_obj,
+                    const char* caller) {
+  if (spec.method != augment::StdaMethod::rotation || !layout.sensors.empty()) return;
+  const std::string channels = std::to_string(layout.kinds.size()) + " channels";
+  throw Error(std::string(caller) + ": rotation turns sensors' 3-axis blocks, and the layout " +
+              (layout_obj.is_none()
+                   ? "has none: the default layout of " + channels +
+                         " (not sensors of 6, ax ay az gx gy gz); name the blocks with "
+                         "layout=imukit.ChannelLayout(kinds, sensors)"
+                   : "given has none (" + channels + ", no sensors)"));
+}
+
+// ChannelLayout(kinds, sensors): a kind name per channel and, per sensor, the first channel of
+// each of its 3-axis blocks (an accelerometer-only watch: ["accelerometer"] * 3, {"watch": [0]}).
+ChannelLayout make_layout(py::handle kinds_obj, py::handle sensors_obj) {
+  ChannelLayout l;
+  for (const std::string& k : string_list(kinds_obj, "ChannelLayout: kinds")) {
+    const auto* it = std::find_if(std::begin(kKindNames), std::end(kKindNames),
+                                  [&](const auto& p) { return k == p.second; });
+    if (it == std::end(kKindNames)) {
+      throw Error("ChannelLayout: kinds[" + std::to_string(l.kinds.size()) + "] is '" + k +
+                  "', not one of accelerometer, gyroscope, magnetometer, other");
+    }
+    l.kinds.push_back(it->first);
+  }
+  if (sensors_obj.is_none()) return l;
+  if (!py::isinstance<py::dict>(sensors_obj)) {
+    throw py::type_error(
+        "ChannelLayout: sensors: expected a dict name -> [first channel, ...], got " +
+        type_name(sensors_obj));
+  }
+  for (auto [name_obj, triads_obj] : sensors_obj.cast<py::dict>()) {
+    if (!py::isinstance<py::str>(name_obj)) {
+      throw py::type_error("ChannelLayout: sensors: expected str names, got " +
+                           type_name(name_obj));
+    }
+    augment::SensorChannels s{name_obj.cast<std::string>(), {}};
+    const std::string what = "ChannelLayout: sensors['" + s.name + "']";
+    if (!py::isinstance<py::iterable>(triads_obj) || py::isinstance<py::str>(triads_obj)) {
+      throw py::type_error(what + ": expected a list of first channels, got " +
+                           type_name(triads_obj));
+    }
+    for (py::handle first : triads_obj) {
+      const std::string at = what + "[" + std::to_string(s.triads.size()) + "]";
+      const auto c = static_cast<std::size_t>(uint_argument(first, at, kMaxU64));
+      if (c + 3 > l.kinds.size()) {
+        throw Error(at + ": a 3-axis block at channel " + std::to_string(c) + " is outside the " +
+                    std::to_string(l.kinds.size()) + " channels");
+      }
+      // One block is one quantity's x, y, z: rotation turns them together.
+      if (l.kinds[c + 1] != l.kinds[c] || l.kinds[c + 2] != l.kinds[c]) {
+        throw Error(at + ": channels " + std::to_string(c) + " to " + std::to_string(c + 2) +
+                    " are not of one kind");
+      }
+      s.triads.push_back(c);
+    }
+    l.sensors.push_back(std::move(s));
+  }
+  return l;
 }
 
 // dst[...] = src by numpy.copyto (any strides), without casting.
@@ -105,6 +185,9 @@ py::array target_for(const py::array& x_in, py::handle out_obj, const char* what
   return out;
 }
 
+// A StdaSpec, or a method name with its parameters as keywords, each converted here so that a
+// wrong type names the parameter (found in review: sigma="0.1" was "Unable to cast ... to C++
+// type 'double'").
 StdaSpec spec_from(py::handle obj, const py::kwargs& params) {
   StdaSpec s;
   if (py::isinstance<StdaSpec>(obj)) {
@@ -112,26 +195,34 @@ StdaSpec spec_from(py::handle obj, const py::kwargs& params) {
       throw py::type_error("stda: parameters go into the StdaSpec, not beside it");
     return obj.cast<StdaSpec>();
   }
+  if (!py::isinstance<py::str>(obj)) {
+    throw py::type_error("stda: spec: expected an imukit.StdaSpec or a method name, got " +
+                         type_name(obj));
+  }
   s.method = augment::parse_stda_method(obj.cast<std::string>());
   for (auto [key_obj, value] : params) {
     const auto key = key_obj.cast<std::string>();
-    if (key == "sigma")
-      s.sigma = value.cast<double>();
-    else if (key == "knots")
-      s.knots = value.cast<int>();
-    else if (key == "per_channel")
+    const std::string what = "stda: " + key;
+    if (key == "sigma") {
+      s.sigma = number_argument(value, what);
+    } else if (key == "knots") {
+      // Beyond int's range is refused as such, not wrapped; StdaSpec::validate bounds it.
+      s.knots = static_cast<int>(uint_argument(value, what, std::numeric_limits<int>::max()));
+    } else if (key == "per_channel") {
+      if (!PyBool_Check(value.ptr()))
+        throw py::type_error(what + ": expected a bool, got " + type_name(value));
       s.per_channel = value.cast<bool>();
-    else if (key == "lo")
-      s.lo = value.cast<double>();
-    else if (key == "hi")
-      s.hi = value.cast<double>();
-    else if (key == "ratio")
-      s.ratio = value.cast<double>();
-    else if (key == "max_angle_rad") {
-      const auto a = value.cast<std::array<double, 3>>();
+    } else if (key == "lo") {
+      s.lo = number_argument(value, what);
+    } else if (key == "hi") {
+      s.hi = number_argument(value, what);
+    } else if (key == "ratio") {
+      s.ratio = number_argument(value, what);
+    } else if (key == "max_angle_rad") {
+      const std::vector<double> a = numbers(value, 3, what.c_str());
       std::copy(a.begin(), a.end(), s.max_angle_rad);
     } else if (key == "jitter_sigma") {
-      const auto j = value.cast<std::array<double, 4>>();
+      const std::vector<double> j = numbers(value, 4, what.c_str());
       std::copy(j.begin(), j.end(), s.jitter_sigma);
     } else {
       throw py::type_error(
@@ -140,6 +231,21 @@ StdaSpec spec_from(py::handle obj, const py::kwargs& params) {
     }
   }
   return s;
+}
+
+// What stda(..., return_draws=True) returns: the drawn parameters with the method that drew
+// them, which replay_stda checks (found in review, 2026-11-26: a bare array carried no method,
+// and the binding gave it the spec's, so draws of another method were replayed).
+struct DrawsHandle {
+  augment::StdaDraws draws;
+  std::size_t windows = 0;
+};
+
+py::array draws_values(const py::object& self) {
+  const auto& h = self.cast<const DrawsHandle&>();
+  const auto per = static_cast<py::ssize_t>(h.draws.per_window);
+  return view_of(h.draws.values.data(), {static_cast<py::ssize_t>(h.windows), per},
+                 {per * static_cast<py::ssize_t>(sizeof(double)), sizeof(double)}, self);
 }
 
 template <class T>
@@ -154,45 +260,55 @@ py::object stda(py::handle x_obj, py::handle spec_obj, py::handle rng_obj, py::h
                 py::handle out_obj, bool return_draws, const py::kwargs& params) {
   const py::array x = as_array(x_obj, "x");
   const StdaSpec spec = spec_from(spec_obj, params);
-  py::array target = target_for(x, out_obj, "x");
-  const BatchShape shape = batch_shape(target, "x");
-  const ChannelLayout layout = layout_argument(layout_obj, shape.channels);
   std::optional<Rng> storage;
   Rng& rng = rng_argument(rng_obj, storage);
-  augment::StdaDraws draws;
-  augment::StdaDraws* log = return_draws ? &draws : nullptr;
+  const BatchShape shape = batch_shape(x, "x");
+  const ChannelLayout layout = layout_argument(layout_obj, shape.channels);
+  require_triads(spec, layout, layout_obj, "stda");
+  py::array target = target_for(x, out_obj, "x");
+  auto draws = std::make_shared<DrawsHandle>();
+  draws->windows = shape.windows;
+  augment::StdaDraws* log = return_draws ? &draws->draws : nullptr;
   if (is_f32(target)) {
     run_stda<float>(spec, layout, target, shape, rng, log);
   } else {
     run_stda<double>(spec, layout, target, shape, rng, log);
   }
   if (!return_draws) return target;
-  py::array_t<double> values(
-      {static_cast<py::ssize_t>(shape.windows), static_cast<py::ssize_t>(draws.per_window)});
-  if (!draws.values.empty())
-    std::memcpy(values.mutable_data(), draws.values.data(), draws.values.size() * sizeof(double));
-  return py::make_tuple(target, values);
+  return py::make_tuple(target, draws);
 }
 
 py::array replay(py::handle x_obj, const StdaSpec& spec, py::handle draws_obj,
                  py::handle layout_obj, py::handle out_obj) {
   const py::array x = as_array(x_obj, "x");
-  py::array target = target_for(x, out_obj, "x");
-  const BatchShape shape = batch_shape(target, "x");
+  if (!py::isinstance<DrawsHandle>(draws_obj)) {
+    throw py::type_error(
+        "replay_stda: draws: expected the imukit.StdaDraws of stda(..., return_draws=True) or "
+        "imukit.StdaDraws(method, values), got " +
+        type_name(draws_obj));
+  }
+  const DrawsHandle& d = draws_obj.cast<const DrawsHandle&>();
+  if (d.draws.method != spec.method) {
+    throw Error("replay_stda: the draws are of " + std::string(augment::to_string(d.draws.method)) +
+                ", the spec is " + spec.describe());
+  }
+  const BatchShape shape = batch_shape(x, "x");
+  if (d.windows != shape.windows) {
+    throw Error("replay_stda: the draws are for " + std::to_string(d.windows) + " windows x " +
+                std::to_string(d.draws.per_window) + " draws, x has " +
+                std::to_string(shape.windows) + " windows");
+  }
   const ChannelLayout layout = layout_argument(layout_obj, shape.channels);
-  const auto values = read_f64(draws_obj, "draws");
-  augment::StdaDraws draws;
-  draws.method = spec.method;
-  draws.per_window = values.ndim() == 2 ? static_cast<std::size_t>(values.shape(1)) : 0;
-  draws.values.assign(values.data(), values.data() + values.size());
+  require_triads(spec, layout, layout_obj, "replay_stda");
+  py::array target = target_for(x, out_obj, "x");
   if (is_f32(target)) {
     const std::span<float> data(static_cast<float*>(target.mutable_data()), shape.size());
     py::gil_scoped_release release;
-    augment::replay_stda(spec, layout, data, shape, draws);
+    augment::replay_stda(spec, layout, data, shape, d.draws);
   } else {
     const std::span<double> data(static_cast<double*>(target.mutable_data()), shape.size());
     py::gil_scoped_release release;
-    augment::replay_stda(spec, layout, data, shape, draws);
+    augment::replay_stda(spec, layout, data, shape, d.draws);
   }
   return target;
 }
@@ -324,9 +440,23 @@ std::vector<double> time_calls(int repeats, Call&& call) {
   return seconds;
 }
 
+// Class labels: int64, each a class index >= 0 or -1 (kNoLabel) for none; below -1 was taken
+// and written as a class (found in review, 2026-11-26).
+py::array_t<int64_t, py::array::c_style> read_labels(py::handle obj) {
+  auto a = read_int64(obj, "labels", "class labels");
+  const int64_t* v = a.data();
+  for (py::ssize_t i = 0; i < a.size(); ++i) {
+    if (v[i] < augment::kNoLabel) {
+      throw Error("labels[" + std::to_string(i) + "] is " + std::to_string(v[i]) +
+                  "; a label is a class index >= 0, or -1 for none");
+    }
+  }
+  return a;
+}
+
 std::vector<int64_t> labels_argument(py::handle obj) {
   if (obj.is_none()) return {};
-  const auto a = read_int64(obj, "labels", "class labels");
+  const auto a = read_labels(obj);
   return {a.data(), a.data() + a.size()};
 }
 
@@ -336,7 +466,11 @@ void bind_augment(py::module_& m) {
   py::class_<Rng>(m, "Rng", R"doc(
 imukit's portable seeded generator (xoshiro256++): the same seed gives the same draws on every
 platform. Rng(seed, stream=0); child(i) is an independent generator for index i.)doc")
-      .def(py::init<uint64_t, uint64_t>(), py::arg("seed"), py::arg("stream") = 0)
+      .def(py::init([](py::handle seed, py::handle stream) {
+             return Rng(uint_argument(seed, "Rng: seed", kMaxU64),
+                        uint_argument(stream, "Rng: stream", kMaxU64));
+           }),
+           py::arg("seed"), py::arg("stream") = 0)
       .def("child", &Rng::child, py::arg("index"))
       .def("next_u64", &Rng::next_u64)
       .def("uniform", py::overload_cast<>(&Rng::uniform))
@@ -346,13 +480,78 @@ platform. Rng(seed, stream=0); child(i) is an independent generator for index i.
 
   py::class_<ChannelLayout>(m, "ChannelLayout", R"doc(
 Channel kinds and the sensors' 3-axis blocks of an (N, T, C) batch. ChannelLayout.imu(names):
-per sensor ax ay az gx gy gz (the dataset layout).)doc")
-      .def_static("imu", &ChannelLayout::imu, py::arg("sensor_names"))
+per sensor ax ay az gx gy gz (the dataset layout). ChannelLayout(kinds, sensors=None): kinds
+names each channel's quantity ("accelerometer", "gyroscope", "magnetometer", "other"; it
+selects the jitter sigma), sensors maps a name to the first channel of each of its 3-axis
+blocks, which rotation turns together: ChannelLayout(["accelerometer"] * 3, {"watch": [0]}) is
+an accelerometer-only watch.)doc")
+      .def(py::init(&make_layout), py::arg("kinds"), py::arg("sensors") = py::none())
+      .def_static(
+          "imu",
+          [](py::handle names) {
+            return ChannelLayout::imu(string_list(names, "ChannelLayout.imu: sensor_names"));
+          },
+          py::arg("sensor_names"))
       .def_property_readonly("channels", [](const ChannelLayout& l) { return l.kinds.size(); })
+      .def_property_readonly("kinds",
+                             [](const ChannelLayout& l) {
+                               std::vector<std::string> out;
+                               for (augment::ChannelKind k : l.kinds) {
+                                 for (const auto& [kind, name] : kKindNames)
+                                   if (k == kind) out.push_back(name);
+                               }
+                               return out;
+                             })
       .def_property_readonly("sensors", [](const ChannelLayout& l) {
         std::vector<std::string> out;
         for (const auto& s : l.sensors) out.push_back(s.name);
         return out;
+      });
+
+  py::class_<DrawsHandle, std::shared_ptr<DrawsHandle>>(m, "StdaDraws", R"doc(
+The parameters an STDA method drew (stda(..., return_draws=True)) with the method that drew
+them: values (windows, per_window) float64 (a view), method, windows, per_window; np.asarray
+and indexing go to values. replay_stda checks the method and the window count.
+StdaDraws(method, values) rebuilds one from saved values.)doc")
+      .def(py::init([](const std::string& method, py::handle values_obj) {
+             const auto v = read_f64(values_obj, "StdaDraws: values");
+             if (v.ndim() != 2) {
+               throw py::value_error(
+                   "StdaDraws: values: expected shape (windows, per_window), got " +
+                   shape_string(v));
+             }
+             auto h = std::make_shared<DrawsHandle>();
+             h->draws.method = augment::parse_stda_method(method);
+             h->draws.per_window = static_cast<std::size_t>(v.shape(1));
+             h->draws.values.assign(v.data(), v.data() + v.size());
+             h->windows = static_cast<std::size_t>(v.shape(0));
+             return h;
+           }),
+           py::arg("method"), py::arg("values"))
+      .def_property_readonly(
+          "method",
+          [](const DrawsHandle& h) { return std::string(augment::to_string(h.draws.method)); })
+      .def_property_readonly("values", &draws_values)
+      .def_property_readonly("windows", [](const DrawsHandle& h) { return h.windows; })
+      .def_property_readonly("per_window", [](const DrawsHandle& h) { return h.draws.per_window; })
+      .def_property_readonly(
+          "shape",
+          [](const DrawsHandle& h) { return py::make_tuple(h.windows, h.draws.per_window); })
+      .def("__len__", [](const DrawsHandle& h) { return h.windows; })
+      .def("__getitem__",
+           [](const py::object& self, const py::object& key) -> py::object {
+             return draws_values(self).attr("__getitem__")(key);
+           })
+      .def(
+          "__array__",
+          [](const py::object& self, const py::object& dtype, const py::object&) {
+            const py::array v = draws_values(self);
+            return dtype.is_none() ? v : py::array(v.attr("astype")(dtype));
+          },
+          py::arg("dtype") = py::none(), py::arg("copy") = py::none())
+      .def("__repr__", [](const DrawsHandle& h) {
+        return "<imukit.StdaDraws " + std::string(augment::to_string(h.draws.method)) + ": " +
+               std::to_string(h.windows) + " windows x " + std::to_string(h.draws.per_window) + ">";
       });
 
   py::class_<StdaSpec>(m, "StdaSpec", R"doc(
@@ -386,11 +585,13 @@ seed, jitter_sigma=(0.05, 0.01, 0, 0))). rng: an int seed or an imukit.Rng (adva
 layout: sensor names or a ChannelLayout (default: sensors of 6 channels when C % 6 == 0).
 The C++ code works directly on the output's memory: out=None returns a new array (a copy of x,
 augmented), out=x augments x in place, out=other (same dtype and shape, C-contiguous) fills it.
-return_draws=True also returns the drawn parameters ((N, per_window) float64) for replay_stda.)doc");
+return_draws=True also returns the drawn parameters (an imukit.StdaDraws: (N, per_window)
+float64 values and the method) for replay_stda. rotation needs sensors' 3-axis blocks in the
+layout (an error otherwise).)doc");
   m.def("replay_stda", &replay, py::arg("x"), py::arg("spec"), py::arg("draws"), py::kw_only(),
         py::arg("layout") = py::none(), py::arg("out") = py::none(),
-        "Applies spec with the parameters drawn before (stda(..., return_draws=True)): "
-        "bit-identical.");
+        "Applies spec with the parameters drawn before (the StdaDraws of stda(..., "
+        "return_draws=True), of the same method and window count): bit-identical.");
 
   py::class_<SubPolicy>(m, "SubPolicy", R"doc(
 One PPDA sub-policy: an option for each of movement amplitude, movement speed, sensor
@@ -473,8 +674,11 @@ result does not depend on the thread count.)doc")
              o.method = sim::parse_derivative_method(method);
              auto h = std::make_shared<AugmenterHandle>();
              const sim::Scene& s = scene_of(scene);
+             std::mutex& scene_lock = scene_mutex(scene);
              h->scene = py::reinterpret_borrow<py::object>(scene);
              py::gil_scoped_release release;
+             // Taken after the GIL is let go (add_sensor holds the lock and wants the GIL).
+             const std::lock_guard<std::mutex> lock(scene_lock);
              h->augmenter = std::make_unique<augment::PpdaAugmenter>(s, o);
              return h;
            }),
@@ -547,7 +751,7 @@ result does not depend on the thread count.)doc")
   m.def(
       "window_labels",
       [](py::handle labels, py::handle starts, std::size_t window) {
-        const auto l = read_int64(labels, "labels", "class labels");
+        const auto l = read_labels(labels);
         const auto s = read_int64(starts, "starts", "sample indices");
         return adopt(augment::window_labels({l.data(), static_cast<std::size_t>(l.size())},
                                             {s.data(), static_cast<std::size_t>(s.size())},
@@ -691,9 +895,12 @@ The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
               augment::generate_dataset(names, streams, policy, l, o));
         }
         const sim::Scene& scene = scene_of(source);
-        // As the command: the scene's seed unless one is given (found in review: 0 here).
-        if (!options && !overrides.contains("seed")) o.seed = scene.seed;
+        std::mutex& scene_lock = scene_mutex(source);
+        const bool scene_seed = !options && !overrides.contains("seed");
         py::gil_scoped_release release;
+        const std::lock_guard<std::mutex> lock(scene_lock);  // as in Augmenter(scene)
+        // As the command: the scene's seed unless one is given (found in review: 0 here).
+        if (scene_seed) o.seed = scene.seed;
         return std::make_shared<augment::Dataset>(augment::generate_dataset(scene, policy, l, o));
       },
       py::arg("source"), py::arg("policy"), py::kw_only(), py::arg("labels") = py::none(),

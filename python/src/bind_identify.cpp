@@ -49,9 +49,10 @@ py::dict fidelity_dict(const sim::Fidelity& f) {
   return d;
 }
 
+// estimate= / fix=: a list of parameter names (a str alone was iterated per character, found
+// in review).
 void apply_names(py::handle names, bool value, sim::IdentifyOptions& o, const char* what) {
-  for (py::handle h : names) {
-    const auto n = h.cast<std::string>();
+  for (const std::string& n : string_list(names, std::string("identify: ") + what)) {
     bool* flag = n == "rotation"      ? &o.rotation
                  : n == "position"    ? &o.position
                  : n == "accel_bias"  ? &o.accel_bias
@@ -94,15 +95,12 @@ std::shared_ptr<IdentifyHandle> run_identify(
     o.joint = j;
   }
   if (o.joint < 0) throw Error("identify: name the sensor's joint (joint=) or a preset (init=)");
-  if (!position_m.is_none()) {
-    const auto p = read_f64(position_m, "position_m");
-    if (p.size() != 3) throw py::value_error("position_m: expected 3 numbers");
-    o.init.p_joint_sensor = Eigen::Vector3d(p.data()[0], p.data()[1], p.data()[2]);
-  }
+  // Lists and integer arrays too, as Scene.add_sensor takes them (found in review: identify
+  // refused both).
+  if (!position_m.is_none()) o.init.p_joint_sensor = vector3(position_m, "position_m");
   if (!q_joint_sensor.is_none()) {
-    const auto q = read_f64(q_joint_sensor, "q_joint_sensor");
-    if (q.size() != 4) throw py::value_error("q_joint_sensor: expected 4 numbers (w, x, y, z)");
-    const Eigen::Quaterniond r(q.data()[0], q.data()[1], q.data()[2], q.data()[3]);
+    const std::vector<double> q = numbers(q_joint_sensor, 4, "q_joint_sensor (w, x, y, z)");
+    const Eigen::Quaterniond r(q[0], q[1], q[2], q[3]);
     if (!(std::abs(r.norm() - 1.0) <= 1e-6))
       throw Error("identify: q_joint_sensor is not a unit quaternion");
     o.init.q_joint_sensor = r.normalized();
@@ -126,9 +124,21 @@ std::shared_ptr<IdentifyHandle> run_identify(
   o.max_time_offset_s = max_time_offset_s;
   if (gravity) o.gravity_world = Eigen::Vector3d(0, 0, -std::abs(*gravity));
   if (!invalid_motion.is_none()) {
+    // (start_ns, end_ns) pairs, converted here: pybind11's cast named std::pair<long, long>.
+    const std::string what = "identify: invalid_motion";
+    if (py::isinstance<py::str>(invalid_motion) || !py::isinstance<py::iterable>(invalid_motion)) {
+      throw py::type_error(what + ": expected a list of (start_ns, end_ns) pairs, got " +
+                           type_name(invalid_motion));
+    }
     for (py::handle h : invalid_motion) {
-      const auto pair = h.cast<std::pair<int64_t, int64_t>>();
-      o.invalid_motion.emplace_back(pair.first, pair.second);
+      const std::string at = what + "[" + std::to_string(o.invalid_motion.size()) + "]";
+      if (py::isinstance<py::str>(h) || !py::isinstance<py::iterable>(h) || py::len(h) != 2) {
+        throw py::type_error(at + ": expected a (start_ns, end_ns) pair of ints, got " +
+                             py::repr(h).cast<std::string>());
+      }
+      const py::tuple pair(py::reinterpret_borrow<py::object>(h));
+      o.invalid_motion.emplace_back(int64_argument(pair[0], at + "[0]"),
+                                    int64_argument(pair[1], at + "[1]"));
     }
   }
   o.threads = threads;
@@ -285,7 +295,10 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           [](const H& h, const std::string& dir, sim::MotionSource& motion,
              std::optional<std::string> sensor_name, py::handle gravity) {
             Eigen::Vector3d g = kStandardGravityWorld;
-            if (!gravity.is_none()) g = Eigen::Vector3d(0, 0, -std::abs(gravity.cast<double>()));
+            if (!gravity.is_none()) {
+              g = Eigen::Vector3d(0, 0,
+                                  -std::abs(number_argument(gravity, "write_scene: gravity")));
+            }
             const std::string name = sensor_name.value_or(
                 h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name);
             py::gil_scoped_release release;
@@ -327,7 +340,12 @@ unusable input. The GIL is released while it runs (threads can fit trials in par
       "fidelity",
       [](py::handle ma, py::handle mg, py::handle sa, py::handle sg) {
         const auto a = read_f64(ma, "measured_accel");
-        const auto n = a.ndim() == 2 ? a.shape(0) : 0;
+        // The first argument gives n; its own shape error names it (found in review: 1-d
+        // arrays were "simulated_gyro: expected shape (0, 3), got (5,)").
+        if (a.ndim() != 2 || a.shape(1) != 3) {
+          throw py::value_error("measured_accel: expected shape (n, 3), got " + shape_string(a));
+        }
+        const auto n = a.shape(0);
         const auto g = read_f64(mg, "measured_gyro");
         const auto x = read_f64(sa, "simulated_accel");
         const auto y = read_f64(sg, "simulated_gyro");

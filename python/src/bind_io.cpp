@@ -12,15 +12,23 @@ namespace {
 
 using SeriesPtr = std::shared_ptr<ImuSeries>;
 
+constexpr const char* kAxes[] = {"x", "y", "z"};
+
 // Copies a (n, 3) float array into a 3 x n channel (the Series owns its samples).
 void set_triad(Eigen::Matrix3Xd& channel, py::handle obj, py::ssize_t n, const char* what) {
   if (obj.is_none()) {
     channel.resize(3, 0);
     return;
   }
-  channel = map_triad(read_f64(obj, what), n, what);
+  const auto a = read_f64(obj, what);
+  const auto m = map_triad(a, n, what);
+  require_finite(a.data(), n, 3, std::string("Series: ") + what, kAxes,
+                 "; a Series holds finite samples");
+  channel = m;
 }
 
+// A Series' samples are finite: NaN or infinity were taken silently and came out of every
+// computation on them (found in review, 2026-11-26; DESIGN.md: never a silent NaN).
 SeriesPtr make_series(py::handle t, py::handle accel, py::handle gyro, py::handle mag,
                       py::handle temperature) {
   auto s = std::make_shared<ImuSeries>();
@@ -36,17 +44,30 @@ SeriesPtr make_series(py::handle t, py::handle accel, py::handle gyro, py::handl
       throw py::value_error("temperature: expected shape (" + std::to_string(n) + ",), got " +
                             shape_string(temp));
     }
+    constexpr const char* kColumn[] = {"temperature"};
+    require_finite(temp.data(), n, 1, "Series: temperature", kColumn,
+                   "; a Series holds finite samples");
     s->temperature_c = Eigen::Map<const Eigen::VectorXd>(temp.data(), n);
   }
   s->validate();
   return s;
 }
 
+// A channel of a Series as a (n, 3) view, None when absent. A Series without samples cannot
+// tell an absent channel from an empty one (core's ImuSeries: has_accel() is cols() > 0), so
+// all its channels are empty (0, 3) arrays: found in review, a 0-length Series built with accel
+// and gyro showed them as None.
+py::object channel_view(const py::object& self, const Eigen::Matrix3Xd ImuSeries::*channel) {
+  const ImuSeries& s = self.cast<const ImuSeries&>();
+  if (s.size() == 0) return py::array_t<double>(std::vector<py::ssize_t>{0, 3});
+  return triad_view(s.*channel, self);
+}
+
 // accel and gyro as one (n, 6) array, channels ax ay az gx gy gz (the dataset order of
 // DESIGN.md), in the dtype asked for: a new array, since the channels are stored apart.
 py::array stacked(const ImuSeries& s, py::handle dtype_obj) {
   const py::dtype dtype = py::dtype::from_args(py::reinterpret_borrow<py::object>(dtype_obj));
-  if (!s.has_accel() || !s.has_gyro()) {
+  if (s.size() != 0 && (!s.has_accel() || !s.has_gyro())) {
     throw Error("Series.channels: needs both accelerometer and gyroscope");
   }
   const auto n = static_cast<py::ssize_t>(s.size());
@@ -85,26 +106,42 @@ py::dict streams_of(const std::shared_ptr<RecordingHandle>& h) {
   return out;
 }
 
-DeviceProfile profile_from(py::handle obj) {
-  if (py::isinstance<DeviceProfile>(obj)) return obj.cast<DeviceProfile>();
-  if (py::isinstance<py::dict>(obj)) {
-    const std::string text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
-    try {
-      return parse_profile(text, "<dict>");
-    } catch (const Error& e) {
-      // A line and column in json.dumps' one-line text would point nowhere the caller can see:
-      // the error names the dict and the JSON path only ("<dict>: clock.error_ppm: ...").
-      throw Error(InputLocation{"<dict>", {}, {}, {}}, e.reason());
-    }
+// A profile argument: a Profile, a dict in the file's layout or a file name. With rate_hz, the
+// rules that depend on the rate the model runs at are checked as read_scene checks a sensor's
+// hardware, naming the profile's key (accelerometer.limits.bandwidth).
+DeviceProfile profile_from(py::handle obj, std::optional<double> rate_hz) {
+  if (py::isinstance<py::str>(obj)) {
+    const auto path = obj.cast<std::string>();
+    return rate_hz ? read_profile_for_rate(path, *rate_hz) : read_profile(path);
   }
-  if (py::isinstance<py::str>(obj)) return read_profile(obj.cast<std::string>());
-  throw py::type_error("expected an imukit.Profile, a profile dict or a file name");
+  std::string text, source;
+  if (py::isinstance<DeviceProfile>(obj)) {
+    if (!rate_hz) return obj.cast<DeviceProfile>();
+    text = format_profile(obj.cast<const DeviceProfile&>());
+    source = "<Profile>";
+  } else if (py::isinstance<py::dict>(obj)) {
+    text = py::module_::import("json").attr("dumps")(obj).cast<std::string>();
+    source = "<dict>";
+  } else {
+    throw py::type_error("expected an imukit.Profile, a profile dict or a file name");
+  }
+  try {
+    const DeviceProfile p = parse_profile(text, source);
+    if (rate_hz) parse_inline_profile(text, text, "", source, rate_hz);
+    return p;
+  } catch (const Error& e) {
+    // A line and column in a serialisation would point nowhere the caller can see: the error
+    // names the dict (or Profile) and the JSON path only ("<dict>: clock.error_ppm: ...").
+    throw Error(InputLocation{source, {}, {}, {}}, e.reason());
+  }
 }
 
 }  // namespace
 
-// Used by bind_sim for sensors' hardware (Profile, dict or file name).
-DeviceProfile profile_argument(py::handle obj) { return profile_from(obj); }
+// Used by bind_sim for sensors' hardware (Profile, dict or file name) at the scene's rate.
+DeviceProfile profile_argument(py::handle obj, std::optional<double> rate_hz) {
+  return profile_from(obj, rate_hz);
+}
 
 void bind_io(py::module_& m) {
   py::class_<ImuSeries, SeriesPtr>(m, "Series", R"doc(
@@ -119,15 +156,12 @@ Series(t, accel=None, gyro=None, mag=None, temperature=None) copies the given ar
       .def("__len__", &ImuSeries::size)
       .def_property_readonly(
           "t", [](py::object self) { return vector_view(self.cast<const ImuSeries&>().t, self); })
-      .def_property_readonly(
-          "accel",
-          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().accel, self); })
-      .def_property_readonly(
-          "gyro",
-          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().gyro, self); })
-      .def_property_readonly(
-          "mag",
-          [](py::object self) { return triad_view(self.cast<const ImuSeries&>().mag, self); })
+      .def_property_readonly("accel",
+                             [](py::object self) { return channel_view(self, &ImuSeries::accel); })
+      .def_property_readonly("gyro",
+                             [](py::object self) { return channel_view(self, &ImuSeries::gyro); })
+      .def_property_readonly("mag",
+                             [](py::object self) { return channel_view(self, &ImuSeries::mag); })
       .def_property_readonly("temperature",
                              [](py::object self) -> py::object {
                                const ImuSeries& s = self.cast<const ImuSeries&>();
@@ -174,6 +208,13 @@ Series(t, accel=None, gyro=None, mag=None, temperature=None) copies the given ar
                                  map_triad(accel, n, "accel"), map_triad(gyro, n, "gyro"),
                                  ImuSeriesView::Map3X(nullptr, 3, 0),
                                  ImuSeriesView::MapX(nullptr, 0));
+        // read_euroc_csv refuses NaN and infinity, so the file would not read back (found in
+        // review, 2026-11-26): refused before anything is written.
+        constexpr const char* kAccel[] = {"a_RS_S_x", "a_RS_S_y", "a_RS_S_z"};
+        constexpr const char* kGyro[] = {"w_RS_S_x", "w_RS_S_y", "w_RS_S_z"};
+        const std::string why = "; a EuRoC CSV holds finite numbers";
+        require_finite(accel.data(), n, 3, "write_euroc_csv: accel", kAccel, why);
+        require_finite(gyro.data(), n, 3, "write_euroc_csv: gyro", kGyro, why);
         py::gil_scoped_release release;
         write_euroc_csv(path, view);
       },
@@ -243,8 +284,9 @@ JSON.)doc")
   m.def("read_profile", &read_profile, py::arg("path"), py::call_guard<py::gil_scoped_release>());
   m.def("parse_profile", &parse_profile, py::arg("text"), py::arg("source_name") = "<string>",
         py::call_guard<py::gil_scoped_release>());
-  m.def("profile", &profile_from, py::arg("profile"),
-        "A Profile from a Profile, a dict in the imukit.profile/1 layout or a file name.");
+  m.def(
+      "profile", [](py::handle p) { return profile_from(p, std::nullopt); }, py::arg("profile"),
+      "A Profile from a Profile, a dict in the imukit.profile/1 layout or a file name.");
 }
 
 }  // namespace imukit::python

@@ -15,7 +15,7 @@
 
 namespace imukit::python {
 
-DeviceProfile profile_argument(py::handle obj);  // bind_io.cpp
+DeviceProfile profile_argument(py::handle obj, std::optional<double> rate_hz);  // bind_io.cpp
 
 namespace {
 
@@ -26,24 +26,26 @@ using sim::MotionSource;
 // scene file's seeds (core/rng.hpp). As a uint64 argument, 2^63 to 2^64 - 1 were taken here
 // alone, and -1 was "incompatible function arguments" (found in review, 2026-11-26).
 uint64_t seed_argument(const py::object& obj, const std::string& what) {
-  if (!py::isinstance<py::int_>(obj)) {
-    throw py::type_error(what + ": expected an int, got " +
-                         py::str(py::type::of(obj).attr("__name__")).cast<std::string>());
-  }
-  const auto v = py::reinterpret_borrow<py::int_>(obj);
-  if (v < py::int_(0) || v > py::int_(kMaxSeed)) {
-    throw Error(what + ": expected an integer in [0, " + std::to_string(kMaxSeed) + "], got " +
-                py::str(obj).cast<std::string>());
-  }
-  return v.cast<uint64_t>();
+  return uint_argument(obj, what, kMaxSeed);
 }
 
-// A scene and the lock that keeps two Python threads from streaming its motion at once (the
-// GIL is released while simulating).
+// A scene and the lock that serialises the Python threads using it. Code that reads the scene
+// with the GIL released (simulate, Augmenter(scene), generate_dataset(scene)) holds the lock;
+// code that changes it (add_sensor, the setters) holds the lock and the GIL, so a reader
+// holding either one sees no half-made change (found in review, 2026-11-26: Augmenter(scene)
+// read scene.sensors while add_sensor appended to it, and crashed).
 struct SceneHandle {
   sim::Scene scene;
   std::mutex mutex;
 };
+
+// h's lock, waited for with the GIL released (its holder may simulate for minutes, and every
+// other Python thread would stall behind the GIL meanwhile), then the GIL again: the caller
+// holds both. Nobody waits for the lock while holding the GIL, so the two cannot deadlock.
+std::unique_lock<std::mutex> lock_for_change(SceneHandle& h) {
+  py::gil_scoped_release release;
+  return std::unique_lock<std::mutex>(h.mutex);
+}
 
 std::shared_ptr<ImuSeries> series_for(const sim::SensorSpec& spec, int64_t n) {
   auto s = std::make_shared<ImuSeries>(
@@ -79,16 +81,22 @@ void finish(ImuSeries& s) {
 // model, noise seeds and chunking are run_scene's, so the arrays equal `imukit simulate`'s CSV
 // values bit for bit.
 py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
-  const std::optional<uint64_t> seed =
-      seed_obj.is_none() ? std::nullopt
-                         : std::optional(seed_argument(seed_obj, "Scene.simulate: seed"));
+  const bool reseed = !seed_obj.is_none();
+  const uint64_t seed = reseed ? seed_argument(seed_obj, "Scene.simulate: seed") : 0;
   std::vector<std::shared_ptr<ImuSeries>> measured, truth;
+  std::vector<std::string> names;
   {
     py::gil_scoped_release release;
     const std::lock_guard<std::mutex> lock(h.mutex);
-    sim::Scene& scene = h.scene;
+    // seed= is for this run only: a copy of the scene runs with it (found in review,
+    // 2026-11-26: it replaced the scene's seed for every later run and for generate_dataset).
+    std::unique_ptr<sim::Scene> reseeded;
+    if (reseed) {
+      reseeded = std::make_unique<sim::Scene>(h.scene);
+      reseeded->seed = seed;
+    }
+    sim::Scene& scene = reseeded ? *reseeded : h.scene;
     if (scene.sensors.empty()) throw Error("Scene.simulate: the scene has no sensors (add_sensor)");
-    if (seed) scene.seed = *seed;
     require_simulatable(*scene.motion, "Scene.simulate");
     const std::optional<int64_t> frames = scene.frames ? scene.frames : scene.motion->frame_count();
     if (!frames) throw Error("Scene.simulate: an endless motion needs frames=N");
@@ -97,6 +105,7 @@ py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
     for (const sim::SceneSensor& s : scene.sensors) {
       if (s.hardware) validate_hardware_model(*s.hardware, rate);
       specs.push_back(s.spec);
+      names.push_back(s.spec.name);
     }
     const int64_t n = sim::sample_count(scene.motion->rate_hz(), *frames, rate);
     for (const sim::SensorSpec& spec : specs) {
@@ -114,32 +123,24 @@ py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
   }
   py::dict out;
   for (std::size_t s = 0; s < measured.size(); ++s) {
-    const std::string& name = h.scene.sensors[s].spec.name;
+    const std::string& name = names[s];
     out[py::str(name)] = measured[s];
     if (truth[s]) out[py::str(name + ".truth")] = truth[s];
   }
   return out;
 }
 
-// A few numbers given as a list, tuple or array (converted: these are parameters, not data).
-std::vector<double> numbers(py::handle obj, std::size_t n, const char* what) {
-  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
-  if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
-    throw py::value_error(std::string(what) + ": expected " + std::to_string(n) + " numbers");
-  }
-  return {a.data(), a.data() + n};
-}
-
-Eigen::Vector3d vector3(py::handle obj, const char* what) {
-  const std::vector<double> v = numbers(obj, 3, what);
-  return {v[0], v[1], v[2]};
-}
-
+// A magnitude (down) or a world vector. Not finite is refused here: check_gravity's stable
+// norm of a NaN vector is 0, and the message said "|g| = 0 m/s^2" (found in review).
 Eigen::Vector3d gravity_argument(py::handle g) {
-  if (py::isinstance<py::float_>(g) || py::isinstance<py::int_>(g)) {
-    return {0.0, 0.0, -std::abs(g.cast<double>())};
+  const Eigen::Vector3d v =
+      py::isinstance<py::iterable>(g)
+          ? vector3(g, "gravity")
+          : Eigen::Vector3d(0.0, 0.0, -std::abs(number_argument(g, "Scene: gravity")));
+  if (!v.allFinite()) {
+    throw Error("Scene: gravity: expected finite numbers, got " + py::str(g).cast<std::string>());
   }
-  return vector3(g, "gravity");
+  return v;
 }
 
 std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<MotionSource> motion,
@@ -210,22 +211,25 @@ void add_sensor(SceneHandle& h, std::optional<std::string> name, std::optional<s
       s.spec.placement.q_joint_sensor = r;
     }
   }
-  for (const sim::SceneSensor& other : h.scene.sensors) {
-    if (other.spec.name == s.spec.name)
-      throw Error("Scene.add_sensor: duplicate sensor name '" + s.spec.name + "'");
-  }
   if (!accelerometer && !gyroscope && !magnetometer)
     throw Error("Scene.add_sensor: ask for at least one of accelerometer, gyroscope, magnetometer");
   s.spec.outputs.accelerometer = accelerometer;
   s.spec.outputs.gyroscope = gyroscope;
   s.spec.outputs.magnetometer = magnetometer;
   if (!hardware.is_none()) {
-    s.hardware = to_hardware_model(profile_argument(hardware));
+    // Checked at the scene's rate in the profile's terms (its file, line and key), as
+    // read_scene does: the model's check in simulate() named "accelerometer.bandwidth_hz", a
+    // key no profile has (found in review, 2026-11-26).
+    s.hardware = to_hardware_model(profile_argument(hardware, sim::scene_rate_hz(h.scene)));
     // The gyroscope's g-sensitivity needs the true specific force (as the scene reader does).
     if (!s.hardware->gyroscope.g_sensitivity.isZero() && gyroscope)
       s.spec.outputs.accelerometer = true;
   }
-  const std::lock_guard<std::mutex> lock(h.mutex);
+  const auto lock = lock_for_change(h);
+  for (const sim::SceneSensor& other : h.scene.sensors) {
+    if (other.spec.name == s.spec.name)
+      throw Error("Scene.add_sensor: duplicate sensor name '" + s.spec.name + "'");
+  }
   h.scene.sensors.push_back(std::move(s));
 }
 
@@ -243,28 +247,33 @@ std::shared_ptr<sim::Motion> motion_from_arrays(py::handle rotations_obj,
                 std::to_string(body->size()));
   }
   sim::check_rate(rate_hz, "Motion.from_arrays: rate_hz");
-  auto m = std::make_shared<sim::Motion>(rate_hz, static_cast<std::size_t>(joints), frames);
-  const double* q = rot.data();
-  for (py::ssize_t f = 0; f < frames; ++f) {
-    for (py::ssize_t j = 0; j < joints; ++j) {
-      const double* p = q + 4 * (f * joints + j);
-      m->rotation(f, static_cast<std::size_t>(j)) = Eigen::Quaterniond(p[0], p[1], p[2], p[3]);
-    }
-  }
+  std::optional<py::array_t<double, py::array::c_style>> tr;
   if (!translation_obj.is_none()) {
-    const auto tr = read_f64(translation_obj, "root_translation");
-    if (tr.ndim() != 2 || tr.shape(0) != frames || tr.shape(1) != 3) {
+    tr = read_f64(translation_obj, "root_translation");
+    if (tr->ndim() != 2 || tr->shape(0) != frames || tr->shape(1) != 3) {
       throw py::value_error("root_translation: expected shape (" + std::to_string(frames) +
-                            ", 3), got " + shape_string(tr));
+                            ", 3), got " + shape_string(*tr));
     }
-    for (py::ssize_t f = 0; f < frames; ++f)
-      m->root_translation(f) = Eigen::Vector3d(tr.data() + 3 * f);
-  } else {
-    for (py::ssize_t f = 0; f < frames; ++f) m->root_translation(f).setZero();
   }
-  for (const std::string& w : m->validate_and_normalize(body)) {
-    PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
+  // The copy and the checks run with the GIL released (60,000 frames of 21 joints held it for
+  // 83 ms, found in review); the warnings are raised after.
+  std::shared_ptr<sim::Motion> m;
+  std::vector<std::string> warnings;
+  {
+    const double* q = rot.data();
+    const double* t = tr ? tr->data() : nullptr;
+    py::gil_scoped_release release;
+    m = std::make_shared<sim::Motion>(rate_hz, static_cast<std::size_t>(joints), frames);
+    for (py::ssize_t f = 0; f < frames; ++f) {
+      for (py::ssize_t j = 0; j < joints; ++j) {
+        const double* p = q + 4 * (f * joints + j);
+        m->rotation(f, static_cast<std::size_t>(j)) = Eigen::Quaterniond(p[0], p[1], p[2], p[3]);
+      }
+      if (t != nullptr) m->root_translation(f) = Eigen::Vector3d(t + 3 * f);  // else zero
+    }
+    warnings = m->validate_and_normalize(body);
   }
+  for (const std::string& w : warnings) PyErr_WarnEx(PyExc_RuntimeWarning, w.c_str(), 1);
   return m;
 }
 
@@ -286,10 +295,15 @@ py::dict preset_dict(const sim::PlacementPreset& p) {
 
 }  // namespace
 
-// For bind_augment: the scene inside an imukit.Scene.
+// For bind_augment: the scene inside an imukit.Scene, and its lock (SceneHandle), which a
+// reader holds while it reads with the GIL released.
 const sim::Scene& scene_of(py::handle scene) {
   if (!py::isinstance<SceneHandle>(scene)) throw py::type_error("expected an imukit.Scene");
   return scene.cast<const SceneHandle&>().scene;
+}
+std::mutex& scene_mutex(py::handle scene) {
+  if (!py::isinstance<SceneHandle>(scene)) throw py::type_error("expected an imukit.Scene");
+  return scene.cast<SceneHandle&>().mutex;
 }
 
 void bind_sim(py::module_& m) {
@@ -461,7 +475,8 @@ magnetic_field=None (world vector, T; default the mid-latitude Earth field)),
 then add_sensor(...) per sensor (magnetometer=True adds Series.mag); or read_scene(path) /
 parse_scene(text).
 simulate(seed=None) -> {name: Series} (and "<name>.truth" with ground_truth): the same
-numbers as `imukit simulate` for the same scene and seed.)doc")
+numbers as `imukit simulate` for the same scene and seed; seed= is for that run only (scene.seed
+stays). A hardware profile is checked at the scene's rate when its sensor is added.)doc")
       .def(py::init(&make_scene), py::arg("body"), py::arg("motion"), py::kw_only(),
            py::arg("frames") = py::none(), py::arg("method") = "fd", py::arg("rate_hz") = 0.0,
            py::arg("gravity") = py::none(), py::arg("seed") = 0, py::arg("ground_truth") = false,
@@ -477,16 +492,23 @@ numbers as `imukit simulate` for the same scene and seed.)doc")
       .def_property(
           "seed", [](const SceneHandle& h) { return h.scene.seed; },
           [](SceneHandle& h, const py::object& s) {
-            h.scene.seed = seed_argument(s, "Scene.seed");
+            const uint64_t seed = seed_argument(s, "Scene.seed");
+            const auto lock = lock_for_change(h);
+            h.scene.seed = seed;
           })
       .def_property(
           "ground_truth", [](const SceneHandle& h) { return h.scene.ground_truth; },
-          [](SceneHandle& h, bool g) { h.scene.ground_truth = g; })
+          [](SceneHandle& h, bool g) {
+            const auto lock = lock_for_change(h);
+            h.scene.ground_truth = g;
+          })
       .def_property(
           "method",
           [](const SceneHandle& h) { return std::string(sim::to_string(h.scene.options.method)); },
           [](SceneHandle& h, const std::string& s) {
-            h.scene.options.method = sim::parse_derivative_method(s);
+            const sim::DerivativeMethod method = sim::parse_derivative_method(s);
+            const auto lock = lock_for_change(h);
+            h.scene.options.method = method;
           })
       .def_property_readonly("rate_hz",
                              [](const SceneHandle& h) { return sim::scene_rate_hz(h.scene); })

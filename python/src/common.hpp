@@ -8,11 +8,14 @@
 #include <pybind11/stl.h>
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "imukit/core/error.hpp"
 #include "imukit/core/time.hpp"
 
 namespace imukit::python {
@@ -28,6 +31,110 @@ void bind_identify(py::module_& m);
 
 // "float32", "int64", ... for messages.
 inline std::string dtype_name(const py::array& a) { return py::str(a.dtype()).cast<std::string>(); }
+
+// "str", "float", "int64", ... (the object's type) for messages.
+inline std::string type_name(py::handle obj) {
+  return py::str(py::type::of(obj).attr("__name__")).cast<std::string>();
+}
+
+// Scalar arguments converted here rather than by pybind11's casters, whose errors name C++
+// types ("Unable to cast ... to C++ type 'std::vector<std::__cxx11::basic_string...'") and
+// not the parameter (found in review, 2026-11-26). `what` is the parameter as the message
+// names it ("stda: sigma").
+
+// An integer with operator.index semantics: a Python int or a NumPy integer; a float, a str or
+// a bool (True is not seed 1) is a TypeError.
+inline py::int_ index_argument(py::handle obj, const std::string& what) {
+  if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr())) {
+    throw py::type_error(what + ": expected an int, got " + type_name(obj));
+  }
+  auto v = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));
+  if (!v) throw py::error_already_set();
+  return v;
+}
+
+// index_argument in [0, max]; outside it an imukit.Error.
+inline uint64_t uint_argument(py::handle obj, const std::string& what, uint64_t max) {
+  const py::int_ v = index_argument(obj, what);
+  if (v < py::int_(0) || v > py::int_(max)) {
+    throw Error(what + ": expected an integer in [0, " + std::to_string(max) + "], got " +
+                py::repr(v).cast<std::string>());
+  }
+  return v.cast<uint64_t>();
+}
+
+// index_argument in int64's range (nanoseconds); outside it an imukit.Error.
+inline int64_t int64_argument(py::handle obj, const std::string& what) {
+  const py::int_ v = index_argument(obj, what);
+  constexpr int64_t lo = std::numeric_limits<int64_t>::min(),
+                    hi = std::numeric_limits<int64_t>::max();
+  if (v < py::int_(lo) || v > py::int_(hi)) {
+    throw Error(what + ": expected an integer in [" + std::to_string(lo) + ", " +
+                std::to_string(hi) + "], got " + py::repr(v).cast<std::string>());
+  }
+  return v.cast<int64_t>();
+}
+
+// A real number: a Python or NumPy int or float (what float() takes, except a str, which it
+// would parse, and a bool).
+inline double number_argument(py::handle obj, const std::string& what) {
+  if (!PyBool_Check(obj.ptr()) && !PyUnicode_Check(obj.ptr()) && !PyBytes_Check(obj.ptr())) {
+    const double v = PyFloat_AsDouble(obj.ptr());
+    if (!(v == -1.0 && PyErr_Occurred())) return v;
+    PyErr_Clear();
+  }
+  throw py::type_error(what + ": expected a number, got " + type_name(obj));
+}
+
+// A list (or tuple, or other iterable) of str. A str alone is a TypeError: iterating it would
+// give its characters ("estimate 'c' is not one of ...", found in review).
+inline std::vector<std::string> string_list(py::handle obj, const std::string& what) {
+  if (py::isinstance<py::str>(obj) || py::isinstance<py::bytes>(obj) ||
+      !py::isinstance<py::iterable>(obj)) {
+    throw py::type_error(what + ": expected a list of str, got " + type_name(obj));
+  }
+  std::vector<std::string> out;
+  for (py::handle item : obj) {
+    if (!py::isinstance<py::str>(item)) {
+      throw py::type_error(what + "[" + std::to_string(out.size()) + "]: expected a str, got " +
+                           type_name(item));
+    }
+    out.push_back(item.cast<std::string>());
+  }
+  return out;
+}
+
+// A few numbers given as a list, tuple or array of any real dtype (converted: these are
+// parameters, not data).
+inline std::vector<double> numbers(py::handle obj, std::size_t n, const char* what) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(obj);
+  if (!a || a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) {
+    throw py::value_error(std::string(what) + ": expected " + std::to_string(n) + " numbers");
+  }
+  return {a.data(), a.data() + n};
+}
+
+inline Eigen::Vector3d vector3(py::handle obj, const char* what) {
+  const std::vector<double> v = numbers(obj, 3, what);
+  return {v[0], v[1], v[2]};
+}
+
+// Throws imukit::Error at the first NaN or infinity of an (n, columns) C-order array, naming
+// it as what[sample, k] with its column's name (DESIGN.md: never a silent NaN).
+inline void require_finite(const double* values, py::ssize_t n, int columns,
+                           const std::string& what, std::span<const char* const> column_names,
+                           const std::string& why) {
+  for (py::ssize_t i = 0; i < n; ++i) {
+    for (int k = 0; k < columns; ++k) {
+      const double v = values[i * columns + k];
+      if (std::isfinite(v)) continue;
+      const std::string value = std::isnan(v) ? "nan" : v > 0 ? "inf" : "-inf";
+      throw Error(what + "[" + std::to_string(i) + ", " + std::to_string(k) + "] is " + value +
+                  " (sample " + std::to_string(i) + ", column " +
+                  column_names[static_cast<std::size_t>(k)] + ")" + why);
+    }
+  }
+}
 
 inline bool is_f32(const py::array& a) { return a.dtype().is(py::dtype::of<float>()); }
 inline bool is_f64(const py::array& a) { return a.dtype().is(py::dtype::of<double>()); }

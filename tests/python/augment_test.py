@@ -7,6 +7,8 @@ run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/pyth
 import json
 import os
 import tempfile
+import threading
+import time
 import unittest
 
 import numpy as np
@@ -70,7 +72,7 @@ class Stda(unittest.TestCase):
         self.assertEqual(draws.shape, (8, 1))
         np.testing.assert_allclose(y, x * draws[:, :, None], rtol=1e-15, atol=0)
         self.assertGreater(np.std(draws), 0.05)
-        self.assertTrue(np.all(np.abs(draws - 1) < 1.0))
+        self.assertTrue(np.all(np.abs(draws.values - 1) < 1.0))
 
     def test_float32_and_float64_agree_and_replay_is_exact(self):
         x64 = batch(dtype=np.float64)
@@ -119,6 +121,120 @@ class Stda(unittest.TestCase):
             imukit.StdaSpec("time_warping", ratio=0.5)
         with self.assertRaisesRegex(TypeError, "seed or an imukit.Rng"):
             imukit.stda(x, "rotation", "seed")
+
+    def test_rotation_needs_three_axis_blocks(self):
+        """Found in review (2026-11-26): rotation on a batch whose layout has no 3-axis blocks
+        (3 channels: the default layout is 3 channels of kind other) returned x unchanged."""
+        x = batch(n=2, t=20, c=3, dtype=np.float64)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.stda(x, "rotation", 1)
+        self.assertEqual(str(e.exception),
+                         "stda: rotation turns sensors' 3-axis blocks, and the layout has none: the "
+                         "default layout of 3 channels (not sensors of 6, ax ay az gx gy gz); name the "
+                         "blocks with layout=imukit.ChannelLayout(kinds, sensors)")
+        bare = imukit.ChannelLayout(["other"] * 3)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.stda(x, "rotation", 1, layout=bare)
+        self.assertEqual(str(e.exception),
+                         "stda: rotation turns sensors' 3-axis blocks, and the layout given has none "
+                         "(3 channels, no sensors)")
+        # An accelerometer-only watch: its one block is turned, norms kept, the data changed.
+        watch = imukit.ChannelLayout(["accelerometer"] * 3, {"watch": [0]})
+        self.assertEqual((watch.channels, watch.kinds, watch.sensors), (3, ["accelerometer"] * 3, ["watch"]))
+        y, draws = imukit.stda(x, "rotation", 1, layout=watch, return_draws=True)
+        self.assertEqual(draws.shape, (2, 3))
+        np.testing.assert_allclose(np.linalg.norm(y, axis=-1), np.linalg.norm(x, axis=-1), rtol=1e-12)
+        self.assertGreater(np.abs(y - x).max(), 0.1)
+        np.testing.assert_array_equal(imukit.replay_stda(x, imukit.StdaSpec("rotation"), draws, layout=watch), y)
+        # Jittering needs no blocks: the kinds pick the sigmas (accelerometer: the first).
+        j = imukit.stda(x, "jittering", 2, layout=watch, jitter_sigma=(0.5, 0, 0, 0))
+        self.assertAlmostEqual(float(np.std(j - x)), 0.5, delta=0.1)
+        for kinds, sensors, message in (
+                (["accel"] * 3, None, "ChannelLayout: kinds[0] is 'accel', not one of accelerometer, "
+                                      "gyroscope, magnetometer, other"),
+                (["accelerometer"] * 3, {"w": [1]}, "ChannelLayout: sensors['w'][0]: a 3-axis block at "
+                                                    "channel 1 is outside the 3 channels"),
+                (["accelerometer"] * 2 + ["gyroscope"], {"w": [0]},
+                 "ChannelLayout: sensors['w'][0]: channels 0 to 2 are not of one kind")):
+            with self.assertRaises(imukit.Error) as e:
+                imukit.ChannelLayout(kinds, sensors)
+            self.assertEqual(str(e.exception), message)
+        with self.assertRaises(TypeError) as e:
+            imukit.ChannelLayout("accelerometer")
+        self.assertEqual(str(e.exception), "ChannelLayout: kinds: expected a list of str, got str")
+
+    def test_replay_checks_the_method_and_the_window_count(self):
+        """Found in review (2026-11-26): the draws were a bare array and the binding gave them the
+        spec's method, so draws of rotation were replayed as magnitude scaling; a size mismatch
+        said "12 x 3", 12 being the total count."""
+        x = batch(n=4, t=20, c=6, dtype=np.float64)
+        y, draws = imukit.stda(x, "rotation", 1, return_draws=True)
+        self.assertIsInstance(draws, imukit.StdaDraws)
+        self.assertEqual((draws.method, draws.windows, draws.per_window, len(draws)), ("rotation", 4, 3, 4))
+        self.assertEqual(repr(draws), "<imukit.StdaDraws rotation: 4 windows x 3>")
+        self.assertIs(draws.values.base, draws)  # a view of the draws' memory
+        np.testing.assert_array_equal(np.asarray(draws), draws.values)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.replay_stda(x, imukit.StdaSpec("magnitude_scaling", sigma=0.1), draws)
+        self.assertEqual(str(e.exception),
+                         "replay_stda: the draws are of rotation, the spec is magnitude_scaling(sigma=0.1)")
+        with self.assertRaises(imukit.Error) as e:
+            imukit.replay_stda(x[:2], imukit.StdaSpec("rotation"), draws)
+        self.assertEqual(str(e.exception), "replay_stda: the draws are for 4 windows x 3 draws, x has 2 windows")
+        with self.assertRaises(imukit.Error) as e:
+            imukit.replay_stda(x, imukit.StdaSpec("rotation"), imukit.StdaDraws("rotation", draws.values[:, :2]))
+        self.assertEqual(str(e.exception),
+                         "rotation: replayed draws (4 windows x 2 draws of rotation) do not fit 4 windows x 3 draws")
+        with self.assertRaises(TypeError) as e:
+            imukit.replay_stda(x, imukit.StdaSpec("rotation"), draws.values)
+        self.assertEqual(str(e.exception),
+                         "replay_stda: draws: expected the imukit.StdaDraws of stda(..., return_draws=True) "
+                         "or imukit.StdaDraws(method, values), got ndarray")
+        # Saved values come back with their method, and replay exactly.
+        saved = imukit.StdaDraws("rotation", draws.values.copy())
+        np.testing.assert_array_equal(imukit.replay_stda(x, imukit.StdaSpec("rotation"), saved), y)
+
+    def test_arguments_are_converted_with_their_names(self):
+        """Found in review (2026-11-26): wrong types gave pybind11's "Unable to cast ... to C++ type
+        'std::vector<std::__cxx11::basic_string...'", a NumPy integer seed was refused although
+        imukit.Rng takes it, and True was seed 1."""
+        x = batch(n=2, t=20, c=6)
+        cases = [
+            (lambda: imukit.stda(x, "rotation", 1, layout="watch"),
+             "layout: expected a list of sensor names or an imukit.ChannelLayout, got str"),
+            (lambda: imukit.stda(x, "rotation", 1, layout=["watch", 3]), "layout[1]: expected a str, got int"),
+            (lambda: imukit.stda(x, "magnitude_scaling", 1, sigma="0.1"), "stda: sigma: expected a number, got str"),
+            (lambda: imukit.stda(x, "magnitude_scaling", 1, sigma=True), "stda: sigma: expected a number, got bool"),
+            (lambda: imukit.stda(x, "time_warping", 1, knots=2.0), "stda: knots: expected an int, got float"),
+            (lambda: imukit.stda(x, "magnitude_scaling", 1, per_channel=1),
+             "stda: per_channel: expected a bool, got int"),
+            (lambda: imukit.stda(x, 3, 1), "stda: spec: expected an imukit.StdaSpec or a method name, got int"),
+            (lambda: imukit.stda(x, "rotation", True), "rng: expected an int seed or an imukit.Rng, got bool"),
+            (lambda: imukit.stda(x, "rotation", 1.0), "rng: expected an int seed or an imukit.Rng, got float"),
+            (lambda: imukit.Rng(True), "Rng: seed: expected an int, got bool"),
+            (lambda: imukit.Rng(1, "2"), "Rng: stream: expected an int, got str"),
+        ]
+        for call, message in cases:
+            with self.assertRaises(TypeError, msg=message) as e:
+                call()
+            self.assertEqual(str(e.exception), message)
+        for value in (2**64, -1):
+            with self.assertRaises(imukit.Error) as e:
+                imukit.stda(x, "rotation", value)
+            self.assertEqual(str(e.exception), f"rng: expected an integer in [0, 18446744073709551615], got {value}")
+        with self.assertRaises(ValueError) as e:
+            imukit.stda(x, "rotation", 1, max_angle_rad=(1, 2))
+        self.assertEqual(str(e.exception), "stda: max_angle_rad: expected 3 numbers")
+        # NumPy integers are seeds as ints are (operator.index), for stda as for imukit.Rng.
+        top = 2**64 - 1
+        for seed in (3, top):
+            a = imukit.stda(x, "rotation", np.uint64(seed))
+            np.testing.assert_array_equal(a, imukit.stda(x, "rotation", seed))
+            np.testing.assert_array_equal(a, imukit.stda(x, "rotation", imukit.Rng(np.uint64(seed))))
+        np.testing.assert_array_equal(imukit.stda(x, "rotation", np.int64(3)), imukit.stda(x, "rotation", 3))
+        np.testing.assert_array_equal(imukit.stda(x, "magnitude_scaling", 4, sigma=np.float32(0.25), knots=np.int32(3)),
+                                      imukit.stda(x, "magnitude_scaling", 4, sigma=0.25, knots=3))
+        self.assertEqual(imukit.Rng(np.int64(3), stream=np.int8(2)).stream, 2)
 
 
 class Policies(unittest.TestCase):
@@ -217,6 +333,92 @@ class Ppda(unittest.TestCase):
             self.aug.apply(3, starts, 4)
 
 
+class SceneLock(unittest.TestCase):
+    def test_a_scene_changed_by_another_thread_is_read_under_its_lock(self):
+        """Found in review (2026-11-26): Augmenter(scene) and generate_dataset(scene) read the scene
+        with the GIL released and without its lock while Scene.add_sensor appended to its sensors:
+        the interpreter crashed (SIGSEGV; this test did in most runs). Now every reader holds the
+        scene's lock and every change takes it as well: each augmenter built while sensors are added
+        holds a whole prefix of them, and its batches equal those of one built from a scene made
+        with the same sensors in one thread; datasets made while the setters run equal one made
+        alone."""
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), rate_hz=100, frames=400, seed=2)
+
+        def scene_with(n):
+            scene = imukit.Scene(body, motion, seed=3)
+            for i in range(n):
+                scene.add_sensor(f"s{i}", joint="left_wrist", position_m=[0, 0, 0.001 * i])
+            return scene
+
+        def build_while_adding():
+            scene = scene_with(1)
+            built, done = [], threading.Event()
+
+            def build():
+                while not done.is_set():
+                    aug = imukit.Augmenter(scene, window=50)
+                    names = aug.sensor_names  # (s0 ... s{k-1}, each once: last == s{k-1} suffices)
+                    built.append((len(names), names[-1], aug if len(built) < 3 else None))
+
+            def add():
+                # 4000 sensors: the vector moves 12 times, the last ones megabytes that are unmapped.
+                for i in range(1, 4000):
+                    scene.add_sensor(f"s{i}", joint="left_wrist", position_m=[0, 0, 0.001 * i])
+                    time.sleep(0)
+                done.set()
+
+            threads = [threading.Thread(target=build), threading.Thread(target=add)]
+            for th in threads:
+                th.start()
+            for th in threads:
+                th.join()
+            self.assertEqual(len(scene.sensors), 4000)
+            return built
+
+        built = build_while_adding() + build_while_adding()  # two rounds: the race is a matter of luck
+        self.assertGreater(len(built), 10)
+        for k, last, _ in built:
+            self.assertEqual(last, f"s{k - 1}")
+        policy = imukit.read_policy("imukit")
+        starts = np.array([0, 150, 350], np.int64)
+        kept = [aug for _, _, aug in built if aug is not None]  # the first three of each round
+        self.assertEqual(len(kept), 6)
+        for aug in kept:
+            k = len(aug.sensor_names)
+            self.assertEqual(aug.sensor_names, [f"s{i}" for i in range(k)])
+            alone = imukit.Augmenter(scene_with(k), window=50)
+            np.testing.assert_array_equal(aug.apply(417, starts, 5, policy=policy),
+                                          alone.apply(417, starts, 5, policy=policy))
+
+        # The setters take the lock while datasets are made from the scene.
+        small = scene_with(2)
+        alone = imukit.generate_dataset(small, policy, window=50, stride=50, count=8, batch_size=4, seed=8)
+        made, done = [], threading.Event()
+
+        def generate():
+            while not done.is_set() or not made:
+                made.append(imukit.generate_dataset(small, policy, window=50, stride=50, count=8, batch_size=4,
+                                                    seed=8, threads=1))
+
+        def set_fields():
+            for i in range(200):
+                small.seed = 3
+                small.ground_truth = bool(i % 2)
+                small.method = "fd"
+                time.sleep(0)
+            done.set()
+
+        threads = [threading.Thread(target=generate), threading.Thread(target=set_fields)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join()
+        for ds in made:
+            np.testing.assert_array_equal(ds.X, alone.X)
+        self.assertEqual((small.seed, small.method), (3, "fd"))
+
+
 class Datasets(unittest.TestCase):
     def test_dataset_equals_the_command(self):
         help_text = run_cli("--help").stdout
@@ -306,3 +508,21 @@ class Datasets(unittest.TestCase):
         labels = np.repeat(np.arange(7, dtype=np.int64), 43)[:301]
         np.testing.assert_array_equal(imukit.window_labels(labels, starts, 50),
                                       [np.bincount(labels[s:s + 50]).argmax() for s in starts])
+
+    def test_labels_below_minus_one_are_refused(self):
+        """Found in review (2026-11-26): window_labels and generate_dataset took labels below -1
+        (-1 is "no label") and wrote them as classes."""
+        scene = imukit.parse_scene(json.dumps(SCENE))
+        labels = np.zeros(301, np.int64)
+        labels[:10] = -1
+        labels[120] = -2
+        message = "labels[120] is -2; a label is a class index >= 0, or -1 for none"
+        with self.assertRaises(imukit.Error) as e:
+            imukit.window_labels(labels, np.array([100], np.int64), 50)
+        self.assertEqual(str(e.exception), message)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.generate_dataset(scene, imukit.read_policy("imukit"), labels=labels, window=50, stride=50, count=2)
+        self.assertEqual(str(e.exception), message)
+        labels[120] = 0
+        ds = imukit.generate_dataset(scene, imukit.read_policy("imukit"), labels=labels, window=50, stride=50)
+        np.testing.assert_array_equal(ds.y, np.zeros(6, np.int64))

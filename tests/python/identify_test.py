@@ -156,6 +156,51 @@ class Errors(unittest.TestCase):
         with self.assertRaisesRegex(imukit.Error, "fidelity: no samples"):
             imukit.fidelity(*[np.zeros((0, 3))] * 4)
 
+    def test_argument_types_are_named(self):
+        """Found in review (2026-11-26): estimate="clock_rate" was iterated per character
+        ("estimate 'c' is not one of ..."), invalid_motion=[(1, 2, 3)] was "Unable to cast ... to
+        C++ type 'std::pair<long, long>'", and fidelity of 1-d arrays named the last argument with
+        a shape of (0, 3)."""
+        call = lambda **kw: imukit.identify(self.body, self.motion, self.imu, "right_forearm", **kw)  # noqa: E731
+        for kw, message in (
+                ({"estimate": "clock_rate"}, "identify: estimate: expected a list of str, got str"),
+                ({"fix": "rotation"}, "identify: fix: expected a list of str, got str"),
+                ({"estimate": ["clock_rate", 3]}, "identify: estimate[1]: expected a str, got int"),
+                ({"invalid_motion": [(1, 2, 3)]},
+                 "identify: invalid_motion[0]: expected a (start_ns, end_ns) pair of ints, got (1, 2, 3)"),
+                ({"invalid_motion": [(1.0, 2)]}, "identify: invalid_motion[0][0]: expected an int, got float"),
+                ({"invalid_motion": 5}, "identify: invalid_motion: expected a list of (start_ns, end_ns) pairs, "
+                                        "got int")):
+            with self.assertRaises(TypeError) as e:
+                call(**kw)
+            self.assertEqual(str(e.exception), message)
+        with self.assertRaises(imukit.Error) as e:
+            call(invalid_motion=[(0, 2**63)])
+        self.assertEqual(str(e.exception), "identify: invalid_motion[0][1]: expected an integer in "
+                                           "[-9223372036854775808, 9223372036854775807], got 9223372036854775808")
+        with self.assertRaises(ValueError) as e:
+            imukit.fidelity(*[np.zeros(5)] * 4)
+        self.assertEqual(str(e.exception), "measured_accel: expected shape (n, 3), got (5,)")
+        with self.assertRaises(ValueError) as e:
+            imukit.fidelity(np.zeros((5, 3)), np.zeros((5, 3)), np.zeros((5, 3)), np.zeros(5))
+        self.assertEqual(str(e.exception), "simulated_gyro: expected shape (5, 3), got (5,)")
+
+    def test_placement_as_lists_and_integer_arrays(self):
+        """Found in review (2026-11-26): identify refused lists and integer arrays for position_m
+        and q_joint_sensor, which Scene.add_sensor takes; they give the fit of the float arrays."""
+        kw = dict(init="right_wrist_watch", motion_start_ns=0, rotation_from_data=False,
+                  invalid_motion=[(np.int64(0), np.int64(10_000_000))])
+        as_arrays = imukit.identify(self.body, self.motion, self.imu, position_m=np.array([0.2, 0.0, 0.0]),
+                                    q_joint_sensor=np.array([0.0, 1.0, 0.0, 0.0]), **kw)
+        as_lists = imukit.identify(self.body, self.motion, self.imu, position_m=[0.2, 0, 0],
+                                   q_joint_sensor=np.array([0, 1, 0, 0]), **kw)
+        np.testing.assert_array_equal(as_lists.position_m, as_arrays.position_m)
+        np.testing.assert_array_equal(as_lists.q_joint_sensor, as_arrays.q_joint_sensor)
+        self.assertEqual(as_lists.time_offset_s, as_arrays.time_offset_s)
+        with self.assertRaises(ValueError) as e:
+            imukit.identify(self.body, self.motion, self.imu, position_m=[0.2, 0], **kw)
+        self.assertEqual(str(e.exception), "position_m: expected 3 numbers")
+
     def test_gil_is_released_while_fitting(self):
         steps, seconds = python_steps_during(
             lambda: imukit.identify(self.body, self.motion, self.imu, init="right_wrist_watch",

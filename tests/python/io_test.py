@@ -84,6 +84,40 @@ class SeriesViews(unittest.TestCase):
             imukit.Series(t[::-1].copy(), accel=a)
         self.assertIn("time goes backwards at sample 1", str(e.exception))
 
+    def test_non_finite_samples_are_refused(self):
+        """Found in review (2026-11-26): Series(t, accel) took NaN silently (DESIGN.md: never a
+        silent NaN); every result computed from it was NaN. Samples are finite."""
+        t, a, g = sample_series()
+        for channel, value, shown in (("accel", np.nan, "nan"), ("gyro", np.inf, "inf"), ("mag", -np.inf, "-inf")):
+            x = np.zeros((50, 3))
+            x[7, 1] = value
+            with self.assertRaises(imukit.Error) as e:
+                imukit.Series(t, **{channel: x})
+            self.assertEqual(str(e.exception),
+                             f"Series: {channel}[7, 1] is {shown} (sample 7, column y); a Series holds finite samples")
+        temp = np.full(50, 25.0)
+        temp[49] = np.nan
+        with self.assertRaises(imukit.Error) as e:
+            imukit.Series(t, accel=a, temperature=temp)
+        self.assertEqual(str(e.exception),
+                         "Series: temperature[49, 0] is nan (sample 49, column temperature); "
+                         "a Series holds finite samples")
+
+    def test_a_series_without_samples_has_empty_channels(self):
+        """Found in review (2026-11-26): a Series of 0 samples built with accel and gyro showed them
+        as None and channels() said it needed both. The C++ Series cannot tell an absent channel
+        from an empty one: with no samples, every channel is an empty (0, 3) array."""
+        t, a, g = sample_series()
+        s = imukit.Series(t[:0], accel=a[:0], gyro=g[:0])
+        self.assertEqual(len(s), 0)
+        for channel in (s.accel, s.gyro, s.mag):
+            self.assertEqual((channel.shape, channel.dtype), ((0, 3), np.float64))
+        self.assertEqual(s.channels().shape, (0, 6))
+        self.assertEqual(s.channels(np.float64).dtype, np.float64)
+        self.assertIsNone(imukit.Series(t, accel=a).gyro)  # with samples, absent is None
+        with self.assertRaisesRegex(imukit.Error, "Series.channels: needs both accelerometer and gyroscope"):
+            imukit.Series(t, accel=a).channels()
+
 
 class EurocCsv(unittest.TestCase):
     def test_round_trip_is_bit_exact_and_numpy_reads_it(self):
@@ -127,6 +161,25 @@ class EurocCsv(unittest.TestCase):
             with self.assertRaises(imukit.Error) as e:
                 imukit.read_euroc_csv(os.path.join(tmp, "missing.csv"))
             self.assertIn("missing.csv", str(e.exception))
+
+    def test_non_finite_values_are_refused_before_writing(self):
+        """Found in review (2026-11-26): write_euroc_csv wrote NaN and infinity, which
+        read_euroc_csv then refused; now nothing is written, and the error names the sample and
+        the column."""
+        t, a, g = sample_series()
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "imu.csv")
+            for name, value, shown, column in (("accel", np.nan, "nan", "a_RS_S_z"),
+                                               ("gyro", -np.inf, "-inf", "w_RS_S_z")):
+                arrays = {"accel": a.copy(), "gyro": g.copy()}
+                arrays[name][12, 2] = value
+                with self.assertRaises(imukit.Error) as e:
+                    imukit.write_euroc_csv(path, t, arrays["accel"], arrays["gyro"])
+                self.assertEqual(str(e.exception), f"write_euroc_csv: {name}[12, 2] is {shown} (sample 12, column "
+                                                   f"{column}); a EuRoC CSV holds finite numbers")
+                self.assertFalse(os.path.exists(path))
+            imukit.write_euroc_csv(path, t, a, g)
+            np.testing.assert_array_equal(imukit.read_euroc_csv(path).accel, a)
 
     def test_length_mismatch(self):
         t, a, g = sample_series()

@@ -93,6 +93,11 @@ class FromBvh(unittest.TestCase):
         kp = self.keypoints("kinect_v1_20", KINECT_FROM_CMU)
         with self.assertRaisesRegex(ValueError, "exactly one of rate_hz= and times="):
             imukit.motion_from_keypoints(kp, "kinect_v1_20")
+        # Found in review (2026-11-26): "Unable to cast Python instance of type <class 'str'> to
+        # C++ type 'double'".
+        with self.assertRaises(TypeError) as e:
+            imukit.motion_from_keypoints(kp, "kinect_v1_20", rate_hz="50")
+        self.assertEqual(str(e.exception), "motion_from_keypoints: rate_hz: expected a number, got str")
         with self.assertRaisesRegex(ValueError, r"expected shape \(frames, keypoints, 3\)"):
             imukit.motion_from_keypoints(kp[:, :, :2], "kinect_v1_20", rate_hz=120.0)
         with self.assertRaisesRegex(imukit.Error, "a motion needs at least 2 frames"):
@@ -175,6 +180,24 @@ class UtdMhadTrial(unittest.TestCase):
 
 
 class Concurrency(unittest.TestCase):
+    def test_world_poses_releases_the_gil(self):
+        # Found in review (2026-11-26): 60,000 frames held the GIL for 134 ms.
+        body, motion, _ = imukit.read_bvh(WALK)
+        rot = np.tile(motion.rotations_wxyz(), (200, 1, 1))
+        tr = np.tile(motion.root_translation(), (200, 1))
+        long = imukit.Motion.from_arrays(rot, tr, rate_hz=motion.rate_hz, body=body)
+        steps, seconds = python_steps_during(lambda: imukit.world_poses(body, long))
+        self.assertGreater(seconds, 0.05)
+        self.assertGreater(steps, 0, f"no Python step in the middle of a {seconds:.3f} s world_poses()")
+        P, Q = imukit.world_poses(body, long)
+        n = motion.frame_count
+        P1, Q1 = imukit.world_poses(body, imukit.Motion.from_arrays(rot[:n], tr[:n], rate_hz=motion.rate_hz))
+        self.assertEqual((P.shape, Q.shape), ((200 * n, len(body), 3), (200 * n, len(body), 4)))
+        np.testing.assert_array_equal(P[-n:], P1)
+        np.testing.assert_array_equal(Q[-n:], Q1)
+        with self.assertRaisesRegex(imukit.Error, "world_poses: the motion has 31 joints, the body 3"):
+            imukit.world_poses(imukit.Body.from_arrays(["a", "b", "c"], [-1, 0, 1], np.zeros((3, 3))), long)
+
     def test_reading_a_keypoint_file_releases_the_gil(self):
         # Found in review: a 98 MB CSV held the GIL for its whole 0.64 s read.
         topo = imukit.keypoint_topology("kinect_v1_20")

@@ -79,7 +79,22 @@ class SimulateLikeTheCli(unittest.TestCase):
         scene = imukit.read_scene(self.scene_path)
         self.assertEqual(scene.seed, 11)
         self.check_equal_to_cli(scene.simulate(seed=42))
-        self.assertEqual(scene.seed, 42)
+        self.assertEqual(scene.seed, 11)  # seed= is for that run only
+
+    def test_simulate_seed_is_for_that_run_only(self):
+        """Found in review (2026-11-26): Scene.simulate(seed=1) replaced the scene's seed, so later
+        simulate() calls, generate_dataset(scene) and scene.seed used 1."""
+        scene = python_scene(seed=7)
+        policy = imukit.read_policy("imukit")
+        before = scene.simulate()["watch"].accel.copy()
+        dataset = imukit.generate_dataset(scene, policy, window=50, stride=50, count=4, batch_size=2).X.copy()
+        other = scene.simulate(seed=1)["watch"].accel.copy()
+        self.assertEqual(scene.seed, 7)
+        np.testing.assert_array_equal(scene.simulate()["watch"].accel, before)
+        np.testing.assert_array_equal(python_scene(seed=1).simulate()["watch"].accel, other)
+        self.assertFalse(np.array_equal(other, before))
+        np.testing.assert_array_equal(
+            imukit.generate_dataset(scene, policy, window=50, stride=50, count=4, batch_size=2).X, dataset)
 
     def test_scene_built_in_python_equals_cli(self):
         self.check_equal_to_cli(python_scene(seed=42).simulate())
@@ -188,6 +203,21 @@ class Concurrency(unittest.TestCase):
         self.assertGreater(seconds, 0.05)
         self.assertGreater(steps, 0, f"no Python step in the middle of a {seconds:.3f} s simulate()")
 
+    def test_gil_is_released_while_a_motion_is_copied_from_arrays(self):
+        # Found in review (2026-11-26): 60,000 frames held the GIL for 83 ms.
+        body = imukit.Body.default_humanoid()
+        rot = np.zeros((150_000, len(body), 4))
+        rot[..., 0] = 1.0
+        tr = np.zeros((150_000, 3))
+        steps, seconds = python_steps_during(lambda: imukit.Motion.from_arrays(rot, tr, rate_hz=100, body=body))
+        self.assertGreater(seconds, 0.05)
+        self.assertGreater(steps, 0, f"no Python step in the middle of a {seconds:.3f} s Motion.from_arrays()")
+        m = imukit.Motion.from_arrays(rot[:3], tr[:3] + [1.0, 2.0, 3.0], rate_hz=100, body=body)
+        np.testing.assert_array_equal(m.root_translation(), [[1.0, 2.0, 3.0]] * 3)
+        np.testing.assert_array_equal(m.rotations_wxyz(), rot[:3])
+        np.testing.assert_array_equal(imukit.Motion.from_arrays(rot[:3], None, rate_hz=100).root_translation(),
+                                      np.zeros((3, 3)))
+
     def test_the_gil_check_sees_a_call_that_holds_it(self):
         # sum() over a range runs in C without ever letting the GIL go: the check must count 0.
         steps, seconds = python_steps_during(lambda: sum(range(20_000_000)))
@@ -252,6 +282,51 @@ class Errors(unittest.TestCase):
             scene.add_sensor("x", preset="chest_strap", hardware=dict(HARDWARE, clock={"error_ppm": 1e5}))
         self.assertEqual(str(e.exception), "<dict>: clock.error_ppm: 100000 ppm is not within +-10000 ppm")
         self.assertEqual((e.exception.file, e.exception.line, e.exception.column), ("<dict>", None, None))
+
+    def test_hardware_is_checked_at_the_scene_rate_in_the_profile_terms(self):
+        """Found in review (2026-11-26): a profile whose bandwidth is not below half the scene's rate
+        was taken by add_sensor, and simulate() then named "accelerometer.bandwidth_hz", a key no
+        profile has. add_sensor checks it at the scene's rate as read_scene does, naming the
+        profile's key (docs/formats.md: limits.bandwidth) and, for a file, its line and column."""
+        hardware = dict(HARDWARE, accelerometer=dict(HARDWARE["accelerometer"],
+                                                     limits={"rate": 100.0, "bandwidth": 40.0}))
+        body = imukit.Body.default_humanoid()
+        scene = imukit.Scene(body, imukit.ProceduralMotion(len(body), frames=50), rate_hz=50)
+        reason = "accelerometer.limits.bandwidth: 40 Hz is not below half the rate the model runs at (25 Hz)"
+        with self.assertRaises(imukit.Error) as e:
+            scene.add_sensor("w", preset="left_wrist_watch", hardware=hardware)
+        self.assertEqual(str(e.exception), "<dict>: " + reason)
+        with self.assertRaises(imukit.Error) as e:
+            scene.add_sensor("w", preset="left_wrist_watch", hardware=imukit.profile(hardware))
+        self.assertEqual(str(e.exception), "<Profile>: " + reason)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "imu.json")
+            text = json.dumps(hardware, indent=1)
+            with open(path, "w") as f:
+                f.write(text)
+            at = text.index("40.0")
+            line, column = text.count("\n", 0, at) + 1, at - text.rfind("\n", 0, at)
+            with self.assertRaises(imukit.Error) as e:
+                scene.add_sensor("w", preset="left_wrist_watch", hardware=path)
+            self.assertEqual(str(e.exception), f"{path}:{line}:{column}: {reason}")
+        self.assertEqual(scene.sensors, [])
+        scene_100 = imukit.Scene(body, imukit.ProceduralMotion(len(body), frames=50), rate_hz=100)
+        scene_100.add_sensor("w", preset="left_wrist_watch", hardware=hardware)
+        self.assertEqual(len(scene_100.simulate()["w"]), 50)
+
+    def test_gravity_that_is_not_finite_is_named(self):
+        # Found in review (2026-11-26): gravity=nan said "|g| = 0 m/s^2".
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), frames=50)
+        for g, shown in ((float("nan"), "nan"), (float("inf"), "inf"), ([0.0, 0.0, float("nan")], "[0.0, 0.0, nan]"),
+                         (np.float32("nan"), "nan")):
+            with self.assertRaises(imukit.Error) as e:
+                imukit.Scene(body, motion, gravity=g)
+            self.assertEqual(str(e.exception), f"Scene: gravity: expected finite numbers, got {shown}")
+        self.assertEqual(imukit.Scene(body, motion, gravity=np.float32(9.5)).gravity_world, (0.0, 0.0, -9.5))
+        with self.assertRaises(TypeError) as e:
+            imukit.Scene(body, motion, gravity=True)
+        self.assertEqual(str(e.exception), "Scene: gravity: expected a number, got bool")
 
     def test_api_misuse(self):
         body = imukit.Body.default_humanoid()
