@@ -58,6 +58,12 @@ CLI::Validator whole_in(int64_t lo, int64_t hi, const std::string& unit) {
         int64_t v = 0;
         const char* end = text.data() + text.size();
         const char* begin = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+        // CLI11 converts the text again with base detection, so "010" would be checked as 10
+        // and run as 8 (found in review): a leading zero is refused, as JSON refuses it.
+        if (end - begin > 1 && begin[0] == '0') {
+          return fmt::format("must be a whole number in {} written without leading zeros, got {}",
+                             range, quote_excerpt(text, 24));
+        }
         const auto [ptr, ec] = std::from_chars(begin, end, v);
         if (ec == std::errc() && ptr == end && v >= lo && v <= hi) return {};
         return fmt::format("must be a whole number in {}, got {}", range, quote_excerpt(text, 24));

@@ -187,7 +187,9 @@ uint64_t seed_of(const json& j, std::string_view text, const std::string& source
     const std::size_t end = text.find_first_of(",}] \t\r\n", offset);
     written = std::string(text.substr(offset, end - offset));
     const double v = j.get<double>();
-    whole_double = j.is_number_float() && v >= 0 && v < std::ldexp(1.0, 63) && v == std::floor(v);
+    // <= 2^63: the largest seed written with ".0" reads as the double 2^63 (found in review:
+    // "9223372036854775807.0" got no hint and looked inside the range it was refused from).
+    whole_double = j.is_number_float() && v >= 0 && v <= std::ldexp(1.0, 63) && v == std::floor(v);
   }
   throw Error(locate_in_text(text, offset, source),
               fmt::format("{}: expected an integer in [0, {}]{}, got {}", path, kMaxSeed,

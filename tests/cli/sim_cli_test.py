@@ -347,6 +347,19 @@ def test_a_seed_is_the_same_number_on_the_command_line_and_in_a_scene(run, workd
         "0 to 2^63 - 1, as a scene's simulation.seed (which it replaces)" in r.stdout, r.stdout
 
 
+def test_a_seed_with_a_leading_zero_is_refused(run, workdir):
+    """Found in review (2026-11-26): the check read "010" as 10 and CLI11 then ran it as octal 8
+    (the same noise as --seed 8); "09" passed the check and failed in CLI11's words."""
+    default, _, _ = seed_scene(workdir, "lead_default.json", "0")
+    for written in ("010", "09", "+010", "00"):
+        r = run("simulate", default, "--seed", written, "-o", os.path.join(workdir, "lead_" + written))
+        assert r.returncode == 2 and r.stderr == (
+            "imukit: error: --seed: must be a whole number in [0, 9223372036854775807] written without "
+            f"leading zeros, got '{written}'; see `imukit simulate --help`\n"), r.stderr
+    r = run("simulate", default, "--seed", "0", "-o", os.path.join(workdir, "lead_zero"))
+    assert r.returncode == 0, r.stderr
+
+
 def test_one_past_the_seed_range_is_refused_as_written(run, workdir):
     """Found in review (2026-11-26): the scene's error rounded the value ("got 9.22337e+18") and
     named no line. Both forms refuse 2^63 and say the value as written; the scene's error names

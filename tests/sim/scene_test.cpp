@@ -112,6 +112,11 @@ TEST(Scene, SeedsAreTheIntegersFrom0To2Pow63Minus1ReadExactly) {
                                                 " written without a fraction or exponent, got 1E3");
   EXPECT_EQ(scene_error(with_seeds("7.0")), "s.json:5:62: simulation.seed: " + range +
                                                 " written without a fraction or exponent, got 7.0");
+  // The largest seed written with ".0" reads as the double 2^63: the hint, not a bare refusal
+  // of a value that looks inside the range (found in review).
+  EXPECT_EQ(scene_error(with_seeds("9223372036854775807.0")),
+            "s.json:5:62: simulation.seed: " + range +
+                " written without a fraction or exponent, got 9223372036854775807.0");
   EXPECT_EQ(scene_error(with_seeds("\"7\"")),
             "s.json:5:62: simulation.seed: " + range + ", got string");
   EXPECT_EQ(scene_error(with_seeds("42", "9223372036854775808")),
