@@ -333,6 +333,15 @@ class Ppda(unittest.TestCase):
             self.aug.apply(3, starts, 4)
 
 
+def run_together(*targets):
+    """Runs each function in a thread of its own and waits for all of them."""
+    threads = [threading.Thread(target=t) for t in targets]
+    for th in threads:
+        th.start()
+    for th in threads:
+        th.join()
+
+
 class SceneLock(unittest.TestCase):
     def test_a_scene_changed_by_another_thread_is_read_under_its_lock(self):
         """Found in review (2026-11-26): Augmenter(scene) and generate_dataset(scene) read the scene
@@ -368,11 +377,7 @@ class SceneLock(unittest.TestCase):
                     time.sleep(0)
                 done.set()
 
-            threads = [threading.Thread(target=build), threading.Thread(target=add)]
-            for th in threads:
-                th.start()
-            for th in threads:
-                th.join()
+            run_together(build, add)
             self.assertEqual(len(scene.sensors), 4000)
             return built
 
@@ -409,11 +414,7 @@ class SceneLock(unittest.TestCase):
                 time.sleep(0)
             done.set()
 
-        threads = [threading.Thread(target=generate), threading.Thread(target=set_fields)]
-        for th in threads:
-            th.start()
-        for th in threads:
-            th.join()
+        run_together(generate, set_fields)
         for ds in made:
             np.testing.assert_array_equal(ds.X, alone.X)
         self.assertEqual((small.seed, small.method), (3, "fd"))
