@@ -502,6 +502,7 @@ class Augmentation(unittest.TestCase):
         self.assertEqual(sorted(f["outputs"]), sorted(list(experiments.PAIRS) + ["usable_windows"]))
         for method in experiments.PAIRS:
             self.assertEqual(f["outputs"][method]["above"]["8x"], 0, method)
+            self.assertEqual(f["outputs"][method]["above_8x_beside_a_window_kept_real"], 0, method)
         self.assertEqual(f["outputs"]["placement"]["above"]["2x"], 0)
 
     def test_ppda_time_offset_and_scene_sensor_selection(self):

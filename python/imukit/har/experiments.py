@@ -503,29 +503,38 @@ def window_fidelity(recordings, window, stride, policy="paper"):
                      "real_max_abs": float(np.abs(W.X[..., lo:lo + 3]).max()),
                      "windows_peaking_above_real_max": int((np.abs(sim).max(axis=(1, 2)) >
                                                             np.abs(W.X[..., lo:lo + 3]).max()).sum())}
-    out["outputs"] = output_peaks(source, Wf, X, policy)
+    out["outputs"] = output_peaks(source, Wf, policy)
     return out
 
 
 OUTPUT_PEAK_FACTORS = (2.0, 4.0, 8.0)
 
 
-def output_peaks(source, Wf, identity, policy):
+def output_peaks(source, Wf, policy):
     """What the usable-window screen does not see: each PPDA method's one-at-a-time sub-policy
     applied to every usable window (seed 1), counted where its output peaks above f times the
-    real window's peak plus PpdaSource.PEAK_MARGIN, for each f of OUTPUT_PEAK_FACTORS. A scaled
-    joint angle that jumps (docs/augmentation.md) and a sped-up window reaching motion outside
-    the screened span both show here; training does not screen them (docs/har.md)."""
-    usable = np.array([source.plausible(r, x) for r, x in zip(Wf.X, identity)], bool)
+    real window's peak plus PpdaSource.PEAK_MARGIN, for each f of OUTPUT_PEAK_FACTORS, and how
+    many of those above the largest f lie next to a window the screen keeps real (a sped-up
+    window reads motion beyond its own span). A scaled joint angle that jumps
+    (docs/augmentation.md) shows here too. Training screens outputs above
+    Settings.output_screen (docs/har.md)."""
+    usable = source.usable(Wf.recording, Wf.start)
     order = np.flatnonzero(usable)
     order = order[np.argsort(Wf.recording[order], kind="stable")]
+
+    def beside_kept_real(j):  # Wf holds every window of a fitted recording, in start order
+        return any(0 <= n < len(Wf) and Wf.recording[n] == Wf.recording[j] and not usable[n]
+                   for n in (j - 1, j + 1))
     P = source.identity_policy
+    top = f"{OUTPUT_PEAK_FACTORS[-1]:g}x"
     out = {"usable_windows": int(len(order))}
     for method, pair in PAIRS.items():
         k = grid_index(method, pair[4])
         Y = np.empty((len(order),) + Wf.X.shape[1:], np.float32)
         source.apply(k, Wf.recording[order], Wf.start[order], imukit.Rng(1), P, Y)
-        out[method] = {"sub_policy": repr(P[k]),
-                       "above": {f"{f:g}x": sum(not source.plausible(Wf.X[j], y, f) for j, y in zip(order, Y))
-                                 for f in OUTPUT_PEAK_FACTORS}}
+        above = {f: [j for j, y in zip(order, Y) if not source.plausible(Wf.X[j], y, f)]
+                 for f in OUTPUT_PEAK_FACTORS}
+        out[method] = {"sub_policy": repr(P[k]), "above": {f"{f:g}x": len(js) for f, js in above.items()},
+                       f"above_{top}_beside_a_window_kept_real":
+                           sum(beside_kept_real(j) for j in above[OUTPUT_PEAK_FACTORS[-1]])}
     return out
