@@ -36,7 +36,7 @@ constexpr uint64_t kMaxU64 = std::numeric_limits<uint64_t>::max();
 // True not); an imukit.Rng is used (and advanced) in place.
 Rng& rng_argument(py::handle obj, std::optional<Rng>& storage) {
   if (py::isinstance<Rng>(obj)) return obj.cast<Rng&>();
-  if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr())) {
+  if (!is_index(obj)) {
     throw py::type_error("rng: expected an int seed or an imukit.Rng, got " + type_name(obj));
   }
   storage.emplace(uint_argument(obj, "rng", kMaxU64));
@@ -368,16 +368,19 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
     chosen = sub.cast<SubPolicy>();
   } else if (py::isinstance<py::dict>(sub)) {
     chosen = sub_policy_from_dict(sub.cast<py::dict>(), ".");
-  } else if (py::isinstance<py::int_>(sub) || py::isinstance<py::str>(sub)) {
+  } else if (is_index(sub) || py::isinstance<py::str>(sub)) {
     if (policy == nullptr)
       throw py::value_error("Augmenter.apply: a sub-policy index or description needs policy=");
-    if (py::isinstance<py::int_>(sub)) {
-      const auto i = sub.cast<int64_t>();
-      if (i < 0 || static_cast<std::size_t>(i) >= policy->sub_policies.size()) {
-        throw py::index_error("Augmenter.apply: sub-policy " + std::to_string(i) + " of " +
-                              std::to_string(policy->sub_policies.size()));
+    if (is_index(sub)) {
+      // operator.index: a NumPy integer too (found in review, 2026-11-26: np.int64(2) refused)
+      const std::size_t n = policy->sub_policies.size();  // at least 1 (parse_policy)
+      const py::int_ i = index_argument(sub, "Augmenter.apply: sub");
+      if (i < py::int_(0) || i >= py::int_(n)) {
+        throw py::index_error("Augmenter.apply: sub: " + py::repr(i).cast<std::string>() +
+                              " is not a sub-policy index of policy '" + policy->name + "' (0 to " +
+                              std::to_string(n - 1) + ")");
       }
-      index = static_cast<std::size_t>(i);
+      index = i.cast<std::size_t>();
     } else {
       const auto d = sub.cast<std::string>();
       for (std::size_t i = 0; i < policy->sub_policies.size() && !index; ++i) {
@@ -389,7 +392,8 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
     }
   } else {
     throw py::type_error(
-        "Augmenter.apply: sub must be a SubPolicy, a dict, an index or a description");
+        "Augmenter.apply: sub must be a SubPolicy, a dict, an index or a description, got " +
+        type_name(sub));
   }
   {
     py::gil_scoped_release release;

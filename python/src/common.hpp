@@ -42,10 +42,15 @@ inline std::string type_name(py::handle obj) {
 // not the parameter (found in review, 2026-11-26). `what` is the parameter as the message
 // names it ("stda: sigma").
 
-// An integer with operator.index semantics: a Python int or a NumPy integer; a float, a str or
-// a bool (True is not seed 1) is a TypeError.
+// Whether obj is an integer with operator.index semantics: a Python int or a NumPy integer, not
+// a bool (True is not seed 1), a float or a str.
+inline bool is_index(py::handle obj) {
+  return PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr());
+}
+
+// An integer as is_index takes it; anything else is a TypeError.
 inline py::int_ index_argument(py::handle obj, const std::string& what) {
-  if (PyBool_Check(obj.ptr()) || !PyIndex_Check(obj.ptr())) {
+  if (!is_index(obj)) {
     throw py::type_error(what + ": expected an int, got " + type_name(obj));
   }
   auto v = py::reinterpret_steal<py::int_>(PyNumber_Index(obj.ptr()));

@@ -316,6 +316,25 @@ class Ppda(unittest.TestCase):
             self.aug.apply({"speed": {"method": "scaling", "range": [1.1]}}, starts, 9)
         self.assertIn("sub_policies[0].speed", str(e.exception))
 
+    def test_a_sub_policy_index_is_any_integer_but_a_bool(self):
+        """Found in review (2026-11-26, fourth round): np.int64(417) was refused ("sub must be a
+        SubPolicy, ...") while 417 was taken, and True ran sub-policy 1."""
+        starts = self.aug.window_starts(50)
+        by_int = self.aug.apply(417, starts, 9, policy=self.policy)
+        for k in (np.int64(417), np.uint16(417), np.array([417])[0]):
+            np.testing.assert_array_equal(self.aug.apply(k, starts, 9, policy=self.policy), by_int)
+
+        def message(sub, error):
+            with self.assertRaises(error) as e:
+                self.aug.apply(sub, starts, 9, policy=self.policy)
+            return str(e.exception)
+        for sub, name in ((True, "bool"), (417.0, "float"), (np.float64(417), "float64")):
+            self.assertEqual(message(sub, TypeError), "Augmenter.apply: sub must be a SubPolicy, a dict, "
+                                                      f"an index or a description, got {name}")
+        for sub in (810, -1, np.int64(810), 2**64):
+            self.assertEqual(message(sub, IndexError), f"Augmenter.apply: sub: {int(sub)} is not a "
+                                                       "sub-policy index of policy 'imukit' (0 to 809)")
+
     def test_threads_and_caller_buffer(self):
         starts = np.tile(self.aug.window_starts(25), 3)
         one = self.aug.apply(417, starts, 4, policy=self.policy, threads=1)

@@ -863,10 +863,11 @@ class CommandErrors(unittest.TestCase):
         # Refused before the results folder is made.
         self.assertFalse(os.path.exists(os.path.join(self.tmp.name, "out_short")))
 
-    def test_numbers_are_checked_where_they_are_parsed(self):
+    def test_numbers_and_names_are_checked_where_they_are_parsed(self):
         # Found in review: --epochs 0 and --batch-size 0 were tracebacks, --batch-size -4,
         # --jobs 0, --seeds 0, --combinations -2 ran something else silently, --window 0 was
-        # refused only after the data was read.
+        # refused only after the data was read; an unknown --models name when its first run
+        # started, after the windows were made (2026-11-26, fourth round).
         for command, flag, value, expected in (
                 ("one-at-a-time", "--epochs", "0", "an integer >= 1"),
                 ("one-at-a-time", "--epochs", "-1", "an integer >= 1"),
@@ -887,7 +888,9 @@ class CommandErrors(unittest.TestCase):
                 ("fewer-subjects", "--combinations", "-2", "an integer >= 1"),
                 ("fewer-subjects", "--sizes", "-1", "an integer >= 1"),
                 ("fewer-subjects", "--sizes", "1,0", "an integer >= 1"),
-                ("fidelity", "--window", "0", "an integer >= 2")):
+                ("fidelity", "--window", "0", "an integer >= 2"),
+                ("one-at-a-time", "--models", "deepconvlstm,foo", "one of deepconvlstm, attend"),
+                ("fewer-subjects", "--models", "attend,", "one of deepconvlstm, attend")):
             got = value.split(",")[-1]
             self.assertEqual(self.error([command, "--recordings", "/nonexistent", "--out", "/nonexistent",
                                          flag, value], code=2),
@@ -933,6 +936,24 @@ class CommandErrors(unittest.TestCase):
         self.assertEqual(self.error(["one-at-a-time", "--seeds", "1"] +
                                     self.run_args(os.path.join(self.rec, "recordings.json", "out"))),
                          prefix + f"{os.path.join(self.rec, 'recordings.json', 'out')}: Not a directory")
+
+    def test_a_corrupt_fitted_scene_file_is_named(self):
+        # Found in review (2026-11-26, fourth round): "Expecting ',' delimiter: line 2 column 27
+        # (char 55)", naming neither the file nor the trial.
+        root = os.path.dirname(data_file("utd_mhad", "README.md"))
+        scenes, out = os.path.join(self.tmp.name, "corrupt_scenes"), os.path.join(self.tmp.name, "out_scenes")
+        trial = os.path.join(scenes, "a1_s1_t1")
+        scene = write_scene(trial, ["right_wrist_watch"])
+        placement = os.path.join(trial, "placement.json")
+        argv = ["one-at-a-time", "--utd-mhad", root, "--subjects", "1", "--scenes", scenes, "--out", out]
+        for path, text, message in ((placement, '{"accelerometer": {"bias_mps2": [0.1,', ":1:38: Expecting value"),
+                                    (placement, "[0.1, 0.2]", ": expected a JSON object"),
+                                    (scene, '{"schema": "imukit.scene/1",\n "motion": {"bvh": "x.bvh"',
+                                     ":2:27: Expecting ',' delimiter")):
+            with open(path, "w") as f:
+                f.write(text)
+            self.assertEqual(self.error(argv), f"python3 -m imukit.har: error: {path}{message}")
+        self.assertFalse(os.path.exists(out))
 
     def test_utd_mhad_subjects_that_are_not_there_are_named(self):
         root = os.path.dirname(data_file("utd_mhad", "README.md"))

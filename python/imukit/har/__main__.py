@@ -14,7 +14,8 @@ import os
 import sys
 
 from . import experiments, recordings as rec_format, report, utd_mhad
-from .arguments import number, numbers
+from .arguments import names, number, numbers
+from .models import MODELS
 
 
 def _data(args):
@@ -77,7 +78,8 @@ def main(argv=None):
     common.add_argument("--scenes", help="fitted scenes, one folder per UTD-MHAD trial (<a_s_t>/scene.json)")
     common.add_argument("--subjects", help="only these subjects (comma separated, e.g. s1,s2,s3)")
     common.add_argument("--out", required=True, help="results folder")
-    common.add_argument("--models", default="deepconvlstm,attend")
+    common.add_argument("--models", type=names(MODELS), default="deepconvlstm,attend",
+                        help=f"comma separated, of {', '.join(MODELS)} (default %(default)s)")
     common.add_argument("--arms", help="comma separated arms (default: the experiment's)")
     common.add_argument("--window", type=number(int, 2), default=50, help="samples per window")
     common.add_argument("--stride", type=number(int, 1), default=25, help="samples between window starts")
@@ -150,20 +152,19 @@ def main(argv=None):
                                      patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
                                      policy=args.policy, output_screen=args.output_screen)
     state = experiments.prepare(R, settings)
-    models = args.models.split(",")
     subjects = R.subjects
     if args.command == "one-at-a-time":
         arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.ONE_AT_A_TIME_ARMS,
                                        options_all=args.options_all)
-        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds, _folds(args))
+        runs = experiments.one_at_a_time_runs(subjects, arms, args.models, args.seeds, _folds(args))
         name = "one_at_a_time"
     elif args.command == "fewer-subjects":
         arms = experiments.expand_arms(args.arms.split(",") if args.arms else experiments.FEWER_SUBJECTS_ARMS)
-        runs = experiments.fewer_subjects_runs(subjects, arms, models, args.sizes, args.combinations)
+        runs = experiments.fewer_subjects_runs(subjects, arms, args.models, args.sizes, args.combinations)
         name = "fewer_subjects"
     else:
         arms = ["baseline", "sim:identity"]
-        runs = experiments.one_at_a_time_runs(subjects, arms, models, args.seeds, _folds(args))
+        runs = experiments.one_at_a_time_runs(subjects, arms, args.models, args.seeds, _folds(args))
         name = "sim_only"
     missing = experiments.check_scenes(R, arms)
     experiments.check_splits(runs, state)

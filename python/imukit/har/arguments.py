@@ -1,7 +1,8 @@
-"""Command-line numbers checked where they are parsed: argparse names the flag in the error and
-exits with 2 (`argument --epochs: expected an integer >= 1, got '0'`), before any data is read.
-Found in review: --epochs 0 and --batch-size 0 were tracebacks, --jobs 0 and --seeds 0 silently
-did something else. Used by `python3 -m imukit.har` and `imukit.datasets.utd_mhad_scenes`.
+"""Command-line numbers and names checked where they are parsed: argparse names the flag in the
+error and exits with 2 (`argument --epochs: expected an integer >= 1, got '0'`), before any data
+is read. Found in review: --epochs 0 and --batch-size 0 were tracebacks, --jobs 0 and --seeds 0
+silently did something else, an unknown --models name failed only when its first run started.
+Used by `python3 -m imukit.har` and `imukit.datasets.utd_mhad_scenes`.
 """
 import argparse
 import math
@@ -30,4 +31,17 @@ def numbers(kind, minimum):
 
     def parse(text):
         return [one(item.strip()) for item in text.split(",")]
+    return parse
+
+
+def names(known):
+    """An argparse type: a comma-separated list of names, each one of `known`."""
+    expected = f"expected one of {', '.join(known)}"
+
+    def parse(text):
+        items = [item.strip() for item in text.split(",")]
+        for item in items:
+            if item not in known:
+                raise argparse.ArgumentTypeError(f"{expected}, got {item!r}")
+        return items
     return parse

@@ -203,11 +203,17 @@ def read_json_file(path, object_pairs_hook=None):
         raise FormatError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
 
 
+def read_json_object(path, object_pairs_hook=None):
+    """read_json_file's document when it is a JSON object; FormatError naming the file otherwise."""
+    doc = read_json_file(path, object_pairs_hook)
+    _require(isinstance(doc, dict), f"{path}: expected a JSON object")
+    return doc
+
+
 def read_recordings(folder):
     """Reads `folder/recordings.json` and the arrays it names; FormatError on anything malformed."""
     index = os.path.join(folder, "recordings.json")
-    doc = read_json_file(index, object_pairs_hook=_unique_keys)
-    _require(isinstance(doc, dict), f"{index}: expected a JSON object")
+    doc = read_json_object(index, object_pairs_hook=_unique_keys)
     _require(doc.get("schema") == SCHEMA, f"{index}: schema: expected \"{SCHEMA}\", got {doc.get('schema')!r}")
     known = {"schema", "name", "rate_hz", "classes", "units", "recordings"}
     for k in doc:

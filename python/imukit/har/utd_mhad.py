@@ -11,22 +11,22 @@ into the scene's motion (scene sample k is IMU sample k), so no offset is applie
 fitted constant biases come from the folder's `placement.json` (`imukit.placement/1`:
 `accelerometer.bias_mps2`, `gyroscope.bias_radps`) when there is one.
 """
-import json
 import os
 
 import numpy as np
 
 from ..datasets import utd_mhad as reader
-from .recordings import Recording, Recordings, SceneRef
+from .recordings import Recording, Recordings, SceneRef, read_json_object
 
 
 def scene_ref(folder, site):
-    """The SceneRef of one fitted-scene folder, or None when it has no scene.json."""
+    """The SceneRef of one fitted-scene folder, or None when it has no scene.json; a scene.json
+    or placement.json that is not a JSON object is a FormatError naming the file (and line:column:
+    found in review, the message of a truncated one named neither)."""
     path = os.path.join(folder, "scene.json")
     if not os.path.exists(path):
         return None
-    with open(path, encoding="utf-8") as f:
-        doc = json.load(f)
+    doc = read_json_object(path)
     names = [s.get("name", s.get("preset")) for s in doc.get("sensors", [])]
     if site in names:
         sensor = site
@@ -37,8 +37,7 @@ def scene_ref(folder, site):
     bias = None
     placement = os.path.join(folder, "placement.json")
     if os.path.exists(placement):
-        with open(placement, encoding="utf-8") as f:
-            p = json.load(f)
+        p = read_json_object(placement)
         ba = p.get("accelerometer", {}).get("bias_mps2")
         bg = p.get("gyroscope", {}).get("bias_radps")
         if ba is not None or bg is not None:
