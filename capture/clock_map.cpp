@@ -200,23 +200,40 @@ bool DeviceClock::follows(const Stamp& a, const Stamp& b) const {
   return static_cast<double>(b.ticks - a.ticks) / tick_hz_ <= *host_elapsed + kMaxLeadS;
 }
 
-bool DeviceClock::bridges_gap(const Segment& seg, const Stamp& b) const {
+std::optional<DeviceClock::IndexStep> DeviceClock::index_step(const Segment& seg,
+                                                              const Stamp& b) const {
   const Stamp& a = seg.last;
   const Stamp& r = seg.run;
-  if (!a.index || !b.index || !r.index) return false;
-  if (*b.index <= *a.index || b.ticks < a.ticks || *a.index <= *r.index || a.ticks <= r.ticks)
-    return false;
-  // Both clocks of the device, its tick and its sample counter, say the same time elapsed.
+  if (!a.index || !b.index || !r.index) return std::nullopt;
+  if (*b.index <= *a.index || *a.index <= *r.index || a.ticks <= r.ticks) return std::nullopt;
   const double per_index =
       static_cast<double>(a.ticks - r.ticks) / static_cast<double>(*a.index - *r.index);
-  const double expected = static_cast<double>(*b.index - *a.index) * per_index;
-  return std::abs(static_cast<double>(b.ticks - a.ticks) - expected) <=
-         0.5 * per_index + kGapTolerance * expected;
+  const double ticks = static_cast<double>(*b.index - *a.index) * per_index;
+  return IndexStep{ticks, 0.5 * per_index + kGapTolerance * ticks};
+}
+
+bool DeviceClock::bridges_gap(const Segment& seg, const Stamp& b) const {
+  // Both clocks of the device, its tick and its sample counter, say the same time elapsed.
+  const std::optional<IndexStep> step = index_step(seg, b);
+  return step && b.ticks >= seg.last.ticks &&
+         std::abs(static_cast<double>(b.ticks - seg.last.ticks) - step->ticks) <= step->tolerance;
+}
+
+bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) const {
+  if (!b.counter || b.ticks < seg.last.ticks) return false;
+  const std::optional<IndexStep> step = index_step(seg, b);
+  const double tick_step = static_cast<double>(b.ticks - seg.last.ticks);
+  if (!step || tick_step <= step->ticks + step->tolerance) return false;
+  // A counter of a few bits undercounts a loss longer than half its range, which a live stream's
+  // host time shows (the samples after it arrive when they are made); a damaged tick arrives
+  // with its neighbours, and in a replay every sample does.
+  const std::optional<double> host_elapsed = seconds_since(b.host, seg.last.host);
+  return !host_elapsed || *host_elapsed < 0.5 * tick_step / tick_hz_;
 }
 
 bool DeviceClock::continues_segment(const Stamp& b) const {
   const Segment& seg = segments_.back();
-  return follows(seg.last, b) || bridges_gap(seg, b);
+  return bridges_gap(seg, b) || (follows(seg.last, b) && !runs_ahead_of_counter(seg, b));
 }
 
 std::size_t DeviceClock::candidate_run(const Stamp& b) const {
@@ -246,9 +263,9 @@ void DeviceClock::accept(const Stamp& s) {
 }
 
 double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
-                              std::optional<uint64_t> sample_index) const {
+                              std::optional<uint64_t> sample_index, bool counter) const {
   if (segments_.empty()) return 0.0;
-  const Stamp s{next_k_, device_ticks, host_receive, sample_index};
+  const Stamp s{next_k_, device_ticks, host_receive, sample_index, counter};
   const Segment& seg = segments_.back();
   const auto since_first = [&](uint64_t ticks) {
     return static_cast<double>(ticks - seg.first.ticks);
@@ -269,8 +286,8 @@ double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
 }
 
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
-                             std::optional<uint64_t> sample_index) {
-  const Stamp s{next_k_++, device_ticks, host_receive, sample_index};
+                             std::optional<uint64_t> sample_index, bool counter) {
+  const Stamp s{next_k_++, device_ticks, host_receive, sample_index, counter};
   const bool was_accepted = last_accepted_;
   last_added_ = s;
   if (segments_.empty()) {

@@ -131,13 +131,20 @@ class ClockMapper {
 // it), unless its sample index says the same: a tick step that is the index step at the
 // segment's own ticks per index (within half a period and kGapTolerance) is a gap, samples lost
 // while the clock ran on, not a restart (a replay reads a gap of seconds in microseconds of host
-// time; found in review: a replay's gaps of 1 s and more vanished from its time axis). A sample
-// that fails is an outlier: left out of the fit, and timed from the last accepted
-// sample plus its place in the sequence at the segment's mean sample period. kRestartSamples
-// outliers in a row that agree with each other are a restart: they begin a new segment, a new
-// ClockMapper on their own clock. A segment's times begin no earlier than one sample period
-// after the previous segment's last (where the host times cannot place it: a file replayed
-// faster than it was recorded), so a recording's times run forward through restarts.
+// time; found in review: a replay's gaps of 1 s and more vanished from its time axis). Where the
+// index counts every sample made (a device's counter: a loss is a jump in it), a tick step
+// beyond the index step's is damaged whatever the host time allows, unless the host time since
+// the last sample covers half of it (a live stream's loss that a counter of a few bits, as the
+// Sony pads', undercounts; a replay's host time never does). Found in review (2026-11-26, fourth
+// round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after it went
+// back and began a new segment, and `record --duration 2` kept 1,201 samples. A count of the
+// samples that arrived (a text stream's) cannot tell such a tick from samples lost and keeps the
+// host-time rule alone. A sample that fails is an outlier: left out of the fit, and timed from
+// the last accepted sample plus its place in the sequence at the segment's mean sample period.
+// kRestartSamples outliers in a row that agree with each other are a restart: they begin a new
+// segment, a new ClockMapper on their own clock. A segment's times begin no earlier than one
+// sample period after the previous segment's last (where the host times cannot place it: a file
+// replayed faster than it was recorded), so a recording's times run forward through restarts.
 //
 // Samples are numbered in the order they are added (k = 0, 1, ...); the offline re-timing of a
 // recording adds them all in a first pass and asks for their times by number in a second.
@@ -153,10 +160,11 @@ class DeviceClock {
 
   // The next sample: its (unwrapped) device tick and when it reached the host; samples that
   // arrived together (the same host time) are one packet (ClockMapper::add_sample). The sample's
-  // index on the device's counter (drivers::Sample::sequence), where it has one, lets a gap be
-  // told from a restart.
+  // index (drivers::Sample::sequence), where it has one, lets a gap be told from a restart;
+  // `counter`: the index counts every sample made, lost ones included
+  // (drivers::Sample::has_sample_counter), and holds the tick step to its own.
   void add_sample(uint64_t device_ticks, TimeNs host_receive,
-                  std::optional<uint64_t> sample_index = std::nullopt);
+                  std::optional<uint64_t> sample_index = std::nullopt, bool counter = false);
   // True when the sample just added continues the one before it on the same clock (neither is
   // an outlier, no restart between): its tick step is elapsed device time.
   bool continues() const { return continues_; }
@@ -167,7 +175,7 @@ class DeviceClock {
   // at its place in the sequence, as time_of puts it. Lets a caller decide on a sample (whether
   // it is inside a recording's duration) before it enters the fit.
   double elapsed_s(uint64_t device_ticks, TimeNs host_receive,
-                   std::optional<uint64_t> sample_index = std::nullopt) const;
+                   std::optional<uint64_t> sample_index = std::nullopt, bool counter = false) const;
   // The online time of the sample just added: the fit of its segment, slewed so that it never
   // goes before the previous sample's; outliers advance by the host time elapsed.
   TimeNs online_time();
@@ -189,7 +197,8 @@ class DeviceClock {
     std::size_t k = 0;
     uint64_t ticks = 0;
     TimeNs host = 0;
-    std::optional<uint64_t> index;  // on the device's sample counter
+    std::optional<uint64_t> index;  // drivers::Sample::sequence
+    bool counter = false;           // index counts every sample made (add_sample)
   };
   struct Segment {
     ClockMapper mapper;
@@ -204,10 +213,21 @@ class DeviceClock {
   // b can follow a on one clock: its tick not before a's, nor ahead by more than the host time
   // elapsed plus kMaxLeadS.
   bool follows(const Stamp& a, const Stamp& b) const;
-  // b continues seg across a gap: its tick step from seg's last sample is its index step at the
-  // ticks per index seg's latest run of indices shows.
+  // The tick step from seg's last sample to b that b's index step gives at the ticks per index
+  // seg's latest run of indices shows, and how far off the tick step may be (half a period and
+  // kGapTolerance): where b's index is ahead of the last one's and the run has a rate.
+  struct IndexStep {
+    double ticks;
+    double tolerance;
+  };
+  std::optional<IndexStep> index_step(const Segment& seg, const Stamp& b) const;
+  // b continues seg across a gap: its tick step from seg's last sample is its index step's.
   bool bridges_gap(const Segment& seg, const Stamp& b) const;
-  bool continues_segment(const Stamp& b) const;  // follows or bridges_gap, from the last segment
+  // b's tick runs ahead of its sample counter (b.counter) by more than the index step allows,
+  // and the host time since seg's last sample does not cover half its tick step.
+  bool runs_ahead_of_counter(const Segment& seg, const Stamp& b) const;
+  // bridges_gap, or follows and does not run ahead of its counter, from the last segment.
+  bool continues_segment(const Stamp& b) const;
   // How many outliers in a row that agree with each other b would make (kRestartSamples: a
   // restart), were it an outlier.
   std::size_t candidate_run(const Stamp& b) const;

@@ -47,8 +47,9 @@ struct RawImuMessage {
   std::array<int32_t, 3> gyro = {};
   std::array<int32_t, 3> mag = {};
   int32_t temperature = 0;
-  uint8_t channels =
-      0;  // raw counts: bit 0 accel, 1 gyro, 2 mag, 3 temperature; bit 4 device clock
+  // Raw counts: bit 0 accel, 1 gyro, 2 mag, 3 temperature; bit 4 device clock; bit 5
+  // sample_index counts every sample made (a device's counter).
+  uint8_t channels = 0;
 };
 
 struct MagneticFieldMessage {

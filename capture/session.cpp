@@ -25,9 +25,11 @@ constexpr std::string_view kSyncSchema =
     R"({"type":"object","properties":{"host_send_ns":{"type":"integer"},"host_receive_ns":{"type":"integer"},"device_rx_ns":{"type":"integer"},"device_tx_ns":{"type":"integer"}}})";
 constexpr std::string_view kEventSchema =
     R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
-// RawImuMessage::channels bit meaning "device_ticks holds the device clock" (bits 0-3 name the
-// raw channels present).
+// RawImuMessage::channels bits meaning "device_ticks holds the device clock" and "sample_index
+// counts every sample made" (drivers::Sample::has_sample_counter), so that the offline refit
+// holds ticks to it as the recording did (bits 0-3 name the raw channels present).
 constexpr uint8_t kRawHasDeviceClock = 1u << 4;
+constexpr uint8_t kRawHasSampleCounter = 1u << 5;
 
 std::span<const uint8_t> bytes_of(const std::string& s) {
   return {reinterpret_cast<const uint8_t*>(s.data()), s.size()};
@@ -187,7 +189,8 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
                   const Live& live) {
   TimeNs t = s.host_time;
   if (s.has_device_time) {
-    d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence);
+    d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence,
+                       s.has_sample_counter);
     t = d.clock.online_time();
   }
   // Raw first: the offline refit maps the raw message and gives its time to the IMU message
@@ -203,7 +206,8 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
                                          : 0;
   raw.tick_hz = ticks ? s.tick_hz : s.has_device_time ? 1e9 : 0.0;
   raw.channels =
-      static_cast<uint8_t>((s.raw_channels & 0x0F) | (s.has_device_time ? kRawHasDeviceClock : 0));
+      static_cast<uint8_t>((s.raw_channels & 0x0F) | (s.has_device_time ? kRawHasDeviceClock : 0) |
+                           (s.has_sample_counter ? kRawHasSampleCounter : 0));
   raw.accel = s.raw_accel;
   raw.gyro = s.raw_gyro;
   raw.mag = s.raw_mag;
@@ -360,7 +364,8 @@ void start_readers(Devices& devices) {
 // confirmed it (found in review: 520 samples for 0.5 s at 1 kHz with a damaged tick every 50).
 double seconds_since_first(const Device& d, const drivers::Sample& s) {
   if (!s.has_device_time || !d.has_device_time) return to_seconds(s.host_time - d.first_host);
-  return d.clock.elapsed_s(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence);
+  return d.clock.elapsed_s(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence,
+                           s.has_sample_counter);
 }
 
 // The writer's side of a running session: moves what the reader threads queue into the file.
@@ -653,7 +658,8 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
       if (raw) scan.gaps[it->second].add(raw->sample_index);
       if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
         scan.clocks.try_emplace(it->second, 1e9)
-            .first->second.add_sample(*ns, raw->host_receive_time, raw->sample_index);
+            .first->second.add_sample(*ns, raw->host_receive_time, raw->sample_index,
+                                      (raw->channels & kRawHasSampleCounter) != 0);
       }
     } else if (const auto s = scan.sync_channels.find(m.channel_id);
                s != scan.sync_channels.end()) {

@@ -17,6 +17,15 @@ uint64_t floor_mul_div(uint64_t n, uint64_t k, uint64_t r) {
   return q * k + a * c + (a * b) / r;
 }
 
+// The same modulo 2^64 for a negative n too: floor(-m k / r) = -ceil(m k / r), and m k mod r is
+// (m mod r)(k mod r) mod r.
+uint64_t signed_floor_mul_div(int64_t n, uint64_t k, uint64_t r) {
+  if (n >= 0) return floor_mul_div(static_cast<uint64_t>(n), k, r);
+  const uint64_t m = 0 - static_cast<uint64_t>(n);
+  const uint64_t inexact = (m % r) * (k % r) % r != 0 ? 1 : 0;
+  return 0 - (floor_mul_div(m, k, r) + inexact);
+}
+
 // A 32-bit counter (a device tick, a sample index) raw as the 64-bit value nearest `near` (the
 // half-range rule around a prediction rather than around the last value seen).
 int64_t nearest(uint32_t raw, int64_t near) {
@@ -285,7 +294,8 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
   int64_t first = have_index_ ? nearest(b.sample_index, next_index_) : int64_t{b.sample_index};
   int skip = 0;  // leading samples of the block that the stream has already passed
   if (have_index_ && first < next_index_) {
-    if (out_of_order && on_stepping(first, b.first_tick)) {
+    // A block before sample 0 is no copy of this stream's: a loss or a new stream.
+    if (out_of_order && first >= 0 && on_stepping(first, b.first_tick)) {
       // A frame numbered just before the newest, its first tick where this stream's stepping
       // puts its index: the link repeated it or delivered it late (a device that restarts
       // numbers its frames and its samples anew). Its samples were handed out, or counted as
@@ -346,6 +356,7 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
     Sample s;
     s.host_time = host_time;
     s.sequence = static_cast<uint64_t>(first + i);
+    s.has_sample_counter = true;
     if (rate_mhz_ > 0 && first >= 0) {
       // The device's stepping counts from the session start: sample n is due at
       // start + floor(n * tick_hz * 1000 / rate_mhz), so within a block the offset from
@@ -386,8 +397,11 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
 }
 
 std::optional<int64_t> ImukitCodec::tick_due(int64_t index) const {
-  if (!last_block_ || !info_ || rate_mhz_ == 0 || index < 0 || last_block_->index < 0)
-    return std::nullopt;
+  // Also before sample 0, where the half-range rule can put a block behind a stream that began
+  // at 0: is_long_loss judges it on the stepping there as behind any other (found in review,
+  // 2026-11-26, fourth round: no tick was due there, so the tick alone said a loss and the host
+  // time was never asked).
+  if (!last_block_ || !info_ || rate_mhz_ == 0) return std::nullopt;
   // t(n) = t0 + floor(n tick_hz 1000 / rate_mhz) (docs/protocol.md, sample timing).
   const uint64_t per_second_mticks = static_cast<uint64_t>(info_->tick_hz) * 1000u;
   // A tick beyond 2^62, or 2^33 s (272 years) of device time, is no real stream's (a crafted
@@ -402,9 +416,8 @@ std::optional<int64_t> ImukitCodec::tick_due(int64_t index) const {
   // far inside the int64 range.
   return last_block_->tick +
          static_cast<int64_t>(
-             floor_mul_div(static_cast<uint64_t>(index), per_second_mticks, rate_mhz_) -
-             floor_mul_div(static_cast<uint64_t>(last_block_->index), per_second_mticks,
-                           rate_mhz_));
+             signed_floor_mul_div(index, per_second_mticks, rate_mhz_) -
+             signed_floor_mul_div(last_block_->index, per_second_mticks, rate_mhz_));
 }
 
 bool ImukitCodec::on_stepping(int64_t index, uint32_t first_tick) const {

@@ -81,8 +81,8 @@ class ImukitCodec : public Codec {
   void on_block(const proto::SampleBlock& b, bool out_of_order, TimeNs host_time,
                 std::vector<Sample>& out);
   void sync_frame_stats();
-  // The unwrapped tick the device's stepping gives sample `index` of the current stream, when
-  // a block of it was handed out and the rate is known.
+  // The unwrapped tick the device's stepping gives sample `index` of the current stream (the
+  // rule extended before sample 0 too), when a block of it was handed out and the rate is known.
   std::optional<int64_t> tick_due(int64_t index) const;
   // Whether a block's first tick is the one the stepping gives `index` (within half a period).
   bool on_stepping(int64_t index, uint32_t first_tick) const;

@@ -31,6 +31,10 @@ struct Sample {
   // Cumulative sample number: the device's counter unwrapped to 64 bits when it has one (so
   // gaps show), otherwise the count of samples decoded so far.
   uint64_t sequence = 0;
+  // sequence counts every sample the device made, lost ones included (its counter, or the slot
+  // of a stream at a known rate): a loss is a jump in it, so a tick step beyond its step is a
+  // damaged tick (capture's DeviceClock). False for a count of the samples decoded.
+  bool has_sample_counter = false;
   uint8_t channels = 0;           // kHas* bits
   std::array<double, 3> accel{};  // specific force, m/s^2
   std::array<double, 3> gyro{};   // angular rate, rad/s

@@ -80,6 +80,7 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
   if (!opt_.send_commands && opt_.rate_hz > 0) {
     const uint64_t slot = group_slot_;
     current_.sequence = slot;
+    current_.has_sample_counter = true;
     current_.has_device_time = true;
     current_.device_ticks = slot;
     current_.tick_hz = opt_.rate_hz;

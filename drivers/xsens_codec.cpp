@@ -262,6 +262,7 @@ void XsensCodec::on_message(uint8_t mid, std::span<const uint8_t> data, TimeNs h
       c = counter_.unwrap(*pk.packet_counter);
     }
     s.sequence = static_cast<uint64_t>(c);
+    s.has_sample_counter = true;
   } else {
     s.sequence = decoded_;
   }

@@ -421,6 +421,50 @@ TEST(DeviceClock, AGapTheSampleIndexAgreesWithIsNoRestart) {
   EXPECT_EQ(damaged.fit().segments, 1u);
 }
 
+// Found in review (2026-11-26, fourth round): a tick 0.8 s ahead (sample 25 of 1 kHz on a 1 MHz
+// clock) was within the host time plus kMaxLeadS and taken as samples lost; the samples after it
+// went back and began a second segment. Where the index counts every sample made, its step of 1
+// holds the tick to one period: an outlier, one segment, and the device time elapsed runs on
+// through it (1.999 s at sample 1999), in a replay (host time 20 us per block) and live alike. A
+// count of the samples that arrived (a text stream's) cannot tell it from 0.8 s of samples lost
+// and keeps the old reading. A live stream whose counter undercounts a loss (8 bits, 268 samples
+// lost at index 231: a step of 13) keeps the tick where the host time covers it.
+TEST(DeviceClock, ATickAheadOfItsSampleCounterIsAnOutlier) {
+  struct Case {
+    const char* name;
+    bool counter;
+    bool live;             // host times at the true times, else a replay
+    int64_t lost;          // samples lost before sample 1000 (then no damaged tick)
+    uint64_t index_range;  // the counter wraps here (0: 64 bits)
+    std::size_t segments, outliers;
+    double elapsed_s;  // at sample 1999
+  };
+  // Without a counter the 0.8 s stays in the first segment's span: 0.825 + (1999 - 26) ms.
+  for (const Case c :
+       {Case{"replay", true, false, 0, 0, 1, 1, 1.999}, Case{"live", true, true, 0, 0, 1, 1, 1.999},
+        Case{"replay without a counter", false, false, 0, 0, 2, 0, 2.798},
+        Case{"live, 8-bit counter, a loss", true, true, 268, 256, 1, 0, 2.267}}) {
+    DeviceClock clock(1e6);
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    double last_elapsed = 0.0;
+    for (int64_t i = 0; i < 2000; ++i) {
+      const int64_t made = i < 1000 ? i : i + c.lost;
+      const uint64_t tick =
+          static_cast<uint64_t>(made) * 1000 + (c.lost == 0 && i == 25 ? 800'000 : 0);
+      const TimeNs received =
+          c.live ? host0 + (made / 8 * 8 + 8) * 1'000'000 : host0 + i / 8 * 20'000;
+      const uint64_t index =
+          c.index_range ? static_cast<uint64_t>(made) % c.index_range : static_cast<uint64_t>(made);
+      if (i == 1999) last_elapsed = clock.elapsed_s(tick, received, index, c.counter);
+      clock.add_sample(tick, received, index, c.counter);
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, c.segments) << c.name;
+    EXPECT_EQ(clock.fit().outliers, c.outliers) << c.name;
+    EXPECT_NEAR(last_elapsed, c.elapsed_s, 1e-9) << c.name;
+  }
+}
+
 // What a damaged or crafted file can feed the clock fit during recovery: receive times 2^63 ns
 // apart, ticks going back, a host clock stepping back. Nothing overflows (UBSan checks), such
 // packets are counted and left out, and the map neither runs backwards nor wraps.

@@ -437,28 +437,36 @@ TEST(ImukitCodec, AnIndexJumpOfHalfTheRangeOrMoreIsALossWhenTheTickAgrees) {
 }
 
 // Where the sample period is a whole number of ticks (128 Hz on 32768 Hz: 256 ticks), 2^32 samples
-// are whole tick wraps: a stream past sample 2^31 has its tick on the stepping at the index ahead
-// and at the one behind alike, so the tick cannot tell a loss of 2^31 samples from a block of
-// the stream's past. The host time does: the loss takes 194 days at 128 Hz, a block of the past
-// arrives at once (a replay, whose host times are read times, keeps the half-range rule's step
-// back).
+// are whole tick wraps: the tick is on the stepping at the index ahead and at the one behind
+// alike, so it cannot tell a loss of 2^31 samples from a step back (a block of the stream's past,
+// or from a stream that starts at 0, one before its start: a new stream). The host time does: the
+// loss takes 194 days at 128 Hz, a step back arrives at once (a replay, whose host times are read
+// times, keeps the half-range rule's step back). Found in review (2026-11-26, fourth round): from
+// start 0 the index behind is negative, where the stepping was not computed, so the tick alone
+// said a loss and a replay dropped 2^31 samples.
 TEST(ImukitCodec, WhereTheTickCannotTellAnIndexJumpIsALossOnlyIfTheHostTimeCoversIt) {
-  const int64_t start = int64_t{1} << 31, jump = int64_t{1} << 31;
-  const std::vector<BlockAt> blocks = fifty_blocks_then_a_jump(start, jump, 128);
-  const std::vector<uint8_t> bytes = blocks_at(blocks, 128);
-  const std::size_t first_fifty =
-      blocks_at(std::vector<BlockAt>(blocks.begin(), blocks.begin() + 50), 128).size();
-  const TimeNs jump_ns = jump * kNsPerSecond / 128;
-  for (const TimeNs later : {TimeNs{0}, jump_ns / 2 - 1, jump_ns / 2, jump_ns}) {
-    ImukitCodec codec(ImukitCodecOptions{false, 128.0, 8, 0, 0});
-    std::vector<Sample> out;
-    codec.feed(std::span(bytes).first(first_fifty), 0, out);
-    codec.feed(std::span(bytes).subspan(first_fifty), later, out);
-    ASSERT_EQ(out.size(), 800u) << later;
-    const bool loss = later >= jump_ns / 2;
-    EXPECT_EQ(codec.stats().samples_dropped, loss ? static_cast<uint64_t>(jump) : 0u) << later;
-    EXPECT_EQ(codec.stats().counter_resets, loss ? 0u : 1u) << later;
-    EXPECT_EQ(out[400].sequence, loss ? static_cast<uint64_t>(start + 400 + jump) : 400u) << later;
+  const int64_t range = int64_t{1} << 32, jump = range / 2;
+  for (const int64_t start : {int64_t{0}, range / 2}) {
+    const std::vector<BlockAt> blocks = fifty_blocks_then_a_jump(start, jump, 128);
+    const std::vector<uint8_t> bytes = blocks_at(blocks, 128);
+    const std::size_t first_fifty =
+        blocks_at(std::vector<BlockAt>(blocks.begin(), blocks.begin() + 50), 128).size();
+    const TimeNs jump_ns = jump * kNsPerSecond / 128;
+    for (const TimeNs later : {TimeNs{0}, jump_ns / 2 - 1, jump_ns / 2, jump_ns}) {
+      ImukitCodec codec(ImukitCodecOptions{false, 128.0, 8, 0, 0});
+      std::vector<Sample> out;
+      codec.feed(std::span(bytes).first(first_fifty), 0, out);
+      codec.feed(std::span(bytes).subspan(first_fifty), later, out);
+      ASSERT_EQ(out.size(), 800u) << start << " " << later;
+      const bool loss = later >= jump_ns / 2;
+      EXPECT_EQ(codec.stats().samples_dropped, loss ? static_cast<uint64_t>(jump) : 0u)
+          << start << " " << later;
+      EXPECT_EQ(codec.stats().counter_resets, loss ? 0u : 1u) << start << " " << later;
+      // A step back is numbered from the raw index (start + 400 + jump modulo 2^32).
+      const int64_t index = start + 400 + jump;
+      EXPECT_EQ(out[400].sequence, static_cast<uint64_t>(loss ? index : index % range))
+          << start << " " << later;
+    }
   }
 }
 
