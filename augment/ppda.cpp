@@ -26,6 +26,12 @@ using Eigen::Vector3d;
 
 namespace {
 
+// A window's re-timed span needs more motion than the scene has (a speed drawn too fast for a
+// short motion): apply() flags the window instead where its caller asks to (too_short).
+struct MotionTooShort : Error {
+  using Error::Error;
+};
+
 // Frames of margin on each side of a window's motion: the spline simulator's stencil reaches
 // one frame back and two ahead of an interval, and the source interpolation one more.
 constexpr int64_t kMargin = 3;
@@ -574,7 +580,7 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   const auto [x_min, x_max] = std::minmax_element(wk.x.begin(), wk.x.end());
   const double x0 = *x_min, x1 = *x_max;
   if (x1 - x0 > last) {
-    throw Error(
+    throw MotionTooShort(
         fmt::format("augment: a window of {} samples at this speed needs {:.0f} frames; "
                     "the motion has {}",
                     T, x1 - x0 + 1, frames));
@@ -868,13 +874,19 @@ Carriers PpdaAugmenter::Impl::carriers_for(const SubPolicy& sub) const {
 }
 
 void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng,
-                          std::span<float> out, unsigned threads, std::vector<PpdaWindowLog>* log) {
+                          std::span<float> out, unsigned threads, std::vector<PpdaWindowLog>* log,
+                          std::span<uint8_t> too_short) {
   Impl& m = *impl_;
   const std::size_t T = m.options.window, C = channels();
   if (out.size() != starts.size() * T * C) {
     throw Error(fmt::format("augment: output of {} floats for {} windows x {} x {}", out.size(),
                             starts.size(), T, C));
   }
+  if (!too_short.empty() && too_short.size() != starts.size()) {
+    throw Error(
+        fmt::format("augment: {} too-short flags for {} windows", too_short.size(), starts.size()));
+  }
+  std::fill(too_short.begin(), too_short.end(), uint8_t{0});
   for (int64_t s : starts) m.check_start(s);
   check(sub);
   const Carriers carriers = m.carriers_for(sub);
@@ -891,8 +903,14 @@ void PpdaAugmenter::apply(const SubPolicy& sub, std::span<const int64_t> starts,
       wk->simulator = std::make_unique<sim::Simulator>(m.body, carriers.specs, m.sim_options);
     }
     Rng r = root.child(k);
-    m.simulate_window(sub, carriers, starts[k], r, *wk, nullptr, out.data() + k * T * C,
-                      log != nullptr ? &(*log)[k] : nullptr);
+    try {
+      m.simulate_window(sub, carriers, starts[k], r, *wk, nullptr, out.data() + k * T * C,
+                        log != nullptr ? &(*log)[k] : nullptr);
+    } catch (const MotionTooShort&) {
+      // Its rows are untouched: retime() throws before the window is simulated.
+      if (too_short.empty()) throw;
+      too_short[k] = 1;
+    }
   });
 }
 

@@ -87,9 +87,13 @@ class PpdaAugmenter {
   // covers b times the base span around the base window's centre, moved inside the motion when
   // it would leave it. An identity-speed window never moves: it is the plain simulation's samples
   // starts[k] .. starts[k] + window - 1 (before amplitude, placement and hardware changes), the
-  // first and last windows included.
+  // first and last windows included. A window whose re-timed span needs more motion than the
+  // scene has (a speed drawn too fast for a short motion) throws imukit::Error; with
+  // `too_short` (starts.size() flags) it is flagged there instead and its rows of out are left
+  // as they were, the other windows as without it (each window draws its own numbers).
   void apply(const SubPolicy& sub, std::span<const int64_t> starts, Rng& rng, std::span<float> out,
-             unsigned threads = 1, std::vector<PpdaWindowLog>* log = nullptr);
+             unsigned threads = 1, std::vector<PpdaWindowLog>* log = nullptr,
+             std::span<uint8_t> too_short = {});
   void apply(const Policy& policy, std::size_t sub_policy, std::span<const int64_t> starts,
              Rng& rng, std::span<float> out, unsigned threads = 1);
   // The same, double precision, single window, no threads (tests).

@@ -335,8 +335,25 @@ struct AugmenterHandle {
 
 // sub: a SubPolicy, a dict in the policy layout, an index into `policy`, or a description
 // string equal to one of `policy`'s sub-policies' describe().
+// Augmenter.apply's too_short=: None, or a writable C-contiguous bool array of one flag per
+// window, which apply fills (augment::PpdaAugmenter::apply).
+std::span<uint8_t> too_short_flags(py::handle obj, py::ssize_t n) {
+  if (obj.is_none()) return {};
+  const py::array a = as_array(obj, "too_short");
+  if (!a.dtype().is(py::dtype::of<bool>()))
+    throw py::type_error("too_short: expected a bool array, got " + dtype_name(a));
+  if (a.ndim() != 1 || a.shape(0) != n) {
+    throw py::value_error("too_short: expected shape (" + std::to_string(n) + ",), got " +
+                          shape_string(a));
+  }
+  require_writable_batch(a, "too_short");
+  static_assert(sizeof(bool) == sizeof(uint8_t));
+  return {static_cast<uint8_t*>(const_cast<void*>(a.data())), static_cast<std::size_t>(n)};
+}
+
 py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, py::handle rng_obj,
-                     const Policy* policy, py::handle out_obj, unsigned threads) {
+                     const Policy* policy, py::handle out_obj, unsigned threads,
+                     py::handle too_short_obj) {
   augment::PpdaAugmenter& a = *h.augmenter;
   const auto starts_arr = read_int64(starts_obj, "starts", "sample indices");
   const std::span<const int64_t> starts(starts_arr.data(),
@@ -360,6 +377,7 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
   }
   const std::span<float> data(static_cast<float*>(out.mutable_data()),
                               static_cast<std::size_t>(n * window * channels));
+  const std::span<uint8_t> too_short = too_short_flags(too_short_obj, n);
   std::optional<Rng> storage;
   Rng& rng = rng_argument(rng_obj, storage);
   std::optional<SubPolicy> chosen;
@@ -398,11 +416,8 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
   {
     py::gil_scoped_release release;
     const std::lock_guard<std::mutex> lock(h.mutex);
-    if (index) {
-      a.apply(*policy, *index, starts, rng, data, threads);
-    } else {
-      a.apply(*chosen, starts, rng, data, threads);
-    }
+    a.apply(index ? policy->sub_policies[*index] : *chosen, starts, rng, data, threads, nullptr,
+            too_short);
   }
   return out;
 }
@@ -666,12 +681,14 @@ rate_hz=0) (see augment/policy.hpp: jittering last, a profile's sigmas at rate_h
 
   py::class_<AugmenterHandle, std::shared_ptr<AugmenterHandle>>(m, "Augmenter", R"doc(
 PPDA on a scene: Augmenter(scene, window=100, method="spline") compiles the scene once; then
-apply(sub, starts, rng, policy=None, out=None, threads=0) simulates the windows starting at
-`starts` (sample indices, e.g. window_starts(stride)) under one sub-policy and returns an
-(N, window, 6 x sensors) float32 array (channels ax ay az gx gy gz per sensor). sub: a
-SubPolicy, a dict in the policy layout, or an index / description of a sub-policy of `policy`.
-The windows are spread over `threads` C++ threads (0: all cores) with the GIL released; the
-result does not depend on the thread count.)doc")
+apply(sub, starts, rng, policy=None, out=None, threads=0, too_short=None) simulates the windows
+starting at `starts` (sample indices, e.g. window_starts(stride)) under one sub-policy and
+returns an (N, window, 6 x sensors) float32 array (channels ax ay az gx gy gz per sensor). sub:
+a SubPolicy, a dict in the policy layout, or an index / description of a sub-policy of `policy`.
+A window sped up beyond what the scene's motion can give raises imukit.Error; with too_short (a
+bool array of N) it is flagged there and its rows of out left as they were. The windows are
+spread over `threads` C++ threads (0: all cores) with the GIL released; the result does not
+depend on the thread count.)doc")
       .def(py::init([](py::handle scene, std::size_t window, const std::string& method) {
              augment::PpdaOptions o;
              o.window = window;
@@ -709,10 +726,12 @@ result does not depend on the thread count.)doc")
       .def(
           "apply",
           [](AugmenterHandle& h, py::handle sub, py::handle starts, py::handle rng,
-             const Policy* policy, py::handle out,
-             unsigned threads) { return ppda_apply(h, sub, starts, rng, policy, out, threads); },
+             const Policy* policy, py::handle out, unsigned threads, py::handle too_short) {
+            return ppda_apply(h, sub, starts, rng, policy, out, threads, too_short);
+          },
           py::arg("sub"), py::arg("starts"), py::arg("rng"), py::kw_only(),
-          py::arg("policy") = nullptr, py::arg("out") = py::none(), py::arg("threads") = 0);
+          py::arg("policy") = nullptr, py::arg("out") = py::none(), py::arg("threads") = 0,
+          py::arg("too_short") = py::none());
 
   // The same work as Augmenter.apply / stda(out=x), looped and timed in C++ (no Python between
   // calls): the baseline of the call-overhead benchmark.

@@ -651,6 +651,45 @@ TEST(Ppda, EveryInstructionSetVariantGivesTheSameBatch) {
   }
 }
 
+// Found on 2026-11-26: one window sped up beyond its short motion ended a HAR experiment of 64
+// runs. With too_short the caller gets the other windows, as they are without it, and the flags.
+TEST(Ppda, AWindowTooShortForItsSpeedIsFlaggedWhereTheCallerAsks) {
+  const sim::Scene scene = sinusoid_scene(300);  // 300 samples, windows of 100
+  PpdaAugmenter aug(scene);
+  const std::size_t T = aug.window(), C = aug.channels();
+  SubPolicy fast;
+  fast.speed.method = WarpMethod::scaling;
+  fast.speed.lo = 1.0;
+  fast.speed.hi = 4.0;  // b > about 2.9 needs more than the 300 samples
+  const std::vector<int64_t> starts = {0, 50, 100, 150, 200, 0, 100, 200};
+  std::vector<float> out(starts.size() * T * C, -7.0f);
+  std::vector<uint8_t> too_short(starts.size(), 9);
+  Rng rng(5);
+  aug.apply(fast, starts, rng, out, 2, nullptr, too_short);
+  const std::vector<uint8_t> expected = {1, 0, 0, 0, 0, 1, 0, 0};  // drawn by Rng(5)
+  EXPECT_EQ(too_short, expected);
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    const auto rows = std::span<const float>(out).subspan(k * T * C, T * C);
+    const bool untouched =
+        std::all_of(rows.begin(), rows.end(), [](float v) { return v == -7.0f; });
+    EXPECT_EQ(untouched, too_short[k] == 1) << "window " << k;
+    if (too_short[k] == 0) {
+      // The window alone, drawn from the same child stream, is the same.
+      Rng again(5);
+      const Rng root(again.next_u64());
+      Rng child = root.child(k);
+      std::vector<double> one(T * C);
+      aug.apply_window(fast, starts[k], child, one);
+      for (std::size_t i = 0; i < T * C; ++i)
+        ASSERT_NEAR(rows[i], one[i], 1e-4 * (1.0 + std::abs(one[i]))) << "window " << k;
+    }
+  }
+  Rng rng2(5);
+  EXPECT_THROW(aug.apply(fast, starts, rng2, out, 2), Error);  // without flags, as before
+  std::vector<uint8_t> wrong(3);
+  EXPECT_THROW(aug.apply(fast, starts, rng2, out, 1, nullptr, wrong), Error);
+}
+
 TEST(Ppda, BadInputIsRejected) {
   const sim::Scene scene = sinusoid_scene(300);
   PpdaAugmenter aug(scene);

@@ -468,8 +468,8 @@ class Augmentation(unittest.TestCase):
         self.assertTrue(src.usable(self.W.recording, self.W.start).all())  # screened before the spike
         apply = src.apply
 
-        def spiking(sub, recording, start, rng, policy, out):
-            apply(sub, recording, start, rng, policy, out)
+        def spiking(sub, recording, start, rng, policy, out, too_short=None):
+            apply(sub, recording, start, rng, policy, out, too_short)
             out[0, 10, 3] = 1e3  # rad/s, far above 8x any real window's peak + 10
             return out
         src.apply = spiking
@@ -487,6 +487,33 @@ class Augmentation(unittest.TestCase):
         self.assertEqual((off.implausible_outputs, off.augmented_windows), (0, len(index)))
         self.assertGreater(np.abs(X0[0] - X[0]).max(), 100.0)
         np.testing.assert_array_equal(X0[1:], X[1:])
+
+    def test_windows_whose_scene_is_too_short_for_the_drawn_speed_stay_real(self):
+        # Found on 2026-11-26: speed scaling up to 2x (the paper grid's widest option) of a 1 s
+        # window of a 2.1 s UTD-MHAD trial needs more motion than the trial has, and the error
+        # ended the experiment. Here every scene is a 2 s walk and every window 1 s.
+        src = augmentation.PpdaSource(self.R, 50)
+        k = experiments.grid_index("speed_scaling", 4)   # b ~ U[0.5, 2]
+        index = np.arange(len(self.W))
+        rec, start = self.W.recording[index], self.W.start[index]
+        out = np.full((len(index), 50, 6), np.nan, np.float32)
+        with self.assertRaisesRegex(imukit.Error, "at this speed needs"):
+            src.apply(k, rec, start, imukit.Rng(4), PAPER, out.copy())
+        too_short = np.zeros(len(index), bool)
+        src.apply(k, rec, start, imukit.Rng(4), PAPER, out, too_short)
+        self.assertEqual(int(too_short.sum()), 2)
+        self.assertTrue(np.isnan(out[too_short]).all())      # left as they were
+        self.assertTrue(np.isfinite(out[~too_short]).all())
+        aug = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src, output_screen=8.0)
+        X, _ = aug.batch(k, index, seed=4)
+        self.assertEqual((aug.too_short_windows, aug.augmented_windows),
+                         (2, len(index) - 2))
+        # the batch is ordered by recording, as index already is: the flagged windows are real
+        np.testing.assert_allclose(X[too_short], self.st(self.W.X[index[too_short]]), atol=1e-6)
+        self.assertEqual(aug.implausible_outputs, 0)
+        # another error still ends the batch
+        with self.assertRaises(IndexError):
+            src.apply(len(PAPER), rec, start, imukit.Rng(4), PAPER, out, too_short)
 
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)

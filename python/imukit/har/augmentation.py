@@ -187,26 +187,36 @@ class PpdaSource:
         s = np.asarray(starts, np.int64) + offset
         return s, (s >= 0) & (s <= a.sample_count - self.window)
 
-    def apply(self, sub, recording, start, rng, policy, out):
+    def apply(self, sub, recording, start, rng, policy, out, too_short=None):
         """Simulates windows (recording[k], start[k]) under `sub` into out (N, T, C) float32,
         C-contiguous; the windows of one recording must be consecutive, and inside its scene
-        (inside_scene)."""
+        (inside_scene). With `too_short` (a bool array of N) a window whose re-timed span the
+        drawn speed makes longer than its scene is flagged there and its row of out left as it
+        was (imukit.Augmenter.apply), instead of failing the batch: found on 2026-11-26, speed
+        scaling up to 2x of a 1 s window of a 2.1 s trial (UTD-MHAD a16_s2_t1) ended a 64-run
+        experiment."""
         n = len(recording)
         cut = np.flatnonzero(np.diff(recording)) + 1
         for a0, a1 in zip(np.r_[0, cut], np.r_[cut, n]):
-            i = int(recording[a0])
-            aug, cols, _, bias = self.augmenter(i)
-            starts, inside = self.scene_starts(i, start[a0:a1])
-            if not inside.all():
-                raise ValueError(f"recording {self.recordings[i].id}: the window at sample "
-                                 f"{int(start[a0:a1][~inside][0])} has no scene window inside its scene")
-            if cols is None:
-                aug.apply(sub, starts, rng, policy=policy, out=out[a0:a1], threads=1)
-            else:
-                out[a0:a1] = aug.apply(sub, starts, rng, policy=policy, threads=1)[:, :, cols]
-            if bias is not None:
-                out[a0:a1] += bias
+            flags = None if too_short is None else too_short[a0:a1]
+            self._apply_one_scene(sub, int(recording[a0]), start[a0:a1], rng, policy, out[a0:a1], flags)
         return out
+
+    def _apply_one_scene(self, sub, i, start, rng, policy, out, too_short):
+        aug, cols, _, bias = self.augmenter(i)
+        starts, inside = self.scene_starts(i, start)
+        if not inside.all():
+            raise ValueError(f"recording {self.recordings[i].id}: the window at sample "
+                             f"{int(start[~inside][0])} has no scene window inside its scene")
+        if cols is None:
+            aug.apply(sub, starts, rng, policy=policy, out=out, threads=1, too_short=too_short)
+        else:
+            made = np.ones(len(starts), bool) if too_short is None else ~too_short
+            x = aug.apply(sub, starts, rng, policy=policy, threads=1, too_short=too_short)
+            out[made] = x[made][:, :, cols]
+        if bias is not None:
+            made = slice(None) if too_short is None else ~too_short
+            out[made] += bias
 
 
 class BatchAugmenter:
@@ -235,6 +245,7 @@ class BatchAugmenter:
         self.outside_scene_windows = 0
         self.implausible_windows = 0
         self.implausible_outputs = 0
+        self.too_short_windows = 0  # scene too short for the drawn speed (PpdaSource.apply)
         self.augmented_windows = 0
         self._specs = {}
 
@@ -281,14 +292,21 @@ class BatchAugmenter:
         index = np.concatenate([index[fitted][np.argsort(rec[fitted], kind="stable")], index[~fitted]])
         n = int(fitted.sum())
         X = np.empty((len(index),) + w.X.shape[1:], np.float32)
+        too_short = np.zeros(n, bool)
         t0 = time.perf_counter()
-        self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n])
+        self.ppda.apply(k, w.recording[index[:n]], w.start[index[:n]], imukit.Rng(seed), self.policy, X[:n],
+                        too_short=too_short)
         self.imukit_seconds += time.perf_counter() - t0
         X[n:] = w.X[index[n:]]
+        # A window whose scene is too short for the drawn speed is trained on as the real one.
+        X[:n][too_short] = w.X[index[:n][too_short]]
+        self.too_short_windows += int(too_short.sum())
+        n -= int(too_short.sum())
         if self.output_screen > 0:
             # The identity screen cannot see motion a sub-policy reads beyond the window (sped
             # up) or an angle its scaling makes jump: such an output is trained on as the real one.
-            bad = [j for j in range(n) if not self.ppda.plausible(w.X[index[j]], X[j], self.output_screen)]
+            bad = [j for j in np.flatnonzero(~too_short).tolist()
+                   if not self.ppda.plausible(w.X[index[j]], X[j], self.output_screen)]
             X[bad] = w.X[index[bad]]
             self.implausible_outputs += len(bad)
             n -= len(bad)

@@ -223,6 +223,7 @@ def run_one(run):
     result["outside_scene_windows"] = augmenter.outside_scene_windows
     result["implausible_windows"] = augmenter.implausible_windows
     result["implausible_outputs"] = augmenter.implausible_outputs
+    result["too_short_windows"] = augmenter.too_short_windows
     return dict(run, **result)
 
 
