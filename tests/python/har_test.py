@@ -770,6 +770,28 @@ class Experiments(unittest.TestCase):
             self.assertIn("12 of 12 runs already done", log.getvalue())
 
 
+    def test_a_fixed_count_of_steps_per_epoch_trains_every_training_set_size_alike(self):
+        # One pass over one subject's windows is a sixth of six subjects' (the fewer-subjects
+        # curve trained its small sizes on 210-330 steps where LOSO took 1,740; 2026-11-26).
+        with tempfile.TemporaryDirectory() as d:
+            R = synthetic_recordings(os.path.join(d, "rec"), subjects=("s1", "s2", "s3", "s4"), trials=3)
+            argv = ["fewer-subjects", "--recordings", os.path.join(d, "rec"), "--tiny", "--epochs", "2",
+                    "--models", "deepconvlstm", "--jobs", "1", "--arms", "baseline", "--sizes", "1,2",
+                    "--combinations", "1", "--batch-size", "4"]
+            with contextlib.redirect_stdout(io.StringIO()):
+                har_main(argv + ["--out", os.path.join(d, "pass")])
+                har_main(argv + ["--out", os.path.join(d, "fixed"), "--steps-per-epoch", "5"])
+            per_subject = 2 * 3 * 3  # 2 classes x 3 trials x 3 windows of 50 at stride 25 in 100
+            self.assertEqual(len(windows.make_windows(R, 50, 25)), 4 * per_subject)
+            one_pass = {len(r["train"]): r["steps"] for r in load_json(os.path.join(d, "pass", "fewer_subjects.json"))["runs"]}
+            self.assertEqual(one_pass, {1: 2 * (per_subject // 4), 2: 2 * (2 * per_subject // 4)})
+            fixed = load_json(os.path.join(d, "fixed", "fewer_subjects.json"))
+            self.assertEqual(fixed["settings"]["steps_per_epoch"], 5)
+            self.assertEqual({len(r["train"]): (r["steps"], r["epochs_run"]) for r in fixed["runs"]},
+                             {1: (10, 2), 2: (10, 2)})
+            # Results from before the setting were made with one pass per epoch.
+            self.assertEqual(experiments.settings_of({"settings": {}})["steps_per_epoch"], 0)
+
     def test_folds_made_apart_merge_into_one_report_that_names_differing_data(self):
         with tempfile.TemporaryDirectory() as d:
             synthetic_recordings(os.path.join(d, "rec"))

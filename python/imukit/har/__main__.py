@@ -93,6 +93,9 @@ def main(argv=None):
     common.add_argument("--output-screen", type=number(float, 0), default=experiments.Settings.output_screen,
                         help="PPDA outputs above this many times the real peak (+ margin) stay real; "
                              "0 screens none, as runs before 2026-11-26 (default %(default)g)")
+    common.add_argument("--steps-per-epoch", type=number(int, 0), default=0,
+                        help="mini-batches per epoch; 0: one pass over the training windows (default). "
+                             "A fixed count trains every training-set size alike (fewer-subjects)")
     folds = argparse.ArgumentParser(add_help=False)
     folds.add_argument("--folds", help="only the folds testing these subjects (comma separated; "
                        "default every subject): one experiment split across machines, see `merge`")
@@ -150,7 +153,8 @@ def main(argv=None):
         return 0
     settings = experiments.Settings(window=args.window, stride=args.stride, epochs=args.epochs,
                                      patience=args.patience, batch_size=args.batch_size, tiny=args.tiny,
-                                     policy=args.policy, output_screen=args.output_screen)
+                                     policy=args.policy, output_screen=args.output_screen,
+                                     steps_per_epoch=args.steps_per_epoch)
     state = experiments.prepare(R, settings)
     subjects = R.subjects
     if args.command == "one-at-a-time":

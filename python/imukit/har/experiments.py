@@ -120,11 +120,13 @@ class Settings:
     # twice as fast): no output the grid can make from a usable window exceeds it, while a
     # sped-up window reading a neighbour's tracking failure does (docs/har.md).
     output_screen: float = 8.0
+    # Mini-batches per epoch, 0: one pass over the training windows (train.TrainConfig).
+    steps_per_epoch: int = 0
 
 
 # Settings keys added after results were written, with the value those results were made with:
 # a JSON without the key continues only under that value.
-LEGACY_SETTINGS = {"output_screen": 0.0}
+LEGACY_SETTINGS = {"output_screen": 0.0, "steps_per_epoch": 0}
 
 
 def settings_of(doc):
@@ -214,7 +216,8 @@ def run_one(run):
         p = arm.probabilities if arm.kind != "none" else np.eye(1, len(policy))[0]
         sampler = augmentation.SubPolicySampler(p, run["seed"])
     config = train.TrainConfig(model=run["model"], tiny=s.tiny, epochs=s.epochs, patience=s.patience,
-                               batch_size=s.batch_size, seed=run["seed"], threads=1)
+                               batch_size=s.batch_size, steps_per_epoch=s.steps_per_epoch,
+                               seed=run["seed"], threads=1)
     trainer = train.Trainer(config, len(R.classes), R.channels, augmenter, sampler)
     result = trainer.fit(tr, standardize(va.X), va.y, standardize(te.X), te.y)
     result["train_f1"], result["train_acc"] = train.evaluate(trainer.model, standardize(tr.X), tr.y)

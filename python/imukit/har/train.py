@@ -23,6 +23,10 @@ class TrainConfig:
     epochs: int = 30
     patience: int = 0             # stop after this many epochs without a better validation F1 (0: never)
     batch_size: int = 64
+    # Mini-batches per epoch; 0: one pass over the training windows. A fixed count gives every
+    # training-set size the same updates, validations, learning-rate steps and patience (the
+    # fewer-subjects curve: one subject's pass is a sixth of six subjects').
+    steps_per_epoch: int = 0
     lr: float = 1e-3
     lr_step_epochs: int = 10
     lr_gamma: float = 0.9
@@ -157,9 +161,17 @@ class Trainer:
         drawn = np.zeros(len(self.augmenter.policy), np.int64)
         t_start = time.perf_counter()
         stale = 0
+        queue = np.zeros(0, np.int64)  # window order carried across epochs (steps_per_epoch)
         for epoch in range(c.epochs):
             self.model.train()
-            perm = order_rng.permutation(len(train))
+            if c.steps_per_epoch:
+                # The epoch's batches continue the last epoch's pass; each pass is a new order.
+                need = c.steps_per_epoch * c.batch_size
+                while len(queue) < need:
+                    queue = np.concatenate([queue, order_rng.permutation(len(train))])
+                perm, queue = queue[:need], queue[need:]
+            else:
+                perm = order_rng.permutation(len(train))
             losses = []
             # Whole batches only (the last partial one is dropped; its windows come first in
             # another epoch's order), at least one.
