@@ -609,6 +609,43 @@ SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<doub
 namespace imukit::hwmodel {
 
 namespace {
+// The Allan variances as GLS sees them, normalised by Wilson and Hilferty's cube root. An
+// estimate with nu equivalent degrees of freedom is about its mean m times chi^2(nu) / nu, and
+// chi^2 is skewed (the longest taus have 4-7 degrees of freedom: at 4 a point 1.96 sigma above
+// its mean is twice as likely as a normal point), while (chi^2 / nu)^(1/3) is close to normal, with
+// mean c = 1 - 2 / (9 nu) and variance 2 / (9 nu) (Wilson & Hilferty 1931). So the fit is a
+// Gauss-Newton step of the model's cube root against the estimates' cube roots, linearised at
+// the covariance's model m: each AVAR is replaced by z = m (1 + 3 ((AVAR / m)^(1/3) / c - 1)),
+// whose mean is the model's value and whose covariance is the AVAR's divided by c_i c_j (`sigma`
+// is scaled so), with nu = 2 m^2 / Var(AVAR) from the same covariance. Where nu is large (the
+// short taus) z is the AVAR itself to first order; at the longest taus the tail a few-dof
+// estimate throws up is drawn in, as a normal variable's would be. It acts on detection through
+// the score test of gls_eliminating, linearised at the model without the term: a model that
+// passes through the points leaves z = AVAR there (alone it left R in 14 of 300 white-noise axes,
+// where 7.5 are expected; with the test, 4).
+Eigen::VectorXd wilson_hilferty(const Eigen::VectorXd& avar, const std::vector<double>& tau_s,
+                                const std::vector<size_t>& use,
+                                const std::array<double, kNoiseTerms>& model,
+                                Eigen::MatrixXd& sigma) {
+  const auto rows = avar.size();
+  Eigen::VectorXd z(rows), c(rows);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    const double m = model_allan_variance(model, tau_s[use[static_cast<size_t>(r)]]);
+    const double var = sigma(r, r);
+    if (!(m > 0.0) || !(var > 0.0) || !std::isfinite(m) || !std::isfinite(var)) {
+      z(r) = avar(r);
+      c(r) = 1.0;
+      continue;
+    }
+    // At least one degree of freedom, where c is 7/9.
+    const double nu = std::max(1.0, 2.0 * m * m / var);
+    c(r) = 1.0 - 2.0 / (9.0 * nu);
+    z(r) = m * (1.0 + 3.0 * (std::cbrt(avar(r) / m) / c(r) - 1.0));
+  }
+  sigma = c.cwiseInverse().asDiagonal() * sigma * c.cwiseInverse().asDiagonal();
+  return z;
+}
+
 // One GLS fit of the options' terms. The covariance of the estimates comes from the fit's own
 // model (refined twice), or, given covariance_model, from that model alone: the elimination
 // compares nested models under one covariance, where chi^2 differences are meaningful.
@@ -664,9 +701,10 @@ NoiseFit gls_once(const std::vector<double>& tau_s, const std::vector<double>& a
         sigma(i, j) = sigma(j, i) =
             allan_variance_covariance(model, tau0, n, factors[use[static_cast<size_t>(i)]],
                                       factors[use[static_cast<size_t>(j)]]);
+    const Eigen::VectorXd observed = wilson_hilferty(avar, tau_s, use, model, sigma);
     const Whitener whiten(sigma);
     Aw = whiten(basis_m);
-    const Eigen::VectorXd bw = whiten(avar);
+    const Eigen::VectorXd bw = whiten(observed);
     Eigen::VectorXd scale(cols);
     for (Eigen::Index c = 0; c < cols; ++c) {
       scale(c) = Aw.col(c).norm();
@@ -764,7 +802,42 @@ NoiseFit gls_eliminating(const std::vector<double>& tau_s, const std::vector<dou
           !(fit.lower[static_cast<size_t>(t)] > 0.0))
         undetected.push_back(t);
     }
-    if (undetected.empty() || selected <= 1) break;
+    if (selected <= 1) break;
+    if (undetected.empty()) {
+      // Every term's interval excludes 0 in the fit that holds it. But that fit's covariance
+      // and Wilson-Hilferty linearisation come from its own model, which follows the points it
+      // was fitted to: a few-dof estimate thrown high at the longest taus gets a ramp R through
+      // it, and a point on its model is no outlier. So each active term is tested again as a
+      // score test is, under the hypothesis that it is absent: the terms the fit holds are
+      // refitted with the covariance and linearisation of the best model without it, with the
+      // fit's own inflation (the misfit neither model explains), and the term is not detected
+      // unless its interval excludes 0 there too. Only where two or more terms are active
+      // (without it a lone term's model is empty); a test that is not finite (a null model far
+      // from the curve, as white noise without N) leaves the term as it was.
+      NoiseFitOptions held = opt;
+      int active_terms = 0;
+      for (int t = 0; t < kNoiseTerms; ++t) {
+        held.terms[static_cast<size_t>(t)] =
+            opt.terms[static_cast<size_t>(t)] && fit.active[static_cast<size_t>(t)];
+        active_terms += held.terms[static_cast<size_t>(t)];
+      }
+      const double z = normal_quantile(0.5 + 0.5 * opt.confidence);
+      for (int t = 0; t < kNoiseTerms && active_terms >= 2; ++t) {
+        const auto ts = static_cast<size_t>(t);
+        if (!held.terms[ts]) continue;
+        NoiseFitOptions without = held;
+        without.terms[ts] = false;
+        std::array<double, kNoiseTerms> others = fit.value;
+        others[ts] = 0.0;
+        const NoiseFit null_fit = gls_once(tau_s, adev, factors, n, without, &others);
+        const NoiseFit test = gls_once(tau_s, adev, factors, n, held, &null_fit.value);
+        // value / sigma is twice the fitted square over its standard deviation.
+        const double score = 0.5 * test.value[ts] / test.sigma[ts] *
+                             std::sqrt(test.covariance_inflation / fit.covariance_inflation);
+        if (!test.active[ts] || (std::isfinite(score) && score <= z)) undetected.push_back(t);
+      }
+    }
+    if (undetected.empty()) break;
     int drop = undetected.front();
     if (undetected.size() > 1) {
       double best_chi2 = std::numeric_limits<double>::infinity();

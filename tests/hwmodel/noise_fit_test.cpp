@@ -358,12 +358,15 @@ TEST(AllanVarianceCovariance, IsPositiveSemiDefiniteOnTheDefaultGrid) {
 
 // The GLS fit (as `imukit characterize`) of each of 3 axes of n samples of white noise of
 // density N at rate_hz, drawn from rng.
-std::vector<NoiseFit> gls_fits_of_white_noise(double N, double rate_hz, int64_t n, Rng& rng) {
+// GLS fits of 3 axes of white noise of density N (plus a rate ramp of `ramp` unit/s).
+std::vector<NoiseFit> gls_fits_of_white_noise(double N, double rate_hz, int64_t n, Rng& rng,
+                                              double ramp = 0.0) {
   std::vector<TimeNs> t(static_cast<size_t>(n));
   for (int64_t i = 0; i < n; ++i) t[size_t(i)] = sample_time(0, i, rate_hz);
   Eigen::MatrixXd y(3, n);
   for (int64_t i = 0; i < n; ++i)
-    for (Eigen::Index r = 0; r < 3; ++r) y(r, i) = N * std::sqrt(rate_hz) * rng.normal();
+    for (Eigen::Index r = 0; r < 3; ++r)
+      y(r, i) = N * std::sqrt(rate_hz) * rng.normal() + ramp * static_cast<double>(i) / rate_hz;
   AllanOptions opt;
   opt.modified = false;
   opt.hadamard = false;
@@ -411,6 +414,35 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   RecordProperty("rms_z_N", std::to_string(z_rms));
   EXPECT_GT(z_rms, 0.7);
   EXPECT_LT(z_rms, 1.35);
+}
+
+// Found in review (fourth round): on pure white noise the GLS fit detected a rate ramp R in 14
+// of 300 axes (4.7 %) where its one-sided 95 % interval allows 2.5 %. The longest taus' estimates
+// have 4-7 degrees of freedom and a skewed (chi-square) spread, and a fit with R follows the
+// ones thrown high, so its own covariance finds them no outliers. The third axis of seed 59 is
+// such a case: R was reported at 2.33 sigmas of its square. Detection now asks for the term's
+// interval to exclude 0 also under the model without it (a score test, with the estimates
+// normalised by Wilson and Hilferty's cube root; docs/hwmodel.md). A real ramp, of twice the
+// white noise's Allan variance at the longest tau (2e-7 /s on 3e5 samples at 100 Hz), on the
+// same noise is still detected on every axis, within 40 % (2.2, 2.6 and 1.7e-7: R rests on the
+// longest taus' few degrees of freedom).
+TEST(NoiseFit, LongTauEstimatesThrownHighAreNoRampWhileARealRampIsDetected) {
+  const double N = 1e-3, rate = 100.0, ramp = 2e-7;
+  const int64_t n = 300000;
+  Rng white(59);
+  const std::vector<NoiseFit> fits = gls_fits_of_white_noise(N, rate, n, white);
+  for (const NoiseFit& fit : fits) {
+    EXPECT_FALSE(fit.active[kRamp]);
+    EXPECT_EQ(fit.value[kRamp], 0.0);
+    EXPECT_GT(fit.upper[kRamp], 0.0);  // the upper bound of the last fit that held R
+    EXPECT_NEAR(fit.value[kWhite], N, 0.01 * N);
+  }
+  Rng same(59);
+  for (const NoiseFit& fit : gls_fits_of_white_noise(N, rate, n, same, ramp)) {
+    EXPECT_TRUE(fit.active[kRamp]);
+    EXPECT_NEAR(fit.value[kRamp], ramp, 0.4 * ramp);
+    EXPECT_NEAR(fit.value[kWhite], N, 0.01 * N);
+  }
 }
 
 // Found in review: on a short record of white noise (50 samples: 9 taus over 1.1 decades) the
