@@ -418,6 +418,17 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
     const std::lock_guard<std::mutex> lock(h.mutex);
     a.apply(index ? policy->sub_policies[*index] : *chosen, starts, rng, data, threads, nullptr,
             too_short);
+    if (out_obj.is_none()) {
+      // A new array has no rows "as they were": a flagged window's are NaN (found in review,
+      // 2026-11-26: they held whatever the allocation did).
+      const auto rows = static_cast<std::size_t>(window * channels);
+      for (std::size_t k = 0; k < too_short.size(); ++k) {
+        if (too_short[k] != 0) {
+          std::fill_n(data.begin() + static_cast<std::ptrdiff_t>(k * rows), rows,
+                      std::numeric_limits<float>::quiet_NaN());
+        }
+      }
+    }
   }
   return out;
 }
@@ -686,7 +697,7 @@ starting at `starts` (sample indices, e.g. window_starts(stride)) under one sub-
 returns an (N, window, 6 x sensors) float32 array (channels ax ay az gx gy gz per sensor). sub:
 a SubPolicy, a dict in the policy layout, or an index / description of a sub-policy of `policy`.
 A window sped up beyond what the scene's motion can give raises imukit.Error; with too_short (a
-bool array of N) it is flagged there and its rows of out left as they were. The windows are
+bool array of N) it is flagged there and its rows of out left as they were (NaN without out). The windows are
 spread over `threads` C++ threads (0: all cores) with the GIL released; the result does not
 depend on the thread count.)doc")
       .def(py::init([](py::handle scene, std::size_t window, const std::string& method) {

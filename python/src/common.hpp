@@ -43,9 +43,11 @@ inline std::string type_name(py::handle obj) {
 // names it ("stda: sigma").
 
 // Whether obj is an integer with operator.index semantics: a Python int or a NumPy integer, not
-// a bool (True is not seed 1), a float or a str.
+// a bool, Python's or NumPy's (True is not seed 1; NumPy 1.24 still lets np.True_ be an index:
+// found in review, 2026-11-26), a float or a str.
 inline bool is_index(py::handle obj) {
-  return PyIndex_Check(obj.ptr()) && !PyBool_Check(obj.ptr());
+  if (!PyIndex_Check(obj.ptr()) || PyBool_Check(obj.ptr())) return false;
+  return !py::isinstance(obj, py::module_::import("numpy").attr("bool_"));
 }
 
 // An integer as is_index takes it; anything else is a TypeError.

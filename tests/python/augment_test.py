@@ -328,12 +328,35 @@ class Ppda(unittest.TestCase):
             with self.assertRaises(error) as e:
                 self.aug.apply(sub, starts, 9, policy=self.policy)
             return str(e.exception)
-        for sub, name in ((True, "bool"), (417.0, "float"), (np.float64(417), "float64")):
+        for sub, name in ((True, "bool"), (np.True_, "bool_"), (417.0, "float"), (np.float64(417), "float64")):
             self.assertEqual(message(sub, TypeError), "Augmenter.apply: sub must be a SubPolicy, a dict, "
                                                       f"an index or a description, got {name}")
         for sub in (810, -1, np.int64(810), 2**64):
             self.assertEqual(message(sub, IndexError), f"Augmenter.apply: sub: {int(sub)} is not a "
                                                        "sub-policy index of policy 'imukit' (0 to 809)")
+
+    def test_too_short_windows_are_flagged_and_nan_in_a_new_array(self):
+        """Windows sped up beyond the scene's motion: flagged, their rows left as they were in
+        `out`, NaN in a new array (found in review, 2026-11-26: unset memory)."""
+        sub = {"speed": {"method": "scaling", "range": [1.0, 8.0]}}
+        starts = self.aug.window_starts(50)
+        with self.assertRaisesRegex(imukit.Error, "at this speed needs"):
+            self.aug.apply(sub, starts, 3)
+        flags = np.zeros(len(starts), bool)
+        x = self.aug.apply(sub, starts, 3, too_short=flags)
+        self.assertTrue(0 < flags.sum() < len(starts))
+        self.assertTrue(np.isnan(x[flags]).all())
+        self.assertTrue(np.isfinite(x[~flags]).all())
+        out = np.full_like(x, 5.0)
+        self.aug.apply(sub, starts, 3, out=out, too_short=flags)
+        self.assertTrue((out[flags] == 5.0).all())
+        np.testing.assert_array_equal(out[~flags], x[~flags])
+        with self.assertRaisesRegex(TypeError, "too_short: expected a bool array, got uint8"):
+            self.aug.apply(sub, starts, 3, too_short=np.zeros(len(starts), np.uint8))
+        with self.assertRaisesRegex(ValueError, r"too_short: expected shape \(%d,\)" % len(starts)):
+            self.aug.apply(sub, starts, 3, too_short=np.zeros(len(starts) + 1, bool))
+        with self.assertRaisesRegex(ValueError, "too_short: must be C-contiguous"):
+            self.aug.apply(sub, starts, 3, too_short=np.zeros(2 * len(starts), bool)[::2])
 
     def test_threads_and_caller_buffer(self):
         starts = np.tile(self.aug.window_starts(25), 3)

@@ -514,6 +514,23 @@ class Augmentation(unittest.TestCase):
         # another error still ends the batch
         with self.assertRaises(IndexError):
             src.apply(len(PAPER), rec, start, imukit.Rng(4), PAPER, out, too_short)
+        # A recording of the second of two sensors, with fitted biases (the columns path): the
+        # flagged rows too are left as they were (found in review: overwritten with unset rows).
+        path = write_scene(os.path.join(self.tmp.name, "two"), ["left_wrist_watch", "right_wrist_watch"])
+        sim = imukit.read_scene(path).simulate()["right_wrist_watch"]
+        x = np.concatenate([sim.accel, sim.gyro], axis=1)
+        two = rf.Recordings("two", ["a"], [rf.Recording(
+            "r", "s1", x, np.zeros(len(x), np.int64), 50.0, ["wrist"],
+            rf.SceneRef(path, ["right_wrist_watch"], bias=[0.1] * 6))])
+        src2 = augmentation.PpdaSource(two, 50)
+        self.assertIsNotNone(src2.augmenter(0)[1])  # the columns path
+        starts = np.arange(0, len(x) - 50 + 1, 5)
+        out2 = np.full((len(starts), 50, 6), np.nan, np.float32)
+        flags = np.zeros(len(starts), bool)
+        src2.apply(k, np.zeros(len(starts), np.int64), starts, imukit.Rng(4), PAPER, out2, flags)
+        self.assertEqual(int(flags.sum()), 1)
+        self.assertTrue(np.isnan(out2[flags]).all())
+        self.assertTrue(np.isfinite(out2[~flags]).all())
 
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)
@@ -787,6 +804,10 @@ class Experiments(unittest.TestCase):
             self.assertEqual(one_pass, {1: 2 * (per_subject // 4), 2: 2 * (2 * per_subject // 4)})
             fixed = load_json(os.path.join(d, "fixed", "fewer_subjects.json"))
             self.assertEqual(fixed["settings"]["steps_per_epoch"], 5)
+            with open(os.path.join(d, "fixed", "fewer_subjects.md"), encoding="utf-8") as f:
+                self.assertIn("up to 2 epochs of 5 mini-batches (early stop", f.read())
+            with open(os.path.join(d, "pass", "fewer_subjects.md"), encoding="utf-8") as f:
+                self.assertIn("up to 2 epochs (early stop", f.read())
             self.assertEqual({len(r["train"]): (r["steps"], r["epochs_run"]) for r in fixed["runs"]},
                              {1: (10, 2), 2: (10, 2)})
             # Results from before the setting were made with one pass per epoch.
@@ -939,12 +960,17 @@ class CommandErrors(unittest.TestCase):
                 ("fewer-subjects", "--sizes", "1,0", "an integer >= 1"),
                 ("fidelity", "--window", "0", "an integer >= 2"),
                 ("one-at-a-time", "--models", "deepconvlstm,foo", "one of deepconvlstm, attend"),
-                ("fewer-subjects", "--models", "attend,", "one of deepconvlstm, attend")):
+                ("fewer-subjects", "--models", "attend,", "one of deepconvlstm, attend"),
+                ("fewer-subjects", "--steps-per-epoch", "-1", "an integer >= 0")):
             got = value.split(",")[-1]
             self.assertEqual(self.error([command, "--recordings", "/nonexistent", "--out", "/nonexistent",
                                          flag, value], code=2),
                              f"python3 -m imukit.har {command}: error: argument {flag}: expected {expected}, "
                              f"got '{got}'")
+        # A model named twice trained and stored every run twice under one key.
+        self.assertEqual(self.error(["one-at-a-time", "--recordings", "/nonexistent", "--out", "/nonexistent",
+                                     "--models", "attend,deepconvlstm,attend"], code=2),
+                         "python3 -m imukit.har one-at-a-time: error: argument --models: 'attend' listed twice")
 
     def test_missing_and_malformed_inputs_are_named(self):
         d = self.tmp.name
@@ -997,6 +1023,12 @@ class CommandErrors(unittest.TestCase):
         argv = ["one-at-a-time", "--utd-mhad", root, "--subjects", "1", "--scenes", scenes, "--out", out]
         for path, text, message in ((placement, '{"accelerometer": {"bias_mps2": [0.1,', ":1:38: Expecting value"),
                                     (placement, "[0.1, 0.2]", ": expected a JSON object"),
+                                    # valid JSON of the wrong shape was an AttributeError traceback
+                                    (placement, '{"accelerometer": [0.1, 0.2, 0.3]}',
+                                     ": accelerometer: expected an object"),
+                                    (placement, '{"gyroscope": {"bias_radps": [0.1, "x", 0.3]}}',
+                                     ': gyroscope.bias_radps: expected three finite numbers, got [0.1, "x", 0.3]'),
+                                    (scene, '{"sensors": ["right_wrist_watch"]}', ": sensors: expected a list of objects"),
                                     (scene, '{"schema": "imukit.scene/1",\n "motion": {"bvh": "x.bvh"',
                                      ":2:27: Expecting ',' delimiter")):
             with open(path, "w") as f:

@@ -40,8 +40,11 @@ def names(known):
 
     def parse(text):
         items = [item.strip() for item in text.split(",")]
-        for item in items:
+        for i, item in enumerate(items):
             if item not in known:
                 raise argparse.ArgumentTypeError(f"{expected}, got {item!r}")
+            if item in items[:i]:
+                # each run would be trained twice and stored twice under one key (found in review)
+                raise argparse.ArgumentTypeError(f"{item!r} listed twice")
         return items
     return parse

@@ -211,11 +211,13 @@ class PpdaSource:
         if cols is None:
             aug.apply(sub, starts, rng, policy=policy, out=out, threads=1, too_short=too_short)
         else:
-            made = np.ones(len(starts), bool) if too_short is None else ~too_short
             x = aug.apply(sub, starts, rng, policy=policy, threads=1, too_short=too_short)
+        # The windows made, known once apply has set the flags (found in review: taken before,
+        # the flagged rows were overwritten with the scene's unset rows).
+        made = slice(None) if too_short is None else ~too_short
+        if cols is not None:
             out[made] = x[made][:, :, cols]
         if bias is not None:
-            made = slice(None) if too_short is None else ~too_short
             out[made] += bias
 
 

@@ -238,8 +238,9 @@ def write(doc, out_dir):
                   "sim_only": sim_only}[exp](doc)
     s = experiments.settings_of(doc)
     screen = f", PPDA outputs above {s['output_screen']:g}x the real peak kept real" if s["output_screen"] else ""
+    steps = f" of {s['steps_per_epoch']} mini-batches" if s["steps_per_epoch"] else ""
     md = [f"## {exp.replace('_', ' ')}", "",
-          f"window {s['window']} / stride {s['stride']} samples, batch {s['batch_size']}, up to {s['epochs']} epochs "
+          f"window {s['window']} / stride {s['stride']} samples, batch {s['batch_size']}, up to {s['epochs']} epochs{steps} "
           f"(early stop after {s['patience']} without a better validation F1), policy grid `{s['policy']}`"
           f"{', tiny models' if s['tiny'] else ''}"
           f"{screen}.", "", table, "#### Speed", "", speed(doc), ""]

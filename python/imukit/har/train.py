@@ -167,8 +167,11 @@ class Trainer:
             if c.steps_per_epoch:
                 # The epoch's batches continue the last epoch's pass; each pass is a new order.
                 need = c.steps_per_epoch * c.batch_size
-                while len(queue) < need:
-                    queue = np.concatenate([queue, order_rng.permutation(len(train))])
+                passes, have = [queue], len(queue)
+                while have < need:
+                    passes.append(order_rng.permutation(len(train)))
+                    have += len(train)
+                queue = np.concatenate(passes)
                 perm, queue = queue[:need], queue[need:]
             else:
                 perm = order_rng.permutation(len(train))

@@ -11,12 +11,13 @@ into the scene's motion (scene sample k is IMU sample k), so no offset is applie
 fitted constant biases come from the folder's `placement.json` (`imukit.placement/1`:
 `accelerometer.bias_mps2`, `gyroscope.bias_radps`) when there is one.
 """
+import json
 import os
 
 import numpy as np
 
 from ..datasets import utd_mhad as reader
-from .recordings import Recording, Recordings, SceneRef, read_json_object
+from .recordings import FormatError, Recording, Recordings, SceneRef, read_json_object
 
 
 def scene_ref(folder, site):
@@ -27,7 +28,10 @@ def scene_ref(folder, site):
     if not os.path.exists(path):
         return None
     doc = read_json_object(path)
-    names = [s.get("name", s.get("preset")) for s in doc.get("sensors", [])]
+    sensors = doc.get("sensors", [])
+    if not isinstance(sensors, list) or not all(isinstance(s, dict) for s in sensors):
+        raise FormatError(f"{path}: sensors: expected a list of objects")
+    names = [s.get("name", s.get("preset")) for s in sensors]
     if site in names:
         sensor = site
     elif len(names) == 1:
@@ -38,11 +42,26 @@ def scene_ref(folder, site):
     placement = os.path.join(folder, "placement.json")
     if os.path.exists(placement):
         p = read_json_object(placement)
-        ba = p.get("accelerometer", {}).get("bias_mps2")
-        bg = p.get("gyroscope", {}).get("bias_radps")
+        ba = _bias(p, placement, "accelerometer", "bias_mps2")
+        bg = _bias(p, placement, "gyroscope", "bias_radps")
         if ba is not None or bg is not None:
             bias = np.array([list(ba or [0.0] * 3) + list(bg or [0.0] * 3)], np.float64)
     return SceneRef(path=path, sensors=[sensor], time_offset_s=0.0, bias=bias)
+
+
+def _bias(placement, path, sensor, key):
+    """placement[sensor][key]: None or three finite numbers; FormatError naming the file and key
+    otherwise (found in review: a list where an object belongs was an AttributeError traceback)."""
+    part = placement.get(sensor, {})
+    if not isinstance(part, dict):
+        raise FormatError(f"{path}: {sensor}: expected an object")
+    v = part.get(key)
+    if v is None:
+        return None
+    if (not isinstance(v, list) or len(v) != 3
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(x) for x in v)):
+        raise FormatError(f"{path}: {sensor}.{key}: expected three finite numbers, got {json.dumps(v)}")
+    return v
 
 
 def load(root, scenes=None, subjects=None, actions=None):
