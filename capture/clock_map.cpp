@@ -226,9 +226,47 @@ bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) cons
   if (!step || tick_step <= step->ticks + step->tolerance) return false;
   // A counter of a few bits undercounts a loss longer than half its range, which a live stream's
   // host time shows (the samples after it arrive when they are made); a damaged tick arrives
-  // with its neighbours, and in a replay every sample does.
-  const std::optional<double> host_elapsed = seconds_since(b.host, seg.last.host);
+  // with its neighbours, and in a replay every sample does. From when the last sample was made,
+  // no later than a recent sample's arrival plus the device time since (a stall's buffered
+  // samples arrive late, and the loss after them shows only from when they were made).
+  // The last sample's own arrival is one of the bounds (offsets holds it).
+  std::optional<double> host_elapsed = seconds_since(b.host, seg.last.host);
+  const std::optional<double> since_first = seconds_since(b.host, seg.first.host);
+  if (since_first && !seg.offsets.empty()) {
+    const double made = seg.offsets.front().seconds +
+                        static_cast<double>(seg.last.ticks - seg.first.ticks) / tick_hz_;
+    host_elapsed = *since_first - made;
+  }
   return !host_elapsed || *host_elapsed < 0.5 * tick_step / tick_hz_;
+}
+
+bool DeviceClock::run_continues_first(const Stamp& from, const Stamp& to) const {
+  const Segment& seg = segments_.back();
+  const Stamp& first = seg.first;
+  if (seg.accepted > 2 || !first.index || !from.index || !to.index) return false;
+  if (*to.index <= *from.index || to.ticks <= from.ticks || *from.index <= *first.index ||
+      from.ticks < first.ticks)
+    return false;
+  const double per_index =
+      static_cast<double>(to.ticks - from.ticks) / static_cast<double>(*to.index - *from.index);
+  // s's tick step from the first sample is its index step's at the run's ticks per index.
+  const auto on_line = [&](const Stamp& s) {
+    const double ticks = static_cast<double>(*s.index - *first.index) * per_index;
+    return std::abs(static_cast<double>(s.ticks - first.ticks) - ticks) <=
+           0.5 * per_index + kGapTolerance * ticks;
+  };
+  if (!on_line(from)) return false;
+  if (seg.accepted < 2) return true;  // a gap right after the first sample
+  const Stamp& second = seg.last;
+  return second.index && *second.index > *first.index && *second.index < *from.index &&
+         second.ticks >= first.ticks && !on_line(second);
+}
+
+bool DeviceClock::doubts_second(const Segment& seg, const Stamp& b) const {
+  const Stamp &first = seg.first, &second = seg.last;
+  return seg.accepted == 2 && first.index && second.index && b.index &&
+         *first.index < *second.index && *second.index < *b.index && b.ticks >= first.ticks &&
+         b.ticks < second.ticks;
 }
 
 bool DeviceClock::continues_segment(const Stamp& b) const {
@@ -248,7 +286,7 @@ void DeviceClock::begin_segment(const Stamp& s) {
     if (__builtin_add_overflow(earlier_spans_, last.last.ticks - last.first.ticks, &earlier_spans_))
       earlier_spans_ = std::numeric_limits<uint64_t>::max();
   }
-  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0});
+  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0, {}, {}});
   segment_starts_.push_back(s.k);
 }
 
@@ -260,6 +298,14 @@ void DeviceClock::accept(const Stamp& s) {
   if (seg.accepted == 0 || !s.index || !seg.last.index || *s.index <= *seg.last.index) seg.run = s;
   seg.last = s;
   ++seg.accepted;
+  if (const std::optional<double> since_first = seconds_since(s.host, seg.first.host)) {
+    const double offset = *since_first - static_cast<double>(s.ticks - seg.first.ticks) / tick_hz_;
+    while (!seg.offsets.empty() && seg.offsets.back().seconds >= offset) seg.offsets.pop_back();
+    seg.offsets.push_back({s.ticks, offset});
+    const double window = kMadeWindowS * tick_hz_;
+    while (static_cast<double>(s.ticks - seg.offsets.front().ticks) > window)
+      seg.offsets.pop_front();
+  }
 }
 
 double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
@@ -278,9 +324,13 @@ double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
   // The outlier that completes a restart: its segment begins after this one, at the first of
   // the run.
   if (candidate_run(s) >= kRestartSamples) {
+    if (run_continues_first(candidates_.front(), s)) return seconds(since_first(s.ticks));
     return seconds(since_first(seg.last.ticks) +
                    static_cast<double>(s.ticks - candidates_.front().ticks));
   }
+  // The first segment's second sample or this one is damaged: until a run shows which, at its
+  // own tick (the second's step is the segment's only period).
+  if (doubts_second(seg, s)) return seconds(since_first(s.ticks));
   return seconds(since_first(seg.last.ticks) +
                  static_cast<double>(s.k - seg.last.k) * period_ticks(seg));
 }
@@ -290,6 +340,7 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
   const Stamp s{next_k_++, device_ticks, host_receive, sample_index, counter};
   const bool was_accepted = last_accepted_;
   last_added_ = s;
+  withdrawn_.reset();
   if (segments_.empty()) {
     anchor_ = host_receive;
     begin_segment(s);
@@ -301,6 +352,10 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
   if (continues_segment(s)) {
     continues_ = was_accepted;
     candidates_.clear();  // they were outliers after all (recorded as such)
+    const Stamp& last = segments_.back().last;
+    if (continues_ && segments_.size() == 1 && segments_.back().accepted == 1 && s.index &&
+        last.index && *s.index > *last.index)
+      second_step_ = Step{s.ticks - last.ticks, *s.index - *last.index};
     accept(s);
     last_accepted_ = true;
     return;
@@ -313,8 +368,29 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     last_accepted_ = false;
     return;
   }
-  // A restart: the outliers in a row begin a segment of their own.
-  begin_segment(candidates_.front());
+  if (run_continues_first(candidates_.front(), candidates_.back())) {
+    // They continue the first segment's first sample: rebuilt on it and them, its second sample
+    // (if it has one) an outlier.
+    Segment& seg = segments_.back();
+    const Stamp first = seg.first, second = seg.last;
+    const bool had_second = seg.accepted == 2;
+    const std::vector<Ping> pings = std::move(seg.early_pings);
+    seg = Segment{ClockMapper(tick_hz_), first, first, first, 0, {}, {}};
+    accept(first);
+    for (const Ping& p : pings)
+      add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);
+    if (had_second) {
+      // Timed from the first sample, as the outliers that were timed from it are now.
+      for (auto& [k, o] : outliers_)
+        if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
+      outliers_[second.k] = Outlier{segments_.size() - 1, first};
+      withdrawn_ = second_step_;
+    }
+    second_step_.reset();
+  } else {
+    // A restart: the outliers in a row begin a segment of their own.
+    begin_segment(candidates_.front());
+  }
   for (const Stamp& c : candidates_) {
     outliers_.erase(c.k);
     accept(c);
@@ -364,8 +440,11 @@ void DeviceClock::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
                            uint64_t device_transmit_ticks, TimeNs host_receive) {
   if (segments_.empty()) return;  // no clock to correct yet
   shifts_dirty_ = true;
-  segments_.back().mapper.add_ping(host_send, device_receive_ticks, device_transmit_ticks,
-                                   host_receive);
+  Segment& seg = segments_.back();
+  seg.mapper.add_ping(host_send, device_receive_ticks, device_transmit_ticks, host_receive);
+  if (seg.accepted <= 2 && seg.early_pings.size() < kEarlyPings)
+    seg.early_pings.push_back(
+        {host_send, device_receive_ticks, device_transmit_ticks, host_receive});
 }
 
 void DeviceClock::flush() {

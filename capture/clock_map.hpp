@@ -29,6 +29,7 @@
 #pragma once
 
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <vector>
@@ -134,17 +135,37 @@ class ClockMapper {
 // time; found in review: a replay's gaps of 1 s and more vanished from its time axis). Where the
 // index counts every sample made (a device's counter: a loss is a jump in it), a tick step
 // beyond the index step's is damaged whatever the host time allows, unless the host time since
-// the last sample covers half of it (a live stream's loss that a counter of a few bits, as the
-// Sony pads', undercounts; a replay's host time never does). Found in review (2026-11-26, fourth
-// round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after it went
-// back and began a new segment, and `record --duration 2` kept 1,201 samples. A count of the
-// samples that arrived (a text stream's) cannot tell such a tick from samples lost and keeps the
-// host-time rule alone. A sample that fails is an outlier: left out of the fit, and timed from
-// the last accepted sample plus its place in the sequence at the segment's mean sample period.
-// kRestartSamples outliers in a row that agree with each other are a restart: they begin a new
-// segment, a new ClockMapper on their own clock. A segment's times begin no earlier than one
-// sample period after the previous segment's last (where the host times cannot place it: a file
-// replayed faster than it was recorded), so a recording's times run forward through restarts.
+// the last sample was made covers half of it (a live stream's loss that a counter of a few bits,
+// as the Sony pads', undercounts; a replay's host time never does). Found in review (2026-11-26,
+// fourth round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after
+// it went back and began a new segment, and `record --duration 2` kept 1,201 samples. When the
+// last sample was made the host cannot see, but no sample arrives before it is made: it was made
+// no later than any earlier sample's arrival plus the device time between them, at the nominal
+// tick rate over the segment's last kMadeWindowS of device time (the earliest of these bounds,
+// its own arrival among them; a clock 100 ppm off moves it by 1 ms). A live stream that stalled
+// delivers its buffered samples late, and after them (a loss of more than 64 reports on a 6-bit
+// counter) the host time since the last one's late arrival was a fraction of the loss (found in
+// review, same round: a 250 Hz pad began a second segment and lost 0.284 s of its 5.996 s); the
+// samples before the stall place it. In a replay the latest arrival is the earliest bound, so a
+// replay's host time still never covers a step. A count of the samples that arrived (a text
+// stream's) cannot tell such a tick from samples lost and keeps the host-time rule alone. A sample
+// that fails is an outlier: left out of the fit, and timed from the last accepted sample plus its
+// place in the sequence at the segment's mean sample period. kRestartSamples outliers in a row that
+// agree with each other are a restart: they begin a new segment, a new ClockMapper on their own
+// clock. A segment's times begin no earlier than one sample period after the previous segment's
+// last (where the host times cannot place it: a file replayed faster than it was recorded), so a
+// recording's times run forward through restarts.
+//
+// The first sample of a recording has no rate to hold the next to: its second sample is taken
+// on the host-time rule alone. So the outliers in a row that would be a restart continue the
+// first segment instead where it holds at most two samples and they continue its first sample:
+// their indices increase, and the first one's tick step from it is its index step at the run's
+// own ticks per index (within half a period and kGapTolerance), which the second sample's is not.
+// The second is then the outlier (a damaged tick), or the run bridges a gap right after the first
+// sample. While that is open (a sample after the second by its index whose tick lies between the
+// first's and the second's: one of the two is damaged), elapsed_s puts such a sample at its own
+// tick. Found in review (same round): an Xsens replay with a tick 0.8 s ahead at sample 1 kept 3
+// samples for `record --duration 2` (its samples after it were outliers at 0.801 s a sample).
 //
 // Samples are numbered in the order they are added (k = 0, 1, ...); the offline re-timing of a
 // recording adds them all in a first pass and asks for their times by number in a second.
@@ -153,6 +174,8 @@ class DeviceClock {
   static constexpr double kMaxLeadS = 1.0;
   static constexpr double kGapTolerance = 1e-3;
   static constexpr std::size_t kRestartSamples = 3;
+  static constexpr std::size_t kEarlyPings = 16;
+  static constexpr double kMadeWindowS = 10.0;
   // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
   static constexpr double kMaxSlew = 0.1;
 
@@ -168,12 +191,20 @@ class DeviceClock {
   // True when the sample just added continues the one before it on the same clock (neither is
   // an outlier, no restart between): its tick step is elapsed device time.
   bool continues() const { return continues_; }
+  // When the sample just added made the first segment's second sample an outlier
+  // (run_continues_first), the tick and index steps continues() reported for that sample, which
+  // a caller that summed them takes back; nothing otherwise.
+  struct Step {
+    uint64_t ticks = 0, index = 0;
+  };
+  std::optional<Step> withdrawn() const { return withdrawn_; }
   // The device time from the first sample to one with this tick and receive time if it were
   // added next, in seconds, on a clock that runs on through damaged ticks and restarts: within a
   // segment its tick minus the segment's first, after the spans (first to last accepted sample)
   // of the segments before it, so a restart adds nothing; a sample that would be an outlier sits
-  // at its place in the sequence, as time_of puts it. Lets a caller decide on a sample (whether
-  // it is inside a recording's duration) before it enters the fit.
+  // at its place in the sequence, as time_of puts it (one that puts the first segment's second
+  // sample in doubt at its own tick, see above). Lets a caller decide on a sample (whether it is
+  // inside a recording's duration) before it enters the fit.
   double elapsed_s(uint64_t device_ticks, TimeNs host_receive,
                    std::optional<uint64_t> sample_index = std::nullopt, bool counter = false) const;
   // The online time of the sample just added: the fit of its segment, slewed so that it never
@@ -200,11 +231,26 @@ class DeviceClock {
     std::optional<uint64_t> index;  // drivers::Sample::sequence
     bool counter = false;           // index counts every sample made (add_sample)
   };
+  struct Ping {
+    TimeNs host_send;
+    uint64_t device_receive_ticks, device_transmit_ticks;
+    TimeNs host_receive;
+  };
   struct Segment {
     ClockMapper mapper;
     Stamp first, last;  // its first and last accepted sample
     Stamp run;          // the first accepted sample of the latest run of increasing indices
     std::size_t accepted = 0;
+    // Accepted samples' receive time minus device time (seconds, both from the first's) over the
+    // last kMadeWindowS of device time, increasing: the front is the least (runs_ahead_of_counter).
+    struct Offset {
+      uint64_t ticks;
+      double seconds;
+    };
+    std::deque<Offset> offsets;
+    // The first kEarlyPings pings while it holds at most two samples (it may be rebuilt on its
+    // first: run_continues_first).
+    std::vector<Ping> early_pings;
   };
   struct Outlier {
     std::size_t segment;
@@ -224,8 +270,17 @@ class DeviceClock {
   // b continues seg across a gap: its tick step from seg's last sample is its index step's.
   bool bridges_gap(const Segment& seg, const Stamp& b) const;
   // b's tick runs ahead of its sample counter (b.counter) by more than the index step allows,
-  // and the host time since seg's last sample does not cover half its tick step.
+  // and the host time since seg's last sample was made (no later than the earliest of the recent
+  // samples' arrival plus the device time since: see the class comment) does not cover half its
+  // tick step.
   bool runs_ahead_of_counter(const Segment& seg, const Stamp& b) const;
+  // The outliers in a row from `from` to `to` continue the last segment's first sample (see the
+  // class comment): the segment holds at most two samples, and the run's first tick step from
+  // its first sample is the index step at the run's ticks per index, its second's is not.
+  bool run_continues_first(const Stamp& from, const Stamp& to) const;
+  // b puts seg's second sample in doubt: seg holds two, b is after the second by its index and
+  // its tick lies between the first's (included) and the second's.
+  bool doubts_second(const Segment& seg, const Stamp& b) const;
   // bridges_gap, or follows and does not run ahead of its counter, from the last segment.
   bool continues_segment(const Stamp& b) const;
   // How many outliers in a row that agree with each other b would make (kRestartSamples: a
@@ -247,6 +302,8 @@ class DeviceClock {
   std::vector<Stamp> candidates_;  // outliers in a row that agree with each other
   Stamp last_added_;
   bool last_accepted_ = false, continues_ = false;
+  std::optional<Step> second_step_;  // continues()'s step at the first segment's second sample
+  std::optional<Step> withdrawn_;
   std::size_t next_k_ = 0;
   // Online state: the last time given out, in seconds since the first sample's arrival (anchor_).
   TimeNs anchor_ = 0;

@@ -192,6 +192,11 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
     d.clock.add_sample(static_cast<uint64_t>(s.device_time), s.host_time, s.sequence,
                        s.has_sample_counter);
     t = d.clock.online_time();
+    if (const auto w = d.clock.withdrawn()) {
+      // The step to the second sample, summed below as it arrived, was a damaged tick's.
+      d.sequence_span -= std::min(d.sequence_span, w->index);
+      d.device_span -= std::min(d.device_span, static_cast<TimeNs>(w->ticks));
+    }
   }
   // Raw first: the offline refit maps the raw message and gives its time to the IMU message
   // that follows it.

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "imukit/core/rng.hpp"
+#include "imukit/drivers/sample.hpp"
 
 namespace imukit::capture {
 namespace {
@@ -462,6 +463,101 @@ TEST(DeviceClock, ATickAheadOfItsSampleCounterIsAnOutlier) {
     EXPECT_EQ(clock.fit().segments, c.segments) << c.name;
     EXPECT_EQ(clock.fit().outliers, c.outliers) << c.name;
     EXPECT_NEAR(last_elapsed, c.elapsed_s, 1e-9) << c.name;
+  }
+}
+
+// Found in review (2026-11-26, fourth round, second pass): a live DualShock 4 (250 Hz, device
+// time in ns, its 6-bit report counter unwrapped by the half-range rule, as the playstation codec
+// does) stalls at report `stall`: the host reads the `buffered` reports the link kept at once,
+// when report stall + buffered + lost is made, and the `lost` reports made after them are gone.
+// The counter steps by (lost + 1) mod 64, far less than the tick. The host time since the last
+// buffered report arrived was under a millisecond, not half the loss, so the report after it and
+// every one after it ran ahead of the counter, and three made a restart: 2 segments, and 5.712 s
+// (70 lost) and 5.192 s (200 lost) of device time at report 1499 instead of 5.996 s. The reports
+// before the stall arrived 1 ms after they were made, which bounds when the last buffered one was
+// made: from then the host time covers the loss. (The clock fit's envelope would not do: 200
+// reports buffered 50 reports in tilt it through the late ones, 2 segments again.)
+TEST(DeviceClock, ALossAfterAStallThatTheCounterUndercountsIsKept) {
+  struct Case {
+    int64_t stall, buffered, lost;
+  };
+  for (const Case c : {Case{500, 64, 70}, Case{500, 64, 200}, Case{50, 200, 70}}) {
+    constexpr int64_t kPeriod = 4'000'000;  // ns
+    const int64_t stall = c.stall, buffered = c.buffered, lost = c.lost;
+    const int64_t resume = stall + buffered + lost;  // the first report made after the read
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    DeviceClock clock(1e9);
+    drivers::CounterUnwrapper counter(6);
+    double elapsed = 0.0;
+    std::size_t k = 0, before_gap = 0, after_gap = 0;
+    for (int64_t m = 0; m < 1500; ++m) {
+      if (m >= stall + buffered && m < resume) continue;  // lost
+      const bool late = m >= stall && m < stall + buffered;
+      const TimeNs received =
+          late ? host0 + resume * kPeriod + (m - stall) * 10'000 : host0 + m * kPeriod + 1'000'000;
+      const auto tick = static_cast<uint64_t>(m * kPeriod);
+      const auto index = static_cast<uint64_t>(counter.unwrap(static_cast<uint64_t>(m)));
+      if (m == 1499) elapsed = clock.elapsed_s(tick, received, index, true);
+      if (m == stall + buffered - 1) before_gap = k;
+      if (m == resume) after_gap = k;
+      clock.add_sample(tick, received, index, true);
+      ++k;
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, 1u) << c.stall << " " << c.buffered << " " << lost;
+    EXPECT_EQ(clock.fit().outliers, 0u) << c.stall << " " << c.buffered << " " << lost;
+    EXPECT_NEAR(elapsed, 5.996, 1e-9) << c.stall << " " << c.buffered << " " << lost;
+    EXPECT_EQ(clock.time_of(after_gap, static_cast<uint64_t>(resume * kPeriod)) -
+                  clock.time_of(before_gap, static_cast<uint64_t>((resume - lost - 1) * kPeriod)),
+              (lost + 1) * kPeriod)
+        << c.stall << " " << c.buffered << " " << lost;
+  }
+}
+
+// Found in review (2026-11-26, fourth round, second pass): the first sample gives no ticks per
+// index, so the second was held to the host time plus kMaxLeadS alone. In a replay (1 kHz on a
+// 1 MHz clock, blocks of 8 read 20 us apart) a tick 0.8 s ahead at sample 1 was kept, the
+// samples after it went back and were outliers at 0.801 s a sample (sample 3: 2.403 s), then a
+// restart: 2 segments, 2.798 s of device time at sample 1999. A gap of 2.5 s right after the
+// first sample, which no rate could bridge, was a restart that dropped it (1.998 s at sample
+// 1999, made at 4.499 s). The three outliers in a row continue the first sample at their own
+// ticks per index: one segment, the damaged tick an outlier and the gap kept, with a counter or
+// with a count of the lines that arrived (the samples after the damaged one go back: no loss).
+TEST(DeviceClock, TheSecondSampleIsHeldToTheRunAfterIt) {
+  struct Case {
+    const char* name;
+    bool counter;
+    int64_t lost;  // after sample 0 (then no damaged tick)
+    std::size_t outliers;
+    double elapsed_3, elapsed_1999;  // at samples 3 and 1999
+  };
+  for (const Case c : {Case{"damaged, counter", true, 0, 1, 0.003, 1.999},
+                       Case{"damaged, no counter", false, 0, 1, 0.003, 1.999},
+                       Case{"gap", true, 2500, 0, 2.503, 4.499}}) {
+    DeviceClock clock(1e6);
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    std::vector<uint64_t> ticks;
+    double elapsed_3 = 0.0, elapsed_1999 = 0.0;
+    for (int64_t i = 0; i < 2000; ++i) {
+      const int64_t made = i == 0 ? 0 : i + c.lost;
+      ticks.push_back(static_cast<uint64_t>(made) * 1000 + (c.lost == 0 && i == 1 ? 800'000 : 0));
+      const TimeNs received = host0 + i / 8 * 20'000;
+      const auto index = static_cast<uint64_t>(made);
+      if (i == 3) elapsed_3 = clock.elapsed_s(ticks.back(), received, index, c.counter);
+      if (i == 1999) elapsed_1999 = clock.elapsed_s(ticks.back(), received, index, c.counter);
+      clock.add_sample(ticks.back(), received, index, c.counter);
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, 1u) << c.name;
+    EXPECT_EQ(clock.fit().outliers, c.outliers) << c.name;
+    EXPECT_NEAR(elapsed_3, c.elapsed_3, 1e-9) << c.name;
+    EXPECT_NEAR(elapsed_1999, c.elapsed_1999, 1e-9) << c.name;
+    // The damaged sample sits one period after the first; the gap stays in the times.
+    EXPECT_EQ(clock.time_of(1, ticks[1]) - clock.time_of(0, ticks[0]),
+              c.lost == 0 ? 1'000'000 : 2'501'000'000)
+        << c.name;
+    EXPECT_EQ(clock.time_of(1999, ticks[1999]) - clock.time_of(2, ticks[2]), 1'997'000'000)
+        << c.name;
   }
 }
 
