@@ -226,17 +226,9 @@ bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) cons
   if (!step || tick_step <= step->ticks + step->tolerance) return false;
   // A counter of a few bits undercounts a loss longer than half its range, which a live stream's
   // host time shows (the samples after it arrive when they are made); a damaged tick arrives
-  // with its neighbours, and in a replay every sample does. From when the last sample was made,
-  // no later than a recent sample's arrival plus the device time since (a stall's buffered
-  // samples arrive late, and the loss after them shows only from when they were made).
-  // The last sample's own arrival is one of the bounds (offsets holds it).
-  std::optional<double> host_elapsed = seconds_since(b.host, seg.last.host);
-  const std::optional<double> since_first = seconds_since(b.host, seg.first.host);
-  if (since_first && !seg.offsets.empty()) {
-    const double made = seg.offsets.front().seconds +
-                        static_cast<double>(seg.last.ticks - seg.first.ticks) / tick_hz_;
-    host_elapsed = *since_first - made;
-  }
+  // with its neighbours, and in a replay every sample does. (A counter short enough to wrap
+  // within a live loss is no sample counter: drivers::Sample::has_sample_counter.)
+  const std::optional<double> host_elapsed = seconds_since(b.host, seg.last.host);
   return !host_elapsed || *host_elapsed < 0.5 * tick_step / tick_hz_;
 }
 
@@ -286,7 +278,7 @@ void DeviceClock::begin_segment(const Stamp& s) {
     if (__builtin_add_overflow(earlier_spans_, last.last.ticks - last.first.ticks, &earlier_spans_))
       earlier_spans_ = std::numeric_limits<uint64_t>::max();
   }
-  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0, {}, {}});
+  segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0, {}});
   segment_starts_.push_back(s.k);
 }
 
@@ -298,14 +290,6 @@ void DeviceClock::accept(const Stamp& s) {
   if (seg.accepted == 0 || !s.index || !seg.last.index || *s.index <= *seg.last.index) seg.run = s;
   seg.last = s;
   ++seg.accepted;
-  if (const std::optional<double> since_first = seconds_since(s.host, seg.first.host)) {
-    const double offset = *since_first - static_cast<double>(s.ticks - seg.first.ticks) / tick_hz_;
-    while (!seg.offsets.empty() && seg.offsets.back().seconds >= offset) seg.offsets.pop_back();
-    seg.offsets.push_back({s.ticks, offset});
-    const double window = kMadeWindowS * tick_hz_;
-    while (static_cast<double>(s.ticks - seg.offsets.front().ticks) > window)
-      seg.offsets.pop_front();
-  }
 }
 
 double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
@@ -375,7 +359,7 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     const Stamp first = seg.first, second = seg.last;
     const bool had_second = seg.accepted == 2;
     const std::vector<Ping> pings = std::move(seg.early_pings);
-    seg = Segment{ClockMapper(tick_hz_), first, first, first, 0, {}, {}};
+    seg = Segment{ClockMapper(tick_hz_), first, first, first, 0, {}};
     accept(first);
     for (const Ping& p : pings)
       add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);

@@ -29,7 +29,6 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <map>
 #include <optional>
 #include <vector>
@@ -135,19 +134,16 @@ class ClockMapper {
 // time; found in review: a replay's gaps of 1 s and more vanished from its time axis). Where the
 // index counts every sample made (a device's counter: a loss is a jump in it), a tick step
 // beyond the index step's is damaged whatever the host time allows, unless the host time since
-// the last sample was made covers half of it (a live stream's loss that a counter of a few bits,
-// as the Sony pads', undercounts; a replay's host time never does). Found in review (2026-11-26,
-// fourth round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after
-// it went back and began a new segment, and `record --duration 2` kept 1,201 samples. When the
-// last sample was made the host cannot see, but no sample arrives before it is made: it was made
-// no later than any earlier sample's arrival plus the device time between them, at the nominal
-// tick rate over the segment's last kMadeWindowS of device time (the earliest of these bounds,
-// its own arrival among them; a clock 100 ppm off moves it by 1 ms). A live stream that stalled
-// delivers its buffered samples late, and after them (a loss of more than 64 reports on a 6-bit
-// counter) the host time since the last one's late arrival was a fraction of the loss (found in
-// review, same round: a 250 Hz pad began a second segment and lost 0.284 s of its 5.996 s); the
-// samples before the stall place it. In a replay the latest arrival is the earliest bound, so a
-// replay's host time still never covers a step. A count of the samples that arrived (a text
+// the last sample covers half of it (a live loss longer than the counter's range, which it
+// undercounts; a replay's host time never covers it). Found in review (2026-11-26, fourth
+// round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after it went
+// back and began a new segment, and `record --duration 2` kept 1,201 samples. A counter that
+// wraps within a plausible live loss (the Sony pads' 6 or 8 bits: 64 reports at 250 Hz) is no
+// sample counter here: a stall delivers its buffered reports late, and the host time since the
+// last of them does not cover the loss after it (the same review's second pass: a pad began a
+// second segment and lost 0.284 s of 5.996; a bound from when the last sample was made instead,
+// tried next, let damaged ticks through on a clock 100 ppm slow and after a host-time step).
+// A count of the samples that arrived (a text
 // stream's) cannot tell such a tick from samples lost and keeps the host-time rule alone. A sample
 // that fails is an outlier: left out of the fit, and timed from the last accepted sample plus its
 // place in the sequence at the segment's mean sample period. kRestartSamples outliers in a row that
@@ -175,7 +171,6 @@ class DeviceClock {
   static constexpr double kGapTolerance = 1e-3;
   static constexpr std::size_t kRestartSamples = 3;
   static constexpr std::size_t kEarlyPings = 16;
-  static constexpr double kMadeWindowS = 10.0;
   // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
   static constexpr double kMaxSlew = 0.1;
 
@@ -241,13 +236,6 @@ class DeviceClock {
     Stamp first, last;  // its first and last accepted sample
     Stamp run;          // the first accepted sample of the latest run of increasing indices
     std::size_t accepted = 0;
-    // Accepted samples' receive time minus device time (seconds, both from the first's) over the
-    // last kMadeWindowS of device time, increasing: the front is the least (runs_ahead_of_counter).
-    struct Offset {
-      uint64_t ticks;
-      double seconds;
-    };
-    std::deque<Offset> offsets;
     // The first kEarlyPings pings while it holds at most two samples (it may be rebuilt on its
     // first: run_continues_first).
     std::vector<Ping> early_pings;
@@ -270,9 +258,7 @@ class DeviceClock {
   // b continues seg across a gap: its tick step from seg's last sample is its index step's.
   bool bridges_gap(const Segment& seg, const Stamp& b) const;
   // b's tick runs ahead of its sample counter (b.counter) by more than the index step allows,
-  // and the host time since seg's last sample was made (no later than the earliest of the recent
-  // samples' arrival plus the device time since: see the class comment) does not cover half its
-  // tick step.
+  // and the host time since seg's last sample does not cover half its tick step.
   bool runs_ahead_of_counter(const Segment& seg, const Stamp& b) const;
   // The outliers in a row from `from` to `to` continue the last segment's first sample (see the
   // class comment): the segment holds at most two samples, and the run's first tick step from

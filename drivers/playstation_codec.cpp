@@ -103,7 +103,8 @@ void PlaystationCodec::decode(std::span<const uint8_t> r, TimeNs host_time,
   Sample s;
   s.host_time = host_time;
   s.sequence = static_cast<uint64_t>(seq < 0 ? 0 : seq);
-  s.has_sample_counter = true;
+  // has_sample_counter stays false: 6 or 8 bits wrap within a live loss after a stall, which
+  // the host time cannot show (capture's DeviceClock; found in review, 2026-11-26).
   if (ds4) {
     // 16-bit timestamp in units of 16/3 us: ns = ticks * 16000 / 3.
     const int64_t ticks = time_.unwrap(static_cast<uint16_t>(r[10] | (r[11] << 8)));

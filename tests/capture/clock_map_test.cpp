@@ -470,13 +470,13 @@ TEST(DeviceClock, ATickAheadOfItsSampleCounterIsAnOutlier) {
 // time in ns, its 6-bit report counter unwrapped by the half-range rule, as the playstation codec
 // does) stalls at report `stall`: the host reads the `buffered` reports the link kept at once,
 // when report stall + buffered + lost is made, and the `lost` reports made after them are gone.
-// The counter steps by (lost + 1) mod 64, far less than the tick. The host time since the last
-// buffered report arrived was under a millisecond, not half the loss, so the report after it and
-// every one after it ran ahead of the counter, and three made a restart: 2 segments, and 5.712 s
-// (70 lost) and 5.192 s (200 lost) of device time at report 1499 instead of 5.996 s. The reports
-// before the stall arrived 1 ms after they were made, which bounds when the last buffered one was
-// made: from then the host time covers the loss. (The clock fit's envelope would not do: 200
-// reports buffered 50 reports in tilt it through the late ones, 2 segments again.)
+// The counter steps by (lost + 1) mod 64, far less than the tick. Held to it as a sample counter,
+// the report after the loss and every one after it ran ahead of it (the host time since the last
+// buffered report arrived was under a millisecond), and three made a restart: 2 segments, and
+// 5.712 s (70 lost) and 5.192 s (200 lost) of device time at report 1499 instead of 5.996 s. A
+// counter that wraps within a live loss is no sample counter (the codec does not claim one); the
+// host-time rule alone keeps the loss. With `counter` true the first case still splits: that is
+// why the pads do not claim it.
 TEST(DeviceClock, ALossAfterAStallThatTheCounterUndercountsIsKept) {
   struct Case {
     int64_t stall, buffered, lost;
@@ -497,10 +497,10 @@ TEST(DeviceClock, ALossAfterAStallThatTheCounterUndercountsIsKept) {
           late ? host0 + resume * kPeriod + (m - stall) * 10'000 : host0 + m * kPeriod + 1'000'000;
       const auto tick = static_cast<uint64_t>(m * kPeriod);
       const auto index = static_cast<uint64_t>(counter.unwrap(static_cast<uint64_t>(m)));
-      if (m == 1499) elapsed = clock.elapsed_s(tick, received, index, true);
+      if (m == 1499) elapsed = clock.elapsed_s(tick, received, index, false);
       if (m == stall + buffered - 1) before_gap = k;
       if (m == resume) after_gap = k;
-      clock.add_sample(tick, received, index, true);
+      clock.add_sample(tick, received, index, false);
       ++k;
     }
     clock.flush();
@@ -512,6 +512,20 @@ TEST(DeviceClock, ALossAfterAStallThatTheCounterUndercountsIsKept) {
               (lost + 1) * kPeriod)
         << c.stall << " " << c.buffered << " " << lost;
   }
+  // The same stream claimed as a sample counter: the loss after the stall splits it.
+  DeviceClock claimed(1e9);
+  drivers::CounterUnwrapper counter(6);
+  for (int64_t m = 0; m < 1500; ++m) {
+    if (m >= 564 && m < 634) continue;  // stall at 500, 64 buffered, 70 lost
+    const bool late = m >= 500 && m < 564;
+    const TimeNs received =
+        1'700'000'000'000'000'000 +
+        (late ? int64_t{634} * 4'000'000 + (m - 500) * 10'000 : m * 4'000'000 + 1'000'000);
+    claimed.add_sample(static_cast<uint64_t>(m * 4'000'000), received,
+                       static_cast<uint64_t>(counter.unwrap(static_cast<uint64_t>(m))), true);
+  }
+  claimed.flush();
+  EXPECT_EQ(claimed.fit().segments, 2u);
 }
 
 // Found in review (2026-11-26, fourth round, second pass): the first sample gives no ticks per
