@@ -224,7 +224,14 @@ bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) cons
   const std::optional<IndexStep> step = index_step(seg, b);
   const double tick_step = static_cast<double>(b.ticks - seg.last.ticks);
   if (!step || tick_step <= step->ticks + step->tolerance) return false;
-  // A counter of a few bits undercounts a loss longer than half its range, which a live stream's
+  // A sample counter has at least 16 bits (drivers::Sample::has_sample_counter): it undercounts a
+  // loss by a multiple of 2^16 samples, so a tick fewer than 2^15 periods beyond its step is
+  // damaged whatever the host time. Found in review (2026-11-26): blocks of 8 samples arrive one
+  // block period apart, which covers half of a tick damaged 6-12 ms ahead at 1 kHz, and each such
+  // tick began a segment (29 segments in 10 minutes).
+  const double per_index = step->ticks / static_cast<double>(*b.index - *seg.last.index);
+  if (tick_step - step->ticks < kMinCounterUndercount * per_index) return true;
+  // Beyond that, a loss longer than half the counter's range, which a live stream's
   // host time shows (the samples after it arrive when they are made); a damaged tick arrives
   // with its neighbours, and in a replay every sample does. (A counter short enough to wrap
   // within a live loss is no sample counter: drivers::Sample::has_sample_counter.)
@@ -259,6 +266,11 @@ bool DeviceClock::doubts_second(const Segment& seg, const Stamp& b) const {
   return seg.accepted == 2 && first.index && second.index && b.index &&
          *first.index < *second.index && *second.index < *b.index && b.ticks >= first.ticks &&
          b.ticks < second.ticks;
+}
+
+bool DeviceClock::overturns_second(const Stamp& b) const {
+  return !candidates_.empty() && doubts_second(segments_.back(), candidates_.front()) &&
+         follows(candidates_.back(), b) && run_continues_first(candidates_.front(), b);
 }
 
 bool DeviceClock::continues_segment(const Stamp& b) const {
@@ -333,6 +345,15 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     continues_ = false;
     return;
   }
+  if (continues_segment(s) && overturns_second(s)) {
+    // The outliers before it doubted the first segment's second sample, and with it they
+    // continue the first sample: the second was the damaged one.
+    continues_ = false;
+    candidates_.push_back(s);
+    rebuild_first_segment();
+    accept_candidates();
+    return;
+  }
   if (continues_segment(s)) {
     continues_ = was_accepted;
     candidates_.clear();  // they were outliers after all (recorded as such)
@@ -353,28 +374,36 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     return;
   }
   if (run_continues_first(candidates_.front(), candidates_.back())) {
-    // They continue the first segment's first sample: rebuilt on it and them, its second sample
-    // (if it has one) an outlier.
-    Segment& seg = segments_.back();
-    const Stamp first = seg.first, second = seg.last;
-    const bool had_second = seg.accepted == 2;
-    const std::vector<Ping> pings = std::move(seg.early_pings);
-    seg = Segment{ClockMapper(tick_hz_), first, first, first, 0, {}};
-    accept(first);
-    for (const Ping& p : pings)
-      add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);
-    if (had_second) {
-      // Timed from the first sample, as the outliers that were timed from it are now.
-      for (auto& [k, o] : outliers_)
-        if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
-      outliers_[second.k] = Outlier{segments_.size() - 1, first};
-      withdrawn_ = second_step_;
-    }
-    second_step_.reset();
+    rebuild_first_segment();
   } else {
     // A restart: the outliers in a row begin a segment of their own.
     begin_segment(candidates_.front());
   }
+  accept_candidates();
+}
+
+void DeviceClock::rebuild_first_segment() {
+  // On its first sample and the run that continues it, its second sample (if it has one) an
+  // outlier.
+  Segment& seg = segments_.back();
+  const Stamp first = seg.first, second = seg.last;
+  const bool had_second = seg.accepted == 2;
+  const std::vector<Ping> pings = std::move(seg.early_pings);
+  seg = Segment{ClockMapper(tick_hz_), first, first, first, 0, {}};
+  accept(first);
+  for (const Ping& p : pings)
+    add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);
+  if (had_second) {
+    // Timed from the first sample, as the outliers that were timed from it are now.
+    for (auto& [k, o] : outliers_)
+      if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
+    outliers_[second.k] = Outlier{segments_.size() - 1, first};
+    withdrawn_ = second_step_;
+  }
+  second_step_.reset();
+}
+
+void DeviceClock::accept_candidates() {
   for (const Stamp& c : candidates_) {
     outliers_.erase(c.k);
     accept(c);

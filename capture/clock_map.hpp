@@ -134,8 +134,9 @@ class ClockMapper {
 // time; found in review: a replay's gaps of 1 s and more vanished from its time axis). Where the
 // index counts every sample made (a device's counter: a loss is a jump in it), a tick step
 // beyond the index step's is damaged whatever the host time allows, unless the host time since
-// the last sample covers half of it (a live loss longer than the counter's range, which it
-// undercounts; a replay's host time never covers it). Found in review (2026-11-26, fourth
+// the last sample covers half of it and it runs ahead by at least half a 16-bit counter's range
+// (a live loss longer than the counter's range, which it undercounts by a multiple of its range;
+// a replay's host time never covers it). Found in review (2026-11-26, fourth
 // round): a tick 0.8 s ahead in a 1 kHz replay passed as samples lost, the samples after it went
 // back and began a new segment, and `record --duration 2` kept 1,201 samples. A counter that
 // wraps within a plausible live loss (the Sony pads' 6 or 8 bits: 64 reports at 250 Hz) is no
@@ -162,6 +163,10 @@ class ClockMapper {
 // first's and the second's: one of the two is damaged), elapsed_s puts such a sample at its own
 // tick. Found in review (same round): an Xsens replay with a tick 0.8 s ahead at sample 1 kept 3
 // samples for `record --duration 2` (its samples after it were outliers at 0.801 s a sample).
+// A second sample only a few periods ahead leaves fewer outliers than a restart before a sample
+// follows it again; where those doubt the second and continue the first with that sample, they
+// decide the same way (overturns_second). Found in review (2026-11-26): a second tick 1.5 periods
+// ahead made sample 2 the outlier, and 2.5 periods samples 2 and 3, each timed 1.5-2.5 ms late.
 //
 // Samples are numbered in the order they are added (k = 0, 1, ...); the offline re-timing of a
 // recording adds them all in a first pass and asks for their times by number in a second.
@@ -171,6 +176,8 @@ class DeviceClock {
   static constexpr double kGapTolerance = 1e-3;
   static constexpr std::size_t kRestartSamples = 3;
   static constexpr std::size_t kEarlyPings = 16;
+  // The fewest samples a sample counter undercounts a loss by: half the range of 16 bits.
+  static constexpr double kMinCounterUndercount = 32768.0;
   // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
   static constexpr double kMaxSlew = 0.1;
 
@@ -267,6 +274,9 @@ class DeviceClock {
   // b puts seg's second sample in doubt: seg holds two, b is after the second by its index and
   // its tick lies between the first's (included) and the second's.
   bool doubts_second(const Segment& seg, const Stamp& b) const;
+  // The outliers in a row before b (fewer than a restart's) put the first segment's second
+  // sample in doubt, and with b they continue its first sample (run_continues_first).
+  bool overturns_second(const Stamp& b) const;
   // bridges_gap, or follows and does not run ahead of its counter, from the last segment.
   bool continues_segment(const Stamp& b) const;
   // How many outliers in a row that agree with each other b would make (kRestartSamples: a
@@ -274,6 +284,10 @@ class DeviceClock {
   std::size_t candidate_run(const Stamp& b) const;
   void begin_segment(const Stamp& s);
   void accept(const Stamp& s);
+  // The first segment begun again on its first sample (run_continues_first).
+  void rebuild_first_segment();
+  // The outliers in a row (candidates_) accepted into the last segment.
+  void accept_candidates();
   double seconds_since_anchor(TimeNs t) const;
   double period_ticks(const Segment& seg) const;  // its mean ticks per accepted sample
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted

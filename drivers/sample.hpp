@@ -34,7 +34,8 @@ struct Sample {
   // sequence counts every sample the device made, lost ones included (its counter, or the slot
   // of a stream at a known rate): a loss is a jump in it, so a tick step beyond its step is a
   // damaged tick (capture's DeviceClock). False for a count of the samples decoded, and for a
-  // counter short enough to wrap within a live loss (the Sony pads' 6 or 8 bits).
+  // counter short enough to wrap within a live loss (the Sony pads' 6 or 8 bits): a sample
+  // counter has at least 16 bits.
   bool has_sample_counter = false;
   uint8_t channels = 0;           // kHas* bits
   std::array<double, 3> accel{};  // specific force, m/s^2

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 #include <vector>
 
 #include "imukit/core/rng.hpp"
@@ -444,7 +445,7 @@ TEST(DeviceClock, ATickAheadOfItsSampleCounterIsAnOutlier) {
   for (const Case c :
        {Case{"replay", true, false, 0, 0, 1, 1, 1.999}, Case{"live", true, true, 0, 0, 1, 1, 1.999},
         Case{"replay without a counter", false, false, 0, 0, 2, 0, 2.798},
-        Case{"live, 8-bit counter, a loss", true, true, 268, 256, 1, 0, 2.267}}) {
+        Case{"live, 16-bit counter, a loss", true, true, 65'548, 65'536, 1, 0, 67.547}}) {
     DeviceClock clock(1e6);
     const TimeNs host0 = 1'700'000'000'000'000'000;
     double last_elapsed = 0.0;
@@ -537,24 +538,33 @@ TEST(DeviceClock, ALossAfterAStallThatTheCounterUndercountsIsKept) {
 // 1999, made at 4.499 s). The three outliers in a row continue the first sample at their own
 // ticks per index: one segment, the damaged tick an outlier and the gap kept, with a counter or
 // with a count of the lines that arrived (the samples after the damaged one go back: no loss).
+//
+// Found in review (2026-11-26, fifth round): a second tick only 1.5 or 2.5 periods ahead leaves
+// one or two outliers before a sample follows it again, fewer than a restart, so the second was
+// kept (1.5-2.5 ms late) and samples 2 (and 3) were the outliers. The outliers that doubt the
+// second and continue the first with the sample after them decide the same way.
 TEST(DeviceClock, TheSecondSampleIsHeldToTheRunAfterIt) {
   struct Case {
     const char* name;
     bool counter;
-    int64_t lost;  // after sample 0 (then no damaged tick)
+    int64_t lost;     // after sample 0
+    uint64_t damage;  // ticks added to sample 1's
     std::size_t outliers;
     double elapsed_3, elapsed_1999;  // at samples 3 and 1999
   };
-  for (const Case c : {Case{"damaged, counter", true, 0, 1, 0.003, 1.999},
-                       Case{"damaged, no counter", false, 0, 1, 0.003, 1.999},
-                       Case{"gap", true, 2500, 0, 2.503, 4.499}}) {
+  for (const Case c : {Case{"damaged, counter", true, 0, 800'000, 1, 0.003, 1.999},
+                       Case{"damaged, no counter", false, 0, 800'000, 1, 0.003, 1.999},
+                       Case{"1.5 periods ahead, counter", true, 0, 1500, 1, 0.003, 1.999},
+                       Case{"2.5 periods ahead, counter", true, 0, 2500, 1, 0.003, 1.999},
+                       Case{"2.5 periods ahead, no counter", false, 0, 2500, 1, 0.003, 1.999},
+                       Case{"gap", true, 2500, 0, 0, 2.503, 4.499}}) {
     DeviceClock clock(1e6);
     const TimeNs host0 = 1'700'000'000'000'000'000;
     std::vector<uint64_t> ticks;
     double elapsed_3 = 0.0, elapsed_1999 = 0.0;
     for (int64_t i = 0; i < 2000; ++i) {
       const int64_t made = i == 0 ? 0 : i + c.lost;
-      ticks.push_back(static_cast<uint64_t>(made) * 1000 + (c.lost == 0 && i == 1 ? 800'000 : 0));
+      ticks.push_back(static_cast<uint64_t>(made) * 1000 + (i == 1 ? c.damage : 0));
       const TimeNs received = host0 + i / 8 * 20'000;
       const auto index = static_cast<uint64_t>(made);
       if (i == 3) elapsed_3 = clock.elapsed_s(ticks.back(), received, index, c.counter);
@@ -572,6 +582,73 @@ TEST(DeviceClock, TheSecondSampleIsHeldToTheRunAfterIt) {
         << c.name;
     EXPECT_EQ(clock.time_of(1999, ticks[1999]) - clock.time_of(2, ticks[2]), 1'997'000'000)
         << c.name;
+  }
+}
+
+// Found in review (2026-11-26, fourth and fifth rounds): with a sample counter, a tick damaged a
+// few ms ahead is held to the counter's step. Samples in blocks of 8 arrive a block period
+// apart, which covered half of a tick 6-12 ms ahead at 1 kHz on a block's first sample, and each
+// such tick began a segment
+// (6 segments here); a bound from when the last sample was made, tried before, let such ticks
+// through on a clock 100 ppm slow. A minute at 1 kHz on a 1 MHz clock, a tick damaged every 5 s.
+TEST(DeviceClock, TicksDamagedAFewPeriodsAheadAreOutliersOnAnyClockAndInBlocks) {
+  for (const double drift_ppm : {-300.0, -100.0, 1000.0}) {
+    for (const int64_t block : {1, 8}) {
+      for (const uint64_t ahead : {3'000u, 6'000u, 12'000u, 50'000u}) {
+        Link link;
+        link.drift_ppm = drift_ppm;
+        Rng rng(7);
+        DeviceClock clock(link.tick_hz);
+        std::vector<uint64_t> ticks;
+        double jitter = 0.0;
+        for (int64_t i = 0; i < 60'000; ++i) {
+          const bool damaged = i % 5000 == 0 && i > 0;  // the first of a block
+          ticks.push_back(link.ticks_at(link.true_time(i)) + (damaged ? ahead : 0));
+          if (i % block == 0) jitter = link.jitter(rng);
+          const int64_t last_of_block = i / block * block + block - 1;
+          const TimeNs received =
+              link.host_at(link.true_time(last_of_block) + link.latency_s + jitter);
+          clock.add_sample(ticks.back(), received, static_cast<uint64_t>(i), true);
+        }
+        clock.flush();
+        const std::string name = std::to_string(static_cast<int>(drift_ppm)) + " ppm, blocks of " +
+                                 std::to_string(block) + ", " + std::to_string(ahead) + " ticks";
+        EXPECT_EQ(clock.fit().segments, 1u) << name;
+        EXPECT_EQ(clock.fit().outliers, 11u) << name;
+        // A damaged sample is timed from its neighbours: one period after the one before it.
+        const TimeNs step =
+            clock.time_of(30'000, ticks[30'000]) - clock.time_of(29'999, ticks[29'999]);
+        EXPECT_NEAR(static_cast<double>(step), 1e6, 2e3) << name;
+      }
+    }
+  }
+}
+
+// Found in review (2026-11-26, fourth round, third pass): the host clock steps (+0.5 s, or -2 s)
+// at 5 s of a live 20 s stream, and a tick is damaged 0.8 s ahead at 8 s. The step changes
+// nothing of the device's clock: one segment, one outlier, 19.999 s of device time at the last
+// sample, and online times that never go back. The withdrawn made-time bound had made this 2
+// segments after the +0.5 s step.
+TEST(DeviceClock, AHostClockStepLeavesADamagedTickAnOutlier) {
+  for (const double host_step_s : {0.5, -2.0}) {
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    DeviceClock clock(1e9);
+    double elapsed = 0.0;
+    TimeNs last_online = INT64_MIN;
+    for (int64_t i = 0; i < 20'000; ++i) {
+      const auto tick = static_cast<uint64_t>(i * 1'000'000 + (i == 8000 ? 800'000'000 : 0));
+      const TimeNs received = host0 + i * 1'000'000 + 2'000'000 +
+                              (i >= 5000 ? static_cast<TimeNs>(host_step_s * 1e9) : 0);
+      if (i == 19'999) elapsed = clock.elapsed_s(tick, received, static_cast<uint64_t>(i), true);
+      clock.add_sample(tick, received, static_cast<uint64_t>(i), true);
+      const TimeNs online = clock.online_time();
+      EXPECT_GE(online, last_online) << host_step_s << " s, sample " << i;
+      last_online = online;
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, 1u) << host_step_s;
+    EXPECT_EQ(clock.fit().outliers, 1u) << host_step_s;
+    EXPECT_NEAR(elapsed, 19.999, 1e-9) << host_step_s;
   }
 }
 
