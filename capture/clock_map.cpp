@@ -229,8 +229,21 @@ bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) cons
   // damaged whatever the host time. Found in review (2026-11-26): blocks of 8 samples arrive one
   // block period apart, which covers half of a tick damaged 6-12 ms ahead at 1 kHz, and each such
   // tick began a segment (29 segments in 10 minutes).
-  const double per_index = step->ticks / static_cast<double>(*b.index - *seg.last.index);
-  if (tick_step - step->ticks < kMinCounterUndercount * per_index) return true;
+  // Only where the step is certain: the run holds kSettledRun indices (its first samples were
+  // taken on the host-time rule and may be damaged), and the excess is beyond what the last
+  // sample's tick and the run's ends, each off by up to half a period, make of the step (found in
+  // review: an Xsens at 800 Hz on 10 kHz ticks, 12 or 13 a sample, lost 2,000 samples after
+  // sample 1, and the step held to 12 ticks an index was 1,000 ticks short: a restart, and
+  // `record --duration` overshot by the loss). Otherwise the host time decides.
+  const double index_steps = static_cast<double>(*b.index - *seg.last.index);
+  const double per_index = step->ticks / index_steps;
+  const double run_indices = static_cast<double>(*seg.last.index - *seg.run.index);
+  const double uncertain =
+      step->tolerance + 0.5 * per_index + index_steps * per_index / run_indices;
+  const double excess = tick_step - step->ticks;
+  if (run_indices >= kSettledRun && excess > uncertain &&
+      excess < kMinCounterUndercount * per_index)
+    return true;
   // Beyond that, a loss longer than half the counter's range, which a live stream's
   // host time shows (the samples after it arrive when they are made); a damaged tick arrives
   // with its neighbours, and in a replay every sample does. (A counter short enough to wrap
@@ -269,7 +282,13 @@ bool DeviceClock::doubts_second(const Segment& seg, const Stamp& b) const {
 }
 
 bool DeviceClock::overturns_second(const Stamp& b) const {
-  return !candidates_.empty() && doubts_second(segments_.back(), candidates_.front()) &&
+  // Only with a sample counter: where the index counts the lines that arrived, a loss right after
+  // the first sample shifts it, and a genuine second sample with a damaged tick after it looks
+  // the same (found in review: text, 11 lines lost after the first, line 2's tick 3.5 ms behind:
+  // the genuine line 1 became the outlier, 11 ms early).
+  const auto counted = [](const Stamp& s) { return s.counter; };
+  return b.counter && std::all_of(candidates_.begin(), candidates_.end(), counted) &&
+         !candidates_.empty() && doubts_second(segments_.back(), candidates_.front()) &&
          follows(candidates_.back(), b) && run_continues_first(candidates_.front(), b);
 }
 
@@ -327,8 +346,7 @@ double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
   // The first segment's second sample or this one is damaged: until a run shows which, at its
   // own tick (the second's step is the segment's only period).
   if (doubts_second(seg, s)) return seconds(since_first(s.ticks));
-  return seconds(since_first(seg.last.ticks) +
-                 static_cast<double>(s.k - seg.last.k) * period_ticks(seg));
+  return seconds(since_first(seg.last.ticks) + place_ticks(seg, seg.last, s));
 }
 
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
@@ -369,7 +387,7 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
   if (candidate_run(s) == 1) candidates_.clear();
   candidates_.push_back(s);
   if (candidates_.size() < kRestartSamples) {
-    outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last};
+    outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last, s};
     last_accepted_ = false;
     return;
   }
@@ -397,7 +415,7 @@ void DeviceClock::rebuild_first_segment() {
     // Timed from the first sample, as the outliers that were timed from it are now.
     for (auto& [k, o] : outliers_)
       if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
-    outliers_[second.k] = Outlier{segments_.size() - 1, first};
+    outliers_[second.k] = Outlier{segments_.size() - 1, first, second};
     withdrawn_ = second_step_;
   }
   second_step_.reset();
@@ -471,6 +489,16 @@ double DeviceClock::period_ticks(const Segment& seg) const {
          static_cast<double>(seg.last.k - seg.first.k);
 }
 
+double DeviceClock::place_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const {
+  const Stamp &a = seg.last, &r = seg.run;
+  if (s.counter && s.index && before.index && *s.index > *before.index && a.index && r.index &&
+      *a.index > *r.index && a.ticks > r.ticks) {
+    return static_cast<double>(*s.index - *before.index) * static_cast<double>(a.ticks - r.ticks) /
+           static_cast<double>(*a.index - *r.index);
+  }
+  return static_cast<double>(s.k - before.k) * period_ticks(seg);
+}
+
 TimeNs DeviceClock::segment_time(std::size_t index, uint64_t device_ticks) const {
   if (shifts_dirty_) {
     shifts_.assign(segments_.size(), 0);
@@ -493,12 +521,11 @@ TimeNs DeviceClock::segment_time(std::size_t index, uint64_t device_ticks) const
 TimeNs DeviceClock::time_of(std::size_t k, uint64_t device_ticks) const {
   assert(!segments_.empty());
   if (const auto o = outliers_.find(k); o != outliers_.end()) {
-    // Where its place in the sequence puts it: the last accepted sample's time plus the
-    // segment's mean sample period per sample since.
+    // Where its place in the sequence puts it, after the last sample accepted before it.
     const std::size_t index = o->second.segment;
     const Stamp& before = o->second.before;
     return offset_by(segment_time(index, before.ticks),
-                     static_cast<double>(k - before.k) * period_ticks(segments_[index]) / tick_hz_);
+                     place_ticks(segments_[index], before, o->second.self) / tick_hz_);
   }
   return map_near(k, device_ticks);
 }

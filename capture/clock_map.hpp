@@ -147,7 +147,8 @@ class ClockMapper {
 // A count of the samples that arrived (a text
 // stream's) cannot tell such a tick from samples lost and keeps the host-time rule alone. A sample
 // that fails is an outlier: left out of the fit, and timed from the last accepted sample plus its
-// place in the sequence at the segment's mean sample period. kRestartSamples outliers in a row that
+// place in the sequence (place_ticks: its counter's step, else its arrival's at the segment's
+// mean sample period). kRestartSamples outliers in a row that
 // agree with each other are a restart: they begin a new segment, a new ClockMapper on their own
 // clock. A segment's times begin no earlier than one sample period after the previous segment's
 // last (where the host times cannot place it: a file replayed faster than it was recorded), so a
@@ -178,6 +179,9 @@ class DeviceClock {
   static constexpr std::size_t kEarlyPings = 16;
   // The fewest samples a sample counter undercounts a loss by: half the range of 16 bits.
   static constexpr double kMinCounterUndercount = 32768.0;
+  // Indices a run spans before its ticks per index hold a tick to its counter whatever the host
+  // time (runs_ahead_of_counter).
+  static constexpr double kSettledRun = 64.0;
   // Online times: each interval within +-kMaxSlew of the device's own (see the top of the file).
   static constexpr double kMaxSlew = 0.1;
 
@@ -250,6 +254,7 @@ class DeviceClock {
   struct Outlier {
     std::size_t segment;
     Stamp before;  // the last sample its segment had accepted
+    Stamp self;
   };
   // b can follow a on one clock: its tick not before a's, nor ahead by more than the host time
   // elapsed plus kMaxLeadS.
@@ -290,6 +295,12 @@ class DeviceClock {
   void accept_candidates();
   double seconds_since_anchor(TimeNs t) const;
   double period_ticks(const Segment& seg) const;  // its mean ticks per accepted sample
+  // The ticks from `before` (seg's last accepted sample when s came) to s at its place in the
+  // sequence: its index step at the ticks per index of seg's latest run where the index counts
+  // every sample made (a loss before s stays before it), else its arrival number's step at the
+  // mean period (found in review, 2026-11-26 fifth round: the first sample after 10 lost, its
+  // tick damaged, was timed 10 periods early).
+  double place_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const;
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
 
   double tick_hz_;
