@@ -1,5 +1,6 @@
 #include "imukit/drivers/witmotion_codec.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -71,6 +72,7 @@ void WitmotionCodec::emit(std::vector<Sample>& out) {
     }
     expected_types_ = group_types_;
     frames_per_group_ = frames_in_group_;
+    position_ = group_position_;
     learned_ = true;
   }
   if (learned_ && (group_types_ & expected_types_) != expected_types_) {
@@ -105,6 +107,12 @@ void WitmotionCodec::count_damage() {
   rejected_bytes_ = 0;
 }
 
+bool WitmotionCodec::damage_ends_group(int position, uint64_t damaged) const {
+  return learned_ && in_group_ && damaged > 0 && position >= 0 && last_position_ >= 0 &&
+         position > last_position_ &&
+         damaged > static_cast<uint64_t>(position - last_position_ - 1);
+}
+
 void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
                             std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
@@ -135,11 +143,29 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
       pending_error_ = true;
       continue;
     }
+    const uint64_t damaged = (rejected_bytes_ + kFrame - 1) / kFrame;  // just before this frame
     count_damage();
     stats_.bytes_accepted += kFrame;
     ++stats_.frames_ok;
     head_ += kFrame;
     const int16_t v[4] = {le16(f + 2), le16(f + 4), le16(f + 6), le16(f + 8)};
+    const int position = learned_ ? position_[type - 0x50] : -1;
+    if (type != 0x51 && damage_ends_group(position, damaged)) {
+      // This frame belongs to a later group, whose acceleration frame was lost: that sample is
+      // dropped, and the current one lacks the frames after its latest. count_damage took a
+      // group's samples per whole group's frames in the stretch; it held the rest of this
+      // group, `lost` whole groups, and this frame's group up to it.
+      emit(out);
+      ++stats_.samples_dropped;
+      const uint64_t tail = frames_per_group_ - static_cast<uint64_t>(last_position_) - 1;
+      const uint64_t before = tail + static_cast<uint64_t>(position);
+      const uint64_t lost = damaged >= before ? (damaged - before) / frames_per_group_ : 0;
+      stats_.samples_dropped = stats_.samples_dropped - damaged / frames_per_group_ + lost;
+      ++stats_.frames_other;
+      // The frames of this group that follow are strays, not another sample (see !in_group_).
+      last_type_ = type >= 0x51 && type <= 0x54 ? type : 0x50;
+      continue;
+    }
     if (type == 0x51) {
       emit(out);
       in_group_ = true;
@@ -148,13 +174,20 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
       group_had_error_ = false;
       pending_error_ = false;
       frames_in_group_ = 0;
+      group_position_.fill(-1);
       current_ = Sample{};
       current_.host_time = host_time;
       // The group's slot in the stream: every sample before it, handed out or dropped (the
       // losses up to this frame are counted by now; later ones are after it).
       group_slot_ = stats_.samples_decoded + stats_.samples_dropped;
     }
-    if (in_group_) ++frames_in_group_;
+    if (in_group_) {
+      if (group_position_[type - 0x50] < 0)
+        group_position_[type - 0x50] =
+            static_cast<int8_t>(std::min<uint64_t>(frames_in_group_, 127));
+      ++frames_in_group_;
+      last_position_ = position;
+    }
     if (type > 0x54 || type < 0x51) {
       ++stats_.frames_other;
       continue;

@@ -11,7 +11,12 @@
 // corrupted or lost) is counted as a dropped sample instead of being emitted half-filled. A
 // stretch of rejected bytes counts as ceil(bytes / 11) corrupt frames, and when it holds at
 // least a whole group's frames, as that many groups' samples dropped too (a sample all of whose
-// frames were damaged leaves no frame to show it).
+// frames were damaged leaves no frame to show it). Types arrive in the learned group's order, so
+// a stretch holding more frames than lie between the frames on either side of it within a group
+// crossed into a later group: the frame after it begins no sample of its own (its acceleration
+// frame was lost) and is not merged into the one before (found in review: the tail of one group
+// and the acceleration frame of the next damaged together gave one sample the acceleration of
+// one and the angular rate of the next).
 //
 // A replay (decode only) reads bytes as fast as storage gives them, so receive times say nothing
 // of when the samples were made. Given the rate the stream was made at, the codec times sample
@@ -21,6 +26,8 @@
 //
 // Commands: `FF AA reg lo hi` (witmotion_command): unlock, set output rate, save.
 #pragma once
+
+#include <array>
 
 #include "imukit/drivers/codec.hpp"
 
@@ -56,6 +63,10 @@ class WitmotionCodec : public Codec {
  private:
   void emit(std::vector<Sample>& out);
   void count_damage();
+  // After `damaged` frames were rejected, a frame at `position` of the learned group ends the
+  // current group when more frames were damaged than lie between it and the group's latest
+  // frame: the stretch ran past the group's end (and the next group's acceleration frame).
+  bool damage_ends_group(int position, uint64_t damaged) const;
 
   WitmotionCodecOptions opt_;
   std::vector<uint8_t> buf_;
@@ -70,6 +81,11 @@ class WitmotionCodec : public Codec {
   uint64_t rejected_bytes_ = 0;    // bytes rejected since the last valid frame
   uint64_t frames_in_group_ = 0;   // valid frames since the group's acceleration frame
   uint64_t frames_per_group_ = 0;  // frames of the first clean group (0: not learned yet)
+  // Per type (0x50..0x5F): its place among the frames of this group, and of the learned one
+  // (-1: none); the place of this group's latest frame in the learned one.
+  std::array<int8_t, 16> group_position_{};
+  std::array<int8_t, 16> position_{};
+  int last_position_ = -1;
   Sample current_;
   uint64_t sequence_ = 0;
   uint64_t group_slot_ = 0;  // decode only with a rate: the current group's slot (its tick)

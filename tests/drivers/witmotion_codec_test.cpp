@@ -169,6 +169,43 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
   }
 }
 
+// Found in review (2026-11-26, fifth round): a stretch of damaged frames from inside one group
+// into the next (its acceleration frame among them) left the next group's later frames looking
+// like the rest of the first: sample 5 came out with the angular rate of sample 6. Stretches:
+// samples 5 (0x52-0x54) and 6 (0x51); 10 (0x53, 0x54) and 11 (0x51, 0x52); 14 (0x52-0x54), all
+// of 15 and 16 (0x51); then, 3 apart, random stretches of 1 to 9 frames.
+TEST(WitmotionCodec, ADamagedStretchAcrossGroupsMixesNoSamplesAndCountsEachOnce) {
+  const int n = 2000;
+  Stream st = make_stream(n);
+  std::set<int> hit;
+  const auto damage = [&](int first_frame, int frames) {
+    for (int f = first_frame; f < first_frame + frames; ++f) {
+      corrupt(st, static_cast<std::size_t>(f));
+      hit.insert(f / 4);
+    }
+  };
+  damage(4 * 5 + 1, 4);
+  damage(4 * 10 + 2, 4);
+  damage(4 * 14 + 1, 8);
+  Rng rng(11);
+  for (int sample = 20; sample < n - 4;) {
+    const int frames = 1 + static_cast<int>(rng.uniform_index(9));
+    damage(4 * sample + static_cast<int>(rng.uniform_index(4)), frames);
+    sample += 3 + (frames + 3) / 4;
+  }
+  WitmotionCodec codec;
+  const auto out = testing::feed_split(codec, st.bytes, rng, 50);
+  const CodecStats& s = codec.stats();
+  EXPECT_EQ(out.size(), static_cast<std::size_t>(n) - hit.size());
+  EXPECT_EQ(s.samples_dropped, hit.size());
+  testing::expect_byte_accounting(codec);
+  for (const Sample& x : out) {
+    const long i = std::lround(x.accel[0] / (16 * 9.80665) * 32768.0);
+    EXPECT_FALSE(hit.count(static_cast<int>(i))) << i;
+    EXPECT_NEAR(x.gyro[2], -i / 32768.0 * 2000 * std::numbers::pi / 180, 1e-12) << i;
+  }
+}
+
 // Samples all of whose frames arrive damaged leave no frame to show them: the stretch of
 // rejected bytes does (a whole group's worth per sample), and corrupt frames count frames, not
 // stretches. Sample 10: its 4 frames bad; samples 30 and 31: all 8 frames bad; sample 50: its
