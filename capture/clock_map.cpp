@@ -311,6 +311,7 @@ void DeviceClock::begin_segment(const Stamp& s) {
   }
   segments_.push_back(Segment{ClockMapper(tick_hz_), s, s, s, 0, {}});
   segment_starts_.push_back(s.k);
+  awaiting_after_.clear();  // the outliers of the segment before keep no next sample
 }
 
 void DeviceClock::accept(const Stamp& s) {
@@ -321,6 +322,14 @@ void DeviceClock::accept(const Stamp& s) {
   if (seg.accepted == 0 || !s.index || !seg.last.index || *s.index <= *seg.last.index) seg.run = s;
   seg.last = s;
   ++seg.accepted;
+  // The outliers before it have it as their next sample (when the first segment is rebuilt its
+  // first sample is accepted again, before the outliers that come after it).
+  std::erase_if(awaiting_after_, [&](std::size_t k) {
+    if (k > s.k) return false;
+    const auto o = outliers_.find(k);
+    if (o != outliers_.end() && o->second.segment == segments_.size() - 1) o->second.after = s;
+    return true;
+  });
 }
 
 double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
@@ -346,7 +355,8 @@ double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
   // The first segment's second sample or this one is damaged: until a run shows which, at its
   // own tick (the second's step is the segment's only period).
   if (doubts_second(seg, s)) return seconds(since_first(s.ticks));
-  return seconds(since_first(seg.last.ticks) + place_ticks(seg, seg.last, s));
+  return seconds(since_first(seg.last.ticks) +
+                 static_cast<double>(s.k - seg.last.k) * period_ticks(seg));
 }
 
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
@@ -387,7 +397,8 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
   if (candidate_run(s) == 1) candidates_.clear();
   candidates_.push_back(s);
   if (candidates_.size() < kRestartSamples) {
-    outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last, s};
+    outliers_[s.k] = Outlier{segments_.size() - 1, segments_.back().last, s, std::nullopt};
+    awaiting_after_.push_back(s.k);
     last_accepted_ = false;
     return;
   }
@@ -415,7 +426,8 @@ void DeviceClock::rebuild_first_segment() {
     // Timed from the first sample, as the outliers that were timed from it are now.
     for (auto& [k, o] : outliers_)
       if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
-    outliers_[second.k] = Outlier{segments_.size() - 1, first, second};
+    outliers_[second.k] = Outlier{segments_.size() - 1, first, second, std::nullopt};
+    awaiting_after_.push_back(second.k);
     withdrawn_ = second_step_;
   }
   second_step_.reset();
@@ -489,14 +501,21 @@ double DeviceClock::period_ticks(const Segment& seg) const {
          static_cast<double>(seg.last.k - seg.first.k);
 }
 
-double DeviceClock::place_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const {
-  const Stamp &a = seg.last, &r = seg.run;
-  if (s.counter && s.index && before.index && *s.index > *before.index && a.index && r.index &&
-      *a.index > *r.index && a.ticks > r.ticks) {
-    return static_cast<double>(*s.index - *before.index) * static_cast<double>(a.ticks - r.ticks) /
-           static_cast<double>(*a.index - *r.index);
+double DeviceClock::place_ticks(const Outlier& o) const {
+  const Stamp &before = o.before, &s = o.self;
+  const double by_arrival =
+      static_cast<double>(s.k - before.k) * period_ticks(segments_[o.segment]);
+  if (!o.after) return by_arrival;
+  const Stamp& after = *o.after;
+  const double span = static_cast<double>(after.ticks - before.ticks);
+  if (s.counter && s.index && before.index && after.index && *before.index < *s.index &&
+      *s.index < *after.index) {
+    return span * static_cast<double>(*s.index - *before.index) /
+           static_cast<double>(*after.index - *before.index);
   }
-  return static_cast<double>(s.k - before.k) * period_ticks(seg);
+  // Without a counter a loss between the neighbours cannot be placed; the outlier stays a mean
+  // period per sample after the one before (right for a loss after it), never past the next.
+  return std::min(by_arrival, span);
 }
 
 TimeNs DeviceClock::segment_time(std::size_t index, uint64_t device_ticks) const {
@@ -524,8 +543,7 @@ TimeNs DeviceClock::time_of(std::size_t k, uint64_t device_ticks) const {
     // Where its place in the sequence puts it, after the last sample accepted before it.
     const std::size_t index = o->second.segment;
     const Stamp& before = o->second.before;
-    return offset_by(segment_time(index, before.ticks),
-                     place_ticks(segments_[index], before, o->second.self) / tick_hz_);
+    return offset_by(segment_time(index, before.ticks), place_ticks(o->second) / tick_hz_);
   }
   return map_near(k, device_ticks);
 }

@@ -147,12 +147,12 @@ class ClockMapper {
 // A count of the samples that arrived (a text
 // stream's) cannot tell such a tick from samples lost and keeps the host-time rule alone. A sample
 // that fails is an outlier: left out of the fit, and timed from the last accepted sample plus its
-// place in the sequence (place_ticks: its counter's step, else its arrival's at the segment's
-// mean sample period). kRestartSamples outliers in a row that
-// agree with each other are a restart: they begin a new segment, a new ClockMapper on their own
-// clock. A segment's times begin no earlier than one sample period after the previous segment's
-// last (where the host times cannot place it: a file replayed faster than it was recorded), so a
-// recording's times run forward through restarts.
+// place in the sequence (place_ticks: between the accepted samples on either side of it by its
+// counter where it has one, else at the segment's mean sample period per sample that arrived).
+// kRestartSamples outliers in a row that agree with each other are a restart: they begin a new
+// segment, a new ClockMapper on their own clock. A segment's times begin no earlier than one sample
+// period after the previous segment's last (where the host times cannot place it: a file replayed
+// faster than it was recorded), so a recording's times run forward through restarts.
 //
 // The first sample of a recording has no rate to hold the next to: its second sample is taken
 // on the host-time rule alone. So the outliers in a row that would be a restart continue the
@@ -255,6 +255,7 @@ class DeviceClock {
     std::size_t segment;
     Stamp before;  // the last sample its segment had accepted
     Stamp self;
+    std::optional<Stamp> after;  // the next sample its segment accepted
   };
   // b can follow a on one clock: its tick not before a's, nor ahead by more than the host time
   // elapsed plus kMaxLeadS.
@@ -295,12 +296,13 @@ class DeviceClock {
   void accept_candidates();
   double seconds_since_anchor(TimeNs t) const;
   double period_ticks(const Segment& seg) const;  // its mean ticks per accepted sample
-  // The ticks from `before` (seg's last accepted sample when s came) to s at its place in the
-  // sequence: its index step at the ticks per index of seg's latest run where the index counts
-  // every sample made (a loss before s stays before it), else its arrival number's step at the
-  // mean period (found in review, 2026-11-26 fifth round: the first sample after 10 lost, its
-  // tick damaged, was timed 10 periods early).
-  double place_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const;
+  // The ticks from an outlier's `before` to its place in the sequence: between its neighbours
+  // (before and after) by its index where the index counts every sample made and lies between
+  // theirs (a loss before it stays before it); else its arrival number's step at the segment's
+  // mean period, never past `after` (found in review, 2026-11-26 fifth round: the first sample
+  // after 10 lost, its tick damaged, was timed 10 periods early; placed by its index at a run's
+  // ticks per index instead, a damaged index moved it 41 s).
+  double place_ticks(const Outlier& o) const;
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
 
   double tick_hz_;
@@ -310,7 +312,8 @@ class DeviceClock {
   mutable std::vector<TimeNs> shifts_;       // per segment: how far its fit is moved later
   mutable bool shifts_dirty_ = true;
   std::map<std::size_t, Outlier> outliers_;
-  std::vector<Stamp> candidates_;  // outliers in a row that agree with each other
+  std::vector<Stamp> candidates_;            // outliers in a row that agree with each other
+  std::vector<std::size_t> awaiting_after_;  // k of the outliers since the last accepted sample
   Stamp last_added_;
   bool last_accepted_ = false, continues_ = false;
   std::optional<Step> second_step_;  // continues()'s step at the first segment's second sample

@@ -689,6 +689,60 @@ TEST(DeviceClock, AnOutlierWithACounterIsTimedByItsIndex) {
   }
 }
 
+// Found in review of the above (second pass): placed by its index at the run's ticks per index,
+// an outlier whose counter was damaged with its tick moved with the counter: one sample at
+// 800 Hz, its tick 30 ms behind and its index 32,768 ahead, was 41 s late, `time_of` went back by
+// as much, and `elapsed_s` past 10 s ended `record --duration 10` at 3.75 s; and a counter that
+// went back (a packet twice) near the end of a segment left a run of 2 samples to time an
+// outlier after a loss of 1,000 by (its tick 0.3 s ahead: 50 ms off). An outlier lies between its
+// neighbours: by its index where that lies between theirs, else one period per sample after the one
+// before.
+TEST(DeviceClock, AnOutlierStaysBetweenItsNeighboursWhateverItsIndex) {
+  struct Case {
+    const char* name;
+    int64_t tick_damage;  // ticks added to sample 3000's (the outlier)
+    uint64_t index_damage;
+    int64_t lost;       // before sample 3000
+    int64_t duplicate;  // the sample sent twice (-1: none)
+  };
+  for (const Case c :
+       {Case{"index +16", -300, 16, 0, -1}, Case{"index +32768", -300, 32'768, 0, -1},
+        Case{"index 2^40 ahead", -300, uint64_t{1} << 40, 0, -1},
+        Case{"after a loss, a packet twice at the end", 3000, 0, 1000, 9598}}) {
+    const TimeNs host0 = 1'700'000'000'000'000'000;
+    DeviceClock clock(1e4);  // 800 Hz on 10 kHz ticks: 12 or 13 a sample
+    std::vector<uint64_t> ticks;
+    std::vector<int64_t> made;
+    double elapsed_last = 0.0;
+    const auto add = [&](int64_t m, uint64_t tick, uint64_t index, bool last) {
+      const TimeNs received = host0 + m * 1'250'000 + 2'000'000;
+      if (last) elapsed_last = clock.elapsed_s(tick, received, index, true);
+      clock.add_sample(tick, received, index, true);
+      ticks.push_back(tick);
+      made.push_back(m);
+    };
+    for (int64_t i = 0; i < 9600; ++i) {
+      const int64_t m = i < 3000 ? i : i + c.lost;
+      const auto tick = static_cast<uint64_t>(m * 25 / 2 + (i == 3000 ? c.tick_damage : 0));
+      add(m, tick, static_cast<uint64_t>(m) + (i == 3000 ? c.index_damage : 0), i == 9599);
+      if (i == c.duplicate) add(m, tick, static_cast<uint64_t>(m), false);
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().outliers, 1u) << c.name;
+    EXPECT_NEAR(
+        static_cast<double>(clock.time_of(3000, ticks[3000]) - clock.time_of(2999, ticks[2999])),
+        static_cast<double>(made[3000] - made[2999]) * 1.25e6, 1e5)
+        << c.name;
+    TimeNs last = INT64_MIN;
+    for (std::size_t k = 0; k < ticks.size(); ++k) {
+      const TimeNs t = clock.time_of(k, ticks[k]);
+      EXPECT_GE(t, last) << c.name << ", sample " << k;
+      last = t;
+    }
+    EXPECT_NEAR(elapsed_last, static_cast<double>(made.back() * 25 / 2) * 1e-4, 1e-9) << c.name;
+  }
+}
+
 // Found in review of the above: without a counter (a text stream: the index counts the lines
 // that arrived) 11 lines lost after the first make the genuine line 1 look like a second sample
 // ahead of its index, and line 2's tick damaged 3.5 ms behind (between line 0's and line 1's)
