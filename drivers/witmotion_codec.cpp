@@ -143,7 +143,12 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
       pending_error_ = true;
       continue;
     }
-    const uint64_t damaged = (rejected_bytes_ + kFrame - 1) / kFrame;  // just before this frame
+    // The frames rejected just before this one: those count_damage counts (a frame cut short is
+    // one), and the whole frames' worth of bytes, which alone may end a group (a stray byte on the
+    // line is no lost frame: found in review, one noise byte dropped a good sample and moved the
+    // slot of every sample after it).
+    const uint64_t counted = (rejected_bytes_ + kFrame - 1) / kFrame;
+    const uint64_t damaged = rejected_bytes_ / kFrame;
     count_damage();
     stats_.bytes_accepted += kFrame;
     ++stats_.frames_ok;
@@ -160,7 +165,7 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
       const uint64_t tail = frames_per_group_ - static_cast<uint64_t>(last_position_) - 1;
       const uint64_t before = tail + static_cast<uint64_t>(position);
       const uint64_t lost = damaged >= before ? (damaged - before) / frames_per_group_ : 0;
-      stats_.samples_dropped = stats_.samples_dropped - damaged / frames_per_group_ + lost;
+      stats_.samples_dropped = stats_.samples_dropped - counted / frames_per_group_ + lost;
       ++stats_.frames_other;
       // The frames of this group that follow are strays, not another sample (see !in_group_).
       last_type_ = type >= 0x51 && type <= 0x54 ? type : 0x50;
