@@ -355,8 +355,7 @@ double DeviceClock::elapsed_s(uint64_t device_ticks, TimeNs host_receive,
   // The first segment's second sample or this one is damaged: until a run shows which, at its
   // own tick (the second's step is the segment's only period).
   if (doubts_second(seg, s)) return seconds(since_first(s.ticks));
-  return seconds(since_first(seg.last.ticks) +
-                 static_cast<double>(s.k - seg.last.k) * period_ticks(seg));
+  return seconds(since_first(seg.last.ticks) + step_ticks(seg, seg.last, s));
 }
 
 void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
@@ -424,8 +423,16 @@ void DeviceClock::rebuild_first_segment() {
     add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);
   if (had_second) {
     // Timed from the first sample, as the outliers that were timed from it are now.
-    for (auto& [k, o] : outliers_)
-      if (o.segment == segments_.size() - 1 && o.before.k == second.k) o.before = first;
+    for (auto& [k, o] : outliers_) {
+      if (o.segment != segments_.size() - 1) continue;
+      if (o.before.k == second.k) o.before = first;
+      // Those before it had it as their next sample: they wait for the next one again (found in
+      // review: spread over the damaged second's tick they came 100 ms late and before it).
+      if (o.after && o.after->k == second.k) {
+        o.after.reset();
+        awaiting_after_.push_back(k);
+      }
+    }
     outliers_[second.k] = Outlier{segments_.size() - 1, first, second, std::nullopt};
     awaiting_after_.push_back(second.k);
     withdrawn_ = second_step_;
@@ -501,11 +508,26 @@ double DeviceClock::period_ticks(const Segment& seg) const {
          static_cast<double>(seg.last.k - seg.first.k);
 }
 
+double DeviceClock::step_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const {
+  const double by_arrival = static_cast<double>(s.k - before.k) * period_ticks(seg);
+  const Stamp &a = seg.last, &r = seg.run;
+  if (!s.counter || !s.index || !before.index || *s.index <= *before.index || !a.index ||
+      !r.index || *a.index < *r.index + static_cast<uint64_t>(kSettledRun) || a.ticks <= r.ticks)
+    return by_arrival;
+  const double by_index = static_cast<double>(*s.index - *before.index) *
+                          static_cast<double>(a.ticks - r.ticks) /
+                          static_cast<double>(*a.index - *r.index);
+  // As far as a sample may run ahead of the host time (follows): a damaged index does not move it
+  // further.
+  const std::optional<double> host_elapsed = seconds_since(s.host, before.host);
+  return host_elapsed && by_index / tick_hz_ <= *host_elapsed + kMaxLeadS ? by_index : by_arrival;
+}
+
 double DeviceClock::place_ticks(const Outlier& o) const {
   const Stamp &before = o.before, &s = o.self;
   const double by_arrival =
       static_cast<double>(s.k - before.k) * period_ticks(segments_[o.segment]);
-  if (!o.after) return by_arrival;
+  if (!o.after) return step_ticks(segments_[o.segment], before, s);
   const Stamp& after = *o.after;
   const double span = static_cast<double>(after.ticks - before.ticks);
   if (s.counter && s.index && before.index && after.index && *before.index < *s.index &&
@@ -543,7 +565,11 @@ TimeNs DeviceClock::time_of(std::size_t k, uint64_t device_ticks) const {
     // Where its place in the sequence puts it, after the last sample accepted before it.
     const std::size_t index = o->second.segment;
     const Stamp& before = o->second.before;
-    return offset_by(segment_time(index, before.ticks), place_ticks(o->second) / tick_hz_);
+    // Through the fit, so that it stays before the next sample whatever the fitted rate.
+    const double place = std::round(place_ticks(o->second));
+    const double room = static_cast<double>(std::numeric_limits<uint64_t>::max() - before.ticks);
+    return segment_time(index, !(place < room) ? std::numeric_limits<uint64_t>::max()
+                                               : before.ticks + static_cast<uint64_t>(place));
   }
   return map_near(k, device_ticks);
 }

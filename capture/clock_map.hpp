@@ -299,10 +299,14 @@ class DeviceClock {
   // The ticks from an outlier's `before` to its place in the sequence: between its neighbours
   // (before and after) by its index where the index counts every sample made and lies between
   // theirs (a loss before it stays before it); else its arrival number's step at the segment's
-  // mean period, never past `after` (found in review, 2026-11-26 fifth round: the first sample
-  // after 10 lost, its tick damaged, was timed 10 periods early; placed by its index at a run's
-  // ticks per index instead, a damaged index moved it 41 s).
+  // mean period, never past `after`; step_ticks without an `after` (found in review, 2026-11-26
+  // fifth round: the first sample after 10 lost, its tick damaged, was timed 10 periods early;
+  // placed by its index at a run's ticks per index instead, a damaged index moved it 41 s).
   double place_ticks(const Outlier& o) const;
+  // Without the next sample (online, or none accepted after it): s's step from `before`, by its
+  // index at the ticks per index of seg's settled run where it has a counter and the host time
+  // allows that much, else by its arrival number at seg's mean period.
+  double step_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const;
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
 
   double tick_hz_;

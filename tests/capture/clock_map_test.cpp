@@ -743,6 +743,58 @@ TEST(DeviceClock, AnOutlierStaysBetweenItsNeighboursWhateverItsIndex) {
   }
 }
 
+// Found in review of the above (third pass). (a) When the first segment is rebuilt, outliers
+// before its demoted second sample kept it as their next sample and were spread over its damaged
+// tick: at 100 Hz, samples 1 and 2 damaged back and sample 3 (the second accepted) 300 ms ahead,
+// samples 1 and 2 came at 110 and 220 ms, after sample 3. (b) An outlier whose segment accepts no
+// sample after it (the last of a recording, or one before a restart) was timed by arrival: the
+// first after 10 lost samples, its tick 0.5 s back, came 10 ms early, online and offline.
+TEST(DeviceClock, OutliersAroundARebuildOrAtTheEndKeepTheirPlace) {
+  const TimeNs host0 = 1'700'000'000'000'000'000;
+  {
+    DeviceClock clock(1e3);
+    std::vector<uint64_t> ticks;
+    for (int64_t i = 0; i < 40; ++i) {
+      const int64_t t = i == 1 ? 500 : i == 2 ? 400 : 1000 + i * 10 + (i == 3 ? 300 : 0);
+      ticks.push_back(static_cast<uint64_t>(t));
+      clock.add_sample(ticks.back(), host0 + i * 10'000'000 + 2'000'000, static_cast<uint64_t>(i),
+                       true);
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, 1u);
+    EXPECT_EQ(clock.fit().outliers, 3u);
+    for (std::size_t k = 1; k < 8; ++k)
+      EXPECT_EQ(clock.time_of(k, ticks[k]) - clock.time_of(0, ticks[0]),
+                static_cast<TimeNs>(k) * 10'000'000)
+          << k;
+  }
+  for (const bool restart_after : {false, true}) {
+    DeviceClock clock(1e6);
+    std::vector<uint64_t> ticks;
+    double elapsed_outlier = 0.0;
+    for (int64_t j = 0; j < (restart_after ? 700 : 501); ++j) {
+      const int64_t made = j < 500 ? j : j + 10;
+      int64_t tick = made * 1000 - (j == 500 ? 500'000 : 0), index = made;
+      if (j > 500) {  // the device restarted: its ticks and counter from 0
+        tick = 5'000'000'000 + (j - 501) * 1000;
+        index = j - 501;
+      }
+      ticks.push_back(static_cast<uint64_t>(tick));
+      const TimeNs received = host0 + made * 1'000'000 + 2'000'000;
+      if (j == 500)
+        elapsed_outlier =
+            clock.elapsed_s(ticks.back(), received, static_cast<uint64_t>(index), true);
+      clock.add_sample(ticks.back(), received, static_cast<uint64_t>(index), true);
+    }
+    clock.flush();
+    EXPECT_EQ(clock.fit().segments, restart_after ? 2u : 1u);
+    EXPECT_EQ(clock.fit().outliers, 1u);
+    EXPECT_EQ(clock.time_of(500, ticks[500]) - clock.time_of(0, ticks[0]), 510'000'000)
+        << restart_after;
+    EXPECT_NEAR(elapsed_outlier, 0.510, 1e-9) << restart_after;
+  }
+}
+
 // Found in review of the above: without a counter (a text stream: the index counts the lines
 // that arrived) 11 lines lost after the first make the genuine line 1 look like a second sample
 // ahead of its index, and line 2's tick damaged 3.5 ms behind (between line 0's and line 1's)
