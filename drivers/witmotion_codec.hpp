@@ -12,11 +12,11 @@
 // stretch of rejected bytes counts as ceil(bytes / 11) corrupt frames, and when it holds at
 // least a whole group's frames, as that many groups' samples dropped too (a sample all of whose
 // frames were damaged leaves no frame to show it). Types arrive in the learned group's order, so
-// a stretch holding more frames than lie between the frames on either side of it within a group
-// crossed into a later group: the frame after it begins no sample of its own (its acceleration
-// frame was lost) and is not merged into the one before (found in review: the tail of one group
-// and the acceleration frame of the next damaged together gave one sample the acceleration of
-// one and the angular rate of the next).
+// a stretch holding more frame starts (a header and a type) than there are frames between the
+// frames on either side of it within a group crossed into a later group: the frame after it begins
+// no sample of its own (its acceleration frame was lost) and is not merged into the one before
+// (found in review: the tail of one group and the acceleration frame of the next damaged together
+// gave one sample the acceleration of one and the angular rate of the next).
 //
 // A replay (decode only) reads bytes as fast as storage gives them, so receive times say nothing
 // of when the samples were made. Given the rate the stream was made at, the codec times sample
@@ -79,6 +79,7 @@ class WitmotionCodec : public Codec {
   bool group_had_error_ = false;
   bool pending_error_ = false;     // corruption seen since the last accel frame
   uint64_t rejected_bytes_ = 0;    // bytes rejected since the last valid frame
+  uint64_t rejected_starts_ = 0;   // of them, header bytes followed by a frame type
   uint64_t frames_in_group_ = 0;   // valid frames since the group's acceleration frame
   uint64_t frames_per_group_ = 0;  // frames of the first clean group (0: not learned yet)
   // Per type (0x50..0x5F): its place among the frames of this group, and of the learned one

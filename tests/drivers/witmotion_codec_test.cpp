@@ -193,12 +193,21 @@ TEST(WitmotionCodec, ADamagedStretchAcrossGroupsMixesNoSamplesAndCountsEachOnce)
     damage(4 * sample + static_cast<int>(rng.uniform_index(4)), frames);
     sample += 3 + (frames + 3) / 4;
   }
-  // A stray byte on the line (not a frame's worth) loses no frame: the review of the fix found
-  // that one dropped a good sample. One before each of sample 18's 0x52, 0x53 and 0x54 frames.
-  for (const std::size_t f : {4 * 18 + 1, 4 * 18 + 2, 4 * 18 + 3}) {
+  // Damage on the line that loses no frame, or pieces of frames, made from the end back (each
+  // shifts the bytes after it). The review of the fix: counted by their bytes, a stray byte, or
+  // a burst of 11, dropped a good sample, and a chunk lost in transit whose pieces kept 9 bytes
+  // joined two groups; counted by frame starts (a header and a type), neither does.
+  // One stray byte before each of sample 19's 0x52, 0x53 and 0x54 frames.
+  for (const std::size_t f : {4 * 19 + 3, 4 * 19 + 2, 4 * 19 + 1})
     st.bytes.insert(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[f]), 0x00);
-    for (std::size_t g = f; g < st.frame_start.size(); ++g) ++st.frame_start[g];
-  }
+  // A chunk lost from inside sample 17's 0x54 (its first 4 bytes kept) to inside sample 18's
+  // 0x53 (its last 5 kept): both samples lost.
+  st.bytes.erase(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[4 * 17 + 3] + 4),
+                 st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[4 * 18 + 2] + 6));
+  hit.insert({17, 18});
+  // A burst of 11 noise bytes before sample 13's 0x53.
+  st.bytes.insert(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[4 * 13 + 2]), 11,
+                  0x00);
   WitmotionCodec codec;
   const auto out = testing::feed_split(codec, st.bytes, rng, 50);
   const CodecStats& s = codec.stats();
