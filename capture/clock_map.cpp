@@ -512,15 +512,17 @@ double DeviceClock::step_ticks(const Segment& seg, const Stamp& before, const St
   const double by_arrival = static_cast<double>(s.k - before.k) * period_ticks(seg);
   const Stamp &a = seg.last, &r = seg.run;
   if (!s.counter || !s.index || !before.index || *s.index <= *before.index || !a.index ||
-      !r.index || *a.index < *r.index + static_cast<uint64_t>(kSettledRun) || a.ticks <= r.ticks)
+      !r.index || *a.index - *r.index < static_cast<uint64_t>(kSettledRun) || a.ticks <= r.ticks)
     return by_arrival;
   const double by_index = static_cast<double>(*s.index - *before.index) *
                           static_cast<double>(a.ticks - r.ticks) /
                           static_cast<double>(*a.index - *r.index);
-  // As far as a sample may run ahead of the host time (follows): a damaged index does not move it
-  // further.
+  // The loss its index shows, where the host time shows it too (a live stream; a replay's host
+  // time shows none): a damaged index alone does not move it (found in review: trusted up to the
+  // host time plus 1 s, a damaged index moved such a sample, and `elapsed_s`, by up to 1 s).
   const std::optional<double> host_elapsed = seconds_since(s.host, before.host);
-  return host_elapsed && by_index / tick_hz_ <= *host_elapsed + kMaxLeadS ? by_index : by_arrival;
+  return host_elapsed && (by_index - by_arrival) / tick_hz_ <= *host_elapsed ? by_index
+                                                                             : by_arrival;
 }
 
 double DeviceClock::place_ticks(const Outlier& o) const {

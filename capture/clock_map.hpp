@@ -305,7 +305,7 @@ class DeviceClock {
   double place_ticks(const Outlier& o) const;
   // Without the next sample (online, or none accepted after it): s's step from `before`, by its
   // index at the ticks per index of seg's settled run where it has a counter and the host time
-  // allows that much, else by its arrival number at seg's mean period.
+  // elapsed covers the loss the index shows, else by its arrival number at seg's mean period.
   double step_ticks(const Segment& seg, const Stamp& before, const Stamp& s) const;
   TimeNs segment_time(std::size_t index, uint64_t device_ticks) const;  // its fit, shifted
 

@@ -793,6 +793,34 @@ TEST(DeviceClock, OutliersAroundARebuildOrAtTheEndKeepTheirPlace) {
         << restart_after;
     EXPECT_NEAR(elapsed_outlier, 0.510, 1e-9) << restart_after;
   }
+  // The next review: its index is trusted only where the host time shows the loss too. Sample
+  // 500's tick 50 s ahead and its index damaged 10 or 900 ahead (no loss), last or before a
+  // restart: held to the host time plus 1 s it was 10 or 900 ms late, and time went back.
+  for (const int64_t index_damage : {10, 900}) {
+    for (const bool restart_after : {false, true}) {
+      DeviceClock clock(1e6);
+      std::vector<uint64_t> ticks;
+      double elapsed_outlier = 0.0;
+      for (int64_t j = 0; j < (restart_after ? 700 : 501); ++j) {
+        int64_t tick = j * 1000 + (j == 500 ? 50'000'000 : 0),
+                index = j + (j == 500 ? index_damage : 0);
+        if (j > 500) {
+          tick = 5'000'000'000 + (j - 501) * 1000;
+          index = j - 501;
+        }
+        ticks.push_back(static_cast<uint64_t>(tick));
+        const TimeNs received = host0 + j * 1'000'000 + 2'000'000;
+        if (j == 500)
+          elapsed_outlier =
+              clock.elapsed_s(ticks.back(), received, static_cast<uint64_t>(index), true);
+        clock.add_sample(ticks.back(), received, static_cast<uint64_t>(index), true);
+      }
+      clock.flush();
+      EXPECT_EQ(clock.time_of(500, ticks[500]) - clock.time_of(0, ticks[0]), 500'000'000)
+          << index_damage << " " << restart_after;
+      EXPECT_NEAR(elapsed_outlier, 0.500, 1e-9) << index_damage << " " << restart_after;
+    }
+  }
 }
 
 // Found in review of the above: without a counter (a text stream: the index counts the lines
