@@ -77,9 +77,12 @@ class WitmotionCodec : public Codec {
   uint8_t expected_types_ = 0;  // learned from the first complete group
   bool learned_ = false;
   bool group_had_error_ = false;
-  bool pending_error_ = false;     // corruption seen since the last accel frame
-  uint64_t rejected_bytes_ = 0;    // bytes rejected since the last valid frame
-  uint64_t rejected_starts_ = 0;   // of them, header bytes followed by a frame type
+  bool pending_error_ = false;   // corruption seen since the last accel frame
+  uint64_t rejected_bytes_ = 0;  // bytes rejected since the last valid frame
+  // Of them, the frame starts (a header byte and a type) that do not lie inside the frame of the
+  // start before, and where the last of those lay in the stretch.
+  uint64_t rejected_starts_ = 0;
+  uint64_t last_start_ = 0;
   uint64_t frames_in_group_ = 0;   // valid frames since the group's acceleration frame
   uint64_t frames_per_group_ = 0;  // frames of the first clean group (0: not learned yet)
   // Per type (0x50..0x5F): its place among the frames of this group, and of the learned one

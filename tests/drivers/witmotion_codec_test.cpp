@@ -221,6 +221,25 @@ TEST(WitmotionCodec, ADamagedStretchAcrossGroupsMixesNoSamplesAndCountsEachOnce)
   }
 }
 
+// The review of the fix above: a damaged frame whose payload holds 55 5x (a roll of 0x5355, 117
+// degrees) counted two frame starts, ended its group and dropped the good sample after it too.
+// A start inside the frame of the one before is payload.
+TEST(WitmotionCodec, AHeaderInsideADamagedFramesPayloadIsNoFrameStart) {
+  Stream st = make_stream(100);
+  const int16_t angles[4] = {0x5355, -8192, 0, 0};
+  std::vector<uint8_t> frame = witmotion_frame(0x53, angles);
+  frame[10] ^= 0x01;  // its checksum damaged
+  std::copy(frame.begin(), frame.end(),
+            st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[4 * 50 + 2]));
+  WitmotionCodec codec;
+  std::vector<Sample> out;
+  codec.feed(st.bytes, 0, out);
+  codec.finish(0, out);
+  EXPECT_EQ(out.size(), 99u);
+  EXPECT_EQ(codec.stats().samples_dropped, 1u);
+  testing::expect_byte_accounting(codec);
+}
+
 // Samples all of whose frames arrive damaged leave no frame to show them: the stretch of
 // rejected bytes does (a whole group's worth per sample), and corrupt frames count frames, not
 // stretches. Sample 10: its 4 frames bad; samples 30 and 31: all 8 frames bad; sample 50: its
