@@ -225,11 +225,11 @@ bool DeviceClock::runs_ahead_of_counter(const Segment& seg, const Stamp& b) cons
   const double tick_step = static_cast<double>(b.ticks - seg.last.ticks);
   if (!step || tick_step <= step->ticks + step->tolerance) return false;
   // A sample counter has at least 16 bits (drivers::Sample::has_sample_counter): it undercounts a
-  // loss by a multiple of 2^16 samples, so a tick fewer than 2^15 periods beyond its step is
+  // loss by a multiple of 2^16 samples, so a tick fewer than 2^15 periods beyond a certain step is
   // damaged whatever the host time. Found in review (2026-11-26): blocks of 8 samples arrive one
   // block period apart, which covers half of a tick damaged 6-12 ms ahead at 1 kHz, and each such
   // tick began a segment (29 segments in 10 minutes).
-  // Only where the step is certain: the run holds kSettledRun indices (its first samples were
+  // The step is certain where the run holds kSettledRun indices (its first samples were
   // taken on the host-time rule and may be damaged), and the excess is beyond what the last
   // sample's tick and the run's ends, each off by up to half a period, make of the step (found in
   // review: an Xsens at 800 Hz on 10 kHz ticks, 12 or 13 a sample, lost 2,000 samples after
@@ -537,8 +537,9 @@ double DeviceClock::place_ticks(const Outlier& o) const {
     return span * static_cast<double>(*s.index - *before.index) /
            static_cast<double>(*after.index - *before.index);
   }
-  // Without a counter a loss between the neighbours cannot be placed; the outlier stays a mean
-  // period per sample after the one before (right for a loss after it), never past the next.
+  // Without a counter, or with an index not between the neighbours' (damaged), a loss between
+  // them cannot be placed; the outlier stays a mean period per sample after the one before (right
+  // for a loss after it), never past the next.
   return std::min(by_arrival, span);
 }
 
