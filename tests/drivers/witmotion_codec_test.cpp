@@ -36,6 +36,15 @@ Stream make_stream(int n) {
   return s;
 }
 
+// Feeds all of `bytes` at once, as a file replay reads them, and finishes the stream.
+std::vector<Sample> decode_all(WitmotionCodec& codec, const std::vector<uint8_t>& bytes,
+                               TimeNs host_time) {
+  std::vector<Sample> out;
+  codec.feed(bytes, host_time, out);
+  codec.finish(host_time, out);
+  return out;
+}
+
 TEST(WitmotionCodec, FrameChecksumMatchesTheManual) {
   // 55 51 | 4 values | SUM = low byte of the sum of the first 10 bytes.
   const int16_t v[4] = {0x0102, 0x0304, -1, 0};
@@ -49,9 +58,7 @@ TEST(WitmotionCodec, FrameChecksumMatchesTheManual) {
 TEST(WitmotionCodec, ScalesEveryFrameTypeAndStampsHostTime) {
   const Stream st = make_stream(3);
   WitmotionCodec codec;
-  std::vector<Sample> out;
-  codec.feed(st.bytes, 5000, out);
-  codec.finish(5000, out);
+  const std::vector<Sample> out = decode_all(codec, st.bytes, 5000);
   ASSERT_EQ(out.size(), 3u);
   const double g = 9.80665;
   for (int i = 0; i < 3; ++i) {
@@ -130,9 +137,7 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     corrupt(st, 3);
     corrupt(st, 4 * 5 + 3);
     WitmotionCodec codec;
-    std::vector<Sample> out;
-    codec.feed(st.bytes, 0, out);
-    codec.finish(0, out);
+    const std::vector<Sample> out = decode_all(codec, st.bytes, 0);
     EXPECT_EQ(out.size(), 8u);
     EXPECT_EQ(codec.stats().samples_dropped, 2u);
     for (const Sample& x : out) EXPECT_TRUE(x.channels & kHasMag);
@@ -147,9 +152,7 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     for (std::size_t i = 0; i < st.frame_start.size() - 1; ++i) cut.frame_start.push_back(11 * i);
     b = without(cut, 4 * 3, 4 * 3 + 1);
     WitmotionCodec codec;
-    std::vector<Sample> out;
-    codec.feed(b, 0, out);
-    codec.finish(0, out);
+    const std::vector<Sample> out = decode_all(codec, b, 0);
     EXPECT_EQ(out.size(), 8u);
     EXPECT_EQ(codec.stats().samples_dropped, 2u);
     testing::expect_byte_accounting(codec);
@@ -161,9 +164,7 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     bad[10] ^= 0x01;
     b.insert(b.begin() + 4 * 11 + 11, bad.begin(), bad.end());  // after sample 1's accel frame
     WitmotionCodec codec;
-    std::vector<Sample> out;
-    codec.feed(b, 0, out);
-    codec.finish(0, out);
+    const std::vector<Sample> out = decode_all(codec, b, 0);
     EXPECT_EQ(codec.stats().frames_corrupt, 1u);
     testing::expect_byte_accounting(codec);
   }
@@ -232,9 +233,7 @@ TEST(WitmotionCodec, AHeaderInsideADamagedFramesPayloadIsNoFrameStart) {
   std::copy(frame.begin(), frame.end(),
             st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[4 * 50 + 2]));
   WitmotionCodec codec;
-  std::vector<Sample> out;
-  codec.feed(st.bytes, 0, out);
-  codec.finish(0, out);
+  const std::vector<Sample> out = decode_all(codec, st.bytes, 0);
   EXPECT_EQ(out.size(), 99u);
   EXPECT_EQ(codec.stats().samples_dropped, 1u);
   testing::expect_byte_accounting(codec);
@@ -292,9 +291,7 @@ TEST(WitmotionCodec, AReplayWithARateIsTimedBySampleSlot) {
   WitmotionCodec codec(o);
   codec.start(0);
   EXPECT_TRUE(codec.take_outgoing().empty());  // a replay gets no rate command
-  std::vector<Sample> out;
-  codec.feed(st.bytes, 7000, out);  // all at once, as a file replay reads it
-  codec.finish(7000, out);
+  const std::vector<Sample> out = decode_all(codec, st.bytes, 7000);
   ASSERT_EQ(out.size(), 9u);
   EXPECT_EQ(codec.stats().samples_dropped, 1u);
   const std::vector<uint64_t> slots = {0, 1, 2, 3, 5, 6, 7, 8, 9};
@@ -313,9 +310,7 @@ TEST(WitmotionCodec, AReplayWithARateIsTimedBySampleSlot) {
     plain.rate_hz = commands ? 100 : 0;
     plain.send_commands = commands;
     WitmotionCodec c(plain);
-    std::vector<Sample> v;
-    c.feed(make_stream(3).bytes, 7000, v);
-    c.finish(7000, v);
+    const std::vector<Sample> v = decode_all(c, make_stream(3).bytes, 7000);
     ASSERT_EQ(v.size(), 3u);
     EXPECT_FALSE(v[2].has_device_time);
     EXPECT_EQ(v[2].sequence, 2u);
