@@ -154,6 +154,23 @@ class Metrics(unittest.TestCase):
         self.assertAlmostEqual(p, 2 / 256, places=12)
         self.assertAlmostEqual(d, 0.06375, places=12)
 
+    def test_residual_arms_are_reported_against_ppda_stda_and_the_baseline(self):
+        def run(arm, test, f1):
+            return {"arm": arm, "model": "deepconvlstm", "test": test, "val": "v", "train": ["a"],
+                    "seed": 0, "test_f1": f1, "val_f1": f1}
+        tests = [f"s{i}" for i in range(1, 9)]
+        runs = []
+        for i, t in enumerate(tests):
+            runs += [run("baseline", t, 0.50), run("stda:placement:1", t, 0.45),
+                     run("ppda:placement:1", t, 0.52 + 0.01 * i), run("ppda-residual:placement:1", t, 0.55 + 0.02 * i)]
+        md, _ = report.one_at_a_time({"runs": runs})
+        row = next(line for line in md.splitlines() if line.startswith("| placement |"))
+        # residual - PPDA: 0.03 + 0.01 i, mean 6.5 points; - STDA: 0.10 + 0.02 i, mean 17.0; all 8 ahead
+        self.assertEqual(row, "| placement | 62.0 ± 4.9 | +6.5 (n=8) | 0.008 | +17.0 (n=8) | 0.008 | 0.008 | 1 |")
+        fs = [dict(r, arm=r["arm"].replace(":placement:1", ":all"), n_train=1) for r in runs]
+        md, _ = report.fewer_subjects({"runs": fs})
+        self.assertIn("- PPDA residual all 810 uniform vs PPDA all 810 uniform: +6.5 pp, p = 0.008 (n=8)", md)
+
 
 class Format(unittest.TestCase):
     def test_round_trip_and_per_sample_labels(self):
@@ -531,6 +548,48 @@ class Augmentation(unittest.TestCase):
         self.assertEqual(int(flags.sum()), 1)
         self.assertTrue(np.isnan(out2[flags]).all())
         self.assertTrue(np.isfinite(out2[~flags]).all())
+
+    def test_residual_ppda_adds_the_sub_policys_change_to_the_real_window(self):
+        # The recordings are their scenes' simulations plus 0.05 noise. Residual PPDA keeps that
+        # noise (what the scene does not reproduce) and adds what the sub-policy changes.
+        src = augmentation.PpdaSource(self.R, 50)
+        res = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src, residual=True)
+        full = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src)
+        ident = augmentation.BatchAugmenter("ppda", PAPER, self.W, self.st, ppda=src, resimulate_identity=True)
+        index = np.arange(len(self.W))[::-1].copy()
+        order = index[np.argsort(self.W.recording[index], kind="stable")]
+        X0, _ = res.batch(0, index, seed=1)   # the identity sub-policy: the real windows exactly
+        np.testing.assert_array_equal(X0, self.st(self.W.X[index]))
+        raw_id = ident.batch(0, index, seed=1)[0] * self.st.std + self.st.mean
+        for method, option in (("placement", 1), ("amplitude_scaling", 4), ("hardware", 4)):
+            k = experiments.grid_index(method, option)
+            Xr, yr = res.batch(k, index, seed=2)
+            Xf, yf = full.batch(k, index, seed=2)   # the same seed draws the same change
+            np.testing.assert_array_equal(yr, self.W.y[order])
+            np.testing.assert_array_equal(yr, yf)
+            raw_r = Xr * self.st.std + self.st.mean
+            raw_f = Xf * self.st.std + self.st.mean
+            np.testing.assert_allclose(raw_r - raw_f, self.W.X[order] - raw_id, atol=2e-4, err_msg=method)
+            self.assertAlmostEqual(float((raw_r - raw_f).std()), 0.05, delta=0.005, msg=method)
+            self.assertGreater(np.abs(raw_r - self.W.X[order]).max(), 0.5, msg=method)  # changed
+        self.assertEqual(res.augmented_windows, 3 * len(index))
+        # A window left real (too short for the drawn speed) gets no residual either.
+        k = experiments.grid_index("speed_scaling", 4)
+        Xs, _ = res.batch(k, np.arange(len(self.W)), seed=4)
+        self.assertEqual(res.too_short_windows, 2)
+        short = np.zeros(len(self.W), bool)
+        src.apply(k, self.W.recording, self.W.start, imukit.Rng(4), PAPER,
+                  np.empty((len(self.W), 50, 6), np.float32), short)
+        np.testing.assert_allclose(Xs[short], self.st(self.W.X[short]), atol=1e-6)
+        self.assertTrue(np.isfinite(Xs).all())
+        with self.assertRaisesRegex(ValueError, "residual"):
+            augmentation.BatchAugmenter("stda", PAPER, self.W, self.st, residual=True)
+        arm = experiments.parse_arm("ppda-residual:placement")
+        self.assertEqual((arm.name, arm.kind, arm.residual), ("ppda-residual:placement:1", "ppda", True))
+        self.assertEqual(experiments.parse_arm("ppda-residual:placement").probabilities,
+                         experiments.parse_arm("ppda:placement").probabilities)
+        self.assertEqual(experiments.parse_arm("ppda-residual:all:learned").label, "PPDA residual all 810 learned")
+        self.assertFalse(experiments.parse_arm("ppda:all").residual)
 
     def test_window_fidelity_of_a_scene_that_made_the_recording(self):
         f = experiments.window_fidelity(self.R, 50, 25)

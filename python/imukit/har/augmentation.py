@@ -94,6 +94,7 @@ class PpdaSource:
         self.method = method
         self._augmenters = {}
         self._usable = {}  # (recording, start) -> bool
+        self._identity = {}  # (recording, start) -> its identity re-simulation, for usable windows
         # The sub-policy that re-simulates with nothing changed (usable(), window_fidelity).
         self.identity_policy = imukit.read_policy(policy) if isinstance(policy, str) else policy
         self.identity = next(k for k in range(len(self.identity_policy))
@@ -146,9 +147,19 @@ class PpdaSource:
             sim = np.empty((len(starts), self.window, self.recordings[i].samples.shape[1]), np.float32)
             self.resimulate(np.full(len(starts), i), starts, sim)
             for s0, x in zip(starts.tolist(), sim):
-                self._usable[(i, s0)] = self.plausible(self.recordings[i].samples[s0:s0 + self.window], x)
+                ok = self.plausible(self.recordings[i].samples[s0:s0 + self.window], x)
+                self._usable[(i, s0)] = ok
+                if ok:
+                    self._identity[(i, s0)] = x
         return np.array([ok and self._usable[(i, s0)]
                          for i, s0, ok in zip(recording.tolist(), start.tolist(), inside)], bool)
+
+    def identity_windows(self, recording, start):
+        """The identity re-simulations (N, T, C) of usable windows (usable() made them)."""
+        if not self.usable(recording, start).all():
+            raise ValueError("identity_windows: a window is not usable (PpdaSource.usable)")
+        return np.stack([self._identity[(i, s0)] for i, s0 in zip(np.asarray(recording).tolist(),
+                                                                   np.asarray(start).tolist())])
 
     def inside_scene(self, recording, start):
         """Per window: whether its scene window (start + the time offset) lies inside its
@@ -223,10 +234,16 @@ class PpdaSource:
 
 class BatchAugmenter:
     """Makes the standardised training batch for one sub-policy of `policy`: kind "none" (real
-    windows), "stda" or "ppda". Times the imukit calls (`imukit_seconds`)."""
+    windows), "stda" or "ppda". Times the imukit calls (`imukit_seconds`).
+
+    `residual` PPDA adds what the sub-policy changes to the real window instead of replacing it:
+    real + (re-simulated under the sub-policy - re-simulated with nothing changed). What the
+    fitted scene does not reproduce (on UTD-MHAD the forearm twist the skeleton cannot see,
+    tracking errors, the sensor's own noise) stays in the window; the identity sub-policy gives
+    the real window exactly. A re-timing sub-policy (speed) re-times the simulated part only."""
 
     def __init__(self, kind, policy, windows, standardize, ppda=None, resimulate_identity=False,
-                 output_screen=0.0):
+                 output_screen=0.0, residual=False):
         if kind not in ("none", "stda", "ppda"):
             raise ValueError(f"unknown augmentation kind '{kind}'")
         if kind == "ppda" and ppda is None:
@@ -238,6 +255,9 @@ class BatchAugmenter:
         self.ppda = ppda
         # sim-only training: even the identity sub-policy's windows are re-simulated
         self.resimulate_identity = resimulate_identity
+        if residual and (kind != "ppda" or resimulate_identity):
+            raise ValueError("residual augmentation is a kind of PPDA, not sim-only")
+        self.residual = residual
         self.imukit_seconds = 0.0
         # PPDA windows left real: no fitted scene, no scene window (inside_scene), an
         # implausible re-simulation (usable()), or an output of the drawn sub-policy above
@@ -303,6 +323,9 @@ class BatchAugmenter:
         # A window whose scene is too short for the drawn speed is trained on as the real one.
         X[:n][too_short] = w.X[index[:n][too_short]]
         self.too_short_windows += int(too_short.sum())
+        if self.residual:
+            made = np.flatnonzero(~too_short)
+            X[made] += w.X[index[made]] - self.ppda.identity_windows(w.recording[index[made]], w.start[index[made]])
         n -= int(too_short.sum())
         if self.output_screen > 0:
             # The identity screen cannot see motion a sub-policy reads beyond the window (sped

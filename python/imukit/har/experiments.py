@@ -8,6 +8,7 @@ An *arm* says how training mini-batches are augmented:
 | `stda:<method>:<option>`, `ppda:<method>:<option>` | one-at-a-time: half of the mini-batches under one sub-policy of the `paper` grid, the other half unaugmented; `<option>` is the grid option of the method's group (1-8; 1 for placement) |
 | `stda:all`, `ppda:all` | one of the 810 sub-policies per mini-batch, uniformly |
 | `stda:all:learned`, `ppda:all:learned` | the same with learned probabilities (GumbelPolicy) |
+| `ppda-residual:...` | as `ppda:...`, but the sub-policy's change is added to the real window (real + re-simulated under the sub-policy - re-simulated with nothing changed): what the scene does not reproduce stays in |
 | `sim:identity` | sim-only: every window re-simulated from its fitted scene, nothing else changed |
 
 A *run* is (arm, model, test subject, validation subject, training subjects, seed); its result is
@@ -59,6 +60,7 @@ class Arm:
     probabilities: tuple = ()   # over the policy's sub-policies; () for none
     learned: bool = False
     resimulate_identity: bool = False
+    residual: bool = False      # PPDA as a change to the real window (BatchAugmenter)
 
     @property
     def label(self):
@@ -67,10 +69,11 @@ class Arm:
             return "baseline (no augmentation)"
         if self.name == "sim:identity":
             return "sim-only (re-simulated windows)"
+        kind = "PPDA residual" if self.residual else parts[0].upper()
         if parts[1] == "all":
-            return f"{parts[0].upper()} all 810{' learned' if self.learned else ' uniform'}"
+            return f"{kind} all 810{' learned' if self.learned else ' uniform'}"
         stda_name, ppda_name = PAIRS[parts[1]][:2]
-        return f"{parts[0].upper()} {stda_name if parts[0] == 'stda' else ppda_name}"
+        return f"{kind} {stda_name if parts[0] == 'stda' else ppda_name}"
 
 
 def parse_arm(name, policy_size=810):
@@ -81,20 +84,21 @@ def parse_arm(name, policy_size=810):
         p = np.zeros(policy_size)
         p[0] = 1.0
         return Arm(name, "ppda", tuple(p), resimulate_identity=True)
-    if len(parts) >= 2 and parts[0] in ("stda", "ppda"):
+    if len(parts) >= 2 and parts[0] in ("stda", "ppda", "ppda-residual"):
+        kind, residual = ("ppda", True) if parts[0] == "ppda-residual" else (parts[0], False)
         if parts[1] == "all" and len(parts) in (2, 3):
             if len(parts) == 3 and parts[2] != "learned":
                 raise ValueError(f"arm '{name}': expected {parts[0]}:all or {parts[0]}:all:learned")
-            return Arm(name, parts[0], tuple(np.full(policy_size, 1.0 / policy_size)),
-                       learned=len(parts) == 3)
+            return Arm(name, kind, tuple(np.full(policy_size, 1.0 / policy_size)),
+                       learned=len(parts) == 3, residual=residual)
         if parts[1] in PAIRS and len(parts) in (2, 3):
             option = int(parts[2]) if len(parts) == 3 else PAIRS[parts[1]][4]
             p = np.zeros(policy_size)
             p[0] = 0.5
             p[grid_index(parts[1], option)] = 0.5
-            return Arm(f"{parts[0]}:{parts[1]}:{option}", parts[0], tuple(p))
-    raise ValueError(f"unknown arm '{name}' (baseline, stda|ppda:<method>[:<option>], stda|ppda:all[:learned], "
-                     f"sim:identity; methods: {', '.join(PAIRS)})")
+            return Arm(f"{parts[0]}:{parts[1]}:{option}", kind, tuple(p), residual=residual)
+    raise ValueError(f"unknown arm '{name}' (baseline, stda|ppda|ppda-residual:<method>[:<option>], "
+                     f"stda|ppda|ppda-residual:all[:learned], sim:identity; methods: {', '.join(PAIRS)})")
 
 
 ONE_AT_A_TIME_ARMS = (["baseline"] + [f"stda:{m}" for m in PAIRS] + [f"ppda:{m}" for m in PAIRS])
@@ -208,7 +212,7 @@ def run_one(run):
             _STATE["ppda"] = augmentation.PpdaSource(R, s.window)
         ppda = _STATE["ppda"]
     augmenter = augmentation.BatchAugmenter(arm.kind, policy, tr, standardize, ppda=ppda,
-                                            resimulate_identity=arm.resimulate_identity,
+                                            resimulate_identity=arm.resimulate_identity, residual=arm.residual,
                                             output_screen=s.output_screen)
     if arm.learned:
         sampler = augmentation.GumbelPolicy(len(policy), run["seed"], lr=s.learn_lr, every=s.learn_every)

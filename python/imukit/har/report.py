@@ -94,6 +94,7 @@ def one_at_a_time(doc):
             p_b = wilcoxon(*_paired(arms[a], base))[0] if base else None
             lines.append(f"| {parse_arm(a).label} | | {_pct([r['test_f1'] for r in arms[a]])} | | | | {_fmt_p(p_b)} | |")
         lines.append("")
+        lines += _residual_rows(arms, base)
         options = sorted(a for a in arms if a.count(":") == 2 and a.split(":")[1] in PAIRS)
         if any(len([o for o in options if o.startswith(f"{k}:{m}:")]) > 1 for k in ("stda", "ppda") for m in PAIRS):
             lines += ["Every option (the table above takes, per method, the option with the best mean "
@@ -102,6 +103,31 @@ def one_at_a_time(doc):
                 lines.append(f"| {a} | {_pct([r['val_f1'] for r in arms[a]])} | {_pct([r['test_f1'] for r in arms[a]])} |")
             lines.append("")
     return "\n".join(lines), fig
+
+
+def _residual_rows(arms, base):
+    """Markdown rows for the residual PPDA arms run (one-at-a-time): each against PPDA proper,
+    STDA and the baseline, paired; [] when none ran."""
+    rows = []
+    for method, (stda_name, ppda_name, *_rest) in PAIRS.items():
+        ra = _best_option(arms, "ppda-residual", method)
+        if ra is None:
+            continue
+        r_runs = arms[ra]
+        cells = []
+        for kind in ("ppda", "stda"):
+            other = _best_option(arms, kind, method)
+            p, n, d = wilcoxon(*_paired(r_runs, arms[other])) if other else (None, 0, 0.0)
+            cells.append(f"{100 * d:+.1f} (n={n}) | {_fmt_p(p)}" if other else "- | -")
+        p_b = wilcoxon(*_paired(r_runs, base))[0] if base else None
+        rows.append(f"| {ppda_name} | {_pct([r['test_f1'] for r in r_runs])} | {cells[0]} | {cells[1]} | "
+                    f"{_fmt_p(p_b)} | {ra.split(':')[2]} |")
+    if not rows:
+        return []
+    return ["Residual PPDA (the sub-policy's change added to the real window), paired over the same "
+            "(test subject, seed) runs:", "",
+            "| method | PPDA residual | - PPDA (pp) | p | - STDA (pp) | p | p vs baseline | option |",
+            "|---|---|---|---|---|---|---|---|"] + rows + [""]
 
 
 def fewer_subjects(doc):
@@ -126,7 +152,9 @@ def fewer_subjects(doc):
         lines.append("")
         lines += ["Paired (same split) Wilcoxon p-values over all sizes:", ""]
         for a, b in (("ppda:all", "stda:all"), ("ppda:all:learned", "ppda:all"), ("ppda:all", "baseline"),
-                     ("stda:all", "baseline"), ("ppda:all:learned", "baseline")):
+                     ("stda:all", "baseline"), ("ppda:all:learned", "baseline"),
+                     ("ppda-residual:all", "ppda:all"), ("ppda-residual:all", "stda:all"),
+                     ("ppda-residual:all", "baseline")):
             ra = [r for r in runs if r["arm"] == a]
             rb = [r for r in runs if r["arm"] == b]
             if ra and rb:
@@ -158,7 +186,8 @@ def speed(doc):
     by_kind = collections.defaultdict(list)
     for r in doc["runs"]:
         a = parse_arm(r["arm"])
-        kind = a.kind + (" learned" if a.learned else "") + (" sim-only" if a.resimulate_identity else "")
+        kind = (a.kind + (" residual" if a.residual else "") + (" learned" if a.learned else "")
+                + (" sim-only" if a.resimulate_identity else ""))
         by_kind[(r["model"], kind)].append(r)
     for (model, kind), rs in sorted(by_kind.items()):
         share = np.array([r["imukit_share"] for r in rs])
