@@ -167,6 +167,14 @@ class Metrics(unittest.TestCase):
         row = next(line for line in md.splitlines() if line.startswith("| placement |"))
         # residual - PPDA: 0.03 + 0.01 i, mean 6.5 points; - STDA: 0.10 + 0.02 i, mean 17.0; all 8 ahead
         self.assertEqual(row, "| placement | 62.0 ± 4.9 | +6.5 (n=8) | 0.008 | +17.0 (n=8) | 0.008 | 0.008 | 1 |")
+        # The `all` arms get the same row; options of a residual method are listed once two ran.
+        more = [dict(r, arm=r["arm"].replace(":placement:1", ":all")) for r in runs if r["arm"] != "baseline"]
+        more += [run("ppda-residual:placement:2", t, 0.40) for t in tests]
+        md, _ = report.one_at_a_time({"runs": runs + more})
+        self.assertIn("| PPDA residual all 810 uniform | 62.0 ± 4.9 | +6.5 (n=8) | 0.008 | +17.0 (n=8) | 0.008 | "
+                      "0.008 | - |", md)
+        self.assertIn("| ppda-residual:placement:2 | 40.0 ± 0.0 | 40.0 ± 0.0 |", md)
+        self.assertNotIn("| PPDA residual all 810 uniform | |", md)   # not among the baseline-only rows
         fs = [dict(r, arm=r["arm"].replace(":placement:1", ":all"), n_train=1) for r in runs]
         md, _ = report.fewer_subjects({"runs": fs})
         self.assertIn("- PPDA residual all 810 uniform vs PPDA all 810 uniform: +6.5 pp, p = 0.008 (n=8)", md)
@@ -584,6 +592,36 @@ class Augmentation(unittest.TestCase):
         self.assertTrue(np.isfinite(Xs).all())
         with self.assertRaisesRegex(ValueError, "residual"):
             augmentation.BatchAugmenter("stda", PAPER, self.W, self.st, residual=True)
+        # Windows left real (recording 0 without a scene, recording 1 implausible: its real
+        # signal zeroed) stay real, and the output screen judges the residual window (found in
+        # review: a screen on the plain re-simulation passed the tests above).
+        R = rf.Recordings(self.R.name, self.R.classes, list(self.R.recordings))
+        r0, r1 = R.recordings[0], R.recordings[1]
+        R.recordings[0] = rf.Recording(r0.id, r0.subject, r0.samples, r0.labels, r0.rate_hz, r0.sensors, None)
+        R.recordings[1] = rf.Recording(r1.id, r1.subject, np.zeros_like(r1.samples), r1.labels, r1.rate_hz,
+                                       r1.sensors, r1.scene)
+        W = windows.make_windows(R, 50, 25)
+        src = augmentation.PpdaSource(R, 50)
+        k = experiments.grid_index("amplitude_warping", 8)
+        index = np.arange(len(W))[::-1].copy()
+        plain = augmentation.BatchAugmenter("ppda", PAPER, W, self.st, ppda=src)
+        res = augmentation.BatchAugmenter("ppda", PAPER, W, self.st, ppda=src, residual=True, output_screen=1.05)
+        raw_p = plain.batch(k, index, seed=5)[0] * self.st.std + self.st.mean
+        Xr, yr = res.batch(k, index, seed=5)
+        fitted = src.usable(W.recording[index], W.start[index])
+        order = np.concatenate([index[fitted][np.argsort(W.recording[index][fitted], kind="stable")], index[~fitted]])
+        n = int(fitted.sum())
+        expected = W.X[order].copy()
+        candidate = raw_p[:n] + W.X[order[:n]] - src.identity_windows(W.recording[order[:n]], W.start[order[:n]])
+        passes = np.array([src.plausible(W.X[order[j]], candidate[j], 1.05) for j in range(n)])
+        expected[:n][passes] = candidate[passes]
+        np.testing.assert_allclose(Xr * self.st.std + self.st.mean, expected, atol=2e-4)
+        np.testing.assert_array_equal(yr, W.y[order])
+        self.assertEqual((res.unfitted_windows, res.implausible_windows),
+                         (int((W.recording == 0).sum()), int((W.recording == 1).sum())))
+        self.assertEqual(res.implausible_outputs, int((~passes).sum()))
+        self.assertTrue(0 < res.implausible_outputs < n)
+        self.assertEqual(res.augmented_windows, int(passes.sum()))
         arm = experiments.parse_arm("ppda-residual:placement")
         self.assertEqual((arm.name, arm.kind, arm.residual), ("ppda-residual:placement:1", "ppda", True))
         self.assertEqual(experiments.parse_arm("ppda-residual:placement").probabilities,

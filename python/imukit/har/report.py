@@ -89,14 +89,16 @@ def one_at_a_time(doc):
                          f"{_fmt_p(p_sb)} | {_fmt_p(p_pb)} | {opt} |")
             fig[model]["pairs"].append((f"{stda_name}\n{ppda_name}", [r["test_f1"] for r in s_runs],
                                         [r["test_f1"] for r in p_runs]))
-        extra = [a for a in arms if a != "baseline" and a.split(":")[1] not in PAIRS]
+        extra = [a for a in arms if a != "baseline" and a.split(":")[1] not in PAIRS
+                 and not a.startswith("ppda-residual:")]
         for a in sorted(extra):
             p_b = wilcoxon(*_paired(arms[a], base))[0] if base else None
             lines.append(f"| {parse_arm(a).label} | | {_pct([r['test_f1'] for r in arms[a]])} | | | | {_fmt_p(p_b)} | |")
         lines.append("")
         lines += _residual_rows(arms, base)
         options = sorted(a for a in arms if a.count(":") == 2 and a.split(":")[1] in PAIRS)
-        if any(len([o for o in options if o.startswith(f"{k}:{m}:")]) > 1 for k in ("stda", "ppda") for m in PAIRS):
+        kinds = ("stda", "ppda", "ppda-residual")
+        if any(len([o for o in options if o.startswith(f"{k}:{m}:")]) > 1 for k in kinds for m in PAIRS):
             lines += ["Every option (the table above takes, per method, the option with the best mean "
                       "validation F1):", "", "| arm | validation F1 | test F1 |", "|---|---|---|"]
             for a in options:
@@ -106,22 +108,30 @@ def one_at_a_time(doc):
 
 
 def _residual_rows(arms, base):
-    """Markdown rows for the residual PPDA arms run (one-at-a-time): each against PPDA proper,
-    STDA and the baseline, paired; [] when none ran."""
+    """Markdown rows for the residual PPDA arms run: each (per method the option with the best
+    validation F1; the `all` arms as they are) against PPDA proper, STDA and the baseline,
+    paired; [] when none ran."""
+    def pick(kind, rest):
+        if rest in PAIRS:
+            return _best_option(arms, kind, rest)
+        return f"{kind}:{rest}" if f"{kind}:{rest}" in arms else None
+
     rows = []
-    for method, (stda_name, ppda_name, *_rest) in PAIRS.items():
-        ra = _best_option(arms, "ppda-residual", method)
+    for rest in list(PAIRS) + ["all", "all:learned"]:
+        ra = pick("ppda-residual", rest)
         if ra is None:
             continue
         r_runs = arms[ra]
         cells = []
         for kind in ("ppda", "stda"):
-            other = _best_option(arms, kind, method)
+            other = pick(kind, rest)
             p, n, d = wilcoxon(*_paired(r_runs, arms[other])) if other else (None, 0, 0.0)
             cells.append(f"{100 * d:+.1f} (n={n}) | {_fmt_p(p)}" if other else "- | -")
         p_b = wilcoxon(*_paired(r_runs, base))[0] if base else None
-        rows.append(f"| {ppda_name} | {_pct([r['test_f1'] for r in r_runs])} | {cells[0]} | {cells[1]} | "
-                    f"{_fmt_p(p_b)} | {ra.split(':')[2]} |")
+        name = PAIRS[rest][1] if rest in PAIRS else parse_arm(ra).label
+        option = ra.split(":")[2] if rest in PAIRS else "-"
+        rows.append(f"| {name} | {_pct([r['test_f1'] for r in r_runs])} | {cells[0]} | {cells[1]} | "
+                    f"{_fmt_p(p_b)} | {option} |")
     if not rows:
         return []
     return ["Residual PPDA (the sub-policy's change added to the real window), paired over the same "
@@ -154,7 +164,8 @@ def fewer_subjects(doc):
         for a, b in (("ppda:all", "stda:all"), ("ppda:all:learned", "ppda:all"), ("ppda:all", "baseline"),
                      ("stda:all", "baseline"), ("ppda:all:learned", "baseline"),
                      ("ppda-residual:all", "ppda:all"), ("ppda-residual:all", "stda:all"),
-                     ("ppda-residual:all", "baseline")):
+                     ("ppda-residual:all", "baseline"), ("ppda-residual:all:learned", "ppda:all:learned"),
+                     ("ppda-residual:all:learned", "ppda-residual:all"), ("ppda-residual:all:learned", "baseline")):
             ra = [r for r in runs if r["arm"] == a]
             rb = [r for r in runs if r["arm"] == b]
             if ra and rb:
