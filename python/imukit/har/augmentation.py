@@ -240,7 +240,8 @@ class BatchAugmenter:
     real + (re-simulated under the sub-policy - re-simulated with nothing changed). What the
     fitted scene does not reproduce (on UTD-MHAD the forearm twist the skeleton cannot see,
     tracking errors, the sensor's own noise) stays in the window; the identity sub-policy gives
-    the real window exactly. A re-timing sub-policy (speed) re-times the simulated part only."""
+    the real window exactly. Every sub-policy acts on the simulated part only: the remainder is
+    not rotated, scaled or re-timed."""
 
     def __init__(self, kind, policy, windows, standardize, ppda=None, resimulate_identity=False,
                  output_screen=0.0, residual=False):
