@@ -155,11 +155,13 @@ class PpdaSource:
                          for i, s0, ok in zip(recording.tolist(), start.tolist(), inside)], bool)
 
     def identity_windows(self, recording, start):
-        """The identity re-simulations (N, T, C) of usable windows (usable() made them)."""
-        if not self.usable(recording, start).all():
-            raise ValueError("identity_windows: a window is not usable (PpdaSource.usable)")
-        return np.stack([self._identity[(i, s0)] for i, s0 in zip(np.asarray(recording).tolist(),
-                                                                   np.asarray(start).tolist())])
+        """The identity re-simulations (N, T, C) of windows usable() has found usable (it made
+        them; looked up, not checked again)."""
+        try:
+            return np.stack([self._identity[(i, s0)] for i, s0 in zip(np.asarray(recording).tolist(),
+                                                                       np.asarray(start).tolist())])
+        except KeyError as e:
+            raise ValueError(f"identity_windows: window {e.args[0]} was not found usable (PpdaSource.usable)") from None
 
     def inside_scene(self, recording, start):
         """Per window: whether its scene window (start + the time offset) lies inside its
