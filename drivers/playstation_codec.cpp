@@ -116,7 +116,6 @@ void PlaystationCodec::decode(std::span<const uint8_t> r, TimeNs host_time,
     s.device_time = ticks_to_ns(time_.unwrap(raw), 3'000'000);  // 1/3 us units
   }
   s.has_device_time = true;
-  constexpr double kDegToRad = std::numbers::pi / 180.0;
   for (int i = 0; i < 3; ++i) {
     const PsAxisCalibration& g = calibration_.gyro[i];
     const PsAxisCalibration& a = calibration_.accel[i];
@@ -124,7 +123,7 @@ void PlaystationCodec::decode(std::span<const uint8_t> r, TimeNs host_time,
     const int araw = le16s(r.data() + accel_at + 2 * i);
     const double gyro_units = static_cast<double>(graw - g.bias) * g.numer / g.denom;
     const double accel_units = static_cast<double>(araw - a.bias) * a.numer / a.denom;
-    s.gyro[i] = gyro_units / kGyroResPerDps * kDegToRad;
+    s.gyro[i] = gyro_units / kGyroResPerDps * kRadPerDeg;
     s.accel[i] = accel_units / kAccelResPerG * kStandardGravity;
   }
   s.channels = kHasAccel | kHasGyro;

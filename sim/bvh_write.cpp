@@ -5,12 +5,11 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
 
 namespace imukit::sim {
 namespace {
-
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 std::string number(double v) {
   char buf[32];
@@ -38,11 +37,11 @@ Eigen::Vector3d zyx_degrees(const Eigen::Matrix3d& R, const Eigen::Vector3d& pre
     c = std::atan2(R(2, 1), R(2, 2));
   } else {
     // Gimbal lock: only a -+ c is determined; keep c at its previous value.
-    c = previous.z() / kRadToDeg;
+    c = previous.z() / kDegPerRad;
     const double d = std::atan2(-R(0, 1), R(1, 1));  // a - c (b = +90) or a + c (b = -90)
     a = s > 0 ? d + c : d - c;
   }
-  Eigen::Vector3d e(a * kRadToDeg, b * kRadToDeg, c * kRadToDeg);
+  Eigen::Vector3d e(a * kDegPerRad, b * kDegPerRad, c * kDegPerRad);
   for (const int k : {0, 2}) e(k) += 360.0 * std::round((previous(k) - e(k)) / 360.0);
   return e;
 }

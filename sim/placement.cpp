@@ -6,11 +6,10 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/so3.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::sim {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 PlacementPreset make(std::string name, std::string description, std::string joint, double along,
                      double anterior, double normal, Eigen::Vector3d x_lan, Eigen::Vector3d z_lan,
@@ -25,7 +24,7 @@ PlacementPreset make(std::string name, std::string description, std::string join
   p.sensor_x_lan = x_lan;
   p.sensor_z_lan = z_lan;
   p.position_range_m = pos_range;
-  p.rotation_range_rad = rot_range_deg * kDeg;
+  p.rotation_range_rad = rot_range_deg * kRadPerDeg;
   return p;
 }
 
@@ -249,7 +248,7 @@ Eigen::Quaterniond euler_to_quaternion(const Eigen::Vector3d& angles, std::strin
     const Eigen::Vector3d axis = c == 'X'   ? Eigen::Vector3d::UnitX()
                                  : c == 'Y' ? Eigen::Vector3d::UnitY()
                                             : Eigen::Vector3d::UnitZ();
-    const double a = angles(static_cast<Eigen::Index>(i)) * (degrees ? kDeg : 1.0);
+    const double a = angles(static_cast<Eigen::Index>(i)) * (degrees ? kRadPerDeg : 1.0);
     const Eigen::Quaterniond r(Eigen::AngleAxisd(a, axis));
     q = intrinsic ? q * r : r * q;
   }
