@@ -11,6 +11,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/json_text.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/placement.hpp"
 #include "imukit/sim/scene.hpp"
 
@@ -20,118 +21,78 @@ using json = nlohmann::json;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
-[[noreturn]] void fail(const std::string& source, const std::string& path,
-                       const std::string& what) {
-  throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
-}
-
-std::string type_name(const json& j) { return j.type_name(); }
-
-double number(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_number()) fail(source, path, "expected a number, got " + type_name(j));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(source, path, "expected a finite number");
-  return v;
-}
-
 double non_negative(const json& j, const std::string& source, const std::string& path) {
-  const double v = number(j, source, path);
-  if (v < 0.0) fail(source, path, fmt::format("must be >= 0, got {}", v));
+  const double v = json_number(j, source, path);
+  if (v < 0.0) json_fail(source, path, fmt::format("must be >= 0, got {}", v));
   return v;
 }
 
 // A number in [lo, hi] (unit for the message).
 double bounded(const json& j, const std::string& source, const std::string& path, double lo,
                double hi, std::string_view unit = "") {
-  const double v = number(j, source, path);
+  const double v = json_number(j, source, path);
   if (!(v >= lo && v <= hi)) {
-    fail(source, path,
-         fmt::format("expected a number in [{:g}, {:g}]{}{}, got {:g}", lo, hi,
-                     unit.empty() ? "" : " ", unit, v));
+    json_fail(source, path,
+              fmt::format("expected a number in [{:g}, {:g}]{}{}, got {:g}", lo, hi,
+                          unit.empty() ? "" : " ", unit, v));
   }
   return v;
 }
 
 int integer(const json& j, const std::string& source, const std::string& path, int lo, int hi) {
-  const double v = number(j, source, path);
+  const double v = json_number(j, source, path);
   if (v != std::floor(v) || v < lo || v > hi)
-    fail(source, path, fmt::format("expected an integer in [{}, {}], got {}", lo, hi, v));
+    json_fail(source, path, fmt::format("expected an integer in [{}, {}], got {}", lo, hi, v));
   return static_cast<int>(v);
 }
 
-std::string string_of(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_string()) fail(source, path, "expected a string, got " + type_name(j));
-  return j.get<std::string>();
-}
-
-bool boolean(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_boolean()) fail(source, path, "expected true or false, got " + type_name(j));
-  return j.get<bool>();
-}
-
-void only_keys(const json& j, std::initializer_list<std::string_view> keys,
-               const std::string& source, const std::string& path) {
-  if (!j.is_object()) fail(source, path, "expected an object, got " + type_name(j));
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    bool known = false;
-    for (std::string_view k : keys) known = known || it.key() == k;
-    if (!known) {
-      std::string list;
-      for (std::string_view k : keys) list += (list.empty() ? "" : ", ") + std::string(k);
-      fail(source, path, "unknown key \"" + it.key() + "\" (known: " + list + ")");
-    }
-  }
-}
-
 WarpMethod warp_method(const json& j, const std::string& source, const std::string& path) {
-  const std::string m = string_of(j, source, path);
+  const std::string m = json_string(j, source, path);
   if (m == "identity") return WarpMethod::identity;
   if (m == "scaling") return WarpMethod::scaling;
   if (m == "warping") return WarpMethod::warping;
-  fail(source, path, "expected \"identity\", \"scaling\" or \"warping\", got \"" + m + "\"");
+  json_fail(source, path, "expected \"identity\", \"scaling\" or \"warping\", got \"" + m + "\"");
 }
 
 AmplitudeOp parse_amplitude(const json& j, const std::string& source, const std::string& path) {
-  only_keys(j, {"method", "sigma", "knots", "joints"}, source, path);
+  json_only_keys(j, {"method", "sigma", "knots", "joints"}, source, path);
   AmplitudeOp op;
-  if (!j.contains("method")) fail(source, path + ".method", "missing");
+  if (!j.contains("method")) json_fail(source, path + ".method", "missing");
   op.method = warp_method(j["method"], source, path + ".method");
   if (op.method != WarpMethod::identity) {
-    if (!j.contains("sigma")) fail(source, path + ".sigma", "missing");
+    if (!j.contains("sigma")) json_fail(source, path + ".sigma", "missing");
     op.sigma = bounded(j["sigma"], source, path + ".sigma", 0, PolicyLimits::max_amplitude_sigma);
   }
   if (op.method == WarpMethod::warping) {
-    if (!j.contains("knots")) fail(source, path + ".knots", "missing");
+    if (!j.contains("knots")) json_fail(source, path + ".knots", "missing");
     op.knots = integer(j["knots"], source, path + ".knots", 0, 1000);
   }
   if (j.contains("joints")) {
     const json& js = j["joints"];
-    if (!js.is_array()) fail(source, path + ".joints", "expected an array of joint names");
+    if (!js.is_array()) json_fail(source, path + ".joints", "expected an array of joint names");
     for (std::size_t i = 0; i < js.size(); ++i)
-      op.joints.push_back(string_of(js[i], source, fmt::format("{}.joints[{}]", path, i)));
+      op.joints.push_back(json_string(js[i], source, fmt::format("{}.joints[{}]", path, i)));
   }
   return op;
 }
 
 SpeedOp parse_speed(const json& j, const std::string& source, const std::string& path) {
-  only_keys(j, {"method", "range", "knots", "ratio"}, source, path);
+  json_only_keys(j, {"method", "range", "knots", "ratio"}, source, path);
   SpeedOp op;
-  if (!j.contains("method")) fail(source, path + ".method", "missing");
+  if (!j.contains("method")) json_fail(source, path + ".method", "missing");
   op.method = warp_method(j["method"], source, path + ".method");
   if (op.method == WarpMethod::scaling) {
     const json& r = j.contains("range") ? j["range"] : json();
-    if (!r.is_array() || r.size() != 2) fail(source, path + ".range", "expected [lo, hi]");
-    op.lo = number(r[0], source, path + ".range[0]");
-    op.hi = number(r[1], source, path + ".range[1]");
+    if (!r.is_array() || r.size() != 2) json_fail(source, path + ".range", "expected [lo, hi]");
+    op.lo = json_number(r[0], source, path + ".range[0]");
+    op.hi = json_number(r[1], source, path + ".range[1]");
     if (!(op.lo >= PolicyLimits::min_speed && op.hi >= op.lo && op.hi <= PolicyLimits::max_speed))
-      fail(source, path + ".range",
-           fmt::format("expected {:g} <= lo <= hi <= {:g} (b > 1 is faster)",
-                       PolicyLimits::min_speed, PolicyLimits::max_speed));
+      json_fail(source, path + ".range",
+                fmt::format("expected {:g} <= lo <= hi <= {:g} (b > 1 is faster)",
+                            PolicyLimits::min_speed, PolicyLimits::max_speed));
   } else if (op.method == WarpMethod::warping) {
-    if (!j.contains("knots")) fail(source, path + ".knots", "missing");
-    if (!j.contains("ratio")) fail(source, path + ".ratio", "missing");
+    if (!j.contains("knots")) json_fail(source, path + ".knots", "missing");
+    if (!j.contains("ratio")) json_fail(source, path + ".ratio", "missing");
     op.knots = integer(j["knots"], source, path + ".knots", 0, 1000);
     op.ratio = bounded(j["ratio"], source, path + ".ratio", 1, PolicyLimits::max_speed_ratio);
   }
@@ -159,40 +120,44 @@ SubjectPlacements read_subject(const std::string& written, const std::string& ba
 
 PlacementOp parse_placement(const json& j, const std::string& source, const std::string& path,
                             const std::string& base_dir, SubjectCache& subjects) {
-  only_keys(j, {"rotation_deg", "long_axis_deg", "flip", "shift", "swap_presets", "swap_subjects"},
-            source, path);
+  json_only_keys(
+      j, {"rotation_deg", "long_axis_deg", "flip", "shift", "swap_presets", "swap_subjects"},
+      source, path);
   PlacementOp op;
   op.enabled = true;
   if (j.contains("rotation_deg")) {
     const json& r = j["rotation_deg"];
     if (r.is_array()) {
-      if (r.size() != 3) fail(source, path + ".rotation_deg", "expected a number or 3 numbers");
+      if (r.size() != 3)
+        json_fail(source, path + ".rotation_deg", "expected a number or 3 numbers");
       for (int k = 0; k < 3; ++k)
         op.rotation_range_rad[k] =
-            non_negative(r[k], source, fmt::format("{}.rotation_deg[{}]", path, k)) * kDeg;
+            non_negative(r[k], source, fmt::format("{}.rotation_deg[{}]", path, k)) * kRadPerDeg;
     } else {
-      op.rotation_range_rad.setConstant(non_negative(r, source, path + ".rotation_deg") * kDeg);
+      op.rotation_range_rad.setConstant(non_negative(r, source, path + ".rotation_deg") *
+                                        kRadPerDeg);
     }
     if (op.rotation_range_rad.maxCoeff() > M_PI + 1e-12)
-      fail(source, path + ".rotation_deg", "half-widths above 180 degrees");
+      json_fail(source, path + ".rotation_deg", "half-widths above 180 degrees");
   }
   if (j.contains("long_axis_deg")) {
     op.long_axis_range_rad =
-        non_negative(j["long_axis_deg"], source, path + ".long_axis_deg") * kDeg;
+        non_negative(j["long_axis_deg"], source, path + ".long_axis_deg") * kRadPerDeg;
     if (op.long_axis_range_rad > M_PI + 1e-12)
-      fail(source, path + ".long_axis_deg", "half-width above 180 degrees");
+      json_fail(source, path + ".long_axis_deg", "half-width above 180 degrees");
   }
-  if (j.contains("flip")) op.flip = boolean(j["flip"], source, path + ".flip");
-  if (j.contains("shift")) op.shift = boolean(j["shift"], source, path + ".shift");
+  if (j.contains("flip")) op.flip = json_boolean(j["flip"], source, path + ".flip");
+  if (j.contains("shift")) op.shift = json_boolean(j["shift"], source, path + ".shift");
   if (j.contains("swap_presets")) {
     const json& s = j["swap_presets"];
-    if (!s.is_array()) fail(source, path + ".swap_presets", "expected an array of preset names");
+    if (!s.is_array())
+      json_fail(source, path + ".swap_presets", "expected an array of preset names");
     for (std::size_t i = 0; i < s.size(); ++i) {
-      const std::string p = string_of(s[i], source, fmt::format("{}.swap_presets[{}]", path, i));
+      const std::string p = json_string(s[i], source, fmt::format("{}.swap_presets[{}]", path, i));
       try {
         (void)sim::placement_preset(p);
       } catch (const Error& e) {
-        fail(source, fmt::format("{}.swap_presets[{}]", path, i), e.what());
+        json_fail(source, fmt::format("{}.swap_presets[{}]", path, i), e.what());
       }
       op.swap_presets.push_back(p);
     }
@@ -200,14 +165,15 @@ PlacementOp parse_placement(const json& j, const std::string& source, const std:
   if (j.contains("swap_subjects")) {
     const json& s = j["swap_subjects"];
     if (!s.is_array())
-      fail(source, path + ".swap_subjects", "expected an array of scene files (imukit.scene/1)");
+      json_fail(source, path + ".swap_subjects",
+                "expected an array of scene files (imukit.scene/1)");
     for (std::size_t i = 0; i < s.size(); ++i) {
       const std::string where = fmt::format("{}.swap_subjects[{}]", path, i);
-      const std::string file = string_of(s[i], source, where);
+      const std::string file = json_string(s[i], source, where);
       try {
         op.swap_subjects.push_back(read_subject(file, base_dir, subjects));
       } catch (const Error& e) {
-        fail(source, where, e.what());
+        json_fail(source, where, e.what());
       }
     }
   }
@@ -216,16 +182,16 @@ PlacementOp parse_placement(const json& j, const std::string& source, const std:
 
 HardwareOp parse_hardware(const json& j, const std::string& source, const std::string& path,
                           const std::string& base_dir) {
-  only_keys(j,
-            {"accel_noise", "accel_bias", "gyro_noise", "gyro_bias", "profile", "scale_spread",
-             "misalignment_spread_deg"},
-            source, path);
+  json_only_keys(j,
+                 {"accel_noise", "accel_bias", "gyro_noise", "gyro_bias", "profile", "scale_spread",
+                  "misalignment_spread_deg"},
+                 source, path);
   HardwareOp op;
   if (j.contains("profile")) {
     for (const char* k : {"accel_noise", "accel_bias", "gyro_noise", "gyro_bias"})
-      if (j.contains(k)) fail(source, path + "." + k, "give either ranges or a profile");
+      if (j.contains(k)) json_fail(source, path + "." + k, "give either ranges or a profile");
     op.kind = HardwareOp::Kind::profile;
-    op.profile_path = string_of(j["profile"], source, path + ".profile");
+    op.profile_path = json_string(j["profile"], source, path + ".profile");
     std::filesystem::path p(op.profile_path);
     if (p.is_relative() && !base_dir.empty()) p = std::filesystem::path(base_dir) / p;
     op.profile = read_profile(p.string());
@@ -236,11 +202,11 @@ HardwareOp parse_hardware(const json& j, const std::string& source, const std::s
       op.misalignment_spread_rad =
           bounded(j["misalignment_spread_deg"], source, path + ".misalignment_spread_deg", 0,
                   PolicyLimits::max_misalignment_spread_deg, "deg") *
-          kDeg;
+          kRadPerDeg;
     return op;
   }
   for (const char* k : {"scale_spread", "misalignment_spread_deg"})
-    if (j.contains(k)) fail(source, path + "." + k, "only with a profile");
+    if (j.contains(k)) json_fail(source, path + "." + k, "only with a profile");
   op.kind = HardwareOp::Kind::ranges;
   const auto range = [&](const char* key, double max, const char* unit) {
     return j.contains(key) ? bounded(j[key], source, path + "." + key, 0, max, unit) : 0.0;
@@ -272,9 +238,10 @@ json speed_json(const SpeedOp& op) {
 
 json placement_json(const PlacementOp& op) {
   json j = json::object();
-  j["rotation_deg"] = {op.rotation_range_rad.x() / kDeg, op.rotation_range_rad.y() / kDeg,
-                       op.rotation_range_rad.z() / kDeg};
-  if (op.long_axis_range_rad > 0.0) j["long_axis_deg"] = op.long_axis_range_rad / kDeg;
+  j["rotation_deg"] = {op.rotation_range_rad.x() / kRadPerDeg,
+                       op.rotation_range_rad.y() / kRadPerDeg,
+                       op.rotation_range_rad.z() / kRadPerDeg};
+  if (op.long_axis_range_rad > 0.0) j["long_axis_deg"] = op.long_axis_range_rad / kRadPerDeg;
   if (op.flip) j["flip"] = true;
   if (op.shift) j["shift"] = true;
   if (!op.swap_presets.empty()) j["swap_presets"] = op.swap_presets;
@@ -289,7 +256,7 @@ json hardware_json(const HardwareOp& op) {
     j["profile"] = op.profile_path;
     if (op.scale_spread > 0.0) j["scale_spread"] = op.scale_spread;
     if (op.misalignment_spread_rad > 0.0)
-      j["misalignment_spread_deg"] = op.misalignment_spread_rad / kDeg;
+      j["misalignment_spread_deg"] = op.misalignment_spread_rad / kRadPerDeg;
   } else {
     j["accel_noise"] = op.accel_noise;
     j["accel_bias"] = op.accel_bias;
@@ -312,35 +279,35 @@ std::vector<double> uniform(std::size_t n) {
 Policy parse_policy_impl(std::string_view text, const std::string& source,
                          const std::string& base_dir) {
   const json root = parse_json_text<json>(text, source);
-  only_keys(root,
-            {"schema", "name", "description", "builtin", "sub_policies", "probabilities",
-             "stda_rotation_deg"},
-            source, "$");
+  json_only_keys(root,
+                 {"schema", "name", "description", "builtin", "sub_policies", "probabilities",
+                  "stda_rotation_deg"},
+                 source, "$");
   if (!root.contains("schema") || root["schema"] != std::string(kPolicySchema))
-    fail(source, "schema", "expected \"" + std::string(kPolicySchema) + "\"");
+    json_fail(source, "schema", "expected \"" + std::string(kPolicySchema) + "\"");
   Policy policy;
   SubjectCache subjects;
   bool per_sub_probability = false;
   if (root.contains("builtin") == root.contains("sub_policies"))
-    fail(source, "$", "give either \"builtin\" or \"sub_policies\"");
+    json_fail(source, "$", "give either \"builtin\" or \"sub_policies\"");
   if (root.contains("builtin")) {
-    const std::string name = string_of(root["builtin"], source, "builtin");
+    const std::string name = json_string(root["builtin"], source, "builtin");
     try {
       policy = builtin_policy(name);
     } catch (const Error& e) {
-      fail(source, "builtin", e.what());
+      json_fail(source, "builtin", e.what());
     }
   } else {
     const json& subs = root["sub_policies"];
     if (!subs.is_array() || subs.empty())
-      fail(source, "sub_policies", "expected a non-empty array of sub-policies");
-    if (subs.size() > 100000) fail(source, "sub_policies", "more than 100000 sub-policies");
+      json_fail(source, "sub_policies", "expected a non-empty array of sub-policies");
+    if (subs.size() > 100000) json_fail(source, "sub_policies", "more than 100000 sub-policies");
     bool any_probability = false;
     for (std::size_t i = 0; i < subs.size(); ++i) {
       const std::string path = fmt::format("sub_policies[{}]", i);
       const json& s = subs[i];
-      only_keys(s, {"amplitude", "speed", "placement", "hardware", "probability", "name"}, source,
-                path);
+      json_only_keys(s, {"amplitude", "speed", "placement", "hardware", "probability", "name"},
+                     source, path);
       SubPolicy sp;
       if (s.contains("amplitude"))
         sp.amplitude = parse_amplitude(s["amplitude"], source, path + ".amplitude");
@@ -351,7 +318,7 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
       if (s.contains("hardware"))
         sp.hardware = parse_hardware(s["hardware"], source, path + ".hardware", base_dir);
       if (i > 0 && s.contains("probability") != any_probability)
-        fail(source, path + ".probability", "give a probability for every sub-policy or none");
+        json_fail(source, path + ".probability", "give a probability for every sub-policy or none");
       any_probability = s.contains("probability");
       if (any_probability)
         policy.probabilities.push_back(
@@ -361,13 +328,14 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
     per_sub_probability = any_probability;
     if (!any_probability) policy.probabilities = uniform(policy.sub_policies.size());
   }
-  if (root.contains("name")) policy.name = string_of(root["name"], source, "name");
+  if (root.contains("name")) policy.name = json_string(root["name"], source, "name");
   if (root.contains("probabilities")) {
-    if (per_sub_probability) fail(source, "probabilities", "given twice (also per sub-policy)");
+    if (per_sub_probability)
+      json_fail(source, "probabilities", "given twice (also per sub-policy)");
     const json& p = root["probabilities"];
     if (!p.is_array() || p.size() != policy.sub_policies.size()) {
-      fail(source, "probabilities",
-           fmt::format("expected an array of {} numbers", policy.sub_policies.size()));
+      json_fail(source, "probabilities",
+                fmt::format("expected an array of {} numbers", policy.sub_policies.size()));
     }
     policy.probabilities.clear();
     for (std::size_t i = 0; i < p.size(); ++i)
@@ -379,13 +347,13 @@ Policy parse_policy_impl(std::string_view text, const std::string& source,
     double sum = 0.0;
     for (double q : policy.probabilities) sum += q;
     if (!(sum > 0.0) || !std::isfinite(sum))
-      fail(source, "probabilities", "must not all be 0 and must sum to a finite number");
+      json_fail(source, "probabilities", "must not all be 0 and must sum to a finite number");
     for (double& q : policy.probabilities) q /= sum;
   }
   if (root.contains("stda_rotation_deg")) {
     const double r = non_negative(root["stda_rotation_deg"], source, "stda_rotation_deg");
-    if (r > 180.0) fail(source, "stda_rotation_deg", "half-width above 180 degrees");
-    policy.stda_rotation_rad = r * kDeg;
+    if (r > 180.0) json_fail(source, "stda_rotation_deg", "half-width above 180 degrees");
+    policy.stda_rotation_rad = r * kRadPerDeg;
   }
   return policy;
 }
@@ -438,11 +406,11 @@ std::string SubPolicy::describe() const {
   if (!placement.enabled) {
     out += "identity";
   } else {
-    out += fmt::format("rotation({:g},{:g},{:g}deg", placement.rotation_range_rad.x() / kDeg,
-                       placement.rotation_range_rad.y() / kDeg,
-                       placement.rotation_range_rad.z() / kDeg);
+    out += fmt::format("rotation({:g},{:g},{:g}deg", placement.rotation_range_rad.x() / kRadPerDeg,
+                       placement.rotation_range_rad.y() / kRadPerDeg,
+                       placement.rotation_range_rad.z() / kRadPerDeg);
     if (placement.long_axis_range_rad > 0.0)
-      out += fmt::format(",long_axis={:g}deg", placement.long_axis_range_rad / kDeg);
+      out += fmt::format(",long_axis={:g}deg", placement.long_axis_range_rad / kRadPerDeg);
     if (placement.flip) out += ",flip";
     if (placement.shift) out += ",shift";
     if (!placement.swap_presets.empty())
@@ -501,7 +469,7 @@ void Policy::validate() const {
           in(s.hardware.accel_bias, 0, L::max_accel) && in(s.hardware.gyro_noise, 0, L::max_gyro) &&
           in(s.hardware.gyro_bias, 0, L::max_gyro) &&
           in(s.hardware.scale_spread, 0, L::max_scale_spread) &&
-          in(s.hardware.misalignment_spread_rad, 0, L::max_misalignment_spread_deg * kDeg)))
+          in(s.hardware.misalignment_spread_rad, 0, L::max_misalignment_spread_deg * kRadPerDeg)))
       bad("hardware ranges outside the limits of augment::PolicyLimits");
     const Eigen::Vector3d& r = s.placement.rotation_range_rad;
     if (!(in(r.minCoeff(), 0, M_PI + 1e-12) && in(r.maxCoeff(), 0, M_PI + 1e-12) &&
@@ -531,7 +499,7 @@ std::vector<SpeedOp> paper_speed_options() {
 std::vector<PlacementOp> paper_placement_options() {
   std::vector<PlacementOp> v(2);
   v[1].enabled = true;
-  v[1].rotation_range_rad.setConstant(25.0 * kDeg);
+  v[1].rotation_range_rad.setConstant(25.0 * kRadPerDeg);
   return v;
 }
 
@@ -629,7 +597,8 @@ std::string format_policy(const Policy& policy) {
     }
     root["sub_policies"] = std::move(subs);
   }
-  if (policy.stda_rotation_rad != M_PI) root["stda_rotation_deg"] = policy.stda_rotation_rad / kDeg;
+  if (policy.stda_rotation_rad != M_PI)
+    root["stda_rotation_deg"] = policy.stda_rotation_rad / kRadPerDeg;
   return root.dump(2) + "\n";
 }
 

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 
 namespace imukit {
 
@@ -176,6 +177,50 @@ std::string json_error_reason(std::string message) {
     message = message.substr(0, last) + "; last read: " + quote_excerpt(token);
   }
   return message;
+}
+
+void json_fail(const std::string& source, const std::string& path, const std::string& what) {
+  throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
+}
+
+double json_number(const nlohmann::json& j, const std::string& source, const std::string& path) {
+  if (!j.is_number())
+    json_fail(source, path, std::string("expected a number, got ") + j.type_name());
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) json_fail(source, path, "expected a finite number");
+  return v;
+}
+
+std::string json_string(const nlohmann::json& j, const std::string& source,
+                        const std::string& path) {
+  if (!j.is_string())
+    json_fail(source, path, std::string("expected a string, got ") + j.type_name());
+  return j.get<std::string>();
+}
+
+bool json_boolean(const nlohmann::json& j, const std::string& source, const std::string& path) {
+  if (!j.is_boolean())
+    json_fail(source, path, std::string("expected true or false, got ") + j.type_name());
+  return j.get<bool>();
+}
+
+Eigen::Vector3d json_vec3(const nlohmann::json& j, const std::string& source,
+                          const std::string& path) {
+  if (!j.is_array() || j.size() != 3) json_fail(source, path, "expected an array of 3 numbers");
+  return {json_number(j[0], source, path + "[0]"), json_number(j[1], source, path + "[1]"),
+          json_number(j[2], source, path + "[2]")};
+}
+
+void json_only_keys(const nlohmann::json& j, std::initializer_list<std::string_view> keys,
+                    const std::string& source, const std::string& path) {
+  if (!j.is_object())
+    json_fail(source, path, std::string("expected an object, got ") + j.type_name());
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (std::find(keys.begin(), keys.end(), it.key()) != keys.end()) continue;
+    std::string known;
+    for (std::string_view k : keys) known.append(known.empty() ? "" : ", ").append(k);
+    json_fail(source, path, "unknown key '" + it.key() + "' (known: " + known + ")");
+  }
 }
 
 }  // namespace imukit

@@ -6,7 +6,9 @@
 // reader of JSON files (profiles, scenes, policies) parses through here.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstddef>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -119,6 +121,24 @@ class JsonDomBuilder {
 };
 
 }  // namespace detail
+
+// Typed reads of one value of a parsed document, for the readers whose errors name the file and
+// the value's JSON path ("scene.json: sensors[0].position[2]: expected a number, got string")
+// rather than a line and column (profiles do that: core/profile.cpp keeps the text). Each throws
+// imukit::Error.
+[[noreturn]] void json_fail(const std::string& source, const std::string& path,
+                            const std::string& what);
+double json_number(const nlohmann::json& j, const std::string& source,
+                   const std::string& path);  // finite
+std::string json_string(const nlohmann::json& j, const std::string& source,
+                        const std::string& path);
+bool json_boolean(const nlohmann::json& j, const std::string& source, const std::string& path);
+Eigen::Vector3d json_vec3(const nlohmann::json& j, const std::string& source,
+                          const std::string& path);  // three finite numbers
+// j must be an object whose keys are all in `keys`: a misspelt optional key is an error naming
+// the keys it could have been, not a setting silently left at its default.
+void json_only_keys(const nlohmann::json& j, std::initializer_list<std::string_view> keys,
+                    const std::string& source, const std::string& path);
 
 // Json: nlohmann::json or nlohmann::ordered_json. Throws imukit::Error naming source:line:column.
 template <class Json>

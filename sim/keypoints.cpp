@@ -275,35 +275,10 @@ void validate_topology(const KeypointTopology& t, const std::string& where) {
 
 using nlohmann::json;
 
-[[noreturn]] void jfail(const std::string& source, const std::string& path,
-                        const std::string& what) {
-  throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
-}
-
-void only_keys(const json& j, std::initializer_list<const char*> keys, const std::string& source,
-               const std::string& path) {
-  if (!j.is_object()) jfail(source, path, std::string("expected an object, got ") + j.type_name());
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    bool ok = false;
-    for (const char* k : keys) ok |= it.key() == k;
-    if (!ok) jfail(source, path, "unknown key '" + it.key() + "'");
-  }
-}
-
-std::string jstring(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_string()) jfail(source, path, std::string("expected a string, got ") + j.type_name());
-  return j.get<std::string>();
-}
-
+// A direction: three finite numbers, not all zero.
 Vector3d jvec3(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_array() || j.size() != 3) jfail(source, path, "expected an array of 3 numbers");
-  Vector3d v;
-  for (int k = 0; k < 3; ++k) {
-    if (!j[static_cast<std::size_t>(k)].is_number())
-      jfail(source, path + "[" + std::to_string(k) + "]", "expected a number");
-    v(k) = j[static_cast<std::size_t>(k)].get<double>();
-  }
-  if (!v.allFinite() || v.norm() < 1e-9) jfail(source, path, "expected a finite non-zero vector");
+  const Vector3d v = json_vec3(j, source, path);
+  if (v.norm() < 1e-9) json_fail(source, path, "expected a non-zero vector");
   return v;
 }
 
@@ -316,90 +291,90 @@ Vector3d unit(const Vector3d& v) {
 
 KeypointTopology parse_topology_impl(std::string_view text, const std::string& source) {
   const json root = parse_json_text<json>(text, source);
-  only_keys(root,
-            {"schema", "name", "keypoints", "segments", "swap_groups", "feet", "upright_lower",
-             "upright_upper", "left_right", "description"},
-            source, "$");
+  json_only_keys(root,
+                 {"schema", "name", "keypoints", "segments", "swap_groups", "feet", "upright_lower",
+                  "upright_upper", "left_right", "description"},
+                 source, "$");
   if (!root.contains("schema") || root["schema"] != std::string(kKeypointTopologySchema))
-    jfail(source, "schema", "expected \"" + std::string(kKeypointTopologySchema) + "\"");
+    json_fail(source, "schema", "expected \"" + std::string(kKeypointTopologySchema) + "\"");
   KeypointTopology t;
-  t.name = root.contains("name") ? jstring(root["name"], source, "name") : source;
+  t.name = root.contains("name") ? json_string(root["name"], source, "name") : source;
   if (!root.contains("keypoints") || !root["keypoints"].is_array() || root["keypoints"].empty())
-    jfail(source, "keypoints", "expected a non-empty array of names");
+    json_fail(source, "keypoints", "expected a non-empty array of names");
   for (std::size_t i = 0; i < root["keypoints"].size(); ++i)
     t.keypoints.push_back(
-        jstring(root["keypoints"][i], source, "keypoints[" + std::to_string(i) + "]"));
+        json_string(root["keypoints"][i], source, "keypoints[" + std::to_string(i) + "]"));
   const auto kp = [&](const json& j, const std::string& path) {
-    const std::string n = jstring(j, source, path);
+    const std::string n = json_string(j, source, path);
     const int k = t.keypoint_index(n);
-    if (k < 0) jfail(source, path, "unknown keypoint '" + n + "'");
+    if (k < 0) json_fail(source, path, "unknown keypoint '" + n + "'");
     return k;
   };
   const auto pair_of = [&](const json& j, const std::string& path) {
-    if (!j.is_array() || j.size() != 2) jfail(source, path, "expected two keypoint names");
+    if (!j.is_array() || j.size() != 2) json_fail(source, path, "expected two keypoint names");
     return std::pair<int, int>{kp(j[0], path + "[0]"), kp(j[1], path + "[1]")};
   };
   if (!root.contains("segments") || !root["segments"].is_array() || root["segments"].empty())
-    jfail(source, "segments", "expected a non-empty array");
+    json_fail(source, "segments", "expected a non-empty array");
   for (std::size_t i = 0; i < root["segments"].size(); ++i) {
     const json& js = root["segments"][i];
     const std::string path = "segments[" + std::to_string(i) + "]";
-    only_keys(js, {"joint", "parent", "origin", "end", "neutral", "secondary", "twist_note"},
-              source, path);
+    json_only_keys(js, {"joint", "parent", "origin", "end", "neutral", "secondary", "twist_note"},
+                   source, path);
     KeypointSegment s;
-    if (!js.contains("joint")) jfail(source, path + ".joint", "missing");
-    s.joint = jstring(js["joint"], source, path + ".joint");
+    if (!js.contains("joint")) json_fail(source, path + ".joint", "missing");
+    s.joint = json_string(js["joint"], source, path + ".joint");
     if (js.contains("parent") && !js["parent"].is_null()) {
-      const std::string p = jstring(js["parent"], source, path + ".parent");
+      const std::string p = json_string(js["parent"], source, path + ".parent");
       for (std::size_t k = 0; k < t.segments.size(); ++k) {
         if (t.segments[k].joint == p) s.parent = static_cast<int>(k);
       }
       if (s.parent < 0)
-        jfail(source, path + ".parent", "'" + p + "' is not an earlier segment's joint");
+        json_fail(source, path + ".parent", "'" + p + "' is not an earlier segment's joint");
     } else if (i > 0) {
-      jfail(source, path + ".parent", "missing (only the first segment is the root)");
+      json_fail(source, path + ".parent", "missing (only the first segment is the root)");
     }
-    if (!js.contains("origin")) jfail(source, path + ".origin", "missing");
+    if (!js.contains("origin")) json_fail(source, path + ".origin", "missing");
     s.origin = kp(js["origin"], path + ".origin");
     if (js.contains("end") && !js["end"].is_null()) s.end = kp(js["end"], path + ".end");
-    if (!js.contains("neutral")) jfail(source, path + ".neutral", "missing");
+    if (!js.contains("neutral")) json_fail(source, path + ".neutral", "missing");
     s.neutral = unit(jvec3(js["neutral"], source, path + ".neutral"));
     if (js.contains("secondary")) {
       const json& sec = js["secondary"];
-      if (!sec.is_array()) jfail(source, path + ".secondary", "expected an array");
+      if (!sec.is_array()) json_fail(source, path + ".secondary", "expected an array");
       for (std::size_t k = 0; k < sec.size(); ++k) {
         const std::string sp = path + ".secondary[" + std::to_string(k) + "]";
-        only_keys(sec[k], {"from", "to", "cross", "neutral"}, source, sp);
+        json_only_keys(sec[k], {"from", "to", "cross", "neutral"}, source, sp);
         SecondaryDirection d;
         if (sec[k].contains("cross")) {
           const json& c = sec[k]["cross"];
           if (!c.is_array() || c.size() != 2 || sec[k].contains("from") || sec[k].contains("to"))
-            jfail(source, sp + ".cross",
-                  "expected [[a_from, a_to], [b_from, b_to]] (and no from/to)");
+            json_fail(source, sp + ".cross",
+                      "expected [[a_from, a_to], [b_from, b_to]] (and no from/to)");
           std::tie(d.a_from, d.a_to) = pair_of(c[0], sp + ".cross[0]");
           std::tie(d.b_from, d.b_to) = pair_of(c[1], sp + ".cross[1]");
           d.cross = true;
         } else {
           if (!sec[k].contains("from") || !sec[k].contains("to"))
-            jfail(source, sp, "expected from and to, or cross");
+            json_fail(source, sp, "expected from and to, or cross");
           d.a_from = kp(sec[k]["from"], sp + ".from");
           d.a_to = kp(sec[k]["to"], sp + ".to");
         }
-        if (!sec[k].contains("neutral")) jfail(source, sp + ".neutral", "missing");
+        if (!sec[k].contains("neutral")) json_fail(source, sp + ".neutral", "missing");
         d.neutral = jvec3(sec[k]["neutral"], source, sp + ".neutral");
         s.secondary.push_back(d);
       }
     }
     if (js.contains("twist_note"))
-      s.twist_note = jstring(js["twist_note"], source, path + ".twist_note");
+      s.twist_note = json_string(js["twist_note"], source, path + ".twist_note");
     t.segments.push_back(std::move(s));
   }
   if (root.contains("swap_groups")) {
     const json& g = root["swap_groups"];
-    if (!g.is_array()) jfail(source, "swap_groups", "expected an array of groups");
+    if (!g.is_array()) json_fail(source, "swap_groups", "expected an array of groups");
     for (std::size_t i = 0; i < g.size(); ++i) {
       if (!g[i].is_array())
-        jfail(source, "swap_groups[" + std::to_string(i) + "]", "expected pairs");
+        json_fail(source, "swap_groups[" + std::to_string(i) + "]", "expected pairs");
       std::vector<std::pair<int, int>> pairs;
       for (std::size_t k = 0; k < g[i].size(); ++k)
         pairs.push_back(
@@ -408,19 +383,19 @@ KeypointTopology parse_topology_impl(std::string_view text, const std::string& s
     }
   }
   if (root.contains("feet")) {
-    if (!root["feet"].is_array()) jfail(source, "feet", "expected an array of keypoint names");
+    if (!root["feet"].is_array()) json_fail(source, "feet", "expected an array of keypoint names");
     for (std::size_t i = 0; i < root["feet"].size(); ++i)
       t.feet.push_back(kp(root["feet"][i], "feet[" + std::to_string(i) + "]"));
   }
   for (const char* key : {"upright_lower", "upright_upper"}) {
     if (!root.contains(key)) continue;
     auto& list = std::string(key) == "upright_lower" ? t.upright_lower : t.upright_upper;
-    if (!root[key].is_array()) jfail(source, key, "expected an array of keypoint pairs");
+    if (!root[key].is_array()) json_fail(source, key, "expected an array of keypoint pairs");
     for (std::size_t i = 0; i < root[key].size(); ++i)
       list.push_back(pair_of(root[key][i], std::string(key) + "[" + std::to_string(i) + "]"));
   }
   if (!root.contains("left_right"))
-    jfail(source, "left_right", "missing (e.g. [\"left_hip\", \"right_hip\"])");
+    json_fail(source, "left_right", "missing (e.g. [\"left_hip\", \"right_hip\"])");
   t.left_right = pair_of(root["left_right"], "left_right");
   validate_topology(t, source);
   return t;

@@ -23,53 +23,18 @@ namespace {
 
 using nlohmann::json;
 
-[[noreturn]] void fail(const std::string& source, const std::string& path,
-                       const std::string& what) {
-  throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, path + ": " + what);
-}
-
-const char* type_name(const json& j) { return j.type_name(); }
-
-double number(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_number()) fail(source, path, std::string("expected a number, got ") + type_name(j));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(source, path, "not finite");
-  return v;
-}
-
-Eigen::Vector3d vec3(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_array() || j.size() != 3) fail(source, path, "expected an array of 3 numbers");
-  return {number(j[0], source, path + "[0]"), number(j[1], source, path + "[1]"),
-          number(j[2], source, path + "[2]")};
-}
-
 // A position in metres within PlausibilityLimits::max_position_m (a joint offset, a sensor
 // position).
 Eigen::Vector3d position(const json& j, const std::string& source, const std::string& path) {
-  const Eigen::Vector3d v = vec3(j, source, path);
+  const Eigen::Vector3d v = json_vec3(j, source, path);
   for (int k = 0; k < 3; ++k) {
     if (std::abs(v(k)) > PlausibilityLimits::max_position_m) {
-      fail(source, fmt::format("{}[{}]", path, k),
-           fmt::format("{:g} m is beyond {:g} m (not metres?)", v(k),
-                       PlausibilityLimits::max_position_m));
+      json_fail(source, fmt::format("{}[{}]", path, k),
+                fmt::format("{:g} m is beyond {:g} m (not metres?)", v(k),
+                            PlausibilityLimits::max_position_m));
     }
   }
   return v;
-}
-
-std::string string_of(const json& j, const std::string& source, const std::string& path) {
-  if (!j.is_string()) fail(source, path, std::string("expected a string, got ") + type_name(j));
-  return j.get<std::string>();
-}
-
-void only_keys(const json& j, std::initializer_list<const char*> keys, const std::string& source,
-               const std::string& path) {
-  if (!j.is_object()) fail(source, path, std::string("expected an object, got ") + type_name(j));
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    bool ok = false;
-    for (const char* k : keys) ok |= it.key() == k;
-    if (!ok) fail(source, path, "unknown key '" + it.key() + "'");
-  }
 }
 
 std::string resolve(const std::string& base, const std::string& name) {
@@ -78,17 +43,17 @@ std::string resolve(const std::string& base, const std::string& name) {
 }
 
 Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const std::string& path) {
-  only_keys(j, {"quaternion_wxyz", "euler", "order", "intrinsic", "unit"}, source, path);
+  json_only_keys(j, {"quaternion_wxyz", "euler", "order", "intrinsic", "unit"}, source, path);
   if (j.contains("quaternion_wxyz")) {
     const json& q = j["quaternion_wxyz"];
     if (!q.is_array() || q.size() != 4)
-      fail(source, path + ".quaternion_wxyz", "expected 4 numbers w, x, y, z");
-    Eigen::Quaterniond r(number(q[0], source, path), number(q[1], source, path),
-                         number(q[2], source, path), number(q[3], source, path));
+      json_fail(source, path + ".quaternion_wxyz", "expected 4 numbers w, x, y, z");
+    Eigen::Quaterniond r(json_number(q[0], source, path), json_number(q[1], source, path),
+                         json_number(q[2], source, path), json_number(q[3], source, path));
     const double n = r.norm();
     if (std::abs(n - 1.0) > 1e-6)
-      fail(source, path + ".quaternion_wxyz",
-           "not a unit quaternion (norm " + std::to_string(n) + ")");
+      json_fail(source, path + ".quaternion_wxyz",
+                "not a unit quaternion (norm " + std::to_string(n) + ")");
     r.coeffs() /= n;
     return r;
   }
@@ -96,38 +61,40 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
     // The convention must be spelled out (DESIGN.md): no default order or unit.
     for (const char* k : {"order", "intrinsic", "unit"}) {
       if (!j.contains(k))
-        fail(source, path,
-             std::string("Euler angles need \"") + k +
-                 "\" (e.g. {\"order\": \"XYZ\", \"intrinsic\": true, \"unit\": \"deg\"})");
+        json_fail(source, path,
+                  std::string("Euler angles need \"") + k +
+                      "\" (e.g. {\"order\": \"XYZ\", \"intrinsic\": true, \"unit\": \"deg\"})");
     }
-    if (!j["intrinsic"].is_boolean()) fail(source, path + ".intrinsic", "expected true or false");
-    const std::string unit = string_of(j["unit"], source, path + ".unit");
-    if (unit != "deg" && unit != "rad") fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
-    const Eigen::Vector3d angles = vec3(j["euler"], source, path + ".euler");
+    if (!j["intrinsic"].is_boolean())
+      json_fail(source, path + ".intrinsic", "expected true or false");
+    const std::string unit = json_string(j["unit"], source, path + ".unit");
+    if (unit != "deg" && unit != "rad")
+      json_fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
+    const Eigen::Vector3d angles = json_vec3(j["euler"], source, path + ".euler");
     const double to_deg = unit == "deg" ? 1.0 : 180.0 / std::numbers::pi;
     for (int k = 0; k < 3; ++k) {
       if (std::abs(angles(k) * to_deg) > PlausibilityLimits::max_euler_deg) {
-        fail(source, fmt::format("{}.euler[{}]", path, k),
-             fmt::format("{:g} {} is beyond {:g} deg: no placement turns that far (a corrupt "
-                         "file?)",
-                         angles(k), unit, PlausibilityLimits::max_euler_deg));
+        json_fail(source, fmt::format("{}.euler[{}]", path, k),
+                  fmt::format("{:g} {} is beyond {:g} deg: no placement turns that far (a corrupt "
+                              "file?)",
+                              angles(k), unit, PlausibilityLimits::max_euler_deg));
       }
     }
     try {
-      return euler_to_quaternion(angles, string_of(j["order"], source, path + ".order"),
+      return euler_to_quaternion(angles, json_string(j["order"], source, path + ".order"),
                                  j["intrinsic"].get<bool>(), unit == "deg");
     } catch (const Error& e) {
-      fail(source, path + ".order", e.what());
+      json_fail(source, path + ".order", e.what());
     }
   }
-  fail(source, path, "expected quaternion_wxyz or euler");
+  json_fail(source, path, "expected quaternion_wxyz or euler");
 }
 
 // "body": {"joints": [{"name": N, "parent": P or null, "offset_m": [x, y, z],
 // "end_offset_m": [x, y, z]}]}: parents by name, each before its children.
 Body body_of_joints(const json& joints, const std::string& source) {
   if (!joints.is_array() || joints.empty())
-    fail(source, "body.joints", "expected a non-empty array of joints");
+    json_fail(source, "body.joints", "expected a non-empty array of joints");
   std::vector<std::string> names;
   std::vector<int> parents;
   Eigen::Matrix3Xd offsets(3, static_cast<Eigen::Index>(joints.size()));
@@ -135,21 +102,21 @@ Body body_of_joints(const json& joints, const std::string& source) {
   for (std::size_t i = 0; i < joints.size(); ++i) {
     const std::string path = "body.joints[" + std::to_string(i) + "]";
     const json& j = joints[i];
-    only_keys(j, {"name", "parent", "offset_m", "end_offset_m"}, source, path);
-    if (!j.contains("name")) fail(source, path + ".name", "missing");
-    names.push_back(string_of(j["name"], source, path + ".name"));
+    json_only_keys(j, {"name", "parent", "offset_m", "end_offset_m"}, source, path);
+    if (!j.contains("name")) json_fail(source, path + ".name", "missing");
+    names.push_back(json_string(j["name"], source, path + ".name"));
     int parent = -1;
     if (j.contains("parent") && !j["parent"].is_null()) {
-      const std::string p = string_of(j["parent"], source, path + ".parent");
+      const std::string p = json_string(j["parent"], source, path + ".parent");
       for (std::size_t k = 0; k < i; ++k) {
         if (names[k] == p) parent = static_cast<int>(k);
       }
-      if (parent < 0) fail(source, path + ".parent", "'" + p + "' is not an earlier joint");
+      if (parent < 0) json_fail(source, path + ".parent", "'" + p + "' is not an earlier joint");
     } else if (i > 0) {
-      fail(source, path + ".parent", "missing (only the first joint is the root)");
+      json_fail(source, path + ".parent", "missing (only the first joint is the root)");
     }
     parents.push_back(parent);
-    if (!j.contains("offset_m")) fail(source, path + ".offset_m", "missing");
+    if (!j.contains("offset_m")) json_fail(source, path + ".offset_m", "missing");
     offsets.col(static_cast<Eigen::Index>(i)) = position(j["offset_m"], source, path + ".offset_m");
     ends.push_back(j.contains("end_offset_m")
                        ? std::optional(position(j["end_offset_m"], source, path + ".end_offset_m"))
@@ -181,7 +148,7 @@ uint64_t seed_of(const json& j, std::string_view text, const std::string& source
   if (j.is_number_integer() && !j.is_number_unsigned() && j.get<int64_t>() >= 0)
     return static_cast<uint64_t>(j.get<int64_t>());  // only "-0": others >= 0 read unsigned
   const std::size_t offset = json_path_offset(text, path);
-  std::string written = type_name(j);
+  std::string written = j.type_name();
   bool whole_double = false;
   if (j.is_number()) {
     const std::size_t end = text.find_first_of(",}] \t\r\n", offset);
@@ -217,13 +184,13 @@ std::shared_ptr<Motion> parse_bvh_motion(const json& m, const std::string& sourc
                                          const std::string& base_dir, Scene& scene) {
   if (!m.contains("bvh")) return nullptr;
   BvhOptions o;
-  if (m.contains("scale")) o.scale = number(m["scale"], source, "motion.scale");
+  if (m.contains("scale")) o.scale = json_number(m["scale"], source, "motion.scale");
   if (m.contains("up")) {
-    const std::string up = string_of(m["up"], source, "motion.up");
-    if (up != "y" && up != "z") fail(source, "motion.up", "expected \"y\" or \"z\"");
+    const std::string up = json_string(m["up"], source, "motion.up");
+    if (up != "y" && up != "z") json_fail(source, "motion.up", "expected \"y\" or \"z\"");
     o.up = up == "y" ? UpAxis::y : UpAxis::z;
   }
-  BvhData d = read_bvh(resolve(base_dir, string_of(m["bvh"], source, "motion.bvh")), o);
+  BvhData d = read_bvh(resolve(base_dir, json_string(m["bvh"], source, "motion.bvh")), o);
   scene.body = std::move(d.body);
   auto loaded = std::make_shared<Motion>(std::move(d.motion));
   scene.warnings = std::move(d.warnings);
@@ -234,26 +201,28 @@ std::shared_ptr<Motion> parse_bvh_motion(const json& m, const std::string& sourc
 void parse_body(const json& root, const std::string& source, bool body_from_motion, Scene& scene) {
   if (root.contains("body")) {
     if (body_from_motion)
-      fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
+      json_fail(source, "body", "a BVH motion brings its own skeleton; remove \"body\"");
     const json& b = root["body"];
-    only_keys(b, {"schema", "default_humanoid", "joints"}, source, "body");
+    json_only_keys(b, {"schema", "default_humanoid", "joints"}, source, "body");
     if (b.contains("default_humanoid") == b.contains("joints"))
-      fail(source, "body", "expected one of default_humanoid or joints");
+      json_fail(source, "body", "expected one of default_humanoid or joints");
     // A body file of `imukit motion --body-json` pasted in whole keeps its schema.
     if (b.contains("schema") && b["schema"] != std::string(kBodySchema))
-      fail(source, "body.schema", "expected \"" + std::string(kBodySchema) + "\" or no schema");
+      json_fail(source, "body.schema",
+                "expected \"" + std::string(kBodySchema) + "\" or no schema");
   }
   if (root.contains("body") && root["body"].contains("joints")) {
     scene.body = body_of_joints(root["body"]["joints"], source);
   } else if (root.contains("body")) {
     const json& h = root["body"]["default_humanoid"];
-    only_keys(h, {"height_m"}, source, "body.default_humanoid");
+    json_only_keys(h, {"height_m"}, source, "body.default_humanoid");
     try {
       scene.body = Body::default_humanoid(
-          h.contains("height_m") ? number(h["height_m"], source, "body.default_humanoid.height_m")
-                                 : 1.75);
+          h.contains("height_m")
+              ? json_number(h["height_m"], source, "body.default_humanoid.height_m")
+              : 1.75);
     } catch (const Error& e) {
-      fail(source, "body.default_humanoid.height_m", e.what());
+      json_fail(source, "body.default_humanoid.height_m", e.what());
     }
   } else if (!body_from_motion) {
     scene.body = Body::default_humanoid();
@@ -267,47 +236,48 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
   if (m.contains("quaternion_csv")) {
     std::optional<double> rate;
     if (m.contains("rate_hz")) {
-      rate = number(m["rate_hz"], source, "motion.rate_hz");
+      rate = json_number(m["rate_hz"], source, "motion.rate_hz");
       if (!rate_within_limits(*rate))
-        fail(source, "motion.rate_hz", std::string("must be in ") + RateLimits::text);
+        json_fail(source, "motion.rate_hz", std::string("must be in ") + RateLimits::text);
     }
     loaded = std::make_shared<Motion>(read_quaternion_csv(
-        resolve(base_dir, string_of(m["quaternion_csv"], source, "motion.quaternion_csv")),
+        resolve(base_dir, json_string(m["quaternion_csv"], source, "motion.quaternion_csv")),
         scene.body, rate, &scene.warnings));
   }
   if (loaded) {
     scene.motion = loaded;
   } else if (m.contains("procedural")) {
     const json& p = m["procedural"];
-    only_keys(p, {"rate_hz", "duration_s", "seed", "amplitude_rad"}, source, "motion.procedural");
+    json_only_keys(p, {"rate_hz", "duration_s", "seed", "amplitude_rad"}, source,
+                   "motion.procedural");
     ProceduralMotionOptions po;
     if (p.contains("rate_hz"))
-      po.rate_hz = number(p["rate_hz"], source, "motion.procedural.rate_hz");
+      po.rate_hz = json_number(p["rate_hz"], source, "motion.procedural.rate_hz");
     if (!(po.rate_hz >= 1 && po.rate_hz <= 1e6))
-      fail(source, "motion.procedural.rate_hz", "must be a whole number of Hz in [1, 1e6]");
+      json_fail(source, "motion.procedural.rate_hz", "must be a whole number of Hz in [1, 1e6]");
     if (p.contains("seed")) po.seed = seed_of(p["seed"], text, source, "motion.procedural.seed");
     if (p.contains("amplitude_rad")) {
-      po.amplitude_rad = number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
+      po.amplitude_rad = json_number(p["amplitude_rad"], source, "motion.procedural.amplitude_rad");
       if (!(po.amplitude_rad >= 0 && po.amplitude_rad <= 10))
-        fail(source, "motion.procedural.amplitude_rad", "must be in [0, 10] rad");
+        json_fail(source, "motion.procedural.amplitude_rad", "must be in [0, 10] rad");
     }
-    if (!p.contains("duration_s")) fail(source, "motion.procedural.duration_s", "missing");
-    const double dur = number(p["duration_s"], source, "motion.procedural.duration_s");
+    if (!p.contains("duration_s")) json_fail(source, "motion.procedural.duration_s", "missing");
+    const double dur = json_number(p["duration_s"], source, "motion.procedural.duration_s");
     if (!(dur > 0.0 && dur < 1e7))
-      fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
+      json_fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
     try {
       po.frames = static_cast<int64_t>(std::floor(dur * po.rate_hz)) + 1;
       scene.motion = std::make_shared<ProceduralMotion>(scene.body.size(), po);
     } catch (const Error& e) {
-      fail(source, "motion.procedural", e.what());
+      json_fail(source, "motion.procedural", e.what());
     }
   } else if (!loaded) {
-    fail(source, "motion", "expected bvh, quaternion_csv or procedural");
+    json_fail(source, "motion", "expected bvh, quaternion_csv or procedural");
   }
   if (scene.motion->joint_count() != scene.body.size()) {
-    fail(source, "motion",
-         "the motion has " + std::to_string(scene.motion->joint_count()) + " joints, the body " +
-             std::to_string(scene.body.size()));
+    json_fail(source, "motion",
+              "the motion has " + std::to_string(scene.motion->joint_count()) +
+                  " joints, the body " + std::to_string(scene.body.size()));
   }
   scene.frames = scene.motion->frame_count();
 }
@@ -315,23 +285,23 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
 // "simulation": method, rate, gravity, magnetic field, seed, chunk size.
 void parse_simulation(const json& s, std::string_view text, const std::string& source,
                       Scene& scene) {
-  only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"}, source,
-            "simulation");
+  json_only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"},
+                 source, "simulation");
   if (s.contains("method")) {
     try {
       scene.options.method =
-          parse_derivative_method(string_of(s["method"], source, "simulation.method"));
+          parse_derivative_method(json_string(s["method"], source, "simulation.method"));
     } catch (const Error& e) {
-      fail(source, "simulation.method", e.what());
+      json_fail(source, "simulation.method", e.what());
     }
   }
   if (s.contains("rate_hz")) {
-    scene.options.rate_hz = number(s["rate_hz"], source, "simulation.rate_hz");
+    scene.options.rate_hz = json_number(s["rate_hz"], source, "simulation.rate_hz");
     if (!rate_within_limits(scene.options.rate_hz))
-      fail(source, "simulation.rate_hz", std::string("must be in ") + RateLimits::text);
+      json_fail(source, "simulation.rate_hz", std::string("must be in ") + RateLimits::text);
   }
   if (s.contains("gravity")) {
-    scene.options.gravity_world = vec3(s["gravity"], source, "simulation.gravity");
+    scene.options.gravity_world = json_vec3(s["gravity"], source, "simulation.gravity");
     try {
       check_gravity(scene.options.gravity_world, "simulation.gravity");
     } catch (const Error& e) {
@@ -340,27 +310,27 @@ void parse_simulation(const json& s, std::string_view text, const std::string& s
   }
   if (s.contains("magnetic_field")) {
     scene.options.magnetic_field_world =
-        vec3(s["magnetic_field"], source, "simulation.magnetic_field");
+        json_vec3(s["magnetic_field"], source, "simulation.magnetic_field");
     // Tesla, not microtesla or gauss: the Earth's field is 25-65 uT; 1e-2 T is a strong magnet.
     if (!(scene.options.magnetic_field_world.norm() <= 1e-2))
-      fail(source, "simulation.magnetic_field",
-           "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
-               std::to_string(scene.options.magnetic_field_world.norm()) + " T");
+      json_fail(source, "simulation.magnetic_field",
+                "expected Tesla (the Earth's field is 25e-6 to 65e-6 T), got a field of " +
+                    std::to_string(scene.options.magnetic_field_world.norm()) + " T");
   }
   if (s.contains("seed")) scene.seed = seed_of(s["seed"], text, source, "simulation.seed");
   if (s.contains("chunk_frames")) {
-    const double c = number(s["chunk_frames"], source, "simulation.chunk_frames");
-    if (!(c >= 8 && c <= 1e7)) fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
+    const double c = json_number(s["chunk_frames"], source, "simulation.chunk_frames");
+    if (!(c >= 8 && c <= 1e7)) json_fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
     scene.options.chunk_frames = static_cast<int64_t>(c);
   }
 }
 
 // "outputs": {"ground_truth": bool}.
 void parse_outputs(const json& o, const std::string& source, Scene& scene) {
-  only_keys(o, {"ground_truth"}, source, "outputs");
+  json_only_keys(o, {"ground_truth"}, source, "outputs");
   if (o.contains("ground_truth")) {
     if (!o["ground_truth"].is_boolean())
-      fail(source, "outputs.ground_truth", "expected true or false");
+      json_fail(source, "outputs.ground_truth", "expected true or false");
     scene.ground_truth = o["ground_truth"].get<bool>();
   }
 }
@@ -369,10 +339,10 @@ void parse_outputs(const json& o, const std::string& source, Scene& scene) {
 SensorOutputs parse_sensor_outputs(const json& o, const std::string& source,
                                    const std::string& path) {
   if (!o.is_array() || o.empty())
-    fail(source, path + ".outputs", "expected a non-empty array of names");
+    json_fail(source, path + ".outputs", "expected a non-empty array of names");
   SensorOutputs outputs{false, false, false};
   for (const json& name : o) {
-    const std::string n = string_of(name, source, path + ".outputs");
+    const std::string n = json_string(name, source, path + ".outputs");
     if (n == "accelerometer")
       outputs.accelerometer = true;
     else if (n == "gyroscope")
@@ -382,8 +352,8 @@ SensorOutputs parse_sensor_outputs(const json& o, const std::string& source,
     else if (n == "magnetometer")
       outputs.magnetometer = true;
     else
-      fail(source, path + ".outputs",
-           "unknown output '" + n + "' (accelerometer, gyroscope, orientation, magnetometer)");
+      json_fail(source, path + ".outputs",
+                "unknown output '" + n + "' (accelerometer, gyroscope, orientation, magnetometer)");
   }
   return outputs;
 }
@@ -411,7 +381,7 @@ void parse_sensor_hardware(const json& h, std::string_view text, const std::stri
       s.spec.outputs.accelerometer = true;  // the gyroscope's g-sensitivity needs it
     }
   } catch (const Error& e) {
-    fail(source, path + ".hardware", e.what());
+    json_fail(source, path + ".hardware", e.what());
   }
 }
 
@@ -421,39 +391,39 @@ SceneSensor parse_sensor(const json& js, std::size_t i, std::string_view text,
                          const std::string& source, const std::string& base_dir,
                          const Scene& scene) {
   const std::string path = "sensors[" + std::to_string(i) + "]";
-  only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
-            source, path);
+  json_only_keys(js, {"name", "preset", "segment", "position_m", "rotation", "hardware", "outputs"},
+                 source, path);
   SceneSensor s;
   s.spec.name = js.contains("name")
-                    ? string_of(js["name"], source, path + ".name")
-                    : (js.contains("preset") ? string_of(js["preset"], source, path + ".preset")
+                    ? json_string(js["name"], source, path + ".name")
+                    : (js.contains("preset") ? json_string(js["preset"], source, path + ".preset")
                                              : "sensor" + std::to_string(i));
   if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
-    fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
+    json_fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
   }
   for (const SceneSensor& other : scene.sensors) {
     if (other.spec.name == s.spec.name)
-      fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
+      json_fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
   }
   if (js.contains("preset")) {
-    if (js.contains("segment")) fail(source, path, "give either preset or segment, not both");
-    s.preset = string_of(js["preset"], source, path + ".preset");
+    if (js.contains("segment")) json_fail(source, path, "give either preset or segment, not both");
+    s.preset = json_string(js["preset"], source, path + ".preset");
     try {
       s.spec.placement = preset_placement(s.preset, scene.body, s.spec.name);
     } catch (const Error& e) {
-      fail(source, path + ".preset", e.what());
+      json_fail(source, path + ".preset", e.what());
     }
   } else if (js.contains("segment")) {
-    const std::string seg = string_of(js["segment"], source, path + ".segment");
+    const std::string seg = json_string(js["segment"], source, path + ".segment");
     const auto j = scene.body.find(seg);
-    if (!j) fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
+    if (!j) json_fail(source, path + ".segment", "the body has no segment or joint '" + seg + "'");
     s.spec.placement.joint = *j;
     if (js.contains("position_m"))
       s.spec.placement.p_joint_sensor = position(js["position_m"], source, path + ".position_m");
     if (js.contains("rotation"))
       s.spec.placement.q_joint_sensor = rotation_of(js["rotation"], source, path + ".rotation");
   } else {
-    fail(source, path, "needs a preset or a segment");
+    json_fail(source, path, "needs a preset or a segment");
   }
   if (js.contains("outputs")) s.spec.outputs = parse_sensor_outputs(js["outputs"], source, path);
   if (js.contains("hardware"))
@@ -464,16 +434,18 @@ SceneSensor parse_sensor(const json& js, std::size_t i, std::string_view text,
 Scene parse_scene_impl(std::string_view text, const std::string& source,
                        const std::string& base_dir, std::optional<double> rate_hz) {
   const json root = parse_json_text<json>(text, source);
-  only_keys(root, {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
-            source, "$");
+  json_only_keys(root,
+                 {"schema", "body", "motion", "simulation", "sensors", "outputs", "description"},
+                 source, "$");
   if (!root.contains("schema") || root["schema"] != std::string(kSceneSchema)) {
-    fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
+    json_fail(source, "schema", "expected \"" + std::string(kSceneSchema) + "\"");
   }
   Scene scene;
   // Motion (and, for BVH, the body), then the body, then the other motions (they need the body).
-  if (!root.contains("motion")) fail(source, "motion", "missing");
+  if (!root.contains("motion")) json_fail(source, "motion", "missing");
   const json& m = root["motion"];
-  only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source, "motion");
+  json_only_keys(m, {"bvh", "scale", "up", "quaternion_csv", "rate_hz", "procedural"}, source,
+                 "motion");
   std::shared_ptr<Motion> loaded = parse_bvh_motion(m, source, base_dir, scene);
   parse_body(root, source, loaded != nullptr, scene);
   parse_motion(m, text, source, base_dir, std::move(loaded), scene);
@@ -482,7 +454,7 @@ Scene parse_scene_impl(std::string_view text, const std::string& source,
   if (root.contains("outputs")) parse_outputs(root["outputs"], source, scene);
   // Sensors.
   if (!root.contains("sensors") || !root["sensors"].is_array() || root["sensors"].empty()) {
-    fail(source, "sensors", "expected a non-empty array");
+    json_fail(source, "sensors", "expected a non-empty array");
   }
   for (std::size_t i = 0; i < root["sensors"].size(); ++i)
     scene.sensors.push_back(parse_sensor(root["sensors"][i], i, text, source, base_dir, scene));

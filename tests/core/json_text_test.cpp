@@ -4,6 +4,8 @@
 
 #include <string>
 
+#include "support/expect_error.hpp"
+
 namespace imukit {
 namespace {
 
@@ -69,6 +71,38 @@ TEST(JsonText, PathOffsetFindsTheValueOrItsDeepestAncestor) {
   EXPECT_EQ(at("e.missing"), "{}}");  // the object lacking the key
   EXPECT_EQ(at("b[5]"), at("b"));     // past the array's end: the array
   EXPECT_EQ(at("(top level)"), at(""));
+}
+
+TEST(JsonFields, TypedReadsReturnTheValueOrNameTheFileThePathAndTheProblem) {
+  using testing::expect_error;
+  const nlohmann::json j = nlohmann::json::parse(
+      R"({"rate": 200.5, "name": "wrist", "on": true, "g": [0, 0, -9.81], "big": 1e308})");
+  EXPECT_EQ(json_number(j["rate"], "s.json", "rate"), 200.5);
+  EXPECT_EQ(json_string(j["name"], "s.json", "name"), "wrist");
+  EXPECT_TRUE(json_boolean(j["on"], "s.json", "on"));
+  EXPECT_EQ(json_vec3(j["g"], "s.json", "g"), Eigen::Vector3d(0, 0, -9.81));
+  json_only_keys(j, {"rate", "name", "on", "g", "big"}, "s.json", "");
+
+  expect_error([&] { json_number(j["name"], "s.json", "a.rate"); },
+               {"s.json: a.rate: expected a number, got string"});
+  expect_error([&] { json_number(nlohmann::json(1e308 * 10), "s.json", "x"); },
+               {"s.json: x: expected a finite number"});
+  expect_error([&] { json_string(j["rate"], "s.json", "name"); },
+               {"s.json: name: expected a string, got number"});
+  expect_error([&] { json_boolean(j["name"], "s.json", "on"); },
+               {"s.json: on: expected true or false, got string"});
+  expect_error([&] { json_vec3(j["name"], "s.json", "g"); },
+               {"s.json: g: expected an array of 3 numbers"});
+  expect_error([&] { json_vec3(nlohmann::json::parse(R"([0, "1", 2])"), "s.json", "g"); },
+               {"s.json: g[1]: expected a number, got string"});
+  // A misspelt key is named with the keys it could have been.
+  expect_error(
+      [&] {
+        json_only_keys(j, {"rate", "name", "on", "g"}, "s.json", "sensor");
+      },
+      {"s.json: sensor: unknown key 'big' (known: rate, name, on, g)"});
+  expect_error([&] { json_only_keys(j["g"], {"x"}, "s.json", "g"); },
+               {"s.json: g: expected an object, got array"});
 }
 
 }  // namespace
