@@ -13,8 +13,6 @@
 namespace imukit::capture {
 namespace {
 
-constexpr std::string_view kEventSchema =
-    R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
 constexpr std::string_view kImuPrefix = "/imu/";
 
 // A sample that is NaN or infinite would flow silently into every result computed from it.
@@ -71,8 +69,8 @@ void write_recording(McapWriter& writer, const Recording& recording,
     }
   }
   if (!recording.events.empty()) {
-    const uint16_t schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
-    const uint16_t channel = writer.add_channel(schema, "/events", "json");
+    const uint16_t schema = writer.add_schema(kEventSchemaName, "jsonschema", kEventSchemaText);
+    const uint16_t channel = writer.add_channel(schema, kEventTopic, "json");
     for (const Event& e : recording.events) {
       const std::string text = nlohmann::json{{"kind", e.kind}, {"label", e.label}}.dump();
       const uint64_t t = static_cast<uint64_t>(e.t);
@@ -123,7 +121,7 @@ RecordingRead read_recording(const std::string& path,
     if (imu && c.message_encoding == "cdr") {
       imu_channels[c.id] =
           c.topic.rfind(kImuPrefix, 0) == 0 ? c.topic.substr(kImuPrefix.size()) : c.topic;
-    } else if (c.topic == "/events" && c.message_encoding == "json") {
+    } else if (c.topic == kEventTopic && c.message_encoding == "json") {
       event_channels[c.id] = true;
     } else if (schema != schema_names.end() && schema->second == kMagneticFieldSchemaName &&
                c.message_encoding == "cdr" && c.topic.rfind(kImuPrefix, 0) == 0 &&

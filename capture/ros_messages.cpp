@@ -51,6 +51,11 @@ const std::string_view kMagneticFieldSchemaText =
     "geometry_msgs/Vector3 magnetic_field\n"
     "float64[9] magnetic_field_covariance\n" IMUKIT_ROS_HEADER IMUKIT_ROS_TIME IMUKIT_ROS_VECTOR3;
 
+const std::string_view kEventTopic = "/events";
+const std::string_view kEventSchemaName = "imukit_msgs/Event";
+const std::string_view kEventSchemaText =
+    R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
+
 #undef IMUKIT_ROS_SEPARATOR
 #undef IMUKIT_ROS_TIME
 #undef IMUKIT_ROS_HEADER

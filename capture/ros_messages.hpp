@@ -23,6 +23,10 @@ extern const std::string_view kRawImuSchemaName;  // "imukit_msgs/msg/RawImu"
 extern const std::string_view kRawImuSchemaText;
 extern const std::string_view kMagneticFieldSchemaName;  // "sensor_msgs/msg/MagneticField"
 extern const std::string_view kMagneticFieldSchemaText;
+// Events (labels, markers) are not ROS messages: JSON on kEventTopic, described by a JSON schema.
+extern const std::string_view kEventTopic;       // "/events"
+extern const std::string_view kEventSchemaName;  // "imukit_msgs/Event"
+extern const std::string_view kEventSchemaText;  // jsonschema: {kind, label}
 
 struct ImuMessage {
   TimeNs stamp = 0;  // ns since the Unix epoch (split into sec/nanosec, floor)

@@ -23,8 +23,6 @@ namespace {
 
 constexpr std::string_view kSyncSchema =
     R"({"type":"object","properties":{"host_send_ns":{"type":"integer"},"host_receive_ns":{"type":"integer"},"device_rx_ns":{"type":"integer"},"device_tx_ns":{"type":"integer"}}})";
-constexpr std::string_view kEventSchema =
-    R"({"type":"object","properties":{"kind":{"type":"string"},"label":{"type":"string"}}})";
 // RawImuMessage::channels bits meaning "device_ticks holds the device clock" and "sample_index
 // counts every sample made" (drivers::Sample::has_sample_counter), so that the offline refit
 // holds ticks to it as the recording did (bits 0-3 name the raw channels present).
@@ -314,8 +312,8 @@ SessionChannels open_channels(McapWriter& writer, Devices& devices, const Sessio
   const uint16_t imu_schema = writer.add_schema(kImuSchemaName, "ros2msg", kImuSchemaText);
   const uint16_t raw_schema = writer.add_schema(kRawImuSchemaName, "ros2msg", kRawImuSchemaText);
   const uint16_t sync_schema = writer.add_schema("imukit_msgs/TimeSync", "jsonschema", kSyncSchema);
-  const uint16_t event_schema = writer.add_schema("imukit_msgs/Event", "jsonschema", kEventSchema);
-  const uint16_t event_channel = writer.add_channel(event_schema, "/events", "json");
+  const uint16_t event_schema = writer.add_schema(kEventSchemaName, "jsonschema", kEventSchemaText);
+  const uint16_t event_channel = writer.add_channel(event_schema, kEventTopic, "json");
   for (const Event& e : options.events) write_event(writer, event_channel, e);
   if (options.guide) {
     writer.write_metadata(
@@ -648,7 +646,7 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
       return c.topic.size() > s.size() &&
              c.topic.compare(c.topic.size() - s.size(), s.size(), s) == 0;
     };
-    if (c.topic == "/events") scan.event_channel = c.id;
+    if (c.topic == kEventTopic) scan.event_channel = c.id;
     if (c.topic.rfind("/imu/", 0) != 0) return;
     if (ends("/raw"))
       scan.raw_channels[c.id] = name_of(c.topic, "/raw");

@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <mutex>
 
+#include "imukit/drivers/hid_transport.hpp"
+
 namespace imukit::drivers {
 
 const std::vector<KnownDevice>& known_devices() {
@@ -40,13 +42,6 @@ std::optional<KnownDevice> find_known_device(uint16_t vid, uint16_t pid, bool hi
 }
 
 namespace {
-
-std::string narrow(const wchar_t* w) {
-  std::string s;
-  if (!w) return s;
-  for (; *w; ++w) s.push_back(*w < 128 ? static_cast<char>(*w) : '?');
-  return s;
-}
 
 std::string hex4(uint16_t v) {
   char b[8];
@@ -103,9 +98,9 @@ std::vector<AttachedDevice> list_hid_devices() {
     d.vid = i->vendor_id;
     d.pid = i->product_id;
     d.usb = true;
-    d.serial = narrow(i->serial_number);
-    d.description = narrow(i->manufacturer_string);
-    const std::string product = narrow(i->product_string);
+    d.serial = hid_ascii(i->serial_number);
+    d.description = hid_ascii(i->manufacturer_string);
+    const std::string product = hid_ascii(i->product_string);
     if (!product.empty()) d.description += (d.description.empty() ? "" : " ") + product;
     d.usage_page = i->usage_page;
     d.uri = "hid:" + hex4(d.vid) + ":" + hex4(d.pid);

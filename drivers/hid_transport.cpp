@@ -15,14 +15,14 @@ void init_once() {
   });
 }
 
-std::string narrow(const wchar_t* w) {
+}  // namespace
+
+std::string hid_ascii(const wchar_t* text) {
   std::string s;
-  if (!w) return s;
-  for (; *w; ++w) s.push_back(*w < 128 ? static_cast<char>(*w) : '?');
+  if (!text) return s;
+  for (; *text; ++text) s.push_back(*text < 128 ? static_cast<char>(*text) : '?');
   return s;
 }
-
-}  // namespace
 
 HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial) {
   init_once();
@@ -35,7 +35,7 @@ HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial
   hid_device_info* all = hid_enumerate(0, 0);
   for (hid_device_info* i = all; i && path.empty(); i = i->next) {
     if (i->vendor_id == vid && i->product_id == pid && i->path &&
-        (serial.empty() || narrow(i->serial_number) == serial)) {
+        (serial.empty() || hid_ascii(i->serial_number) == serial)) {
       path = i->path;
     }
   }
@@ -65,7 +65,7 @@ HidTransport::~HidTransport() {
 }
 
 std::string HidTransport::error(const std::string& what) const {
-  const std::string msg = narrow(hid_error(dev_));
+  const std::string msg = hid_ascii(hid_error(dev_));
   return what + (msg.empty() ? std::string() : ": " + msg);
 }
 

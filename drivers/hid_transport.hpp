@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "imukit/drivers/transport.hpp"
 
@@ -31,5 +32,9 @@ class HidTransport : public ReportTransport {
   std::string name_;
   hid_device_* dev_ = nullptr;
 };
+
+// hidapi's wide strings (serial number, manufacturer, error text) as ASCII, '?' for the rest;
+// "" for a null pointer.
+std::string hid_ascii(const wchar_t* text);
 
 }  // namespace imukit::drivers

@@ -15,6 +15,13 @@ namespace imukit::proto {
 
 static_assert(sizeof(float) == 4, "the wire format carries IEEE-754 binary32 values");
 
+// The little-endian 32-bit value at p; compilers merge the four byte loads into one load on
+// little-endian targets.
+inline uint32_t load_le32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
+         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
+}
+
 // A read-only run of bytes (the freestanding stand-in for std::span<const uint8_t>).
 struct ByteView {
   const uint8_t* data = nullptr;

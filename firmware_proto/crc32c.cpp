@@ -1,5 +1,7 @@
 #include "imukit/firmware_proto/crc32c.hpp"
 
+#include "imukit/firmware_proto/bytes.hpp"
+
 namespace imukit::proto {
 namespace {
 
@@ -52,12 +54,6 @@ constexpr Tables kTables = make_tables();
 static_assert(kTables.t[0][1] == 0xF26B8303u, "CRC-32C table entry 1 (reflected 0x82F63B78)");
 
 #if IMUKIT_PROTO_CRC_SLICES == 16
-// Little-endian 32-bit load; compilers merge the four byte loads into one on little-endian targets.
-inline uint32_t load_le32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
-         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
-}
-
 // One slicing-by-16 step: 16 input bytes; byte k of the step is looked up in the table that
 // advances it by the 15 - k bytes that follow it in the step, and the 16 lookups are independent.
 inline uint32_t step16(uint32_t r, const uint8_t* p) {

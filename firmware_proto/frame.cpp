@@ -2,17 +2,10 @@
 
 #include <string.h>
 
+#include "imukit/firmware_proto/bytes.hpp"
 #include "imukit/firmware_proto/crc32c.hpp"
 
 namespace imukit::proto {
-namespace {
-
-inline uint32_t load_le32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 |
-         static_cast<uint32_t>(p[2]) << 16 | static_cast<uint32_t>(p[3]) << 24;
-}
-
-}  // namespace
 
 size_t encode_frame(uint8_t type, uint16_t sequence, const uint8_t* payload, size_t payload_size,
                     uint8_t* out, size_t out_capacity) {
