@@ -24,7 +24,7 @@ struct IdentifyHandle {
   TimeNs imu_first_ns = 0;
 };
 
-py::array_t<double> vec(const Eigen::VectorXd& v) {
+py::array_t<double> numpy_vector(const Eigen::VectorXd& v) {
   py::array_t<double> out(v.size());
   for (Eigen::Index i = 0; i < v.size(); ++i) out.mutable_at(i) = v[i];
   return out;
@@ -39,10 +39,10 @@ py::array_t<double> triad(const Eigen::Matrix3Xd& m) {
 
 py::dict fidelity_dict(const sim::Fidelity& f) {
   py::dict d, a, g;
-  a["rmse"] = vec(f.accel.rmse);
-  a["correlation"] = vec(f.accel.correlation);
-  g["rmse"] = vec(f.gyro.rmse);
-  g["correlation"] = vec(f.gyro.correlation);
+  a["rmse"] = numpy_vector(f.accel.rmse);
+  a["correlation"] = numpy_vector(f.accel.correlation);
+  g["rmse"] = numpy_vector(f.gyro.rmse);
+  g["correlation"] = numpy_vector(f.gyro.correlation);
   d["accel"] = a;
   d["gyro"] = g;
   d["samples"] = f.samples;
@@ -175,17 +175,21 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           [](const H& h) {
             return h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name;
           })
-      .def_property_readonly("position_m",
-                             [](const H& h) { return vec(h.result.placement.p_joint_sensor); })
+      .def_property_readonly(
+          "position_m", [](const H& h) { return numpy_vector(h.result.placement.p_joint_sensor); })
       .def_property_readonly("q_joint_sensor",
                              [](const H& h) {
                                const Eigen::Quaterniond& q = h.result.placement.q_joint_sensor;
-                               return vec(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()));
+                               return numpy_vector(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()));
                              })
-      .def_property_readonly("accel_bias", [](const H& h) { return vec(h.result.accel_bias); })
-      .def_property_readonly("gyro_bias", [](const H& h) { return vec(h.result.gyro_bias); })
-      .def_property_readonly("accel_scale", [](const H& h) { return vec(h.result.accel_scale); })
-      .def_property_readonly("gyro_scale", [](const H& h) { return vec(h.result.gyro_scale); })
+      .def_property_readonly("accel_bias",
+                             [](const H& h) { return numpy_vector(h.result.accel_bias); })
+      .def_property_readonly("gyro_bias",
+                             [](const H& h) { return numpy_vector(h.result.gyro_bias); })
+      .def_property_readonly("accel_scale",
+                             [](const H& h) { return numpy_vector(h.result.accel_scale); })
+      .def_property_readonly("gyro_scale",
+                             [](const H& h) { return numpy_vector(h.result.gyro_scale); })
       .def_property_readonly("time_offset_s", [](const H& h) { return h.result.time_offset_s; })
       .def_property_readonly("coarse_time_offset_s",
                              [](const H& h) { return h.result.coarse_time_offset_s; })
@@ -200,8 +204,9 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
             const sim::CorrectionSpline& c = h.result.correction;
             py::dict d;
             d["kind"] = c.dims == 0 ? "none" : c.dims == 1 ? "twist" : "rotation";
-            d["axes_joint"] = vec(Eigen::Map<const Eigen::VectorXd>(c.axes.data(), 3 * c.dims))
-                                  .attr("reshape")(c.dims, 3);
+            d["axes_joint"] =
+                numpy_vector(Eigen::Map<const Eigen::VectorXd>(c.axes.data(), 3 * c.dims))
+                    .attr("reshape")(c.dims, 3);
             d["t0_ns"] = c.t0_ns;
             d["knot_spacing_s"] = c.knot_spacing_s;
             Eigen::MatrixXd ct = c.control.transpose();  // (knots, dims)

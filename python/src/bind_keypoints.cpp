@@ -30,7 +30,7 @@ py::array_t<double> matrix(const Eigen::Matrix3d& m) {
   return out;
 }
 
-py::tuple vec(const Eigen::Vector3d& v) { return py::make_tuple(v.x(), v.y(), v.z()); }
+py::tuple xyz_tuple(const Eigen::Vector3d& v) { return py::make_tuple(v.x(), v.y(), v.z()); }
 
 py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::handle rate_hz,
                                 py::handle times, double output_rate_hz, double cutoff_hz,
@@ -82,8 +82,8 @@ py::tuple motion_from_keypoints(py::handle keypoints, py::handle topology, py::h
   info["warnings"] = r->warnings;
   info["start_s"] = r->start_s;
   info["R_world_input"] = matrix(r->R_world_input);
-  info["origin_input"] = vec(r->origin_input);
-  info["up_input"] = vec(r->up_input);
+  info["origin_input"] = xyz_tuple(r->origin_input);
+  info["up_input"] = xyz_tuple(r->up_input);
   info["up_source"] = r->up_source;
   info["input_rate_hz"] = r->input_rate_hz;
   info["missing_frames"] = r->missing_frames;

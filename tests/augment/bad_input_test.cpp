@@ -65,7 +65,7 @@ TEST(BadInput, PolicyValidateAppliesTheSameLimitsToPoliciesBuiltInCode) {
   expect_error([&] { p.validate(); }, {"placement half-widths"});
 }
 
-sim::Scene small_scene() {
+sim::Scene short_watch_scene() {
   sim::Scene scene = testing::preset_scene({"left_wrist_watch"}, {.rate_hz = 50, .frames = 200});
   scene.sensors[0].spec.name = "watch";
   return scene;
@@ -73,7 +73,7 @@ sim::Scene small_scene() {
 
 TEST(BadInput, DatasetTooLargeForMemoryIsRefusedBeforeAllocating) {
   // --count 1e8 used to end in std::bad_alloc (or vector::_M_default_append for -1).
-  const sim::Scene scene = small_scene();
+  const sim::Scene scene = short_watch_scene();
   DatasetOptions o;
   o.window = 50;
   o.count = 1'000'000'000'000;

@@ -118,7 +118,7 @@ TEST(Policy, JsonRoundTripsBuiltinAndCustomPolicies) {
 }
 
 TEST(Policy, HardwareFromAProfileIsReadRelativeToThePolicy) {
-  const std::string dir = testing::TempDir();
+  const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "/dev.json") << R"({"schema": "imukit.profile/1",
     "accelerometer": {"noise": {"noise_density": [0.001, 0.001, 0.001]}},
     "gyroscope": {"noise": {"noise_density": [0.0001, 0.0001, 0.0001]}}})";
@@ -145,7 +145,7 @@ TEST(Policy, HardwareFromAProfileIsReadRelativeToThePolicy) {
 }
 
 TEST(Policy, SubjectsAreReadFromTheirScenesRelativeToThePolicy) {
-  const std::string dir = testing::TempDir();
+  const std::string dir = ::testing::TempDir();
   std::ofstream(dir + "/s2.scene.json") << R"({"schema": "imukit.scene/1",
     "body": {"default_humanoid": {"height_m": 1.9}},
     "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 1}},

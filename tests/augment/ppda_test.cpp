@@ -17,6 +17,7 @@
 #include "imukit/core/profile.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/sim/placement.hpp"
+#include "support/numbers.hpp"
 #include "support/procedural_scene.hpp"
 
 namespace imukit::augment {
@@ -24,7 +25,6 @@ namespace {
 
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
 constexpr double kA = 0.5, kF = 0.5, kL = 0.3;  // rad, Hz, m
 
 double theta(double t) { return kA * std::sin(2 * kPi * kF * t); }

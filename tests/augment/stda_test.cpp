@@ -11,11 +11,10 @@
 #include <numeric>
 
 #include "imukit/core/error.hpp"
+#include "support/numbers.hpp"
 
 namespace imukit::augment {
 namespace {
-
-constexpr double kPi = std::numbers::pi;
 
 // A smooth, non-trivial batch: every channel a different sinusoid plus an offset.
 std::vector<double> make_batch(const BatchShape& s, double phase = 0.0) {

@@ -10,14 +10,13 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/rng.hpp"
+#include "support/numbers.hpp"
 
 namespace imukit {
 namespace {
 
 using Eigen::MatrixXd;
 using ::testing::HasSubstr;
-
-constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 std::vector<double> eval1(InterpolationKind kind, const std::vector<double>& x,
                           const std::vector<double>& y, const std::vector<double>& xq) {

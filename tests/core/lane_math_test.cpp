@@ -7,11 +7,10 @@
 #include <numbers>
 
 #include "imukit/core/rng.hpp"
+#include "support/numbers.hpp"
 
 namespace imukit::lane {
 namespace {
-
-constexpr double kEps = std::numeric_limits<double>::epsilon();
 
 TEST(LaneMath, RoundSmallIsExactRoundingToNearestEven) {
   EXPECT_EQ(round_small(2.5), 2.0);

@@ -84,7 +84,7 @@ TEST(AnalyzeSampling, MedianAndGapsAgreeWithSortedPeriodsOnEveryPath) {
         if (2 * p > 3 * median) gap_duration += p;
       }
       const SamplingStats s = analyze_sampling(t);
-      SCOPED_TRACE(testing::Message() << "jitter " << jitter << " count " << count);
+      SCOPED_TRACE(::testing::Message() << "jitter " << jitter << " count " << count);
       EXPECT_EQ(s.median_period_s, to_seconds(median));
       EXPECT_EQ(s.min_period_s, to_seconds(sorted.front()));
       EXPECT_EQ(s.max_period_s, to_seconds(sorted.back()));

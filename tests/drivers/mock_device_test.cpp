@@ -151,7 +151,7 @@ TEST(MockDevice, StallHoldsBytesBackThenDeliversThemAll) {
 }
 
 TEST(MockDevice, ProfileNoiseReachesTheSamples) {
-  testing::TempDir dir;
+  imukit::testing::TempDir dir;
   DeviceProfile p;
   SensorProfile acc;
   acc.noise = NoiseEstimate{};

@@ -62,7 +62,7 @@ TEST(DeviceUri, ErrorsPointAtTheOffendingByte) {
 }
 
 TEST(DeviceUri, FileReplayDecodesWithTheNamedCodec) {
-  testing::TempDir dir;
+  imukit::testing::TempDir dir;
   const std::string path = (dir / "cap.txt").string();
   {
     std::FILE* f = std::fopen(path.c_str(), "w");
@@ -105,7 +105,7 @@ TEST(DeviceUri, ReplayOfARawImukitCaptureGivesTheLiveSamples) {
   std::vector<Sample> live_samples;
   DeviceReader::run(tee, *live.codec, ReaderOptions{}, stop, live_samples);
   ASSERT_EQ(live_samples.size(), 400u);
-  testing::TempDir dir;
+  imukit::testing::TempDir dir;
   const std::string path = (dir / "capture.bin").string();
   {
     std::FILE* f = std::fopen(path.c_str(), "wb");
@@ -140,7 +140,7 @@ std::string open_error(const std::string& uri, int64_t* offset = nullptr) {
 // Found in review: keys that do nothing were accepted (docs/devices.md: an unknown key is an
 // error, never ignored). Each is refused naming the key, its byte, the URI and what is accepted.
 TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
-  testing::TempDir dir;
+  imukit::testing::TempDir dir;
   const std::string path = (dir / "cap.bin").string();
   std::fclose(std::fopen(path.c_str(), "w"));
   int64_t at = -1;
@@ -202,7 +202,7 @@ TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
 
 // A file (or a regular file on an fd) is a replay: its receive times are read times.
 TEST(DeviceUri, FilesAreReplaysAndPipesAreLive) {
-  testing::TempDir dir;
+  imukit::testing::TempDir dir;
   const std::string path = (dir / "cap.bin").string();
   std::fclose(std::fopen(path.c_str(), "w"));
   EXPECT_TRUE(open_device("file:" + path + "?codec=witmotion").transport->replay());

@@ -15,13 +15,13 @@ namespace imukit::drivers {
 namespace {
 
 // Groups of 0x51..0x54 frames; sample i has accel x raw = i, gyro z raw = -i, T = 2512 (25.12 C).
-struct Stream {
+struct WitmotionStream {
   std::vector<uint8_t> bytes;
   std::vector<std::size_t> frame_start;  // 4 frames per sample
 };
 
-Stream make_stream(int n) {
-  Stream s;
+WitmotionStream make_witmotion_stream(int n) {
+  WitmotionStream s;
   for (int i = 0; i < n; ++i) {
     const int16_t acc[4] = {static_cast<int16_t>(i), -2048, 2048, 2512};
     const int16_t gyr[4] = {100, 0, static_cast<int16_t>(-i), 0};
@@ -56,7 +56,7 @@ TEST(WitmotionCodec, FrameChecksumMatchesTheManual) {
 }
 
 TEST(WitmotionCodec, ScalesEveryFrameTypeAndStampsHostTime) {
-  const Stream st = make_stream(3);
+  const WitmotionStream st = make_witmotion_stream(3);
   WitmotionCodec codec;
   const std::vector<Sample> out = decode_all(codec, st.bytes, 5000);
   ASSERT_EQ(out.size(), 3u);
@@ -79,7 +79,7 @@ TEST(WitmotionCodec, ScalesEveryFrameTypeAndStampsHostTime) {
 }
 
 TEST(WitmotionCodec, SplitAtRandomBoundariesChangesNothing) {
-  const Stream st = make_stream(500);
+  const WitmotionStream st = make_witmotion_stream(500);
   for (uint64_t seed = 1; seed <= 5; ++seed) {
     Rng rng(seed);
     WitmotionCodec codec;
@@ -92,7 +92,7 @@ TEST(WitmotionCodec, SplitAtRandomBoundariesChangesNothing) {
 }
 
 TEST(WitmotionCodec, EveryCorruptedSampleIsCountedAndNoneIsMixedUp) {
-  Stream st = make_stream(1000);
+  WitmotionStream st = make_witmotion_stream(1000);
   Rng rng(3);
   std::set<int> hit_samples;
   // One corrupted byte in 120 frames of distinct samples (any of its 4 frames), not the first
@@ -117,9 +117,9 @@ TEST(WitmotionCodec, EveryCorruptedSampleIsCountedAndNoneIsMixedUp) {
 }
 
 // Corrupts frame f of the stream (its checksum byte).
-void corrupt(Stream& st, std::size_t f) { st.bytes[st.frame_start[f] + 10] ^= 0x5A; }
+void corrupt(WitmotionStream& st, std::size_t f) { st.bytes[st.frame_start[f] + 10] ^= 0x5A; }
 // Removes frames [first, last) of the stream.
-std::vector<uint8_t> without(const Stream& st, std::size_t first, std::size_t last) {
+std::vector<uint8_t> without(const WitmotionStream& st, std::size_t first, std::size_t last) {
   std::vector<uint8_t> b(st.bytes.begin(),
                          st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[first]));
   const std::size_t end = last < st.frame_start.size() ? st.frame_start[last] : st.bytes.size();
@@ -133,7 +133,7 @@ std::vector<uint8_t> without(const Stream& st, std::size_t first, std::size_t la
 // header bytes inside one damaged frame each counted another corrupt frame.
 TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
   {  // (a): sample 0's 0x54 damaged, sample 5 lacks its 0x54 too.
-    Stream st = make_stream(10);
+    WitmotionStream st = make_witmotion_stream(10);
     corrupt(st, 3);
     corrupt(st, 4 * 5 + 3);
     WitmotionCodec codec;
@@ -144,9 +144,9 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     testing::expect_byte_accounting(codec);
   }
   {  // (b): the accel frames of samples 3 and 4 lost.
-    const Stream st = make_stream(10);
+    const WitmotionStream st = make_witmotion_stream(10);
     std::vector<uint8_t> b = without(st, 4 * 4, 4 * 4 + 1);
-    Stream cut = st;
+    WitmotionStream cut = st;
     cut.bytes = b;
     cut.frame_start.clear();
     for (std::size_t i = 0; i < st.frame_start.size() - 1; ++i) cut.frame_start.push_back(11 * i);
@@ -158,7 +158,7 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
     testing::expect_byte_accounting(codec);
   }
   {  // (c): one frame whose values are full of header bytes (0x5555) and whose checksum fails.
-    std::vector<uint8_t> b = make_stream(2).bytes;
+    std::vector<uint8_t> b = make_witmotion_stream(2).bytes;
     const int16_t v[4] = {0x5555, 0x5555, 0x5555, 0x5555};
     std::vector<uint8_t> bad = witmotion_frame(0x52, v);
     bad[10] ^= 0x01;
@@ -177,7 +177,7 @@ TEST(WitmotionCodec, LearnsFromACleanGroupOnlyAndCountsEveryLossOnce) {
 // of 15 and 16 (0x51); then, 3 apart, random stretches of 1 to 9 frames.
 TEST(WitmotionCodec, ADamagedStretchAcrossGroupsMixesNoSamplesAndCountsEachOnce) {
   const int n = 2000;
-  Stream st = make_stream(n);
+  WitmotionStream st = make_witmotion_stream(n);
   std::set<int> hit;
   const auto damage = [&](int first_frame, int frames) {
     for (int f = first_frame; f < first_frame + frames; ++f) {
@@ -226,7 +226,7 @@ TEST(WitmotionCodec, ADamagedStretchAcrossGroupsMixesNoSamplesAndCountsEachOnce)
 // degrees) counted two frame starts, ended its group and dropped the good sample after it too.
 // A start inside the frame of the one before is payload.
 TEST(WitmotionCodec, AHeaderInsideADamagedFramesPayloadIsNoFrameStart) {
-  Stream st = make_stream(100);
+  WitmotionStream st = make_witmotion_stream(100);
   const int16_t angles[4] = {0x5355, -8192, 0, 0};
   std::vector<uint8_t> frame = witmotion_frame(0x53, angles);
   frame[10] ^= 0x01;  // its checksum damaged
@@ -244,7 +244,7 @@ TEST(WitmotionCodec, AHeaderInsideADamagedFramesPayloadIsNoFrameStart) {
 // stretches. Sample 10: its 4 frames bad; samples 30 and 31: all 8 frames bad; sample 50: its
 // gyroscope frame bad.
 TEST(WitmotionCodec, WhollyDamagedSamplesAreDroppedAndEveryBadFrameCounted) {
-  Stream st = make_stream(100);
+  WitmotionStream st = make_witmotion_stream(100);
   for (int sample : {10, 30, 31}) {
     for (int k = 0; k < 4; ++k) st.bytes[st.frame_start[4 * sample + k] + 10] ^= 1;
   }
@@ -282,7 +282,7 @@ TEST(WitmotionCodec, RateCommandsFollowTheRegisterMap) {
 // sequence (and ticks) 0, 1, 2, 3, 5, ..., 9 at 0, 10, 20, 30, 50, ..., 90 ms; 1 dropped. (The old
 // codec had no such option and stamped receive times only.)
 TEST(WitmotionCodec, AReplayWithARateIsTimedBySampleSlot) {
-  Stream st = make_stream(10);
+  WitmotionStream st = make_witmotion_stream(10);
   std::fill(st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[16]),
             st.bytes.begin() + static_cast<std::ptrdiff_t>(st.frame_start[20]), 0);
   WitmotionCodecOptions o;
@@ -310,7 +310,7 @@ TEST(WitmotionCodec, AReplayWithARateIsTimedBySampleSlot) {
     plain.rate_hz = commands ? 100 : 0;
     plain.send_commands = commands;
     WitmotionCodec c(plain);
-    const std::vector<Sample> v = decode_all(c, make_stream(3).bytes, 7000);
+    const std::vector<Sample> v = decode_all(c, make_witmotion_stream(3).bytes, 7000);
     ASSERT_EQ(v.size(), 3u);
     EXPECT_FALSE(v[2].has_device_time);
     EXPECT_EQ(v[2].sequence, 2u);

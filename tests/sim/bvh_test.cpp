@@ -6,12 +6,11 @@
 #include <numbers>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
 #include "support/test_data.hpp"
 
 namespace imukit::sim {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 std::string tiny_bvh(const std::string& channels, const std::string& frames_text, int frames) {
   return "HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0 0\n  CHANNELS 6 Xposition Yposition Zposition " +
@@ -24,7 +23,7 @@ Eigen::Matrix3d axis_matrix(char axis, double deg) {
   const Eigen::Vector3d a = axis == 'X'   ? Eigen::Vector3d::UnitX()
                             : axis == 'Y' ? Eigen::Vector3d::UnitY()
                                           : Eigen::Vector3d::UnitZ();
-  return Eigen::AngleAxisd(deg * kDeg, a).toRotationMatrix();
+  return Eigen::AngleAxisd(deg * kRadPerDeg, a).toRotationMatrix();
 }
 
 TEST(Bvh, AnyChannelOrderIsIntrinsicInListedOrderIncludingGimbalLock) {
@@ -58,7 +57,7 @@ TEST(Bvh, YUpMapsToZUpAndScales) {
   EXPECT_NEAR((*d.body.joint(1).end_offset - Eigen::Vector3d(0, 0, -0.01)).norm(), 0.0, 1e-17);
   // A BVH rotation of 30 deg about its x axis stays a rotation about x (x is kept).
   const Eigen::AngleAxisd aa(d.motion.rotation(0, 0));
-  EXPECT_NEAR(aa.angle(), 30 * kDeg, 1e-14);
+  EXPECT_NEAR(aa.angle(), 30 * kRadPerDeg, 1e-14);
   EXPECT_NEAR(std::abs(aa.axis().x()), 1.0, 1e-14);
   // Rotating the mapped offset with the mapped rotation equals mapping the rotated offset.
   const Eigen::Vector3d o_bvh(1, 2, 3);

@@ -14,6 +14,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/rng.hpp"
 #include "imukit/core/so3.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/identify.hpp"
 #include "imukit/sim/placement.hpp"
@@ -25,13 +26,12 @@ namespace {
 
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // The twist the true forearm had about its long axis (rad) at motion time tau (s): two smooth
 // components of 35 and 20 degrees.
 double true_twist(double tau) {
-  return 35 * kDeg * std::sin(2 * std::numbers::pi * 0.35 * tau + 0.4) +
-         20 * kDeg * std::sin(2 * std::numbers::pi * 0.9 * tau + 1.3);
+  return 35 * kRadPerDeg * std::sin(2 * std::numbers::pi * 0.35 * tau + 0.4) +
+         20 * kRadPerDeg * std::sin(2 * std::numbers::pi * 0.9 * tau + 1.3);
 }
 
 // Turns `joint`'s segment by Exp(sign * twist(frame time) e) and undoes it on its children (so
@@ -229,9 +229,9 @@ TEST(IdentifyCorrection, RecoversTwistPlacementAndTimeScale) {
   EXPECT_NEAR(r.time_offset_s, s.offset + s.kappa * to_seconds(r.t_ref_ns), 0.002);
   const TwistErrors err = twist_errors(s, r);
   // The figures docs/validation.md quotes (--gtest_output=xml:FILE records them).
-  RecordProperty("twist_rmse_deg", std::to_string(err.twist_rmse / kDeg));
-  RecordProperty("twist_mean_deg", std::to_string(err.twist_mean / kDeg));
-  RecordProperty("orientation_rmse_deg", std::to_string(err.orientation_rmse / kDeg));
+  RecordProperty("twist_rmse_deg", std::to_string(err.twist_rmse / kRadPerDeg));
+  RecordProperty("twist_mean_deg", std::to_string(err.twist_mean / kRadPerDeg));
+  RecordProperty("orientation_rmse_deg", std::to_string(err.orientation_rmse / kRadPerDeg));
   RecordProperty("position_rmse_mm", std::to_string(1e3 * err.position_rmse));
   RecordProperty("clock_rate", std::to_string(r.clock_rate));
   RecordProperty("time_offset_error_ms", std::to_string(1e3 * (r.time_offset_s - s.offset -
@@ -239,9 +239,9 @@ TEST(IdentifyCorrection, RecoversTwistPlacementAndTimeScale) {
   RecordProperty("rms_after_accel", std::to_string(r.rms_after.accel));
   RecordProperty("rms_after_gyro", std::to_string(r.rms_after.gyro));
   RecordProperty("seconds", std::to_string(r.seconds));
-  EXPECT_LT(err.twist_rmse, 2.0 * kDeg);
-  EXPECT_LT(std::abs(err.twist_mean), 3.0 * kDeg);
-  EXPECT_LT(err.orientation_rmse, 1.5 * kDeg);
+  EXPECT_LT(err.twist_rmse, 2.0 * kRadPerDeg);
+  EXPECT_LT(std::abs(err.twist_mean), 3.0 * kRadPerDeg);
+  EXPECT_LT(err.orientation_rmse, 1.5 * kRadPerDeg);
   EXPECT_LT(err.position_rmse, 0.015);
   EXPECT_LT((r.gyro_bias - s.bg).norm(), 0.02);
   // The fit explains most of the signal; before it (time scale, offset, twist, bias all ignored)
@@ -263,9 +263,10 @@ TEST(IdentifyCorrection, RecoversTwistPlacementAndTimeScale) {
   RecordProperty(
       "rigid_rotation_error_deg",
       std::to_string(angular_distance(r0.placement.q_joint_sensor, s.placement.q_joint_sensor) /
-                     kDeg));
+                     kRadPerDeg));
   EXPECT_GT(r0.rms_after.gyro, 2.0 * r.rms_after.gyro);
-  EXPECT_GT(angular_distance(r0.placement.q_joint_sensor, s.placement.q_joint_sensor), 3.0 * kDeg);
+  EXPECT_GT(angular_distance(r0.placement.q_joint_sensor, s.placement.q_joint_sensor),
+            3.0 * kRadPerDeg);
 
   const auto j = nlohmann::json::parse(placement_json(r, s.body));
   EXPECT_EQ(j["correction"]["kind"], "twist");
@@ -288,15 +289,15 @@ TEST(IdentifyCorrection, RotationCorrectionKeepsTiltsSmall) {
   ASSERT_EQ(r.correction.dims, 3);
   ASSERT_EQ(r.correction_angles.rows(), 3);
   const TwistErrors err = twist_errors(s, r);
-  RecordProperty("twist_rmse_deg", std::to_string(err.twist_rmse / kDeg));
-  RecordProperty("orientation_rmse_deg", std::to_string(err.orientation_rmse / kDeg));
-  EXPECT_LT(err.twist_rmse, 2.0 * kDeg);
-  EXPECT_LT(err.orientation_rmse, 3.0 * kDeg);
+  RecordProperty("twist_rmse_deg", std::to_string(err.twist_rmse / kRadPerDeg));
+  RecordProperty("orientation_rmse_deg", std::to_string(err.orientation_rmse / kRadPerDeg));
+  EXPECT_LT(err.twist_rmse, 2.0 * kRadPerDeg);
+  EXPECT_LT(err.orientation_rmse, 3.0 * kRadPerDeg);
   for (int d = 1; d < 3; ++d) {
     const double rms = std::sqrt(r.correction_angles.row(d).squaredNorm() /
                                  static_cast<double>(r.correction_angles.cols()));
-    RecordProperty(d == 1 ? "tilt1_rms_deg" : "tilt2_rms_deg", std::to_string(rms / kDeg));
-    EXPECT_LT(rms, 4.0 * kDeg) << d;
+    RecordProperty(d == 1 ? "tilt1_rms_deg" : "tilt2_rms_deg", std::to_string(rms / kRadPerDeg));
+    EXPECT_LT(rms, 4.0 * kRadPerDeg) << d;
   }
   EXPECT_NEAR(r.clock_rate, s.kappa, 5e-4);
 }

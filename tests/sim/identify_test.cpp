@@ -13,6 +13,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/rng.hpp"
 #include "imukit/core/so3.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/simulator.hpp"
 #include "support/sampled_motion.hpp"
 #include "support/test_data.hpp"
@@ -22,7 +23,6 @@ namespace {
 
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 // Varied motion of a two-joint chain: the root turns about all three axes and translates, the
 // child ("arm", carrying the sensor) swings about its own axes. Functions of time, so the same
@@ -131,7 +131,8 @@ TEST(Identify, RecoversPlacementBiasesAndTimeOffset) {
 
   EXPECT_TRUE(r.unobservable.empty());
   EXPECT_NEAR(r.coarse_time_offset_s, tr.dt, 0.01);  // cross-correlation: within a sample
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor), 0.5 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor),
+            0.5 * kRadPerDeg);
   EXPECT_LT((r.placement.p_joint_sensor - tr.placement.p_joint_sensor).norm(), 0.005);
   EXPECT_NEAR(r.time_offset_s, tr.dt, 0.001);
   const double n = static_cast<double>(r.samples_used);
@@ -178,7 +179,8 @@ TEST(Identify, RobustToOutliers) {
   IdentifyOptions o;
   o.joint = tr.placement.joint;
   const IdentifyResult r = identify(body, motion, imu, o);
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor), 0.5 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor),
+            0.5 * kRadPerDeg);
   EXPECT_LT((r.placement.p_joint_sensor - tr.placement.p_joint_sensor).norm(), 0.005);
   EXPECT_NEAR(r.time_offset_s, tr.dt, 0.001);
   EXPECT_LT((r.accel_bias - tr.ba).norm(), 0.01);
@@ -221,7 +223,8 @@ TEST(Identify, ClockRateScaleAndSegmentLength) {
   ASSERT_EQ(r.segment_lengths.size(), 1u);
   EXPECT_NEAR(r.segment_lengths[0].second, std::hypot(0.33, 0.1), 0.005);
   EXPECT_LT((r.placement.p_joint_sensor - tr.placement.p_joint_sensor).norm(), 0.005);
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor), 0.5 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor),
+            0.5 * kRadPerDeg);
 }
 
 // A motion clock 4 % fast (streams aligned by duration, as with a camera's effective frame
@@ -271,9 +274,10 @@ TEST(Identify, TimeScaleFollowsTheChainRule) {
   EXPECT_NEAR(r.coarse_clock_rate, kappa, 2e-3);
   EXPECT_NEAR(r.clock_rate, kappa, 1e-5);
   EXPECT_NEAR(r.time_offset_s, c + kappa * to_seconds(r.t_ref_ns), 5e-4);
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor), 0.5 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor),
+            0.5 * kRadPerDeg);
   EXPECT_LT((r.placement.p_joint_sensor - tr.placement.p_joint_sensor).norm(), 0.005);
-  EXPECT_LT(r.correction_angles.cwiseAbs().maxCoeff(), 0.5 * kDeg);
+  EXPECT_LT(r.correction_angles.cwiseAbs().maxCoeff(), 0.5 * kRadPerDeg);
   EXPECT_NEAR(r.rms_after.accel, tr.sigma_a, 0.1 * tr.sigma_a);
   EXPECT_NEAR(r.rms_after.gyro, tr.sigma_g, 0.1 * tr.sigma_g);
   // The fitted motion at the IMU's rate re-simulates the fitted model.
@@ -433,7 +437,8 @@ TEST(Identify, PoseTrackWithGapsAndLeverArm) {
   const IdentifyResult r = identify(pm.body, motion, imu, o);
   EXPECT_TRUE(r.unobservable.empty());
   EXPECT_LT((r.placement.p_joint_sensor - tr.placement.p_joint_sensor).norm(), 0.005);
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor), 0.5 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, tr.placement.q_joint_sensor),
+            0.5 * kRadPerDeg);
   EXPECT_NEAR(r.time_offset_s, tr.dt, 0.001);
   // The samples reading a gap (plus a 3-frame guard) are left out.
   EXPECT_GT(r.samples_excluded, 24 + 5);
@@ -484,7 +489,7 @@ TEST(Identify, BroadRealRecording) {
   EXPECT_GT(r.time_offset_s, -0.008);
   EXPECT_GT(r.placement.p_joint_sensor.norm(), 0.01);
   EXPECT_LT(r.placement.p_joint_sensor.norm(), 0.15);
-  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, Quaterniond::Identity()), 2 * kDeg);
+  EXPECT_LT(angular_distance(r.placement.q_joint_sensor, Quaterniond::Identity()), 2 * kRadPerDeg);
 }
 
 }  // namespace

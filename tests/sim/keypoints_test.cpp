@@ -8,8 +8,10 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/so3.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/scene.hpp"
+#include "support/numbers.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -17,8 +19,6 @@ namespace {
 using Eigen::AngleAxisd;
 using Eigen::Quaterniond;
 using Eigen::Vector3d;
-constexpr double kPi = std::numbers::pi;
-constexpr double kDeg = kPi / 180.0;
 
 std::string error_of(const auto& f) {
   try {
@@ -224,7 +224,7 @@ TEST(MotionFromKeypoints, RecoversRotationsAndOffsetsOfAModelConsistentMotion) {
   // Up given exactly: world z is the truth's z; every segment's world rotation within 0.3 deg
   // (the smoothing's own error at 15 Hz on motion below 0.5 Hz is far below that).
   EXPECT_LT((r.up_input - Vector3d::UnitZ()).norm(), 1e-12);
-  EXPECT_LT(worst_rotation_error(body, truth, r, 5) / kDeg, 0.3);
+  EXPECT_LT(worst_rotation_error(body, truth, r, 5) / kRadPerDeg, 0.3);
   for (const SegmentReport& s : r.segments) {
     if (s.joint != "head") {
       EXPECT_GT(s.twist_observed, 0.99) << s.joint;
@@ -248,9 +248,9 @@ TEST(MotionFromKeypoints, RotationsAreContinuousThroughPi) {
     }
   }
   // 1.57 rad/s of yaw at 100 Hz is 0.9 deg per frame; the limbs are slower.
-  EXPECT_LT(worst_step / kDeg, 2.0);
+  EXPECT_LT(worst_step / kRadPerDeg, 2.0);
   // Up estimated from the upright body: the truth's pelvis tilts by up to 8.6 deg, legs swing.
-  EXPECT_LT(std::acos(r.up_input.z()) / kDeg, 3.0);
+  EXPECT_LT(std::acos(r.up_input.z()) / kRadPerDeg, 3.0);
 }
 
 TEST(MotionFromKeypoints, FillsGapsAndFrozenFramesAndUndoesSwapsWithWarnings) {
@@ -303,7 +303,7 @@ TEST(MotionFromKeypoints, FillsGapsAndFrozenFramesAndUndoesSwapsWithWarnings) {
       const double e = angular_distance(r.motion.rotation(k, j), ref.motion.rotation(k, j));
       if (e > worst) worst = e, at = k;
     }
-    EXPECT_LT(worst / kDeg, 2.0) << r.body.joint(j).name << " at output frame " << at;
+    EXPECT_LT(worst / kRadPerDeg, 2.0) << r.body.joint(j).name << " at output frame " << at;
   }
   // Without the repairs the swap and the outlier wreck the arms.
   KeypointMotionOptions raw = o;
@@ -317,7 +317,7 @@ TEST(MotionFromKeypoints, FillsGapsAndFrozenFramesAndUndoesSwapsWithWarnings) {
       worst_raw =
           std::max(worst_raw, angular_distance(u.motion.rotation(k, j), ref.motion.rotation(k, j)));
   }
-  EXPECT_GT(worst_raw / kDeg, 20.0);
+  EXPECT_GT(worst_raw / kRadPerDeg, 20.0);
 }
 
 TEST(MotionFromKeypoints, NamesJumpsAndListsTheirStretchesForIdentification) {
@@ -594,7 +594,7 @@ TEST(MotionFromKeypoints, H36mTopologyRecoversSwingOfEveryLimb) {
           leg ? std::acos(std::min(1.0, (qt * Vector3d(0, 0, -1)).dot(qe * Vector3d(0, 0, -1))))
               : angular_distance(qt, qe));
     }
-    EXPECT_LT(worst / kDeg, leg ? 0.5 : 1.0) << seg;
+    EXPECT_LT(worst / kRadPerDeg, leg ? 0.5 : 1.0) << seg;
   }
 }
 
