@@ -56,6 +56,26 @@ def _best_option(arm_runs, kind, method):
     return max(cands, key=lambda a: np.mean([r["val_f1"] for r in cands[a]]))
 
 
+def _arm_for(arms, kind, rest):
+    """The arm of `kind` standing for `rest`: a method's option with the best validation F1
+    (`_best_option`), or the arm `kind:rest` itself (`all`, `all:learned`); None if not run."""
+    if rest in PAIRS:
+        return _best_option(arms, kind, rest)
+    return f"{kind}:{rest}" if f"{kind}:{rest}" in arms else None
+
+
+def _vs(runs_a, runs_b):
+    """`wilcoxon` of a against b over the (test subject, seed) runs both have; (None, 0, 0.0) when
+    either arm did not run."""
+    if not runs_a or not runs_b:
+        return None, 0, 0.0
+    return wilcoxon(*_paired(runs_a, runs_b))
+
+
+def _test_f1(runs):
+    return _pct([r["test_f1"] for r in runs])
+
+
 def one_at_a_time(doc):
     """Markdown: per model, each arm's test macro F1 (mean ± std over folds x seeds) and per pair
     the Wilcoxon test PPDA vs STDA and each vs baseline; returns (markdown, figure data)."""
@@ -69,31 +89,27 @@ def one_at_a_time(doc):
         seeds = sorted({r["seed"] for r in runs})
         lines += [f"### {model}", "",
                   f"Test macro F1 (%), mean ± std over {len(folds)} test subjects x {len(seeds)} seed(s); "
-                  f"baseline {_pct([r['test_f1'] for r in base])}. p: two-sided Wilcoxon signed-rank "
+                  f"baseline {_test_f1(base)}. p: two-sided Wilcoxon signed-rank "
                   "over the paired (test subject, seed) runs.", "",
                   "| method pair | STDA | PPDA | PPDA - STDA (pp) | p PPDA vs STDA | p STDA vs baseline | p PPDA vs baseline | option (STDA / PPDA) |",
                   "|---|---|---|---|---|---|---|---|"]
         fig[model] = {"baseline": [r["test_f1"] for r in base], "pairs": []}
         for method, (stda_name, ppda_name, *_rest) in PAIRS.items():
-            sa, pa = _best_option(arms, "stda", method), _best_option(arms, "ppda", method)
+            sa, pa = _arm_for(arms, "stda", method), _arm_for(arms, "ppda", method)
             if sa is None and pa is None:
                 continue
             s_runs, p_runs = arms.get(sa, []), arms.get(pa, [])
-            ps, pp = _paired(p_runs, s_runs)
-            p_ps, n, diff = wilcoxon(ps, pp)
-            p_sb = wilcoxon(*_paired(s_runs, base))[0] if base and s_runs else None
-            p_pb = wilcoxon(*_paired(p_runs, base))[0] if base and p_runs else None
+            p_ps, n, diff = wilcoxon(*_paired(p_runs, s_runs))
             opt = f"{sa.split(':')[2] if sa else '-'} / {pa.split(':')[2] if pa else '-'}"
-            lines.append(f"| {stda_name} / {ppda_name} | {_pct([r['test_f1'] for r in s_runs])} | "
-                         f"{_pct([r['test_f1'] for r in p_runs])} | {100 * diff:+.1f} (n={n}) | {_fmt_p(p_ps)} | "
-                         f"{_fmt_p(p_sb)} | {_fmt_p(p_pb)} | {opt} |")
+            lines.append(f"| {stda_name} / {ppda_name} | {_test_f1(s_runs)} | {_test_f1(p_runs)} | "
+                         f"{100 * diff:+.1f} (n={n}) | {_fmt_p(p_ps)} | {_fmt_p(_vs(s_runs, base)[0])} | "
+                         f"{_fmt_p(_vs(p_runs, base)[0])} | {opt} |")
             fig[model]["pairs"].append((f"{stda_name}\n{ppda_name}", [r["test_f1"] for r in s_runs],
                                         [r["test_f1"] for r in p_runs]))
         extra = [a for a in arms if a != "baseline" and a.split(":")[1] not in PAIRS
                  and not a.startswith("ppda-residual:")]
         for a in sorted(extra):
-            p_b = wilcoxon(*_paired(arms[a], base))[0] if base else None
-            lines.append(f"| {parse_arm(a).label} | | {_pct([r['test_f1'] for r in arms[a]])} | | | | {_fmt_p(p_b)} | |")
+            lines.append(f"| {parse_arm(a).label} | | {_test_f1(arms[a])} | | | | {_fmt_p(_vs(arms[a], base)[0])} | |")
         lines.append("")
         lines += _residual_rows(arms, base)
         options = sorted(a for a in arms if a.count(":") == 2 and a.split(":")[1] in PAIRS)
@@ -102,7 +118,7 @@ def one_at_a_time(doc):
             lines += ["Every option (the table above takes, per method, the option with the best mean "
                       "validation F1):", "", "| arm | validation F1 | test F1 |", "|---|---|---|"]
             for a in options:
-                lines.append(f"| {a} | {_pct([r['val_f1'] for r in arms[a]])} | {_pct([r['test_f1'] for r in arms[a]])} |")
+                lines.append(f"| {a} | {_pct([r['val_f1'] for r in arms[a]])} | {_test_f1(arms[a])} |")
             lines.append("")
     return "\n".join(lines), fig
 
@@ -111,27 +127,21 @@ def _residual_rows(arms, base):
     """Markdown rows for the residual PPDA arms run: each (per method the option with the best
     validation F1; the `all` arms as they are) against PPDA proper, STDA and the baseline,
     paired; [] when none ran."""
-    def pick(kind, rest):
-        if rest in PAIRS:
-            return _best_option(arms, kind, rest)
-        return f"{kind}:{rest}" if f"{kind}:{rest}" in arms else None
-
     rows = []
     for rest in list(PAIRS) + ["all", "all:learned"]:
-        ra = pick("ppda-residual", rest)
+        ra = _arm_for(arms, "ppda-residual", rest)
         if ra is None:
             continue
         r_runs = arms[ra]
         cells = []
         for kind in ("ppda", "stda"):
-            other = pick(kind, rest)
-            p, n, d = wilcoxon(*_paired(r_runs, arms[other])) if other else (None, 0, 0.0)
+            other = _arm_for(arms, kind, rest)
+            p, n, d = _vs(r_runs, arms[other]) if other else (None, 0, 0.0)
             cells.append(f"{100 * d:+.1f} (n={n}) | {_fmt_p(p)}" if other else "- | -")
-        p_b = wilcoxon(*_paired(r_runs, base))[0] if base else None
         name = PAIRS[rest][1] if rest in PAIRS else parse_arm(ra).label
         option = ra.split(":")[2] if rest in PAIRS else "-"
-        rows.append(f"| {name} | {_pct([r['test_f1'] for r in r_runs])} | {cells[0]} | {cells[1]} | "
-                    f"{_fmt_p(p_b)} | {option} |")
+        rows.append(f"| {name} | {_test_f1(r_runs)} | {cells[0]} | {cells[1]} | "
+                    f"{_fmt_p(_vs(r_runs, base)[0])} | {option} |")
     if not rows:
         return []
     return ["Residual PPDA (the sub-policy's change added to the real window), paired over the same "
