@@ -123,7 +123,7 @@ class JsonDomBuilder {
 }  // namespace detail
 
 // Typed reads of one value of a parsed document, for the readers whose errors name the file and
-// the value's JSON path ("scene.json: sensors[0].position[2]: expected a number, got string")
+// the value's JSON path ("scene.json: sensors[0].position_m[2]: expected a number, got string")
 // rather than a line and column (profiles do that: core/profile.cpp keeps the text). Each throws
 // imukit::Error.
 [[noreturn]] void json_fail(const std::string& source, const std::string& path,

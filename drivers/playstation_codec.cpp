@@ -1,7 +1,6 @@
 #include "imukit/drivers/playstation_codec.hpp"
 
 #include <cstdlib>
-#include <numbers>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/units.hpp"

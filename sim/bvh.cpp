@@ -9,6 +9,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/text_parse.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -176,7 +177,7 @@ void parse_joint(Tokenizer& tz, std::vector<RawJoint>& joints, int parent, int d
 }
 
 Eigen::Quaterniond axis_rotation(Channel c, double degrees) {
-  const double a = degrees * (std::numbers::pi / 180.0);
+  const double a = degrees * kRadPerDeg;
   const Eigen::Vector3d axis = c == Channel::xrot   ? Eigen::Vector3d::UnitX()
                                : c == Channel::yrot ? Eigen::Vector3d::UnitY()
                                                     : Eigen::Vector3d::UnitZ();

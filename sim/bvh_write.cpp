@@ -1,7 +1,6 @@
 // BVH writer (sim/bvh.hpp): the inverse of parse_bvh's mappings.
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"

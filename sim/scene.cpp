@@ -7,7 +7,6 @@
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
-#include <numbers>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
@@ -15,6 +14,7 @@
 #include "imukit/core/parallel.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/rng.hpp"
+#include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/placement.hpp"
 
@@ -71,7 +71,7 @@ Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const s
     if (unit != "deg" && unit != "rad")
       json_fail(source, path + ".unit", "expected \"deg\" or \"rad\"");
     const Eigen::Vector3d angles = json_vec3(j["euler"], source, path + ".euler");
-    const double to_deg = unit == "deg" ? 1.0 : 180.0 / std::numbers::pi;
+    const double to_deg = unit == "deg" ? 1.0 : kDegPerRad;
     for (int k = 0; k < 3; ++k) {
       if (std::abs(angles(k) * to_deg) > PlausibilityLimits::max_euler_deg) {
         json_fail(source, fmt::format("{}.euler[{}]", path, k),

@@ -65,8 +65,8 @@ def _arm_for(arms, kind, rest):
 
 
 def _vs(runs_a, runs_b):
-    """`wilcoxon` of a against b over the (test subject, seed) runs both have; (None, 0, 0.0) when
-    either arm did not run."""
+    """`wilcoxon` of a against b over the runs both have (same split and seed: `_paired`);
+    (None, 0, 0.0) when either arm did not run."""
     if not runs_a or not runs_b:
         return None, 0, 0.0
     return wilcoxon(*_paired(runs_a, runs_b))
