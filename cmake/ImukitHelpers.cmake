@@ -31,7 +31,8 @@ function(imukit_configure_toolchain)
     if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
       message(FATAL_ERROR "IMUKIT_BUILD_FUZZERS needs clang (libFuzzer)")
     endif()
-    add_compile_options(-fsanitize=fuzzer-no-link)
+    add_compile_options(-fsanitize=fuzzer-no-link
+                        -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/cmake/coverage_ignorelist.txt)
   endif()
 endfunction()
 
