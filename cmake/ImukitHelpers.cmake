@@ -143,8 +143,13 @@ function(imukit_add_test_suite module)
   add_executable(${target} ${ARG_SOURCES})
   target_link_libraries(${target} PRIVATE imukit_test_support ${ARG_DEPS} GTest::gtest GTest::gmock
                                           GTest::gtest_main)
+  # Sanitizer builds run the tests in quick mode (tests/support/test_data.hpp: quick_mode()).
+  set(quick "")
+  if(IMUKIT_SANITIZE)
+    set(quick ENVIRONMENT IMUKIT_TEST_QUICK=1)
+  endif()
   gtest_discover_tests(${target} DISCOVERY_MODE PRE_TEST DISCOVERY_TIMEOUT 60
-                       PROPERTIES LABELS ${module})
+                       PROPERTIES LABELS ${module} ${quick})
 endfunction()
 
 # imukit_add_pytest(<ctest name> <file> [LABELS ...] [ENVIRONMENT ...] [TIMEOUT s])

@@ -38,11 +38,12 @@ def angle_between(a, b):
 
 
 @pytest.fixture(scope="module")
-def simulated_wrist(run, workdir):
+def simulated_wrist(run, workdir, quick):
     """Varied motion (pelvis turning about all axes and translating, shoulder and elbow swinging),
-    a wrist sensor simulated from it, with biases, noise and a 37 ms clock offset added here."""
+    a wrist sensor simulated from it, with biases, noise and a 37 ms clock offset added here;
+    40 s of it (20 s in quick mode, where the same bounds hold)."""
     tmp = workdir
-    rate, seconds = 100, 40
+    rate, seconds = 100, (20 if quick else 40)
     t = np.arange(0, seconds * rate + 1) / rate
     cols = {"t": t, "root_x": 0.3 * np.sin(0.8 * t), "root_y": 0.25 * np.sin(1.2 * t + 1),
             "root_z": 0.9 + 0.15 * np.sin(1.9 * t + 0.5)}

@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 
-from conftest import DATA_DIR as DATA, CLI_ENV, data_file, imukit_binary, run_imukit as run_cli  # noqa: F401
+from conftest import DATA_DIR as DATA, CLI_ENV, data_file, imukit_binary, quick_mode, run_imukit as run_cli  # noqa: F401
 
 
 def cli_error(*args):

@@ -22,6 +22,11 @@ bool running_in_ci() {
   return ci && (std::string_view(ci) == "true" || std::string_view(ci) == "1");
 }
 
+bool quick_mode() {
+  const char* quick = std::getenv("IMUKIT_TEST_QUICK");
+  return quick && *quick && std::string_view(quick) != "0";
+}
+
 std::string read_file(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream ss;

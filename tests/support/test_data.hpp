@@ -14,6 +14,18 @@ std::optional<std::filesystem::path> data_dir();
 // True when running under CI (CI=true), where missing data is an error, not a skip.
 bool running_in_ci();
 
+// True when $IMUKIT_TEST_QUICK is set (non-empty, not "0"): the sanitizer pass of scripts/test.sh,
+// where code runs several times slower. Statistical tests then use fewer seeds (their thresholds in
+// proportion) and long comparisons leave out the part other tests already run; the release pass
+// keeps the full statistics and the figures the docs quote.
+bool quick_mode();
+
+// `full` in the release pass, `quick` in quick mode.
+template <typename T>
+T quick_or(T quick, T full) {
+  return quick_mode() ? quick : full;
+}
+
 // The whole content of a file, bytes as they are (empty if it cannot be read).
 std::string read_file(const std::filesystem::path& path);
 
