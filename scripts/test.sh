@@ -54,7 +54,7 @@ if [ "${IMUKIT_SKIP_ASAN:-0}" != 1 ]; then
   (cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
      UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
      ctest --output-on-failure -j"$jobs" --timeout 1800 -LE no_sanitizer)
-  stamp "fuzzers, ${fuzz_seconds}s each"
-  bash scripts/fuzz.sh "$fuzz_seconds" build/asan
+  stamp "fuzzers, ${fuzz_seconds}s each, $jobs at a time"
+  IMUKIT_JOBS="$jobs" bash scripts/fuzz.sh "$fuzz_seconds" build/asan
 fi
 stamp "all passed"
