@@ -36,7 +36,7 @@ fuzz_one() {
 status=0 running=0
 while IFS='|' read -r name corpus; do
   [ -n "$name" ] || continue
-  fuzz_one "$name" "$corpus" &
+  fuzz_one "$name" "$corpus" </dev/null &  # not the list: the loop reads it
   running=$((running + 1))
   if [ "$running" -ge "$jobs" ]; then
     wait -n || status=1

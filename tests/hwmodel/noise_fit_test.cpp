@@ -411,7 +411,7 @@ TEST(NoiseFit, GlsOnWhiteNoiseHasUnitChiSquareAndFewFalseDetections) {
   const double mean_chi2 = chi2_sum / axes;
   EXPECT_GT(mean_chi2, 0.8);
   EXPECT_LT(mean_chi2, 1.25);
-  EXPECT_LE(false_ramps, 3);
+  EXPECT_LE(false_ramps, testing::quick_or(1, 3));  // 9 axes: 2 or more with probability 2 %
   const double z_rms = std::sqrt(z2_sum / axes);
   RecordProperty("mean_chi2_per_dof", std::to_string(mean_chi2));
   RecordProperty("false_ramps", false_ramps);

@@ -32,14 +32,19 @@ def python_steps_during(call):
     time stamps fell in the middle half of the call, the call's duration in s). Only the middle
     half counts: at its ends the worker runs Python itself. With the GIL held by the C++ code for
     the whole call the count is 0, whatever the machine's load; with it released this thread
-    steps whenever the scheduler gives it a core (a CPU-share threshold failed under heavy load)."""
-    span, done = [], threading.Event()
+    steps whenever the scheduler gives it a core (a CPU-share threshold failed under heavy load).
+    An exception of call() is raised here, after the loop has stopped."""
+    span, failed, done = [], [], threading.Event()
 
     def work():
         t0 = time.perf_counter()
-        call()
-        span.extend((t0, time.perf_counter()))
-        done.set()
+        try:
+            call()
+        except BaseException as e:  # handed to the caller's thread below
+            failed.append(e)
+        finally:
+            span.extend((t0, time.perf_counter()))
+            done.set()
 
     worker = threading.Thread(target=work)
     stamps, n = [], 0
@@ -49,6 +54,8 @@ def python_steps_during(call):
         if n % 256 == 0:
             stamps.append(time.perf_counter())
     worker.join()
+    if failed:
+        raise failed[0]
     t0, t1 = span
     quarter = 0.25 * (t1 - t0)
     return sum(1 for t in stamps if t0 + quarter < t < t1 - quarter), t1 - t0
