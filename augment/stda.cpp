@@ -10,6 +10,7 @@
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/interpolation.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::augment {
 
@@ -304,8 +305,8 @@ std::string StdaSpec::describe() const {
     case StdaMethod::time_warping:
       return fmt::format("{}(K={}, r={:g})", name, knots, ratio);
     case StdaMethod::rotation:
-      return fmt::format("{}(+-[{:g}, {:g}, {:g}] deg)", name, max_angle_rad[0] * 180 / M_PI,
-                         max_angle_rad[1] * 180 / M_PI, max_angle_rad[2] * 180 / M_PI);
+      return fmt::format("{}(+-[{:g}, {:g}, {:g}] deg)", name, max_angle_rad[0] * kDegPerRad,
+                         max_angle_rad[1] * kDegPerRad, max_angle_rad[2] * kDegPerRad);
     case StdaMethod::jittering:
       return fmt::format("{}(sigma accel={:g} gyro={:g} mag={:g} other={:g})", name,
                          jitter_sigma[0], jitter_sigma[1], jitter_sigma[2], jitter_sigma[3]);

@@ -357,9 +357,9 @@ std::vector<Row> comparison_rows(const SensorProfile& t, const SensorProfile& m,
     for (int c = 0; c < 3; ++c) {
       if (r == c) continue;
       rows.push_back({fmt::format("misalignment {}{} [deg]", "xyz"[r], "xyz"[c]),
-                      ct.misalignment(r, c) * 180 / M_PI, cm.misalignment(r, c) * 180 / M_PI, 0,
+                      ct.misalignment(r, c) * kDegPerRad, cm.misalignment(r, c) * kDegPerRad, 0,
                       fmt::format("{:+.4f} deg",
-                                  (cm.misalignment(r, c) - ct.misalignment(r, c)) * 180 / M_PI)});
+                                  (cm.misalignment(r, c) - ct.misalignment(r, c)) * kDegPerRad)});
     }
   }
   for (int ax = 0; ax < 3; ++ax) {
@@ -544,7 +544,7 @@ struct DemoRun {
                                            : static_cast<const SensorProfile&>(*measured.gyroscope);
       const char* name = sensor == 0 ? "accelerometer" : "gyroscope";
       const char* unit = sensor == 0 ? "m/s^2" : "rad/s";
-      const double lsb = sensor == 0 ? 16 * g / 32768 : 2000 * M_PI / 180 / 32768;
+      const double lsb = sensor == 0 ? 16 * g / 32768 : 2000 * kRadPerDeg / 32768;
       const Eigen::Vector3d pose_bias =
           sensor == 0 ? poses.truth.accelerometer_bias : poses.truth.gyroscope_bias;
       Json j;

@@ -10,7 +10,6 @@
 
 #include <cmath>
 #include <filesystem>
-#include <numbers>
 
 #include "command.hpp"
 #include "hwmodel_common.hpp"
@@ -50,8 +49,8 @@ struct IdentifyArgs {
   std::string correct = "none";
   double knot_spacing = 0.3;
   // The library's defaults (1.5 rad, 0.1 rad) in degrees.
-  double twist_prior_deg = 1.5 * 180.0 / std::numbers::pi;
-  double tilt_prior_deg = 0.1 * 180.0 / std::numbers::pi;
+  double twist_prior_deg = 1.5 * kDegPerRad;
+  double tilt_prior_deg = 0.1 * kDegPerRad;
   double correction_smoothness = 30.0;
   double function_tolerance = 1e-12;
   double accel_bias_prior = 0.0;
@@ -202,8 +201,8 @@ sim::IdentifyOptions identify_options(const IdentifyArgs& a) {
   o.max_clock_rate = a.max_clock_rate;
   o.correction = sim::parse_segment_correction(a.correct);
   o.correction_knot_spacing_s = a.knot_spacing;
-  o.twist_prior_rad = a.twist_prior_deg * std::numbers::pi / 180.0;
-  o.tilt_prior_rad = a.tilt_prior_deg * std::numbers::pi / 180.0;
+  o.twist_prior_rad = a.twist_prior_deg * kRadPerDeg;
+  o.tilt_prior_rad = a.tilt_prior_deg * kRadPerDeg;
   o.correction_smoothness_radps2 = a.correction_smoothness;
   o.function_tolerance = a.function_tolerance;
   o.accel_bias_prior_mps2 = a.accel_bias_prior;
@@ -299,7 +298,7 @@ void print_result(const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
     if (!e.estimated) continue;
     const bool deg = e.name.rfind("rotation.", 0) == 0;
     const bool ms = e.name == "time_offset";
-    const double f = deg ? 180.0 / std::numbers::pi : ms ? 1e3 : e.name == "clock_rate" ? 1e6 : 1.0;
+    const double f = deg ? kDegPerRad : ms ? 1e3 : e.name == "clock_rate" ? 1e6 : 1.0;
     const std::string unit = deg ? "deg" : ms ? "ms" : e.name == "clock_rate" ? "ppm" : e.unit;
     if (!e.observable) {
       fmt::print("{:<22} {:>14} {:>12}  {}\n", e.name, "unobservable", "-", unit);
@@ -314,9 +313,8 @@ void print_result(const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
     for (int d = 0; d < r.correction.dims; ++d) {
       fmt::print(
           "segment correction {}: RMS {:.2f} deg, max {:.2f} deg ({} knots every {:.3f} s)\n",
-          names[d],
-          std::sqrt(r.correction_angles.row(d).squaredNorm() / n) * 180.0 / std::numbers::pi,
-          r.correction_angles.row(d).cwiseAbs().maxCoeff() * 180.0 / std::numbers::pi,
+          names[d], std::sqrt(r.correction_angles.row(d).squaredNorm() / n) * kDegPerRad,
+          r.correction_angles.row(d).cwiseAbs().maxCoeff() * kDegPerRad,
           r.correction.control.cols(), r.correction.knot_spacing_s);
     }
   }

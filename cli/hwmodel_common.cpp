@@ -17,6 +17,7 @@
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/time.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::cli {
 
@@ -377,7 +378,7 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
     print_calibration("gyroscope", r.gyro, options.raw, "rad/s");
     fmt::print(
         "  residual gravity direction between consecutive poses: rms {:.4f} deg, max {:.4f} deg\n",
-        r.gyro_rms_rad * 180 / M_PI, r.gyro_max_rad * 180 / M_PI);
+        r.gyro_rms_rad * kDegPerRad, r.gyro_max_rad * kDegPerRad);
   }
   out.update = hwmodel::calibration_profile(r, options.raw, out.gyro, options.gravity);
   return out;
@@ -395,7 +396,7 @@ void plot_calibration(const std::filesystem::path& dir, const ImuSeries& s,
       out.print("{} {:.6f} {:.9g} {}\n", i, to_seconds(s.t[size_t(r.poses[i].begin)] - s.t.front()),
                 r.accel_norm_error[i],
                 i < r.gyro_direction_error_rad.size()
-                    ? fmt::format("{:.9g}", r.gyro_direction_error_rad[i] * 180 / M_PI)
+                    ? fmt::format("{:.9g}", r.gyro_direction_error_rad[i] * kDegPerRad)
                     : std::string("NaN"));
     }
   }

@@ -27,7 +27,7 @@ double accel_factor(const std::string& unit) {
 
 double gyro_factor(const std::string& unit) {
   if (unit == "rad/s" || unit == "radps") return 1.0;
-  if (unit == "deg/s" || unit == "dps") return M_PI / 180.0;
+  if (unit == "deg/s" || unit == "dps") return kRadPerDeg;
   throw UsageError(fmt::format("--gyro-unit '{}' is not one of rad/s, deg/s", unit));
 }
 

@@ -2,7 +2,6 @@
 
 #include <charconv>
 #include <cmath>
-#include <numbers>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/units.hpp"
@@ -31,7 +30,7 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
     throw Error("accel_unit=" + a + ": expected g or mps2");
   const std::string g = option_string(options, "gyro_unit", "rads");
   if (g == "dps")
-    o.gyro_scale = std::numbers::pi / 180.0;
+    o.gyro_scale = kRadPerDeg;
   else if (g == "rads")
     o.gyro_scale = 1.0;
   else

@@ -119,7 +119,7 @@ void WitmotionCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
   stats_.bytes_received += data.size();
   buf_.insert(buf_.end(), data.begin(), data.end());
   const double accel_lsb = opt_.accel_range_g * kStandardGravity / 32768.0;
-  const double gyro_lsb = opt_.gyro_range_dps * std::numbers::pi / 180.0 / 32768.0;
+  const double gyro_lsb = opt_.gyro_range_dps * kRadPerDeg / 32768.0;
   const double angle_lsb = std::numbers::pi / 32768.0;
   for (;;) {
     std::size_t p = head_;

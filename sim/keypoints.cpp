@@ -17,6 +17,7 @@
 #include "imukit/core/npy.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/core/text_parse.hpp"
+#include "imukit/core/units.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -1206,7 +1207,7 @@ Vector3d estimate_up(const Cleaned& c, const KeypointTopology& topo,
           continue;
         const Vector3d legs = c.point(f, root_kp) - lo, trunk = hi - c.point(f, root_kp);
         if (legs.norm() < 1e-6 || trunk.norm() < 1e-6) continue;
-        if (legs.normalized().dot(trunk.normalized()) > std::cos(15.0 * kPi / 180.0))
+        if (legs.normalized().dot(trunk.normalized()) > std::cos(15.0 * kRadPerDeg))
           axes.push_back((hi - lo).normalized());
       }
     }
@@ -1240,7 +1241,7 @@ Vector3d estimate_up(const Cleaned& c, const KeypointTopology& topo,
     m.normalize();
     Vector3d m2 = Vector3d::Zero();
     for (const Vector3d& a : axes) {
-      if (a.dot(m) > std::cos(10.0 * kPi / 180.0)) m2 += a;
+      if (a.dot(m) > std::cos(10.0 * kRadPerDeg)) m2 += a;
     }
     up = m2.norm() > 0.0 ? m2.normalized() : m;
   }
@@ -1403,8 +1404,8 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
                                  const std::vector<double>& t_out, const KeypointMotionOptions& opt,
                                  int64_t& observed, KeypointMotion& out) {
   const auto N = static_cast<int64_t>(t_out.size());
-  const double s_lo = std::sin(opt.twist_min_angle_deg * kPi / 180.0);
-  const double s_hi = std::sin(opt.twist_full_angle_deg * kPi / 180.0);
+  const double s_lo = std::sin(opt.twist_min_angle_deg * kRadPerDeg);
+  const double s_hi = std::sin(opt.twist_full_angle_deg * kRadPerDeg);
   std::vector<double> phi(static_cast<std::size_t>(N), 0.0), W(static_cast<std::size_t>(N), 0.0);
   observed = 0;
   if (!s.secondary.empty()) {
