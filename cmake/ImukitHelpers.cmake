@@ -31,8 +31,18 @@ function(imukit_configure_toolchain)
     if(NOT CMAKE_CXX_COMPILER_ID MATCHES "Clang")
       message(FATAL_ERROR "IMUKIT_BUILD_FUZZERS needs clang (libFuzzer)")
     endif()
-    add_compile_options(-fsanitize=fuzzer-no-link
-                        -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/cmake/coverage_ignorelist.txt)
+  endif()
+endfunction()
+
+# Coverage instrumentation for libFuzzer on the code the fuzzers drive: the modules' libraries and
+# the fuzzers themselves (imukit_add_module, imukit_add_fuzzer). The test binaries, the CLI and the
+# Python module in the same sanitizer build stay without it: no fuzzer runs their code, and the
+# hooks made them slower to compile and run (docs/benchmarks.md). Eigen's and Ceres' own functions
+# are left out too (cmake/coverage_ignorelist.txt): coverage inside them steers no fuzzer.
+function(_imukit_instrument_for_fuzzing target)
+  if(IMUKIT_BUILD_FUZZERS)
+    target_compile_options(${target} PRIVATE -fsanitize=fuzzer-no-link
+      -fsanitize-coverage-ignorelist=${PROJECT_SOURCE_DIR}/cmake/coverage_ignorelist.txt)
   endif()
 endfunction()
 
@@ -47,6 +57,7 @@ function(imukit_add_module name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS;INTERNAL_HEADERS" ${ARGN})
   add_library(imukit_${name} ${ARG_SOURCES})
   add_library(imukit::${name} ALIAS imukit_${name})
+  _imukit_instrument_for_fuzzing(imukit_${name})
   file(MAKE_DIRECTORY ${PROJECT_BINARY_DIR}/include/imukit)
   file(CREATE_LINK ${CMAKE_CURRENT_SOURCE_DIR} ${PROJECT_BINARY_DIR}/include/imukit/${name} SYMBOLIC)
   target_include_directories(imukit_${name} PUBLIC
@@ -135,12 +146,28 @@ function(imukit_install_package)
        "set(IMUKIT_PUBLIC_HEADERS \"${public}\")\nset(IMUKIT_INTERNAL_HEADERS \"${internal}\")\n")
 endfunction()
 
+# imukit_compile_as_program(<target>)
+# The programs (test binaries, the imukit command, the Python module) compile as unity builds:
+# their files, in batches of 8, parse GoogleTest, CLI11 (9 s a file on its own), pybind11 and Eigen
+# once per batch instead of once per file, which cuts the release build's compile time by about a
+# third (docs/benchmarks.md, "Build: programs as unity builds"). The libraries stay one file at a
+# time, so a library file that only compiles thanks to a neighbour's includes still fails, and
+# tests/install compiles every public header on its own. -DIMUKIT_UNITY_PROGRAMS=OFF turns it off
+# (quicker rebuilds after editing one test file).
+function(imukit_compile_as_program target)
+  if(IMUKIT_UNITY_PROGRAMS)
+    set_target_properties(${target} PROPERTIES UNITY_BUILD ON)
+  endif()
+endfunction()
+
 # imukit_add_test_suite(<module> SOURCES ... [DEPS ...])
 # One GoogleTest binary per module; every TEST becomes its own ctest entry.
 function(imukit_add_test_suite module)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
   set(target imukit_${module}_tests)
   add_executable(${target} ${ARG_SOURCES})
+  imukit_compile_as_program(${target})
+  target_compile_options(${target} PRIVATE $<$<CONFIG:Release,RelWithDebInfo>:-O1>)
   target_link_libraries(${target} PRIVATE imukit_test_support ${ARG_DEPS} GTest::gtest GTest::gmock
                                           GTest::gtest_main)
   # Sanitizer builds run the tests in quick mode (tests/support/test_data.hpp: quick_mode()).
@@ -189,6 +216,7 @@ function(imukit_add_fuzzer name)
   cmake_parse_arguments(ARG "" "CORPUS" "SOURCES;DEPS" ${ARGN})
   add_executable(fuzz_${name} ${ARG_SOURCES})
   target_link_libraries(fuzz_${name} PRIVATE ${ARG_DEPS})
+  _imukit_instrument_for_fuzzing(fuzz_${name})
   target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)
   set_property(GLOBAL APPEND PROPERTY IMUKIT_FUZZERS "fuzz_${name}|${ARG_CORPUS}")
 endfunction()
