@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "imukit/core/units.hpp"
+
 namespace imukit::capture {
 
 std::optional<TimeNs> TapDetector::feed(TimeNs t, const Eigen::Vector3d& accel) {
@@ -70,7 +72,7 @@ std::optional<PoseEvent> PoseGuide::feed(TimeNs t, const Eigen::Vector3d& accel,
   if (pose_taken_ || to_seconds(t - still_since_) < hold) return std::nullopt;
   pose_taken_ = true;
   const Eigen::Vector3d dir = still_sum_.normalized();
-  const double cos_min = std::cos(opt_.min_separation_deg * M_PI / 180.0);
+  const double cos_min = std::cos(opt_.min_separation_deg * kRadPerDeg);
   for (const Eigen::Vector3d& p : poses_) {
     if (p.dot(dir) > cos_min)
       return PoseEvent{PoseEvent::Kind::repeated_pose, t, count(), dir, still_since_, false};

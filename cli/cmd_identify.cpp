@@ -201,8 +201,10 @@ sim::IdentifyOptions identify_options(const IdentifyArgs& a) {
   o.max_clock_rate = a.max_clock_rate;
   o.correction = sim::parse_segment_correction(a.correct);
   o.correction_knot_spacing_s = a.knot_spacing;
-  o.twist_prior_rad = a.twist_prior_deg * kRadPerDeg;
-  o.tilt_prior_rad = a.tilt_prior_deg * kRadPerDeg;
+  // Divided, not multiplied by kRadPerDeg: the defaults above come back as the library's exact
+  // values (0.1 * kDegPerRad * kRadPerDeg is 0.10000000000000002).
+  o.twist_prior_rad = a.twist_prior_deg / kDegPerRad;
+  o.tilt_prior_rad = a.tilt_prior_deg / kDegPerRad;
   o.correction_smoothness_radps2 = a.correction_smoothness;
   o.function_tolerance = a.function_tolerance;
   o.accel_bias_prior_mps2 = a.accel_bias_prior;

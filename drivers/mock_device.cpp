@@ -4,7 +4,6 @@
 #include <cassert>
 #include <chrono>
 #include <cmath>
-#include <numbers>
 #include <sstream>
 #include <thread>
 
@@ -48,8 +47,8 @@ MockDevice::MockDevice(std::shared_ptr<SignalSource> source, MockOptions options
   g.kind = proto::SensorKind::kGyroscope;
   g.axes = 3;
   g.range_count = 1;
-  g.ranges[0].full_scale = static_cast<float>(opt_.gyro_range_dps * std::numbers::pi / 180.0);
-  g.ranges[0].scale = static_cast<float>(opt_.gyro_range_dps * std::numbers::pi / 180.0 / 32768.0);
+  g.ranges[0].full_scale = static_cast<float>(opt_.gyro_range_dps * kRadPerDeg);
+  g.ranges[0].scale = static_cast<float>(opt_.gyro_range_dps * kRadPerDeg / 32768.0);
   proto::SensorInfo& t = info_.sensors[2];
   t.kind = proto::SensorKind::kTemperature;
   t.axes = 1;

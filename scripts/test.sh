@@ -42,8 +42,9 @@ if [ "${IMUKIT_SKIP_ASAN:-0}" != 1 ]; then
   # -O1 with line tables: sanitizer reports keep file:line, and the build is much faster than -O2 -g.
   # A unity build (each target's files compiled together, so the shared headers are parsed and
   # their templates instantiated once per batch) takes about 40 % less CPU than one file at a
-  # time (docs/benchmarks.md); the release build above still compiles every file on its own, so a
-  # file that leans on another's includes or a name clash between files is caught by one of them.
+  # time (docs/benchmarks.md). The release build above compiles the libraries' files one at a
+  # time, so a library file that leans on another's includes is caught there; the programs (tests,
+  # CLI, Python module) are unity builds in both passes (IMUKIT_UNITY_PROGRAMS).
   CC=clang CXX=clang++ cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=None \
     -DCMAKE_C_FLAGS="-O1 -gline-tables-only" -DCMAKE_CXX_FLAGS="-O1 -gline-tables-only" \
     -DCMAKE_UNITY_BUILD=ON \
