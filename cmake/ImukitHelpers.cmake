@@ -36,8 +36,8 @@ endfunction()
 
 # Coverage instrumentation for libFuzzer on the code the fuzzers drive: the modules' libraries and
 # the fuzzers themselves (imukit_add_module, imukit_add_fuzzer). The test binaries, the CLI and the
-# Python module in the same sanitizer build stay without it: no fuzzer runs their code, and the
-# hooks made them slower to compile and run (docs/benchmarks.md). Eigen's and Ceres' own functions
+# Python module in the same sanitizer build stay without it: no fuzzer runs their code, so there the
+# hooks would only cost compile and run time (a few per cent: docs/benchmarks.md). Eigen's and Ceres' own functions
 # are left out too (cmake/coverage_ignorelist.txt): coverage inside them steers no fuzzer.
 function(_imukit_instrument_for_fuzzing target)
   if(IMUKIT_BUILD_FUZZERS)
@@ -153,8 +153,7 @@ endfunction()
 # the release build's compile time fell by about 40 % (docs/benchmarks.md, "Build: programs as
 # unity builds"). The libraries stay one file at a time, so a library file that only compiles
 # thanks to a neighbour's includes still fails, and tests/install compiles every public header on
-# its own. -DIMUKIT_UNITY_PROGRAMS=OFF turns it off
-# (quicker rebuilds after editing one test file).
+# its own. -DIMUKIT_UNITY_PROGRAMS=OFF turns it off (quicker rebuilds after editing one test file).
 function(imukit_compile_as_program target)
   if(IMUKIT_UNITY_PROGRAMS)
     set_target_properties(${target} PROPERTIES UNITY_BUILD ON)
