@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "imukit/core/error.hpp"
@@ -320,10 +321,22 @@ void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& 
 }
 
 // The threshold search (the paper's k): the factor whose static poses give the accelerometer
-// fit with the smallest norm error.
+// fit with the smallest norm error per spare pose, sum e^2 / (poses - 9). Fits of different
+// pose counts are compared: with 9 poses the 9 parameters pass through every pose (a residual
+// of zero whatever the poses are worth), and a factor that merges poses across slow turns down
+// to 9 would otherwise always win. A fit without a spare pose is taken only when no factor
+// gives one.
+double residual_per_spare_pose(const CalibrationResult& r) {
+  const auto poses = static_cast<double>(r.accel_norm_error.size());
+  constexpr double kParameters = 9.0;
+  if (poses <= kParameters) return std::numeric_limits<double>::infinity();
+  return r.accel_rms * r.accel_rms * poses / (poses - kParameters);
+}
+
 CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
                                           const CalibrationOptions& options) {
   CalibrationResult best;
+  double best_score = 0.0;
   bool have = false;
   std::string last_error = "no threshold factor gave enough static poses";
   bool too_few = true;  // every factor failed for want of poses
@@ -353,7 +366,8 @@ CalibrationResult fit_accelerometer_poses(std::span<const TimeNs> t, const Eigen
     r.poses = iv;
     r.threshold_factor = static_cast<double>(k);
     norm_errors(c, means, options.gravity, r.accel_norm_error, r.accel_rms, r.accel_max);
-    if (!have || r.accel_rms < best.accel_rms) best = std::move(r), have = true;
+    const double score = residual_per_spare_pose(r);
+    if (!have || score < best_score) best = std::move(r), best_score = score, have = true;
   }
   if (!have && too_few) throw TooFewPosesError("calibration: " + last_error);
   if (!have) throw Error("calibration: " + last_error);

@@ -5,7 +5,8 @@
 // 1. Static detector: the summed per-axis variance of the accelerometer over a sliding window
 //    is compared with k times its mean over the initial static period; runs below it that last
 //    long enough are static poses. k is searched (1..max_k) and the one whose accelerometer
-//    fit has the smallest residual wins, as in the paper.
+//    fit has the smallest residual wins, as in the paper, the residual taken per spare pose
+//    (sum of squares / (poses - 9)) so that fits of different pose counts compare fairly.
 // 2. Accelerometer: a_true = T K (a_raw - b), T upper unit-triangular (3 misalignment angles),
 //    K = diag(scale), b bias; minimise sum_i (g^2 - |a_true(mean of pose i)|^2)^2 (Ceres).
 // 3. Gyroscope: w_true = T_g K_g (w_raw - b_g), T_g unit diagonal with 6 small angles; b_g from

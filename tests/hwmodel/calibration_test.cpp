@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -21,12 +22,14 @@ struct Synthetic {
   Eigen::Matrix3Xd accel, gyro;
 };
 
-// A multi-position session at 100 Hz: 50 s static, then for each target orientation a 2 s
-// rotation (about a fixed body axis, smooth speed profile) and a 4 s rest. Readings are made
-// with the true calibrations (raw = (T diag(scale))^-1 true + bias) plus white noise.
+// A multi-position session at 100 Hz: 50 s static, then for each target orientation a
+// rotation (about a fixed body axis, smooth speed profile; 2 s unless turn_seconds[p] says
+// otherwise) and a 4 s rest. Readings are made with the true calibrations
+// (raw = (T diag(scale))^-1 true + bias) plus white noise.
 Synthetic make_session(const std::vector<Eigen::Matrix3d>& poses, const TriadCalibration& acc,
                        const TriadCalibration& gyr, double g, double noise, uint64_t seed,
-                       double gyro_counts_per_count = 1.0) {
+                       double gyro_counts_per_count = 1.0,
+                       const std::vector<double>& turn_seconds = {}) {
   const double rate = 100.0, dt = 1.0 / rate;
   std::vector<Eigen::Vector3d> f, w;
   Eigen::Matrix3d R = poses.front();
@@ -41,11 +44,12 @@ Synthetic make_session(const std::vector<Eigen::Matrix3d>& poses, const TriadCal
     const Eigen::AngleAxisd delta(R.transpose() * poses[p]);
     const Eigen::Vector3d phi = delta.angle() * delta.axis();
     const Eigen::Matrix3d R0 = R;
-    const int steps = int(2.0 * rate);
+    const double seconds = p < turn_seconds.size() ? turn_seconds[p] : 2.0;
+    const int steps = int(seconds * rate);
     for (int i = 0; i < steps; ++i) {
       // s(u) = (1 - cos(pi u)) / 2 over u in [0, 1]; rate is ds/dt phi, constant in direction.
       const double u = (i + 0.5) / steps;
-      const double sdot = 0.5 * std::numbers::pi * std::sin(std::numbers::pi * u) / 2.0;
+      const double sdot = 0.5 * std::numbers::pi * std::sin(std::numbers::pi * u) / seconds;
       const double s = 0.5 * (1.0 - std::cos(std::numbers::pi * (i + 1.0) / steps));
       w.push_back(sdot * phi);
       R = R0 * Eigen::AngleAxisd(s * phi.norm(), phi.normalized()).toRotationMatrix();
@@ -189,6 +193,49 @@ TEST(Calibration, RejectsTooFewPoses) {
   for (int i = 0; i < 7000; ++i) t.push_back(sample_time(0, i, 100.0));
   a.row(2).setConstant(9.8);
   EXPECT_THROW(calibrate(t, a, w, CalibrationOptions{}), TooFewPosesError);
+}
+
+// Found in review: the threshold search compared the plain rms of fits with different pose
+// counts, and a fit with exactly 9 poses has a residual of zero whatever they are worth. Here
+// three of the twelve turns are slow (20 degrees in 8 s): a small k keeps them apart as twelve
+// poses, a large k reads the slow turns as stillness and merges their neighbours into 9 poses
+// whose means are no true pose. The search must keep the twelve.
+TEST(Calibration, ThresholdSearchDoesNotPreferAFitWithoutSparePoses) {
+  const double g = 9.81;
+  const auto acc = accel_truth();
+  const auto gyr = gyro_truth();
+  std::vector<Eigen::Matrix3d> poses = many_poses(9, 4);
+  std::vector<double> turn_seconds(poses.size(), 2.0);
+  for (size_t p : {2u, 5u, 8u}) {  // a slow 20-degree turn after poses 2, 5 and 8
+    poses.insert(
+        poses.begin() + long(p) + 1,
+        poses[p] * Eigen::AngleAxisd(20.0 * kRadPerDeg, Eigen::Vector3d(1, 1, 0).normalized())
+                       .toRotationMatrix());
+    turn_seconds.insert(turn_seconds.begin() + long(p) + 1, 8.0);
+  }
+  ASSERT_EQ(poses.size(), 12u);
+  const Synthetic s = make_session(poses, acc, gyr, g, 0.5, 9, 1.0, turn_seconds);
+  CalibrationOptions opt;
+  opt.gravity = g;
+  opt.calibrate_gyro = false;
+  // The premise: some factor finds the twelve poses, and a larger one only 9.
+  std::vector<size_t> found;
+  for (int k = 1; k <= opt.max_threshold_factor; ++k) {
+    StaticDetectorOptions d = opt.detector;
+    d.threshold_factor = k;
+    found.push_back(detect_static_intervals(s.t, s.accel, d).size());
+  }
+  ASSERT_NE(std::find(found.begin(), found.end(), 12u), found.end())
+      << ::testing::PrintToString(found);
+  ASSERT_NE(std::find(found.begin(), found.end(), 9u), found.end())
+      << ::testing::PrintToString(found);
+
+  const CalibrationResult r = calibrate(s.t, s.accel, s.gyro, opt);
+  EXPECT_EQ(r.poses.size(), 12u) << "k = " << r.threshold_factor;
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(r.accel.scale(a), acc.scale(a), 2e-3 * acc.scale(a)) << a;
+    EXPECT_NEAR(r.accel.bias(a), acc.bias(a), 5.0) << a;  // counts
+  }
 }
 
 TEST(Calibration, ForwardModelInvertsTheCorrection) {
