@@ -1710,12 +1710,24 @@ Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResul
   const auto end_ns = static_cast<TimeNs>(std::floor(static_cast<double>(last) / motion.rate_hz()));
   std::vector<TimeNs> tau(static_cast<std::size_t>(frames));
   std::vector<TimeNs> t_imu(static_cast<std::size_t>(frames));
+  double first_s = 0.0, last_s = 0.0;
   for (int64_t k = 0; k < frames; ++k) {
     const TimeNs t = first_ns + std::llround(static_cast<double>(k) * 1e9 / rate_hz);
     const double s = to_seconds(t - r.motion_start_ns) + r.time_offset_s +
                      r.clock_rate * to_seconds(t - r.t_ref_ns);
+    if (k == 0) first_s = s;
+    last_s = s;
     tau[static_cast<std::size_t>(k)] = std::clamp<TimeNs>(std::llround(s * 1e9), 0, end_ns);
     t_imu[static_cast<std::size_t>(k)] = t;
+  }
+  // Held at the ends beyond the motion, but not wholly outside it: that motion would stand still
+  // (a first_ns from another clock, or a result fitted to another recording).
+  const double end_s = to_seconds(end_ns);
+  if (std::max(first_s, last_s) < 0.0 || std::min(first_s, last_s) > end_s) {
+    throw Error(fmt::format(
+        "fitted_motion: the {} frames map to motion times {:.3f} s to {:.3f} s, wholly outside "
+        "the motion (0 to {:.3f} s): is first_ns on the IMU clock the result was fitted on?",
+        frames, first_s, last_s, end_s));
   }
   Motion out = spline_resample(body, motion, tau, rate_hz);
   if (r.correction.dims == 0) return out;

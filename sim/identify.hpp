@@ -212,9 +212,10 @@ std::string placement_json(const IdentifyResult& result, const Body& body);
 // The fit baked into a motion, so that simulating the identified placement on it reproduces the
 // fitted model (docs/identification.md, "The fitted motion"): frame k is IMU time
 // first_ns + k / rate_hz; it holds the input motion at the fitted motion time of that instant
-// (time offset and clock rate; held at the motion's ends beyond them) with the segment
-// correction applied to the sensor's joint (R_parent_joint Q) and undone on its children
-// (Q^T R_joint_child, so they keep their world orientation).
+// (time offset and clock rate; held at the motion's ends beyond them, an error when every
+// frame lies beyond the same end) with the segment correction applied to the sensor's joint
+// (R_parent_joint Q) and undone on its children (Q^T R_joint_child, so they keep their world
+// orientation).
 Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResult& result,
                      TimeNs first_ns, int64_t frames, double rate_hz);
 

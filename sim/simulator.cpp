@@ -1877,21 +1877,28 @@ Motion spline_resample(const Body& body, MotionSource& motion, std::span<const T
     }
   }
   // The root translation: the spline's cubic through the stencil's frames, as evaluate() has it.
+  // The frames read are those the stencils use (a time on the last frame is the end of the last
+  // interval, whose stencil starts at N - 4, not where its frame number alone would put it).
   const double rate = motion.rate_hz();
-  const int64_t lo = std::max<int64_t>(0, frame_position(times.front(), rate).frame - 2);
-  const int64_t hi = std::min<int64_t>(N, frame_position(times.back(), rate).frame + 4);
+  std::vector<FramePosition> positions(static_cast<std::size_t>(F));
+  std::vector<SplineStencil> stencils(static_cast<std::size_t>(F));
+  int64_t lo = N, hi = 0;
+  for (std::size_t f = 0; f < positions.size(); ++f) {
+    positions[f] = position_in_motion(times[f], rate, N).value_or(FramePosition{N - 2, 1.0});
+    stencils[f] = spline_stencil(positions[f].frame, N);
+    lo = std::min(lo, stencils[f].s0);
+    hi = std::max(hi, stencils[f].s0 + stencils[f].n);
+  }
   MotionChunk chunk;
   const std::array<int, 1> root{0};
   motion.read(lo, hi - lo, root, chunk);
-  for (int64_t f = 0; f < F; ++f) {
-    const FramePosition fp = position_in_motion(times[static_cast<std::size_t>(f)], rate, N)
-                                 .value_or(FramePosition{N - 2, 1.0});
-    const SplineStencil st = spline_stencil(fp.frame, N);
-    const LagrangeWeights L = lagrange(st.tau, st.n, fp.frac);
+  for (std::size_t f = 0; f < positions.size(); ++f) {
+    const SplineStencil& st = stencils[f];
+    const LagrangeWeights L = lagrange(st.tau, st.n, positions[f].frac);
     Vector3d p = Vector3d::Zero();
     for (int m = 0; m < st.n; ++m)
       p += L.w[static_cast<std::size_t>(m)] * chunk.root_translation.col(st.s0 + m - lo);
-    out.root_translation(f) = p;
+    out.root_translation(static_cast<int64_t>(f)) = p;
   }
   out.validate_and_normalize(&body);
   return out;

@@ -368,6 +368,13 @@ TEST(IdentifyCorrection, FittedMotionCarriesTheFit) {
   // Bad arguments.
   EXPECT_THROW(fitted_motion(s.body, given, r, 0, 1, 50.0), Error);
   EXPECT_THROW(fitted_motion(s.body, given, r, 0, 10, 0.0), Error);
+  // Frames wholly past the motion's end (first_ns an hour late) would be a still motion: an
+  // error. Partly past it is fine (held at the end).
+  const TimeNs hour = 3'600'000'000'000;
+  EXPECT_THROW(fitted_motion(s.body, given, r, s.imu.t.front() + hour, frames, 50.0), Error);
+  EXPECT_THROW(fitted_motion(s.body, given, r, s.imu.t.front() - hour, frames, 50.0), Error);
+  EXPECT_EQ(fitted_motion(s.body, given, r, s.imu.t[s.imu.size() / 2], frames, 50.0).frames(),
+            frames);
 }
 
 // Fidelity against closed forms: identical signals, an affine copy, a constant axis.

@@ -435,6 +435,36 @@ TEST(Simulator, SplineIsExactOnMotionsItRepresents) {
   EXPECT_LT(worst_w, 1e-9);
 }
 
+// spline_resample reads the spline's motion at any times: exact on the cubic motion above,
+// through the last frame. Found in review: with the first time on the last frame, the root
+// translation was read one column before its buffer (an Eigen assertion; garbage without one).
+TEST(Simulator, SplineResampleIsExactOnMotionsItRepresentsThroughTheLastFrame) {
+  const Vector3d axis = Vector3d(1, -1, 0.5).normalized();
+  const auto angle = [](double t) { return 0.3 + 0.5 * t - 0.4 * t * t + 0.25 * t * t * t; };
+  const auto trans = [](double t) { return Vector3d(0.1 * t * t * t, -0.2 * t * t + t, 0.05 * t); };
+  const Vector3d wr = Vector3d(0.1, 0.2, 1.0).normalized() * 1.5;
+  Motion m = sampled_motion(
+      40.0, 81, [&](double t) { return so3_exp(wr * t); },
+      [&](double t) { return Quaterniond(Eigen::AngleAxisd(angle(t), axis)); }, trans);
+  const Body body = two_joint_body();
+  const TimeNs last = 2'000'000'000;  // frame 80 at 40 Hz
+  const std::vector<std::vector<TimeNs>> cases = {
+      {0, 12'345'678, 1'000'000'000, 1'987'654'321, last}, {last}, {last, last, last}};
+  for (const auto& times : cases) {
+    const Motion r = spline_resample(body, m, times, 100.0);
+    ASSERT_EQ(r.frames(), static_cast<int64_t>(times.size()));
+    for (std::size_t f = 0; f < times.size(); ++f) {
+      const double t = to_seconds(times[f]);
+      const auto k = static_cast<int64_t>(f);
+      EXPECT_LT((r.root_translation(k) - trans(t)).norm(), 1e-12) << t;
+      EXPECT_LT(r.rotation(k, 0).angularDistance(so3_exp(wr * t)), 1e-9) << t;
+      EXPECT_LT(r.rotation(k, 1).angularDistance(Quaterniond(Eigen::AngleAxisd(angle(t), axis))),
+                1e-9)
+          << t;
+    }
+  }
+}
+
 TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
   const SineTruth T;
   Motion m = sampled_motion(
