@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/sampling.hpp"
@@ -567,18 +568,23 @@ SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<doub
   SlopeReadings out;
   const size_t n = tau.size();
   if (n < 3 || adev.size() != n || lower.size() != n || upper.size() != n) return out;
-  // Local slope of log ADEV against log tau, central differences.
-  std::vector<double> slope(n);
+  // Only positive, finite deviations are read: a deviation of exactly zero (a signal that
+  // toggles by one count reads 0 at every even factor) has no logarithm and no relative
+  // interval, and would turn the readings into NaN and infinities.
+  auto usable = [&](size_t k) { return adev[k] > 0.0 && std::isfinite(adev[k]); };
+  // Local slope of log ADEV against log tau, central differences; NaN where it cannot be read.
+  std::vector<double> slope(n, std::numeric_limits<double>::quiet_NaN());
   for (size_t k = 0; k < n; ++k) {
     const size_t a = k == 0 ? 0 : k - 1, b = k + 1 < n ? k + 1 : n - 1;
-    slope[k] = std::log(adev[b] / adev[a]) / std::log(tau[b] / tau[a]);
+    if (usable(a) && usable(b) && usable(k))
+      slope[k] = std::log(adev[b] / adev[a]) / std::log(tau[b] / tau[a]);
   }
   auto rel_sigma = [&](size_t k) { return 0.5 * (upper[k] - lower[k]) / adev[k]; };
   auto read = [&](double target, auto value_at) {
     SlopeReading r;
     size_t best = 0;
     double err = 1e300;
-    for (size_t k = 0; k < n; ++k) {
+    for (size_t k = 0; k < n; ++k) {  // a NaN slope compares false: never read
       if (std::abs(slope[k] - target) < err) err = std::abs(slope[k] - target), best = k;
     }
     if (err <= 0.15) {
@@ -594,12 +600,15 @@ SlopeReadings read_slopes(const std::vector<double>& tau, const std::vector<doub
   out.random_walk = read(0.5, [&](size_t k) { return adev[k] * std::sqrt(3.0 / tau[k]); });
   out.quantization = read(-1.0, [&](size_t k) { return adev[k] * tau[k] / std::sqrt(3.0); });
   out.ramp = read(1.0, [&](size_t k) { return adev[k] * std::sqrt(2.0) / tau[k]; });
-  const auto it = std::min_element(adev.begin(), adev.end());
-  const auto k = static_cast<size_t>(it - adev.begin());
+  std::optional<size_t> lowest;
+  for (size_t k = 0; k < n; ++k)
+    if (usable(k) && (!lowest || adev[k] < adev[*lowest])) lowest = k;
+  if (!lowest) return out;
+  const size_t k = *lowest;
   out.bias_instability.found = true;
   out.bias_instability.tau_s = tau[k];
   out.bias_instability.slope = slope[k];
-  out.bias_instability.value = *it / kFlickerFloorFactor;
+  out.bias_instability.value = adev[k] / kFlickerFloorFactor;
   out.bias_instability.sigma = out.bias_instability.value * rel_sigma(k);
   return out;
 }

@@ -75,7 +75,8 @@ struct SlopeReading {
   double value = 0.0;
   double sigma = 0.0;
   double tau_s = 0.0;  // where it was read
-  double slope = 0.0;  // the curve's local log-log slope there
+  double slope = 0.0;  // the curve's local log-log slope there (NaN for the minimum's when a
+                       // neighbour's deviation is zero)
 };
 struct SlopeReadings {
   SlopeReading quantization, white, bias_instability, random_walk, ramp;
@@ -110,6 +111,7 @@ double allan_variance_covariance(const std::array<double, kNoiseTerms>& coeffici
                                  int64_t n, int64_t m1, int64_t m2);
 
 // adev_lower/adev_upper: 1-sigma interval of each estimate (for the readings' uncertainties).
+// Deviations that are zero or not finite are not read (no reading is ever NaN).
 SlopeReadings read_slopes(const std::vector<double>& tau_s, const std::vector<double>& adev,
                           const std::vector<double>& adev_lower,
                           const std::vector<double>& adev_upper);

@@ -263,6 +263,17 @@ TEST(TurnOnBias, MeanAndSpreadAcrossRuns) {
   acc << 0.1, 0.1, 0, 0, 9.8, 9.8;
   EXPECT_TRUE(accel_static_bias(acc, Eigen::Matrix3d::Identity(), 9.8)
                   .isApprox(Eigen::Vector3d(0.1, 0, 0)));
+  // Turned +90 degrees about x: the sensor's y axis points up (R_world_sensor e_y = e_z), so
+  // at rest y reads +g. Readings (0.1, 9.8, 0) leave the same bias; with R instead of R^T the
+  // expected reading would be (0, -9.8, 0) and the bias (0.1, 19.6, 0).
+  const Eigen::Matrix3d R_world_sensor =
+      Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  ASSERT_NEAR((R_world_sensor * Eigen::Vector3d::UnitY() - Eigen::Vector3d::UnitZ()).norm(), 0.0,
+              1e-15);
+  Eigen::Matrix3Xd turned(3, 2);
+  turned << 0.1, 0.1, 9.8, 9.8, 0, 0;
+  EXPECT_LT((accel_static_bias(turned, R_world_sensor, 9.8) - Eigen::Vector3d(0.1, 0, 0)).norm(),
+            1e-12);
 }
 
 TEST(Calibration, XsensRecordingCalibratesToGravity) {

@@ -163,6 +163,72 @@ TEST(NoiseFit, SlopeReadingsFindTextbookValuesOnCleanCurve) {
   EXPECT_NEAR(s.white.sigma, 0.1 * s.white.value, 1e-12);
 }
 
+// Each reading against a curve written out from its textbook slope line (not through
+// model_allan_variance): quantization sqrt(3) Q / tau, white N / sqrt(tau), random walk
+// K sqrt(tau / 3), ramp R tau / sqrt(2), each alone on the curve.
+TEST(NoiseFit, SlopeReadingsOfEachTermAlone) {
+  const double Q = 2e-4, N = 3e-3, K = 5e-5, R = 7e-6;
+  struct Case {
+    double (*curve)(double);
+    SlopeReading SlopeReadings::*reading;
+    double expected;
+  };
+  const Case terms[] = {
+      {[](double t) { return std::sqrt(3.0) * 2e-4 / t; }, &SlopeReadings::quantization, Q},
+      {[](double t) { return 3e-3 / std::sqrt(t); }, &SlopeReadings::white, N},
+      {[](double t) { return 5e-5 * std::sqrt(t / 3.0); }, &SlopeReadings::random_walk, K},
+      {[](double t) { return 7e-6 * t / std::sqrt(2.0); }, &SlopeReadings::ramp, R}};
+  for (const Case& c : terms) {
+    std::vector<double> tau, adev, lo, hi;
+    for (int k = 0; k <= 40; ++k) {
+      tau.push_back(0.01 * std::pow(10.0, k / 10.0));
+      adev.push_back(c.curve(tau.back()));
+      lo.push_back(0.8 * adev.back());
+      hi.push_back(1.2 * adev.back());
+    }
+    const SlopeReading r = read_slopes(tau, adev, lo, hi).*c.reading;
+    ASSERT_TRUE(r.found) << c.expected;
+    EXPECT_NEAR(r.value, c.expected, 1e-12 * c.expected);
+    EXPECT_NEAR(r.sigma, 0.2 * c.expected, 1e-12 * c.expected);
+  }
+}
+
+// Found in review: a curve with a zero (a signal toggling by one count has an Allan deviation
+// of exactly 0 at every even factor) gave the bias instability a NaN sigma and the slopes
+// infinities. Zero points are not read; the readings stay finite.
+TEST(NoiseFit, SlopeReadingsSkipZeroDeviations) {
+  std::vector<double> tau, adev, lo, hi;
+  for (int m = 1; m <= 64; ++m) {
+    tau.push_back(0.01 * m);
+    // The toggle's overlapping ADEV in counts: sqrt(2) / m at odd m, 0 at even m.
+    adev.push_back(m % 2 ? std::sqrt(2.0) / m : 0.0);
+    lo.push_back(0.9 * adev.back());
+    hi.push_back(1.1 * adev.back());
+  }
+  const SlopeReadings s = read_slopes(tau, adev, lo, hi);
+  for (const SlopeReading* r :
+       {&s.quantization, &s.white, &s.bias_instability, &s.random_walk, &s.ramp}) {
+    if (!r->found) continue;
+    EXPECT_TRUE(std::isfinite(r->value) && std::isfinite(r->sigma) && r->value > 0.0)
+        << r->value << " " << r->sigma;
+  }
+  ASSERT_TRUE(s.bias_instability.found);
+  EXPECT_DOUBLE_EQ(s.bias_instability.value, (std::sqrt(2.0) / 63.0) / kFlickerFloorFactor);
+  EXPECT_NEAR(s.bias_instability.sigma, 0.1 * s.bias_instability.value, 1e-15);
+  // White noise with one estimate of zero: read around it.
+  std::vector<double> white;
+  for (const double t : tau) white.push_back(3e-3 / std::sqrt(t));
+  white[10] = 0.0;
+  const SlopeReadings w = read_slopes(tau, white, white, white);
+  ASSERT_TRUE(w.white.found);
+  EXPECT_NEAR(w.white.value, 3e-3, 1e-15);
+  EXPECT_GT(w.bias_instability.value, 0.0);
+  // Nothing usable at all: no readings rather than NaN.
+  const std::vector<double> zeros(tau.size(), 0.0);
+  const SlopeReadings none = read_slopes(tau, zeros, zeros, zeros);
+  EXPECT_FALSE(none.bias_instability.found || none.white.found || none.quantization.found);
+}
+
 std::vector<double> read_numbers(const std::filesystem::path& p) {
   std::ifstream f(p);
   std::vector<double> v;
