@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "imukit/capture/ros_messages.hpp"
+#include "imukit/capture/sequence_gaps.hpp"
 #include "imukit/capture/spsc_queue.hpp"
 #include "imukit/core/error.hpp"
 #include "imukit/drivers/codec.hpp"
@@ -57,15 +58,16 @@ struct Device {
 
   // Writer side.
   DeviceClock clock{1e9};  // device times arrive in ns
-  uint64_t last_sequence = 0;
-  // Between consecutive written samples on one clock (DeviceClock::continues, or forward
-  // sequence numbers for a device without a clock): the sequence's steps and, with a clock, the
-  // device time elapsed. Restarts and outliers add nothing.
-  uint64_t sequence_span = 0;
-  TimeNs device_span = 0;
   // Samples missing between consecutive written samples (sequence gaps), less those the queue
   // refused.
-  uint64_t gaps = 0;
+  SequenceGaps sequence;
+  // Between consecutive written samples on one clock (DeviceClock::continues, or forward
+  // sequence numbers for a device without a clock): the sequence's steps and, with a clock, the
+  // device time elapsed. Restarts and outliers add nothing. `spanned`: the last sample's step
+  // was summed (a damaged index found at the next one is mended there).
+  uint64_t sequence_span = 0;
+  TimeNs device_span = 0;
+  bool spanned = false;
   bool full =
       false;  // reached the duration or sample limit: later samples are outside the recording
   uint16_t imu_channel = 0, raw_channel = 0, sync_channel = 0;
@@ -147,7 +149,7 @@ DeviceProgress progress_of(Device& d) {
   DeviceProgress p;
   p.name = d.spec.name;
   p.samples = d.written;
-  p.dropped = d.gaps;
+  p.dropped = d.sequence.missing();
   {
     const std::lock_guard lock(d.mutex);
     p.codec_dropped = d.stats.samples_dropped;
@@ -225,18 +227,18 @@ void write_sample(McapWriter& writer, Device& d, const drivers::Sample& s, uint6
   const auto imu_bytes = encode_cdr(m);
   writer.write_message(d.imu_channel, static_cast<uint64_t>(t), static_cast<uint64_t>(s.host_time),
                        imu_bytes);
-  if (d.written == 0) {
-    d.first_host = s.host_time;
-  } else if (s.sequence > d.last_sequence) {
-    // A counter that went back (the device restarted its stream) adds nothing here.
-    const uint64_t missing = s.sequence - d.last_sequence - 1;
-    d.gaps += missing - std::min(missing, refused_before);
-    if (!s.has_device_time || d.clock.continues()) {
-      d.sequence_span += s.sequence - d.last_sequence;
-      if (s.has_device_time) d.device_span += s.device_time - d.last_device;
-    }
+  if (d.written == 0) d.first_host = s.host_time;
+  // A counter that went back (the device restarted its stream) adds nothing here.
+  const SequenceGaps::Step step = d.sequence.add(s.sequence, refused_before);
+  if (step.repaired_previous && d.spanned) {
+    d.sequence_span -= std::min(d.sequence_span, step.previous_step);
+    d.sequence_span += step.previous_repaired_step;
   }
-  d.last_sequence = s.sequence;
+  d.spanned = step.forward && (!s.has_device_time || d.clock.continues());
+  if (d.spanned) {
+    d.sequence_span += step.index_step;
+    if (s.has_device_time) d.device_span += s.device_time - d.last_device;
+  }
   if (s.channels & drivers::kHasAccel) {
     const Eigen::Vector3d a(s.accel[0], s.accel[1], s.accel[2]);
     const std::optional<TimeNs> device_time =
@@ -612,17 +614,6 @@ std::optional<RawImuMessage> decode_raw(std::span<const uint8_t> data, const std
   }
 }
 
-// Samples kept and missing by sample_index over a device's raw messages in file order, as the
-// session counts its gaps: an index that goes back (a restarted stream) adds nothing.
-struct IndexGaps {
-  uint64_t kept = 0, missing = 0, last = 0;
-  void add(uint64_t index) {
-    if (kept > 0 && index > last) missing += index - last - 1;
-    last = index;
-    ++kept;
-  }
-};
-
 // What refit's first pass learns from a recording: its channels by kind (device names after
 // "/imu/") and every device's clock, fed with its (ticks, receive time) pairs and time-sync
 // exchanges.
@@ -630,8 +621,8 @@ struct ClockScan {
   std::map<std::string, DeviceClock> clocks;
   std::map<uint16_t, std::string> raw_channels, imu_channels, sync_channels;
   std::optional<uint16_t> event_channel;
-  std::map<std::string, IndexGaps> gaps;  // per device, over its raw messages in file order
-  std::vector<McapMetadata> metadata;     // the records the file holds
+  std::map<std::string, SequenceGaps> gaps;  // per device, over its raw messages in file order
+  std::vector<McapMetadata> metadata;        // the records the file holds
 };
 
 ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
@@ -687,11 +678,11 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
 // samples missing between the ones kept still show as gaps in their sample_index; the codec's
 // counts, the corrupt frames and the recorder's refusals do not. The record for the recovered
 // file says so (docs/formats.md).
-McapMetadata recovered_session_record(const std::string& device, const IndexGaps& g) {
+McapMetadata recovered_session_record(const std::string& device, const SequenceGaps& g) {
   const std::string lost = "unknown: lost with the crash";
   return {"imukit.session." + device,
-          {{"samples", std::to_string(g.kept)},
-           {"samples_dropped", std::to_string(g.missing)},
+          {{"samples", std::to_string(g.kept())},
+           {"samples_dropped", std::to_string(g.missing())},
            {"codec_samples_dropped", lost},
            {"frames_corrupt", lost},
            {"samples_non_finite", lost},
@@ -835,7 +826,7 @@ std::map<std::string, ClockFit> refit(const std::string& in, const std::string& 
       const std::string name = "imukit.session." + device;
       const bool closed = std::any_of(scan.metadata.begin(), scan.metadata.end(),
                                       [&](const McapMetadata& m) { return m.name == name; });
-      (*losses)[device] = RecoveredLosses{g.kept, g.missing, !closed};
+      (*losses)[device] = RecoveredLosses{g.kept(), g.missing(), !closed};
       if (!closed) records.push_back(recovered_session_record(device, g));
     }
   }

@@ -387,6 +387,24 @@ TEST(Session, ADurationCountsDeviceTimeThroughDamagedTicksAndRestarts) {
 // sample and 2 s kept 3, from either codec. The run after it continues sample 0 at its own ticks
 // per index, so the tick is an outlier and 2 s keep 2,000 samples at 1000 Hz (text too: its
 // samples after the tick go back, which no loss of lines explains).
+// An Xsens MTData2 frame of one sample: its PacketCounter, SampleTimeFine (10 kHz ticks) and an
+// acceleration of zeros.
+void write_xsens_sample(std::ostream& out, uint16_t counter, uint32_t ticks) {
+  // MTData2 items: id, size, a big-endian value (zero bytes beyond 4).
+  std::vector<uint8_t> payload;
+  const auto item = [&](uint16_t id, uint8_t size, uint32_t value) {
+    payload.insert(payload.end(), {static_cast<uint8_t>(id >> 8), static_cast<uint8_t>(id), size});
+    for (int k = size - 1; k >= 0; --k)
+      payload.push_back(k < 4 ? static_cast<uint8_t>(value >> (8 * k)) : 0);
+  };
+  item(0x1020, 2, counter);  // PacketCounter
+  item(0x1060, 4, ticks);    // SampleTimeFine
+  item(0x4020, 12, 0);       // Acceleration, three float32 zeros
+  const auto frame = drivers::xsens_frame(drivers::xsens::kMidMtData2, payload);
+  out.write(reinterpret_cast<const char*>(frame.data()),
+            static_cast<std::streamsize>(frame.size()));
+}
+
 TEST(Session, ADurationHoldsADamagedTickToTheSampleCounter) {
   struct Case {
     int damaged;  // the sample whose tick is 0.8 s ahead
@@ -399,20 +417,7 @@ TEST(Session, ADurationHoldsADamagedTickToTheSampleCounter) {
     {
       std::ofstream bin(xsens, std::ios::binary), txt(text);
       for (int i = 0; i < 4000; ++i) {
-        // MTData2 items: id, size, a big-endian value (zero bytes beyond 4).
-        std::vector<uint8_t> payload;
-        const auto item = [&](uint16_t id, uint8_t size, uint32_t value) {
-          payload.insert(payload.end(),
-                         {static_cast<uint8_t>(id >> 8), static_cast<uint8_t>(id), size});
-          for (int k = size - 1; k >= 0; --k)
-            payload.push_back(k < 4 ? static_cast<uint8_t>(value >> (8 * k)) : 0);
-        };
-        item(0x1020, 2, static_cast<uint32_t>(i));             // PacketCounter
-        item(0x1060, 4, static_cast<uint32_t>(10 * tick(i)));  // SampleTimeFine, 10 kHz
-        item(0x4020, 12, 0);                                   // Acceleration, three float32 zeros
-        const auto frame = drivers::xsens_frame(drivers::xsens::kMidMtData2, payload);
-        bin.write(reinterpret_cast<const char*>(frame.data()),
-                  static_cast<std::streamsize>(frame.size()));
+        write_xsens_sample(bin, static_cast<uint16_t>(i), static_cast<uint32_t>(10 * tick(i)));
         txt << tick(i) << ",0,0,9.81,0,0,0\n";
       }
     }
@@ -433,6 +438,35 @@ TEST(Session, ADurationHoldsADamagedTickToTheSampleCounter) {
         EXPECT_NEAR(report.devices.at(0).rate_hz, 1000.0, 1e-9) << uri;
       }
     }
+  }
+}
+
+// Found in review (2026-11-27): a packet counter damaged in one frame that still passed its
+// check (Xsens frames carry an 8-bit sum), the tick right, counted the whole jump as samples
+// dropped (20,000 here) and put it into the rate (about 11 kHz). The sample after it continues
+// the one before it, so the index is taken for damaged: nothing dropped, 1,000 Hz. Jumping back
+// (to 3) it counted the way back up. The codec's own count takes the counter as it came.
+TEST(Session, ALoneDamagedSampleCounterIsNoLoss) {
+  for (const uint16_t damaged : {uint16_t{20'500}, uint16_t{3}}) {
+    testing::TempDir dir;
+    const std::string xsens = (dir / "xsens.bin").string();
+    {
+      std::ofstream bin(xsens, std::ios::binary);
+      for (int i = 0; i < 2000; ++i)
+        write_xsens_sample(bin, i == 500 ? damaged : static_cast<uint16_t>(i),
+                           static_cast<uint32_t>(10 * i));
+    }
+    const std::string uri = "file:" + xsens + "?codec=xsens";
+    std::vector<SessionDevice> devices;
+    devices.push_back({"dev", uri, drivers::open_device(uri), std::nullopt});
+    SessionOptions options;
+    options.path = (dir / "rec.mcap").string();
+    const SessionReport report = record_session(std::move(devices), options);
+    const DeviceProgress& d = report.devices.at(0);
+    EXPECT_EQ(d.samples, 2000u) << damaged;
+    EXPECT_EQ(d.dropped, 0u) << damaged;
+    EXPECT_NEAR(d.rate_hz, 1000.0, 1e-9) << damaged;
+    EXPECT_GT(d.codec_dropped, 0u) << damaged;
   }
 }
 
