@@ -603,11 +603,18 @@ std::optional<int64_t> json_int(const nlohmann::json& j, const char* key) {
   return it->get<int64_t>();
 }
 
+// Where a message of `device` is in `file`, for errors: the decoders count bytes from the
+// message's start, so the message is named (as read_recording_mcap names it).
+std::string message_in(const std::string& file, const McapMessageView& m,
+                       const std::string& topic) {
+  return fmt::format("{}: message {} of {}", file, m.sequence, topic);
+}
+
 // Decodes a RawImu message; in recovery (`recover`) one that does not decode is nothing.
-std::optional<RawImuMessage> decode_raw(std::span<const uint8_t> data, const std::string& file,
-                                        bool recover) {
+std::optional<RawImuMessage> decode_raw(const McapMessageView& m, const std::string& file,
+                                        const std::string& device, bool recover) {
   try {
-    return decode_raw_imu_cdr(data, file);
+    return decode_raw_imu_cdr(m.data, message_in(file, m, device + "/raw"));
   } catch (const Error&) {
     if (!recover) throw;
     return std::nullopt;
@@ -648,7 +655,7 @@ ClockScan scan_clocks(const std::string& in, const McapReadOptions& read) {
   };
   handlers.on_message = [&](const McapMessageView& m) {
     if (const auto it = scan.raw_channels.find(m.channel_id); it != scan.raw_channels.end()) {
-      const auto raw = decode_raw(m.data, in, read.recover);
+      const auto raw = decode_raw(m, in, it->second, read.recover);
       if (raw) scan.gaps[it->second].add(raw->sample_index);
       if (const auto ns = raw ? device_ns(*raw) : std::nullopt) {
         scan.clocks.try_emplace(it->second, 1e9)
@@ -745,7 +752,7 @@ class Retimer {
   };
 
   bool raw(const std::string& device, McapMessageView& m) {
-    auto raw = decode_raw(m.data, file_, recover_);
+    auto raw = decode_raw(m, file_, device, recover_);
     if (!raw) return ++dropped_, false;
     const auto clock = scan_.clocks.find(device);
     const auto ns = device_ns(*raw);
@@ -787,7 +794,7 @@ class Retimer {
     if (t == last_raw_.end()) return true;
     ImuMessage msg;
     try {
-      msg = decode_imu_cdr(m.data, file_);
+      msg = decode_imu_cdr(m.data, message_in(file_, m, device));
     } catch (const Error&) {
       if (!recover_) throw;
       return ++dropped_, false;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 
+#include "imukit/capture/mcap.hpp"
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/capture/ros_messages.hpp"
 #include "imukit/core/error.hpp"
@@ -467,6 +468,32 @@ TEST(Session, ALoneDamagedSampleCounterIsNoLoss) {
     EXPECT_EQ(d.dropped, 0u) << damaged;
     EXPECT_NEAR(d.rate_hz, 1000.0, 1e-9) << damaged;
     EXPECT_GT(d.codec_dropped, 0u) << damaged;
+  }
+}
+
+// Found in review (2026-11-27): re-timing a file whose message did not decode named a byte of
+// the message as if of the file ("rec.mcap: byte 4: ..."). The message is named now.
+TEST(Session, RefitNamesTheMessageThatDoesNotDecode) {
+  testing::TempDir dir;
+  const std::string in = (dir / "in.mcap").string(), out = (dir / "out.mcap").string();
+  {
+    McapWriter writer(in);
+    const uint16_t schema = writer.add_schema(kRawImuSchemaName, "ros2msg", kRawImuSchemaText);
+    const uint16_t channel = writer.add_channel(schema, "/imu/dev/raw", "cdr");
+    RawImuMessage raw;
+    raw.tick_hz = 1000.0;
+    const auto good = encode_cdr(raw);
+    writer.write_message(channel, 0, 0, good);
+    const std::vector<uint8_t> big_endian{0x00, 0x00, 0x00, 0x00, 0x01};
+    writer.write_message(channel, 1'000'000, 1'000'000, big_endian);
+    writer.close();
+  }
+  try {
+    refit_recording_clocks(in, out);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("in.mcap: message 1 of dev/raw"), std::string::npos)
+        << e.what();
   }
 }
 
