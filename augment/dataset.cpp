@@ -90,6 +90,10 @@ std::vector<int64_t> read_labels(const std::string& path, std::span<const double
       if (v != std::floor(v) || std::abs(v) > 9e15)
         throw Error(InputLocation{path, reader.line_number(), f.column, std::nullopt},
                     "a label must be an integer");
+      if (v < static_cast<double>(kNoLabel))
+        throw Error(
+            InputLocation{path, reader.line_number(), f.column, std::nullopt},
+            fmt::format("label {}: a label is a class index >= 0, or {} for none", v, kNoLabel));
       return static_cast<int64_t>(v);
     };
     if (per_sample) {
@@ -129,6 +133,14 @@ std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<co
   if (window == 0) throw Error("windowing: the window must be >= 1 sample");
   std::vector<int64_t> out(starts.size(), kNoLabel);
   if (labels.empty()) return out;
+  // Below kNoLabel is neither a class nor "none" (found in review: `augment --labels` wrote -3
+  // into y.npy as a class).
+  if (const auto low =
+          std::find_if(labels.begin(), labels.end(), [](int64_t l) { return l < kNoLabel; });
+      low != labels.end()) {
+    throw Error(fmt::format("labels[{}] is {}; a label is a class index >= 0, or {} for none",
+                            low - labels.begin(), *low, kNoLabel));
+  }
   std::map<int64_t, std::size_t> counts;
   for (std::size_t w = 0; w < starts.size(); ++w) {
     // A negative start wrapped to a huge one whose end wrapped back inside: "unlabelled"
@@ -333,7 +345,7 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   // Every sub-policy up front: a bad one drawn late would fail hours into the run.
   for (const SubPolicy& sub : policy.sub_policies) aug.check(sub);
   const std::vector<int64_t> base = aug.window_starts(options.stride);
-  if (!labels.empty() && labels.size() < static_cast<std::size_t>(aug.sample_count()))
+  if (!labels.empty() && labels.size() != static_cast<std::size_t>(aug.sample_count()))
     throw Error(
         fmt::format("augment: {} labels for {} samples", labels.size(), aug.sample_count()));
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);

@@ -48,7 +48,8 @@ std::vector<int64_t> read_labels(const std::string& path, std::span<const double
 // Window starts 0, stride, 2 stride, ... while start + window <= samples.
 std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride);
 // The majority label of each window (ties to the smaller label; kNoLabel loses every tie and
-// wins only when the whole window is unlabelled). Empty labels: every window kNoLabel.
+// wins only when the whole window is unlabelled). Empty labels: every window kNoLabel. Throws
+// imukit::Error for a label below kNoLabel.
 std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<const int64_t> starts,
                                    std::size_t window);
 

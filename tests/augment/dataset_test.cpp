@@ -34,6 +34,10 @@ TEST(Dataset, WindowStartsAndMajorityLabels) {
   EXPECT_THROW(window_labels(labels, s0, 0), Error);
   const std::vector<int64_t> late = {7};
   EXPECT_THROW(window_labels(labels, late, 4), Error);
+  // Found in review (2026-11-27): a label below kNoLabel was a class (`augment --labels` wrote
+  // -3 into y.npy).
+  const std::vector<int64_t> below = {1, 1, -3, 2};
+  EXPECT_THROW(window_labels(below, s0, 4), Error);
   EXPECT_EQ(window_starts(std::size_t{1} << 62, 2, std::size_t{1} << 61),
             (std::vector<int64_t>{0, int64_t{1} << 61}));
   EXPECT_THROW(window_starts(~std::size_t{0}, 2, std::size_t{1} << 63), Error);
@@ -51,6 +55,13 @@ TEST(Dataset, SegmentsBecomePerSampleLabels) {
   EXPECT_EQ(read_labels(dir + "/per.csv", uniform_times_s(3, 10.0)),
             (std::vector<int64_t>{1, 2, 3}));
   EXPECT_THROW(read_labels(dir + "/per.csv", uniform_times_s(4, 10.0)), Error);
+  std::ofstream(dir + "/low.csv") << "start_s,end_s,label\n0,0.5,4\n0.5,1.0,-3\n";
+  try {
+    read_labels(dir + "/low.csv", uniform_times_s(12, 10.0));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("low.csv:3:9"), std::string::npos) << e.what();
+  }
   std::ofstream(dir + "/bad.csv") << "label\n1\nx\n";
   try {
     read_labels(dir + "/bad.csv", uniform_times_s(2, 10.0));
@@ -144,6 +155,11 @@ TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
     EXPECT_EQ(a.y[k], static_cast<int64_t>(base * 50 / 100)) << k;
     EXPECT_EQ(a.sub_policy[k], a.sub_policy[k - k % 8]);  // one per batch
   }
+  // Found in review (2026-11-27): more labels than samples were taken (the first ones used),
+  // where the recording path refused them.
+  std::vector<int64_t> longer = labels;
+  longer.push_back(0);
+  EXPECT_THROW(generate_dataset(scene, policy, longer, o), Error);
   o.seed = 78;
   const Dataset c = generate_dataset(scene, policy, labels, o);
   EXPECT_NE(a.X, c.X);
