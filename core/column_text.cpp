@@ -1,6 +1,7 @@
 #include "imukit/core/column_text.hpp"
 
 #include <fmt/core.h>
+#include <algorithm>
 #include <cmath>
 
 #include "imukit/core/error.hpp"
@@ -105,6 +106,7 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
 
   std::vector<Field> fields;
   bool first_row = true;
+  int64_t next_line = 0;  // where a data row follows the one before (ColumnTable::line_jumps)
   while (auto line = reader.next()) {
     if (is_blank_line(*line)) continue;
     // A UTF-8 byte-order mark (spreadsheets' "CSV UTF-8" exports) before the first row would turn
@@ -116,14 +118,30 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
     };
     if (first_row) {
       first_row = false;
-      const bool header = !fields.empty() && !parse_double(fields.front().text) &&
-                          !is_nan_token(fields.front().text);
+      table.first_row_line = next_line = reader.line_number();
+      // A header by its first field that the map reads (a skipped first column of text, such as
+      // a date, made every first data row a header: found in review, 2026-11-27).
+      const Field* first_mapped = fields.empty() ? nullptr : &fields.front();
+      for (std::size_t i = 0; i < std::min(fields.size(), spec.columns.size()); ++i) {
+        if (spec.columns[i]) {
+          first_mapped = &fields[i];
+          break;
+        }
+      }
+      const bool header = first_mapped != nullptr && !parse_double(first_mapped->text) &&
+                          !is_nan_token(first_mapped->text);
       if (header) {
-        for (const Field& f : fields) table.header.emplace_back(f.text);
+        for (const Field& f : fields) {
+          table.header.emplace_back(f.text);
+          table.header_columns.push_back(f.column);
+        }
       }
       if (check_header) check_header(table);
       if (header) continue;
     }
+    if (reader.line_number() != next_line)
+      table.line_jumps.emplace_back(table.rows, reader.line_number());
+    next_line = reader.line_number() + 1;
     if (fields.size() < spec.columns.size() ||
         (fields.size() > spec.columns.size() && !spec.ignore_extra)) {
       throw Error(where(1), fmt::format("expected {} columns ({}), found {}{}", spec.columns.size(),
@@ -200,6 +218,15 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
 }
 
 }  // namespace
+
+int64_t ColumnTable::line_of(std::size_t row) const {
+  // The last jump at or before the row; rows after it follow line by line.
+  auto it = std::upper_bound(line_jumps.begin(), line_jumps.end(), row,
+                             [](std::size_t r, const auto& jump) { return r < jump.first; });
+  if (it == line_jumps.begin()) return first_row_line + static_cast<int64_t>(row);
+  --it;
+  return it->second + static_cast<int64_t>(row - it->first);
+}
 
 std::string_view column_name(Column c) { return kNames[index(c)]; }
 
@@ -338,10 +365,9 @@ ImuSeries to_imu_series(const ColumnTable& table, const ChannelScale& scale) {
         const double si = v[i] * factor;
         // A finite value that its unit turns into infinity (1e308 g): found in review, passed.
         if (std::isinf(si) && std::isfinite(v[i])) {
-          throw Error(InputLocation{table.source, {}, {}, {}},
-                      fmt::format("data row {}: {} = {} times {:g} (its unit in SI) is beyond a "
-                                  "double",
-                                  i + 1, kNames[first + axis], v[i], factor));
+          throw Error(InputLocation{table.source, table.line_of(i), {}, {}},
+                      fmt::format("{} = {} times {:g} (its unit in SI) is beyond a double",
+                                  kNames[first + axis], v[i], factor));
         }
         out(static_cast<Eigen::Index>(axis), static_cast<Eigen::Index>(i)) = si;
       }

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "imukit/core/imu_series.hpp"
@@ -77,8 +78,10 @@ struct ColumnSpec {
 // The numbers of a column-mapped file, one vector per named column.
 struct ColumnTable {
   std::string source;
-  std::vector<std::string> header;  // the header row's fields, if the file had one
-  std::vector<TimeNs> t;            // empty when the map has no t column
+  std::vector<std::string> header;      // the header row's fields, if the file had one
+  std::vector<int64_t> header_columns;  // where each header field starts (1-based character)
+  int64_t first_row_line = 0;           // the line of the first row, header or data (1-based)
+  std::vector<TimeNs> t;                // empty when the map has no t column
   std::array<std::vector<double>, kColumnCount> values;  // empty for columns not in the map
   std::bitset<kColumnCount> present;                     // the columns the map named
   std::size_t rows = 0;
@@ -87,6 +90,12 @@ struct ColumnTable {
   const std::vector<double>& operator[](Column c) const {
     return values[static_cast<std::size_t>(c)];
   }
+  // The file line of data row `row` (0-based), for messages.
+  int64_t line_of(std::size_t row) const;
+
+  // Data rows whose line is not the line after the row before's (blank lines, a header):
+  // (row, line) pairs in order, so line_of costs no memory per row.
+  std::vector<std::pair<std::size_t, int64_t>> line_jumps;
 };
 
 // check_header, when given, sees the table once its header row is read (table.header; empty

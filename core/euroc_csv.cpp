@@ -30,7 +30,9 @@ void check_header(const ColumnTable& table) {
   static constexpr std::string_view kUnits[] = {
       "[ns]", "[rad s^-1]", "[rad s^-1]", "[rad s^-1]", "[m s^-2]", "[m s^-2]", "[m s^-2]"};
   const auto fail = [&](std::size_t k, const std::string& what) {
-    throw Error(InputLocation{table.source, 1, static_cast<int64_t>(k + 1), {}},
+    // At the header's field k where there is a header, else at the first row.
+    const int64_t column = k < table.header_columns.size() ? table.header_columns[k] : 1;
+    throw Error(InputLocation{table.source, table.first_row_line, column, {}},
                 fmt::format("not an EuRoC IMU CSV: {}; the header is '{}' (for other columns, "
                             "say what they are with --columns)",
                             what, kEurocHeader));
@@ -78,6 +80,9 @@ void write_euroc_csv(std::FILE* out, const std::string& name, const ImuSeriesVie
   if (series.size() > 0 && (!series.has_accel() || !series.has_gyro())) {
     throw Error(fmt::format("{}: an EuRoC CSV needs both accelerometer and gyroscope", name));
   }
+  // read_euroc_csv refuses times that go back: refused before anything is written (found in
+  // review, 2026-11-27: the Python binding wrote such a file).
+  check_time_order(series.t, name);
   fmt::memory_buffer buffer;
   fmt::format_to(std::back_inserter(buffer), "{}\n", kEurocHeader);
   for (std::size_t i = 0; i < series.size(); ++i) {

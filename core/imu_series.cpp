@@ -53,6 +53,10 @@ void ImuSeries::validate(std::string_view source) const {
   check_columns(source, "gyro", gyro.cols(), size());
   check_columns(source, "mag", mag.cols(), size());
   check_columns(source, "temperature", temperature_c.size(), size());
+  check_time_order(t, source);
+}
+
+void check_time_order(std::span<const TimeNs> t, std::string_view source) {
   for (std::size_t i = 1; i < t.size(); ++i) {
     if (t[i] < t[i - 1]) {
       throw Error(

@@ -47,6 +47,9 @@ struct ImuSeries {
   ImuSeriesView view() const;
 };
 
+// Throws imukit::Error, naming `source` and the sample, where a time is before the one before.
+void check_time_order(std::span<const TimeNs> t, std::string_view source);
+
 // A read-only window into an ImuSeries; valid while the series is alive and not resized.
 class ImuSeriesView {
  public:

@@ -124,7 +124,7 @@ def test_found_in_review_2026_11_26(run, converted):
     with open(big, "w") as f:
         f.write("0 1e308 0 1\n0.01 1 0 1\n")
     r = run("info", big, "--columns", "t,ax,ay,az", "--accel-unit", "g")
-    assert r.returncode == 1 and "data row 1: ax = 1e+308 times 9.80665" in r.stderr, r.stderr
+    assert r.returncode == 1 and "big.txt:1: ax = 1e+308 times 9.80665" in r.stderr, r.stderr
 
 
 @pytest.fixture(scope="module")

@@ -62,6 +62,38 @@ TEST(ColumnText, ReadsHeaderCommasBlanksAndTimeUnits) {
   ASSERT_EQ(blanks.rows, 2u);
   EXPECT_EQ(blanks.t[1], 20'000'000'000);
   EXPECT_EQ(blanks[Column::gx][0], 0.5);
+
+  // Where the header's fields and the data rows are, for messages.
+  EXPECT_EQ(t.first_row_line, 1);
+  EXPECT_EQ(t.header_columns, (std::vector<int64_t>{1, 6, 12, 18}));
+  EXPECT_EQ(t.line_of(0), 2);
+  EXPECT_EQ(t.line_of(1), 4);
+  const ColumnTable spaced =
+      parse_column_text("\n\n1 2\n2 3\n\n3 4\n4 5\n5 6\n\n\n6 7\n", "m", ColumnSpec::parse("t,ax"));
+  ASSERT_EQ(spaced.rows, 6u);
+  const std::vector<int64_t> lines = {3, 4, 6, 7, 8, 11};
+  for (std::size_t r = 0; r < lines.size(); ++r) EXPECT_EQ(spaced.line_of(r), lines[r]) << r;
+}
+
+// Found in review (2026-11-27): the header was told by the first field alone, so a file whose
+// skipped first column is text (a date) lost its first data row silently. The first field the
+// map reads decides.
+TEST(ColumnText, AHeaderIsToldByTheFirstFieldTheMapReads) {
+  const std::string rows =
+      "2024-01-01T00:00:00Z,0.00,1,2,3\n"
+      "2024-01-01T00:00:01Z,0.01,4,5,6\n";
+  const ColumnTable dated = parse_column_text(rows, "m", ColumnSpec::parse("_,t,ax,ay,az"));
+  ASSERT_EQ(dated.rows, 2u);
+  EXPECT_TRUE(dated.header.empty());
+  EXPECT_EQ(dated[Column::ax][0], 1.0);
+  const ColumnTable headed =
+      parse_column_text("date,time,ax,ay,az\n" + rows, "m", ColumnSpec::parse("_,t,ax,ay,az"));
+  ASSERT_EQ(headed.rows, 2u);
+  EXPECT_EQ(headed.header.size(), 5u);
+  // A first row whose first mapped field is a number and a later one is not is data: its error
+  // names the field rather than the row being skipped as a header.
+  expect_error([&] { parse_column_text("0,1,x,3\n", "m.csv", ColumnSpec::parse("t,ax,ay,az")); },
+               {"m.csv:1:5", "'x' is not a number"});
 }
 
 TEST(ColumnText, GappyColumnsKeepNaNOthersRejectIt) {
@@ -157,6 +189,15 @@ TEST(ColumnText, ToImuSeriesScalesAndChecksTriads) {
   expect_error([&] { to_imu_series(partial); }, {"accelerometer needs all three columns"});
   const ColumnTable no_time = parse_column_text("1 2 3\n", "m", ColumnSpec::parse("ax,ay,az"));
   expect_error([&] { to_imu_series(no_time); }, {"no time column"});
+  // A finite value its unit turns into infinity, named at its file line (found in review,
+  // 2026-11-27: "data row 1", counting neither the header nor blank lines).
+  const ColumnTable big = parse_column_text("t,ax,ay,az\n\n0,1,0,0\n0.01,1e308,0,0\n", "big.csv",
+                                            ColumnSpec::parse("t,ax,ay,az"));
+  expect_error(
+      [&] {
+        to_imu_series(big, ChannelScale{9.80665, 1.0, 1.0});
+      },
+      {"big.csv:4: ax = 1e+308 times 9.80665"});
 }
 
 // Found in review: a partial triad was found only once the rows were read (after a row's column

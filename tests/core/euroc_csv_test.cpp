@@ -1,12 +1,15 @@
 #include "imukit/core/euroc_csv.hpp"
 
 #include <gtest/gtest.h>
+#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/rng.hpp"
+#include "support/expect_error.hpp"
 #include "support/test_data.hpp"
 
 namespace imukit {
@@ -97,7 +100,10 @@ TEST(EurocCsv, RequiresTheHeader) {
   const struct {
     std::string header, expect;
   } bad[] = {
-      {"timestamp,ax,ay,az,gx,gy,gz", "x.csv:1:2: not an EuRoC IMU CSV: column 2 is 'ax'"},
+      {"timestamp,ax,ay,az,gx,gy,gz", "x.csv:1:11: not an EuRoC IMU CSV: column 2 is 'ax'"},
+      // At the header's line and the field's character (found in review, 2026-11-27: always
+      // line 1, and the field's number for its column).
+      {"\n\ntimestamp, ax,ay,az,gx,gy,gz", "x.csv:3:12: not an EuRoC IMU CSV: column 2 is 'ax'"},
       {"#timestamp [ns],a_RS_S_x [m s^-2],a_RS_S_y [m s^-2],a_RS_S_z [m s^-2],"
        "w_RS_S_x [rad s^-1],w_RS_S_y [rad s^-1],w_RS_S_z [rad s^-1]",
        "column 2 is 'a_RS_S_x [m s^-2]', where EuRoC has the gyroscope"},
@@ -126,6 +132,20 @@ TEST(EurocCsv, RequiresTheHeader) {
           << e.what() << "\n  expected: " << c.expect;
     }
   }
+}
+
+// Found in review (2026-11-27): times that go back were written, into a file read_euroc_csv
+// refuses. Refused before anything is written.
+TEST(EurocCsv, TimesThatGoBackAreRefusedBeforeWriting) {
+  ImuSeries s = ImuSeries::with_channels(3, true, true);
+  s.t = {0, 10, 5};
+  s.accel.setZero();
+  s.gyro.setZero();
+  const std::string path = ::testing::TempDir() + "/back.csv";
+  std::remove(path.c_str());
+  expect_error([&] { write_euroc_csv(path, s.view()); },
+               {"back.csv: time goes backwards at sample 2"});
+  EXPECT_FALSE(std::filesystem::exists(path));
 }
 
 TEST(EurocCsv, UnwritablePathIsAClearError) {
