@@ -120,8 +120,9 @@ class CounterUnwrapper {
 // Device ticks (unwrapped) to ns at tick_hz, exact in 128-bit integer arithmetic.
 TimeNs ticks_to_ns(int64_t ticks, uint64_t tick_hz);
 
-// Samples as an ImuSeries (channels present in the first sample; times from device_time when
-// every sample has one and use_device_time, else host_time).
+// Samples as an ImuSeries (the channels of its samples, which must all have the same ones, else
+// imukit::Error; times from device_time when every sample has one and use_device_time, else
+// host_time).
 ImuSeries to_series(std::span<const Sample> samples, bool use_device_time = true);
 
 }  // namespace imukit::drivers

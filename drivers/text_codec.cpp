@@ -2,8 +2,10 @@
 
 #include <charconv>
 #include <cmath>
+#include <optional>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/text_parse.hpp"
 #include "imukit/core/units.hpp"
 
 namespace imukit::drivers {
@@ -12,13 +14,13 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
   TextCodecOptions o;
   const std::string t = option_string(options, "time_unit", "ms");
   if (t == "s")
-    o.time_scale_ns = 1e9;
+    o.time_digits = 9;
   else if (t == "ms")
-    o.time_scale_ns = 1e6;
+    o.time_digits = 6;
   else if (t == "us")
-    o.time_scale_ns = 1e3;
+    o.time_digits = 3;
   else if (t == "ns")
-    o.time_scale_ns = 1.0;
+    o.time_digits = 0;
   else
     throw Error("time_unit=" + t + ": expected s, ms, us or ns");
   const std::string a = option_string(options, "accel_unit", "mps2");
@@ -86,14 +88,16 @@ void TextCodec::decode_end(TimeNs host_time, std::vector<Sample>& out) {
 void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Sample>& out) {
   std::string_view line(line_);
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-  const bool first = lines_++ == 0;
-  // Blank lines are idle output, neither data nor loss.
+  // Blank lines are idle output, neither data nor loss, nor the first line (found in review,
+  // 2026-11-27: a sketch's blank Serial.println() before its header made the header a bad line).
   if (line.find_first_not_of(" \t") == std::string_view::npos) {
     stats_.bytes_accepted += raw_size;
     ++stats_.frames_other;
     return;
   }
+  const bool first = lines_++ == 0;
   double v[7];
+  std::string_view t_field;
   int n = 0;
   bool ok = true;
   std::size_t pos = 0;
@@ -114,6 +118,7 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
       break;
     }
     if (field.front() == '+') field.remove_prefix(1);
+    if (n == 0) t_field = field;
     const auto r = std::from_chars(field.data(), field.data() + field.size(), v[n]);
     if (r.ec != std::errc() || r.ptr != field.data() + field.size() || !std::isfinite(v[n])) {
       ok = false;
@@ -134,7 +139,9 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
     ++stats_.samples_dropped;
     return;
   }
-  const double t_ns = v[0] * opt_.time_scale_ns;
+  // The time exactly, as column text reads it: through a double, 1700000000.1234567 s came out
+  // 68 ns off (found in review, 2026-11-27). Beyond int64 ns it is a bad line.
+  const std::optional<int64_t> t_ns = parse_scaled_integer(t_field, opt_.time_digits);
   Sample s;
   for (int k = 0; k < 3; ++k) {
     s.accel[k] = v[1 + k] * opt_.accel_scale;
@@ -145,7 +152,7 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
   // lines, so a gap in it would count the line a second time; found in review).
   const bool scaled_finite =
       std::isfinite(s.accel[0] + s.accel[1] + s.accel[2] + s.gyro[0] + s.gyro[1] + s.gyro[2]);
-  if (!(std::abs(t_ns) < 9e18) || !scaled_finite) {
+  if (!t_ns || !scaled_finite) {
     stats_.bytes_discarded += raw_size;
     ++stats_.frames_corrupt;
     ++stats_.samples_dropped;
@@ -154,7 +161,7 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
   stats_.bytes_accepted += raw_size;
   ++stats_.frames_ok;
   s.host_time = host_time;
-  s.device_time = std::llround(t_ns);
+  s.device_time = *t_ns;
   s.has_device_time = true;
   s.sequence = sequence_++;
   s.channels = kHasAccel | kHasGyro;

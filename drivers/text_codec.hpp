@@ -11,9 +11,9 @@
 namespace imukit::drivers {
 
 struct TextCodecOptions {
-  double time_scale_ns = 1e6;  // ns per unit of t
-  double accel_scale = 1.0;    // m/s^2 per unit
-  double gyro_scale = 1.0;     // rad/s per unit
+  int time_digits = 6;       // decimal digits from the unit of t to ns (s 9, ms 6, us 3, ns 0)
+  double accel_scale = 1.0;  // m/s^2 per unit
+  double gyro_scale = 1.0;   // rad/s per unit
 };
 
 // Options from `time_unit`, `accel_unit`, `gyro_unit` keys; throws imukit::Error naming a bad

@@ -34,6 +34,34 @@ TEST(TextCodec, ReadsCsvAndWhitespaceWithStatedUnits) {
   testing::expect_byte_accounting(codec);
 }
 
+// Found in review (2026-11-27): a blank line before the header (a sketch's Serial.println())
+// took the first line's place, so the header counted as a corrupt frame and a dropped sample;
+// and times went through a double, 68 ns off at 1.7e9 s.
+TEST(TextCodec, BlankLinesBeforeTheHeaderAndTimesToTheNanosecond) {
+  TextCodec codec(text_codec_options({{"time_unit", "s"}}));
+  std::vector<Sample> out;
+  codec.feed(bytes("\r\n\nt,ax,ay,az,gx,gy,gz\r\n1700000000.1234567,0,0,1,0,0,0\r\n"
+                   "1700000000.123456789,0,0,1,0,0,0\n"),
+             0, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].device_time, 1'700'000'000'123'456'700);
+  EXPECT_EQ(out[1].device_time, 1'700'000'000'123'456'789);
+  EXPECT_EQ(codec.stats().frames_corrupt, 0u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+  EXPECT_EQ(codec.stats().frames_other, 3u);  // two blank lines and the header
+  testing::expect_byte_accounting(codec);
+  TextCodec us(text_codec_options({{"time_unit", "us"}}));
+  out.clear();
+  us.feed(bytes("1700000000123456.7 0 0 1 0 0 0\n"), 0, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].device_time, 1'700'000'000'123'456'700);
+  // A time beyond int64 ns is a bad line, as before.
+  out.clear();
+  us.feed(bytes("1e30 0 0 1 0 0 0\n"), 0, out);
+  EXPECT_TRUE(out.empty());
+  EXPECT_EQ(us.stats().frames_corrupt, 1u);
+}
+
 TEST(TextCodec, HasNoTimeSyncPoints) {
   TextCodec codec(text_codec_options({}));
   std::vector<Sample> out;
@@ -73,7 +101,7 @@ TEST(TextCodec, CountsEveryBrokenLineAndSurvivesSplits) {
     }
     text += line;
   }
-  TextCodec codec(TextCodecOptions{1e9, 1, 1});
+  TextCodec codec(TextCodecOptions{9, 1, 1});
   const auto out = testing::feed_split(codec, bytes(text), rng, 300);
   EXPECT_EQ(out.size(), static_cast<std::size_t>(n) - broken.size());
   EXPECT_EQ(codec.stats().samples_dropped, broken.size());
