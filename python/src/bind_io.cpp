@@ -59,8 +59,8 @@ SeriesPtr make_series(py::handle t, py::handle accel, py::handle gyro, py::handl
 // and gyro showed them as None.
 py::object channel_view(const py::object& self, const Eigen::Matrix3Xd ImuSeries::*channel) {
   const ImuSeries& s = self.cast<const ImuSeries&>();
-  if (s.size() == 0) return py::array_t<double>(std::vector<py::ssize_t>{0, 3});
-  return triad_view(s.*channel, self);
+  if (s.size() == 0) return read_only(py::array_t<double>(std::vector<py::ssize_t>{0, 3}));
+  return read_only(triad_view(s.*channel, self));
 }
 
 // accel and gyro as one (n, 6) array, channels ax ay az gx gy gz (the dataset order of
@@ -146,29 +146,33 @@ DeviceProfile profile_argument(py::handle obj, std::optional<double> rate_hz) {
 void bind_io(py::module_& m) {
   py::class_<ImuSeries, SeriesPtr>(m, "Series", R"doc(
 One IMU stream in SI units: t (int64 ns), accel (m/s^2), gyro (rad/s), mag (T), each (n, 3)
-float64, temperature (n,) degrees C; absent channels are None. The arrays are views of the
-Series' own memory (no copy); they keep it alive.
+float64, temperature (n,) degrees C; absent channels are None. The arrays are read-only views
+of the Series' own memory (no copy); they keep it alive. To change samples, change a copy
+(np.array(s.accel)) and make a new Series: its samples are checked once, when it is made.
 
 Series(t, accel=None, gyro=None, mag=None, temperature=None) copies the given arrays.)doc")
       .def(py::init(&make_series), py::arg("t"), py::arg("accel") = py::none(),
            py::arg("gyro") = py::none(), py::arg("mag") = py::none(),
            py::arg("temperature") = py::none())
       .def("__len__", &ImuSeries::size)
-      .def_property_readonly(
-          "t", [](py::object self) { return vector_view(self.cast<const ImuSeries&>().t, self); })
+      .def_property_readonly("t",
+                             [](py::object self) {
+                               return read_only(vector_view(self.cast<const ImuSeries&>().t, self));
+                             })
       .def_property_readonly("accel",
                              [](py::object self) { return channel_view(self, &ImuSeries::accel); })
       .def_property_readonly("gyro",
                              [](py::object self) { return channel_view(self, &ImuSeries::gyro); })
       .def_property_readonly("mag",
                              [](py::object self) { return channel_view(self, &ImuSeries::mag); })
-      .def_property_readonly("temperature",
-                             [](py::object self) -> py::object {
-                               const ImuSeries& s = self.cast<const ImuSeries&>();
-                               if (!s.has_temperature()) return py::none();
-                               return view_of(s.temperature_c.data(), {s.temperature_c.size()},
-                                              {sizeof(double)}, self);
-                             })
+      .def_property_readonly(
+          "temperature",
+          [](py::object self) -> py::object {
+            const ImuSeries& s = self.cast<const ImuSeries&>();
+            if (!s.has_temperature()) return py::none();
+            return read_only(
+                view_of(s.temperature_c.data(), {s.temperature_c.size()}, {sizeof(double)}, self));
+          })
       .def("channels", &stacked, py::arg("dtype") = py::dtype::of<float>(),
            "accel and gyro as a new (n, 6) array, channels ax ay az gx gy gz (float32 by default)")
       .def("__repr__", [](const ImuSeries& s) {

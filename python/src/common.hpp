@@ -230,6 +230,13 @@ py::array view_of(const T* data, std::vector<py::ssize_t> shape, std::vector<py:
   return py::array_t<T>(std::move(shape), std::move(strides), data, owner);
 }
 
+// The same view, read-only (NumPy refuses writes through it): for objects whose samples were
+// checked when they were made (a Series is finite and in time order; C++ relies on both).
+inline py::object read_only(py::object view) {
+  if (!view.is_none()) view.attr("setflags")(py::arg("write") = false);
+  return view;
+}
+
 // Eigen 3 x n column-major as a (n, 3) view.
 inline py::object triad_view(const Eigen::Matrix3Xd& m, py::handle owner) {
   if (m.cols() == 0) return py::none();

@@ -38,12 +38,19 @@ class SeriesViews(unittest.TestCase):
         self.assertEqual(v1.__array_interface__["data"][0], v2.__array_interface__["data"][0])
         self.assertTrue(np.shares_memory(v1, v2))
         self.assertFalse(v1.flags.owndata)
-        # ... and that buffer is the Series' own: a write through one view is seen by the next.
-        v1[3, 2] = -123.5
-        self.assertEqual(s.accel[3, 2], -123.5)
-        # The constructor copied its inputs (documented), so the caller's array is unchanged.
+        # ... and read-only (found in review, 2026-11-27: a NaN written through a view reached
+        # generate_dataset unchecked, and C++ relies on a Series' times being in order).
+        for view in (s.t, s.accel, s.gyro):
+            self.assertFalse(view.flags.writeable)
+        with self.assertRaises(ValueError):
+            v1[3, 2] = np.nan
+        with self.assertRaises(ValueError):
+            s.t[10] = s.t[5]
+        self.assertEqual(s.accel[3, 2], a[3, 2])
+        # The constructor copied its inputs (documented), so they stay the caller's to change.
         self.assertFalse(np.shares_memory(s.accel, a))
-        self.assertNotEqual(a[3, 2], -123.5)
+        empty = imukit.Series(np.zeros(0, np.int64), accel=np.zeros((0, 3)), gyro=np.zeros((0, 3)))
+        self.assertFalse(empty.accel.flags.writeable)
         np.testing.assert_array_equal(s.t, t)
         np.testing.assert_array_equal(s.gyro, g)
         self.assertIsNone(s.mag)
