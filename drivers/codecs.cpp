@@ -25,7 +25,7 @@ std::vector<std::string> codec_keys(const std::string& name, bool decode_only) {
   if (name == "xsens")
     return decode_only ? std::vector<std::string>{} : std::vector<std::string>{"rate", "mag_rate"};
   if (name == "witmotion") return {"rate", "commands", "accel_range_g", "gyro_range_dps"};
-  if (name == "text") return {"time_unit", "accel_unit", "gyro_unit"};
+  if (name == "text") return {"time_unit", "time_bits", "accel_unit", "gyro_unit"};
   return {};  // dualshock4, dualsense: nothing to configure
 }
 

@@ -23,6 +23,11 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
     o.time_digits = 0;
   else
     throw Error("time_unit=" + t + ": expected s, ms, us or ns");
+  const std::string bits = option_string(options, "time_bits", "0");
+  const std::optional<int64_t> b = parse_scaled_integer(bits, 0);
+  if (!b || bits.find_first_not_of("0123456789") != std::string::npos || *b > 63)
+    throw Error("time_bits=" + bits + ": expected a whole number of bits, 1 to 63 (0: no wrap)");
+  o.time_bits = static_cast<unsigned>(*b);
   const std::string a = option_string(options, "accel_unit", "mps2");
   if (a == "g")
     o.accel_scale = kStandardGravity;
@@ -40,7 +45,9 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
   return o;
 }
 
-TextCodec::TextCodec(TextCodecOptions options) : opt_(options) {}
+TextCodec::TextCodec(TextCodecOptions options) : opt_(options) {
+  if (opt_.time_bits > 0) time_counter_.emplace(opt_.time_bits);
+}
 
 void TextCodec::decode(std::span<const uint8_t> data, TimeNs host_time, std::vector<Sample>& out) {
   stats_.bytes_received += data.size();
@@ -83,6 +90,19 @@ void TextCodec::decode_end(TimeNs host_time, std::vector<Sample>& out) {
     on_line(line_.size(), host_time, out);  // a last line without its newline
   }
   line_.clear();
+}
+
+std::optional<int64_t> TextCodec::unwrap_time(std::string_view t) {
+  // A wrapping counter is a whole number in [0, 2^bits): anything else is a damaged line.
+  const std::optional<int64_t> count = parse_scaled_integer(t, 0);
+  if (!count || t.find_first_not_of("0123456789") != std::string_view::npos ||
+      (opt_.time_bits < 63 && *count >= (int64_t{1} << opt_.time_bits)))
+    return std::nullopt;
+  const int64_t unwrapped = time_counter_->unwrap(static_cast<uint64_t>(*count));
+  int64_t scale = 1, ns = 0;
+  for (int d = 0; d < opt_.time_digits; ++d) scale *= 10;
+  if (__builtin_mul_overflow(unwrapped, scale, &ns)) return std::nullopt;
+  return ns;
 }
 
 void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Sample>& out) {
@@ -141,7 +161,8 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
   }
   // The time exactly, as column text reads it: through a double, 1700000000.1234567 s came out
   // 68 ns off (found in review, 2026-11-27). Beyond int64 ns it is a bad line.
-  const std::optional<int64_t> t_ns = parse_scaled_integer(t_field, opt_.time_digits);
+  std::optional<int64_t> t_ns = parse_scaled_integer(t_field, opt_.time_digits);
+  if (time_counter_ && t_ns) t_ns = unwrap_time(t_field);
   Sample s;
   for (int k = 0; k < 3; ++k) {
     s.accel[k] = v[1 + k] * opt_.accel_scale;

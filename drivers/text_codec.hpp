@@ -3,15 +3,21 @@
 // time_unit s|ms|us|ns (default ms, Arduino's millis()), accel_unit g|mps2 (default mps2),
 // gyro_unit dps|rads (default rads). A first line that is not numeric is a header and skipped;
 // any later line that does not parse (wrong field count, not a number, non-finite, longer than
-// 512 bytes) is counted as a corrupt frame and a dropped sample. The device time is the t column.
+// 512 bytes) is counted as a corrupt frame and a dropped sample. The device time is the t column,
+// unwrapped where time_bits says it counts modulo 2^bits (Arduino's micros() is 32 bits: at
+// time_unit=us it wraps every 71.6 minutes, which would read as a restart of the device clock).
 #pragma once
+
+#include <optional>
 
 #include "imukit/drivers/codec.hpp"
 
 namespace imukit::drivers {
 
 struct TextCodecOptions {
-  int time_digits = 6;       // decimal digits from the unit of t to ns (s 9, ms 6, us 3, ns 0)
+  int time_digits = 6;  // decimal digits from the unit of t to ns (s 9, ms 6, us 3, ns 0)
+  unsigned time_bits =
+      0;  // t counts modulo 2^time_bits (1..63; a whole number), 0: it does not wrap
   double accel_scale = 1.0;  // m/s^2 per unit
   double gyro_scale = 1.0;   // rad/s per unit
 };
@@ -35,6 +41,8 @@ class TextCodec : public Codec {
 
  private:
   void on_line(std::size_t raw_size, TimeNs host_time, std::vector<Sample>& out);
+  // t (a whole count modulo 2^time_bits) unwrapped, in ns; nullopt for a damaged t.
+  std::optional<int64_t> unwrap_time(std::string_view t);
 
   TextCodecOptions opt_;
   std::string line_;
@@ -42,6 +50,7 @@ class TextCodec : public Codec {
   std::size_t overlong_bytes_ = 0;
   uint64_t lines_ = 0;
   uint64_t sequence_ = 0;
+  std::optional<CounterUnwrapper> time_counter_;  // with time_bits
 };
 
 }  // namespace imukit::drivers

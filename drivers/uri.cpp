@@ -19,8 +19,8 @@ namespace imukit::drivers {
 namespace {
 
 const std::vector<std::string> kCodecKeys = {
-    "codec",         "rate",           "commands",  "block",      "ping_s",   "mag_rate",
-    "accel_range_g", "gyro_range_dps", "time_unit", "accel_unit", "gyro_unit"};
+    "codec",         "rate",           "commands",  "block",     "ping_s",     "mag_rate",
+    "accel_range_g", "gyro_range_dps", "time_unit", "time_bits", "accel_unit", "gyro_unit"};
 
 // The keys each mock reads (make_mock_device); its codec, imukit, reads its own besides.
 const std::vector<std::string> kMockKeys = {
@@ -149,8 +149,12 @@ void check_keys_are_used(const DeviceUri& u, const std::string& codec) {
   }
   for (const auto& [key, value] : u.keys) {
     if (std::find(accepted.begin(), accepted.end(), key) != accepted.end()) continue;
-    std::size_t at = u.text.find("?" + key + "=");
-    if (at == std::string::npos) at = u.text.find("&" + key + "=");
+    // Searched in the query only: an address may hold "&key=" too (found in review, 2026-11-27).
+    const std::size_t query = u.text.find('?');
+    std::size_t at =
+        u.text.find("?" + key + "=", query == std::string::npos ? u.text.size() : query);
+    if (at == std::string::npos && query != std::string::npos)
+      at = u.text.find("&" + key + "=", query);
     fail(u.text, at == std::string::npos ? 0 : at + 1,
          "key '" + key + "' does nothing for " + what + " (keys it accepts: " + joined(accepted) +
              ")");

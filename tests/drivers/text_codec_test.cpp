@@ -62,6 +62,26 @@ TEST(TextCodec, BlankLinesBeforeTheHeaderAndTimesToTheNanosecond) {
   EXPECT_EQ(us.stats().frames_corrupt, 1u);
 }
 
+// Arduino's micros() wraps at 2^32 us (71.6 minutes): with time_bits=32 the device time runs
+// on through the wrap instead of jumping back 4,295 s.
+TEST(TextCodec, AWrappingTimeCounterIsUnwrapped) {
+  TextCodec codec(text_codec_options({{"time_unit", "us"}, {"time_bits", "32"}}));
+  std::string text;
+  for (int64_t i = 0; i < 4; ++i)
+    text += std::to_string((4294965296 + 1000 * i) % 4294967296) + ",0,0,1,0,0,0\n";
+  text += "4294967296,0,0,1,0,0,0\n";  // not below 2^32: damaged
+  text += "3000.5,0,0,1,0,0,0\n";      // not a whole count: damaged
+  std::vector<Sample> out;
+  codec.feed(bytes(text), 0, out);
+  ASSERT_EQ(out.size(), 4u);
+  for (int64_t i = 0; i < 4; ++i)
+    EXPECT_EQ(out[i].device_time, (4294965296 + 1000 * i) * 1000) << i;
+  EXPECT_EQ(codec.stats().frames_corrupt, 2u);
+  EXPECT_THROW(text_codec_options({{"time_bits", "64"}}), Error);
+  EXPECT_THROW(text_codec_options({{"time_bits", "-1"}}), Error);
+  EXPECT_EQ(text_codec_options({{"time_bits", "0"}}).time_bits, 0u);
+}
+
 TEST(TextCodec, HasNoTimeSyncPoints) {
   TextCodec codec(text_codec_options({}));
   std::vector<Sample> out;
@@ -101,7 +121,7 @@ TEST(TextCodec, CountsEveryBrokenLineAndSurvivesSplits) {
     }
     text += line;
   }
-  TextCodec codec(TextCodecOptions{9, 1, 1});
+  TextCodec codec(TextCodecOptions{.time_digits = 9});
   const auto out = testing::feed_split(codec, bytes(text), rng, 300);
   EXPECT_EQ(out.size(), static_cast<std::size_t>(n) - broken.size());
   EXPECT_EQ(codec.stats().samples_dropped, broken.size());

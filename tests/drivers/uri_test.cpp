@@ -162,9 +162,16 @@ TEST(DeviceUri, AKeyThatWouldDoNothingIsRefused) {
             std::string::npos)
       << e;
   EXPECT_EQ(at, static_cast<int64_t>(xsens.find("block")));
+  // The key's place is found in the query, not in an address that holds "&rate=" too (found in
+  // review, 2026-11-27: the offset pointed into the path).
+  const std::string odd = "file:" + (dir / "a&rate=1").string() + "?codec=xsens&rate=5";
+  std::fclose(std::fopen((dir / "a&rate=1").string().c_str(), "w"));
+  e = open_error(odd, &at);
+  EXPECT_NE(e.find("key 'rate' does nothing"), std::string::npos) << e;
+  EXPECT_EQ(at, static_cast<int64_t>(odd.rfind("rate=5")));
   e = open_error("file:" + path + "?codec=text&rate=100");
   EXPECT_NE(e.find("key 'rate' does nothing for file: with codec text, decoding only (keys it "
-                   "accepts: codec, time_unit, accel_unit, gyro_unit)"),
+                   "accepts: codec, time_unit, time_bits, accel_unit, gyro_unit)"),
             std::string::npos)
       << e;
   // Found in review: an Xsens replay took rate= (and mag_rate=) and did nothing with them: they

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -349,6 +350,26 @@ TEST(XsensCodec, ReadsFixedPointAndDoublePrecision) {
   // A size that does not fit the precision is malformed.
   p[2] = 11;
   EXPECT_FALSE(parse_mtdata2(p, pk));
+
+  // Fixed point 16.32 (id 0x4022): each value a big-endian 32-bit fraction, then a big-endian
+  // signed 16-bit integer part (found in review, 2026-11-27: untested; the two swapped passed).
+  // -1.5 is integer -2 and fraction 0.5; 9.80665 is 9 and 0.80665 * 2^32 (rounded).
+  std::vector<uint8_t> q = {0x40, 0x22, 18};
+  const auto fp1632 = [&](uint32_t fraction, int16_t whole) {
+    for (int i = 3; i >= 0; --i) q.push_back(static_cast<uint8_t>(fraction >> (8 * i)));
+    q.push_back(static_cast<uint8_t>(static_cast<uint16_t>(whole) >> 8));
+    q.push_back(static_cast<uint8_t>(whole));
+  };
+  const auto g_fraction = static_cast<uint32_t>(std::llround(0.80665 * 4294967296.0));
+  fp1632(0x80000000u, -2);
+  fp1632(g_fraction, 9);
+  fp1632(1u, 300);
+  XsensPacket fixed;
+  ASSERT_TRUE(parse_mtdata2(q, fixed));
+  EXPECT_EQ((*fixed.acceleration)[0], -1.5);
+  EXPECT_EQ((*fixed.acceleration)[1], 9.0 + g_fraction / 4294967296.0);
+  EXPECT_NEAR((*fixed.acceleration)[1], 9.80665, 1e-9);
+  EXPECT_EQ((*fixed.acceleration)[2], 300.0 + 1.0 / 4294967296.0);
 }
 
 }  // namespace
