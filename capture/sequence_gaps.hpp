@@ -8,7 +8,8 @@
 // the frame's check (an 8-bit sum, as Xsens frames carry, lets one in 256 multi-byte errors
 // through). What its step added is taken back and it takes the place after the index before
 // it, so 100, 1000101, 102 counts no loss where it counted a million, and 100, 5, 102 none
-// where it counted 96.
+// where it counted 96. Not told apart: two indices swapped in transit (100, 102, 101, 103
+// counts 1 lost, where nothing was; 2 before the repair), and a damaged first index.
 #pragma once
 
 #include <algorithm>
@@ -42,8 +43,9 @@ class SequenceGaps {
       missing_ -= last_missing_;
       step.repaired_previous = true;
       step.previous_step = last_step_;
-      // After the index before it, plus what the queue refused there; at most this index.
-      from = std::min(index, before_ + 1 + std::min(last_refused_, index - before_));
+      // After the index before it, plus what the queue refused there; at most this index
+      // (index > before_, so nothing here wraps).
+      from = before_ + 1 + std::min(last_refused_, index - before_ - 1);
       step.previous_repaired_step = from - before_;
     }
     last_step_ = last_missing_ = 0;

@@ -128,8 +128,9 @@ ColumnTable read_table(LineReader& reader, const ColumnSpec& spec,
           break;
         }
       }
-      const bool header = first_mapped != nullptr && !parse_double(first_mapped->text) &&
-                          !is_nan_token(first_mapped->text);
+      // An empty field is a gap in data (or an error), not a name.
+      const bool header = first_mapped != nullptr && !first_mapped->text.empty() &&
+                          !parse_double(first_mapped->text) && !is_nan_token(first_mapped->text);
       if (header) {
         for (const Field& f : fields) {
           table.header.emplace_back(f.text);

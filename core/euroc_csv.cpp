@@ -30,12 +30,15 @@ void check_header(const ColumnTable& table) {
   static constexpr std::string_view kUnits[] = {
       "[ns]", "[rad s^-1]", "[rad s^-1]", "[rad s^-1]", "[m s^-2]", "[m s^-2]", "[m s^-2]"};
   const auto fail = [&](std::size_t k, const std::string& what) {
-    // At the header's field k where there is a header, else at the first row.
+    // At the header's field k where there is a header, else at the first row (none in a file of
+    // no rows: the file alone).
     const int64_t column = k < table.header_columns.size() ? table.header_columns[k] : 1;
-    throw Error(InputLocation{table.source, table.first_row_line, column, {}},
-                fmt::format("not an EuRoC IMU CSV: {}; the header is '{}' (for other columns, "
-                            "say what they are with --columns)",
-                            what, kEurocHeader));
+    const InputLocation at = table.first_row_line > 0
+                                 ? InputLocation{table.source, table.first_row_line, column, {}}
+                                 : InputLocation{table.source, {}, {}, {}};
+    throw Error(at, fmt::format("not an EuRoC IMU CSV: {}; the header is '{}' (for other columns, "
+                                "say what they are with --columns)",
+                                what, kEurocHeader));
   };
   if (table.header.empty()) fail(0, "the first row must be the header");
   if (table.header.size() < std::size(kUnits))

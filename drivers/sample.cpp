@@ -46,13 +46,15 @@ TimeNs ticks_to_ns(int64_t ticks, uint64_t tick_hz) {
 }
 
 ImuSeries to_series(std::span<const Sample> samples, bool use_device_time) {
+  // The channels an ImuSeries holds (a WitMotion sample's angles are not among them).
+  constexpr uint8_t kSeriesChannels = kHasAccel | kHasGyro | kHasMag | kHasTemperature;
   const uint8_t ch = samples.empty() ? 0 : samples.front().channels;
   bool device = use_device_time;
   for (std::size_t i = 0; i < samples.size(); ++i) {
     device = device && samples[i].has_device_time;
     // A channel missing from some samples (an Xsens sending its magnetometer at 100 Hz beside
     // 400 Hz inertial data) would read as zeros there (found in review, 2026-11-27).
-    if (samples[i].channels != ch) {
+    if ((samples[i].channels ^ ch) & kSeriesChannels) {
       throw Error(
           fmt::format("to_series: sample {} has channels {:#x}, sample 0 {:#x}; a series "
                       "holds samples of one channel set",

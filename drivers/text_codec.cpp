@@ -25,8 +25,10 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
     throw Error("time_unit=" + t + ": expected s, ms, us or ns");
   const std::string bits = option_string(options, "time_bits", "0");
   const std::optional<int64_t> b = parse_scaled_integer(bits, 0);
-  if (!b || bits.find_first_not_of("0123456789") != std::string::npos || *b > 63)
-    throw Error("time_bits=" + bits + ": expected a whole number of bits, 1 to 63 (0: no wrap)");
+  // At most 32: the counters that wrap within a recording are 32 bits or fewer, and a wider one
+  // would let a few lines carry the unwrapped count past int64 (review of 2026-11-27).
+  if (!b || bits.find_first_not_of("0123456789") != std::string::npos || *b > 32)
+    throw Error("time_bits=" + bits + ": expected a whole number of bits, 1 to 32 (0: no wrap)");
   o.time_bits = static_cast<unsigned>(*b);
   const std::string a = option_string(options, "accel_unit", "mps2");
   if (a == "g")
@@ -96,7 +98,7 @@ std::optional<int64_t> TextCodec::unwrap_time(std::string_view t) {
   // A wrapping counter is a whole number in [0, 2^bits): anything else is a damaged line.
   const std::optional<int64_t> count = parse_scaled_integer(t, 0);
   if (!count || t.find_first_not_of("0123456789") != std::string_view::npos ||
-      (opt_.time_bits < 63 && *count >= (int64_t{1} << opt_.time_bits)))
+      *count >= (int64_t{1} << opt_.time_bits))
     return std::nullopt;
   const int64_t unwrapped = time_counter_->unwrap(static_cast<uint64_t>(*count));
   int64_t scale = 1, ns = 0;

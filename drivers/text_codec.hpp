@@ -16,14 +16,14 @@ namespace imukit::drivers {
 
 struct TextCodecOptions {
   int time_digits = 6;  // decimal digits from the unit of t to ns (s 9, ms 6, us 3, ns 0)
-  unsigned time_bits =
-      0;  // t counts modulo 2^time_bits (1..63; a whole number), 0: it does not wrap
+  // t counts modulo 2^time_bits (1..32; t a whole number); 0: it does not wrap.
+  unsigned time_bits = 0;
   double accel_scale = 1.0;  // m/s^2 per unit
   double gyro_scale = 1.0;   // rad/s per unit
 };
 
-// Options from `time_unit`, `accel_unit`, `gyro_unit` keys; throws imukit::Error naming a bad
-// key value.
+// Options from `time_unit`, `time_bits`, `accel_unit`, `gyro_unit` keys; throws imukit::Error
+// naming a bad key value.
 TextCodecOptions text_codec_options(const CodecOptions& options);
 
 class TextCodec : public Codec {

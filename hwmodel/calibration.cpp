@@ -322,10 +322,11 @@ void norm_errors(const TriadCalibration& c, const std::vector<Eigen::Vector3d>& 
 
 // The threshold search (the paper's k): the factor whose static poses give the accelerometer
 // fit with the smallest norm error per spare pose, sum e^2 / (poses - 9). Fits of different
-// pose counts are compared: with 9 poses the 9 parameters pass through every pose (a residual
-// of zero whatever the poses are worth), and a factor that merges poses across slow turns down
-// to 9 would otherwise always win. A fit without a spare pose is taken only when no factor
-// gives one.
+// pose counts are compared: 9 poses leave the 9 parameters no spare equation, so wherever the
+// quadric through them is an ellipsoid (as for any poses near the gravity sphere) the fit
+// passes through every pose, a residual of zero however wrong the poses are, and a factor that
+// merged poses across slow turns down to 9 would otherwise always win. A fit without a spare
+// pose is taken only when no factor gives one.
 double residual_per_spare_pose(const CalibrationResult& r) {
   const auto poses = static_cast<double>(r.accel_norm_error.size());
   constexpr double kParameters = 9.0;

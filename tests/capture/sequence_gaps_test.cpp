@@ -39,6 +39,14 @@ TEST(SequenceGaps, ALoneDamagedIndexIsTakenBack) {
   // index cannot be told from a loss after it.
   EXPECT_EQ(missing_after({100, 1'000'101, 102}), 0u);
   EXPECT_EQ(missing_after({5, 101, 102}), 95u);
+  // Two indices swapped in transit: one counted lost where none was (a known limit).
+  EXPECT_EQ(missing_after({100, 102, 101, 103}), 1u);
+  // Near the top of the range with refusals: nothing wraps.
+  SequenceGaps top;
+  top.add(~uint64_t{0} - 3);
+  top.add(0, 5);
+  top.add(~uint64_t{0});
+  EXPECT_LE(top.missing(), 2u);
 
   SequenceGaps g;
   g.add(99);

@@ -377,17 +377,6 @@ TEST(Session, ADurationCountsDeviceTimeThroughDamagedTicksAndRestarts) {
   }
 }
 
-// Found in review (2026-11-26, fourth round): a tick 0.8 s ahead of its neighbours (sample 25 of a
-// 1 kHz replay) was within the host time plus 1 s, so taken as 0.8 s of samples lost, and the
-// samples after it, going back, began a new stretch of clock: --duration 2 kept 1,201 samples.
-// An Xsens stream's packet counter counts every sample made: its step of 1 holds the tick to one
-// period, the tick is an outlier and 2 s keep 2,000 samples. A text stream has no counter (its
-// sequence counts the lines that arrived), so in a replay that tick cannot be told from 800 lines
-// lost and keeps the old reading (docs/devices.md, "Rates of replays"). At sample 1 no rate held
-// the tick (second pass of the same round): the samples after it were outliers at 0.801 s a
-// sample and 2 s kept 3, from either codec. The run after it continues sample 0 at its own ticks
-// per index, so the tick is an outlier and 2 s keep 2,000 samples at 1000 Hz (text too: its
-// samples after the tick go back, which no loss of lines explains).
 // An Xsens MTData2 frame of one sample: its PacketCounter, SampleTimeFine (10 kHz ticks) and an
 // acceleration of zeros.
 void write_xsens_sample(std::ostream& out, uint16_t counter, uint32_t ticks) {
@@ -406,6 +395,17 @@ void write_xsens_sample(std::ostream& out, uint16_t counter, uint32_t ticks) {
             static_cast<std::streamsize>(frame.size()));
 }
 
+// Found in review (2026-11-26, fourth round): a tick 0.8 s ahead of its neighbours (sample 25 of a
+// 1 kHz replay) was within the host time plus 1 s, so taken as 0.8 s of samples lost, and the
+// samples after it, going back, began a new stretch of clock: --duration 2 kept 1,201 samples.
+// An Xsens stream's packet counter counts every sample made: its step of 1 holds the tick to one
+// period, the tick is an outlier and 2 s keep 2,000 samples. A text stream has no counter (its
+// sequence counts the lines that arrived), so in a replay that tick cannot be told from 800 lines
+// lost and keeps the old reading (docs/devices.md, "Rates of replays"). At sample 1 no rate held
+// the tick (second pass of the same round): the samples after it were outliers at 0.801 s a
+// sample and 2 s kept 3, from either codec. The run after it continues sample 0 at its own ticks
+// per index, so the tick is an outlier and 2 s keep 2,000 samples at 1000 Hz (text too: its
+// samples after the tick go back, which no loss of lines explains).
 TEST(Session, ADurationHoldsADamagedTickToTheSampleCounter) {
   struct Case {
     int damaged;  // the sample whose tick is 0.8 s ahead

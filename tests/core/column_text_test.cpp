@@ -90,6 +90,10 @@ TEST(ColumnText, AHeaderIsToldByTheFirstFieldTheMapReads) {
       parse_column_text("date,time,ax,ay,az\n" + rows, "m", ColumnSpec::parse("_,t,ax,ay,az"));
   ASSERT_EQ(headed.rows, 2u);
   EXPECT_EQ(headed.header.size(), 5u);
+  // An empty first field in a gappy column is a gap, not a header (review of 2026-11-27).
+  const ColumnTable gap =
+      parse_column_text(",1,2,0\n4,5,6,0.01\n", "m", ColumnSpec::parse("ax,ay,az,t", {"ax"}));
+  EXPECT_EQ(gap.rows, 2u);
   // A first row whose first mapped field is a number and a later one is not is data: its error
   // names the field rather than the row being skipped as a header.
   expect_error([&] { parse_column_text("0,1,x,3\n", "m.csv", ColumnSpec::parse("t,ax,ay,az")); },

@@ -93,6 +93,9 @@ TEST(EurocCsv, MalformedLinesAreRejectedWithTheLineNumber) {
 
 TEST(EurocCsv, RequiresTheHeader) {
   EXPECT_THROW(parse_euroc_csv("0,0,0,0,0,0,9.8\n", "x.csv"), Error);
+  // No rows at all: the file is named, no line 0 (review of 2026-11-27).
+  expect_error([] { parse_euroc_csv("\n\n", "x.csv"); },
+               {"x.csv: not an EuRoC IMU CSV: the first row must be the header"});
   EXPECT_NO_THROW(parse_euroc_csv("timestamp,wx,wy,wz,ax,ay,az\n0,0,0,0,0,0,9.8\n", "x.csv"));
   EXPECT_NO_THROW(parse_euroc_csv(std::string(kEurocHeader) + "\n0,0,0,0,0,0,9.8\n", "x.csv"));
   // Found in review: only the first field was checked, so these were read with accelerometer

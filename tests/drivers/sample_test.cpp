@@ -65,6 +65,8 @@ TEST(ToSeries, UsesDeviceTimeWhenEverySampleHasIt) {
   EXPECT_FALSE(a.has_mag());
   s[1].has_device_time = false;
   EXPECT_EQ(to_series(s).t, (std::vector<TimeNs>{1000, 1001}));
+  s[1].channels |= kHasAngles;  // not a channel of a series: no matter
+  EXPECT_EQ(to_series(s).size(), 2u);
   s[1].channels |= kHasMag;  // its magnetometer would be zeros in sample 0
   EXPECT_THROW(to_series(s), Error);
 }

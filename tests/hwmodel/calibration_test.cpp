@@ -196,7 +196,7 @@ TEST(Calibration, RejectsTooFewPoses) {
 }
 
 // Found in review: the threshold search compared the plain rms of fits with different pose
-// counts, and a fit with exactly 9 poses has a residual of zero whatever they are worth. Here
+// counts, and a fit of exactly 9 poses near the gravity sphere passes through all of them. Here
 // three of the twelve turns are slow (20 degrees in 8 s): a small k keeps them apart as twelve
 // poses, a large k reads the slow turns as stillness and merges their neighbours into 9 poses
 // whose means are no true pose. The search must keep the twelve.

@@ -206,11 +206,19 @@ TEST(Simulator, AtRestInAnyOrientationReadsGravityAndZeroRateExactly) {
           [](double) { return Vector3d(1.0, -2.0, 0.9); });
       SimulationOptions opt;
       opt.method = method;
-      Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.02, 0.0))}, opt);
+      // The sensor turned on its joint too: the reading is the vector R_world_sensor^T (0, 0, g)
+      // (specific force points up at rest), which a flipped gravity or R for R^T would miss
+      // while keeping the norm (review of 2026-11-27).
+      const Quaterniond q_joint_sensor(
+          Eigen::AngleAxisd(0.4 + 0.5 * trial, Vector3d(0.3, -1, 0.2).normalized()));
+      Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.02, 0.0), q_joint_sensor)},
+                    opt);
       std::vector<SensorBlock> out;
       sim.evaluate(m, grid_times(sim, m, m.frames()), out);
+      const Matrix3d R_world_sensor = (q0 * q1 * q_joint_sensor).toRotationMatrix();
+      const Vector3d expected = R_world_sensor.transpose() * Vector3d(0, 0, 9.80665);
       for (Eigen::Index i = 0; i < out[0].specific_force.cols(); ++i) {
-        EXPECT_NEAR(out[0].specific_force.col(i).norm(), 9.80665, 1e-12)
+        EXPECT_LT((out[0].specific_force.col(i) - expected).norm(), 1e-12)
             << to_string(method) << " trial " << trial << " sample " << i;
         EXPECT_EQ(out[0].angular_rate.col(i).norm(), 0.0)
             << to_string(method) << " trial " << trial << " sample " << i;
