@@ -603,18 +603,25 @@ std::optional<int64_t> json_int(const nlohmann::json& j, const char* key) {
   return it->get<int64_t>();
 }
 
-// Where a message of `device` is in `file`, for errors: the decoders count bytes from the
-// message's start, so the message is named (as read_recording_mcap names it).
-std::string message_in(const std::string& file, const McapMessageView& m,
-                       const std::string& topic) {
-  return fmt::format("{}: message {} of {}", file, m.sequence, topic);
+// decode(data, source) on message m of stream `device` (and `suffix`, "/raw") in `file`. The
+// decoders count bytes from the message's start, so an error names the message (as
+// read_recording_mcap does); the name is made only when the decode fails, by decoding again with it
+// (the same bytes fail the same way), since every message of a recording passes here at its close.
+template <class Decode>
+auto decode_message(const Decode& decode, const McapMessageView& m, const std::string& file,
+                    const std::string& device, std::string_view suffix = {}) {
+  try {
+    return decode(m.data, file);
+  } catch (const Error&) {
+    return decode(m.data, fmt::format("{}: message {} of {}{}", file, m.sequence, device, suffix));
+  }
 }
 
 // Decodes a RawImu message; in recovery (`recover`) one that does not decode is nothing.
 std::optional<RawImuMessage> decode_raw(const McapMessageView& m, const std::string& file,
                                         const std::string& device, bool recover) {
   try {
-    return decode_raw_imu_cdr(m.data, message_in(file, m, device + "/raw"));
+    return decode_message(decode_raw_imu_cdr, m, file, device, "/raw");
   } catch (const Error&) {
     if (!recover) throw;
     return std::nullopt;
@@ -794,7 +801,7 @@ class Retimer {
     if (t == last_raw_.end()) return true;
     ImuMessage msg;
     try {
-      msg = decode_imu_cdr(m.data, message_in(file_, m, device));
+      msg = decode_message(decode_imu_cdr, m, file_, device);
     } catch (const Error&) {
       if (!recover_) throw;
       return ++dropped_, false;
