@@ -89,9 +89,13 @@ void ImukitCodec::start(TimeNs now) {
 
 void ImukitCodec::send_configuration() {
   send(proto::Stop{});
-  if (opt_.rate_hz > 0 && info_) {
+  // Configure even without a rate asked for (then the device's first listed rate): a device
+  // keeps what an earlier session configured, and the samples are scaled and timed by what this
+  // one assumes, range 0 and every channel included (review of 2026-11-27).
+  if (info_ && (opt_.rate_hz > 0 || info_->rate_count > 0)) {
     proto::Configure c;
-    c.rate_mhz = static_cast<uint32_t>(std::llround(opt_.rate_hz * 1000.0));
+    c.rate_mhz = opt_.rate_hz > 0 ? static_cast<uint32_t>(std::llround(opt_.rate_hz * 1000.0))
+                                  : info_->rates_mhz[0];
     c.channels = opt_.channels != 0 ? static_cast<uint8_t>(opt_.channels & info_->channels())
                                     : info_->channels();
     c.samples_per_block = static_cast<uint8_t>(opt_.samples_per_block);
@@ -145,8 +149,9 @@ void ImukitCodec::begin_numbering(const proto::DecoderStats& before) {
   // numbered from there, never repeats of frames before it (found in review: a device that
   // rebooted within 16 frames of its start had its new blocks taken for stale repeats). Nor is
   // its own number compared with theirs: a rebooted device's frame 0 counted as a frame out of
-  // order, or as a gap of up to 65535 missed frames (found in review, 2026-11-26).
-  decoder_.reset_sequence();
+  // order, or as a gap of up to 65535 missed frames (found in review, 2026-11-26). The next frame
+  // follows its number, so frames lost right after it count (review of 2026-11-27: forgotten).
+  decoder_.restart_sequence(decoder_.frame().sequence);
   const proto::DecoderStats& now = decoder_.stats();
   numbering_restarts_.sequence_gaps += now.sequence_gaps - before.sequence_gaps;
   numbering_restarts_.frames_missed += now.frames_missed - before.frames_missed;

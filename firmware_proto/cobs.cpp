@@ -55,7 +55,7 @@ size_t cobs_encode(const uint8_t* in, size_t n, uint8_t* out, size_t out_capacit
 //  2. After a 0xFF block (254 non-zero bytes, no zero follows) the next code byte is dropped, not
 //     replaced, so the rest moves block by block. Runs that long are rare in IMU data.
 size_t cobs_decode_zero_free(const uint8_t* in, size_t n, uint8_t* out) {
-  if (n == 0) return kCobsError;
+  if (n == 0 || in[0] == 0) return kCobsError;
   const size_t first = in[0];
   memmove(out, in + 1, n - 1);  // out[i] = in[i + 1]
   // codes[p - 1] is the input byte in[p]: read from the untouched input when out is a separate
@@ -65,6 +65,9 @@ size_t cobs_decode_zero_free(const uint8_t* in, size_t n, uint8_t* out) {
   size_t previous = first;  // code of the block that ends at p
   while (p < n && previous != 0xFF) {
     previous = codes[p - 1];
+    // A zero code would never move on: the caller broke the promise of zero-free input (a
+    // firmware must not hang on it; review of 2026-11-27).
+    if (previous == 0) return kCobsError;
     out[p - 1] = 0;
     p += previous;
   }

@@ -36,7 +36,8 @@ inline constexpr size_t kCobsError = static_cast<size_t>(-1);
 size_t cobs_decode(const uint8_t* in, size_t n, uint8_t* out);
 
 // cobs_decode for input the caller knows holds no 0x00 (e.g. the bytes between two delimiters
-// found with memchr), skipping that scan. out must equal in or not overlap it at all.
+// found with memchr), skipping that scan. out must equal in or not overlap it at all. A 0x00 in
+// a code byte is still an error (kCobsError), never an endless loop.
 size_t cobs_decode_zero_free(const uint8_t* in, size_t n, uint8_t* out);
 
 // Incremental encoder: feed bytes one at a time (or in runs) into a caller's buffer that has room

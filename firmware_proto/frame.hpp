@@ -144,6 +144,12 @@ class FrameDecoder {
   // Forget the last sequence number (e.g. after the peer was reset), so the next frame does not
   // count as a gap.
   void reset_sequence() { have_sequence_ = false; }
+  // The numbering begins again at `sequence` (the peer was reset and said so in a frame of that
+  // number): the next frame is compared with it alone.
+  void restart_sequence(uint16_t sequence) {
+    have_sequence_ = true;
+    last_sequence_ = sequence;
+  }
 
  private:
   void append(const uint8_t* data, size_t n);

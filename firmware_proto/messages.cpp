@@ -302,8 +302,10 @@ ParseStatus read_payload(const uint8_t* p, size_t n, Pong& m) {
 ParseStatus check_blob(const uint8_t* p, size_t n) {
   if (n < 3) return ParseStatus::kBadLength;
   const size_t size = static_cast<size_t>(p[1] | p[2] << 8);
-  if (size > kMaxCalibrationData) return ParseStatus::kBadValue;
+  // The length first: a payload that is not 3 + size + 4 bytes is malformed whatever its size
+  // field says (review of 2026-11-27: a 7-byte payload saying 768 was answered as invalid data).
   if (n != 3 + size + 4) return ParseStatus::kBadLength;
+  if (size > kMaxCalibrationData) return ParseStatus::kBadValue;
   if (p[0] == 0) return ParseStatus::kBadValue;
   const uint32_t stored = static_cast<uint32_t>(p[n - 4]) | static_cast<uint32_t>(p[n - 3]) << 8 |
                           static_cast<uint32_t>(p[n - 2]) << 16 |
@@ -316,6 +318,8 @@ ParseStatus read_blob(const uint8_t* p, size_t n, CalibrationBlob& b) {
   b.format_version = r.u8();
   b.size = r.u16();
   if (!r.ok()) return ParseStatus::kBadLength;
+  if (n != 3 + size_t{b.size} + 4)
+    return ParseStatus::kBadLength;  // the length first, as check_blob
   if (b.size > kMaxCalibrationData) return ParseStatus::kBadValue;
   r.bytes(b.data, b.size);
   b.crc = r.u32();

@@ -138,8 +138,9 @@ def test_record_names_the_samples_before_the_start_and_the_stale_ones(imukit, wo
     # Found in review (2026-11-26): the record summary named neither the samples of an earlier
     # session's stream nor the stale ones (the metadata, `info` and `devices --read` did). A live
     # device on a socket: 2 blocks of its earlier stream, its DeviceInfo, the Ack of our Start
-    # (GetDeviceInfo was frame 0, Stop 1, Start 2), then our 50 blocks with block 24 sent twice.
-    ack = frame(0x85, 1, struct.pack("<BH", 0x03, 2))
+    # (GetDeviceInfo was frame 0, Stop 1, Configure 2, Start 3), then our 50 blocks with block 24
+    # sent twice.
+    ack = frame(0x85, 1, struct.pack("<BH", 0x03, 3))
     ours = [(k + 2, 8 * k) for k in range(25)] + [(26, 192)] + [(k + 2, 8 * k) for k in range(25, 50)]
     host, device = socket.socketpair()
     fd = host.fileno()

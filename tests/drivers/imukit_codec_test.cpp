@@ -179,6 +179,31 @@ TEST(ImukitCodec, SendsInfoRequestThenConfigureAndStartAndPings) {
   EXPECT_EQ(base.sync_points().data(), codec.sync_points().data());
 }
 
+// Found in review (2026-11-27): without a rate asked for, the host sent no Configure and assumed
+// the device's first rate, range 0 and every channel, while a device keeps what an earlier
+// session configured (a range 8 times wider scaled every sample 8 times wrong). It configures
+// what it assumes.
+TEST(ImukitCodec, WithoutARateItConfiguresTheDevicesFirstRate) {
+  ImukitCodec codec(ImukitCodecOptions{true, 0, 8, 0, 0, 500'000'000});
+  codec.start(0);
+  (void)codec.take_outgoing();
+  std::vector<Sample> out;
+  codec.feed(make_stream(0).bytes, 0, out);  // the DeviceInfo
+  const auto bytes = codec.take_outgoing();
+  proto::FrameDecoder dec;
+  std::optional<proto::Configure> configure;
+  dec.feed(bytes.data(), bytes.size(), [&](const proto::Frame& f) {
+    proto::Configure c;
+    if (f.type == 0x02 && proto::parse_message(f, c) == proto::ParseStatus::kOk) configure = c;
+  });
+  ASSERT_TRUE(configure.has_value());
+  const proto::DeviceInfo info = test_info();
+  EXPECT_EQ(configure->rate_mhz, info.rates_mhz[0]);
+  EXPECT_EQ(configure->channels, info.channels());
+  EXPECT_EQ(configure->samples_per_block, 8);
+  for (uint8_t range : configure->range_index) EXPECT_EQ(range, 0);
+}
+
 TEST(ImukitCodec, RepeatsAnUnansweredInfoRequest) {
   ImukitCodec codec(ImukitCodecOptions{true, 0, 8, 0, 0, 500'000'000});
   codec.start(1000);
@@ -362,6 +387,17 @@ TEST(ImukitCodec, ADeviceRebootIsNoFrameOutOfOrderNorASequenceGap) {
   EXPECT_EQ(codec.frame_stats().frames_out_of_order, 1u);
   EXPECT_EQ(codec.frame_stats().sequence_gaps, 1u);
   EXPECT_EQ(codec.frame_stats().frames_missed, 2u);
+  // Frames lost right after a rebooted device's DeviceInfo count too: the next frame follows its
+  // number (review of 2026-11-27: the number was forgotten, frames 1 and 2 lost counted nothing).
+  std::vector<uint8_t> rebooted = blocks_at(fifty_blocks_with(in_order(0, 10)));
+  const std::vector<uint8_t> late_start = blocks_at(fifty_blocks_with(in_order(2, 30)));
+  rebooted.insert(rebooted.end(), late_start.begin(), late_start.end());
+  ImukitCodec after(ImukitCodecOptions{false, 0, 8, 0, 0});
+  out.clear();
+  after.feed(rebooted, 0, out);
+  EXPECT_EQ(after.frame_stats().sequence_gaps, 1u);
+  EXPECT_EQ(after.frame_stats().frames_missed, 2u);
+  EXPECT_EQ(after.frame_stats().frames_out_of_order, 0u);
 }
 
 // Found in review (2026-11-26, bigloss.bin): a loss longer than 2^31 ticks unwrapped the next

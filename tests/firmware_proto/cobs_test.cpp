@@ -128,6 +128,12 @@ TEST(Cobs, RejectsMalformedInput) {
   EXPECT_EQ(decode(from_hex("00")), Bytes({0xEE, 0xEE, 0xEE}));
   EXPECT_EQ(decode(from_hex("02 11 03 22")), Bytes({0xEE, 0xEE, 0xEE}));  // last block short
   EXPECT_EQ(decode(from_hex("02 11 02 22")), Bytes({0x11, 0x00, 0x22}));  // and the fixed one
+  // The zero-free decoder given a zero anyway (its promise broken): an error, never a hang on a
+  // code of 0 (review of 2026-11-27).
+  for (const char* hex : {"00 11 22", "02 11 00 22", "03 11 22 00"}) {
+    Bytes in = from_hex(hex), out(in.size());
+    EXPECT_EQ(cobs_decode_zero_free(in.data(), in.size(), out.data()), kCobsError) << hex;
+  }
 }
 
 TEST(Cobs, NeverWritesPastTheInputLengthOnGarbage) {

@@ -491,8 +491,12 @@ TEST(DeviceModel, StoresAndReturnsCalibrationAndRejectsBadBlobs) {
               NackCode::kCalibrationInvalid);
   EXPECT_EQ(f.hal.storage, serialised);
 
-  // A blob cut short is malformed, not merely invalid.
+  // A blob cut short is malformed, not merely invalid, also where its size field is beyond the
+  // largest blob (review of 2026-11-27: size 768 in a 7-byte payload was CALIBRATION_INVALID).
   seq = f.host.send_raw(static_cast<uint8_t>(MessageType::kCalibrationWrite), {1, 4, 0, 0xDE});
+  expect_nack(f.host.received().at(0), MessageType::kCalibrationWrite, seq, NackCode::kMalformed);
+  seq =
+      f.host.send_raw(static_cast<uint8_t>(MessageType::kCalibrationWrite), {1, 0, 3, 0, 0, 0, 0});
   expect_nack(f.host.received().at(0), MessageType::kCalibrationWrite, seq, NackCode::kMalformed);
 
   // Storage failure.

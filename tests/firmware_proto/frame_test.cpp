@@ -216,6 +216,12 @@ TEST(FrameDecoder, CountsSequenceGapsAndMissedFrames) {
   const Bytes f = encode_raw(0x82, 500, {0});
   dec.feed(f.data(), f.size(), [](const Frame&) {});
   EXPECT_EQ(dec.stats().sequence_gaps, 4u);
+  // Numbering restarted at 0 (a DeviceInfo after a reboot): frames 1 and 2 lost before 3 count.
+  dec.restart_sequence(0);
+  const Bytes g = encode_raw(0x82, 3, {0});
+  dec.feed(g.data(), g.size(), [](const Frame&) {});
+  EXPECT_EQ(dec.stats().sequence_gaps, 5u);
+  EXPECT_EQ(dec.stats().frames_missed, 1u + 5u + 65514u + 1u + 2u);
 }
 
 // Found in review (2026-11-26): a frame repeated by the link (its number again) counted 65535

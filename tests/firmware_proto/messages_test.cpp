@@ -391,12 +391,17 @@ TEST(Messages, RejectsOversizedLengthAndCountFields) {
     p[9] = kChannelMaskAll;
     EXPECT_EQ(parse<SampleBlock>(p), ParseStatus::kBadLength);
   }
-  // Calibration blob: data size 513 and 65535 (bound 512).
+  // Calibration blob: data size 513 and 65535 (bound 512) in a payload of that length; in a
+  // shorter one the length is wrong first (review of 2026-11-27), as check_blob says.
   for (uint16_t size : {513, 65535}) {
     Bytes p = {1, static_cast<uint8_t>(size), static_cast<uint8_t>(size >> 8)};
-    EXPECT_EQ(parse<CalibrationWrite>(p), ParseStatus::kBadValue);
+    EXPECT_EQ(parse<CalibrationWrite>(p), ParseStatus::kBadLength);
     p.resize(3 + 600, 7);
+    EXPECT_EQ(parse<CalibrationData>(p), ParseStatus::kBadLength);
+    p.resize(3 + size_t{size} + 4, 7);
+    EXPECT_EQ(parse<CalibrationWrite>(p), ParseStatus::kBadValue);
     EXPECT_EQ(parse<CalibrationData>(p), ParseStatus::kBadValue);
+    EXPECT_EQ(check_blob(p.data(), p.size()), ParseStatus::kBadValue);
   }
   // Device info: text size 33, rate count 0 and 9, sensor count 0 and 5, range count 9.
   const Bytes info = payload_of(golden_device_info());
