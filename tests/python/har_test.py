@@ -109,6 +109,25 @@ class Models(unittest.TestCase):
         for (C, K), (dcl, aad) in expected.items():
             self.assertEqual(models.parameter_count(models.build_model("deepconvlstm", C, K)), dcl)
             self.assertEqual(models.parameter_count(models.build_model("attend", C, K)), aad)
+            self.assertEqual(models.parameter_count(models.build_model("attend-l2", C, K)), aad)
+
+    def test_attend_classifies_the_feature_and_attend_l2_its_unit_vector(self):
+        # The published code classifies dropout(feature); imukit's first version ("attend-l2")
+        # classified the L2-normalised feature behind spectrally normalised projections.
+        torch.manual_seed(1)
+        x = torch.randn(8, 50, 6)
+        norms = {}
+        for name in ("attend", "attend-l2"):
+            m = models.build_model(name, 6, 27).eval()
+            seen = []
+            m.classifier.register_forward_hook(lambda mod, inp, out: seen.append(inp[0]))
+            m(x)
+            norms[name] = seen[0].norm(dim=1)
+            parametrized = any(torch.nn.utils.parametrize.is_parametrized(p)
+                               for p in m.attention.modules())
+            self.assertEqual(parametrized, name == "attend-l2")
+        self.assertTrue(torch.allclose(norms["attend-l2"], torch.ones(8), atol=1e-6))
+        self.assertGreater(float((norms["attend"] - 1).abs().min()), 0.05)
 
     def test_shapes_and_the_attention_starts_as_identity(self):
         torch.manual_seed(0)
@@ -153,6 +172,14 @@ class Metrics(unittest.TestCase):
         self.assertEqual(n, 8)
         self.assertAlmostEqual(p, 2 / 256, places=12)
         self.assertAlmostEqual(d, 0.06375, places=12)
+
+    def test_wilcoxon_leaves_exact_ties_out_and_stays_exact(self):
+        # Seven wins and one exact tie: the tie is left out, exact p = 2 / 2^7 over the seven
+        # (SciPy with the zero kept switched to its normal approximation: 0.018).
+        p, n, d = report.wilcoxon([0.6, 0.7, 0.5, 0.8, 0.65, 0.72, 0.58, 0.6],
+                                  [0.5, 0.6, 0.45, 0.7, 0.6, 0.7, 0.5, 0.6])
+        self.assertEqual(n, 8)
+        self.assertAlmostEqual(p, 2 / 128, places=12)
 
     def test_residual_arms_are_reported_against_ppda_stda_and_the_baseline(self):
         def run(arm, test, f1):
