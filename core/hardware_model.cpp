@@ -511,6 +511,13 @@ void ImuErrorGenerator::Triad::apply(double* y, const double* force, std::size_t
         const double steps = block[k] / resolution;
         if (std::abs(steps) < 0x1p52) block[k] = resolution * std::round(steps);
       }
+      // A range that is not a whole number of LSBs rounded a saturated reading outwards, past
+      // full scale (range 1, LSB 0.4: 1.2; found in review, 2026-11-27). Readings stay on the
+      // largest grid value inside the range (the range itself when it is a whole number).
+      if (range > 0.0) {
+        const double limit = resolution * std::floor(range / resolution * (1.0 + 1e-12));
+        for (std::size_t k = 0; k < 3 * count; ++k) block[k] = std::clamp(block[k], -limit, limit);
+      }
     }
   }
 }
@@ -553,7 +560,11 @@ void ImuErrorGenerator::apply_gyroscope(
   IMUKIT_ASSERT_PACKED(angular_rate);
   IMUKIT_ASSERT_PACKED(true_specific_force);
   Triad& gyro = triads_[1];
-  assert(!gyro.use_g || true_specific_force.cols() == angular_rate.cols());
+  if (gyro.use_g && true_specific_force.cols() != angular_rate.cols())
+    throw Error(fmt::format(
+        "hardware model: the gyroscope's g-sensitivity needs one specific force per sample: {} "
+        "for {} samples",
+        true_specific_force.cols(), angular_rate.cols()));
   gyro.apply(angular_rate.data(), gyro.use_g ? true_specific_force.data() : nullptr,
              static_cast<std::size_t>(angular_rate.cols()));
 }
@@ -564,6 +575,12 @@ void ImuErrorGenerator::apply_magnetometer(Eigen::Ref<Eigen::Matrix3Xd> field) {
 }
 
 void ImuErrorGenerator::apply(ImuSeries& series) {
+  // The gyroscope's g-sensitivity reads the true specific force (an assertion only, until a
+  // review of 2026-11-27 found a gyro-only series aborting the process).
+  if (series.has_gyro() && triads_[1].use_g && !series.has_accel())
+    throw Error(
+        "hardware model: the gyroscope's g-sensitivity needs the accelerometer's samples; the "
+        "series has none");
   if (series.has_gyro()) apply_gyroscope(series.gyro, series.accel);
   if (series.has_accel()) apply_accelerometer(series.accel);
   if (series.has_mag()) apply_magnetometer(series.mag);

@@ -378,6 +378,45 @@ TEST(Generator, SaturatesThenQuantisesExactly) {
   EXPECT_TRUE(bit_equal(y, expected)) << y;
 }
 
+TEST(Generator, SaturatedReadingsStayInsideARangeThatIsNoWholeNumberOfLsbs) {
+  // Clamping to +-1 and then rounding to a 0.4 grid gave +-1.2: beyond full scale.
+  HardwareModel m;
+  m.gyroscope.range = 1.0;
+  m.gyroscope.resolution = 0.4;
+  Rng rng(1);
+  ImuErrorGenerator generator(m, 100.0, rng);
+  Eigen::Matrix3Xd y(3, 2);
+  y << 5.0, 0.5,    //
+      -5.0, -0.61,  //
+      1.0, 0.79;
+  Eigen::Matrix3Xd expected(3, 2);
+  expected << 0.8, 0.4,  //
+      -0.8, -0.8,        //
+      0.8, 0.8;
+  generator.apply_gyroscope(y, Eigen::Matrix3Xd(3, 0));
+  EXPECT_TRUE(y.isApprox(expected, 1e-15)) << y;
+  EXPECT_LE(y.cwiseAbs().maxCoeff(), 1.0);
+}
+
+TEST(Generator, GSensitivityWithoutSpecificForceIsAnError) {
+  // An assertion only until review: a gyro-only series aborted the process.
+  HardwareModel m;
+  m.gyroscope.g_sensitivity(0, 0) = 1e-3;
+  Rng rng(1);
+  ImuErrorGenerator generator(m, 100.0, rng);
+  ImuSeries series = ImuSeries::with_channels(4, false, true);
+  try {
+    generator.apply(series);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("g-sensitivity needs the accelerometer"),
+              std::string::npos)
+        << e.what();
+  }
+  Eigen::Matrix3Xd gyro = Eigen::Matrix3Xd::Zero(3, 4);
+  EXPECT_THROW(generator.apply_gyroscope(gyro, Eigen::Matrix3Xd::Zero(3, 3)), Error);
+}
+
 TEST(Generator, QuantisationWithATinyLsbKeepsEveryValueFinite) {
   // value / 1e-300 overflowed to infinity, and infinity * 1e-300 wrote inf samples without a word.
   HardwareModel m;

@@ -714,6 +714,24 @@ void expect_same_triad(const TriadModel& a, const TriadModel& b, const char* wha
   EXPECT_EQ(a.rate_hz, b.rate_hz) << what;
 }
 
+// The largest scale spread a policy allows (1.0) drew 1 + n: 16 % of the axes read zero or
+// backwards. The factor is exp(spread n): positive, its log N(0, spread^2).
+TEST(DrawHardwareModel, ScaleFactorsStayPositiveAtTheLargestSpread) {
+  constexpr int N = 2000;
+  Rng rng(7);
+  double sum = 0.0, sum2 = 0.0;
+  for (int i = 0; i < N; ++i) {
+    const HardwareModel m = draw_hardware_model(DeviceProfile{}, HardwareSpread{1.0, 0.0}, rng);
+    ASSERT_GT(m.accelerometer.scale.minCoeff(), 0.0) << "draw " << i;
+    ASSERT_GT(m.gyroscope.scale.minCoeff(), 0.0) << "draw " << i;
+    const double l = std::log(m.gyroscope.scale[0]);
+    sum += l;
+    sum2 += l * l;
+  }
+  const double mean = sum / N, sd = std::sqrt((sum2 - N * mean * mean) / (N - 1));
+  EXPECT_NEAR(mean, 0.0, 4.0 / std::sqrt(double{N}));
+  EXPECT_NEAR(sd, 1.0, 0.05);
+}
 TEST(DrawHardwareModel, WithoutSpreadOrUncertaintyItIsTheNominalModelExactly) {
   DeviceProfile p = full_profile();
   p.magnetometer->calibration.reset();  // raw counts have no SI model
