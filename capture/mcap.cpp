@@ -964,6 +964,8 @@ std::string Scan::read_chunk(ByteReader& r, uint64_t record_start, Parsed& p) {
   const std::string compression = r.string("chunk compression");
   const uint64_t records_len = r.u64();
   const auto records = r.bytes(records_len, "chunk records");
+  const unsigned long long frame_size =
+      compression == "zstd" ? ZSTD_getFrameContentSize(records.data(), records.size()) : 0;
   if (uncompressed_size > kMaxChunkBytes) {
     problem = fmt::format("declares {} uncompressed bytes (more than {})", uncompressed_size,
                           kMaxChunkBytes);
@@ -971,11 +973,16 @@ std::string Scan::read_chunk(ByteReader& r, uint64_t record_start, Parsed& p) {
     if (records.size() != uncompressed_size)
       problem = "uncompressed size does not match its records";
     p.plain = records;
-  } else if (compression == "zstd" &&
-             ZSTD_getFrameContentSize(records.data(), records.size()) != uncompressed_size) {
-    // The zstd frame states its own size; a chunk header that disagrees is corrupt, and
-    // checking first means a lying header never decides how much memory is allocated.
-    problem = "uncompressed size does not match its zstd frame";
+  } else if (compression == "zstd" && frame_size != uncompressed_size &&
+             frame_size != ZSTD_CONTENTSIZE_UNKNOWN) {
+    // A zstd frame that states its own size must agree with the chunk header; checking first
+    // means a lying header never decides how much memory is allocated. The size is optional in
+    // a frame (streaming compressors, the MCAP project's Rust writer among them, leave it out:
+    // such chunks were refused as corrupt until review, 2026-11-27); without it the header's
+    // size, already bounded by kMaxChunkBytes, is the buffer and must come out exactly.
+    problem = frame_size == ZSTD_CONTENTSIZE_ERROR
+                  ? std::string("its records are not a zstd frame")
+                  : std::string("uncompressed size does not match its zstd frame");
   } else if (compression == "zstd") {
     uncompressed.resize(static_cast<std::size_t>(uncompressed_size));
     const std::size_t n =

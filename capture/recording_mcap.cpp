@@ -22,6 +22,19 @@ void require_finite(const std::array<double, 3>& v, const std::string& where, co
   }
 }
 
+// An MCAP log_time is unsigned and a ROS 2 stamp's seconds an int32: a time before 1970 became a
+// log_time 584 years long, one from 2038-01-19 03:14:08 UTC on wrapped to 1901 in the stamp (the
+// file read back with times 136 years early; found in review, 2026-11-27).
+void check_storable_time(TimeNs t, const std::string& where) {
+  constexpr TimeNs kEnd = (TimeNs{1} << 31) * kNsPerSecond;
+  if (t < 0 || t >= kEnd) {
+    throw Error(fmt::format(
+        "{}: time {} ns is outside what sensor_msgs/Imu and MCAP store (0 to 2^31 s after "
+        "1970, until 2038-01-19 03:14:08 UTC)",
+        where, t));
+  }
+}
+
 // The recording's metadata, streams and events into writer, which it closes.
 void write_recording(McapWriter& writer, const Recording& recording,
                      const std::map<std::string, ImuCovariance>& covariance) {
@@ -92,7 +105,11 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
       throw Error(fmt::format(
           "{}: stream '{}' needs accelerometer and gyroscope for sensor_msgs/Imu", path, name));
     }
+    for (std::size_t i = 0; i < series.size(); ++i)
+      check_storable_time(series.t[i], fmt::format("{}: stream '{}' sample {}", path, name, i));
   }
+  for (std::size_t i = 0; i < recording.events.size(); ++i)
+    check_storable_time(recording.events[i].t, fmt::format("{}: event {}", path, i));
   // Through a temporary renamed over path when complete: a failure (a full disk, a value the
   // encoder refuses) leaves no truncated file under the final name and an earlier file as it was.
   write_file_atomically(path, [&](std::FILE* file) {

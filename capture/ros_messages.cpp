@@ -1,5 +1,9 @@
 #include "imukit/capture/ros_messages.hpp"
 
+#include <fmt/core.h>
+
+#include <limits>
+
 #include "imukit/capture/bytes.hpp"
 #include "imukit/core/error.hpp"
 
@@ -83,6 +87,10 @@ class CdrWriter {
       nsec += kNsPerSecond;
       --sec;
     }
+    // Callers check their times first (recording_mcap); a live session would need to run past
+    // 2038 to get here.
+    if (sec < std::numeric_limits<int32_t>::min() || sec > std::numeric_limits<int32_t>::max())
+      throw Error(fmt::format("sensor_msgs time {} ns: its seconds do not fit an int32", t));
     i32(static_cast<int32_t>(sec));
     u32(static_cast<uint32_t>(nsec));
   }

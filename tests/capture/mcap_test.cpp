@@ -1,6 +1,7 @@
 #include "imukit/capture/mcap.hpp"
 
 #include <gtest/gtest.h>
+#include <zstd.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstdio>
@@ -672,6 +673,81 @@ TEST(Mcap, Crc32MatchesTheStandardCheckValue) {
   const std::string check = "123456789";
   EXPECT_EQ(mcap_crc32(std::span(reinterpret_cast<const uint8_t*>(check.data()), check.size())),
             0xCBF43926u);
+}
+
+// A zstd frame need not state its content size, and streaming compressors (the MCAP project's
+// Rust writer among them) leave it out: such a chunk was refused as corrupt until review. Here
+// the first chunk of a file is compressed again without the size, the file cut after it.
+TEST(Mcap, ReadsZstdChunksWhoseFrameDoesNotStateItsSize) {
+  testing::TempDir dir;
+  const std::string path = (dir / "s.mcap").string();
+  write_file(path, 200, 100.0, McapCompression::zstd, 12);
+  const std::vector<uint8_t> good = slurp(path);
+  const auto rs = records_of(good);
+  const auto chunk =
+      std::find_if(rs.begin(), rs.end(), [](const Record& r) { return r.op == 0x06; });
+  ASSERT_NE(chunk, rs.end());
+  // Chunk fields: start, end, uncompressed size (8 each), CRC (4), compression (4 + 4), records
+  // length (8), records.
+  const std::size_t fields = chunk->offset + 9;
+  uint64_t uncompressed_size = 0, records_len = 0;
+  std::memcpy(&uncompressed_size, &good[fields + 16], 8);
+  const std::size_t records_at = fields + 8 + 8 + 8 + 4 + 4 + 4 + 8;
+  std::memcpy(&records_len, &good[records_at - 8], 8);
+  ASSERT_EQ(std::string(good.begin() + static_cast<std::ptrdiff_t>(fields + 32),
+                        good.begin() + static_cast<std::ptrdiff_t>(fields + 36)),
+            "zstd");
+  std::vector<uint8_t> plain(uncompressed_size);
+  ASSERT_EQ(ZSTD_decompress(plain.data(), plain.size(), &good[records_at], records_len),
+            uncompressed_size);
+  std::vector<uint8_t> sizeless(ZSTD_compressBound(plain.size()));
+  ZSTD_CCtx* cctx = ZSTD_createCCtx();
+  ZSTD_CCtx_setParameter(cctx, ZSTD_c_contentSizeFlag, 0);
+  const std::size_t n =
+      ZSTD_compress2(cctx, sizeless.data(), sizeless.size(), plain.data(), plain.size());
+  ZSTD_freeCCtx(cctx);
+  ASSERT_FALSE(ZSTD_isError(n));
+  sizeless.resize(n);
+  ASSERT_EQ(ZSTD_getFrameContentSize(sizeless.data(), sizeless.size()), ZSTD_CONTENTSIZE_UNKNOWN);
+
+  const auto cut_after_chunk = [&](std::span<const uint8_t> records) {
+    std::vector<uint8_t> out(good.begin(), good.begin() + static_cast<std::ptrdiff_t>(records_at));
+    const uint64_t len = records_at - fields + records.size(), rl = records.size();
+    std::memcpy(&out[chunk->offset + 1], &len, 8);
+    std::memcpy(&out[records_at - 8], &rl, 8);
+    out.insert(out.end(), records.begin(), records.end());
+    return out;
+  };
+  const auto messages = [](const std::vector<uint8_t>& bytes, const char* name,
+                           McapReadSummary& s) {
+    std::vector<std::pair<uint64_t, std::vector<uint8_t>>> out;
+    s = read_mcap(std::span<const uint8_t>(bytes), name, [&](const McapMessageView& m) {
+      out.emplace_back(m.log_time, std::vector<uint8_t>(m.data.begin(), m.data.end()));
+    });
+    return out;
+  };
+  McapReadSummary sized_summary, sizeless_summary;
+  const auto sized =
+      messages(cut_after_chunk(std::span<const uint8_t>(&good[records_at], records_len)),
+               "sized.mcap", sized_summary);
+  const auto read = messages(cut_after_chunk(sizeless), "sizeless.mcap", sizeless_summary);
+  ASSERT_GT(sized.size(), 10u);
+  EXPECT_EQ(read, sized);
+  EXPECT_EQ(sizeless_summary.corrupt_chunks, 0u);
+  EXPECT_FALSE(sizeless_summary.complete);  // cut after the chunk
+
+  // Without the size the header's must still come out exactly.
+  std::vector<uint8_t> lying = cut_after_chunk(sizeless);
+  const uint64_t one_more = uncompressed_size + 1;
+  std::memcpy(&lying[fields + 16], &one_more, 8);
+  try {
+    read_mcap(std::span<const uint8_t>(lying), "lying.mcap", nullptr);
+    ADD_FAILURE() << "accepted a chunk one byte shorter than its header says";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt chunk: decompressed size does not match"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 #include <cstring>
+#include <filesystem>
+#include <vector>
 
 #include "imukit/capture/recording_mcap.hpp"
 #include "imukit/core/error.hpp"
@@ -139,6 +141,50 @@ TEST(RosMessages, RecordingWithAMagnetometerRoundTripsThroughMcap) {
   for (const McapSchema& sc : back.summary.schemas)
     schema |= sc.name == "sensor_msgs/msg/MagneticField";
   EXPECT_TRUE(schema);
+}
+
+// Review, 2026-11-27: a time from 2038-01-19 03:14:08 UTC on wrapped in the stamp's int32
+// seconds (read back 136 years early) and one before 1970 became a 584-year MCAP log_time. Both
+// are refused before the file is opened, naming the stream, sample and time.
+TEST(RosMessages, TimesAStampOrALogTimeCannotHoldAreRefusedBeforeWriting) {
+  testing::TempDir dir;
+  const std::string path = (dir / "t.mcap").string();
+  constexpr TimeNs kEnd = (TimeNs{1} << 31) * kNsPerSecond;
+  struct Case {
+    std::vector<TimeNs> t;
+    TimeNs bad;
+    const char* where;
+  };
+  const Case cases[] = {{{kEnd - 20'000'000, kEnd, kEnd + 20'000'000}, kEnd, "sample 1"},
+                        {{-20'000'000, 0, 20'000'000}, -20'000'000, "sample 0"}};
+  for (const auto& [times, bad, where] : cases) {
+    Recording rec;
+    ImuSeries s = ImuSeries::with_channels(3, true, true);
+    s.t = times;
+    rec.streams["wrist"] = s;
+    try {
+      write_recording_mcap(path, rec);
+      ADD_FAILURE() << "wrote a time of " << bad << " ns";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(path + ": stream 'wrist' " + where + ": time " + std::to_string(bad) +
+                          " ns is outside"),
+                std::string::npos)
+          << what;
+    }
+    EXPECT_FALSE(std::filesystem::exists(path));
+  }
+  // The last storable nanosecond round-trips.
+  Recording rec;
+  ImuSeries s = ImuSeries::with_channels(2, true, true);
+  s.t = {kEnd - 2, kEnd - 1};
+  rec.streams["wrist"] = s;
+  rec.events.push_back(Event{kEnd - 1, "tap", ""});
+  write_recording_mcap(path, rec);
+  EXPECT_EQ(read_recording_mcap(path).recording.streams.at("wrist").t, s.t);
+  ImuMessage m;
+  m.stamp = kEnd;
+  EXPECT_THROW(encode_cdr(m), Error);
 }
 
 TEST(RosMessages, MalformedCdrIsRejectedWithTheByte) {
