@@ -235,11 +235,16 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
   j["labels"] = {{"file", "y.npy"}, {"unlabelled", kNoLabel}};
   j["seeds"] = {{"seed", info.seed},
                 {"batch_size", info.batch_size},
+                {"identity_fraction", info.identity_fraction},
                 {"streams",
                  "batch b draws from Rng(seed).child(b): one uniform when identity_fraction > 0 "
                  "(below it the batch is not augmented), one uniform choosing the sub-policy, "
                  "then for PPDA one 64-bit draw s (window k of the batch: Rng(s).child(k)), for "
                  "STDA the methods' draws for the whole batch (augment/stda.hpp)"}};
+  if (info.mode == "ppda") {
+    j["method"] = info.method;
+    j["too_short_windows"] = info.too_short_windows;
+  }
   j["policy"] = info.policy_json.empty() ? json() : json::parse(info.policy_json);
   j["sub_policy_file"] = "sub_policy.npy";
   const std::string path = (d / "dataset.json").string();
@@ -330,6 +335,8 @@ DatasetInfo base_info(const Policy& policy, const DatasetOptions& o) {
   info.policy_json = format_policy(policy);
   info.seed = o.seed;
   info.batch_size = o.batch_size;
+  info.identity_fraction = o.identity_fraction;
+  info.method = o.method == sim::DerivativeMethod::fd ? "fd" : "spline";
   return info;
 }
 
@@ -359,6 +366,7 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   d.sub_policy.resize(N);
   const Rng root(options.seed);
   const SubPolicy identity;
+  std::size_t too_short_windows = 0;
   for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
     const std::size_t n = std::min(options.batch_size, N - b0);
     Rng br = root.child(batch);
@@ -370,10 +378,30 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
       d.sub_policy[b0 + k] = idx;
     }
     const SubPolicy& sub = idx < 0 ? identity : policy.sub_policies[static_cast<std::size_t>(idx)];
-    aug.apply(sub, starts, br, std::span<float>(d.X.data() + b0 * T * C, n * T * C),
-              options.threads);
+    float* const rows = d.X.data() + b0 * T * C;
+    std::vector<uint8_t> too_short(n, 0);
+    aug.apply(sub, starts, br, std::span<float>(rows, n * T * C), options.threads, nullptr,
+              too_short);
+    // A speed drawn too fast for the motion around a window needs frames the scene does not
+    // have: that window is written unaugmented (sub_policy -1) and counted. It ended the whole
+    // run until review, 2026-11-27; whether a sub-policy can need too much depends on its draw.
+    std::vector<int64_t> plain_starts;
+    for (std::size_t k = 0; k < n; ++k)
+      if (too_short[k] != 0) plain_starts.push_back(starts[k]);
+    if (!plain_starts.empty()) {
+      std::vector<float> plain(plain_starts.size() * T * C);
+      Rng plain_rng = br.child(0);  // its own stream: the scene's hardware noise, if any
+      aug.apply(identity, plain_starts, plain_rng, plain, options.threads);
+      for (std::size_t k = 0, j = 0; k < n; ++k) {
+        if (too_short[k] == 0) continue;
+        std::copy_n(plain.data() + j++ * T * C, T * C, rows + k * T * C);
+        d.sub_policy[b0 + k] = -1;
+      }
+      too_short_windows += plain_starts.size();
+    }
   }
   d.info = base_info(policy, options);
+  d.info.too_short_windows = too_short_windows;
   d.info.mode = "ppda";
   d.info.gravity_world = scene.options.gravity_world;
   d.info.sensors = aug.sensor_names();

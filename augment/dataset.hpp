@@ -69,6 +69,11 @@ struct DatasetInfo {
   std::string policy_json;  // format_policy() text, embedded verbatim
   uint64_t seed = 0;
   std::size_t batch_size = 0;
+  double identity_fraction = 0.0;
+  std::string method;  // PPDA: "spline" or "fd" (DatasetOptions::method)
+  // PPDA: windows written unaugmented (sub_policy -1) because their drawn speed needed more
+  // motion than the scene has around them.
+  std::size_t too_short_windows = 0;
   bool normalized = false;
   std::vector<double> channel_mean, channel_std;  // when normalized
   std::optional<Eigen::Vector3d> gravity_world;   // PPDA: the scene's, as simulated (m/s^2)
@@ -108,7 +113,9 @@ struct Dataset {
 // count above the base count repeats the windows under fresh draws), batch b of `batch_size`
 // windows uses sub-policy sample_sub_policy(policy, Rng(seed).child(b)) (or identity for the
 // identity_fraction of batches decided by the same stream) and draws its windows from
-// Rng(seed).child(b) as PpdaAugmenter::apply does.
+// Rng(seed).child(b) as PpdaAugmenter::apply does. A window whose drawn speed needs more motion
+// than the scene has around it is written unaugmented (sub_policy -1, from Rng(seed).child(b)
+// .child(0)) and counted in info.too_short_windows.
 // labels: per sample (at the sensor rate), may be empty.
 Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
                          std::span<const int64_t> labels, const DatasetOptions& options);

@@ -858,6 +858,16 @@ int PpdaAugmenter::max_amplitude_knots(std::size_t window) {
 void PpdaAugmenter::check(const SubPolicy& sub) const {
   const std::size_t T = impl_->options.window;
   const AmplitudeOp& a = sub.amplitude;
+  // A joint the body does not have was found only when its sub-policy was first drawn, which
+  // could end a long run late (review, 2026-11-27).
+  for (const std::string& name : a.joints) {
+    try {
+      (void)impl_->body.index_of(name);
+    } catch (const Error& e) {
+      throw Error(
+          fmt::format("augment: sub-policy {}: amplitude joints: {}", sub.describe(), e.what()));
+    }
+  }
   if (a.method == WarpMethod::warping && a.knots > max_amplitude_knots(T)) {
     throw Error(fmt::format(
         "augment: sub-policy {}: amplitude warping with {} knots on windows of {} samples puts "

@@ -849,6 +849,11 @@ write(dir) writes X.npy, y.npy, sub_policy.npy and dataset.json.)doc")
                                i["policy"] = d.info.policy_name;
                                i["seed"] = d.info.seed;
                                i["batch_size"] = d.info.batch_size;
+                               i["identity_fraction"] = d.info.identity_fraction;
+                               if (d.info.mode == "ppda") {
+                                 i["method"] = d.info.method;
+                                 i["too_short_windows"] = d.info.too_short_windows;
+                               }
                                i["normalized"] = d.info.normalized;
                                i["channel_mean"] = d.info.channel_mean;
                                i["channel_std"] = d.info.channel_std;

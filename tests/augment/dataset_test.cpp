@@ -175,6 +175,55 @@ TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
   }
 }
 
+// Review, 2026-11-27: a speed drawn too fast for the motion around a window ended the whole
+// run ("a window of 200 samples at this speed needs ... frames"), losing what was made. Such a
+// window is written unaugmented, marked -1, and counted.
+TEST(Dataset, AWindowTooShortForItsDrawnSpeedIsWrittenUnaugmented) {
+  const sim::Scene scene = small_scene();  // 700 samples
+  Policy policy;
+  policy.name = "fast";
+  SubPolicy fast;
+  fast.speed.method = WarpMethod::scaling;
+  fast.speed.lo = 1.0;
+  fast.speed.hi = 4.0;  // b above about 3.5 needs more than 700 samples for 200
+  policy.sub_policies = {fast};
+  policy.probabilities = {1.0};
+  DatasetOptions o;
+  o.window = 200;
+  o.stride = 100;
+  o.count = 24;
+  o.batch_size = 4;
+  o.seed = 3;
+  o.threads = 2;
+  const Dataset d = generate_dataset(scene, policy, {}, o);
+  const auto plain = std::count(d.sub_policy.begin(), d.sub_policy.end(), int64_t{-1});
+  EXPECT_GT(plain, 0);
+  EXPECT_LT(plain, 24);
+  EXPECT_EQ(d.info.too_short_windows, static_cast<std::size_t>(plain));
+  PpdaOptions po;
+  po.window = 200;
+  PpdaAugmenter aug(scene, po);
+  const std::vector<int64_t> base = aug.window_starts(100);
+  const std::size_t T = 200, C = 6;
+  for (std::size_t k = 0; k < 24; ++k) {
+    if (d.sub_policy[k] != -1) continue;
+    std::vector<float> expected(T * C);
+    Rng rng(1);
+    const int64_t start[] = {base[k % base.size()]};
+    aug.apply(SubPolicy{}, start, rng, expected);
+    EXPECT_TRUE(std::equal(expected.begin(), expected.end(),
+                           d.X.begin() + static_cast<std::ptrdiff_t>(k * T * C)))
+        << "window " << k;
+  }
+  const std::string dir = ::testing::TempDir() + "/ds_too_short";
+  write_dataset(dir, d.X, d.shape, d.y, d.sub_policy, d.info);
+  std::ifstream in(dir + "/dataset.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j.at("too_short_windows"), plain);
+  EXPECT_EQ(j.at("method"), "spline");
+  EXPECT_EQ(j.at("seeds").at("identity_fraction"), 0.0);
+}
+
 TEST(Dataset, StdaFromRecordedStreams) {
   ImuSeries s = ImuSeries::with_channels(400, true, true);
   for (std::size_t i = 0; i < 400; ++i) {

@@ -651,6 +651,30 @@ TEST(Ppda, EveryInstructionSetVariantGivesTheSameBatch) {
   }
 }
 
+// Review, 2026-11-27: an amplitude joint the body does not have was found only when its
+// sub-policy was first drawn (generate_dataset checks every sub-policy up front with check()).
+TEST(Ppda, AnAmplitudeJointTheBodyDoesNotHaveIsRefusedByCheck) {
+  const sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter aug(scene);
+  SubPolicy sub;
+  sub.amplitude.method = WarpMethod::scaling;
+  sub.amplitude.sigma = 0.2;
+  sub.amplitude.joints = {"nope"};
+  try {
+    aug.check(sub);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("augment: sub-policy " + sub.describe() +
+                             ": amplitude joints: body has no joint or segment 'nope'",
+                         0),
+              0u)
+        << what;
+  }
+  sub.amplitude.joints = {scene.body.joint(1).name};
+  EXPECT_NO_THROW(aug.check(sub));
+}
+
 // Found on 2026-11-26: one window sped up beyond its short motion ended a HAR experiment of 64
 // runs. With too_short the caller gets the other windows, as they are without it, and the flags.
 TEST(Ppda, AWindowTooShortForItsSpeedIsFlaggedWhereTheCallerAsks) {
