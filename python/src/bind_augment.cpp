@@ -335,6 +335,27 @@ struct AugmenterHandle {
 
 // sub: a SubPolicy, a dict in the policy layout, an index into `policy`, or a description
 // string equal to one of `policy`'s sub-policies' describe().
+// The index of the one sub-policy of `policy` whose describe() is `description`. describe()
+// leaves out what it cannot print briefly (amplitude joints, swapped presets and subjects,
+// profile spreads) and rounds numbers, so two sub-policies can share a description: that is an
+// error naming both, not the first of them (review, 2026-11-27).
+std::size_t sub_policy_described(const Policy& policy, const std::string& description,
+                                 const std::string& who) {
+  std::vector<std::size_t> found;
+  for (std::size_t i = 0; i < policy.sub_policies.size(); ++i)
+    if (policy.sub_policies[i].describe() == description) found.push_back(i);
+  if (found.empty())
+    throw Error(who + "no sub-policy of policy '" + policy.name + "' is described as '" +
+                description + "'");
+  if (found.size() > 1) {
+    std::string indices;
+    for (const std::size_t i : found) indices += (indices.empty() ? "" : ", ") + std::to_string(i);
+    throw Error(who + "sub-policies " + indices + " of policy '" + policy.name +
+                "' are all described as '" + description + "': give the index");
+  }
+  return found[0];
+}
+
 // Augmenter.apply's too_short=: None, or a writable C-contiguous bool array of one flag per
 // window, which apply fills (augment::PpdaAugmenter::apply).
 std::span<uint8_t> too_short_flags(py::handle obj, py::ssize_t n) {
@@ -400,13 +421,7 @@ py::array ppda_apply(AugmenterHandle& h, py::handle sub, py::handle starts_obj, 
       }
       index = i.cast<std::size_t>();
     } else {
-      const auto d = sub.cast<std::string>();
-      for (std::size_t i = 0; i < policy->sub_policies.size() && !index; ++i) {
-        if (policy->sub_policies[i].describe() == d) index = i;
-      }
-      if (!index)
-        throw Error("Augmenter.apply: no sub-policy of policy '" + policy->name +
-                    "' is described as '" + d + "'");
+      index = sub_policy_described(*policy, sub.cast<std::string>(), "Augmenter.apply: ");
     }
   } else {
     throw py::type_error(
@@ -660,11 +675,7 @@ rate_hz=0) (see augment/policy.hpp: jittering last, a profile's sigmas at rate_h
       .def(
           "index",
           [](const Policy& p, const std::string& description) {
-            for (std::size_t i = 0; i < p.sub_policies.size(); ++i) {
-              if (p.sub_policies[i].describe() == description) return i;
-            }
-            throw Error("policy '" + p.name + "': no sub-policy is described as '" + description +
-                        "'");
+            return sub_policy_described(p, description, "");
           },
           py::arg("description"))
       .def(

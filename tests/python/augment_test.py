@@ -256,6 +256,19 @@ class Policies(unittest.TestCase):
         with self.assertRaises(imukit.Error):
             imukit.read_policy("nonexistent_policy")
 
+    def test_a_description_two_sub_policies_share_is_refused(self):
+        # describe() leaves amplitude joints out: the lookup took the first of the two (review,
+        # 2026-11-27); it names both and asks for the index.
+        p = imukit.parse_policy(json.dumps({"schema": "imukit.policy/1", "name": "twins", "sub_policies": [
+            {"amplitude": {"method": "scaling", "sigma": 0.2, "joints": ["left_elbow"]}},
+            {"amplitude": {"method": "scaling", "sigma": 0.2, "joints": ["right_elbow"]}},
+            {"amplitude": {"method": "scaling", "sigma": 0.3}}]}))
+        d = p.describe()
+        self.assertEqual(d[0], d[1])
+        with self.assertRaisesRegex(imukit.Error, "sub-policies 0, 1 of policy 'twins' are all described as"):
+            p.index(d[0])
+        self.assertEqual(p.index(d[2]), 2)
+
 
 class Ppda(unittest.TestCase):
     @classmethod
