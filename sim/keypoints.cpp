@@ -1360,12 +1360,13 @@ void merge_stretches(std::vector<std::pair<TimeNs, TimeNs>>& stretches) {
   stretches = std::move(merged);
 }
 
-// Filled stretches: runs of two or more input frames with some keypoint missing, and the jumps,
-// into out.invalid_motion.
+// Filled stretches: runs of two or more input frames with some keypoint missing, steps in time
+// of two frames or more that no frame fills, and the jumps, into out.invalid_motion.
 void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, KeypointMotion& out) {
   const int64_t F = c.F;
   const std::size_t J = c.J;
   const double duration = c.t.back() - c.t.front();
+  const auto at = [&](int64_t f) { return c.t[static_cast<std::size_t>(f)] - c.t.front(); };
   std::vector<uint8_t> bad(static_cast<std::size_t>(F), 0);
   for (int64_t f = 0; f < F; ++f) {
     for (std::size_t j = 0; j < J; ++j)
@@ -1378,11 +1379,38 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
     }
     int64_t g = f;
     while (g + 1 < F && bad[static_cast<std::size_t>(g + 1)]) ++g;
-    if (g > f) {
-      out.invalid_motion.emplace_back(from_seconds(c.t[static_cast<std::size_t>(f)] - c.t.front()),
-                                      from_seconds(c.t[static_cast<std::size_t>(g)] - c.t.front()));
-    }
+    // The smoothing guesses from the last frame with data before the run to the first after
+    // it, not only at the missing instants (those alone left 53 ms on each side at 19 fps
+    // unlisted; review, 2026-11-27).
+    if (g > f)
+      out.invalid_motion.emplace_back(from_seconds(at(std::max<int64_t>(f - 1, 0))),
+                                      from_seconds(at(std::min(g + 1, F - 1))));
     f = g + 1;
+  }
+  // Frames that are not there at all: a step of 2.5 median periods or more has two frames or
+  // more missing, which the smoothing bridged without a word until review, 2026-11-27.
+  if (F >= 3) {
+    std::vector<double> steps(static_cast<std::size_t>(F - 1));
+    for (int64_t f = 0; f + 1 < F; ++f) steps[static_cast<std::size_t>(f)] = at(f + 1) - at(f);
+    std::vector<double> sorted = steps;
+    std::nth_element(sorted.begin(),
+                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    const double period = sorted[sorted.size() / 2];
+    std::string gaps;
+    int count = 0;
+    for (int64_t f = 0; f + 1 < F; ++f) {
+      if (steps[static_cast<std::size_t>(f)] < 2.5 * period) continue;
+      out.invalid_motion.emplace_back(from_seconds(at(f)), from_seconds(at(f + 1)));
+      if (++count <= 5)
+        gaps += fmt::format("{}{:.3f}-{:.3f} s (input frames {}-{})", gaps.empty() ? "" : ", ",
+                            at(f), at(f + 1), f, f + 1);
+    }
+    if (count > 0) {
+      out.warnings.push_back(fmt::format(
+          "keypoints: {} step(s) in time of 2.5 frame periods ({:.3f} s) or more, the motion "
+          "interpolated across them: {}{}",
+          count, period, gaps, count > 5 ? ", ..." : ""));
+    }
   }
   // Jumps (with the frames they cross), widened by the smoothing's reach (half a period of the
   // cut-off) on each side.

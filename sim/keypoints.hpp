@@ -183,8 +183,9 @@ struct KeypointMotion {
   std::vector<int64_t> jump_frames;  // the frame after each jump
   int64_t flagged_frames = 0;        // input frames in any list
   // Motion-time intervals [begin, end] (ns since motion frame 0, sorted, disjoint) filled over
-  // two or more consecutive input frames without data, and around jumps; the motion there is
-  // a guess. IdentifyOptions::invalid_motion takes them as is.
+  // two or more consecutive input frames without data (from the frame with data before to the
+  // one after), over steps in time of 2.5 frame periods or more, and around jumps; the motion
+  // there is a guess. IdentifyOptions::invalid_motion takes them as is.
   std::vector<std::pair<TimeNs, TimeNs>> invalid_motion;
   std::vector<SegmentReport> segments;
 };
