@@ -108,9 +108,13 @@ struct IdentifyOptions {
 
   // Clocks: motion frame 0 is at motion_start_ns on the IMU clock.
   TimeNs motion_start_ns = 0;
-  bool coarse_time_offset = true;   // cross-correlation of |w| first
-  double max_time_offset_s = 1.0;   // search range of the coarse step
-  double time_offset_init_s = 0.0;  // used when coarse_time_offset is false
+  bool coarse_time_offset = true;  // cross-correlation of |w| first
+  double max_time_offset_s = 1.0;  // search range of the coarse step
+  // The start when coarse_time_offset is false. The cross-correlation then searches only
+  // +-given_offset_search_s around it (0: start exactly there), and where nothing correlates
+  // there (r < 0.3) the start stays as given.
+  double time_offset_init_s = 0.0;
+  double given_offset_search_s = 0.25;
   // Motion-time intervals [begin, end] (ns since frame 0) that are not real motion (filled gaps
   // of a pose track): IMU samples that would read them are left out.
   std::vector<std::pair<TimeNs, TimeNs>> invalid_motion;

@@ -337,7 +337,7 @@ from (imukit.placement_presets(); gives the joint too); position_m, q_joint_sens
 placement, over the preset's (the rotation is found from the data unless
 rotation_from_data=False);
 motion_start_ns: IMU time of motion frame 0 (default the first IMU sample); time_offset_s:
-skip the coarse search and start there; *_bias_prior_*: 1-sigma Gaussian priors on the biases
+search only within +-0.25 s of it and start from the peak (from it when nothing correlates there); *_bias_prior_*: 1-sigma Gaussian priors on the biases
 (0: none). Returns an IdentifyResult; raises imukit.Error for
 unusable input. The GIL is released while it runs (threads can fit trials in parallel).)doc");
 
