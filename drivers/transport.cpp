@@ -12,10 +12,24 @@
 
 namespace imukit::drivers {
 
-TimeNs host_now() {
+namespace {
+TimeNs read_clock(clockid_t clock) {
   timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
+  clock_gettime(clock, &ts);
   return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+}
+}  // namespace
+
+TimeNs host_now() {
+  // The wall clock steps (NTP's first sync, an administrator's `date`), and a step in the middle
+  // of a recording bent the whole offline clock fit: +0.5 s half way through 600 s read as a
+  // skew of -1,664 ppm, 500 ms off at the ends (review, 2026-11-27). The wall clock is read
+  // once, and the monotonic clock, which never steps, measures the time since.
+  struct Base {
+    TimeNs wall, monotonic;
+  };
+  static const Base base{read_clock(CLOCK_REALTIME), read_clock(CLOCK_MONOTONIC)};
+  return base.wall + (read_clock(CLOCK_MONOTONIC) - base.monotonic);
 }
 
 std::string os_error(const std::string& what, int err) { return what + ": " + std::strerror(err); }

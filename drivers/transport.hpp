@@ -24,8 +24,9 @@ class TransportError : public IoError {  // an I/O failure: the CLI's exit code 
   using IoError::IoError;
 };
 
-// The host's clock for receive times: CLOCK_REALTIME in ns (recordings are stamped since the Unix
-// epoch, DESIGN.md).
+// The host's clock for receive times, ns since the Unix epoch (DESIGN.md): CLOCK_REALTIME read at
+// the first call plus CLOCK_MONOTONIC's time since, so a step of the wall clock during a
+// recording does not step its times.
 TimeNs host_now();
 
 struct ReadResult {

@@ -5,6 +5,9 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdlib>
+#include <ctime>
 #include <stdexcept>
 #include <thread>
 
@@ -94,6 +97,26 @@ TEST(DeviceReader, RunStopsAfterMaxSamples) {
 // The hint when nothing arrives names what the transport has to check: only a serial port has a
 // baud rate (found in review: a silent pty given as fd:, a mock, HID and USB were told to check
 // a baud rate they do not have).
+// Receive times follow the monotonic clock from a wall-clock base (a wall-clock step during a
+// recording bent its whole clock fit; review, 2026-11-27): differences equal CLOCK_MONOTONIC's
+// to the microsecond, and the value is the Unix epoch's.
+TEST(Transport, HostTimeIsTheWallClockAdvancedByTheMonotonicClock) {
+  const auto read = [](clockid_t clock) {
+    timespec ts{};
+    clock_gettime(clock, &ts);
+    return static_cast<TimeNs>(ts.tv_sec) * kNsPerSecond + ts.tv_nsec;
+  };
+  EXPECT_LT(std::abs(host_now() - read(CLOCK_REALTIME)), 1'000'000'000);
+  for (int k = 0; k < 50; ++k) {
+    const TimeNs m0 = read(CLOCK_MONOTONIC), h0 = host_now();
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    const TimeNs m1 = read(CLOCK_MONOTONIC), h1 = host_now();
+    // The two pairs are read within microseconds of each other; no step can hide in 200 us.
+    ASSERT_LT(std::abs((h1 - h0) - (m1 - m0)), 100'000) << "reading " << k;
+    ASSERT_GT(h1, h0);
+  }
+}
+
 TEST(Transport, OnlyASerialPortIsToldToCheckItsBaudRate) {
   const MemoryTransport memory({});
   EXPECT_EQ(memory.when_silent(), "check the codec in the URI and that the device is streaming");
