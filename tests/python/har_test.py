@@ -1083,8 +1083,8 @@ class CommandErrors(unittest.TestCase):
                 ("fewer-subjects", "--sizes", "-1", "an integer >= 1"),
                 ("fewer-subjects", "--sizes", "1,0", "an integer >= 1"),
                 ("fidelity", "--window", "0", "an integer >= 2"),
-                ("one-at-a-time", "--models", "deepconvlstm,foo", "one of deepconvlstm, attend"),
-                ("fewer-subjects", "--models", "attend,", "one of deepconvlstm, attend"),
+                ("one-at-a-time", "--models", "deepconvlstm,foo", "one of deepconvlstm, attend, attend-l2"),
+                ("fewer-subjects", "--models", "attend,", "one of deepconvlstm, attend, attend-l2"),
                 ("fewer-subjects", "--steps-per-epoch", "-1", "an integer >= 0")):
             got = value.split(",")[-1]
             self.assertEqual(self.error([command, "--recordings", "/nonexistent", "--out", "/nonexistent",
