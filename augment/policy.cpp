@@ -65,7 +65,7 @@ AmplitudeOp parse_amplitude(const json& j, const std::string& source, const std:
   }
   if (op.method == WarpMethod::warping) {
     if (!j.contains("knots")) json_fail(source, path + ".knots", "missing");
-    op.knots = integer(j["knots"], source, path + ".knots", 0, 1000);
+    op.knots = integer(j["knots"], source, path + ".knots", 0, PolicyLimits::max_knots);
   }
   if (j.contains("joints")) {
     const json& js = j["joints"];
@@ -93,7 +93,7 @@ SpeedOp parse_speed(const json& j, const std::string& source, const std::string&
   } else if (op.method == WarpMethod::warping) {
     if (!j.contains("knots")) json_fail(source, path + ".knots", "missing");
     if (!j.contains("ratio")) json_fail(source, path + ".ratio", "missing");
-    op.knots = integer(j["knots"], source, path + ".knots", 0, 1000);
+    op.knots = integer(j["knots"], source, path + ".knots", 0, PolicyLimits::max_knots);
     op.ratio = bounded(j["ratio"], source, path + ".ratio", 1, PolicyLimits::max_speed_ratio);
   }
   return op;
@@ -460,7 +460,11 @@ void Policy::validate() const {
     const auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
     if (!in(s.amplitude.sigma, 0, L::max_amplitude_sigma))
       bad(fmt::format("amplitude sigma outside [0, {:g}]", L::max_amplitude_sigma));
-    if (s.amplitude.knots < 0 || s.speed.knots < 0) bad("negative knot count");
+    // The parser's bounds (0 to 1000 knots), which a policy built in C++ skipped: INT_MAX
+    // knots overflowed knots + 1 (review, 2026-11-27).
+    if (!(s.amplitude.knots >= 0 && s.amplitude.knots <= L::max_knots && s.speed.knots >= 0 &&
+          s.speed.knots <= L::max_knots))
+      bad(fmt::format("knot count outside [0, {}]", L::max_knots));
     if (!(in(s.speed.lo, L::min_speed, L::max_speed) && in(s.speed.hi, s.speed.lo, L::max_speed)))
       bad(fmt::format("speed range outside {:g} <= lo <= hi <= {:g}", L::min_speed, L::max_speed));
     if (!in(s.speed.ratio, 1, L::max_speed_ratio))
@@ -471,8 +475,9 @@ void Policy::validate() const {
           in(s.hardware.scale_spread, 0, L::max_scale_spread) &&
           in(s.hardware.misalignment_spread_rad, 0, L::max_misalignment_spread_deg * kRadPerDeg)))
       bad("hardware ranges outside the limits of augment::PolicyLimits");
+    // Each component: minCoeff and maxCoeff may pass over a NaN.
     const Eigen::Vector3d& r = s.placement.rotation_range_rad;
-    if (!(in(r.minCoeff(), 0, M_PI + 1e-12) && in(r.maxCoeff(), 0, M_PI + 1e-12) &&
+    if (!(in(r[0], 0, M_PI + 1e-12) && in(r[1], 0, M_PI + 1e-12) && in(r[2], 0, M_PI + 1e-12) &&
           in(s.placement.long_axis_range_rad, 0, M_PI + 1e-12)))
       bad("placement half-widths outside [0, 180] degrees");
     if (s.hardware.kind == HardwareOp::Kind::profile && !s.hardware.profile) bad("profile missing");

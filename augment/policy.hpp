@@ -42,6 +42,7 @@ struct PolicyLimits {
   static constexpr double max_amplitude_sigma = 2.0;            // the grids use up to 0.6
   static constexpr double min_speed = 0.01, max_speed = 100.0;  // speed factor b
   static constexpr double max_speed_ratio = 100.0;
+  static constexpr int max_knots = 1000;       // amplitude and speed warping
   static constexpr double max_accel = 1000.0;  // m/s^2: noise sigma and bias half-width
   static constexpr double max_gyro = 100.0;    // rad/s: noise sigma and bias half-width
   static constexpr double max_scale_spread = 1.0;

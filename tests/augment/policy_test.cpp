@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+
+#include <cmath>
 #include <fstream>
 #include <set>
 
@@ -226,6 +229,28 @@ TEST(Policy, ErrorsNameTheLineOrTheJsonPath) {
           R"({"schema": "imukit.policy/1", "sub_policies": [{"speed": {"method": "warping", "knots": 2.5, "ratio": 2}}]})")
           .find("knots"),
       std::string::npos);
+}
+
+// A policy built in C++ skipped the parser's checks: INT_MAX knots (overflowing knots + 1) and
+// a NaN in one rotation half-width passed validate() (review, 2026-11-27).
+TEST(Policy, ValidateChecksWhatTheParserChecks) {
+  Policy p;
+  p.name = "built";
+  p.sub_policies.resize(1);
+  p.probabilities = {1.0};
+  EXPECT_NO_THROW(p.validate());
+  p.sub_policies[0].speed.knots = std::numeric_limits<int>::max();
+  EXPECT_THROW(p.validate(), Error);
+  p.sub_policies[0].speed.knots = PolicyLimits::max_knots;
+  EXPECT_NO_THROW(p.validate());
+  p.sub_policies[0].amplitude.knots = PolicyLimits::max_knots + 1;
+  EXPECT_THROW(p.validate(), Error);
+  p.sub_policies[0].amplitude.knots = 2;
+  for (int k = 0; k < 3; ++k) {
+    p.sub_policies[0].placement.rotation_range_rad = Eigen::Vector3d(0.1, 0.2, 0.3);
+    p.sub_policies[0].placement.rotation_range_rad[k] = std::nan("");
+    EXPECT_THROW(p.validate(), Error) << "NaN in component " << k;
+  }
 }
 
 TEST(Policy, SamplingFollowsTheProbabilities) {
