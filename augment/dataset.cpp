@@ -390,7 +390,7 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
       if (too_short[k] != 0) plain_starts.push_back(starts[k]);
     if (!plain_starts.empty()) {
       std::vector<float> plain(plain_starts.size() * T * C);
-      Rng plain_rng = br.child(0);  // its own stream: the scene's hardware noise, if any
+      Rng plain_rng = br.child(0);  // the identity sub-policy draws nothing; a stream all the same
       aug.apply(identity, plain_starts, plain_rng, plain, options.threads);
       for (std::size_t k = 0, j = 0; k < n; ++k) {
         if (too_short[k] == 0) continue;
