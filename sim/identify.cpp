@@ -1309,6 +1309,50 @@ void recentre_twist(Context& ctx, Params& p, int knots, int dims) {
   p.pos = {pos.x(), pos.y(), pos.z()};
 }
 
+// The convention recentre_twist reports in, mean twist = 0, as a stiff linear residual
+// W sum_k a_k c_k[0] over the control points, added for the covariance only (it is 0 at the
+// recentred point). A constant twist and a turn of the placement about the long axis give the
+// same signals; without the convention only the twist's magnitude prior told them apart, so the
+// rotation's and the position's standard errors were the prior's, twist_prior / sqrt(knots):
+// +-0.50 rad for a rotation known to 1e-4 (review, 2026-11-27).
+class MeanTwistConvention : public ceres::CostFunction {
+ public:
+  MeanTwistConvention(std::vector<double> a, int dims) : a_(std::move(a)) {
+    for (std::size_t k = 0; k < a_.size(); ++k) mutable_parameter_block_sizes()->push_back(dims);
+    set_num_residuals(1);
+  }
+  bool Evaluate(double const* const* c, double* r, double** jacobians) const override {
+    const int dims = parameter_block_sizes()[0];
+    r[0] = 0.0;
+    for (std::size_t k = 0; k < a_.size(); ++k) r[0] += kWeight * a_[k] * c[k][0];
+    if (jacobians != nullptr) {
+      for (std::size_t k = 0; k < a_.size(); ++k) {
+        if (jacobians[k] == nullptr) continue;
+        std::fill(jacobians[k], jacobians[k] + dims, 0.0);
+        jacobians[k][0] = kWeight * a_[k];
+      }
+    }
+    return true;
+  }
+
+ private:
+  static constexpr double kWeight = 1e6;  // the mean twist held to 1e-6 rad
+  std::vector<double> a_;
+};
+
+void add_mean_twist_convention(ceres::Problem& problem, const Context& ctx, Params& p, int knots,
+                               int dims) {
+  std::vector<double> a(static_cast<std::size_t>(knots), 0.0);
+  for (const SplineSpot& sp : ctx.spot)
+    for (std::size_t m = 0; m < 4; ++m)
+      a[static_cast<std::size_t>(sp.first + static_cast<int>(m))] += sp.w[m];
+  for (double& v : a) v /= static_cast<double>(ctx.spot.size());
+  std::vector<double*> blocks;
+  for (int k = 0; k < knots; ++k)
+    blocks.push_back(p.ctrl.data() + static_cast<std::size_t>(k * dims));
+  problem.AddResidualBlock(new MeanTwistConvention(std::move(a), dims), nullptr, blocks);
+}
+
 // A parameter's name: the block's, with the axis or the segment's joint.
 std::string component_name(const Body& body, const IdentifyOptions& o, const Block& b, int k) {
   const char* axis = "xyz";
@@ -1592,7 +1636,10 @@ IdentifyResult identify(const Body& body, MotionSource& motion, const ImuSeries&
   constrain(problem, blocks, o, p, dt0, reach.window, reach.kappa);
 
   solve_robust(problem, ctx, p, o, res);
-  if (dims > 0 && o.rotation && o.position) recentre_twist(ctx, p, knots, dims);
+  if (dims > 0 && o.rotation && o.position) {
+    recentre_twist(ctx, p, knots, dims);
+    add_mean_twist_convention(problem, ctx, p, knots, dims);
+  }
   ctx.update(p.dt, p.kappa);  // the last evaluation may have been a rejected step
 
   const Observability obs = observability(problem, blocks, body, o);

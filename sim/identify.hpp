@@ -38,8 +38,9 @@ namespace imukit::sim {
 // A smooth correction of the sensor segment's rotation (docs/identification.md, "Segment
 // correction"): the segment's frame turns by Q(t) = Exp(a1 e1) Exp(a2 e2) Exp(a0 e0), e0 the
 // segment's long axis (the twist that keypoints cannot see), e1, e2 across it; each angle a cubic
-// B-spline over IMU time with uniform knots. The fitted twist averages zero over the samples
-// used (its mean is a turn of the placement about e0, and is reported there).
+// B-spline over IMU time with uniform knots. With rotation and position free, the fitted twist
+// averages zero over the samples used (its mean is a turn of the placement about e0, and is
+// reported there, standard errors included).
 enum class SegmentCorrection {
   none,
   twist,     // a0 only

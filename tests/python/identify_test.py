@@ -78,6 +78,20 @@ class Recovery(unittest.TestCase):
         self.assertEqual(r.accel.shape, (r.samples_used, 3))
         self.assertEqual(r.t.dtype, np.int64)
 
+    def test_standard_errors_with_the_twist_correction_are_the_datas(self):
+        # Review, 2026-11-27: with the correction the rotation's and position's errors were the
+        # twist prior's (rotation.x +-0.50 rad, exactly twist_prior / sqrt(9 knots), for a rotation
+        # right to 1e-4); they are computed in the reported convention, mean twist 0, now.
+        def errors(r):
+            return {p["name"]: p["std_error"] for p in json.loads(r.to_json())["parameters"]}
+        e = errors(self.r)
+        wide = errors(imukit.identify(self.body, self.motion, self.imu, init="right_wrist_watch",
+                                      correction="twist", motion_start_ns=0, twist_prior_rad=3.0))
+        for k in "xyz":
+            self.assertLess(e[f"rotation.{k}"], 0.005, k)
+            self.assertLess(e[f"position.{k}"], 0.002, k)
+            self.assertAlmostEqual(wide[f"rotation.{k}"], e[f"rotation.{k}"], delta=0.2 * e[f"rotation.{k}"])
+
     def test_a_given_start_is_searched_around(self):
         # Review, 2026-11-27: a given start skipped the cross-correlation and the fine fit,
         # boxed near it, stopped in the minimum a frame away on this jitter: 0.2 s gave 0.2044
