@@ -30,7 +30,8 @@ constexpr int kMaxSegments = 6;
 // Step of the central difference that gives the kinematics' time derivative. Inside one frame
 // interval the spline's translation is a cubic, so its acceleration is linear in time and the
 // central difference of it is exact; the rotational terms are smooth and the O(h^2) error is
-// ~1e-8 of their size. Within h of a frame the difference averages the two one-sided slopes.
+// ~1e-8 of their size. Within h of a frame the difference is one-sided, inside the sample's own
+// interval (evaluate() below says why).
 constexpr TimeNs kTimeStepNs = 100'000;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The coarse search tries at most this many clock rates (grid of +-max_clock_rate).
