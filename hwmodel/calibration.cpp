@@ -483,6 +483,23 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
   if (accel.cols() != n || (options.calibrate_gyro && gyro.cols() != n)) {
     throw Error("calibration: accelerometer, gyroscope and time stamps differ in length");
   }
+  // A NaN sample (a gap declared with --gaps) made Ceres evaluate NaN residuals and the rank
+  // check run an SVD of an empty matrix, an assertion (abort); one NaN outside the poses silently
+  // removed its axis from the static detector (review, 2026-11-27). Poses and the gyroscope's
+  // integration between them need every sample.
+  const auto require_finite = [&](const Eigen::Matrix3Xd& m, const char* what) {
+    for (Eigen::Index i = 0; i < m.cols(); ++i) {
+      if (!m.col(i).allFinite()) {
+        throw Error(fmt::format(
+            "calibration: {} sample {} (t = {:.6f} s) is not finite ({}, {}, {}): a "
+            "multi-position calibration integrates the gyroscope between poses and needs every "
+            "sample; cut the recording before the gap or record the session again",
+            what, i, to_seconds(t[static_cast<std::size_t>(i)] - t[0]), m(0, i), m(1, i), m(2, i)));
+      }
+    }
+  };
+  require_finite(accel, "accelerometer");
+  if (options.calibrate_gyro) require_finite(gyro, "gyroscope");
   // Ceres would chase a NaN or astronomically scaled model; gravity is a physical quantity.
   if (!(options.gravity > 0 && options.gravity <= 1000))
     throw Error(fmt::format("calibration: gravity {:g} m/s^2 is not plausible", options.gravity));

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
@@ -185,6 +187,34 @@ TEST(Calibration, ADeadGyroscopeIsSaidToBeDeadNotUnexcited) {
   }
   opt.calibrate_gyro = false;  // the accelerometer alone still calibrates
   EXPECT_GE(calibrate(s.t, s.accel, s.gyro, opt).poses.size(), 9u);
+}
+
+// Review, 2026-11-27: a NaN sample (a gap declared with --gaps) aborted the process (an SVD of
+// the empty matrix Ceres left after NaN residuals), and one outside the poses silently dropped
+// its axis from the static detector. Every non-finite sample is refused, named.
+TEST(Calibration, ANonFiniteSampleIsRefusedNamingIt) {
+  for (const bool in_gyro : {false, true}) {
+    Synthetic s = make_session(many_poses(12, 4), accel_truth(), gyro_truth(), 9.81, 0.5, 9);
+    const Eigen::Index i = s.accel.cols() / 2;
+    (in_gyro ? s.gyro : s.accel)(0, i) = std::numeric_limits<double>::quiet_NaN();
+    CalibrationOptions opt;
+    opt.gravity = 9.81;
+    try {
+      calibrate(s.t, s.accel, s.gyro, opt);
+      ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(std::string(in_gyro ? "gyroscope" : "accelerometer") + " sample " +
+                          std::to_string(i) + " (t = "),
+                std::string::npos)
+          << what;
+      EXPECT_NE(what.find("is not finite (nan, "), std::string::npos) << what;
+    }
+    if (in_gyro) {  // the accelerometer alone still calibrates without the gyroscope
+      opt.calibrate_gyro = false;
+      EXPECT_GE(calibrate(s.t, s.accel, s.gyro, opt).poses.size(), 9u);
+    }
+  }
 }
 
 TEST(Calibration, RejectsTooFewPoses) {
