@@ -272,35 +272,48 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
   if (runs.empty()) throw Error("characterize: no recordings to characterize");
   CharacterizeResult r;
   // Noise from the longest recording (in time: the long-tau terms need hours, and a 2 h record
-  // at 1 Hz has fewer samples than 80 s at 100 Hz); turn-on bias across all of them.
+  // at 1 Hz has fewer samples than 80 s at 100 Hz) that holds the sensor, for each sensor: an
+  // accelerometer and a gyroscope in separate files on different time stamps are separate
+  // runs, and taking the longest run for both dropped the other sensor without a word (review,
+  // 2026-11-27). Turn-on bias across all of them.
   const auto span_of = [](const ImuSeries& s) {
     return s.empty() ? TimeNs{0} : s.t.back() - s.t.front();
   };
-  const auto longest =
-      std::max_element(runs.begin(), runs.end(), [&](const LoadedRun& a, const LoadedRun& b) {
-        return span_of(a.series) < span_of(b.series);
-      });
-  const ImuSeries& s = longest->series;
-  r.noise_run = longest->name;
-  fmt::print("noise from {} ({} recordings given)\n", longest->name, runs.size());
+  const auto longest_with = [&](bool (ImuSeries::*has)() const) -> const LoadedRun* {
+    const LoadedRun* best = nullptr;
+    for (const LoadedRun& run : runs)
+      if ((run.series.*has)() && (best == nullptr || span_of(run.series) > span_of(best->series)))
+        best = &run;
+    return best;
+  };
+  const LoadedRun* accel_run = longest_with(&ImuSeries::has_accel);
+  const LoadedRun* gyro_run = longest_with(&ImuSeries::has_gyro);
+  const LoadedRun* first = accel_run != nullptr ? accel_run : gyro_run;
+  if (first == nullptr)
+    throw Error("characterize: the inputs hold neither accelerometer nor gyroscope data");
+  r.noise_run =
+      accel_run != nullptr && gyro_run != nullptr && accel_run != gyro_run
+          ? fmt::format("{} (accelerometer) and {} (gyroscope)", accel_run->name, gyro_run->name)
+          : first->name;
+  fmt::print("noise from {} ({} recordings given)\n", r.noise_run, runs.size());
   r.update.gravity = options.gravity;
   const hwmodel::TriadNoiseOptions noise_options{options.points_per_decade, options.fit_tau_min_s};
   // The triad's name on any error its noise fit gives (which axis it names itself).
-  const auto characterize = [&](const char* name, const Eigen::Matrix3Xd& x) {
+  const auto characterize = [&](const char* name, const LoadedRun& run, const Eigen::Matrix3Xd& x) {
     try {
-      return hwmodel::characterize_triad(s.t, x, noise_options);
+      return hwmodel::characterize_triad(run.series.t, x, noise_options);
     } catch (const Error& e) {
-      throw Error(fmt::format("characterize: {} of {}: {}", name, longest->name, e.what()));
+      throw Error(fmt::format("characterize: {} of {}: {}", name, run.name, e.what()));
     }
   };
-  if (s.has_accel()) {
-    r.accel = characterize("accelerometer", s.accel);
+  if (accel_run != nullptr) {
+    r.accel = characterize("accelerometer", *accel_run, accel_run->series.accel);
     print_triad("accelerometer", "m/s^2", *r.accel);
     r.update.accelerometer = SensorProfile{};
     r.update.accelerometer->noise = hwmodel::noise_estimate(*r.accel);
   }
-  if (s.has_gyro()) {
-    r.gyro = characterize("gyroscope", s.gyro);
+  if (gyro_run != nullptr) {
+    r.gyro = characterize("gyroscope", *gyro_run, gyro_run->series.gyro);
     print_triad("gyroscope", "rad/s", *r.gyro);
     r.update.gyroscope = GyroscopeProfile{};
     r.update.gyroscope->noise = hwmodel::noise_estimate(*r.gyro);

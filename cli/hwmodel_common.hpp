@@ -57,7 +57,7 @@ struct CharacterizeOptions {
 };
 
 struct CharacterizeResult {
-  std::string noise_run;  // the (longest) recording the noise came from
+  std::string noise_run;  // the (longest) recording(s) the noise came from, per sensor
   std::optional<hwmodel::TriadNoise> accel, gyro;
   std::vector<Eigen::Vector3d> accel_run_bias, gyro_run_bias;  // per recording, in input order
   DeviceProfile update;  // the noise and turn_on_bias sections

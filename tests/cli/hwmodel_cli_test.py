@@ -156,3 +156,27 @@ def test_characterize_says_what_its_records_cannot_give(run, workdir):
             "-o", os.path.join(workdir, "two.json"))
     assert r.returncode == 0 and r.stdout.startswith(f"noise from {long} "), \
         f"the noise from the longest record in time ({r.stdout.splitlines()[:1]})"
+
+
+def test_characterize_takes_each_sensor_from_its_longest_record(run, workdir):
+    # Review, 2026-11-27: an accelerometer and a gyroscope in separate files on different time
+    # stamps are two records; the longest gave the noise of both, and the other sensor was
+    # dropped without a word (no section, and 0 for it in Kalibr's imu.yaml).
+    rng = np.random.default_rng(5)
+    ta = np.arange(20000) / 100.0            # 200 s of accelerometer
+    tg = 0.005 + np.arange(19000) / 100.0    # 190 s of gyroscope, 5 ms later
+    acc = os.path.join(workdir, "acc_only.txt")
+    gyr = os.path.join(workdir, "gyr_only.txt")
+    np.savetxt(acc, np.column_stack([ta, rng.normal(0, 2e-3 * 10, (20000, 3)) + [0, 0, 9.80665]]), fmt="%.9f")
+    np.savetxt(gyr, np.column_stack([tg, rng.normal(0, 3e-4 * 10, (19000, 3))]), fmt="%.9f")
+    out = os.path.join(workdir, "split.json")
+    yaml = os.path.join(workdir, "split.yaml")
+    r = run("characterize", acc, "--columns", "t,ax,ay,az", gyr, "--columns", "t,gx,gy,gz", "-o", out,
+            "--kalibr", yaml)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.startswith(f"noise from {acc} (accelerometer) and {gyr} (gyroscope)"), r.stdout[:200]
+    p = json.load(open(out))
+    nd = np.array(p["gyroscope"]["noise"]["noise_density"])
+    na = np.array(p["accelerometer"]["noise"]["noise_density"])
+    assert np.all(np.abs(nd / 3e-4 - 1) < 0.05) and np.all(np.abs(na / 2e-3 - 1) < 0.05), (nd, na)
+    assert "gyroscope_noise_density: 0 " not in open(yaml).read()
