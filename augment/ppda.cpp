@@ -405,8 +405,8 @@ struct PpdaAugmenter::Impl {
                          sim::Motion& wm) const;
   sim::Placement sensor_placement(std::size_t s, const PlacementOp& op,
                                   const SubjectPlacements* subject, Rng& rng) const;
-  void apply_hardware(const HardwareOp& hw, SensorSignalArgs& sig, Worker& wk, Rng& rng,
-                      PpdaWindowLog* log) const;
+  void apply_hardware(const HardwareOp& hw, std::size_t s, SensorSignalArgs& sig, Worker& wk,
+                      Rng& rng, PpdaWindowLog* log) const;
 
   // Throws imukit::Error unless a window starting at `start` lies inside the motion's samples.
   void check_start(int64_t start) const;
@@ -496,7 +496,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
     const sim::Placement pl = sensor_placement(s, sub.placement, subject, rng);
     if (log != nullptr) log->placements.push_back(pl);
     SensorSignalArgs sig = carrier_signals(carriers, wk.blocks, s, pl, T, wk.f, wk.w);
-    apply_hardware(sub.hardware, sig, wk, rng, log);
+    apply_hardware(sub.hardware, s, sig, wk, rng, log);
     write_channels(wk.f.data(), wk.w.data(), T, C, out_d != nullptr ? out_d + 6 * s : nullptr,
                    out_f != nullptr ? out_f + 6 * s : nullptr);
   }
@@ -768,9 +768,12 @@ sim::Placement PpdaAugmenter::Impl::sensor_placement(std::size_t s, const Placem
 
 // 5c. The sensor's signals with its hardware errors: ranges draws its biases and white noise
 // into sig (added in sensor_signal's pass); profile draws a model of the device and runs its
-// error generator on the signals afterwards.
-void PpdaAugmenter::Impl::apply_hardware(const HardwareOp& hw, SensorSignalArgs& sig, Worker& wk,
-                                         Rng& rng, PpdaWindowLog* log) const {
+// error generator on the signals afterwards, its own range and resolution included. Otherwise
+// the scene sensor's range and resolution bound the readings: its noise is the sub-policy's
+// choice, but a device cannot read beyond its full scale nor between its LSBs (windows of a
+// scene with a 20 m/s^2 accelerometer read 191 until review, 2026-11-27).
+void PpdaAugmenter::Impl::apply_hardware(const HardwareOp& hw, std::size_t s, SensorSignalArgs& sig,
+                                         Worker& wk, Rng& rng, PpdaWindowLog* log) const {
   const std::size_t T = sig.n;
   if (hw.kind == HardwareOp::Kind::ranges) {
     Vector3d ba, bg;
@@ -803,6 +806,11 @@ void PpdaAugmenter::Impl::apply_hardware(const HardwareOp& hw, SensorSignalArgs&
     const Eigen::Matrix3Xd truth = f;
     gen.apply_gyroscope(w, truth);
     gen.apply_accelerometer(f);
+  } else if (const std::optional<HardwareModel>& device = sensors[s].hardware) {
+    saturate_and_quantise(std::span<double>(f.data(), static_cast<std::size_t>(f.size())),
+                          device->accelerometer.range, device->accelerometer.resolution);
+    saturate_and_quantise(std::span<double>(w.data(), static_cast<std::size_t>(w.size())),
+                          device->gyroscope.range, device->gyroscope.resolution);
   }
 }
 

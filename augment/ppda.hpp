@@ -50,11 +50,13 @@ struct PpdaWindowLog {
 
 class PpdaAugmenter {
  public:
-  // Takes the scene's body, motion, sensors (accelerometer and gyroscope are both output; the
-  // hardware models of the scene are ignored: the sub-policy's hardware group decides) and
-  // sample rate. Throws imukit::Error if the motion has no frame count or is shorter than a
-  // window with its margins: the frames a window of options.window samples spans, plus 10 (3 on
-  // each side for the derivative stencils, and 4), even where every window would be identity.
+  // Takes the scene's body, motion, sensors (accelerometer and gyroscope are both output; of a
+  // sensor's hardware model only its range and resolution are kept, bounding the readings unless
+  // the sub-policy draws a whole device from a profile: its noise, biases and calibration are
+  // the sub-policy's hardware group's to decide) and sample rate. Throws imukit::Error if the
+  // motion has no frame count or is shorter than a window with its margins: the frames a window of
+  // options.window samples spans, plus 10 (3 on each side for the derivative stencils, and 4), even
+  // where every window would be identity.
   PpdaAugmenter(const sim::Scene& scene, PpdaOptions options = {});
   ~PpdaAugmenter();
   PpdaAugmenter(PpdaAugmenter&&) noexcept;

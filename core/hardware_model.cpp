@@ -499,25 +499,28 @@ void ImuErrorGenerator::Triad::apply(double* y, const double* force, std::size_t
       }
     }
 
-    if (range > 0.0) {
-      for (std::size_t k = 0; k < 3 * count; ++k) block[k] = std::clamp(block[k], -range, range);
+    saturate_and_quantise(std::span<double>(block, 3 * count), range, resolution);
+  }
+}
+
+void saturate_and_quantise(std::span<double> values, double range, double resolution) {
+  if (range > 0.0)
+    for (double& v : values) v = std::clamp(v, -range, range);
+  if (resolution > 0.0) {
+    // Round to the nearest LSB, ties away from zero (std::round does not depend on the
+    // floating-point rounding mode).
+    // A value of 2^52 LSBs or more is already on the grid (and a tiny LSB would overflow
+    // the quotient to infinity): it stays as it is.
+    for (double& v : values) {
+      const double steps = v / resolution;
+      if (std::abs(steps) < 0x1p52) v = resolution * std::round(steps);
     }
-    if (resolution > 0.0) {
-      // Round to the nearest LSB, ties away from zero (std::round does not depend on the
-      // floating-point rounding mode).
-      // A value of 2^52 LSBs or more is already on the grid (and a tiny LSB would overflow
-      // the quotient to infinity): it stays as it is.
-      for (std::size_t k = 0; k < 3 * count; ++k) {
-        const double steps = block[k] / resolution;
-        if (std::abs(steps) < 0x1p52) block[k] = resolution * std::round(steps);
-      }
-      // A range that is not a whole number of LSBs rounded a saturated reading outwards, past
-      // full scale (range 1, LSB 0.4: 1.2; found in review, 2026-11-27). Readings stay on the
-      // largest grid value inside the range (the range itself when it is a whole number).
-      if (range > 0.0) {
-        const double limit = resolution * std::floor(range / resolution * (1.0 + 1e-12));
-        for (std::size_t k = 0; k < 3 * count; ++k) block[k] = std::clamp(block[k], -limit, limit);
-      }
+    // A range that is not a whole number of LSBs rounded a saturated reading outwards, past
+    // full scale (range 1, LSB 0.4: 1.2; found in review, 2026-11-27). Readings stay on the
+    // largest grid value inside the range (the range itself when it is a whole number).
+    if (range > 0.0) {
+      const double limit = resolution * std::floor(range / resolution * (1.0 + 1e-12));
+      for (double& v : values) v = std::clamp(v, -limit, limit);
     }
   }
 }

@@ -651,6 +651,48 @@ TEST(Ppda, EveryInstructionSetVariantGivesTheSameBatch) {
   }
 }
 
+// Review, 2026-11-27: the scene sensor's hardware model was ignored whole, so PPDA windows of a
+// scene with a 20 m/s^2 accelerometer read 191 m/s^2, off its LSB grid. Its range and resolution
+// now bound every window whose hardware group is not a whole device from a profile.
+TEST(Ppda, TheSceneSensorsRangeAndResolutionBoundItsWindows) {
+  sim::Scene scene = sinusoid_scene();
+  PpdaAugmenter free_aug(scene);
+  const std::vector<double> plain = run_window(free_aug, SubPolicy{}, 500, 1);
+  double peak_a = 0, peak_w = 0;
+  for (std::size_t i = 0; i < plain.size(); i += 6) {
+    for (int k = 0; k < 3; ++k) {
+      peak_a = std::max(peak_a, std::abs(plain[i + static_cast<std::size_t>(k)]));
+      peak_w = std::max(peak_w, std::abs(plain[i + 3 + static_cast<std::size_t>(k)]));
+    }
+  }
+  HardwareModel device;
+  device.accelerometer.range = 0.5 * peak_a;
+  device.accelerometer.resolution = 0.01;
+  device.gyroscope.range = 0.5 * peak_w;
+  device.gyroscope.resolution = 0.001;
+  scene.sensors[0].hardware = device;
+  PpdaAugmenter aug(scene);
+  SubPolicy noisy;
+  noisy.hardware.kind = HardwareOp::Kind::ranges;
+  noisy.hardware.accel_noise = 0.5;
+  noisy.hardware.gyro_noise = 0.05;
+  for (const SubPolicy& sub : {SubPolicy{}, noisy}) {
+    const std::vector<double> y = run_window(aug, sub, 500, 1);
+    int clipped = 0;
+    for (std::size_t i = 0; i < y.size(); i += 6) {
+      for (int k = 0; k < 6; ++k) {
+        const double v = y[i + static_cast<std::size_t>(k)];
+        const double range = k < 3 ? device.accelerometer.range : device.gyroscope.range;
+        const double lsb = k < 3 ? 0.01 : 0.001;
+        ASSERT_LE(std::abs(v), range) << sub.describe() << " sample " << i / 6;
+        ASSERT_NEAR(v / lsb, std::round(v / lsb), 1e-6) << sub.describe() << " sample " << i / 6;
+        clipped += std::abs(v) > range - lsb;
+      }
+    }
+    EXPECT_GT(clipped, 0) << sub.describe();
+  }
+}
+
 // Review, 2026-11-27: an amplitude joint the body does not have was found only when its
 // sub-policy was first drawn (generate_dataset checks every sub-policy up front with check()).
 TEST(Ppda, AnAmplitudeJointTheBodyDoesNotHaveIsRefusedByCheck) {
