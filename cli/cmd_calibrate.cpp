@@ -35,6 +35,19 @@ struct CalibrateArgs {
 int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tokens) {
   const auto inputs = parse_input_args(tokens);
   if (inputs.empty()) throw UsageError("calibrate: name the input file(s)");
+  // An MCAP recording and a EuRoC CSV hold SI values; taken for counts they made a profile of
+  // raw_counts that simulate then refused (review, 2026-11-27).
+  if (args.raw) {
+    for (const InputArg& input : inputs) {
+      if (input.columns.empty()) {
+        throw UsageError(fmt::format(
+            "calibrate: --raw reads ADC counts from text files mapped with --columns; {} has no "
+            "column map, so it is an MCAP recording or EuRoC CSV, whose values are SI (m/s^2, "
+            "rad/s): calibrate it without --raw",
+            input.path));
+      }
+    }
+  }
   check_profile_to_update(args.output);  // before the work
   auto runs = load_runs(inputs);
   if (runs.size() != 1) {

@@ -332,8 +332,20 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
   for (const auto& run : runs) {
     if (run.series.has_gyro())
       r.gyro_run_bias.push_back(hwmodel::gyro_static_bias(run.series.gyro));
-    if (options.level && run.series.has_accel())
-      r.accel_run_bias.push_back(run.series.accel.rowwise().mean() - level_reading);
+    if (options.level && run.series.has_accel()) {
+      // A device lying otherwise than level, z up (upside down: a "bias" of -2 g went into the
+      // profile; review, 2026-11-27) is no turn-on bias. 0.2 g is beyond any MEMS offset.
+      const Eigen::Vector3d mean = run.series.accel.rowwise().mean();
+      if ((mean - level_reading).norm() > 0.2 * options.gravity) {
+        throw Error(fmt::format(
+            "characterize --level: {} reads a mean acceleration of ({:.4g}, {:.4g}, {:.4g}) m/s^2, "
+            "not near ({:.4g}, {:.4g}, {:.4g}): the device did not lie level, z up; lay it so "
+            "for the turn-on bias, or leave out --level",
+            run.name, mean.x(), mean.y(), mean.z(), level_reading.x(), level_reading.y(),
+            level_reading.z()));
+      }
+      r.accel_run_bias.push_back(mean - level_reading);
+    }
   }
   // The spread needs several power cycles: from one recording there is none to measure.
   const auto spread_text = [](const TurnOnBias& t, std::size_t runs) {

@@ -180,3 +180,19 @@ def test_characterize_takes_each_sensor_from_its_longest_record(run, workdir):
     na = np.array(p["accelerometer"]["noise"]["noise_density"])
     assert np.all(np.abs(nd / 3e-4 - 1) < 0.05) and np.all(np.abs(na / 2e-3 - 1) < 0.05), (nd, na)
     assert "gyroscope_noise_density: 0 " not in open(yaml).read()
+
+
+def test_level_and_raw_refuse_what_they_cannot_read(run, workdir):
+    # Review, 2026-11-27: --level on a device lying upside down wrote a turn-on bias of -2 g;
+    # --raw on an MCAP recording or EuRoC CSV took SI values for counts (raw_counts: true).
+    rng = np.random.default_rng(11)
+    t = np.arange(6000) / 100.0
+    src = os.path.join(workdir, "upside_down.txt")
+    np.savetxt(src, np.column_stack([t, rng.normal(0, 0.01, (6000, 3)),
+                                     rng.normal(0, 0.02, (6000, 3)) + [0, 0, -9.80665]]), fmt="%.9f")
+    out = os.path.join(workdir, "level.json")
+    r = run("characterize", src, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", out, "--level")
+    assert r.returncode == 1 and "did not lie level, z up" in r.stderr and not os.path.exists(out), r.stderr
+    r = run("calibrate", os.path.join(workdir, "recording.mcap"), "--raw", "-o", os.path.join(workdir, "c.json"))
+    assert r.returncode == 2 and "--raw reads ADC counts from text files mapped with --columns" in r.stderr, \
+        r.stderr
