@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 #include <string>
 #include <utility>
@@ -79,6 +81,44 @@ TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
   ASSERT_EQ(warnings.size(), 1u);
   EXPECT_NE(warnings[0].find("frame 2, joint left_elbow"), std::string::npos) << warnings[0];
   EXPECT_EQ(m.rotation(0, 0).coeffs(), Eigen::Quaterniond::Identity().coeffs());
+}
+
+// Review, 2026-11-27: each step had to match the mean step to 1e-6, so times printed to the
+// microsecond at 30 Hz, epoch seconds and imukit's own ns-rounded CSV at 7 kHz were refused as
+// "not uniform". Each frame within 1 % of a period of the grid is read; a missing frame is not.
+TEST(Motion, QuaternionCsvTimesRoundedWhenPrintedReadAtTheirRate) {
+  const auto csv = [](double rate, double t0, int frames, const char* format, int skip = -1) {
+    std::string text = "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n";
+    char buf[64];
+    for (int f = 0; f < frames; ++f) {
+      if (f == skip) continue;
+      std::snprintf(buf, sizeof buf, format, t0 + f / rate);
+      text += std::string(buf) + ",1,0,0,0\n";
+    }
+    return text;
+  };
+  struct Case {
+    double rate, t0;
+    const char* format;
+  };
+  for (const Case& c : {Case{30.0, 0.0, "%.6f"}, Case{120.0, 0.0, "%.6f"},
+                        Case{100.0, 1.73e9, "%.17g"}, Case{7000.0, 0.0, "%.9f"}}) {
+    const Motion m = parse_quaternion_csv(csv(c.rate, c.t0, 40, c.format), "q.csv", small_body());
+    EXPECT_NEAR(m.rate_hz(), c.rate, 1e-5 * c.rate) << c.rate << " Hz, " << c.format;
+    EXPECT_EQ(parse_quaternion_csv(csv(c.rate, c.t0, 40, c.format), "q.csv", small_body(), c.rate)
+                  .rate_hz(),
+              c.rate);
+  }
+  try {
+    (void)parse_quaternion_csv(csv(30.0, 0.0, 40, "%.6f", 20), "q.csv", small_body());
+    ADD_FAILURE() << "a missing frame accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(
+        std::string(e.what()).find(
+            "q.csv:22:1: t is not uniform: frame 20 comes 0.066667 s after the one before, 2"),
+        std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Motion, TinyNormErrorsAreRenormalisedSilently) {
@@ -193,9 +233,10 @@ TEST(Motion, CsvMessagesNameTheRowsFrameAndLine) {
     parse_quaternion_csv(head + "0.05,1,0,0,0\n", "rows.csv", small_body());
     ADD_FAILURE() << "a skipped step accepted";
   } catch (const Error& e) {
-    // Steps of 0.01 s against a mean of 0.0125 s: frame 1, after the blank line, is the first
-    // off (was line 3, the blank one).
-    EXPECT_EQ(e.where()->line, 4) << e.what();
+    // Steps of 0.01 s and one of 0.02 s: the step into the last frame, on line 7 (against the
+    // mean step, frame 1 on line 4 was named until review, 2026-11-27; line 3, the blank one,
+    // before that).
+    EXPECT_EQ(e.where()->line, 7) << e.what();
   }
   std::vector<std::string> warnings;
   (void)parse_quaternion_csv(head + "0.04,2,0,0,0\n", "rows.csv", small_body(), std::nullopt,
