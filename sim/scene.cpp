@@ -266,7 +266,14 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
     if (!(dur > 0.0 && dur < 1e7))
       json_fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
     try {
-      po.frames = static_cast<int64_t>(std::floor(dur * po.rate_hz)) + 1;
+      // 0.29 s at 100 Hz is 28.999999999999996 frame periods in doubles: a product within 1e-9
+      // of a whole number is that number, or the last frame was lost (review, 2026-11-27).
+      const double periods = dur * po.rate_hz;
+      const double nearest = std::round(periods);
+      po.frames = static_cast<int64_t>(std::abs(periods - nearest) <= 1e-9 * std::max(1.0, nearest)
+                                           ? nearest
+                                           : std::floor(periods)) +
+                  1;
       scene.motion = std::make_shared<ProceduralMotion>(scene.body.size(), po);
     } catch (const Error& e) {
       json_fail(source, "motion.procedural", e.what());

@@ -334,6 +334,9 @@ class Errors(unittest.TestCase):
         scene = imukit.Scene(body, motion)
         with self.assertRaisesRegex(imukit.Error, "no sensors"):
             scene.simulate()
+        # The simulator's limit, at construction (2..7 passed here and failed in simulate()).
+        with self.assertRaisesRegex(imukit.Error, "chunk_frames must be at least 8"):
+            imukit.Scene(body, motion, chunk_frames=5)
         with self.assertRaisesRegex(imukit.Error, "unknown placement preset 'left_sock'"):
             scene.add_sensor(preset="left_sock")
         with self.assertRaisesRegex(imukit.Error, "either preset= or joint="):

@@ -162,6 +162,21 @@ TEST(Scene, APresetOnAZeroLengthSegmentNamesTheSensor) {
             "a branching joint)): no long axis to place a sensor along");
 }
 
+// Review, 2026-11-27: 0.29 s at 100 Hz is 28.999999999999996 periods in doubles, and floor lost
+// the last frame (the motion ended at 0.28 s).
+TEST(Scene, AProceduralDurationKeepsItsLastFrameThroughRounding) {
+  for (const auto& [duration, frames] :
+       {std::pair{"0.29", 30}, {"1.13", 114}, {"0.3", 31}, {"0.295", 30}}) {
+    const std::string text = std::string(R"({"schema": "imukit.scene/1",
+      "body": {"default_humanoid": {"height_m": 1.75}},
+      "motion": {"procedural": {"rate_hz": 100, "duration_s": )") +
+                             duration + R"(, "seed": 1}},
+      "sensors": [{"preset": "left_wrist_watch"}]})";
+    const Scene s = parse_scene(text, "s.json", "");
+    EXPECT_EQ(s.motion->frame_count(), std::optional<int64_t>(frames)) << duration;
+  }
+}
+
 TEST(Scene, ABodyFileWithItsSchemaPastesIntoASceneAndReadsBackTheSameBody) {
   const Scene original = parse_scene(kScene, "scene.json", "");
   const std::string body = body_json(original.body, /*with_schema=*/true);
