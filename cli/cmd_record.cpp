@@ -39,6 +39,7 @@ struct RecordArgs {
   std::string guide;
   int poses = 12;
   double init_static_s = 10.0;
+  bool poses_given = false, init_static_given = false;
 };
 
 // Lines typed while recording become /events markers ("note", the text typed; an empty line is
@@ -239,6 +240,10 @@ int run_record(const RecordArgs& args) {
   options.finalize = !args.no_refit;
   options.stop = &g_stop;
   options.detect_taps = !args.no_taps;
+  // Without the guide they did nothing, silently (review, 2026-11-27).
+  if (args.guide.empty() && (args.poses_given || args.init_static_given))
+    throw UsageError(
+        "record: --poses and --init-static are --guide multipos's; add --guide multipos");
   if (!args.guide.empty()) add_pose_guide(args, tty, options);
   if (::isatty(STDIN_FILENO)) {
     auto markers = std::make_shared<Markers>();
@@ -316,11 +321,13 @@ IMUKIT_REGISTER_COMMAND(
               "multipos: guided multi-position capture for `imukit calibrate`: counts the "
               "distinct still poses and stops when there are --poses of them");
           sub.add_option("--poses", args->poses, "distinct orientations wanted by --guide multipos")
-              ->check(whole_in(1, 200));
+              ->check(whole_in(1, 200))
+              ->each([args](const std::string&) { args->poses_given = true; });
           sub.add_option("--init-static", args->init_static_s,
                          "--guide multipos: how long the device must first lie still, s (default "
                          "10; `imukit calibrate` reads it from the recording)")
-              ->check(real_in(1, 3600, "s"));
+              ->check(real_in(1, 3600, "s"))
+              ->each([args](const std::string&) { args->init_static_given = true; });
           sub.add_flag("--no-taps", args->no_taps, "do not detect sync taps in the accelerometer");
           sub.add_flag(
               "--no-refit", args->no_refit,

@@ -231,6 +231,12 @@ int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string
 
 // simulate_into_mcap through a temporary renamed over `path` when complete, like every finished
 // MCAP file (a run stopped by an error or a full disk leaves an earlier file there as it was).
+// Every sensor of a scene samples at its rate: the summary counts one sensor's samples (it
+// printed the sum over the sensors, 200 for two sensors of 100 each; review, 2026-11-27).
+int64_t samples_each(int64_t all_sensors, const sim::Scene& scene) {
+  return scene.sensors.empty() ? 0 : all_sensors / static_cast<int64_t>(scene.sensors.size());
+}
+
 int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
                          const std::string& description) {
   int64_t samples = 0;
@@ -339,9 +345,9 @@ int run_simulate(const SimulateArgs& a) {
       scene.seed, sensors);
   if (out.extension() == ".mcap") {
     const int64_t samples = simulate_to_mcap(scene, out.string(), description);
-    fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
-               scene.sensors.size(), samples, rate, sim::to_string(scene.options.method),
-               out.string());
+    fmt::print("simulate: {} sensor(s), {} samples each at {:g} Hz ({} method) -> {}\n",
+               scene.sensors.size(), samples_each(samples, scene), rate,
+               sim::to_string(scene.options.method), out.string());
     return 0;
   }
   std::filesystem::create_directories(out);
@@ -383,9 +389,9 @@ int run_simulate(const SimulateArgs& a) {
   }
   StreamFile info((out / "simulation.json").string(), description);
   info.close();
-  fmt::print("simulate: {} sensor(s), {} samples at {:g} Hz ({} method) -> {}\n",
-             scene.sensors.size(), samples, rate, sim::to_string(scene.options.method),
-             out.string());
+  fmt::print("simulate: {} sensor(s), {} samples each at {:g} Hz ({} method) -> {}\n",
+             scene.sensors.size(), samples_each(samples, scene), rate,
+             sim::to_string(scene.options.method), out.string());
   return 0;
 }
 

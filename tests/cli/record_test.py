@@ -87,6 +87,15 @@ def test_unknown_uri_key_is_one_line(imukit, workdir):
         f"an unknown URI key is a one-line error ({r.stderr.strip()})"
 
 
+def test_guide_options_without_the_guide_are_a_usage_error(imukit, workdir):
+    # Review, 2026-11-27: --poses without --guide multipos was ignored, silently.
+    out = os.path.join(workdir, "unguided.mcap")
+    for option in (["--poses", "5"], ["--init-static", "5"]):
+        r = subprocess.run([imukit, "record", "mock:static?clock=virtual", *option, "--duration", "1", "-o", out],
+                           capture_output=True, text=True)
+        assert r.returncode == 2 and "add --guide multipos" in r.stderr and not os.path.exists(out), r.stderr
+
+
 def xsens_frame(payload):
     """An Xsens MTData2 frame (preamble, bus id, message id, length, payload, checksum)."""
     f = bytes([0xFA, 0xFF, 0x36, len(payload)]) + payload

@@ -203,6 +203,10 @@ def test_bvh_quick_form(run, workdir, data_file):
     peak = np.max(np.linalg.norm(g, axis=1))
     assert r.returncode == 0 and len(t) == 995 and 8.3 < med < 11.3 and 1 < peak < 15, \
         f"walk BVH, left watch: 995 samples, median |acc| {med:.2f}, gyro peak {peak:.2f}"
+    # The summary counts one sensor's samples, not the sum over the sensors (review, 2026-11-27).
+    r = run("simulate", "--bvh", walk, "--preset", "left_wrist_watch", "chest_strap", "-o",
+            os.path.join(workdir, "walk2"))
+    assert r.returncode == 0 and "2 sensor(s), 995 samples each at" in r.stdout, r.stdout
 
 
 def test_every_preset_on_every_shipped_bvh(run, workdir, data_file):
