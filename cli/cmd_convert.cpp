@@ -75,17 +75,17 @@ void warn_of_dropped_channels(const Recording& r, const std::string& ext) {
 int run_convert(const std::vector<std::string>& tokens, const std::string& out, bool recover) {
   const std::vector<InputArg> inputs = parse_input_args(tokens);
   if (inputs.size() != 1) throw UsageError("convert: give exactly one input file (and -o OUT)");
+  // Rewriting the only copy in place (accepted without --recover until review, 2026-11-27,
+  // which lost the raw counts of a recording that way).
+  std::error_code ec;
+  if (fs::equivalent(inputs.front().path, out, ec)) {
+    throw UsageError(fmt::format("convert{}: {} is the input; write to a new name",
+                                 recover ? " --recover" : "", out));
+  }
   if (recover) {
     if (fs::path(inputs.front().path).extension() != ".mcap" ||
         fs::path(out).extension() != ".mcap") {
       throw UsageError("convert --recover: input and output must both be .mcap files");
-    }
-    std::error_code ec;
-    if (fs::equivalent(inputs.front().path, out, ec)) {
-      throw UsageError(
-          fmt::format("convert --recover: {} is the input; write the recovered file to a "
-                      "new name",
-                      out));
     }
     // Recordings of `imukit record` also get their clocks refitted over the samples kept.
     const capture::RecoveredRecording r = capture::recover_recording(inputs.front().path, out);
@@ -139,6 +139,12 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     }
   }
   if (ext == ".mcap") {
+    if (fs::path(inputs.front().path).extension() == ".mcap") {
+      fmt::print(stderr,
+                 "imukit: warning: convert: {} gets the IMU streams, events and metadata of {}; "
+                 "its other topics (a recording's /raw counts and /time_sync) are not written\n",
+                 out, inputs.front().path);
+    }
     capture::write_recording_mcap(out, r);
     fmt::print("wrote {} ({} streams, {} events)\n", out, r.streams.size(), r.events.size());
   } else if (ext == ".csv") {

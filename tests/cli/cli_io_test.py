@@ -145,6 +145,20 @@ def test_mcap_round_trip_is_byte_identical(run, converted, mcap_file):
         assert a.read() == b.read(), "CSV -> MCAP -> CSV is byte-identical"
 
 
+def test_mcap_to_mcap_names_what_it_leaves_and_never_overwrites_its_input(run, converted, mcap_file):
+    # Review, 2026-11-27: `convert rec.mcap -o rec.mcap` rewrote the only copy in place, and an
+    # MCAP converted to MCAP lost its /raw and /time_sync topics without a word.
+    out_mcap, _ = mcap_file
+    before = open(out_mcap, "rb").read()
+    r = run("convert", out_mcap, "-o", out_mcap)
+    assert r.returncode == 2 and "is the input; write to a new name" in r.stderr, r.stderr
+    assert open(out_mcap, "rb").read() == before
+    copy = os.path.join(converted.tmp, "copy.mcap")
+    r = run("convert", out_mcap, "-o", copy)
+    assert r.returncode == 0 and "its other topics (a recording's /raw counts and /time_sync) are not written" \
+        in r.stderr, r.stderr
+
+
 def test_cut_recording_reads_with_a_note_and_recovers(run, converted, mcap_file):
     """A recording cut short: read to its last complete chunk with a note, then recovered."""
     tmp = converted.tmp
