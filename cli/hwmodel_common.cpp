@@ -296,7 +296,10 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
           ? fmt::format("{} (accelerometer) and {} (gyroscope)", accel_run->name, gyro_run->name)
           : first->name;
   fmt::print("noise from {} ({} recordings given)\n", r.noise_run, runs.size());
-  r.update.gravity = options.gravity;
+  // Gravity enters only the level turn-on bias: written with --level, else the profile keeps
+  // the gravity its calibration was fitted at (it was overwritten by the default; review,
+  // 2026-11-27).
+  if (options.level) r.update.gravity = options.gravity;
   const hwmodel::TriadNoiseOptions noise_options{options.points_per_decade, options.fit_tau_min_s};
   // The triad's name on any error its noise fit gives (which axis it names itself).
   const auto characterize = [&](const char* name, const LoadedRun& run, const Eigen::Matrix3Xd& x) {

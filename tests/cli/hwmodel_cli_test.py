@@ -64,6 +64,12 @@ def test_calibrate_xsens_raw_counts(run, workdir, characterized, data_file):
     assert c["residual"]["rms"] < 0.005, f"norm residual rms {c['residual']['rms']} m/s^2"
     assert "noise" in p["gyroscope"], "calibrate kept characterize's noise section"
     assert p["gravity"] == 9.81744, "gravity recorded"
+    # characterize without --level uses no gravity, and leaves the calibration's (it wrote its
+    # default over it until review, 2026-11-27).
+    src = os.path.join(workdir, "static.txt")
+    r = run("characterize", src, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", profile)
+    p = json.load(open(profile))
+    assert r.returncode == 0 and p["gravity"] == 9.81744 and "calibration" in p["accelerometer"], r.stderr
 
 
 def test_calibrate_refuses_poses_about_one_axis(run, workdir, characterized):
