@@ -25,8 +25,11 @@ std::string token(const std::string& name) {
   return s;
 }
 
-// Intrinsic Z-Y-X angles (deg) of R = Rz(a) Ry(b) Rx(c), b in [-90, 90]; a and c unwrapped by
-// whole turns towards the previous frame's.
+// Intrinsic Z-Y-X angles (deg) of R = Rz(a) Ry(b) Rx(c) nearest the previous frame's: every
+// rotation has two, (a, b, c) with b in [-90, 90] and (a + 180, 180 - b, c + 180), each
+// unwrapped by whole turns. Taking the first always made a and c jump by 180 degrees wherever b
+// passed +-90 (a body turning about the file's vertical Y axis, the middle one; review,
+// 2026-11-27): the rotations read back right, but the channels were not continuous.
 Eigen::Vector3d zyx_degrees(const Eigen::Matrix3d& R, const Eigen::Vector3d& previous) {
   const double s = std::clamp(-R(2, 0), -1.0, 1.0);
   const double b = std::asin(s);
@@ -40,9 +43,15 @@ Eigen::Vector3d zyx_degrees(const Eigen::Matrix3d& R, const Eigen::Vector3d& pre
     const double d = std::atan2(-R(0, 1), R(1, 1));  // a - c (b = +90) or a + c (b = -90)
     a = s > 0 ? d + c : d - c;
   }
-  Eigen::Vector3d e(a * kDegPerRad, b * kDegPerRad, c * kDegPerRad);
-  for (const int k : {0, 2}) e(k) += 360.0 * std::round((previous(k) - e(k)) / 360.0);
-  return e;
+  const auto unwrapped = [&](Eigen::Vector3d e) {
+    for (int k = 0; k < 3; ++k) e(k) += 360.0 * std::round((previous(k) - e(k)) / 360.0);
+    return e;
+  };
+  const Eigen::Vector3d first = unwrapped({a * kDegPerRad, b * kDegPerRad, c * kDegPerRad});
+  if (std::abs(s) >= 1.0 - 1e-12) return first;  // gimbal lock: one solution, kept above
+  const Eigen::Vector3d second =
+      unwrapped({a * kDegPerRad + 180.0, 180.0 - b * kDegPerRad, c * kDegPerRad + 180.0});
+  return (second - previous).squaredNorm() < (first - previous).squaredNorm() ? second : first;
 }
 
 }  // namespace

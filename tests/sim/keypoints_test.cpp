@@ -1,6 +1,8 @@
 #include "imukit/sim/keypoints.hpp"
 
 #include <gtest/gtest.h>
+#include <iterator>
+#include <sstream>
 
 #include <cmath>
 #include <limits>
@@ -793,6 +795,35 @@ namespace imukit::sim {
 namespace {
 
 // ----- writers --------------------------------------------------------------------------------
+
+// Review, 2026-11-27: the writer always took the Euler solution with the middle (Y) angle in
+// [-90, 90], so a pelvis turning about the vertical (the file's Y axis) made Z and X jump by 180
+// degrees in one frame at +-90. Every channel now moves as the motion does: a full turn in 100
+// frames is 3.6 degrees a frame.
+TEST(MotionWriters, BvhChannelsAreContinuousThroughAFullTurnAboutTheVertical) {
+  const Body body = kinect_body();
+  const Motion m = hinge_motion(body, 50.0, 101);
+  const std::string text = format_bvh(body, m);
+  std::istringstream in(text.substr(text.find("Frame Time:")));
+  std::string line;
+  std::getline(in, line);
+  std::vector<double> previous;
+  double largest = 0.0;
+  int rows = 0;
+  while (std::getline(in, line)) {
+    std::istringstream values(line);
+    std::vector<double> row{std::istream_iterator<double>(values), std::istream_iterator<double>()};
+    if (!previous.empty()) {
+      ASSERT_EQ(row.size(), previous.size());
+      for (std::size_t k = 3; k < row.size(); ++k)
+        largest = std::max(largest, std::abs(row[k] - previous[k]));
+    }
+    previous = row;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 101);
+  EXPECT_LT(largest, 20.0);
+}
 
 TEST(MotionWriters, BvhAndQuaternionCsvReadBackToTheSameMotion) {
   const Body body = kinect_body();
