@@ -321,8 +321,6 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
     r.update.gyroscope = GyroscopeProfile{};
     r.update.gyroscope->noise = hwmodel::noise_estimate(*r.gyro);
   }
-  if (!r.accel && !r.gyro)
-    throw Error("characterize: the inputs hold neither accelerometer nor gyroscope data");
   fmt::print(
       "The fit (generalised least squares on the whole curve, terms not detected set to 0) is the\n"
       "estimate to use; the slope readings are shown for comparison with other tools "

@@ -213,7 +213,11 @@ ImuSeries load_imu_series(const InputArg& input, Recording* context) {
   }
   const ChannelScale scale{accel_factor(input.accel_unit), gyro_factor(input.gyro_unit),
                            mag_factor(input.mag_unit)};
-  return to_imu_series(read_column_text(input.path, spec), scale);
+  ImuSeries series = to_imu_series(read_column_text(input.path, spec), scale);
+  // An empty text file read as "0 samples over 0.000 s", exit 0, where an MCAP without samples
+  // is an error (review, 2026-11-27).
+  if (series.empty()) throw Error(fmt::format("{}: no data rows", input.path));
+  return series;
 }
 
 void add_bvh_options(CLI::App& sub, BvhArgs& args) {

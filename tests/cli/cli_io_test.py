@@ -224,3 +224,12 @@ def test_a_failed_simulation_to_mcap_leaves_the_earlier_file(run, workdir):
     assert r.returncode == 3 and "File too large" in r.stderr, (r.returncode, r.stderr)
     assert open(out, "rb").read() == earlier, "the earlier file is unchanged"
     assert sorted(os.listdir(folder)) == ["out.mcap", "scene.json"], "and no temporary is left"
+
+
+def test_a_text_file_without_data_rows_is_an_error(run, workdir):
+    # Review, 2026-11-27: it read as "0 samples over 0.000 s", exit 0.
+    for name, text in (("empty.txt", ""), ("header_only.txt", "t,ax,ay,az\n")):
+        path = os.path.join(workdir, name)
+        open(path, "w").write(text)
+        r = run("info", path, "--columns", "t,ax,ay,az")
+        assert r.returncode == 1 and f"{path}: no data rows" in r.stderr, r.stderr
