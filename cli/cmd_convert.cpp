@@ -114,6 +114,11 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
           "recorder loss counts were lost with the crash\n",
           device, l.samples, l.missing_by_index);
     }
+    // Nothing recovered exited 0 beside an empty file, where `info` on the same input exits 1
+    // (review, 2026-11-27).
+    if (s.messages == r.undecodable_messages)
+      throw Error(fmt::format("convert --recover: no message of {} could be read; {} holds none",
+                              inputs.front().path, out));
     return 0;
   }
   const Recording r = load_recording(inputs.front());

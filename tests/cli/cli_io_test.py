@@ -173,6 +173,13 @@ def test_cut_recording_reads_with_a_note_and_recovers(run, converted, mcap_file)
     fixed = os.path.join(tmp, "fixed.mcap")
     r = run("convert", "--recover", cut, "-o", fixed)
     assert r.returncode == 0, "convert --recover exits 0"
+    # Nothing to recover (cut inside the first record) is an error, not exit 0 beside an empty
+    # file (review, 2026-11-27).
+    head = os.path.join(tmp, "head.mcap")
+    with open(head, "wb") as f:
+        f.write(data[:200])
+    r2 = run("convert", "--recover", head, "-o", os.path.join(tmp, "nothing.mcap"))
+    assert r2.returncode == 1 and "could be read" in r2.stderr, r2.stderr
     r = run("info", fixed)
     assert r.returncode == 0 and "the file ends" not in r.stderr, "the recovered file is complete"
 
