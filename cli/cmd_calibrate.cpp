@@ -39,7 +39,8 @@ int run_calibrate(const CalibrateArgs& args, const std::vector<std::string>& tok
   // raw_counts that simulate then refused (review, 2026-11-27).
   if (args.raw) {
     for (const InputArg& input : inputs) {
-      if (input.columns.empty()) {
+      const std::string ext = std::filesystem::path(input.path).extension().string();
+      if (input.columns.empty() && (ext == ".mcap" || ext == ".csv")) {
         throw UsageError(fmt::format(
             "calibrate: --raw reads ADC counts from text files mapped with --columns; {} has no "
             "column map, so it is an MCAP recording or EuRoC CSV, whose values are SI (m/s^2, "

@@ -122,7 +122,8 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--plot", args->plot_dir, "folder for SVG plots (gnuplot)");
           sub.add_option("--kalibr", args->kalibr, "also write Kalibr's imu.yaml here");
           sub.add_option("--gravity", args->gravity,
-                         "local gravity, m/s^2 (recorded in the profile)")
+                         "local gravity, m/s^2, for --level's turn-on bias (recorded in the "
+                         "profile with --level; noise needs none)")
               ->check(gravity_range());
           sub.add_option("--points-per-decade", args->points_per_decade,
                          "tau grid density (default 10)")

@@ -116,12 +116,15 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     }
     // Nothing recovered exited 0 beside an empty file, where `info` on the same input exits 1
     // (review, 2026-11-27).
-    if (s.messages == r.undecodable_messages)
-      throw Error(fmt::format("convert --recover: no message of {} could be read; {} holds none",
-                              inputs.front().path, out));
+    if (s.messages == r.undecodable_messages) {
+      std::filesystem::remove(out, ec);
+      throw Error(fmt::format("convert --recover: no message of {} could be read; nothing written",
+                              inputs.front().path));
+    }
     return 0;
   }
-  const Recording r = load_recording(inputs.front());
+  std::vector<std::string> other_topics;
+  const Recording r = load_recording(inputs.front(), &other_topics);
   for (const auto& [name, series] : r.streams)
     series.validate(r.streams.size() == 1 ? inputs.front().path : inputs.front().path + " " + name);
   const std::string ext = fs::path(out).extension().string();
@@ -144,11 +147,14 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
     }
   }
   if (ext == ".mcap") {
-    if (fs::path(inputs.front().path).extension() == ".mcap") {
+    if (!other_topics.empty()) {
+      std::string topics;
+      for (const std::string& t : other_topics) topics += (topics.empty() ? "" : ", ") + t;
       fmt::print(stderr,
                  "imukit: warning: convert: {} gets the IMU streams, events and metadata of {}; "
-                 "its other topics (a recording's /raw counts and /time_sync) are not written\n",
-                 out, inputs.front().path);
+                 "its other topics are not written: {} (`convert --recover` copies a file "
+                 "whole)\n",
+                 out, inputs.front().path, topics);
     }
     capture::write_recording_mcap(out, r);
     fmt::print("wrote {} ({} streams, {} events)\n", out, r.streams.size(), r.events.size());

@@ -434,8 +434,10 @@ IMUKIT_REGISTER_COMMAND(
           sub.add_option("--segment-prior", a->segment_prior,
                          "relative width of the segment-length prior (default 0.05)")
               ->check(real_in(0, 10, "", LowEnd::open));
-          sub.add_option("--time-offset", a->time_offset,
-                         "initial time offset, s (skips the cross-correlation)")
+          sub.add_option(
+                 "--time-offset", a->time_offset,
+                 "initial time offset, s: the cross-correlation searches only +-0.25 s around it "
+                 "(--fix time_offset holds it exactly)")
               ->check(real_in(-86400, 86400, "s"));
           sub.add_option("--max-time-offset", a->max_time_offset,
                          "search range of the cross-correlation, s (default 1)")

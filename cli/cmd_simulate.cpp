@@ -158,8 +158,8 @@ sim::Scene quick_scene(const SimulateArgs& a) {
 // /imu/<sensor>/truth for the noiseless signals) as sensor_msgs/msg/Imu, times in ns since the
 // start of the motion, streamed in constant memory; the description goes into an
 // "imukit.simulation" metadata record.
-int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string& path,
-                           const std::string& description) {
+std::vector<int64_t> simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string& path,
+                                        const std::string& description) {
   capture::McapWriter writer(file, path);
   writer.write_metadata("imukit.simulation", {{"description", description}});
   const uint16_t schema =
@@ -189,7 +189,7 @@ int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string
     mag_channels.push_back(mag);
     mag_truth_channels.push_back(mag_truth);
   }
-  int64_t samples = 0;
+  std::vector<int64_t> samples(scene.sensors.size(), 0);
   const auto put = [&](uint16_t channel, capture::ImuMessage& m, const sim::SensorBlock& b,
                        std::size_t i) {
     const auto c = static_cast<Eigen::Index>(i);
@@ -223,7 +223,7 @@ int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string
           put_mag(mag_truth_channels[s], mag_messages[s], *t, i);
       }
     }
-    samples += static_cast<int64_t>(m.t.size());
+    samples[s] += static_cast<int64_t>(m.t.size());
   });
   writer.close();
   return samples;
@@ -231,15 +231,21 @@ int64_t simulate_into_mcap(sim::Scene& scene, std::FILE* file, const std::string
 
 // simulate_into_mcap through a temporary renamed over `path` when complete, like every finished
 // MCAP file (a run stopped by an error or a full disk leaves an earlier file there as it was).
-// Every sensor of a scene samples at its rate: the summary counts one sensor's samples (it
-// printed the sum over the sensors, 200 for two sensors of 100 each; review, 2026-11-27).
-int64_t samples_each(int64_t all_sensors, const sim::Scene& scene) {
-  return scene.sensors.empty() ? 0 : all_sensors / static_cast<int64_t>(scene.sensors.size());
+// The summary's sample counts, per sensor ("100 samples each", or "samples 1001, 992" where a
+// sensor's clock error gives it its own): it printed the sum over the sensors, 200 for two
+// sensors of 100 each (review, 2026-11-27).
+std::string sample_counts(const std::vector<int64_t>& samples) {
+  if (!samples.empty() &&
+      std::all_of(samples.begin(), samples.end(), [&](int64_t n) { return n == samples[0]; }))
+    return fmt::format("{} samples each", samples[0]);
+  std::string list;
+  for (const int64_t n : samples) list += (list.empty() ? "" : ", ") + std::to_string(n);
+  return "samples " + list;
 }
 
-int64_t simulate_to_mcap(sim::Scene& scene, const std::string& path,
-                         const std::string& description) {
-  int64_t samples = 0;
+std::vector<int64_t> simulate_to_mcap(sim::Scene& scene, const std::string& path,
+                                      const std::string& description) {
+  std::vector<int64_t> samples;
   write_file_atomically(
       path, [&](std::FILE* file) { samples = simulate_into_mcap(scene, file, path, description); });
   return samples;
@@ -344,10 +350,9 @@ int run_simulate(const SimulateArgs& a) {
       sim::to_string(scene.options.method), rate, g.x(), g.y(), g.z(), B.x(), B.y(), B.z(),
       scene.seed, sensors);
   if (out.extension() == ".mcap") {
-    const int64_t samples = simulate_to_mcap(scene, out.string(), description);
-    fmt::print("simulate: {} sensor(s), {} samples each at {:g} Hz ({} method) -> {}\n",
-               scene.sensors.size(), samples_each(samples, scene), rate,
-               sim::to_string(scene.options.method), out.string());
+    const std::vector<int64_t> samples = simulate_to_mcap(scene, out.string(), description);
+    fmt::print("simulate: {} sensor(s), {} at {:g} Hz ({} method) -> {}\n", scene.sensors.size(),
+               sample_counts(samples), rate, sim::to_string(scene.options.method), out.string());
     return 0;
   }
   std::filesystem::create_directories(out);
@@ -373,14 +378,14 @@ int run_simulate(const SimulateArgs& a) {
                                   (out / (s.spec.name + ".mag.truth.csv")).string(), kMagHeader)
                             : nullptr);
   }
-  int64_t samples = 0;
+  std::vector<int64_t> samples(scene.sensors.size(), 0);
   sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
     write_rows(*files[s], m);
     if (t != nullptr && truth[s]) write_rows(*truth[s], *t);
     if (orient[s]) write_orientation_rows(*orient[s], m);
     if (mag[s]) write_mag_rows(*mag[s], m);
     if (t != nullptr && mag_truth[s]) write_mag_rows(*mag_truth[s], *t);
-    samples += static_cast<int64_t>(m.t.size());
+    samples[s] += static_cast<int64_t>(m.t.size());
   });
   for (auto* v : {&files, &truth, &orient, &mag, &mag_truth}) {
     for (auto& f : *v) {
@@ -389,9 +394,8 @@ int run_simulate(const SimulateArgs& a) {
   }
   StreamFile info((out / "simulation.json").string(), description);
   info.close();
-  fmt::print("simulate: {} sensor(s), {} samples each at {:g} Hz ({} method) -> {}\n",
-             scene.sensors.size(), samples_each(samples, scene), rate,
-             sim::to_string(scene.options.method), out.string());
+  fmt::print("simulate: {} sensor(s), {} at {:g} Hz ({} method) -> {}\n", scene.sensors.size(),
+             sample_counts(samples), rate, sim::to_string(scene.options.method), out.string());
   return 0;
 }
 

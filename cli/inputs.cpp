@@ -148,8 +148,19 @@ void refuse_column_options(const InputArg& input) {
 }
 
 // An MCAP recording, its options checked by the caller.
-Recording read_mcap_recording(const InputArg& input) {
+Recording read_mcap_recording(const InputArg& input,
+                              std::vector<std::string>* other_topics = nullptr) {
   capture::RecordingRead read = capture::read_recording_mcap(input.path);
+  if (other_topics != nullptr) {
+    // What a recording holds beyond its IMU streams, magnetometers and events (a recorder's raw
+    // counts and time sync, a simulation's truth): a rewrite as a Recording drops it.
+    for (const capture::McapChannel& c : read.summary.channels) {
+      bool kept = c.topic == "/events";
+      for (const auto& [name, series] : read.recording.streams)
+        kept = kept || c.topic == "/imu/" + name || c.topic == "/imu/" + name + "/mag";
+      if (!kept) other_topics->push_back(c.topic);
+    }
+  }
   if (read.recording.streams.empty()) {
     // An empty file, or one cut before its first complete chunk: nothing to work on.
     std::string why = read.summary.truncation_note;
@@ -166,10 +177,10 @@ Recording read_mcap_recording(const InputArg& input) {
 
 }  // namespace
 
-Recording load_recording(const InputArg& input) {
+Recording load_recording(const InputArg& input, std::vector<std::string>* other_topics) {
   (void)open_regular_file(input.path, "recording");  // a missing file or a device, said first
   if (input.columns.empty()) refuse_column_options(input);
-  if (input.columns.empty() && is_mcap(input.path)) return read_mcap_recording(input);
+  if (input.columns.empty() && is_mcap(input.path)) return read_mcap_recording(input, other_topics);
   Recording r;
   r.streams[std::filesystem::path(input.path).stem().string()] = load_imu_series(input);
   return r;

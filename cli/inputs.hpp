@@ -44,8 +44,9 @@ ImuSeries load_imu_series(const InputArg& input, Recording* context = nullptr);
 
 // Reads one input as a Recording: an MCAP file as recorded (a file cut short is read up to its
 // last complete chunk, with a note on stderr), any other input as one stream named after the
-// file's stem.
-Recording load_recording(const InputArg& input);
+// file's stem. other_topics: an MCAP's topics that are not its IMU streams, their magnetometers
+// or its events (what a Recording cannot hold).
+Recording load_recording(const InputArg& input, std::vector<std::string>* other_topics = nullptr);
 
 // How to read a BVH motion file, as --bvh-scale and --up give it.
 struct BvhArgs {

@@ -161,6 +161,11 @@ class GaussMarkovBank {
   std::vector<double> sigma_;
 };
 
+// The generator's last two steps, S and Q above, on any readings: saturation at +-range, then
+// rounding to the nearest multiple of resolution (ties away from zero), the readings kept on the
+// largest multiple inside the range. 0 switches either off.
+void saturate_and_quantise(std::span<double> values, double range, double resolution);
+
 // Applies a HardwareModel to blocks of true samples, in place, as a stream: applying block after
 // block gives bit for bit what one big block gives. Construction draws the turn-on biases and
 // the bias-instability processes' initial (stationary) states.
@@ -172,11 +177,6 @@ class GaussMarkovBank {
 // are all zero draw nothing: turning one term on or off leaves every other term's values
 // unchanged for the same seed. Within a term, draws are taken sample by sample, x-y-z (the bias
 // instability: sample, axis, then process), so block boundaries do not matter.
-// The generator's last two steps, S and Q above, on any readings: saturation at +-range, then
-// rounding to the nearest multiple of resolution (ties away from zero), the readings kept on the
-// largest multiple inside the range. 0 switches either off.
-void saturate_and_quantise(std::span<double> values, double range, double resolution);
-
 class ImuErrorGenerator {
  public:
   ImuErrorGenerator(const HardwareModel& model, double rate_hz, Rng& rng);

@@ -185,7 +185,8 @@ struct HardwareSpread {
 // (profile) with, per triad, accelerometer then gyroscope, noise density, bias instability and
 // random walk drawn from their stated 1-sigma uncertainties (3 normal draws per stated sigma
 // vector, kept >= 0; none where no sigma is stated), then each axis' scale multiplied by
-// exp(spread.scale n) (about 1 + spread.scale n, never <= 0) and each off-diagonal
+// exp(spread.scale n) (log-normal, median 1; about 1 + spread.scale n for small spreads, never
+// <= 0) and each off-diagonal
 // misalignment angle moved by spread.misalignment_rad n
 // (n ~ N(0, 1): 3 + 6 draws per triad, taken even at zero spread). The magnetometer and the
 // clock stay to_hardware_model's. Throws like to_hardware_model.

@@ -24,12 +24,13 @@ TimeNs host_now() {
   // The wall clock steps (NTP's first sync, an administrator's `date`), and a step in the middle
   // of a recording bent the whole offline clock fit: +0.5 s half way through 600 s read as a
   // skew of -1,664 ppm, 500 ms off at the ends (review, 2026-11-27). The wall clock is read
-  // once, and the monotonic clock, which never steps, measures the time since.
+  // once, and CLOCK_BOOTTIME, which never steps and (unlike CLOCK_MONOTONIC) counts a suspend,
+  // measures the time since.
   struct Base {
-    TimeNs wall, monotonic;
+    TimeNs wall, boot;
   };
-  static const Base base{read_clock(CLOCK_REALTIME), read_clock(CLOCK_MONOTONIC)};
-  return base.wall + (read_clock(CLOCK_MONOTONIC) - base.monotonic);
+  static const Base base{read_clock(CLOCK_REALTIME), read_clock(CLOCK_BOOTTIME)};
+  return base.wall + (read_clock(CLOCK_BOOTTIME) - base.boot);
 }
 
 std::string os_error(const std::string& what, int err) { return what + ": " + std::strerror(err); }

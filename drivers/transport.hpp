@@ -25,8 +25,8 @@ class TransportError : public IoError {  // an I/O failure: the CLI's exit code 
 };
 
 // The host's clock for receive times, ns since the Unix epoch (DESIGN.md): CLOCK_REALTIME read at
-// the first call plus CLOCK_MONOTONIC's time since, so a step of the wall clock during a
-// recording does not step its times.
+// the first call plus CLOCK_BOOTTIME's time since (it never steps, and counts a suspend), so a
+// step of the wall clock during a recording does not step its times.
 TimeNs host_now();
 
 struct ReadResult {

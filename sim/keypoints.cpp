@@ -1407,7 +1407,7 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
     }
     if (count > 0) {
       out.warnings.push_back(fmt::format(
-          "keypoints: {} step(s) in time of 2.5 frame periods ({:.3f} s) or more, the motion "
+          "keypoints: {} step(s) in time of 2.5 frame periods of {:.3f} s or more, the motion "
           "interpolated across them: {}{}",
           count, period, gaps, count > 5 ? ", ..." : ""));
     }

@@ -313,6 +313,21 @@ double rate_from_times(const std::vector<double>& times, int64_t frames, const F
           what.str());
     }
   }
+  // Steps that each pass but drift add up: every frame within 1 % of a period of the grid too.
+  for (int64_t f = 1; f < frames; ++f) {
+    const double off =
+        times[static_cast<std::size_t>(f)] - (times.front() + static_cast<double>(f) * dt);
+    if (std::abs(off) > 0.01 * dt) {
+      std::ostringstream what;
+      what.precision(9);
+      what << "t is not uniform: frame " << f << " is " << off / dt
+           << " periods off the uniform grid of step " << dt
+           << " s (1 % allowed: the step drifts; resample the motion first)";
+      throw Error(
+          InputLocation{source_name, lines.line[static_cast<std::size_t>(f)], 1, std::nullopt},
+          what.str());
+    }
+  }
   return 1.0 / dt;
 }
 

@@ -422,7 +422,7 @@ TEST(MotionFromKeypoints, FramesAbsentFromTheTimesAreListedAndNamed) {
   std::string all_warnings;
   for (const std::string& w : r.warnings) all_warnings += w + "\n";
   EXPECT_NE(
-      all_warnings.find("1 step(s) in time of 2.5 frame periods (0.050 s) or more, the "
+      all_warnings.find("1 step(s) in time of 2.5 frame periods of 0.050 s or more, the "
                         "motion interpolated across them: 0.700-1.250 s (input frames 14-15)"),
       std::string::npos)
       << all_warnings;

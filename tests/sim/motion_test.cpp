@@ -85,7 +85,8 @@ TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
 
 // Review, 2026-11-27: each step had to match the mean step to 1e-6, so times printed to the
 // microsecond at 30 Hz, epoch seconds and imukit's own ns-rounded CSV at 7 kHz were refused as
-// "not uniform". Each frame within 1 % of a period of the grid is read; a missing frame is not.
+// "not uniform". Each step within 1 % of the median and each frame within 1 % of a period of
+// the grid is read; a missing frame or a drifting step is not.
 TEST(Motion, QuaternionCsvTimesRoundedWhenPrintedReadAtTheirRate) {
   const auto csv = [](double rate, double t0, int frames, const char* format, int skip = -1) {
     std::string text = "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n";
@@ -108,6 +109,23 @@ TEST(Motion, QuaternionCsvTimesRoundedWhenPrintedReadAtTheirRate) {
     EXPECT_EQ(parse_quaternion_csv(csv(c.rate, c.t0, 40, c.format), "q.csv", small_body(), c.rate)
                   .rate_hz(),
               c.rate);
+  }
+  // Steps ramping from 0.0099 to 0.0101 s each pass the step test, but drift 5 periods off the
+  // grid: refused too.
+  std::string drifting = "t,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy,L_ELBOW_qz\n";
+  double t = 0.0;
+  for (int f = 0; f < 2000; ++f) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.9f,1,0,0,0\n", t);
+    drifting += buf;
+    t += 0.0099 + 0.0002 * f / 1999.0;
+  }
+  try {
+    (void)parse_quaternion_csv(drifting, "d.csv", small_body());
+    ADD_FAILURE() << "a drifting step accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("periods off the uniform grid"), std::string::npos)
+        << e.what();
   }
   try {
     (void)parse_quaternion_csv(csv(30.0, 0.0, 40, "%.6f", 20), "q.csv", small_body());
