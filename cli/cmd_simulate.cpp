@@ -229,8 +229,6 @@ std::vector<int64_t> simulate_into_mcap(sim::Scene& scene, std::FILE* file, cons
   return samples;
 }
 
-// simulate_into_mcap through a temporary renamed over `path` when complete, like every finished
-// MCAP file (a run stopped by an error or a full disk leaves an earlier file there as it was).
 // The summary's sample counts, per sensor ("100 samples each", or "samples 1001, 992" where a
 // sensor's clock error gives it its own): it printed the sum over the sensors, 200 for two
 // sensors of 100 each (review, 2026-11-27).
@@ -243,6 +241,8 @@ std::string sample_counts(const std::vector<int64_t>& samples) {
   return "samples " + list;
 }
 
+// simulate_into_mcap through a temporary renamed over `path` when complete, like every finished
+// MCAP file (a run stopped by an error or a full disk leaves an earlier file there as it was).
 std::vector<int64_t> simulate_to_mcap(sim::Scene& scene, const std::string& path,
                                       const std::string& description) {
   std::vector<int64_t> samples;

@@ -19,15 +19,12 @@ namespace {
 
 // The unit g is standard gravity g_n by definition (not the local --gravity).
 double accel_factor(const std::string& unit) {
-  if (unit == "m/s^2" || unit == "mps2") return 1.0;
-  if (unit == "g") return kStandardGravity;
-  if (unit == "mg") return kStandardGravity * 1e-3;
+  if (const auto f = acceleration_unit_factor(unit)) return *f;
   throw UsageError(fmt::format("--accel-unit '{}' is not one of m/s^2, g, mg", unit));
 }
 
 double gyro_factor(const std::string& unit) {
-  if (unit == "rad/s" || unit == "radps") return 1.0;
-  if (unit == "deg/s" || unit == "dps") return kRadPerDeg;
+  if (const auto f = angular_rate_unit_factor(unit)) return *f;
   throw UsageError(fmt::format("--gyro-unit '{}' is not one of rad/s, deg/s", unit));
 }
 

@@ -30,20 +30,15 @@ TextCodecOptions text_codec_options(const CodecOptions& options) {
   if (!b || bits.find_first_not_of("0123456789") != std::string::npos || *b > 32)
     throw Error("time_bits=" + bits + ": expected a whole number of bits, 1 to 32 (0: no wrap)");
   o.time_bits = static_cast<unsigned>(*b);
+  // The command line's spellings too (core's unit lists): m/s^2, g, mg; rad/s, deg/s.
   const std::string a = option_string(options, "accel_unit", "mps2");
-  if (a == "g")
-    o.accel_scale = kStandardGravity;
-  else if (a == "mps2")
-    o.accel_scale = 1.0;
-  else
-    throw Error("accel_unit=" + a + ": expected g or mps2");
+  const std::optional<double> accel = acceleration_unit_factor(a);
+  if (!accel) throw Error("accel_unit=" + a + ": expected m/s^2 (mps2), g or mg");
+  o.accel_scale = *accel;
   const std::string g = option_string(options, "gyro_unit", "rads");
-  if (g == "dps")
-    o.gyro_scale = kRadPerDeg;
-  else if (g == "rads")
-    o.gyro_scale = 1.0;
-  else
-    throw Error("gyro_unit=" + g + ": expected dps or rads");
+  const std::optional<double> gyro = angular_rate_unit_factor(g);
+  if (!gyro) throw Error("gyro_unit=" + g + ": expected rad/s (rads), deg/s (dps)");
+  o.gyro_scale = *gyro;
   return o;
 }
 

@@ -90,6 +90,17 @@ TEST(TextCodec, HasNoTimeSyncPoints) {
   EXPECT_TRUE(static_cast<const Codec&>(codec).sync_points().empty());
 }
 
+// Review, 2026-11-27: the URI knew only mps2/g and rads/dps, where the column grammar says
+// m/s^2, g, mg and rad/s, deg/s: one list (core's) for both now.
+TEST(TextCodec, TakesTheColumnGrammarsUnitSpellings) {
+  const TextCodecOptions a = text_codec_options({{"accel_unit", "m/s^2"}, {"gyro_unit", "deg/s"}});
+  EXPECT_EQ(a.accel_scale, 1.0);
+  EXPECT_EQ(a.gyro_scale, kRadPerDeg);
+  const TextCodecOptions b = text_codec_options({{"accel_unit", "mg"}, {"gyro_unit", "rad/s"}});
+  EXPECT_EQ(b.accel_scale, kStandardGravity * 1e-3);
+  EXPECT_EQ(b.gyro_scale, 1.0);
+}
+
 TEST(TextCodec, RejectsBadUnitNames) {
   EXPECT_THROW(text_codec_options({{"time_unit", "min"}}), Error);
   EXPECT_THROW(text_codec_options({{"accel_unit", "G"}}), Error);
