@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "imukit/core/error.hpp"
@@ -20,6 +21,15 @@ TimeNs checked_span(std::span<const TimeNs> t, std::string_view what) {
 }
 
 }  // namespace
+
+double median_step_s(std::span<const double> times_s) {
+  if (times_s.size() < 2) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> steps(times_s.size() - 1);
+  for (std::size_t i = 0; i + 1 < times_s.size(); ++i) steps[i] = times_s[i + 1] - times_s[i];
+  const auto middle = steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2);
+  std::nth_element(steps.begin(), middle, steps.end());
+  return *middle;
+}
 
 double mean_period_s(std::span<const TimeNs> t, std::string_view what) {
   const TimeNs span = checked_span(t, what);

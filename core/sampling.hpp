@@ -45,6 +45,11 @@ struct SamplingStats {
 // Needs non-decreasing times; fewer than 2 samples give zero periods and rates.
 SamplingStats analyze_sampling(std::span<const TimeNs> t);
 
+// The median step between consecutive times in seconds, as motion files give them (the upper
+// one of the two middle steps for an even count; NaN for fewer than 2 times). Frames missing
+// from a motion are steps of two or more of it.
+double median_step_s(std::span<const double> times_s);
+
 // The mean period (t.back() - t.front()) / (n - 1) in s and the measured rate
 // (n - 1) / (t.back() - t.front()) in Hz of n time stamps, each computed exactly as written (the
 // rate is not 1 / period: the two round differently). Wherever a stream's rate is measured, it

@@ -35,6 +35,17 @@ inline TimeNs sample_time(TimeNs t0, int64_t index, double rate_hz) {
   return t0 + std::llround(static_cast<long double>(index) * 1e9L / rate_hz);
 }
 
+// The samples of a grid at rate_hz over duration_s, both ends included: the whole periods in the
+// duration, plus one. A product within 1e-6 periods of a whole number is that number: 0.29 s at
+// 100 Hz is 28.999999999999996 periods in doubles, and floor() lost the last frame (review,
+// 2026-11-27). Doubles' rounding stays below 1e-8 periods up to the 1e7 frames imukit takes.
+inline int64_t samples_spanning(double duration_s, double rate_hz) {
+  const double periods = duration_s * rate_hz;
+  const double nearest = std::round(periods);
+  return static_cast<int64_t>(std::abs(periods - nearest) <= 1e-6 ? nearest : std::floor(periods)) +
+         1;
+}
+
 // sample_time(t0, index, rate_hz) for index after index: the same times, without the division
 // per call (a stream's bookkeeping loops call it per sample). Any index may be asked for; the
 // next one after a non-negative index is the cheap case.

@@ -15,8 +15,10 @@
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/json_text.hpp"
 #include "imukit/core/npy.hpp"
+#include "imukit/core/sampling.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/core/text_parse.hpp"
+#include "imukit/core/time.hpp"
 #include "imukit/core/units.hpp"
 
 namespace imukit::sim {
@@ -1320,7 +1322,7 @@ std::vector<Eigen::Matrix3Xd> smooth_keypoints(const Cleaned& c, const KeypointM
   if (!(duration * opt.rate_hz < static_cast<double>(kMaxOutputFrames)))
     throw Error("keypoints: more than 1e7 output frames at " + std::to_string(opt.rate_hz) +
                 " Hz: lower rate_hz or split the input");
-  const auto N = static_cast<int64_t>(std::floor(duration * opt.rate_hz + 1e-9)) + 1;
+  const int64_t N = samples_spanning(duration, opt.rate_hz);
   if (N < 2)
     throw Error("keypoints: the input lasts " + std::to_string(duration) +
                 " s, less than one output frame at " + std::to_string(opt.rate_hz) + " Hz");
@@ -1390,16 +1392,11 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
   // Frames that are not there at all: a step of 2.5 median periods or more has two frames or
   // more missing, which the smoothing bridged without a word until review, 2026-11-27.
   if (F >= 3) {
-    std::vector<double> steps(static_cast<std::size_t>(F - 1));
-    for (int64_t f = 0; f + 1 < F; ++f) steps[static_cast<std::size_t>(f)] = at(f + 1) - at(f);
-    std::vector<double> sorted = steps;
-    std::nth_element(sorted.begin(),
-                     sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-    const double period = sorted[sorted.size() / 2];
+    const double period = median_step_s(c.t);
     std::string gaps;
     int count = 0;
     for (int64_t f = 0; f + 1 < F; ++f) {
-      if (steps[static_cast<std::size_t>(f)] < 2.5 * period) continue;
+      if (at(f + 1) - at(f) < 2.5 * period) continue;
       out.invalid_motion.emplace_back(from_seconds(at(f)), from_seconds(at(f + 1)));
       if (++count <= 5)
         gaps += fmt::format("{}{:.3f}-{:.3f} s (input frames {}-{})", gaps.empty() ? "" : ", ",

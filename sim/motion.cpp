@@ -13,6 +13,7 @@
 #include "imukit/core/error.hpp"
 #include "imukit/core/input_file.hpp"
 #include "imukit/core/rng.hpp"
+#include "imukit/core/sampling.hpp"
 #include "imukit/core/text_parse.hpp"
 #include "imukit/core/time.hpp"
 
@@ -291,16 +292,9 @@ double rate_from_times(const std::vector<double>& times, int64_t frames, const F
   // seconds (a double's spacing there is 2.4e-7 s) and imukit's own ns-rounded CSV at 7 kHz were
   // refused by a test of each step against the mean to 1e-6 (review, 2026-11-27); a missing
   // frame is a step of two. The rate is the mean's, over the whole span.
-  std::vector<double> steps(static_cast<std::size_t>(frames - 1));
-  for (int64_t f = 1; f < frames; ++f)
-    steps[static_cast<std::size_t>(f - 1)] =
-        times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
-  std::vector<double> sorted = steps;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
-                   sorted.end());
-  const double median = sorted[sorted.size() / 2];
+  const double median = median_step_s(times);
   for (int64_t f = 1; f < frames; ++f) {
-    const double step = steps[static_cast<std::size_t>(f - 1)];
+    const double step = times[static_cast<std::size_t>(f)] - times[static_cast<std::size_t>(f - 1)];
     if (std::abs(step - median) > 0.01 * median) {
       // The frame's own line (f + 2 was off by the blank lines skipped before it).
       std::ostringstream what;

@@ -14,6 +14,7 @@
 #include "imukit/core/parallel.hpp"
 #include "imukit/core/profile.hpp"
 #include "imukit/core/rng.hpp"
+#include "imukit/core/time.hpp"
 #include "imukit/core/units.hpp"
 #include "imukit/sim/bvh.hpp"
 #include "imukit/sim/placement.hpp"
@@ -266,14 +267,7 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
     if (!(dur > 0.0 && dur < 1e7))
       json_fail(source, "motion.procedural.duration_s", "must be in (0, 1e7) s");
     try {
-      // 0.29 s at 100 Hz is 28.999999999999996 frame periods in doubles: a product within 1e-9
-      // of a whole number is that number, or the last frame was lost (review, 2026-11-27).
-      const double periods = dur * po.rate_hz;
-      const double nearest = std::round(periods);
-      po.frames = static_cast<int64_t>(std::abs(periods - nearest) <= 1e-9 * std::max(1.0, nearest)
-                                           ? nearest
-                                           : std::floor(periods)) +
-                  1;
+      po.frames = samples_spanning(dur, po.rate_hz);
       scene.motion = std::make_shared<ProceduralMotion>(scene.body.size(), po);
     } catch (const Error& e) {
       json_fail(source, "motion.procedural", e.what());
@@ -327,7 +321,11 @@ void parse_simulation(const json& s, std::string_view text, const std::string& s
   if (s.contains("seed")) scene.seed = seed_of(s["seed"], text, source, "simulation.seed");
   if (s.contains("chunk_frames")) {
     const double c = json_number(s["chunk_frames"], source, "simulation.chunk_frames");
-    if (!(c >= 8 && c <= 1e7)) json_fail(source, "simulation.chunk_frames", "must be in [8, 1e7]");
+    try {
+      check_chunk_frames(c, "simulation.chunk_frames");
+    } catch (const Error& e) {
+      throw Error(InputLocation{source, std::nullopt, std::nullopt, std::nullopt}, e.what());
+    }
     scene.options.chunk_frames = static_cast<int64_t>(c);
   }
 }

@@ -1225,7 +1225,7 @@ Simulator::Simulator(const Body& body, std::vector<SensorSpec> sensors, Simulati
     throw Error("simulation: the sensor rate must be finite and positive");
   }
   if (!options_.gravity_world.allFinite()) throw Error("simulation: gravity must be finite");
-  if (options_.chunk_frames < 8) throw Error("simulation: chunk_frames must be >= 8");
+  check_chunk_frames(static_cast<double>(options_.chunk_frames), "simulation: chunk_frames");
   for (SensorSpec& s : sensors_) {
     const double n = s.placement.q_joint_sensor.norm();
     if (!std::isfinite(n) || n < 1e-12 || !s.placement.p_joint_sensor.allFinite()) {
@@ -1267,6 +1267,11 @@ void check_gravity(const Eigen::Vector3d& gravity_world, const std::string& what
     message << what << ": |g| = " << g << " m/s^2 is outside " << GravityLimits::text;
     throw Error(message.str());
   }
+}
+
+void check_chunk_frames(double chunk_frames, const std::string& what) {
+  if (!(chunk_frames >= 8 && chunk_frames <= 1e7 && std::floor(chunk_frames) == chunk_frames))
+    throw Error(fmt::format("{}: must be a whole number in [8, 1e7], got {}", what, chunk_frames));
 }
 
 double sample_rate_hz(const SimulationOptions& options, const MotionSource& motion) {

@@ -86,12 +86,18 @@ struct GravityLimits {
 // Throws imukit::Error "<what>: |g| = N m/s^2 is outside [0.1, 100] m/s^2 ..." unless within.
 void check_gravity(const Eigen::Vector3d& gravity_world, const std::string& what);
 
+// Motion frames per streamed chunk: at least 8 (the spline's and the differences' stencils reach
+// across a chunk's edge), at most 1e7 (a chunk's frames are held in memory at once). Throws
+// imukit::Error "<what>: must be a whole number in [8, 1e7], got N" otherwise. One check
+// for the scene file, the Python Scene and the simulator (three copies until review, 2026-11-27).
+void check_chunk_frames(double chunk_frames, const std::string& what);
+
 struct SimulationOptions {
   DerivativeMethod method = DerivativeMethod::fd;
   Eigen::Vector3d gravity_world = kStandardGravityWorld;
   Eigen::Vector3d magnetic_field_world = kDefaultEarthMagneticField;  // T
   double rate_hz = 0.0;         // sensor sample rate; 0 = the motion's frame rate
-  int64_t chunk_frames = 4096;  // motion frames per streamed chunk
+  int64_t chunk_frames = 4096;  // motion frames per streamed chunk: check_chunk_frames
   // spline: evaluate samples that fall on frames through the vectorised on-frame path (the same
   // values to rounding; docs/simulation.md). Off only to compare the two paths.
   bool spline_on_frames = true;

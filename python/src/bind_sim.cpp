@@ -174,7 +174,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
     }
   }
   // The simulator's own limit (2..7 passed here and failed at simulate(); review, 2026-11-27).
-  if (chunk_frames < 8) throw Error("Scene: chunk_frames must be at least 8");
+  sim::check_chunk_frames(static_cast<double>(chunk_frames), "Scene: chunk_frames");
   s.options.chunk_frames = chunk_frames;
   s.seed = seed_argument(seed, "Scene: seed");
   s.ground_truth = ground_truth;

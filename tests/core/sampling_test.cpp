@@ -95,6 +95,21 @@ TEST(AnalyzeSampling, MedianAndGapsAgreeWithSortedPeriodsOnEveryPath) {
   }
 }
 
+// Motion files' times in seconds: the median step, whatever frames are missing or rounded.
+TEST(MedianStep, IsTheMiddleStepOfUnevenAndRoundedTimes) {
+  EXPECT_TRUE(std::isnan(median_step_s(std::vector<double>{})));
+  EXPECT_TRUE(std::isnan(median_step_s(std::vector<double>{1.0})));
+  EXPECT_DOUBLE_EQ(median_step_s(std::vector<double>{0.0, 0.5}), 0.5);
+  // Steps 0.1, 0.3 (two frames missing), 0.1, 0.1: the median is 0.1 to rounding.
+  EXPECT_NEAR(median_step_s(std::vector<double>{0.0, 0.1, 0.4, 0.5, 0.6}), 0.1, 1e-15);
+  // An even count of steps gives the upper of the two middle ones: 1, 2, 3, 4 -> 3.
+  EXPECT_DOUBLE_EQ(median_step_s(std::vector<double>{0.0, 4.0, 5.0, 8.0, 10.0}), 3.0);
+  // Epoch seconds printed to the microsecond at 30 Hz: 33.333 or 33.334 ms.
+  std::vector<double> t;
+  for (int k = 0; k < 301; ++k) t.push_back(1.7e9 + std::round(k / 30.0 * 1e6) / 1e6);
+  EXPECT_NEAR(median_step_s(t), 1.0 / 30.0, 1e-6);
+}
+
 TEST(MeasuredRate, IsTheFormulaAsWrittenBitForBit) {
   // 1001 stamps 10 ms apart with 7 ns of offset at the end: 1000 / 10.000000007 s.
   std::vector<TimeNs> t;

@@ -57,5 +57,19 @@ TEST(TimeConversions, RoundTripSeconds) {
   EXPECT_EQ(period_ns(285.714285), 3'500'000);
 }
 
+// A whole number of periods in doubles' rounding keeps its last sample; a fraction does not add
+// one. 0.29 * 100 is 28.999999999999996 and floor() gave 29 samples, not 30.
+TEST(SamplesSpanning, CountsBothEndsThroughRounding) {
+  EXPECT_EQ(samples_spanning(0.29, 100.0), 30);
+  EXPECT_EQ(samples_spanning(0.1 + 0.2, 10.0), 4);  // 0.30000000000000004 s
+  EXPECT_EQ(samples_spanning(0.0, 100.0), 1);
+  EXPECT_EQ(samples_spanning(0.295, 100.0), 30);        // half a period more: no extra sample
+  EXPECT_EQ(samples_spanning(0.29 - 1e-5, 100.0), 29);  // a thousandth of a period short
+  // The largest motions imukit takes: 1e7 frames, 1e7 s at 1 Hz and 1e5 s at 100 Hz.
+  EXPECT_EQ(samples_spanning(1e7, 1.0), 10'000'001);
+  EXPECT_EQ(samples_spanning(99999.99, 100.0), 9'999'999 + 1);
+  for (int n = 1; n < 2000; ++n) ASSERT_EQ(samples_spanning(n / 120.0, 120.0), n + 1) << n;
+}
+
 }  // namespace
 }  // namespace imukit

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/profile.hpp"
@@ -144,6 +145,32 @@ TEST(Scene, RatesOutsideOneAnHourTo1MHzAreErrorsNamingTheField) {
     "sensors": [{"name": "s", "segment": "pelvis", "position_m": [0, 0, 0]}]})";
   EXPECT_EQ(scene_error(csv_scene),
             "s.json: motion.rate_hz: must be in [1/3600 (one an hour), 1e6] Hz");
+}
+
+// One limit for the scene file, the Python Scene and the simulator (three copies of it until
+// review, 2026-11-27; a scene's 64.5 was cut to 64 without a word).
+TEST(Scene, ChunkFramesOutsideTheSimulatorsLimitAreErrorsNamingTheField) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"7", "7"}, {"64.5", "64.5"}, {"1e8", "100000000"}, {"-8", "-8"}};
+  for (const auto& [frames, read] : cases) {
+    std::string text = kScene;
+    text.replace(text.find("\"chunk_frames\": 64"), 18, std::string("\"chunk_frames\": ") + frames);
+    EXPECT_EQ(
+        scene_error(text),
+        std::string("s.json: simulation.chunk_frames: must be a whole number in [8, 1e7], got ") +
+            read);
+  }
+  std::string text = kScene;
+  text.replace(text.find("\"chunk_frames\": 64"), 18, "\"chunk_frames\": 8");
+  EXPECT_EQ(parse_scene(text, "s.json", "").options.chunk_frames, 8);
+  Scene scene = parse_scene(kScene, "s.json", "");
+  scene.options.chunk_frames = 7;
+  try {
+    run_scene(scene, [](std::size_t, const SensorBlock&, const SensorBlock*) {});
+    ADD_FAILURE() << "a chunk of 7 frames ran";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "simulation: chunk_frames: must be a whole number in [8, 1e7], got 7");
+  }
 }
 
 // The zero-length segment error reaches a scene's reader with the sensor's JSON path and name.
