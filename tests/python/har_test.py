@@ -5,9 +5,11 @@ policy's gradient, the experiments' bookkeeping, and a smoke run on UTD-MHAD (2 
 run: pytest (tests/pytest.ini); $IMUKIT_CLI the command, PYTHONPATH <build>/python
 """
 import contextlib
+import dataclasses
 import io
 import json
 import os
+import shutil
 import signal
 import sys
 import tempfile
@@ -887,7 +889,7 @@ class Experiments(unittest.TestCase):
             # dataset's runs counted as done); a subset of the same subjects continues.
             other = os.path.join(d, "other")
             synthetic_recordings(other, trials=1)
-            with self.assertRaisesRegex(ValueError, r"written from other recordings of subject\(s\) \['s1', 's2', 's3'\]"):
+            with self.assertRaisesRegex(ValueError, r"written from other recordings or scenes of subject\(s\) \['s1', 's2', 's3'\]"):
                 with contextlib.redirect_stdout(io.StringIO()):
                     har_main([argv[0], "--recordings", other] + argv[3:])
             log = io.StringIO()
@@ -937,6 +939,47 @@ class Experiments(unittest.TestCase):
             # Results from before the setting were made with one pass per epoch.
             self.assertEqual(experiments.settings_of({"settings": {}})["steps_per_epoch"], 0)
 
+    def test_scene_digests_follow_the_scene_its_motion_offset_and_biases(self):
+        # Found in review, 2026-11-27: a scene's contents were in no digest, so results of two
+        # fits of the same recordings continued and merged as if made from the same data.
+        with tempfile.TemporaryDirectory() as d:
+            R = synthetic_recordings(os.path.join(d, "rec"), subjects=("s1", "s2"), trials=1)
+            first = experiments.scene_fingerprints(R)
+            self.assertEqual(sorted(first), ["s1", "s2"])
+            self.assertEqual(experiments.scene_fingerprints(R), first)
+            ref = R.recordings[0].scene  # subject s1's first scene
+            with open(ref.path, encoding="utf-8") as f:
+                scene = json.load(f)
+            walk = os.path.join(os.path.dirname(ref.path), "walk.bvh")
+            shutil.copyfile(scene["motion"]["bvh"], walk)
+            scene["motion"]["bvh"] = "walk.bvh"  # the same motion, named beside the scene
+            with open(ref.path, "w", encoding="utf-8") as f:
+                json.dump(scene, f)
+            moved = experiments.scene_fingerprints(R)
+            self.assertNotEqual(moved["s1"], first["s1"])
+            self.assertEqual(moved["s2"], first["s2"])
+            with open(walk, "a", encoding="utf-8") as f:  # the motion file's bytes count
+                f.write("\n")
+            self.assertNotEqual(experiments.scene_fingerprints(R)["s1"], moved["s1"])
+            for change in ({"time_offset_s": 0.01}, {"bias": np.full((1, 6), 0.1)}):
+                R.recordings[0].scene = dataclasses.replace(ref, **change)
+                self.assertNotEqual(experiments.scene_fingerprints(R)["s1"], moved["s1"], change)
+            R.recordings[0].scene = ref
+            # A store of the first digests refuses the edited scenes, naming the subject; a JSON
+            # written before scene digests existed continues.
+            path = os.path.join(d, "r.json")
+            settings = experiments.Settings()
+            experiments.ResultStore(path, "one_at_a_time", settings,
+                                    {"fingerprints": {}, "scene_fingerprints": first}).save()
+            now = {"fingerprints": {}, "scene_fingerprints": experiments.scene_fingerprints(R)}
+            with self.assertRaisesRegex(ValueError, r"r.json: written from other recordings or scenes of subject\(s\) \['s1'\]"):
+                experiments.ResultStore(path, "one_at_a_time", settings, now)
+            experiments.ResultStore(path, "one_at_a_time", settings, {"fingerprints": {}}).save()
+            os.remove(path)
+            experiments.ResultStore(path, "one_at_a_time", settings, {"fingerprints": {}}).save()
+            self.assertEqual(experiments.ResultStore(path, "one_at_a_time", settings, now).doc["data"]
+                             ["scene_fingerprints"], now["scene_fingerprints"])
+
     def test_folds_made_apart_merge_into_one_report_that_names_differing_data(self):
         with tempfile.TemporaryDirectory() as d:
             synthetic_recordings(os.path.join(d, "rec"))
@@ -979,6 +1022,17 @@ class Experiments(unittest.TestCase):
             with open(os.path.join(d, "m2", "one_at_a_time.md"), encoding="utf-8") as f:
                 self.assertIn("The files' recordings differ for subject(s) s3: 1 recording(s) have a scene "
                               "in one file and not in another (r_s3_t1).", f.read())
+            # Scenes fitted again: the same recordings, another scene digest.
+            other["data"]["fingerprints"] = load_json(a)["data"]["fingerprints"]
+            other["data"]["recordings_without_scene"] = []
+            other["data"]["scene_fingerprints"] = {"s2": "0" * 16}
+            with open(c, "w", encoding="utf-8") as f:
+                json.dump(other, f)
+            merged = experiments.merge([a, c])
+            self.assertEqual((merged["data"]["fingerprints_differ"], merged["data"]["scenes_differ"]),
+                             ([], ["s2"]))
+            self.assertIn("The files' fitted scenes differ for subject(s) s2 (their files' contents: "
+                          "fitted again, or by another version).", "\n".join(report.provenance(merged)))
 
 
 class CommandErrors(unittest.TestCase):

@@ -59,6 +59,7 @@ def _data(args):
     source["recordings_count"] = len(R)
     source["rate_hz"] = R.rate_hz  # one rate, or a FormatError before any training
     source["fingerprints"] = experiments.subject_fingerprints(R)
+    source["scene_fingerprints"] = experiments.scene_fingerprints(R)
     source["subjects"] = R.subjects
     return R, source
 

@@ -306,6 +306,39 @@ def subject_fingerprints(recordings):
     return {s: hashlib.sha256("\n".join(sorted(v)).encode()).hexdigest()[:16] for s, v in rows.items()}
 
 
+def scene_fingerprints(recordings):
+    """Per subject with scenes, a digest of what PPDA re-simulates: each fitted scene's file and
+    the motion files it names (their bytes), its time offset and biases. subject_fingerprints
+    says only whether a recording has a scene; scenes fitted again by another version of imukit
+    differ here (review, 2026-11-27: results of two fits were indistinguishable)."""
+    rows = {}
+    for r in recordings.recordings:
+        if r.scene is None:
+            continue
+        h = hashlib.sha256()
+        with open(r.scene.path, "rb") as f:
+            text = f.read()
+        h.update(text)
+        try:
+            motion = json.loads(text).get("motion") or {}
+        except (ValueError, AttributeError):
+            motion = {}
+        folder = os.path.dirname(r.scene.path)
+        for key in sorted(motion) if isinstance(motion, dict) else []:
+            name = motion[key]
+            if isinstance(name, str) and os.path.isfile(os.path.join(folder, name)):
+                with open(os.path.join(folder, name), "rb") as f:
+                    h.update(f"{key}={name}:".encode())
+                    h.update(f.read())
+        bias = None if r.scene.bias is None else np.asarray(r.scene.bias, dtype=np.float64).tolist()
+        h.update(f"{r.scene.sensors!r}:{float(r.scene.time_offset_s)!r}:{bias!r}".encode())
+        rows.setdefault(r.subject, []).append(f"{r.id}:{h.hexdigest()}")
+    return {s: hashlib.sha256("\n".join(sorted(v)).encode()).hexdigest()[:16] for s, v in rows.items()}
+
+
+DIGESTS = ("fingerprints", "scene_fingerprints")
+
+
 def read_results(path):
     """An experiment's JSON (what ResultStore writes); ValueError naming the file when it cannot
     be read or is not one (found in review: a corrupt file's error did not say which, another
@@ -319,10 +352,13 @@ def read_results(path):
 
 
 def data_mismatch(old, new):
-    """The subjects whose recordings differ between two experiments' data (older JSONs without
-    digests match anything)."""
-    a, b = (old or {}).get("fingerprints") or {}, (new or {}).get("fingerprints") or {}
-    return sorted(s for s in set(a) & set(b) if a[s] != b[s])
+    """The subjects whose recordings or scenes differ between two experiments' data (JSONs
+    written before a digest was recorded match anything in it)."""
+    differ = set()
+    for key in DIGESTS:
+        a, b = (old or {}).get(key) or {}, (new or {}).get(key) or {}
+        differ |= {s for s in set(a) & set(b) if a[s] != b[s]}
+    return sorted(differ)
 
 
 class ResultStore:
@@ -341,12 +377,12 @@ class ResultStore:
             # Found in review: results of another dataset counted as done for this one.
             differ = data_mismatch(old.get("data"), data)
             if differ:
-                raise ValueError(f"{path}: written from other recordings of subject(s) {differ}; "
+                raise ValueError(f"{path}: written from other recordings or scenes of subject(s) {differ}; "
                                  "use another --out or delete it")
             merged = dict(old.get("data") or {})
             merged.update(data)
-            merged["fingerprints"] = {**((old.get("data") or {}).get("fingerprints") or {}),
-                                      **(data.get("fingerprints") or {})}
+            for key in DIGESTS:
+                merged[key] = {**((old.get("data") or {}).get(key) or {}), **(data.get(key) or {})}
             merged["subjects"] = list(dict.fromkeys((old.get("data") or {}).get("subjects", []) +
                                                     list(data.get("subjects", []))))
             merged["recordings_count"] = max((old.get("data") or {}).get("recordings_count", 0),
@@ -395,8 +431,9 @@ def merge(paths):
     report. They must share the experiment and settings, and no run may be in two of them. Where
     their data differ (a subject's recordings, which recordings have a scene) the merged document
     says so: `data.parts` keeps each file's data and the tests of its runs, and
-    `data.fingerprints_differ` lists the subjects whose digests disagree, so a table made from
-    it can name what was not trained on the same data."""
+    `data.fingerprints_differ` lists the subjects whose recordings' digests disagree and
+    `data.scenes_differ` those whose scenes' do, so a table made from it can name what was not
+    trained on the same data."""
     docs = [read_results(p) for p in paths]
     first = docs[0]
     seen = {}
@@ -409,16 +446,18 @@ def merge(paths):
             if k in seen:
                 raise ValueError(f"{p}: run {k} is in {seen[k]} too")
             seen[k] = p
-    digests = {}
+    digests = {key: {} for key in DIGESTS}
     for d in docs:
-        for s, h in ((d.get("data") or {}).get("fingerprints") or {}).items():
-            digests.setdefault(s, set()).add(h)
+        for key in DIGESTS:
+            for s, h in ((d.get("data") or {}).get(key) or {}).items():
+                digests[key].setdefault(s, set()).add(h)
     parts = [{"file": os.path.basename(os.path.dirname(os.path.abspath(p))) + "/" + os.path.basename(p),
               "tests": sorted({r["test"] for r in d.get("runs", [])}), "runs": len(d.get("runs", [])),
               "data": d.get("data")} for p, d in zip(paths, docs)]
     data = dict(first.get("data") or {})
     data["subjects"] = list(dict.fromkeys(s for d in docs for s in (d.get("data") or {}).get("subjects", [])))
-    data["fingerprints_differ"] = sorted(s for s, h in digests.items() if len(h) > 1)
+    data["fingerprints_differ"] = sorted(s for s, h in digests["fingerprints"].items() if len(h) > 1)
+    data["scenes_differ"] = sorted(s for s, h in digests["scene_fingerprints"].items() if len(h) > 1)
     data["parts"] = parts
     return {"schema": first.get("schema"), "experiment": first.get("experiment"),
             "settings": settings_of(first), "data": data,

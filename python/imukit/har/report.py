@@ -279,8 +279,13 @@ def provenance(doc):
         lines.append(f"The files' recordings differ for subject(s) {', '.join(differ)}: "
                      f"{len(changed)} recording(s) have a scene in one file and not in another "
                      f"({', '.join(changed) or 'none: lengths, channels or rates differ'}).")
-    else:
-        lines.append("Every file was made from the same recordings (per-subject digests agree).")
+    scenes = doc["data"].get("scenes_differ") or []
+    if scenes:
+        lines.append(f"The files' fitted scenes differ for subject(s) {', '.join(scenes)} (their "
+                     "files' contents: fitted again, or by another version).")
+    if not differ and not scenes:
+        lines.append("Every file was made from the same recordings and scenes (per-subject digests "
+                     "agree).")
     return lines + [""]
 
 
