@@ -31,6 +31,7 @@ struct CharacterizeArgs {
   double gravity = kStandardGravity;
   int points_per_decade = 10;
   bool level = false;
+  bool keep_bad_fit = false;
   double fit_tau_min_s = 0.0;
 };
 
@@ -64,6 +65,24 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   const CharacterizeResult r = characterize_runs(runs, options);
   const std::optional<hwmodel::TriadNoise>& acc = r.accel;
   const std::optional<hwmodel::TriadNoise>& gyr = r.gyro;
+  // A profile is what simulate and augment take as the sensor's noise: numbers the model does
+  // not describe are not written without being asked for (review, 2026-11-27: the warning was
+  // printed and the profile written all the same).
+  const std::vector<std::string> bad = axes_without_noise_model(r);
+  if (!bad.empty()) {
+    std::string axes;
+    for (const std::string& b : bad) axes += (axes.empty() ? "" : ", ") + b;
+    if (!args.keep_bad_fit) {
+      throw Error(fmt::format(
+          "{}: the noise model does not describe the Allan deviation of {}: was the device "
+          "still? Nothing written; --fit-tau-min leaves out a filter's or a vibration's mark, "
+          "--keep-bad-fit writes the numbers all the same",
+          r.noise_run, axes));
+    }
+    fmt::print(stderr,
+               "imukit: warning: --keep-bad-fit: writing numbers that are no noise model ({})\n",
+               axes);
+  }
   update_profile(args.output, r.update);
   fmt::print("wrote noise sections to {}\n", args.output);
 
@@ -132,6 +151,9 @@ IMUKIT_REGISTER_COMMAND(
                          "fit the noise model only where tau >= this (s): leave out a sensor "
                          "filter's or a vibration's mark")
               ->check(real_in(0, 1e7, "s"));
+          sub.add_flag("--keep-bad-fit", args->keep_bad_fit,
+                       "write the profile even where the noise model does not describe an "
+                       "axis' Allan deviation (chi2/dof above 100; refused otherwise)");
           sub.add_flag(
               "--level", args->level,
               "recordings were taken level with z up: also give the accelerometer turn-on bias");

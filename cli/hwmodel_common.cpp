@@ -373,6 +373,21 @@ CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
   return r;
 }
 
+std::vector<std::string> axes_without_noise_model(const CharacterizeResult& result) {
+  std::vector<std::string> out;
+  for (const auto& [name, triad] :
+       {std::pair{"accelerometer", &result.accel}, std::pair{"gyroscope", &result.gyro}}) {
+    if (!*triad) continue;
+    for (int ax = 0; ax < 3; ++ax) {
+      const auto& axis = (*triad)->axes[size_t(ax)];
+      if (!axis.constant && axis.fit.chi2_per_dof > kBadNoiseFitChi2PerDof)
+        out.push_back(
+            fmt::format("{} {} (chi2/dof {:.2g})", name, "xyz"[ax], axis.fit.chi2_per_dof));
+    }
+  }
+  return out;
+}
+
 void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& result) {
   std::filesystem::create_directories(dir);
   if (result.accel) plot_triad(dir, "accelerometer", "m/s^2", *result.accel);

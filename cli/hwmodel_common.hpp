@@ -67,6 +67,10 @@ struct CharacterizeResult {
 // Throws imukit::Error when the recordings hold neither accelerometer nor gyroscope data.
 CharacterizeResult characterize_runs(const std::vector<LoadedRun>& runs,
                                      const CharacterizeOptions& options);
+// The axes whose noise-model fit does not describe their Allan curve, chi^2/dof above 100 (still
+// real sensors give 1 to 34, docs/validation.md; a record with motion 1e4 and more), each as
+// "gyroscope x (chi2/dof 2.1e+04)". Their numbers are no noise model.
+std::vector<std::string> axes_without_noise_model(const CharacterizeResult& result);
 // DIR/accelerometer_allan.svg and DIR/gyroscope_allan.svg (and their .dat and .gp).
 void plot_noise(const std::filesystem::path& dir, const CharacterizeResult& result);
 
