@@ -103,6 +103,11 @@ void reader_thread(Device& d, bool wait_when_full) {
   const drivers::EndReason end = drivers::DeviceReader::run(
       *d.spec.device.transport, *d.spec.device.codec, options, d.stop,
       [&](std::vector<drivers::Sample>& batch) {
+        if (batch.empty()) {  // bytes that decoded to nothing (yet): their counts only
+          const std::lock_guard lock(d.mutex);
+          d.stats = d.spec.device.codec->stats();
+          return;
+        }
         for (drivers::Sample& s : batch) {
           QueuedSample q{std::move(s), refused};
           bool taken = d.samples.push(std::move(q));  // a refused push leaves q as it was
@@ -157,6 +162,7 @@ DeviceProgress progress_of(Device& d) {
     p.non_finite = d.stats.samples_non_finite;
     p.before_start = d.stats.samples_before_start;
     p.stale = d.stats.samples_stale;
+    p.feature_reports_failed = d.stats.feature_reports_failed;
     p.end_reason = d.silent_reason.empty() ? d.end_reason : d.silent_reason;
   }
   p.backpressure = d.backpressure.load();
@@ -432,11 +438,17 @@ std::string Pump::run() {
           !d->ended.load(std::memory_order_acquire) &&
           std::chrono::duration<double>(now - d->last_data).count() > options.no_data_timeout_s) {
         const std::lock_guard lock(d->mutex);
+        // What to check differs: nothing at all arrived, or bytes did and none decoded (a
+        // damaged stream on a pipe was "nothing was written to the FIFO"; review, 2026-11-27).
+        const uint64_t bytes = d->stats.bytes_received;
         d->silent_reason = fmt::format(
             "no data for {:g} s{}", options.no_data_timeout_s,
-            d->written == 0
+            d->written > 0 ? ""
+            : bytes == 0
                 ? fmt::format(" since the start ({})", d->spec.device.transport->when_silent())
-                : "");
+                : fmt::format(" since the start ({} bytes arrived and no sample decoded from "
+                              "them: check the codec and its keys in the URI)",
+                              bytes));
         d->stop.store(true);
       }
     }
@@ -503,6 +515,7 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
                             {"samples_non_finite", std::to_string(p.non_finite)},
                             {"samples_before_start", std::to_string(p.before_start)},
                             {"samples_stale", std::to_string(p.stale)},
+                            {"feature_reports_failed", std::to_string(p.feature_reports_failed)},
                             {"backpressure_dropped", std::to_string(p.backpressure)},
                             {"end_reason", p.end_reason},
                             {"online_clock_skew_ppm", fmt::format("{:.3f}", p.clock.skew_ppm)}};
@@ -702,6 +715,7 @@ McapMetadata recovered_session_record(const std::string& device, const SequenceG
            {"samples_non_finite", lost},
            {"samples_before_start", lost},
            {"samples_stale", lost},
+           {"feature_reports_failed", lost},
            {"backpressure_dropped", lost},
            {"end_reason", "the recording did not finish (recovered by imukit convert --recover)"},
            {"recovered",

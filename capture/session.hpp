@@ -49,6 +49,9 @@ struct DeviceProgress {
   // Samples of frames the link repeated or delivered late (CodecStats::samples_stale): not
   // written again, not losses.
   uint64_t stale = 0;
+  // Optional feature reports (a pad's calibration) that could not be read: the nominal scale
+  // was used (CodecStats::feature_reports_failed).
+  uint64_t feature_reports_failed = 0;
   uint64_t backpressure = 0;  // samples the recorder's own queue had to refuse
   std::size_t queue_high_water = 0;
   double rate_hz = 0.0;  // the device's sample rate on the host clock (sample numbers over

@@ -90,6 +90,11 @@ int read_device(const DevicesOptions& o) {
       "errors {}, before the stream's start {} (not losses)\n",
       st.samples_decoded, st.samples_dropped, st.samples_non_finite, st.counter_resets,
       st.device_errors, st.samples_before_start);
+  if (st.feature_reports_failed > 0) {
+    fmt::print(
+        "  calibration reports unreadable {}: the nominal scale used, as the Linux driver does\n",
+        st.feature_reports_failed);
+  }
   if (st.samples_stale > 0) {
     fmt::print(
         "  stale samples {} (frames repeated or delivered late: not handed out again, not "

@@ -173,6 +173,12 @@ std::string print_report(const capture::SessionReport& report) {
         d.frames_corrupt, d.backpressure, d.queue_high_water, queue_capacity, d.end_reason);
     if (d.before_start > 0)
       fmt::print("  samples before the stream's start {} (not losses)\n", d.before_start);
+    if (d.feature_reports_failed > 0) {
+      fmt::print(
+          "  calibration reports unreadable {}: the nominal scale used, as the Linux driver "
+          "does\n",
+          d.feature_reports_failed);
+    }
     if (d.stale > 0) {
       fmt::print(
           "  stale samples {} (frames repeated or delivered late: not handed out again, not "

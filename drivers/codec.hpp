@@ -29,6 +29,9 @@ struct SyncPoint {
 struct FeatureRequest {
   uint8_t report_id = 0;
   std::size_t size = 0;  // bytes, report ID included
+  // The codec has defaults to stream with when the report cannot be read (counted in
+  // CodecStats::feature_reports_failed); otherwise that failure ends the stream.
+  bool optional = false;
 };
 
 class Codec {
@@ -41,6 +44,9 @@ class Codec {
 
   // The transport is open (host clock `now`): queue start-up commands.
   virtual void start(TimeNs /*now*/) {}
+  // The first bytes may be the middle of a frame or line (Transport::may_start_mid_stream); the
+  // reader says so before start(). Binary codecs resynchronise on their own; text needs it.
+  void set_may_start_mid_stream(bool may) { may_start_mid_stream_ = may; }
   // Bytes (or one report) that arrived at host_time; decoded samples are appended to out.
   // Every codec's samples pass through here, so a sample with a NaN or infinite value (a
   // device's bad float, or a unit scale that overflowed) is dropped and counted for all of them
@@ -60,7 +66,10 @@ class Codec {
   virtual std::span<const SyncPoint> sync_points() const { return {}; }
 
   virtual std::vector<FeatureRequest> feature_requests() const { return {}; }
+  // Throws imukit::Error when the report is not what the codec needs (the reader asks again).
   virtual void on_feature_report(uint8_t /*id*/, std::span<const uint8_t> /*report*/) {}
+  // The reader could not get an optional report: counted; the codec keeps its defaults.
+  void on_optional_feature_report_missing() { ++stats_.feature_reports_failed; }
 
   // Commands queued for the device since the last call.
   std::vector<uint8_t> take_outgoing() {
@@ -81,6 +90,7 @@ class Codec {
   }
   CodecStats stats_;
   std::vector<uint8_t> outgoing_;
+  bool may_start_mid_stream_ = false;
 
  private:
   // Removes the samples from out[first] on that hold a non-finite value, counting them.

@@ -3,6 +3,7 @@
 #include <hidapi/hidapi.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <mutex>
 
 namespace imukit::drivers {
@@ -54,6 +55,16 @@ HidTransport::HidTransport(uint16_t vid, uint16_t pid, const std::string& serial
 
 HidTransport::HidTransport(const std::string& path) : name_("hid " + path) {
   init_once();
+  // hidapi 0.13 (Debian 12) frees a wild pointer when the node has no HID uevent: a serial port,
+  // /dev/null or a capture file given to hid: crashed the process (review, 2026-11-27; fixed
+  // upstream in 0.14). Only hidraw nodes, known to sysfs, reach it.
+  std::error_code ec;
+  const std::filesystem::path real = std::filesystem::canonical(path, ec);
+  const std::string node = (ec ? std::filesystem::path(path) : real).filename().string();
+  if (node.rfind("hidraw", 0) != 0 || !std::filesystem::exists("/sys/class/hidraw/" + node, ec)) {
+    throw TransportError("cannot open " + name_ +
+                         ": not a hidraw device (/dev/hidrawN: `imukit devices` lists them)");
+  }
   dev_ = hid_open_path(path.c_str());
   if (!dev_)
     throw TransportError(

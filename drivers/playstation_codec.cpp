@@ -72,8 +72,11 @@ PlaystationCodec::PlaystationCodec(PlaystationModel model)
       time_(model == PlaystationModel::kDualShock4 ? 16 : 32) {}
 
 std::vector<FeatureRequest> PlaystationCodec::feature_requests() const {
-  if (model_ == PlaystationModel::kDualShock4) return {{0x02, 37}};
-  return {{0x05, 41}};
+  // Optional: hid-playstation asks three times and then streams with the nominal scale, so
+  // clone pads (and pads another hidraw user is talking to) still work; a failure ended the
+  // stream here until review, 2026-11-27.
+  if (model_ == PlaystationModel::kDualShock4) return {{0x02, 37, true}};
+  return {{0x05, 41, true}};
 }
 
 void PlaystationCodec::on_feature_report(uint8_t, std::span<const uint8_t> report) {

@@ -3,16 +3,32 @@
 #include <chrono>
 #include <exception>
 
+#include "imukit/core/error.hpp"
+
 namespace imukit::drivers {
 namespace {
 
-// Feature reports a codec needs (HID calibration), read once before streaming.
+// Feature reports a codec needs (HID calibration), read once before streaming. Each is asked
+// for up to kFeatureAttempts times, as hid-playstation does: another hidraw user (Steam) can be
+// answered in between, and a clone pad's reply can be short.
+constexpr int kFeatureAttempts = 3;
+
 void fetch_features(Transport& transport, Codec& codec) {
   auto* reports = dynamic_cast<ReportTransport*>(&transport);
   if (!reports) return;
   for (const FeatureRequest& f : codec.feature_requests()) {
-    const std::vector<uint8_t> r = reports->get_feature_report(f.report_id, f.size);
-    codec.on_feature_report(f.report_id, r);
+    std::exception_ptr failure;
+    for (int attempt = 0; attempt < kFeatureAttempts; ++attempt) {
+      try {
+        codec.on_feature_report(f.report_id, reports->get_feature_report(f.report_id, f.size));
+        failure = nullptr;
+        break;
+      } catch (const Error&) {  // a TransportError, or a report the codec cannot use
+        failure = std::current_exception();
+      }
+    }
+    if (failure && !f.optional) std::rethrow_exception(failure);
+    if (failure) codec.on_optional_feature_report_missing();
   }
 }
 
@@ -81,8 +97,10 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
   uint64_t total = 0;
   std::vector<Sample> batch;
   TimeNs last_bytes_at = 0;  // host time of the last read that brought data
-  auto deliver = [&] {
-    if (batch.empty()) return;
+  // After every read that brought bytes, even when they decoded to nothing: the sink is where
+  // callers take the codec's counts (a stream of bytes that never decode must show them).
+  auto deliver = [&](bool bytes_arrived) {
+    if (batch.empty() && !bytes_arrived) return;
     total += batch.size();
     sink(batch);
     batch.clear();
@@ -91,6 +109,7 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
     auto* bytes = dynamic_cast<ByteTransport*>(&transport);
     auto* reports = dynamic_cast<ReportTransport*>(&transport);
     fetch_features(transport, codec);
+    codec.set_may_start_mid_stream(transport.may_start_mid_stream());
     codec.start(transport.now());
     flush_commands(transport, codec);
     std::vector<uint8_t> buf(codec.report_based() ? std::size_t{1024} : options.read_size);
@@ -102,7 +121,7 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
         codec.feed(std::span<const uint8_t>(buf.data(), r.size), r.host_time, batch);
         last_bytes_at = r.host_time;
       }
-      deliver();
+      deliver(r.size > 0);
       if (r.end) {
         end = {EndKind::kEndOfStream, r.end_reason};
         break;
@@ -123,7 +142,7 @@ EndReason DeviceReader::run(Transport& transport, Codec& codec, const ReaderOpti
   // Whatever ended the stream, hand out what the codec still holds.
   try {
     codec.finish(last_bytes_at, batch);
-    deliver();
+    deliver(false);
   } catch (const std::exception& e) {
     if (end.kind != EndKind::kError) end = {EndKind::kError, e.what()};
   } catch (...) {

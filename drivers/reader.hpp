@@ -71,7 +71,8 @@ class DeviceReader {
   // appends every sample to out. Never throws for transport or codec failures.
   static EndReason run(Transport& transport, Codec& codec, const ReaderOptions& options,
                        const std::atomic<bool>& stop, std::vector<Sample>& out);
-  // The same, handing each read's samples to `sink` (which may move them away).
+  // The same, handing each read's samples to `sink` (which may move them away): after every
+  // read that brought bytes, with an empty batch when they decoded to nothing.
   static EndReason run(Transport& transport, Codec& codec, const ReaderOptions& options,
                        const std::atomic<bool>& stop,
                        const std::function<void(std::vector<Sample>&)>& sink);

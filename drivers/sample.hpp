@@ -86,7 +86,10 @@ struct CodecStats {
   // was repeated. Not losses of this session, so not in samples_dropped.
   uint64_t samples_before_start = 0;
   uint64_t counter_resets = 0;  // counter repeated or jumped back (device restarted its stream)
-  uint64_t device_errors = 0;   // error messages the device itself sent
+  // Optional feature reports (a pad's calibration) unreadable after the reader's attempts: the
+  // codec streams with its defaults (the nominal scale), as the Linux driver does.
+  uint64_t feature_reports_failed = 0;
+  uint64_t device_errors = 0;  // error messages the device itself sent
   // Samples of a frame behind the stream on the same counter and clock (the link repeated the
   // frame, or delivered it after later ones), not handed out again: no counter reset, and no
   // loss beyond what the skip over them already counted in samples_dropped. (imukit codec.)

@@ -19,6 +19,7 @@ class SerialTransport : public ByteTransport {
   void write(std::span<const uint8_t> bytes) override;
   std::string describe() const override;
   std::string when_silent() const override { return "check the baud rate and codec in the URI"; }
+  bool may_start_mid_stream() const override { return true; }
   int baud() const;
 
  private:

@@ -113,6 +113,11 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
     return;
   }
   const bool first = lines_++ == 0;
+  // A serial port opened while the board streams starts inside a line, and the tail of
+  // "12345,..." reads as the sample "45,...", its time wrong (review, 2026-11-27). On such a
+  // transport the first line is never data: discarded, and counted as a dropped sample if it
+  // parses as one (it may have been whole).
+  const bool cut = first && may_start_mid_stream_;
   double v[7];
   std::string_view t_field;
   int n = 0;
@@ -144,6 +149,11 @@ void TextCodec::on_line(std::size_t raw_size, TimeNs host_time, std::vector<Samp
     ++n;
     pos = end + 1;
     if (end == line.size()) break;
+  }
+  if (cut) {
+    stats_.bytes_discarded += raw_size;
+    if (ok && n == 7) ++stats_.samples_dropped;
+    return;
   }
   if (!ok || n != 7) {
     if (first) {

@@ -5,6 +5,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <fmt/core.h>
+#include <limits.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -41,6 +44,8 @@ FdTransport::FdTransport(int fd, bool owns, std::string name, bool writable)
   const bool known = ::fstat(fd_, &st) == 0;
   replay_ = known && S_ISREG(st.st_mode);
   fifo_ = known && S_ISFIFO(st.st_mode);
+  writable_ = writable_ && !replay_;
+  tty_ = ::isatty(fd_) == 1;
 }
 
 std::string FdTransport::when_silent() const {
@@ -110,16 +115,30 @@ ReadResult FdTransport::read(std::span<uint8_t> buf, int timeout_ms) {
 
 void FdTransport::write(std::span<const uint8_t> bytes) {
   if (!writable_) throw TransportError(name_ + ": opened read-only, cannot send commands");
+  // One deadline for the whole command, as the serial transport's: a peer that stops reading
+  // (a socket nobody drains, a tty held by flow control) blocked the reader thread for good,
+  // and with it --duration, --no-data-timeout and Ctrl-C (review, 2026-11-27). The descriptor
+  // may be blocking: each write waits for POLLOUT and is at most PIPE_BUF bytes, which a
+  // writable pipe takes whole.
+  const TimeNs deadline = host_now() + kWriteTimeoutMs * 1'000'000;
   std::size_t done = 0;
   while (done < bytes.size()) {
-    const ssize_t n = ::write(fd_, bytes.data() + done, bytes.size() - done);
+    const TimeNs left_ns = deadline - host_now();
+    pollfd p{fd_, POLLOUT, 0};
+    const int ready =
+        left_ns > 0 ? ::poll(&p, 1, static_cast<int>((left_ns + 999'999) / 1'000'000)) : 0;
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready < 0) throw TransportError(os_error(name_ + ": poll", errno));
+    if (ready == 0) {
+      throw TransportError(
+          fmt::format("{}: write: {} of {} command bytes taken in {} ms (does "
+                      "the other end read?)",
+                      name_, done, bytes.size(), kWriteTimeoutMs));
+    }
+    const std::size_t chunk = std::min<std::size_t>(bytes.size() - done, PIPE_BUF);
+    const ssize_t n = ::write(fd_, bytes.data() + done, chunk);
     if (n < 0) {
-      if (errno == EINTR) continue;
-      if (errno == EAGAIN) {
-        pollfd p{fd_, POLLOUT, 0};
-        ::poll(&p, 1, 100);
-        continue;
-      }
+      if (errno == EINTR || errno == EAGAIN || errno == EWOULDBLOCK) continue;
       throw TransportError(os_error(name_ + ": write", errno));
     }
     done += static_cast<std::size_t>(n);

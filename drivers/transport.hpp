@@ -55,6 +55,10 @@ class Transport {
   // fd): receive times then say when the bytes were read, not when the samples were made, so
   // they give no sample rate.
   virtual bool replay() const { return false; }
+  // True when the first bytes read can be the middle of what the device sends: a serial port or
+  // terminal opened while the device streams (boards that do not reset on open). A line-based
+  // codec cannot trust its first line then.
+  virtual bool may_start_mid_stream() const { return false; }
   // What to check when nothing at all arrives, for the message that says so. Transports with
   // a setting of their own to check (a serial port's baud rate) say so.
   virtual std::string when_silent() const {
@@ -95,11 +99,15 @@ class FdTransport : public ByteTransport {
   static std::unique_ptr<FdTransport> open_file(const std::string& path);
 
   ReadResult read(std::span<uint8_t> buf, int timeout_ms) override;
+  // Throws TransportError when the other end has not taken the bytes within kWriteTimeoutMs.
   void write(std::span<const uint8_t> bytes) override;
+  // False for a read-only descriptor and for a regular file (a replay) opened read-write.
   bool can_write() const override { return writable_; }
   std::string describe() const override { return name_; }
+  static constexpr int kWriteTimeoutMs = 1000;
   // A regular file (open_file, or one given as an fd): a replay. Pipes and ttys are live.
   bool replay() const override { return replay_; }
+  bool may_start_mid_stream() const override { return tty_; }
   std::string when_silent() const override;
   int fd() const { return fd_; }
 
@@ -110,6 +118,7 @@ class FdTransport : public ByteTransport {
   bool writable_;
   bool replay_ = false;
   bool fifo_ = false;
+  bool tty_ = false;
 };
 
 // An in-memory byte stream (tests, benchmarks, fuzzers): hands out `chunk` bytes per read (all

@@ -1,6 +1,8 @@
 #include "imukit/drivers/uri.hpp"
 
 #include <fcntl.h>
+#include <fmt/core.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cctype>
@@ -94,6 +96,8 @@ bool parse_vid_pid(const std::string& s, uint16_t& vid, uint16_t& pid) {
   return true;
 }
 
+// An endpoint address of the direction `key` names: libusb takes a transfer's direction from
+// bit 7, so ep_in=0x02 sent the read buffer to the device (review, 2026-11-27).
 uint8_t parse_endpoint(const std::map<std::string, std::string>& keys, const std::string& key,
                        uint8_t fallback) {
   const auto it = keys.find(key);
@@ -105,6 +109,11 @@ uint8_t parse_endpoint(const std::map<std::string, std::string>& keys, const std
   const auto r = std::from_chars(b, t.data() + t.size(), v, hex ? 16 : 10);
   if (t.empty() || r.ec != std::errc() || r.ptr != t.data() + t.size() || v > 0xFF) {
     throw Error(key + "=" + t + ": expected an endpoint address such as 0x81");
+  }
+  const bool in = key == "ep_in";
+  if (((v & 0x80) != 0) != in) {
+    throw Error(fmt::format("{}={}: an {} endpoint's address has bit 7 {} (such as {})", key, t,
+                            in ? "IN" : "OUT", in ? "set" : "clear", in ? "0x81" : "0x01"));
   }
   return static_cast<uint8_t>(v);
 }
@@ -313,7 +322,12 @@ OpenedDevice open_device(const std::string& text) {
       }
       const int flags = fcntl(fd, F_GETFL);
       if (flags < 0) throw TransportError(os_error("fd " + u.address, errno));
-      const bool writable = (flags & O_ACCMODE) != O_RDONLY;
+      // A regular file is a replay (FdTransport says so) even when opened read-write (`3<>`):
+      // commands written at its offset overwrote the recorded bytes (review, 2026-11-27).
+      struct stat st {};
+      const bool regular_file = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+      const bool read_only = (flags & O_ACCMODE) == O_RDONLY;
+      const bool writable = !read_only && !regular_file;
       const std::string codec = codec_for(u, std::nullopt);
       check_keys_are_used(u, codec);
       CodecOptions o = u.keys;
@@ -323,7 +337,8 @@ OpenedDevice open_device(const std::string& text) {
         // commands it could not send.
         if (option_bool(o, "commands", false))
           throw Error("fd " + u.address +
-                      " is open read-only, so commands cannot be sent: remove commands=true");
+                      (read_only ? " is open read-only," : " is a regular file, a replay,") +
+                      " so commands cannot be sent: remove commands=true");
         o["commands"] = "false";
       }
       d.codec = make_codec(codec, o);
@@ -347,6 +362,10 @@ OpenedDevice open_device(const std::string& text) {
       std::optional<KnownDevice> known;
       uint16_t vid = 0, pid = 0;
       if (u.address[0] == '/') {
+        // A path names one device: a serial number would choose nothing (it was ignored).
+        if (u.keys.count("serial"))
+          throw Error("serial: chooses among the devices of a VID:PID; " + u.address +
+                      " names one already: remove serial=");
         for (const AttachedDevice& a : list_hid_devices()) {
           if (a.path == u.address) known = find_known_device(a.vid, a.pid, true);
         }
@@ -370,6 +389,9 @@ OpenedDevice open_device(const std::string& text) {
       const std::string codec = codec_for(u, find_known_device(vid, pid, false));
       check_keys_are_used(u, codec);
       d.codec = make_codec(codec, u.keys);
+      // Before the interface is claimed, which detaches a pad's kernel HID driver.
+      if (d.codec->report_based())
+        throw Error("codec " + d.codec->name() + " reads HID reports: use a hid: URI");
       const int64_t iface = option_int(u.keys, "interface", 0);
       if (iface < 0 || iface > 255) throw Error("interface: expected 0..255");
       d.transport = std::make_unique<UsbBulkTransport>(vid, pid, static_cast<int>(iface),

@@ -321,6 +321,23 @@ def test_rate_goes_only_to_devices_that_take_one(imukit, workdir):
     assert r.returncode == 0 and "400 samples over 1.995 s" in info, (r.stderr, info)
 
 
+def test_bytes_that_never_decode_are_not_reported_as_nothing_arriving(imukit, workdir):
+    """Found in review, 2026-11-27: damaged WitMotion frames on a pipe ended `record` with "nothing
+    was written to the FIFO or pipe", the hint for a silent writer. It says the bytes arrived."""
+    frame = bytes([0x55, 0x51] + [0] * 8 + [0x00])  # checksum wrong: 0x55 + 0x51 = 0xA6
+    out = os.path.join(workdir, "damaged.mcap")
+    p = subprocess.Popen([imukit, "record", "fd:0?codec=witmotion", "--no-data-timeout", "1", "-o", out],
+                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    p.stdin.write(frame * 100)
+    p.stdin.flush()
+    time.sleep(3)  # the pipe stays open: the no-data timeout ends the recording
+    stdout, stderr = p.communicate(timeout=30)
+    text = stdout.decode()
+    assert p.returncode == 3, (p.returncode, text, stderr)
+    assert "ended: no data for 1 s since the start (1100 bytes arrived and no sample decoded from them: " \
+        "check the codec and its keys in the URI)" in text, text
+
+
 def test_a_fifo_without_a_writer_does_not_block_and_a_directory_is_refused(imukit, workdir):
     """Found in review: `file:` on a FIFO nobody writes to blocked forever in open(), and `file:.`
     ended as "read failed" with `devices --read` exiting 0. Now the FIFO opens at once and is a

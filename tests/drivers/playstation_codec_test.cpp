@@ -1,9 +1,14 @@
 #include "imukit/drivers/playstation_codec.hpp"
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/units.hpp"
+#include "imukit/drivers/reader.hpp"
+#include "imukit/drivers/transport.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <atomic>
 #include <numbers>
 
 namespace imukit::drivers {
@@ -147,6 +152,72 @@ TEST(PlaystationCodec, DualSenseLayoutAndCalibration) {
   EXPECT_THROW(
       parse_playstation_calibration(PlaystationModel::kDualSense, std::vector<uint8_t>(20, 0x05)),
       imukit::Error);
+}
+
+// A pad whose calibration report fails `failures` times (as hidapi's get_feature_report does,
+// or answers short), then gives it; then a few input reports and the end.
+class FlakyPad : public ReportTransport {
+ public:
+  FlakyPad(int failures, bool short_reply) : failures_(failures), short_(short_reply) {}
+  std::string describe() const override { return "flaky pad"; }
+  std::vector<uint8_t> get_feature_report(uint8_t, std::size_t) override {
+    ++asked;
+    if (asked > failures_) return ds4_calibration();
+    if (short_) return std::vector<uint8_t>(7, 0x02);  // a clone's short reply
+    throw TransportError("hid 054c:05c4: get feature report 2: Broken pipe");
+  }
+  ReadResult read_report(std::span<uint8_t> buf, int) override {
+    ReadResult r;
+    r.host_time = 1'000'000 * (sent_ + 1);
+    if (sent_ == 5) {
+      r.end = true;
+      r.end_reason = "unplugged";
+      return r;
+    }
+    const int gyro[3] = {100, 0, 0}, accel[3] = {0, 0, 8192};
+    const std::vector<uint8_t> rep = ds4_report(sent_, 188 * sent_, gyro, accel);
+    std::copy(rep.begin(), rep.end(), buf.begin());
+    r.size = rep.size();
+    ++sent_;
+    return r;
+  }
+  void write_report(std::span<const uint8_t>) override {}
+  void send_feature_report(std::span<const uint8_t>) override {}
+  int asked = 0;
+
+ private:
+  int failures_;
+  bool short_;
+  int sent_ = 0;
+};
+
+// hid-playstation asks for the calibration three times and then streams with the nominal
+// scale; a single failure ended the stream before any report was read (review, 2026-11-27).
+TEST(PlaystationCodec, AnUnreadableCalibrationIsAskedThriceThenTheNominalScaleStreams) {
+  const std::atomic<bool> stop{false};
+  for (const bool short_reply : {false, true}) {
+    {
+      FlakyPad pad(2, short_reply);  // the third attempt answers
+      PlaystationCodec codec(PlaystationModel::kDualShock4);
+      std::vector<Sample> out;
+      DeviceReader::run(pad, codec, ReaderOptions{}, stop, out);
+      EXPECT_EQ(pad.asked, 3);
+      EXPECT_TRUE(codec.calibrated());
+      EXPECT_EQ(codec.stats().feature_reports_failed, 0u);
+      EXPECT_EQ(out.size(), 5u);
+    }
+    FlakyPad pad(3, short_reply);
+    PlaystationCodec codec(PlaystationModel::kDualShock4);
+    std::vector<Sample> out;
+    const EndReason end = DeviceReader::run(pad, codec, ReaderOptions{}, stop, out);
+    EXPECT_EQ(pad.asked, 3);
+    EXPECT_FALSE(codec.calibrated());
+    EXPECT_EQ(codec.stats().feature_reports_failed, 1u);
+    EXPECT_EQ(end.message, "unplugged");
+    ASSERT_EQ(out.size(), 5u) << short_reply;
+    // The nominal scale: 8192 counts of 4 * 8192 / 32767 g each.
+    EXPECT_NEAR(out[0].accel[2], 8192.0 * 4 / 32767 * kStandardGravity, 1e-9);
+  }
 }
 
 TEST(PlaystationCodec, ZeroCalibrationFallsBackToNominalScale) {

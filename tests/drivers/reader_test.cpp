@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -10,6 +11,7 @@
 #include <ctime>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #include "imukit/drivers/text_codec.hpp"
 #include "imukit/drivers/transport.hpp"
@@ -116,6 +118,59 @@ TEST(Transport, HostTimeIsTheWallClockAdvancedByTheBootClock) {
     ASSERT_LT(std::abs((h1 - h0) - (m1 - m0)), 100'000) << "reading " << k;
     ASSERT_GT(h1, h0);
   }
+}
+
+// A peer that stops reading blocked the command write, and with it the reader thread, --duration
+// and Ctrl-C, for good (review, 2026-11-27): the write now ends within its deadline.
+TEST(Transport, AWriteTheOtherEndDoesNotTakeFailsWithinItsDeadline) {
+  int fds[2];
+  ASSERT_EQ(::socketpair(AF_UNIX, SOCK_STREAM, 0, fds), 0);
+  const std::vector<uint8_t> block(4096, 0xAA);
+  while (::send(fds[0], block.data(), block.size(), MSG_DONTWAIT) > 0) {
+  }
+  FdTransport socket_end(fds[0], true, "socket");  // blocking, its buffer full
+  const auto start = std::chrono::steady_clock::now();
+  try {
+    socket_end.write(std::vector<uint8_t>(64, 0x55));
+    ADD_FAILURE() << "the write returned";
+  } catch (const TransportError& e) {
+    EXPECT_STREQ(
+        e.what(),
+        "socket: write: 0 of 64 command bytes taken in 1000 ms (does the other end read?)");
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GT(seconds, 0.9);
+  EXPECT_LT(seconds, 10.0);
+  // Once the other end reads, commands go through again.
+  std::vector<uint8_t> sink(1 << 20);
+  while (::recv(fds[1], sink.data(), sink.size(), MSG_DONTWAIT) > 0) {
+  }
+  EXPECT_NO_THROW(socket_end.write(std::vector<uint8_t>(64, 0x55)));
+  ::close(fds[1]);
+}
+
+// A regular file is a replay however it was opened: commands written at its offset overwrote
+// the recorded bytes of a capture given as `fd:3 3<>capture.bin` (review, 2026-11-27).
+TEST(Transport, ARegularFileIsNeverWrittenAndATerminalMayStartMidStream) {
+  char path[] = "/tmp/imukit_replay_XXXXXX";
+  const int fd = ::mkstemp(path);
+  ASSERT_GE(fd, 0);
+  ::unlink(path);
+  const FdTransport file(fd, true, "file", true);
+  EXPECT_TRUE(file.replay());
+  EXPECT_FALSE(file.can_write());
+  EXPECT_FALSE(file.may_start_mid_stream());
+  int fds[2];
+  ASSERT_EQ(::pipe(fds), 0);
+  const FdTransport pipe_end(fds[1], true, "pipe");
+  ::close(fds[0]);
+  EXPECT_TRUE(pipe_end.can_write());
+  EXPECT_FALSE(pipe_end.may_start_mid_stream());
+  const int pty = ::posix_openpt(O_RDWR | O_NOCTTY);
+  ASSERT_GE(pty, 0);
+  const FdTransport terminal(pty, true, "pty");
+  EXPECT_TRUE(terminal.may_start_mid_stream());
 }
 
 TEST(Transport, OnlyASerialPortIsToldToCheckItsBaudRate) {

@@ -34,6 +34,34 @@ TEST(TextCodec, ReadsCsvAndWhitespaceWithStatedUnits) {
   testing::expect_byte_accounting(codec);
 }
 
+// A serial port opened while the board streams starts inside a line: "45,..." (the tail of
+// "12345,...") read as a sample at t = 45 (review, 2026-11-27). Where the transport may start
+// mid-stream the first line is discarded, a dropped sample if it parses as one.
+TEST(TextCodec, OnATransportThatMayStartMidStreamTheFirstLineIsNeverData) {
+  const std::string stream =
+      "45,0,0,9.8,0,0,0\n12346,0,0,9.8,0,0,0\n12347,0,0,9.8,0,0,0\n12348,0,0,9.8,0,0,0\n";
+  for (const bool mid : {false, true}) {
+    TextCodec codec(text_codec_options({{"time_unit", "ms"}}));
+    codec.set_may_start_mid_stream(mid);
+    std::vector<Sample> out;
+    codec.feed(bytes(stream), 0, out);
+    ASSERT_EQ(out.size(), mid ? 3u : 4u);
+    EXPECT_EQ(out.front().device_time, mid ? 12'346'000'000 : 45'000'000);
+    EXPECT_EQ(codec.stats().samples_dropped, mid ? 1u : 0u);
+    EXPECT_EQ(codec.stats().bytes_discarded, mid ? 17u : 0u);
+    EXPECT_EQ(codec.stats().frames_corrupt, 0u);
+    testing::expect_byte_accounting(codec);
+  }
+  // A header cut or whole: discarded, no sample lost.
+  TextCodec codec(text_codec_options({{"time_unit", "ms"}}));
+  codec.set_may_start_mid_stream(true);
+  std::vector<Sample> out;
+  codec.feed(bytes("\r\nx,ay,az,gx,gy,gz\n1,0,0,9.8,0,0,0\n"), 0, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(codec.stats().samples_dropped, 0u);
+  testing::expect_byte_accounting(codec);
+}
+
 // Found in review (2026-11-27): a blank line before the header (a sketch's Serial.println())
 // took the first line's place, so the header counted as a corrupt frame and a dropped sample;
 // and times went through a double, 68 ns off at 1.7e9 s.

@@ -1,8 +1,10 @@
 #include "imukit/drivers/uri.hpp"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 
@@ -220,6 +222,59 @@ TEST(DeviceUri, FilesAreReplaysAndPipesAreLive) {
   ::close(fds[0]);
   ::close(fds[1]);
   EXPECT_FALSE(open_device("mock:static?clock=virtual").transport->replay());
+}
+
+// Review, 2026-11-27: URIs that would misdirect a device reached it. An endpoint of the wrong
+// direction (libusb takes the direction from bit 7: ep_in=0x02 sent the read buffer out); a
+// report codec on usb: claimed the interface, detaching the pad's HID driver, before it was
+// refused; serial= beside a hidraw path was ignored; a path that is no hidraw node crashed in
+// hidapi 0.13 (SIGSEGV); a capture file on a read-write fd had commands written into it.
+TEST(DeviceUri, UrisThatWouldMisdirectADeviceAreRefusedBeforeItIsOpened) {
+  // The error as open_device gives it: the URI, then what is wrong with it.
+  const auto refused = [](const std::string& uri) {
+    const std::string e = open_error(uri);
+    const std::string head = "device URI '" + uri + "': ";
+    EXPECT_EQ(e.substr(0, head.size()), head) << e;
+    return e.substr(std::min(head.size(), e.size()));
+  };
+  EXPECT_EQ(refused("usb:2639:0013?codec=xsens&ep_in=0x02"),
+            "ep_in=0x02: an IN endpoint's address has bit 7 set (such as 0x81)");
+  EXPECT_EQ(refused("usb:2639:0013?codec=xsens&ep_out=0x81"),
+            "ep_out=0x81: an OUT endpoint's address has bit 7 clear (such as 0x01)");
+  EXPECT_EQ(refused("usb:054c:09cc?codec=dualshock4"),
+            "codec dualshock4 reads HID reports: use a hid: URI");
+  EXPECT_EQ(refused("hid:/dev/hidraw0?codec=dualshock4&serial=X"),
+            "serial: chooses among the devices of a VID:PID; /dev/hidraw0 names one already: "
+            "remove serial=");
+  imukit::testing::TempDir dir;
+  const std::string path = (dir / "cap.bin").string();
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("recorded bytes", f);
+    std::fclose(f);
+  }
+  for (const std::string& node : {std::string("/dev/null"), path}) {
+    EXPECT_EQ(open_error("hid:" + node + "?codec=dualshock4"),
+              "cannot open hid " + node +
+                  ": not a hidraw device (/dev/hidrawN: `imukit devices` "
+                  "lists them)");
+  }
+  const int fd = ::open(path.c_str(), O_RDWR);
+  ASSERT_GE(fd, 0);
+  const std::string uri = "fd:" + std::to_string(fd) + "?codec=witmotion";
+  EXPECT_EQ(refused(uri + "&commands=true"),
+            "fd " + std::to_string(fd) +
+                " is a regular file, a replay, so commands cannot be sent: remove commands=true");
+  OpenedDevice d = open_device(uri + "&rate=100");
+  std::vector<Sample> out;
+  const std::atomic<bool> stop{false};
+  DeviceReader::run(*d.transport, *d.codec, ReaderOptions{}, stop, out);
+  ::close(fd);
+  std::FILE* f = std::fopen(path.c_str(), "r");
+  char back[64] = {};
+  ASSERT_NE(std::fgets(back, sizeof back, f), nullptr);
+  std::fclose(f);
+  EXPECT_STREQ(back, "recorded bytes");
 }
 
 TEST(DeviceUri, FdMustBeOpen) {
