@@ -393,6 +393,272 @@ class Format(unittest.TestCase):
                 self.assertFalse(os.path.exists(out))
 
 
+    def test_the_writer_writes_numpy_numbers_and_replaces_the_index_last(self):
+        # Found in review, 2026-11-27: a rate of np.float32(50) (common after resampling) passed
+        # the checks, then json.dump failed halfway through recordings.json, which it had
+        # emptied: the folder's good index was destroyed.
+        with tempfile.TemporaryDirectory() as d:
+            scene = write_scene(os.path.join(d, "sc"), ["right_wrist_watch"])
+            x = np.zeros((10, 6))
+            old = rf.Recordings("t", ["x", "y"], [rf.Recording("a", "s", x, np.zeros(10, np.int64), 50.0, ["w"])])
+            rf.write_recordings(d, old)
+            index = os.path.join(d, "recordings.json")
+            with open(index) as f:
+                before = f.read()
+            new = rf.Recordings("t", ["x", "y"], [
+                rf.Recording("a", "s", x, np.zeros(10, np.int64), np.float32(50), ["w"],
+                             rf.SceneRef(scene, ["right_wrist_watch"], np.float32(0.25),
+                                         np.full((1, 6), 0.5, np.float32))),
+                rf.Recording("b", "s", x, np.ones(10, np.int64), np.int64(100), ["w"])])
+            # An index that cannot be put in place leaves the old one, and no temporary file.
+            with mock.patch.object(rf.os, "replace", side_effect=OSError(28, "No space left on device")), \
+                    self.assertRaisesRegex(OSError, "No space left on device"):
+                rf.write_recordings(d, new)
+            with open(index) as f:
+                self.assertEqual(f.read(), before)
+            self.assertEqual(sorted(os.listdir(d)), ["a.npy", "b.npy", "recordings.json", "sc"])
+            rf.write_recordings(d, new)
+            self.assertEqual(sorted(os.listdir(d)), ["a.npy", "b.npy", "recordings.json", "sc"])
+            doc = load_json(index)
+            self.assertEqual([e["rate_hz"] for e in doc["recordings"]], [50.0, 100.0])
+            self.assertEqual(doc["recordings"][0]["scene"]["time_offset_s"], 0.25)
+            back = rf.read_recordings(d)
+            self.assertEqual([r.rate_hz for r in back], [50.0, 100.0])
+            np.testing.assert_array_equal(back[0].scene.bias, np.full((1, 6), 0.5))
+
+    def test_a_sensor_that_two_recordings_name_is_one_channel_block(self):
+        # Found in review, 2026-11-27: ["wrist", "ankle"] beside ["ankle", "wrist"] was read,
+        # windowed and trained on with wrist channels stacked on ankle channels, without an error.
+        with tempfile.TemporaryDirectory() as d:
+            x = np.zeros((10, 12))
+            for name in ("a", "b", "c"):
+                np.save(os.path.join(d, f"{name}.npy"), x)
+            entries = [{"id": "a", "subject": "p1", "samples": "a.npy", "sensors": ["wrist", "ankle"], "label": 0},
+                       {"id": "b", "subject": "p2", "samples": "b.npy", "sensors": ["hip", "chest"], "label": 0},
+                       {"id": "c", "subject": "p3", "samples": "c.npy", "sensors": ["ankle", "wrist"], "label": 0}]
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": entries}, f)
+            with self.assertRaises(rf.FormatError) as e:
+                rf.read_recordings(d)
+            self.assertEqual(str(e.exception),
+                             f"{d}/recordings.json: recordings[2] ({d}/c.npy): sensors ['ankle', 'wrist'] where "
+                             "recordings[0] (a) has ['wrist', 'ankle']: sensor 'ankle' is channel block 0 here "
+                             "and 1 there: list the sensors in one order")
+            # Other names are other sensors (UTD-MHAD: the right wrist or the right thigh).
+            entries[2]["sensors"] = ["knee", "wrist"]
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": entries}, f)
+            with self.assertRaisesRegex(rf.FormatError, r"recordings\[2\] \(.*c\.npy\): sensors \['knee', 'wrist'\] "
+                                        r"where recordings\[0\] \(a\) has \['wrist', 'ankle'\]: sensor 'wrist' is "
+                                        r"channel block 1 here and 0 there"):
+                rf.read_recordings(d)
+            entries[2]["sensors"] = ["knee", "shin"]
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": entries}, f)
+            self.assertEqual(len(rf.read_recordings(d)), 3)
+        y = np.zeros(10, np.int64)
+        R = rf.Recordings("t", ["x"], [rf.Recording("a", "p1", x, y, 50.0, ["wrist", "ankle"]),
+                                       rf.Recording("b", "p2", x, y, 50.0, ["ankle", "wrist"])])
+        message = ("recordings[1] (b): sensors ['ankle', 'wrist'] where recordings[0] (a) has ['wrist', 'ankle']: "
+                   "sensor 'ankle' is channel block 0 here and 1 there: list the sensors in one order")
+        with tempfile.TemporaryDirectory() as d:
+            with self.assertRaises(rf.FormatError) as e:
+                rf.write_recordings(os.path.join(d, "out"), R)
+            self.assertEqual(str(e.exception), message)
+            self.assertFalse(os.path.exists(os.path.join(d, "out")))
+        with self.assertRaises(rf.FormatError) as e:
+            windows.make_windows(R, 5, 5)
+        self.assertEqual(str(e.exception), "t: " + message)
+
+    def test_two_recordings_cannot_share_a_samples_or_labels_file(self):
+        # Found in review, 2026-11-27: a.npy and ./a.npy under subjects p1 and p2 were read
+        # without complaint, so a test subject's windows were training windows too.
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            np.save(os.path.join(d, "b.npy"), np.zeros((10, 6)))
+            np.save(os.path.join(d, "l.npy"), np.zeros(10, np.int64))
+            os.symlink("a.npy", os.path.join(d, "link.npy"))
+            ok = {"id": "a", "subject": "p1", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            for second, message in (
+                    (dict(ok, id="b", subject="p2", samples="./a.npy"),
+                     "recordings[1].samples: D/./a.npy is the file of recordings[0].samples too"),
+                    (dict(ok, id="b", subject="p2", samples="link.npy"),
+                     "recordings[1].samples: D/link.npy is the file of recordings[0].samples too")):
+                with open(os.path.join(d, "recordings.json"), "w") as f:
+                    json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": [ok, second]}, f)
+                with self.assertRaises(rf.FormatError) as e:
+                    rf.read_recordings(d)
+                self.assertEqual(str(e.exception), f"{d}/recordings.json: " + message.replace("D/", d + "/")
+                                 + ": each recording needs its own files")
+            per_sample = {"id": "a", "subject": "p1", "samples": "a.npy", "sensors": ["w"], "labels": "l.npy"}
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": [
+                    per_sample, dict(per_sample, id="b", samples="b.npy", labels="./l.npy")]}, f)
+            with self.assertRaises(rf.FormatError) as e:
+                rf.read_recordings(d)
+            self.assertEqual(str(e.exception), f"{d}/recordings.json: recordings[1].labels: {d}/./l.npy is the file "
+                                               "of recordings[0].labels too: each recording needs its own files")
+
+    def expect_read_error(self, d, entry, message, top=None):
+        """read_recordings(d) of one entry (and `top` keys) raises FormatError `index: message`."""
+        index = os.path.join(d, "recordings.json")
+        doc = {"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": [entry]}
+        doc.update(top or {})
+        with open(index, "w") as f:
+            json.dump(doc, f)
+        with self.assertRaises(rf.FormatError) as e:
+            rf.read_recordings(d)
+        self.assertEqual(str(e.exception), f"{index}: {message}")
+
+    def test_numbers_too_large_for_a_float_are_the_keys_error(self):
+        # Found in review, 2026-11-27: a JSON integer too large for a float in rate_hz or
+        # time_offset_s was a NumPy TypeError traceback naming neither file nor key.
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            write_scene(os.path.join(d, "sc"), ["right_wrist_watch"])
+            big = 10 ** 400
+            ok = {"id": "a", "subject": "s", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            scene = {"file": "sc/scene.json", "sensors": ["right_wrist_watch"]}
+            self.expect_read_error(d, ok, f"rate_hz: expected a positive number of Hz, got {big}", {"rate_hz": big})
+            self.expect_read_error(d, dict(ok, rate_hz=big),
+                                   f"recordings[0].rate_hz: expected a positive number of Hz, got {big}")
+            self.expect_read_error(d, dict(ok, scene=dict(scene, time_offset_s=-big)),
+                                   f"recordings[0].scene.time_offset_s: expected seconds, got {-big}")
+            R = rf.Recordings("t", ["x"], [rf.Recording("a", "s", np.zeros((10, 6)), np.zeros(10, np.int64), big,
+                                                        ["w"])])
+            with self.assertRaises(rf.FormatError) as e:
+                rf.write_recordings(os.path.join(d, "out"), R)
+            self.assertEqual(str(e.exception),
+                             f"recordings[0] (a): rate_hz: expected a positive number of Hz, got {big}")
+
+    def test_scene_bias_entries_are_json_numbers_named_by_row_and_column(self):
+        # Found in review, 2026-11-27: a bias of "1e3" or true was converted to a number, and a
+        # NaN bias was reported as the wrong shape (naming the right one).
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            write_scene(os.path.join(d, "sc"), ["right_wrist_watch"])
+            index = os.path.join(d, "recordings.json")
+            big = 10 ** 400
+            ok = {"id": "a", "subject": "s", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            scene = {"file": "sc/scene.json", "sensors": ["right_wrist_watch"]}
+            row = [0.1, 0.2, 0.3, 0.0, 0.0, 0.0]
+
+            def expect(entry, message):
+                self.expect_read_error(d, entry, message)
+            expect(dict(ok, scene=dict(scene, bias=[[0.1, "1e3", 0, 0, 0, 0]])),
+                   "recordings[0].scene.bias[0][1]: expected a number, got '1e3'")
+            expect(dict(ok, scene=dict(scene, bias=[[0.1, 0.2, True, 0, 0, 0]])),
+                   "recordings[0].scene.bias[0][2]: expected a number, got True")
+            expect(dict(ok, scene=dict(scene, bias=[[0.1, 0.2, 0.3, float("nan"), 0, 0]])),
+                   "recordings[0].scene.bias[0][3]: nan is not finite")
+            expect(dict(ok, scene=dict(scene, bias=[[0.1, 0.2, 0.3, big, 0, 0]])),
+                   f"recordings[0].scene.bias[0][3]: {big} is not finite")
+            expect(dict(ok, scene=dict(scene, bias=[row[:5]])),
+                   "recordings[0].scene.bias[0]: expected 6 numbers (ax ay az gx gy gz), got "
+                   "[0.1, 0.2, 0.3, 0.0, 0.0]")
+            expect(dict(ok, scene=dict(scene, bias=row)),
+                   "recordings[0].scene.bias[0]: expected 6 numbers (ax ay az gx gy gz), got 0.1")
+            expect(dict(ok, scene=dict(scene, bias=[row, row])),
+                   "recordings[0].scene.bias: expected 1 rows of 6 numbers (ax ay az gx gy gz), got float64 of "
+                   "shape (2, 6)")
+            with open(index, "w") as f:
+                json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"],
+                           "recordings": [dict(ok, scene=dict(scene, bias=[[0.1, 0.2, 0.3, 0, 0, 1]]))]}, f)
+            np.testing.assert_array_equal(rf.read_recordings(d)[0].scene.bias, [[0.1, 0.2, 0.3, 0, 0, 1]])
+            # In memory, through the writer: the same checks.
+            x = np.zeros((10, 6))
+            for bias, message in (([row[:3] + [np.inf, 0, 0]], "recordings[0].scene.bias[0][3]: inf is not finite"),
+                                  ([row[:5] + ["x"]], "recordings[0].scene.bias: expected 1 rows of 6 numbers "
+                                                      "(ax ay az gx gy gz), got <U32 of shape (1, 6)")):
+                R = rf.Recordings("t", ["x"], [rf.Recording("a", "s", x, np.zeros(10, np.int64), 50.0, ["w"],
+                                                            rf.SceneRef(os.path.join(d, "sc", "scene.json"),
+                                                                        ["right_wrist_watch"], 0.0, bias))])
+                with self.assertRaises(rf.FormatError) as e:
+                    rf.write_recordings(os.path.join(d, "out"), R)
+                self.assertEqual(str(e.exception), message)
+
+    def test_a_samples_or_labels_file_that_is_not_npy_says_so(self):
+        # Found in review, 2026-11-27: a CSV saved as .npy, or an empty file, was reported as
+        # "Cannot load file containing pickled data when allow_pickle=False".
+        with tempfile.TemporaryDirectory() as d:
+            np.save(os.path.join(d, "a.npy"), np.zeros((10, 6)))
+            with open(os.path.join(d, "csv.npy"), "w") as f:
+                f.write("0,0,9.8,0,0,0\n" * 10)
+            open(os.path.join(d, "empty.npy"), "w").close()
+            index = os.path.join(d, "recordings.json")
+            ok = {"id": "a", "subject": "s", "samples": "a.npy", "sensors": ["w"], "label": 0}
+            per_sample = {k: v for k, v in ok.items() if k != "label"}
+            for entry, message in (
+                    (dict(ok, samples="csv.npy"), "recordings[0].samples: D/csv.npy: not a .npy file (starts with "
+                                                  "b'0,0,9.')"),
+                    (dict(ok, samples="empty.npy"), "recordings[0].samples: D/empty.npy: not a .npy file (empty)"),
+                    (dict(per_sample, labels="csv.npy"), "recordings[0].labels: D/csv.npy: not a .npy file (starts "
+                                                         "with b'0,0,9.')")):
+                with open(index, "w") as f:
+                    json.dump({"schema": rf.SCHEMA, "rate_hz": 50, "classes": ["x"], "recordings": [entry]}, f)
+                with self.assertRaises(rf.FormatError) as e:
+                    rf.read_recordings(d)
+                self.assertEqual(str(e.exception), f"{index}: " + message.replace("D/", d + "/"))
+
+    def test_the_example_of_the_format_reads(self):
+        # Found in review, 2026-11-27: docs/formats.md paired a 1-sensor recording at 50 Hz with
+        # a 2-sensor one at 100 Hz, which the reader (channel counts) and the experiments (one
+        # rate) refuse.
+        with open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "formats.md")) as f:
+            text = f.read()
+        section = text[text.index("## Labelled recordings"):]
+        block = section[section.index("```json\n") + 8:section.index("```", section.index("```json\n") + 8)]
+        doc = json.loads(block.replace('"..."', '"x"'))
+        with tempfile.TemporaryDirectory() as d:
+            # Files of the shapes the example describes: 6 channels per sensor.
+            for e in doc["recordings"]:
+                n = 120
+                np.save(os.path.join(d, e["samples"]), np.zeros((n, 6 * len(e["sensors"]))))
+                if "labels" in e:
+                    np.save(os.path.join(d, e["labels"]), np.zeros(n, np.int64))
+                if "scene" in e:
+                    path = os.path.join(d, e["scene"]["file"])
+                    os.makedirs(os.path.dirname(path))
+                    with open(path, "w") as f:
+                        json.dump({"schema": "imukit.scene/1", "motion": {"bvh": os.path.abspath(BVH), "scale": 1},
+                                   "simulation": {"rate_hz": doc["rate_hz"], "method": "spline"},
+                                   "sensors": [{"name": s, "preset": "right_wrist_watch"}
+                                               for s in e["scene"]["sensors"]]}, f)
+            with open(os.path.join(d, "recordings.json"), "w") as f:
+                json.dump(doc, f)
+            R = rf.read_recordings(d)
+            self.assertEqual([r.id for r in R], ["a1_s1_t1", "session7"])
+            self.assertEqual(len(windows.make_windows(R, 50, 25)), 6)
+            self.assertEqual(experiments.check_scenes(R, ["ppda:all"]), ["session7"])
+
+    def test_utd_mhad_file_names_are_the_datasets_own(self):
+        # Found in review, 2026-11-27: a01_s01_t01 was listed as trial a1_s1_t1 (and opened
+        # under that name, or merged with it), and an action 28 failed later naming neither file
+        # nor trial.
+        from scipy.io import savemat
+        from imukit.datasets import utd_mhad as reader
+        with tempfile.TemporaryDirectory() as root:
+            os.makedirs(os.path.join(root, "Inertial"))
+            os.makedirs(os.path.join(root, "Skeleton"))
+
+            def trial(stem, value):
+                savemat(os.path.join(root, "Inertial", f"{stem}_inertial.mat"), {"d_iner": np.full((120, 6), value)})
+                savemat(os.path.join(root, "Skeleton", f"{stem}_skeleton.mat"), {"d_skel": np.zeros((20, 3, 40))})
+            trial("a01_s01_t01", 2.0)
+            self.assertEqual(reader.list_trials(root), ([], []))
+            trial("a1_s1_t1", 1.0)
+            self.assertEqual(reader.list_trials(root), ([reader.TrialId(1, 1, 1)], []))
+            R = utd_mhad.load(root)
+            self.assertEqual([r.id for r in R], ["a1_s1_t1"])
+            self.assertEqual(R[0].samples[0, 0], 9.80665)
+            trial("a28_s1_t1", 1.0)
+            for load in (reader.list_trials, utd_mhad.load):
+                with self.assertRaises(ValueError) as e:
+                    load(root)
+                self.assertEqual(str(e.exception),
+                                 f"{root}/Inertial/a28_s1_t1_inertial.mat: UTD-MHAD action 28 is not in 1..27")
+
+
 class Windowing(unittest.TestCase):
     def test_windows_are_slices_with_majority_labels(self):
         x = np.arange(120, dtype=np.float64).reshape(20, 6)
@@ -1212,6 +1478,44 @@ class CommandErrors(unittest.TestCase):
             with open(path, "w") as f:
                 f.write(text)
             self.assertEqual(self.error(argv), f"python3 -m imukit.har: error: {path}{message}")
+        self.assertFalse(os.path.exists(out))
+
+    def test_every_scene_is_checked_before_the_first_ppda_run(self):
+        # Found in review, 2026-11-27: a scene that was not a scene, lacked the sensor the
+        # recording names or sampled at another rate failed only when a PPDA run first used
+        # its recording, possibly after the baseline runs had finished.
+        d = os.path.join(self.tmp.name, "scene_checks")
+        ok = write_scene(os.path.join(d, "ok"), ["right_wrist_watch"])
+        bad = os.path.join(d, "bad", "scene.json")
+        os.makedirs(os.path.dirname(bad))
+        with open(bad, "w") as f:
+            f.write("this is not json\n")
+        x = np.zeros((150, 6))
+
+        def recs(rate=50.0, path=ok, sensor="right_wrist_watch"):
+            return rf.Recordings("t", ["a", "b"], [
+                rf.Recording(f"{s}_c{c}", s, x, np.full(150, c, np.int64), rate, ["w"], rf.SceneRef(path, [sensor]))
+                for s in ("s1", "s2", "s3") for c in (0, 1)])
+        self.assertEqual(experiments.check_scenes(recs(), ["ppda:all", "sim:identity"]), [])
+        for R, message in ((recs(sensor="chest"), f"scene {ok}: no sensor ['chest'] (the scene has "
+                                                  "['right_wrist_watch'])"),
+                           (recs(rate=100.0), f"scene {ok}: the scene samples at 50 Hz, the recording at 100 Hz"),
+                           (recs(path=bad), f"scene {bad}:1:2: syntax error while parsing value - invalid literal; "
+                                            "last read: 'th'")):
+            for arm in ("ppda:placement", "ppda-residual:all", "sim:identity"):
+                with self.assertRaises(ValueError) as e:
+                    experiments.check_scenes(R, ["baseline", arm])
+                self.assertEqual(str(e.exception), "t: recording s1_c0: " + message)
+            # Arms without PPDA do not read the scenes.
+            self.assertEqual(experiments.check_scenes(R, ["baseline", "stda:all"]), [])
+        # The command refuses before its first run, and before the results folder is made.
+        folder, out = os.path.join(d, "rec"), os.path.join(d, "out")
+        rf.write_recordings(folder, recs(rate=100.0))
+        self.assertEqual(self.error(["one-at-a-time", "--arms", "baseline,ppda:placement", "--recordings", folder,
+                                     "--out", out, "--tiny", "--epochs", "1", "--models", "deepconvlstm",
+                                     "--jobs", "1"]),
+                         f"python3 -m imukit.har: error: t: recording s1_c0: scene {folder}/../ok/scene.json: the "
+                         "scene samples at 50 Hz, the recording at 100 Hz")
         self.assertFalse(os.path.exists(out))
 
     def test_utd_mhad_subjects_that_are_not_there_are_named(self):

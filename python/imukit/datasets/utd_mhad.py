@@ -36,7 +36,9 @@ ACTIONS = ("right arm swipe to the left", "right arm swipe to the right", "right
            "walking in place", "sit to stand", "stand to sit", "forward lunge (left foot forward)",
            "squat (two arms stretch out)")
 
-_NAME = re.compile(r"^a(\d+)_s(\d+)_t(\d+)_(inertial|skeleton)\.mat$")
+# No leading zeros: the stem a{action}_s{subject}_t{trial} is then the name found (found in
+# review, 2026-11-27: a01_s01_t01 was listed as a1_s1_t1 and opened under that other name).
+_NAME = re.compile(r"^a([1-9]\d*)_s([1-9]\d*)_t([1-9]\d*)_(inertial|skeleton)\.mat$")
 _SUBJECT = re.compile(r"^s?([1-9]\d*)$")
 
 
@@ -89,7 +91,9 @@ class Trial:
 
 def list_trials(root):
     """Every trial with both an inertial and a skeleton file, sorted by (subject, action, trial),
-    and the files that have no partner (the published release lacks a few)."""
+    and the files that have no partner (the published release lacks a few). A file of an action
+    outside 1..27 is a ValueError naming it (found in review, 2026-11-27: it failed later, in
+    sensor_site, naming neither file nor trial)."""
     found = {"inertial": set(), "skeleton": set()}
     for kind, folder in (("inertial", "Inertial"), ("skeleton", "Skeleton")):
         path = os.path.join(root, folder)
@@ -98,7 +102,11 @@ def list_trials(root):
         for name in os.listdir(path):
             m = _NAME.match(name)
             if m and m.group(4) == kind:
-                found[kind].add(TrialId(*map(int, m.groups()[:3])))
+                action, subject, trial = map(int, m.groups()[:3])
+                if action > len(ACTIONS):
+                    raise ValueError(f"{os.path.join(path, name)}: UTD-MHAD action {action} is not in "
+                                     f"1..{len(ACTIONS)}")
+                found[kind].add(TrialId(action, subject, trial))
     both = sorted(found["inertial"] & found["skeleton"],
                   key=lambda t: (t.subject, t.action, t.trial))
     unpaired = sorted(found["inertial"] ^ found["skeleton"],

@@ -505,10 +505,37 @@ def expand_arms(arms, options_all=False):
 
 def check_scenes(recordings, arms):
     """The recordings without a fitted scene (their PPDA windows stay real); an error when no
-    recording has one and a PPDA arm is asked for."""
+    recording has one and a PPDA (or sim) arm is asked for, or when a recording's scene cannot
+    be read, lacks a sensor the recording names or samples at another rate. Found in review,
+    2026-11-27: such a scene failed only when a PPDA run first used it, possibly after hours of
+    other runs. Each scene file is read once (read_scene does not simulate)."""
     missing = [r.id for r in recordings.recordings if r.scene is None]
-    if any(parse_arm(a).kind == "ppda" for a in arms) and len(missing) == len(recordings):
+    if not any(parse_arm(a).kind == "ppda" for a in arms):
+        return missing
+    if len(missing) == len(recordings):
         raise ValueError("PPDA arms need fitted scenes and no recording has one: give --scenes")
+    scenes = {}  # path -> (rate, sensor names), as PpdaSource.augmenter sees them
+    for r in recordings.recordings:
+        if r.scene is None:
+            continue
+        path = r.scene.path
+        where = f"{recordings.name}: recording {r.id}: scene {path}"
+        if path not in scenes:
+            try:
+                scene = imukit.read_scene(path)
+            except imukit.Error as e:
+                # imukit's message names the file at fault: the scene (named once here, with its
+                # line:column when there is one), or a motion file the scene names.
+                text = str(e)
+                text = text[len(path):] if text.startswith(path) else f": {text}"
+                raise ValueError(f"{where}{text}") from None
+            scenes[path] = (scene.rate_hz, list(scene.sensors))
+        rate, names = scenes[path]
+        absent = [s for s in r.scene.sensors if s not in names]
+        if absent:
+            raise ValueError(f"{where}: no sensor {absent} (the scene has {names})")
+        if abs(rate - r.rate_hz) > 1e-9 * r.rate_hz:
+            raise ValueError(f"{where}: the scene samples at {rate:g} Hz, the recording at {r.rate_hz:g} Hz")
     return missing
 
 

@@ -12,6 +12,8 @@ index 0..26`).
 """
 import dataclasses
 import json
+import math
+import numbers
 import os
 
 import numpy as np
@@ -112,8 +114,8 @@ def check_recording(rec, classes, where, what=None, labels_file=None):
     if not np.all(np.isfinite(x)):
         row, col = np.argwhere(~np.isfinite(x))[0]
         raise FormatError(f"{at}: sample {row} channel {col} is {x[row, col]}")
-    if not (np.isfinite(rec.rate_hz) and rec.rate_hz > 0):
-        raise FormatError(f"{at}: rate_hz must be positive, got {rec.rate_hz}")
+    if not (_is_number(rec.rate_hz) and rec.rate_hz > 0):
+        raise FormatError(f"{at}: rate_hz: expected a positive number of Hz, got {rec.rate_hz!r}")
     y = rec.labels
     if not isinstance(y, np.ndarray) or y.shape != (x.shape[0],) or y.dtype != np.int64:
         raise FormatError(f"{at_labels}: labels must be int64 of shape ({x.shape[0]},), "
@@ -129,14 +131,21 @@ def check_recording(rec, classes, where, what=None, labels_file=None):
     # into an experiment.
     if not os.path.isfile(rec.scene.path):
         raise FormatError(f"{where}.scene.file: {rec.scene.path}: no such file")
-    if len(rec.scene.sensors) != len(rec.sensors):
-        raise FormatError(f"{where}.scene.sensors: {rec.scene.sensors} must name one scene sensor "
+    if not (isinstance(rec.scene.sensors, list) and all(isinstance(s, str) and s for s in rec.scene.sensors)
+            and len(rec.scene.sensors) == len(rec.sensors)):
+        raise FormatError(f"{where}.scene.sensors: {rec.scene.sensors!r} must name one scene sensor "
                           f"per recording sensor {rec.sensors}")
+    if not _is_number(rec.scene.time_offset_s):
+        raise FormatError(f"{where}.scene.time_offset_s: expected seconds, got {rec.scene.time_offset_s!r}")
     if rec.scene.bias is not None:
         b = np.asarray(rec.scene.bias)
-        if b.shape != (len(rec.sensors), 6) or not np.all(np.isfinite(b)):
-            raise FormatError(f"{where}.scene.bias: expected {len(rec.sensors)} finite rows of 6 "
-                              f"(ax ay az gx gy gz), got shape {b.shape}")
+        # Numbers only: NumPy would take strings and booleans (found in review, 2026-11-27).
+        if b.shape != (len(rec.sensors), 6) or b.dtype.kind not in "fiu":
+            raise FormatError(f"{where}.scene.bias: expected {len(rec.sensors)} rows of 6 numbers "
+                              f"(ax ay az gx gy gz), got {b.dtype} of shape {b.shape}")
+        if not np.all(np.isfinite(b)):
+            row, col = np.argwhere(~np.isfinite(b))[0]
+            raise FormatError(f"{where}.scene.bias[{row}][{col}]: {b[row, col]} is not finite")
 
 
 def check_same_channels(rec, first, where):
@@ -145,6 +154,26 @@ def check_same_channels(rec, first, where):
     if rec.samples.shape[1] != first.samples.shape[1]:
         raise FormatError(f"{where}: {rec.samples.shape[1]} channels where recordings[0] ({first.id}) has "
                           f"{first.samples.shape[1]}: every recording needs the same channel count")
+
+
+def check_sensor_order(rec, i, where, seen):
+    """Channels are stacked by position, so a sensor named by two recordings is the same channel
+    block of both (found in review, 2026-11-27: ["wrist", "ankle"] and ["ankle", "wrist"] were
+    trained on wrist over ankle). Different names are allowed (UTD-MHAD: wrist or thigh).
+    `seen` maps each name to (block, index, recording) of the first recording naming it."""
+    for block, name in enumerate(rec.sensors):
+        first_block, j, other = seen.setdefault(name, (block, i, rec))
+        if first_block != block:
+            raise FormatError(f"{where}: sensors {rec.sensors} where recordings[{j}] ({other.id}) has "
+                              f"{other.sensors}: sensor '{name}' is channel block {block} here and "
+                              f"{first_block} there: list the sensors in one order")
+
+
+def check_sensor_orders(recordings):
+    """check_sensor_order over a whole Recordings (made in memory, not read)."""
+    seen = {}
+    for i, r in enumerate(recordings.recordings):
+        check_sensor_order(r, i, f"{recordings.name}: recordings[{i}] ({r.id})", seen)
 
 
 def _require(cond, msg):
@@ -162,23 +191,54 @@ def _unique_keys(pairs):
     return out
 
 
+def _is_number(value):
+    """A finite real number, not a bool (NumPy scalars included). A JSON integer too large for
+    a float is not one (found in review, 2026-11-27: np.isfinite raised a TypeError on it)."""
+    if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
+
+
 def _rate(value, where):
     """A sample rate from the JSON: a positive finite number of Hz."""
-    _require(isinstance(value, (int, float)) and not isinstance(value, bool) and np.isfinite(value) and value > 0,
-             f"{where}: expected a positive number of Hz, got {value!r}")
+    _require(_is_number(value) and value > 0, f"{where}: expected a positive number of Hz, got {value!r}")
     return float(value)
+
+
+def _bias(bias, where):
+    """scene.bias from the JSON: rows of 6 JSON numbers (not strings or booleans, which NumPy
+    would convert: found in review, 2026-11-27); the row count is check_recording's."""
+    _require(isinstance(bias, list) and bias, f"{where}: expected a list of rows of 6 numbers, got {bias!r}")
+    for r, row in enumerate(bias):
+        _require(isinstance(row, list) and len(row) == 6,
+                 f"{where}[{r}]: expected 6 numbers (ax ay az gx gy gz), got {row!r}")
+        for c, v in enumerate(row):
+            _require(isinstance(v, (int, float)) and not isinstance(v, bool),
+                     f"{where}[{r}][{c}]: expected a number, got {v!r}")
+            _require(_is_number(v), f"{where}[{r}][{c}]: {v!r} is not finite")
+    return np.array(bias, np.float64)
 
 
 def _load_array(path, where, kind, sizes, expected):
     """The array of a .npy file, in native byte order, whose dtype is of `kind` ('f', 'i') and
     one of the item `sizes`; FormatError naming `where` and the file otherwise."""
+    # The magic first: np.load blamed any other file (a CSV, an empty file) on "pickled data"
+    # (found in review, 2026-11-27), and it opens an .npz archive as well.
+    try:
+        with open(path, "rb") as f:
+            head = f.read(6)
+    except OSError as err:
+        raise FormatError(f"{where}: {path}: {err}") from None
+    _require(not head.startswith(b"PK"), f"{where}: {path}: an .npz archive, expected a .npy file")
+    _require(head == b"\x93NUMPY", f"{where}: {path}: not a .npy file "
+             + ("(empty)" if not head else f"(starts with {head!r})"))
     try:
         a = np.load(path, allow_pickle=False)
     except (OSError, ValueError) as err:
         raise FormatError(f"{where}: {path}: {err}") from None
-    if not isinstance(a, np.ndarray):  # np.load opens an .npz archive as well
-        a.close()
-        raise FormatError(f"{where}: {path}: an .npz archive, expected a .npy file")
     # Either byte order, as the C++ reader takes (a big-endian file is as good a file).
     _require(a.dtype.kind == kind and a.dtype.itemsize in sizes,
              f"{where}: {path}: dtype {a.dtype}, expected {expected}")
@@ -233,6 +293,14 @@ def read_recordings(folder):
     _require(isinstance(entries, list) and entries, f"{index}: recordings: expected a non-empty list")
     out = []
     seen = set()
+    sensor_blocks = {}
+    # Found in review, 2026-11-27: two entries could read one file (a.npy, ./a.npy) under two
+    # subjects, so a test subject's windows were training windows too.
+    file_owner = {}
+
+    def own_file(file, at):
+        other = file_owner.setdefault(os.path.realpath(file), at)
+        _require(other == at, f"{index}: {at}: {file} is the file of {other} too: each recording needs its own files")
     rec_keys = {"id", "subject", "samples", "rate_hz", "sensors", "label", "labels", "scene"}
     for i, e in enumerate(entries):
         where = f"{index}: recordings[{i}]"
@@ -257,6 +325,7 @@ def read_recordings(folder):
                  f"{where}: sensors: expected a non-empty list of names")
         path = os.path.join(folder, e["samples"])
         x = _load_array(path, f"{where}.samples", "f", (4, 8), "float32 or float64")
+        own_file(path, f"recordings[{i}].samples")
         x = np.ascontiguousarray(x, dtype=np.float64)
         n = len(x) if x.ndim >= 1 else 0
         _require(("label" in e) != ("labels" in e), f"{where}: give either 'label' (one class for the "
@@ -273,6 +342,7 @@ def read_recordings(folder):
                      f"{where}.labels: expected a file name, got {e['labels']!r}")
             lpath = os.path.join(folder, e["labels"])
             y = _load_array(lpath, f"{where}.labels", "i", (8,), "int64")
+            own_file(lpath, f"recordings[{i}].labels")
         scene = None
         if "scene" in e:
             s = e["scene"]
@@ -284,13 +354,9 @@ def read_recordings(folder):
             for k in s:
                 _require(k in ("file", "sensors", "time_offset_s", "bias"), f"{where}.scene: unknown key '{k}'")
             offset = s.get("time_offset_s", 0.0)
-            _require(isinstance(offset, (int, float)) and not isinstance(offset, bool) and np.isfinite(offset),
+            _require(isinstance(offset, (int, float)) and _is_number(offset),
                      f"{where}.scene.time_offset_s: expected seconds, got {offset!r}")
-            bias = s.get("bias")
-            try:
-                bias = None if bias is None else np.asarray(bias, np.float64)
-            except (TypeError, ValueError):
-                raise FormatError(f"{where}.scene.bias: expected rows of 6 numbers") from None
+            bias = None if s.get("bias") is None else _bias(s["bias"], f"{where}.scene.bias")
             scene = SceneRef(path=os.path.join(folder, s["file"]), sensors=list(s["sensors"]),
                              time_offset_s=float(offset), bias=bias)
         rec = Recording(id=rid, subject=e["subject"], samples=x, labels=y, rate_hz=rate,
@@ -298,6 +364,7 @@ def read_recordings(folder):
         check_recording(rec, classes, where, path, lpath)
         if out:
             check_same_channels(rec, out[0], f"{where} ({path})")
+        check_sensor_order(rec, i, f"{where} ({path})", sensor_blocks)
         out.append(rec)
     return Recordings(name=name, classes=list(classes), recordings=out)
 
@@ -313,18 +380,18 @@ def _file_stem(rid, where):
 def write_recordings(folder, recordings):
     """Writes `recordings` as `folder/recordings.json` plus `<id>.npy` (and `<id>.labels.npy` where
     the labels vary within a recording). Scene paths are written relative to the folder.
-    Everything is checked before the first file is written (found in review: an error in a
-    later recording left the earlier ones' files and no index), so the folder is either
-    written whole or left as it was, and what is written reads back."""
+    Everything is checked, and the index made as text, before the first file is written (found
+    in review: an error in a later recording left the earlier ones' files and no index); the
+    index is written last, under a temporary name moved into place (found in review,
+    2026-11-27: a NumPy rate failed json.dump halfway and left half an index). So the folder
+    reads as before or as written, never half written, and what is written reads back."""
     classes = recordings.classes
     _require(isinstance(recordings.name, str) and recordings.name,
              f"name: expected a non-empty string, got {recordings.name!r}")
     _require(isinstance(classes, list) and classes and all(isinstance(c, str) for c in classes)
              and len(set(classes)) == len(classes), f"classes: expected distinct class names, got {classes!r}")
     _require(len(recordings.recordings) > 0, "recordings: expected at least one")
-    rates = {r.rate_hz for r in recordings.recordings}
-    top_rate = rates.pop() if len(rates) == 1 else None
-    entries, arrays, index_of_id, owner = [], [], {}, {}
+    entries, arrays, index_of_id, owner, sensor_blocks = [], [], {}, {}, {}
     for i, r in enumerate(recordings.recordings):
         where = f"recordings[{i}]"
         stem = _file_stem(r.id, where)
@@ -335,10 +402,11 @@ def write_recordings(folder, recordings):
         check_recording(r, classes, where, r.id)
         if i:
             check_same_channels(r, recordings.recordings[0], f"{where} ({r.id})")
-        e = {"id": r.id, "subject": r.subject, "samples": f"{stem}.npy", "sensors": list(r.sensors)}
+        check_sensor_order(r, i, f"{where} ({r.id})", sensor_blocks)
+        # Plain str, float and int: json cannot write NumPy scalars (np.float32 after resampling).
+        e = {"id": str(r.id), "subject": str(r.subject), "samples": f"{stem}.npy",
+             "sensors": [str(s) for s in r.sensors], "rate_hz": float(r.rate_hz)}
         files = [(e["samples"], r.samples)]
-        if top_rate is None:
-            e["rate_hz"] = r.rate_hz
         if np.all(r.labels == r.labels[0]) and r.labels[0] >= 0:
             e["label"] = int(r.labels[0])
         else:
@@ -350,20 +418,30 @@ def write_recordings(folder, recordings):
             _require(name not in owner, f"{where} ({r.id}): its file {name} is recordings[{owner.get(name)}]'s too")
             owner[name] = i
         if r.scene is not None:
-            e["scene"] = {"file": os.path.relpath(r.scene.path, folder), "sensors": list(r.scene.sensors),
-                          "time_offset_s": r.scene.time_offset_s}
+            e["scene"] = {"file": os.path.relpath(r.scene.path, folder), "sensors": [str(s) for s in r.scene.sensors],
+                          "time_offset_s": float(r.scene.time_offset_s)}
             if r.scene.bias is not None:
-                e["scene"]["bias"] = np.asarray(r.scene.bias).tolist()
+                e["scene"]["bias"] = np.asarray(r.scene.bias, np.float64).tolist()
         entries.append(e)
         arrays += files
-    doc = {"schema": SCHEMA, "name": recordings.name, "classes": list(classes),
+    doc = {"schema": SCHEMA, "name": str(recordings.name), "classes": [str(c) for c in classes],
            "units": {"accelerometer": "m/s^2", "gyroscope": "rad/s"}}
-    if top_rate is not None:
-        doc["rate_hz"] = top_rate
+    rates = {e["rate_hz"] for e in entries}
+    if len(rates) == 1:
+        doc["rate_hz"] = rates.pop()
+        for e in entries:
+            del e["rate_hz"]
     doc["recordings"] = entries
+    text = json.dumps(doc, indent=1) + "\n"
     os.makedirs(folder, exist_ok=True)
     for name, a in arrays:
         np.save(os.path.join(folder, name), a)
-    with open(os.path.join(folder, "recordings.json"), "w", encoding="utf-8") as f:
-        json.dump(doc, f, indent=1)
-        f.write("\n")
+    index = os.path.join(folder, "recordings.json")
+    tmp = os.path.join(folder, f".recordings.json.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, index)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)

@@ -12,6 +12,8 @@ import numpy as np
 
 import imukit
 
+from .recordings import check_sensor_orders
+
 
 @dataclasses.dataclass
 class Windows:
@@ -36,6 +38,7 @@ def make_windows(recordings, window, stride, indices=None):
     idx = range(len(recordings)) if indices is None else indices
     C = recordings.channels
     recordings.rate_hz  # raises FormatError for recordings at different rates (windows of one length)
+    check_sensor_orders(recordings)  # channels are stacked by position: one order of sensors
     xs, ys, rs, ss = [], [], [], []
     for i in idx:
         r = recordings[i]
