@@ -178,11 +178,16 @@ std::vector<float> extract_windows(const std::vector<const ImuSeries*>& streams,
       throw Error(fmt::format("windowing: stream {} has {} samples, stream 0 has {}", s,
                               streams[s]->size(), n));
   }
+  if (window == 0) throw Error("windowing: the window must be >= 1 sample");
+  // Every window is checked before X is sized from them. Not s0 + window > n, which wraps for a
+  // huge window (found in review, 2026-11-27: an out-of-range read).
+  for (const int64_t start : starts) {
+    if (start < 0 || window > n || static_cast<std::size_t>(start) > n - window)
+      throw Error("windowing: a window lies outside the streams");
+  }
   std::vector<float> X(starts.size() * window * C);
   for (std::size_t w = 0; w < starts.size(); ++w) {
     const auto s0 = static_cast<std::size_t>(starts[w]);
-    if (starts[w] < 0 || s0 + window > n)
-      throw Error("windowing: a window lies outside the streams");
     for (std::size_t i = 0; i < window; ++i) {
       float* o = X.data() + (w * window + i) * C;
       for (std::size_t s = 0; s < S; ++s) {

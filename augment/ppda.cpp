@@ -440,7 +440,9 @@ PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
   }
   const sim::Simulator probe(m.body, specs, m.sim_options);
   m.samples = probe.sample_count(*m.motion, m.frames);
-  if (m.samples < static_cast<int64_t>(options.window)) {
+  // In unsigned terms: int64_t(window) of a window above 2^63 was negative and passed (found in
+  // review, 2026-11-27). sample_count is never negative.
+  if (options.window > static_cast<uint64_t>(m.samples)) {
     throw Error(
         fmt::format("augment: the motion has {} samples at {:g} Hz, fewer than a window of {}",
                     m.samples, m.rate, options.window));

@@ -1681,6 +1681,9 @@ KeypointMotion motion_from_keypoints(const Keypoints& keypoints, const KeypointT
     throw Error("motion_from_keypoints: cutoff_hz must be positive");
   if (!(opt.max_bone_deviation >= 0.0))
     throw Error("motion_from_keypoints: max_bone_deviation must be >= 0");
+  // 0 turns jump flagging off; NaN did too, without a word (found in review, 2026-11-27).
+  if (!(opt.jump_speed_mps >= 0.0))
+    throw Error("motion_from_keypoints: jump_speed_mps must be >= 0");
   if (!(opt.twist_min_angle_deg >= 0.0 && opt.twist_full_angle_deg > opt.twist_min_angle_deg &&
         opt.twist_full_angle_deg <= 90.0))
     throw Error(

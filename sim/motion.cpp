@@ -144,6 +144,18 @@ ProceduralMotion::ProceduralMotion(std::size_t joints, const ProceduralMotionOpt
     throw Error("procedural motion: period_s must be >= 1 and harmonics >= 0");
   }
   if (options.frames && *options.frames < 0) throw Error("procedural motion: negative frame count");
+  // Checked here, not only by the scene reader, so that scene files and Python's
+  // ProceduralMotion share one check: a NaN amplitude from Python reached an assertion and a NaN
+  // translation gave NaN samples (found in review, 2026-11-27).
+  if (!(options.amplitude_rad >= 0.0 && options.amplitude_rad <= 10.0)) {
+    throw Error(fmt::format("procedural motion: amplitude_rad must be in [0, 10] rad, got {}",
+                            options.amplitude_rad));
+  }
+  if (!(options.translation_amplitude_m >= 0.0 && std::isfinite(options.translation_amplitude_m))) {
+    throw Error(
+        fmt::format("procedural motion: translation_amplitude_m must be finite and >= 0 m, got {}",
+                    options.translation_amplitude_m));
+  }
   period_frames_ = static_cast<int64_t>(whole) * options.period_s;
   Rng rng(options.seed);
   for (std::size_t j = 0; j < joints; ++j) {

@@ -158,8 +158,8 @@ struct ProceduralMotionOptions {
   uint64_t seed = 1;
   int harmonics = 3;           // sinusoids per joint
   int64_t period_s = 60;       // fundamental period; frequencies k / period_s, k in [12, 72)
-  double amplitude_rad = 0.1;  // per sinusoid (human-like accelerations at the wrist)
-  double translation_amplitude_m = 0.05;
+  double amplitude_rad = 0.1;  // per sinusoid (human-like accelerations at the wrist); [0, 10]
+  double translation_amplitude_m = 0.05;  // finite, >= 0
 };
 
 class ProceduralMotion : public MotionSource {

@@ -1830,13 +1830,14 @@ void Simulator::run(MotionSource& motion,
   int64_t chunk_end = options_.chunk_frames;
   while (n < total) {
     times.clear();
-    while (n < total) {
+    while (n < total && times.size() < kMaxBlockSamples) {
       const TimeNs t = clock(n);
       if (frame_position(t, motion_rate).frame >= chunk_end && !times.empty()) break;
       times.push_back(t);
       ++n;
     }
-    chunk_end += options_.chunk_frames;
+    while (n < total && frame_position(clock(n), motion_rate).frame >= chunk_end)
+      chunk_end += options_.chunk_frames;
     evaluate(source, times, blocks);
     for (std::size_t s = 0; s < blocks.size(); ++s) sink(s, blocks[s]);
   }

@@ -150,14 +150,18 @@ class Simulator {
   TimeNs sample_time_ns(const MotionSource& motion, int64_t n) const;
   // The motion frame at or before time t (ns since frame 0).
   static int64_t frame_at(TimeNs t, double motion_rate_hz);
+  // The most samples a streamed block holds: chunks of frames alone held every sample of
+  // chunk_frames frames, 253 MB for a 1 Hz motion simulated at 5 kHz (review, 2026-11-27).
+  static constexpr std::size_t kMaxBlockSamples = 65536;
 
   // Values at the given times (ns since frame 0, increasing, inside the motion) for every
   // sensor: out[s] is resized. Reads only the frames the times need.
   void evaluate(MotionSource& motion, std::span<const TimeNs> times, std::vector<SensorBlock>& out);
 
   // Streams the whole motion (or its first `frame_limit` frames; required for an endless
-  // source) in chunks of options().chunk_frames frames: `sink(sensor, block)` is called for each
-  // sensor and chunk in time order. Memory does not grow with the motion's length.
+  // source) in chunks of options().chunk_frames frames, and of at most kMaxBlockSamples samples:
+  // `sink(sensor, block)` is called for each sensor and chunk in time order. Memory does not
+  // grow with the motion's length, nor with the samples per frame.
   void run(MotionSource& motion,
            const std::function<void(std::size_t sensor, const SensorBlock& block)>& sink,
            std::optional<int64_t> frame_limit = std::nullopt);

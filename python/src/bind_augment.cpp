@@ -170,7 +170,9 @@ py::array target_for(const py::array& x_in, py::handle out_obj, const char* what
     return out;
   }
   py::array out = as_array(out_obj, "out");
-  if (!out.dtype().is(x.dtype())) {
+  // By value (has_type): an unpickled float32 was "dtype float32 differs from the input's
+  // float32" (found in review, 2026-11-27).
+  if (!(is_f32(out) && is_f32(x)) && !(is_f64(out) && is_f64(x))) {
     throw py::type_error("out: dtype " + dtype_name(out) + " differs from the input's " +
                          dtype_name(x));
   }
@@ -241,11 +243,13 @@ struct DrawsHandle {
   std::size_t windows = 0;
 };
 
+// Read-only: replay_stda reads this memory, and a value written through the view changed what
+// it replayed (found in review, 2026-11-27), as a Series' views once did.
 py::array draws_values(const py::object& self) {
   const auto& h = self.cast<const DrawsHandle&>();
   const auto per = static_cast<py::ssize_t>(h.draws.per_window);
-  return view_of(h.draws.values.data(), {static_cast<py::ssize_t>(h.windows), per},
-                 {per * static_cast<py::ssize_t>(sizeof(double)), sizeof(double)}, self);
+  return read_only(view_of(h.draws.values.data(), {static_cast<py::ssize_t>(h.windows), per},
+                           {per * static_cast<py::ssize_t>(sizeof(double)), sizeof(double)}, self));
 }
 
 template <class T>
@@ -269,10 +273,14 @@ py::object stda(py::handle x_obj, py::handle spec_obj, py::handle rng_obj, py::h
   auto draws = std::make_shared<DrawsHandle>();
   draws->windows = shape.windows;
   augment::StdaDraws* log = return_draws ? &draws->draws : nullptr;
+  // The element type from the target's dtype by value; anything else is refused, not taken for
+  // double (found in review, 2026-11-27: an unpickled float32 ran as double, heap corruption).
   if (is_f32(target)) {
     run_stda<float>(spec, layout, target, shape, rng, log);
-  } else {
+  } else if (is_f64(target)) {
     run_stda<double>(spec, layout, target, shape, rng, log);
+  } else {
+    throw py::type_error("x: expected float32 or float64, got " + dtype_name(target));
   }
   if (!return_draws) return target;
   return py::make_tuple(target, draws);
@@ -305,6 +313,8 @@ py::array replay(py::handle x_obj, const StdaSpec& spec, py::handle draws_obj,
     const std::span<float> data(static_cast<float*>(target.mutable_data()), shape.size());
     py::gil_scoped_release release;
     augment::replay_stda(spec, layout, data, shape, d.draws);
+  } else if (!is_f64(target)) {
+    throw py::type_error("x: expected float32 or float64, got " + dtype_name(target));
   } else {
     const std::span<double> data(static_cast<double*>(target.mutable_data()), shape.size());
     py::gil_scoped_release release;
@@ -361,8 +371,7 @@ std::size_t sub_policy_described(const Policy& policy, const std::string& descri
 std::span<uint8_t> too_short_flags(py::handle obj, py::ssize_t n) {
   if (obj.is_none()) return {};
   const py::array a = as_array(obj, "too_short");
-  if (!a.dtype().is(py::dtype::of<bool>()))
-    throw py::type_error("too_short: expected a bool array, got " + dtype_name(a));
+  if (!is_bool(a)) throw py::type_error("too_short: expected a bool array, got " + dtype_name(a));
   if (a.ndim() != 1 || a.shape(0) != n) {
     throw py::value_error("too_short: expected shape (" + std::to_string(n) + ",), got " +
                           shape_string(a));
@@ -516,7 +525,13 @@ platform. Rng(seed, stream=0); child(i) is an independent generator for index i.
                         uint_argument(stream, "Rng: stream", kMaxU64));
            }),
            py::arg("seed"), py::arg("stream") = 0)
-      .def("child", &Rng::child, py::arg("index"))
+      .def(
+          "child",
+          [](const Rng& r, py::handle index) {
+            // Not pybind11's caster: it took True as index 1 (found in review, 2026-11-27).
+            return r.child(uint_argument(index, "Rng.child: index", kMaxU64));
+          },
+          py::arg("index"))
       .def("next_u64", &Rng::next_u64)
       .def("uniform", py::overload_cast<>(&Rng::uniform))
       .def("normal", py::overload_cast<>(&Rng::normal))
@@ -564,6 +579,16 @@ StdaDraws(method, values) rebuilds one from saved values.)doc")
                throw py::value_error(
                    "StdaDraws: values: expected shape (windows, per_window), got " +
                    shape_string(v));
+             }
+             // Draws are finite: a NaN or infinity replayed into NaN or inf windows without a word
+             // (found in review, 2026-11-27).
+             for (py::ssize_t i = 0; i < v.size(); ++i) {
+               const double x = v.data()[i];
+               if (std::isfinite(x)) continue;
+               const char* shown = std::isnan(x) ? "nan" : x > 0 ? "inf" : "-inf";
+               throw Error("StdaDraws: values[" + std::to_string(i / v.shape(1)) + ", " +
+                           std::to_string(i % v.shape(1)) + "] is " + shown +
+                           "; draws are finite numbers");
              }
              auto h = std::make_shared<DrawsHandle>();
              h->draws.method = augment::parse_stda_method(method);
@@ -656,11 +681,15 @@ rate_hz=0) (see augment/policy.hpp: jittering last, a profile's sigmas at rate_h
       .def_readonly("name", &Policy::name)
       .def("__len__", [](const Policy& p) { return p.sub_policies.size(); })
       .def("__getitem__",
-           [](const Policy& p, int64_t i) {
-             const auto n = static_cast<int64_t>(p.sub_policies.size());
-             if (i < 0) i += n;
-             if (i < 0 || i >= n) throw py::index_error("sub-policy index out of range");
-             return p.sub_policies[static_cast<std::size_t>(i)];
+           [](const Policy& p, py::handle index) {
+             // Through index_argument: Policy[True] was sub-policy 1 (found in review,
+             // 2026-11-27).
+             py::int_ i = index_argument(index, "Policy: index");
+             const py::int_ n(p.sub_policies.size());
+             if (i < py::int_(0))
+               i = py::reinterpret_steal<py::int_>(PyNumber_Add(i.ptr(), n.ptr()));
+             if (i < py::int_(0) || i >= n) throw py::index_error("sub-policy index out of range");
+             return p.sub_policies[i.cast<std::size_t>()];
            })
       .def_property_readonly("sub_policies", [](const Policy& p) { return p.sub_policies; })
       .def_property_readonly(
@@ -711,9 +740,9 @@ A window sped up beyond what the scene's motion can give raises imukit.Error; wi
 bool array of N) it is flagged there and its rows of out left as they were (NaN without out). The windows are
 spread over `threads` C++ threads (0: all cores) with the GIL released; the result does not
 depend on the thread count.)doc")
-      .def(py::init([](py::handle scene, std::size_t window, const std::string& method) {
+      .def(py::init([](py::handle scene, py::handle window, const std::string& method) {
              augment::PpdaOptions o;
-             o.window = window;
+             o.window = window_argument(window, "Augmenter: window");
              o.method = sim::parse_derivative_method(method);
              auto h = std::make_shared<AugmenterHandle>();
              const sim::Scene& s = scene_of(scene);
@@ -740,9 +769,9 @@ depend on the thread count.)doc")
                              [](const AugmenterHandle& h) { return h.augmenter->sample_count(); })
       .def(
           "window_starts",
-          [](const AugmenterHandle& h, std::size_t stride) {
-            if (stride == 0) throw Error("window_starts: stride must be positive");
-            return adopt(h.augmenter->window_starts(stride));
+          [](const AugmenterHandle& h, py::handle stride) {
+            return adopt(h.augmenter->window_starts(
+                stride_argument(stride, "Augmenter.window_starts: stride")));
           },
           py::arg("stride"))
       .def(
@@ -786,16 +815,17 @@ depend on the thread count.)doc")
 
   m.def(
       "window_starts",
-      [](std::size_t samples, std::size_t window, std::size_t stride) {
-        if (window == 0 || stride == 0)
-          throw Error("window_starts: window and stride must be positive");
-        return adopt(augment::window_starts(samples, window, stride));
+      [](std::size_t samples, py::handle window, py::handle stride) {
+        return adopt(augment::window_starts(samples,
+                                            window_argument(window, "window_starts: window"),
+                                            stride_argument(stride, "window_starts: stride")));
       },
       py::arg("samples"), py::arg("window"), py::arg("stride"),
       "Window starts 0, stride, ... while a window fits.");
   m.def(
       "window_labels",
-      [](py::handle labels, py::handle starts, std::size_t window) {
+      [](py::handle labels, py::handle starts, py::handle window_obj) {
+        const std::size_t window = window_argument(window_obj, "window_labels: window");
         const auto l = read_labels(labels);
         const auto s = read_int64(starts, "starts", "sample indices");
         return adopt(augment::window_labels({l.data(), static_cast<std::size_t>(l.size())},
@@ -807,7 +837,10 @@ depend on the thread count.)doc")
   m.def(
       "extract_windows",
       [](const std::vector<std::shared_ptr<ImuSeries>>& streams, py::handle starts_obj,
-         std::size_t window) {
+         py::handle window_obj) {
+        // The command's range (--window): 0 gave (N, 0, 6), 2^64 - 1 read out of range (found in
+        // review, 2026-11-27).
+        const std::size_t window = window_argument(window_obj, "extract_windows: window");
         const auto s = read_int64(starts_obj, "starts", "sample indices");
         std::vector<const ImuSeries*> ptrs;
         for (const auto& p : streams) ptrs.push_back(p.get());
@@ -884,18 +917,47 @@ count (windows to write; 0: one pass over the base windows), batch_size (windows
 draw), seed, threads (0: all cores; the output does not depend on it), normalize (z-score every
 channel), identity_fraction (batches left unaugmented), method ("spline" or "fd"; "reference" too)
 and max_bytes (the dataset's memory limit; 0: half the physical memory). DatasetOptions(**fields).
-The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
+The defaults are the command's, except threads: 0 here, 1 in the command. The integers take the
+command's ranges (window [2, 1e7], stride and batch_size [1, 1e7], count [0, 1e12], seed
+[0, 2^63 - 1], threads [0, 1024]); outside them an imukit.Error, a bool a TypeError.)doc")
       .def(py::init([](const py::kwargs& fields) {
         augment::DatasetOptions o = python_dataset_options();
         set_dataset_fields(o, fields, "DatasetOptions");
         return o;
       }))
-      .def_readwrite("window", &augment::DatasetOptions::window)
-      .def_readwrite("stride", &augment::DatasetOptions::stride)
-      .def_readwrite("count", &augment::DatasetOptions::count)
-      .def_readwrite("batch_size", &augment::DatasetOptions::batch_size)
-      .def_readwrite("seed", &augment::DatasetOptions::seed)
-      .def_readwrite("threads", &augment::DatasetOptions::threads)
+      // The integers through the argument helpers with `imukit augment`'s ranges: pybind11's
+      // casters took True as 1, seeds from 2^63 the command refuses, and said "incompatible
+      // function arguments" for -1 (found in review, 2026-11-27).
+      .def_property(
+          "window", [](const augment::DatasetOptions& o) { return o.window; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.window = window_argument(v, "DatasetOptions: window");
+          })
+      .def_property(
+          "stride", [](const augment::DatasetOptions& o) { return o.stride; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.stride = stride_argument(v, "DatasetOptions: stride");
+          })
+      .def_property(
+          "count", [](const augment::DatasetOptions& o) { return o.count; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.count = uint_argument(v, "DatasetOptions: count", 1'000'000'000'000);
+          })
+      .def_property(
+          "batch_size", [](const augment::DatasetOptions& o) { return o.batch_size; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.batch_size = uint_argument(v, "DatasetOptions: batch_size", 10'000'000, 1);
+          })
+      .def_property(
+          "seed", [](const augment::DatasetOptions& o) { return o.seed; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.seed = seed_argument(v, "DatasetOptions: seed");
+          })
+      .def_property(
+          "threads", [](const augment::DatasetOptions& o) { return o.threads; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.threads = static_cast<unsigned>(uint_argument(v, "DatasetOptions: threads", 1024));
+          })
       .def_readwrite("normalize", &augment::DatasetOptions::normalize)
       .def_readwrite("identity_fraction", &augment::DatasetOptions::identity_fraction)
       .def_property(
@@ -904,7 +966,12 @@ The defaults are the command's, except threads: 0 here, 1 in the command.)doc")
           [](augment::DatasetOptions& o, const std::string& m) {
             o.method = sim::parse_derivative_method(m);
           })
-      .def_readwrite("max_bytes", &augment::DatasetOptions::max_bytes);
+      .def_property(
+          "max_bytes", [](const augment::DatasetOptions& o) { return o.max_bytes; },
+          [](augment::DatasetOptions& o, py::handle v) {
+            o.max_bytes = uint_argument(v, "DatasetOptions: max_bytes",
+                                        std::numeric_limits<std::size_t>::max());
+          });
 
   m.def(
       "generate_dataset",

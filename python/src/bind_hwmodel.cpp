@@ -98,6 +98,12 @@ std::shared_ptr<AllanResult> allan(py::handle samples_obj, py::handle t_obj,
   o.modified = modified;
   o.hadamard = hadamard;
   o.confidence = confidence;
+  // The noise types the confidence intervals know (hwmodel/allan.hpp); others were clamped
+  // while DeviationCurve.alpha reported the value given (found in review, 2026-11-27).
+  if (alpha && *alpha != 2 && *alpha != 0 && *alpha != -1 && *alpha != -2) {
+    throw Error("allan_deviation: alpha must be 2, 0, -1 or -2 (or None: estimated), got " +
+                std::to_string(*alpha));
+  }
   o.alpha = alpha;
   o.threads = threads;
   const Eigen::Map<const Eigen::MatrixXd> matrix(x.data(), axes, n);
@@ -116,49 +122,54 @@ py::dict fit_dict(const NoiseFit& f) {
 
 void bind_hwmodel(py::module_& m) {
   py::class_<CurveHandle>(m, "DeviationCurve", R"doc(
-One deviation over the tau grid; arrays are (axes, taus) views of the result: deviation,
-lower, upper (confidence interval), edf (equivalent degrees of freedom), alpha (noise type the
-interval assumed), terms (squared differences per estimate).)doc")
-      .def_property_readonly("deviation",
-                             [](py::object self) {
-                               return matrix_view(self.cast<const CurveHandle&>().curve->deviation,
-                                                  self);
-                             })
-      .def_property_readonly("lower",
-                             [](py::object self) {
-                               return matrix_view(self.cast<const CurveHandle&>().curve->lower,
-                                                  self);
-                             })
-      .def_property_readonly("upper",
-                             [](py::object self) {
-                               return matrix_view(self.cast<const CurveHandle&>().curve->upper,
-                                                  self);
-                             })
-      .def_property_readonly("edf",
-                             [](py::object self) {
-                               return matrix_view(self.cast<const CurveHandle&>().curve->edf, self);
-                             })
-      .def_property_readonly("alpha",
-                             [](py::object self) {
-                               return matrix_view(self.cast<const CurveHandle&>().curve->alpha,
-                                                  self);
-                             })
+One deviation over the tau grid; arrays are (axes, taus) read-only views of the result:
+deviation, lower, upper (confidence interval), edf (equivalent degrees of freedom), alpha (noise
+type the interval assumed), terms (squared differences per estimate). AllanResult.fit reads this
+memory: change a copy (np.array(curve.deviation)).)doc")
+      .def_property_readonly(
+          "deviation",
+          [](py::object self) {
+            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->deviation, self));
+          })
+      .def_property_readonly(
+          "lower",
+          [](py::object self) {
+            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->lower, self));
+          })
+      .def_property_readonly(
+          "upper",
+          [](py::object self) {
+            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->upper, self));
+          })
+      .def_property_readonly(
+          "edf",
+          [](py::object self) {
+            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->edf, self));
+          })
+      .def_property_readonly(
+          "alpha",
+          [](py::object self) {
+            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->alpha, self));
+          })
       .def_property_readonly("terms", [](py::object self) {
-        return vector_view(self.cast<const CurveHandle&>().curve->terms, self);
+        return read_only(vector_view(self.cast<const CurveHandle&>().curve->terms, self));
       });
 
   py::class_<AllanResult, std::shared_ptr<AllanResult>>(m, "AllanResult", R"doc(
-Result of allan_deviation: tau_s and factors (views), tau0_s, uniform, sample count n, and the
+Result of allan_deviation: tau_s and factors (read-only views: fit reads them), tau0_s, uniform, sample count n, and the
 curves allan, modified, hadamard (DeviationCurve, or None when not computed).
 fit(axis, ...) fits the noise model to one axis' Allan deviation (generalised least squares,
 as `imukit characterize` does).)doc")
       .def_property_readonly(
           "tau_s",
-          [](py::object self) { return vector_view(self.cast<const AllanResult&>().tau_s, self); })
-      .def_property_readonly("factors",
-                             [](py::object self) {
-                               return vector_view(self.cast<const AllanResult&>().factors, self);
-                             })
+          [](py::object self) {
+            return read_only(vector_view(self.cast<const AllanResult&>().tau_s, self));
+          })
+      .def_property_readonly(
+          "factors",
+          [](py::object self) {
+            return read_only(vector_view(self.cast<const AllanResult&>().factors, self));
+          })
       .def_property_readonly("tau0_s", [](const AllanResult& r) { return r.tau0_s; })
       .def_property_readonly("uniform", [](const AllanResult& r) { return r.uniform; })
       .def_property_readonly("n", [](const AllanResult& r) { return r.sampling.samples; })
@@ -176,14 +187,18 @@ as `imukit characterize` does).)doc")
                              })
       .def(
           "fit",
-          [](const AllanResult& r, int axis, std::optional<std::vector<std::string>> terms,
-             double confidence, double tau_min_s, double tau_max_s) {
+          [](const AllanResult& r, py::handle axis_obj,
+             std::optional<std::vector<std::string>> terms, double confidence, double tau_min_s,
+             double tau_max_s) {
             if (!r.allan.computed)
               throw Error("AllanResult.fit: the Allan deviation was not computed (allan=False)");
-            if (axis < 0 || axis >= r.allan.deviation.rows()) {
-              throw py::index_error("AllanResult.fit: axis " + std::to_string(axis) +
+            // Through index_argument: True was axis 1 (found in review, 2026-11-27).
+            const py::int_ a = index_argument(axis_obj, "AllanResult.fit: axis");
+            if (a < py::int_(0) || a >= py::int_(r.allan.deviation.rows())) {
+              throw py::index_error("AllanResult.fit: axis " + py::repr(a).cast<std::string>() +
                                     " out of range");
             }
+            const auto axis = a.cast<Eigen::Index>();
             const auto o = fit_options(terms, confidence, tau_min_s, tau_max_s);
             const std::vector<double> dev = row(r.allan.deviation, axis);
             py::gil_scoped_release release;
@@ -200,7 +215,9 @@ as `imukit characterize` does).)doc")
         py::arg("threads") = 0, R"doc(
 Overlapping Allan, modified Allan and Hadamard deviations of samples ((n,) or (n, axes) rates;
 float64 C-contiguous is read in place, float32 is converted) taken at times t (int64 ns) or at
-rate_hz. The GIL is released and the axes are shared among `threads` threads (0: all cores).)doc");
+rate_hz. alpha: the noise type the confidence intervals assume, 2 (white phase), 0 (white
+frequency), -1 (flicker frequency) or -2 (random walk), or None to estimate it per point. The
+GIL is released and the axes are shared among `threads` threads (0: all cores).)doc");
 
   py::class_<NoiseFit>(m, "NoiseFit", R"doc(
 Noise-model coefficients Q (quantisation), N (white noise density), B (bias instability),

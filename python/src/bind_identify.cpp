@@ -22,7 +22,22 @@ struct IdentifyHandle {
   double imu_rate_hz = 0.0;  // mean rate of the IMU given (fitted_motion's default)
   int64_t imu_samples = 0;
   TimeNs imu_first_ns = 0;
+  // The gravity the fit used: write_scene's default, as the command writes the fitted scene
+  // with it (found in review, 2026-11-27: 9.80665 was written after a fit at 9.81).
+  Eigen::Vector3d gravity_world = kStandardGravityWorld;
 };
+
+// A gravity magnitude (m/s^2), pointing down, within sim::GravityLimits as the command's
+// --gravity takes it: 0 ran identify, and NaN or 0 wrote scenes read_scene refuses (found in
+// review, 2026-11-27). NaN is named here: check_gravity's norm of it read as 0.
+Eigen::Vector3d gravity_down(py::handle g, const std::string& what) {
+  const double v = number_argument(g, what);
+  if (!std::isfinite(v))
+    throw Error(what + ": expected a finite number, got " + py::repr(g).cast<std::string>());
+  const Eigen::Vector3d down(0.0, 0.0, -std::abs(v));
+  sim::check_gravity(down, what);
+  return down;
+}
 
 py::array_t<double> numpy_vector(const Eigen::VectorXd& v) {
   py::array_t<double> out(v.size());
@@ -78,7 +93,7 @@ std::shared_ptr<IdentifyHandle> run_identify(
     const std::string& correction, double knot_spacing_s, double twist_prior_rad,
     double tilt_prior_rad, double smoothness, double max_clock_rate,
     std::optional<int64_t> motion_start_ns, std::optional<double> time_offset_s,
-    double max_time_offset_s, std::optional<double> gravity, py::handle invalid_motion, int threads,
+    double max_time_offset_s, py::handle gravity, py::handle invalid_motion, int threads,
     double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
   sim::IdentifyOptions o;
   if (init) {
@@ -122,7 +137,7 @@ std::shared_ptr<IdentifyHandle> run_identify(
     o.time_offset_init_s = *time_offset_s;
   }
   o.max_time_offset_s = max_time_offset_s;
-  if (gravity) o.gravity_world = Eigen::Vector3d(0, 0, -std::abs(*gravity));
+  if (!gravity.is_none()) o.gravity_world = gravity_down(gravity, "identify: gravity");
   if (!invalid_motion.is_none()) {
     // (start_ns, end_ns) pairs, converted here: pybind11's cast named std::pair<long, long>.
     const std::string what = "identify: invalid_motion";
@@ -156,6 +171,7 @@ std::shared_ptr<IdentifyHandle> run_identify(
       1e9 * static_cast<double>(imu.size() - 1) / static_cast<double>(imu.t.back() - imu.t.front());
   h->imu_samples = static_cast<int64_t>(imu.size());
   h->imu_first_ns = imu.t.front();
+  h->gravity_world = o.gravity_world;
   return h;
 }
 
@@ -299,11 +315,8 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           "write_scene",
           [](const H& h, const std::string& dir, sim::MotionSource& motion,
              std::optional<std::string> sensor_name, py::handle gravity) {
-            Eigen::Vector3d g = kStandardGravityWorld;
-            if (!gravity.is_none()) {
-              g = Eigen::Vector3d(0, 0,
-                                  -std::abs(number_argument(gravity, "write_scene: gravity")));
-            }
+            const Eigen::Vector3d g =
+                gravity.is_none() ? h.gravity_world : gravity_down(gravity, "write_scene: gravity");
             const std::string name = sensor_name.value_or(
                 h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name);
             py::gil_scoped_release release;
@@ -315,7 +328,8 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
           py::arg("gravity") = py::none(),
           "Writes dir/scene.json, motion.csv (the fitted motion on the IMU's clock: scene sample "
           "k = IMU sample k) and placement.json (docs/formats.md, \"Fitted scenes\"); "
-          "imukit.read_scene(dir + '/scene.json') and Augmenter load it.");
+          "imukit.read_scene(dir + '/scene.json') and Augmenter load it. gravity: m/s^2 in "
+          "[0.1, 100] (default the gravity identify fitted with).");
 
   m.def("identify", &run_identify, py::arg("body"), py::arg("motion"), py::arg("imu"),
         py::arg("joint") = py::none(), py::kw_only(), py::arg("init") = py::none(),
@@ -339,7 +353,9 @@ rotation_from_data=False);
 motion_start_ns: IMU time of motion frame 0 (default the first IMU sample); time_offset_s:
 search only within +-0.25 s of it and start from the peak (from it when nothing correlates there); *_bias_prior_*: 1-sigma Gaussian priors on the biases
 (0: none). Returns an IdentifyResult; raises imukit.Error for
-unusable input. The GIL is released while it runs (threads can fit trials in parallel).)doc");
+unusable input. gravity: m/s^2 in [0.1, 100] (default 9.80665). The GIL is released while it
+runs; threads evaluate the Jacobian in parallel (default 1, as `imukit identify --threads`; 0 is
+1 here, not all cores).)doc");
 
   m.def(
       "fidelity",

@@ -1,5 +1,6 @@
 // Bodies, motions, placement presets and scenes; simulation into Series.
 #include <algorithm>
+#include <limits>
 #include <memory>
 #include <mutex>
 
@@ -21,13 +22,6 @@ namespace {
 
 using sim::Body;
 using sim::MotionSource;
-
-// A seed from Python: an int in [0, kMaxSeed], the range of `imukit simulate --seed` and of a
-// scene file's seeds (core/rng.hpp). As a uint64 argument, 2^63 to 2^64 - 1 were taken here
-// alone, and -1 was "incompatible function arguments" (found in review, 2026-11-26).
-uint64_t seed_argument(const py::object& obj, const std::string& what) {
-  return uint_argument(obj, what, kMaxSeed);
-}
 
 // A scene and the lock that serialises the Python threads using it. Code that reads the scene
 // with the GIL released (simulate, Augmenter(scene), generate_dataset(scene)) holds the lock;
@@ -98,8 +92,11 @@ py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
     sim::Scene& scene = reseeded ? *reseeded : h.scene;
     if (scene.sensors.empty()) throw Error("Scene.simulate: the scene has no sensors (add_sensor)");
     require_simulatable(*scene.motion, "Scene.simulate");
-    const std::optional<int64_t> frames = scene.frames ? scene.frames : scene.motion->frame_count();
-    if (!frames) throw Error("Scene.simulate: an endless motion needs frames=N");
+    if (!scene.frames && !scene.motion->frame_count())
+      throw Error("Scene.simulate: an endless motion needs frames=N");
+    // The frames run_scene simulates (the motion's, capped by the limit): sized from the limit
+    // alone, a short motion under frames=5e7 allocated 382 MiB (found in review, 2026-11-27).
+    const int64_t frames = sim::frames_to_simulate(*scene.motion, scene.frames, "Scene.simulate");
     const double rate = sim::scene_rate_hz(scene);
     std::vector<sim::SensorSpec> specs;
     for (const sim::SceneSensor& s : scene.sensors) {
@@ -107,7 +104,7 @@ py::dict simulate(SceneHandle& h, const py::object& seed_obj) {
       specs.push_back(s.spec);
       names.push_back(s.spec.name);
     }
-    const int64_t n = sim::sample_count(scene.motion->rate_hz(), *frames, rate);
+    const int64_t n = sim::sample_count(scene.motion->rate_hz(), frames, rate);
     for (const sim::SensorSpec& spec : specs) {
       measured.push_back(series_for(spec, n));
       truth.push_back(scene.ground_truth ? series_for(spec, n) : nullptr);
@@ -143,8 +140,15 @@ Eigen::Vector3d gravity_argument(py::handle g) {
   return v;
 }
 
+// frames= (a limit, None for the motion's count) through index_argument: True was 1 frame
+// (found in review, 2026-11-27).
+std::optional<int64_t> frames_argument(py::handle obj, const std::string& what) {
+  if (obj.is_none()) return std::nullopt;
+  return static_cast<int64_t>(uint_argument(obj, what, std::numeric_limits<int64_t>::max()));
+}
+
 std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<MotionSource> motion,
-                                        std::optional<int64_t> frames, const std::string& method,
+                                        py::handle frames_obj, const std::string& method,
                                         double rate_hz, py::handle gravity, const py::object& seed,
                                         bool ground_truth, int64_t chunk_frames,
                                         py::handle magnetic_field) {
@@ -156,6 +160,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
   }
   s.body = body;
   s.motion = std::move(motion);
+  const std::optional<int64_t> frames = frames_argument(frames_obj, "Scene: frames");
   s.frames = frames ? frames : s.motion->frame_count();
   s.options.method = sim::parse_derivative_method(method);
   if (rate_hz != 0.0) sim::check_rate(rate_hz, "Scene: rate_hz");
@@ -406,13 +411,15 @@ renormalises the quaternions (w first).)doc")
   py::class_<sim::ProceduralMotion, MotionSource, std::shared_ptr<sim::ProceduralMotion>>(
       m, "ProceduralMotion", R"doc(
 A deterministic smooth motion (sums of sinusoids per joint, integer phases): every frame depends
-on its absolute index only. frames=None makes it endless (give Scene(frames=N)).)doc")
-      .def(py::init([](std::size_t joints, double rate_hz, std::optional<int64_t> frames,
+on its absolute index only. frames=None makes it endless (give Scene(frames=N)). amplitude_rad
+is in [0, 10] (as in a scene file), translation_amplitude_m finite and >= 0; others are an
+imukit.Error.)doc")
+      .def(py::init([](std::size_t joints, double rate_hz, py::handle frames,
                        const py::object& seed, double amplitude_rad, int harmonics,
                        int64_t period_s, double translation_amplitude_m, int64_t start_frame) {
              sim::ProceduralMotionOptions o;
              o.rate_hz = rate_hz;
-             o.frames = frames;
+             o.frames = frames_argument(frames, "ProceduralMotion: frames");
              o.seed = seed_argument(seed, "ProceduralMotion: seed");
              o.amplitude_rad = amplitude_rad;
              o.harmonics = harmonics;
@@ -471,8 +478,10 @@ Body + motion + sensors (placement and hardware) + settings, as in an imukit.sce
 
 Scene(body, motion, frames=None, method="fd", rate_hz=0 (the motion's), gravity=None (a
 magnitude or a world vector; default 9.80665 down), seed=0 (an int from 0 to 2^63 - 1, as
-`imukit simulate --seed` and a scene file take), ground_truth=False,
-magnetic_field=None (world vector, T; default the mid-latitude Earth field)),
+`imukit simulate --seed` and a scene file take), ground_truth=False, chunk_frames=4096
+(motion frames streamed at a time, which bounds the memory: a whole number in [8, 1e7], as a
+scene file's simulation.chunk_frames takes), magnetic_field=None (world vector,
+T; default the mid-latitude Earth field)),
 then add_sensor(...) per sensor (magnetometer=True adds Series.mag); or read_scene(path) /
 parse_scene(text).
 simulate(seed=None) -> {name: Series} (and "<name>.truth" with ground_truth): the same

@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <Eigen/Core>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/rng.hpp"
 #include "imukit/core/time.hpp"
 
 namespace imukit::python {
@@ -60,14 +62,34 @@ inline py::int_ index_argument(py::handle obj, const std::string& what) {
   return v;
 }
 
-// index_argument in [0, max]; outside it an imukit.Error.
-inline uint64_t uint_argument(py::handle obj, const std::string& what, uint64_t max) {
+// index_argument in [min, max]; outside it an imukit.Error.
+inline uint64_t uint_argument(py::handle obj, const std::string& what, uint64_t max,
+                              uint64_t min = 0) {
   const py::int_ v = index_argument(obj, what);
-  if (v < py::int_(0) || v > py::int_(max)) {
-    throw Error(what + ": expected an integer in [0, " + std::to_string(max) + "], got " +
-                py::repr(v).cast<std::string>());
+  if (v < py::int_(min) || v > py::int_(max)) {
+    throw Error(what + ": expected an integer in [" + std::to_string(min) + ", " +
+                std::to_string(max) + "], got " + py::repr(v).cast<std::string>());
   }
   return v.cast<uint64_t>();
+}
+
+// A seed from Python: an int in [0, kMaxSeed], the range of `imukit simulate --seed`, `imukit
+// augment --seed` and a scene file's seeds (core/rng.hpp). As a uint64 argument, 2^63 to 2^64 - 1
+// were taken here alone, and -1 was "incompatible function arguments" (found in review,
+// 2026-11-26).
+inline uint64_t seed_argument(py::handle obj, const std::string& what) {
+  return uint_argument(obj, what, kMaxSeed);
+}
+
+// The command's ranges for windowing (`imukit augment --window`, `--stride`), so that Python
+// takes what the command takes: a window of 2^64 - 1 wrapped the C++ bounds (found in review,
+// 2026-11-27).
+inline constexpr uint64_t kMaxWindow = 10'000'000;
+inline std::size_t window_argument(py::handle obj, const std::string& what) {
+  return static_cast<std::size_t>(uint_argument(obj, what, kMaxWindow, 2));
+}
+inline std::size_t stride_argument(py::handle obj, const std::string& what) {
+  return static_cast<std::size_t>(uint_argument(obj, what, kMaxWindow, 1));
 }
 
 // index_argument in int64's range (nanoseconds); outside it an imukit.Error.
@@ -143,8 +165,22 @@ inline void require_finite(const double* values, py::ssize_t n, int columns,
   }
 }
 
-inline bool is_f32(const py::array& a) { return a.dtype().is(py::dtype::of<float>()); }
-inline bool is_f64(const py::array& a) { return a.dtype().is(py::dtype::of<double>()); }
+// Whether a's elements are of NumPy kind `kind` ('f', 'i', 'b') and `size` bytes, in this
+// machine's byte order. Compared by value: an array that went through pickle (multiprocessing,
+// DataLoader workers) has a float32 dtype equal to NumPy's usual one but another object, and an
+// identity test took it for float64, so STDA wrote twice the buffer (found in review,
+// 2026-11-27: heap corruption; int64 was refused as "expected int64, got int64").
+inline bool has_type(const py::array& a, char kind, py::ssize_t size) {
+  const py::dtype d = a.dtype();
+  const char order = d.byteorder();  // '=' native, '|' not applicable, '<' or '>' explicit
+  const char native = std::endian::native == std::endian::little ? '<' : '>';
+  return d.kind() == kind && d.itemsize() == size &&
+         (order == '=' || order == '|' || order == native);
+}
+inline bool is_f32(const py::array& a) { return has_type(a, 'f', 4); }
+inline bool is_f64(const py::array& a) { return has_type(a, 'f', 8); }
+inline bool is_i64(const py::array& a) { return has_type(a, 'i', 8); }
+inline bool is_bool(const py::array& a) { return has_type(a, 'b', 1); }
 inline bool is_c_contiguous(const py::array& a) { return (a.flags() & py::array::c_style) != 0; }
 
 // The argument as an array without conversion; anything that is not a NumPy array is a
@@ -182,11 +218,13 @@ inline py::array_t<double, py::array::c_style> read_f64(py::handle obj, const ch
 }
 
 // One-dimensional int64 input (sample times in nanoseconds, window starts, labels; `meaning`
-// says which in the message), used in place when C-contiguous.
+// says which in the message), used in place when native and C-contiguous; any 8-byte signed
+// integer dtype is taken (np.longlong, another byte order: converted to native order, as
+// native_float does for floats).
 inline py::array_t<int64_t, py::array::c_style> read_int64(py::handle obj, const char* what,
                                                            const char* meaning) {
   const py::array a = as_array(obj, what);
-  if (!a.dtype().is(py::dtype::of<int64_t>())) {
+  if (a.dtype().kind() != 'i' || a.dtype().itemsize() != 8) {
     throw py::type_error(std::string(what) + ": expected int64 " + meaning + ", got " +
                          dtype_name(a));
   }

@@ -251,6 +251,21 @@ TEST(Dataset, StdaFromRecordedStreams) {
   EXPECT_NE(e.X, d.X);
 }
 
+TEST(Dataset, ExtractWindowsRefusesAWindowBeyondTheStreamsWhateverItsSize) {
+  // Found in review, 2026-11-27: s0 + window wrapped for a window near 2^64 and the check
+  // passed (an out-of-range read and writes past X); a window of 0 gave (N, 0, 6).
+  ImuSeries s = ImuSeries::with_channels(50, true, true);
+  for (std::size_t i = 0; i < 50; ++i) s.t[i] = static_cast<TimeNs>(i) * 20'000'000;
+  const std::vector<int64_t> starts = {10};
+  for (const std::size_t window : {std::size_t{41}, ~std::size_t{0}, ~std::size_t{0} - 5}) {
+    testing::expect_error([&] { extract_windows({&s}, starts, window); },
+                          {"windowing: a window lies outside the streams"});
+  }
+  testing::expect_error([&] { extract_windows({&s}, starts, 0); },
+                        {"windowing: the window must be >= 1 sample"});
+  EXPECT_EQ(extract_windows({&s}, starts, 40).size(), 40u * 6u);
+}
+
 TEST(Dataset, RecordedStreamsMustShareOneTimeBase) {
   // Found in review: a 400 Hz and a 100 Hz stream of equal length were stacked side by side as
   // one 400 Hz window (0.75 s of one beside 3 s of the other). Two devices' clocks a little

@@ -17,6 +17,7 @@
 #include "imukit/core/profile.hpp"
 #include "imukit/core/so3.hpp"
 #include "imukit/sim/placement.hpp"
+#include "support/expect_error.hpp"
 #include "support/numbers.hpp"
 #include "support/procedural_scene.hpp"
 
@@ -594,6 +595,20 @@ TEST(Ppda, ATimeWarpWithHundredsOfKnotsStaysNearItsWindow) {
     }
     EXPECT_LE(w_max, 3.0 * r * kA * 2 * kPi * kF) << r;
     EXPECT_LT(f_max, 40.0) << r;  // 14.7 and 26.4 measured; 632 and 660 before
+  }
+}
+
+TEST(Ppda, AWindowLongerThanTheMotionIsRefusedWhateverItsSize) {
+  // Found in review, 2026-11-27: int64_t(window) of a window of 2^64 - 1 was -1, fewer samples
+  // than the motion's, so the augmenter was built and its windows were garbage.
+  const sim::Scene scene = humanoid_scene({"left_wrist_watch"});
+  for (const std::size_t window : {std::size_t{1201}, ~std::size_t{0}, std::size_t{1} << 63}) {
+    PpdaOptions po;
+    po.window = window;
+    testing::expect_error(
+        [&] { PpdaAugmenter(scene, po); },
+        {"augment: the motion has 1200 samples at 100 Hz, fewer than a window of " +
+         std::to_string(window)});
   }
 }
 

@@ -205,3 +205,43 @@ class BadInput(unittest.TestCase):
             res.fit(0)
         with self.assertRaises(IndexError):
             imukit.allan_deviation(gyro, t).fit(3)
+
+
+class BindingsReview(unittest.TestCase):
+    """Found in review, 2026-11-27 (the bindings review)."""
+
+    def test_alpha_is_one_of_the_noise_types(self):
+        # alpha=7 or 1 was clamped inside (the intervals of alpha 2) while curve.alpha said 7.
+        t, _, gyro = white_recording(n=2000)
+        for alpha in (7, 1, -3):
+            with self.assertRaises(imukit.Error) as e:
+                imukit.allan_deviation(gyro, t, alpha=alpha)
+            self.assertEqual(str(e.exception),
+                             f"allan_deviation: alpha must be 2, 0, -1 or -2 (or None: estimated), got {alpha}")
+        for alpha in (2, 0, -1, -2):
+            self.assertTrue(np.all(imukit.allan_deviation(gyro, t, alpha=alpha).allan.alpha == alpha))
+
+    def test_result_arrays_are_read_only_views(self):
+        # res.tau_s[:] = nan changed what res.fit() read ("fewer than 2 usable points").
+        t, _, gyro = white_recording(n=5000)
+        res = imukit.allan_deviation(gyro, t)
+        before = res.fit(0)["N"]
+        curve = res.allan
+        for view in (res.tau_s, res.factors, curve.deviation, curve.lower, curve.upper, curve.edf, curve.alpha,
+                     curve.terms):
+            self.assertFalse(view.flags.writeable)
+            with self.assertRaises(ValueError):
+                view[0] = 0
+        self.assertEqual(res.fit(0)["N"], before)
+
+    def test_fit_axis_is_an_integer_not_a_bool(self):
+        # fit(True) was axis 1.
+        t, _, gyro = white_recording(n=2000)
+        res = imukit.allan_deviation(gyro, t)
+        with self.assertRaises(TypeError) as e:
+            res.fit(True)
+        self.assertEqual(str(e.exception), "AllanResult.fit: axis: expected an int, got bool")
+        self.assertEqual(res.fit(np.int64(1))["N"], res.fit(1)["N"])
+        with self.assertRaises(IndexError) as e:
+            res.fit(2**70)
+        self.assertEqual(str(e.exception), f"AllanResult.fit: axis {2**70} out of range")

@@ -189,6 +189,39 @@ class Errors(unittest.TestCase):
         with self.assertRaisesRegex(imukit.Error, "fidelity: no samples"):
             imukit.fidelity(*[np.zeros((0, 3))] * 4)
 
+    def test_gravity_is_checked_and_the_fitted_scene_keeps_it(self):
+        # Found in review, 2026-11-27: write_scene wrote 9.80665 after a fit at 9.81 (the command
+        # writes the fit's gravity), write_scene(gravity=nan or 0) wrote scenes read_scene refuses,
+        # and identify(gravity=0) ran although --gravity is in [0.1, 100] m/s^2.
+        with self.assertRaises(imukit.Error) as e:
+            imukit.identify(self.body, self.motion, self.imu, "right_forearm", gravity=0.0)
+        self.assertEqual(str(e.exception),
+                         "identify: gravity: |g| = 0 m/s^2 is outside [0.1, 100] m/s^2 (the Earth's is 9.81)")
+        with self.assertRaises(imukit.Error) as e:
+            imukit.identify(self.body, self.motion, self.imu, "right_forearm", gravity=float("nan"))
+        self.assertEqual(str(e.exception), "identify: gravity: expected a finite number, got nan")
+        r = imukit.identify(self.body, self.motion, self.imu, init="right_wrist_watch", motion_start_ns=0,
+                            gravity=9.81)
+        with tempfile.TemporaryDirectory() as tmp:
+            r.write_scene(tmp, self.motion)
+            with open(os.path.join(tmp, "scene.json")) as f:
+                self.assertEqual(json.load(f)["simulation"]["gravity"], [0.0, 0.0, -9.81])
+            for g, message in ((float("nan"), "write_scene: gravity: expected a finite number, got nan"),
+                               (0.0, "write_scene: gravity: |g| = 0 m/s^2 is outside [0.1, 100] m/s^2 "
+                                     "(the Earth's is 9.81)")):
+                with self.assertRaises(imukit.Error) as e:
+                    r.write_scene(os.path.join(tmp, "bad"), self.motion, gravity=g)
+                self.assertEqual(str(e.exception), message)
+                self.assertFalse(os.path.exists(os.path.join(tmp, "bad")))
+            r.write_scene(tmp, self.motion, gravity=9.8)
+            with open(os.path.join(tmp, "scene.json")) as f:
+                self.assertEqual(json.load(f)["simulation"]["gravity"], [0.0, 0.0, -9.8])
+
+    def test_threads_are_documented_as_identify_takes_them(self):
+        # Found in review, 2026-11-27: docs/python.md said threads=0 is all cores "as everywhere
+        # in the package"; identify defaults to 1 and takes 0 as 1.
+        self.assertIn("(default 1, as `imukit identify --threads`; 0 is\n1 here, not all cores)", imukit.identify.__doc__)
+
     def test_argument_types_are_named(self):
         """Found in review (2026-11-26): estimate="clock_rate" was iterated per character
         ("estimate 'c' is not one of ..."), invalid_motion=[(1, 2, 3)] was "Unable to cast ... to

@@ -115,6 +115,12 @@ class FromBvh(unittest.TestCase):
         self.assertIn("50-52", info["warnings"][0])
         # From the frame with data before the run to the one after (review, 2026-11-27).
         self.assertEqual(info["invalid_motion_ns"], [(round(49e9 / 120), round(53e9 / 120))])
+        # Found in review, 2026-11-27: jump_speed_mps=nan turned jump flagging off without a word,
+        # while every other threshold was checked.
+        for v in (float("nan"), -1.0):
+            with self.assertRaises(imukit.Error) as e:
+                imukit.motion_from_keypoints(kp, "kinect_v1_20", rate_hz=120.0, jump_speed_mps=v)
+            self.assertEqual(str(e.exception), "motion_from_keypoints: jump_speed_mps must be >= 0")
 
     def test_per_subject_offsets_are_used_as_given(self):
         kp = self.keypoints("kinect_v1_20", KINECT_FROM_CMU)

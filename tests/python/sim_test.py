@@ -449,3 +449,58 @@ class Errors(unittest.TestCase):
             self.assertLessEqual(off[1:-1].max(), 2.0 + 1e-6, origin)
             self.assertLessEqual(off.max(), 6.0 + 1e-6, origin)
             self.assertLess(np.abs(accel(origin) - at_origin).max(), 2.3e-2, origin)
+
+
+class BindingsReview(unittest.TestCase):
+    """Found in review, 2026-11-27 (the bindings review)."""
+
+    def test_procedural_motion_options_are_checked_as_in_a_scene_file(self):
+        # amplitude_rad=nan ended the interpreter at an assertion, translation_amplitude_m=nan or
+        # inf gave Series of NaN, and a negative amplitude was taken; a scene file refused
+        # amplitudes outside [0, 10] alone. One check in C++ now serves both.
+        cases = [({"amplitude_rad": float("nan")}, "procedural motion: amplitude_rad must be in [0, 10] rad, got nan"),
+                 ({"amplitude_rad": float("inf")}, "procedural motion: amplitude_rad must be in [0, 10] rad, got inf"),
+                 ({"amplitude_rad": -1.0}, "procedural motion: amplitude_rad must be in [0, 10] rad, got -1"),
+                 ({"translation_amplitude_m": float("nan")},
+                  "procedural motion: translation_amplitude_m must be finite and >= 0 m, got nan"),
+                 ({"translation_amplitude_m": float("inf")},
+                  "procedural motion: translation_amplitude_m must be finite and >= 0 m, got inf")]
+        for kw, message in cases:
+            with self.assertRaises(imukit.Error) as e:
+                imukit.ProceduralMotion(21, frames=100, **kw)
+            self.assertEqual(str(e.exception), message)
+        scene = dict(SCENE, motion={"procedural": {"rate_hz": 100, "duration_s": 8, "amplitude_rad": 11}})
+        with self.assertRaises(imukit.Error) as e:
+            imukit.parse_scene(json.dumps(scene), "s.json")
+        self.assertEqual(str(e.exception),
+                         "s.json: motion.procedural: procedural motion: amplitude_rad must be in [0, 10] rad, got 11")
+
+    def test_simulate_sizes_its_buffers_from_the_frames_it_simulates(self):
+        # frames= is a limit: simulate() allocated samples for the limit, not for the motion's
+        # 200 frames (382 MiB for 5e7), and a limit of 1e12 could not be counted.
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), frames=200)
+        for frames in (200, 10**12, 2**63 - 1):
+            scene = imukit.Scene(body, motion, frames=frames)
+            scene.add_sensor(preset="chest_strap")
+            self.assertEqual(len(scene.simulate()["chest_strap"]), 200)
+
+    def test_frames_is_an_integer_not_a_bool(self):
+        # Scene(frames=True) was 1 frame; ProceduralMotion(frames=True) one frame too.
+        body = imukit.Body.default_humanoid()
+        motion = imukit.ProceduralMotion(len(body), frames=200)
+        for call, message in ((lambda: imukit.Scene(body, motion, frames=True), "Scene: frames: expected an int, got bool"),
+                              (lambda: imukit.ProceduralMotion(21, frames=True),
+                               "ProceduralMotion: frames: expected an int, got bool")):
+            with self.assertRaises(TypeError) as e:
+                call()
+            self.assertEqual(str(e.exception), message)
+        with self.assertRaises(imukit.Error) as e:
+            imukit.Scene(body, motion, frames=-1)
+        self.assertEqual(str(e.exception), "Scene: frames: expected an integer in [0, 9223372036854775807], got -1")
+        self.assertEqual(imukit.ProceduralMotion(21, frames=np.int64(50)).frame_count, 50)
+
+    def test_chunk_frames_is_documented(self):
+        # Scene took chunk_frames, which neither its docstring nor docs/python.md named.
+        self.assertIn("chunk_frames=4096", imukit.Scene.__doc__)
+        self.assertIn("[8, 1e7]", imukit.Scene.__doc__)

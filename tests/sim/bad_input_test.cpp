@@ -256,7 +256,7 @@ TEST(BadInput, SceneMagnitudesMustBePhysical) {
       {"motion.procedural.rate_hz"});
   expect_error(
       [] { parse_scene(procedural_scene(R"(, "amplitude_rad": 1e300)", ""), "s.json", ""); },
-      {"motion.procedural.amplitude_rad"});
+      {"motion.procedural: procedural motion: amplitude_rad must be in [0, 10] rad, got 1e+300"});
 }
 
 TEST(BadInput, IdentifyRefusesANonFiniteTimeOffset) {

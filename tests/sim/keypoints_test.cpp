@@ -571,6 +571,16 @@ TEST(MotionFromKeypoints, UnusableInputGetsClearErrors) {
             std::string::npos);
   EXPECT_NE(error_of([] { keypoint_topology("coco_17"); }).find("built in: kinect_v1_20, h36m_17"),
             std::string::npos);
+  // Found in review, 2026-11-27: a NaN jump speed turned jump flagging off without a word; the
+  // other thresholds were checked.
+  k.keypoints = 20;
+  k.positions = Eigen::Matrix3Xd::Random(3, 200);
+  for (const double v : {std::nan(""), -1.0}) {
+    KeypointMotionOptions o;
+    o.jump_speed_mps = v;
+    EXPECT_EQ(error_of([&] { motion_from_keypoints(k, topo, o); }),
+              "motion_from_keypoints: jump_speed_mps must be >= 0");
+  }
 }
 
 TEST(MotionFromKeypoints, H36mTopologyRecoversSwingOfEveryLimb) {

@@ -5,11 +5,13 @@
 #include <cstdio>
 
 #include <cmath>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "imukit/core/error.hpp"
+#include "support/expect_error.hpp"
 
 namespace imukit::sim {
 namespace {
@@ -320,6 +322,31 @@ TEST(Motion, ProceduralFramesDependOnlyOnTheAbsoluteIndex) {
   ProceduralMotionOptions fractional;
   fractional.rate_hz = 99.5;
   EXPECT_THROW(ProceduralMotion(1, fractional), Error);
+}
+
+TEST(ProceduralMotion, RefusesAmplitudesOutOfRange) {
+  // Found in review, 2026-11-27: only the scene reader checked amplitude_rad; from Python a NaN
+  // amplitude reached an assertion and a NaN or infinite translation gave NaN samples.
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (const double a : {nan, inf, -1.0, 10.5}) {
+    ProceduralMotionOptions o;
+    o.amplitude_rad = a;
+    imukit::testing::expect_error(
+        [&] { ProceduralMotion(1, o); },
+        {"procedural motion: amplitude_rad must be in [0, 10] rad, got "});
+  }
+  for (const double t : {nan, inf, -0.1}) {
+    ProceduralMotionOptions o;
+    o.translation_amplitude_m = t;
+    imukit::testing::expect_error(
+        [&] { ProceduralMotion(1, o); },
+        {"procedural motion: translation_amplitude_m must be finite and >= 0 m, got "});
+  }
+  ProceduralMotionOptions edges;
+  edges.amplitude_rad = 10.0;
+  edges.translation_amplitude_m = 0.0;
+  EXPECT_NO_THROW(ProceduralMotion(1, edges));
 }
 
 }  // namespace

@@ -817,6 +817,34 @@ TEST(Simulator, StreamedChunksEqualOneBlock) {
   }
 }
 
+// A block held every sample of chunk_frames motion frames: a 1 Hz motion at 5 kHz was 253 MB
+// (review, 2026-11-27). Blocks stop at Simulator::kMaxBlockSamples, the samples unchanged.
+TEST(Simulator, AStreamedBlockHoldsAtMostItsSampleLimit) {
+  ProceduralMotionOptions po;
+  po.rate_hz = 1.0;
+  po.frames = 20;
+  ProceduralMotion motion(2, po);
+  SimulationOptions opt;
+  opt.rate_hz = 10'000.0;  // 190,001 samples in 19 s, under one chunk of 4096 frames
+  Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.2, 0.3))}, opt);
+  std::vector<TimeNs> t;
+  Eigen::Matrix3Xd f(3, 0);
+  std::size_t largest = 0, blocks = 0;
+  sim.run(motion, [&](std::size_t, const SensorBlock& b) {
+    largest = std::max(largest, b.t.size());
+    ++blocks;
+    f.conservativeResize(3, f.cols() + b.specific_force.cols());
+    f.rightCols(b.specific_force.cols()) = b.specific_force;
+    t.insert(t.end(), b.t.begin(), b.t.end());
+  });
+  EXPECT_EQ(largest, Simulator::kMaxBlockSamples);
+  EXPECT_EQ(blocks, 3u);  // 190,001 samples: 65,536 + 65,536 + 58,929
+  std::vector<SensorBlock> whole;
+  sim.evaluate(motion, grid_times(sim, motion, 20), whole);
+  EXPECT_EQ(t, whole[0].t);
+  EXPECT_EQ(f, whole[0].specific_force);
+}
+
 TEST(Simulator, TwentyFourHourSceneEndsLikeTheSameSegmentAlone) {
   // 24 h at 100 Hz from the procedural source, streamed; the last 1000 samples must equal
   // those of a source that starts at that absolute frame (no drift from accumulated time).
