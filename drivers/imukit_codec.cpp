@@ -84,6 +84,7 @@ void ImukitCodec::send(const M& m) {
 void ImukitCodec::start(TimeNs now) {
   last_ping_ = now;
   last_request_ = now;
+  retry_interval_ = opt_.retry_ns;
   if (opt_.send_commands) send(proto::GetDeviceInfo{});
 }
 
@@ -100,6 +101,7 @@ void ImukitCodec::send_configuration() {
                                     : info_->channels();
     c.samples_per_block = static_cast<uint8_t>(opt_.samples_per_block);
     rate_mhz_ = c.rate_mhz;
+    configure_sequence_ = tx_sequence_;
     send(c);
   }
   start_sequence_ = tx_sequence_;
@@ -111,14 +113,16 @@ void ImukitCodec::tick(TimeNs now) {
   if (!opt_.send_commands) return;
   // A request or its answer can be lost on the link (the device drops frames with a bad CRC
   // without answering): ask again until the device answers.
-  if (now - last_request_ >= opt_.retry_ns) {
-    if (!info_) {
-      send(proto::GetDeviceInfo{});
-      last_request_ = now;
-    } else if (started_ && !stream_acked_) {
-      send_configuration();
-      last_request_ = now;
-    }
+  if (!info_ && now - last_request_ >= opt_.retry_ns) {
+    send(proto::GetDeviceInfo{});
+    last_request_ = now;
+  } else if (info_ && started_ && !stream_acked_ && now - last_request_ >= retry_interval_) {
+    // Only the Ack of the latest Start begins the stream: rounds faster than the link's round
+    // trip replaced every Start before its Ack came back, and a link slower than 0.5 s never
+    // started, silently (review, 2026-11-27). Each round waits twice as long as the last.
+    send_configuration();
+    last_request_ = now;
+    retry_interval_ = std::min(2 * retry_interval_, std::max(kMaxRetryNs, opt_.retry_ns));
   }
   if (opt_.ping_interval_ns <= 0 || !started_) return;
   if (!pinged_ || now - last_ping_ >= opt_.ping_interval_ns) {
@@ -139,6 +143,7 @@ void ImukitCodec::decode(std::span<const uint8_t> data, TimeNs host_time,
     if (!decoder_.has_frame()) continue;
     if (decoder_.frame().type == static_cast<uint8_t>(proto::MessageType::kDeviceInfo))
       begin_numbering(before);
+    frames_missed_before_ = decoder_.stats().frames_missed - before.frames_missed;
     on_frame(decoder_.frame(), host_time, out);
   }
   sync_frame_stats();
@@ -218,10 +223,16 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       }
       info_ = info;
       if (rate_mhz_ == 0 && info.rate_count > 0) rate_mhz_ = info.rates_mhz[0];
-      if (opt_.send_commands && !configured_) {
+      // Frame 0 after the start-up: the device rebooted and is idle with its default
+      // configuration (docs/protocol.md, section 6). The start-up runs again; until review,
+      // 2026-11-27, the session went on with no samples, no loss and no error.
+      const bool rebooted = configured_ && f.sequence == 0;
+      if (opt_.send_commands && (!configured_ || rebooted)) {
         configured_ = true;
+        stream_acked_ = false;
         send_configuration();
         last_request_ = host_time;
+        retry_interval_ = opt_.retry_ns;
       }
       return;
     }
@@ -262,10 +273,16 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       nacks_.push_back(n);
       // A refused configuration will not get better by asking again: end the stream with the
       // device's reason. "Not allowed in this state" means the device is still streaming (our
-      // Stop was lost): the next round of the start-up stops it again.
+      // Stop was lost): the next round of the start-up stops it again. Only a Nack of this
+      // session's own latest request: decoding a capture, or answers to another host's
+      // requests, a Nack is recorded and the stream goes on (review, 2026-11-27: a replay
+      // holding one ended with "the device refused Configure").
       const auto type = static_cast<MessageType>(n.request_type);
-      if ((type == MessageType::kConfigure || type == MessageType::kStart) &&
-          n.code != proto::NackCode::kBadState) {
+      const bool ours =
+          opt_.send_commands &&
+          ((type == MessageType::kConfigure && configure_sequence_ == n.request_sequence) ||
+           (type == MessageType::kStart && started_ && start_sequence_ == n.request_sequence));
+      if (ours && n.code != proto::NackCode::kBadState) {
         throw Error(std::string("the device refused ") +
                     (type == MessageType::kConfigure ? "Configure" : "Start") + ": " +
                     nack_reason(n.code));
@@ -314,10 +331,15 @@ void ImukitCodec::on_block(const proto::SampleBlock& b, bool out_of_order, TimeN
       first += kIndexRange;  // found in review (2026-11-26): it was taken for a counter reset
     } else {
       // A new streaming session (index restarts at 0, the clock somewhere else), which begins
-      // with this block.
+      // with this block. When frames were lost just before it, enough to hold the samples before
+      // its index, those were the new session's first blocks: lost samples (review, 2026-11-27:
+      // they counted nothing). Otherwise the index is taken as it comes (a stream caught late).
       ++stats_.counter_resets;
       first = b.sample_index;
-      next_index_ = first;
+      const bool lead_lost =
+          b.sample_index > 0 &&
+          b.sample_index <= uint64_t{frames_missed_before_} * proto::kMaxBlockSamples;
+      next_index_ = lead_lost ? 0 : first;
       tick_ref_.reset();
       last_block_.reset();
     }

@@ -3,13 +3,16 @@
 //
 // Start-up (live devices): GetDeviceInfo; when DeviceInfo arrives, Stop (a device left streaming
 // by an earlier session refuses Configure and Start, and numbers its samples from its own start),
-// Configure (rate, every channel the device has, range index 0, samples per block) when a rate
-// was asked for, then Start. The stream is ours from the Ack of that Start: sample blocks before
-// it (what the Stop flushed, an earlier session's stream) are not decoded and count in
-// samples_before_start, not as losses, and sample 0 of ours is the first expected. Until that Ack
-// the three are sent again every retry_ns (a frame lost on the link); a refused Configure or Start
-// ends the stream with the device's reason, except "not allowed in this state" (a Stop that was
-// lost: the next round stops the device again). Raw counts are scaled with the DeviceInfo's
+// Configure (the rate asked for, else the device's first; every channel the device has, range
+// index 0, samples per block), then Start. The stream is ours from the Ack of that Start: sample
+// blocks before it (what the Stop flushed, an earlier session's stream) are not decoded and count
+// in samples_before_start, not as losses, and sample 0 of ours is the first expected. Until that
+// Ack the three are sent again, first after retry_ns (a frame lost on the link) and then after
+// twice as long each round up to kMaxRetryNs, so a link whose round trip is longer than retry_ns
+// still gets the Ack of the latest Start; a refused Configure or Start ends the stream with the
+// device's reason, except "not allowed in this state" (a Stop that was lost: the next round stops
+// the device again). A DeviceInfo numbered 0 after the start-up is a device that rebooted (idle,
+// default configuration): the start-up runs again. Raw counts are scaled with the DeviceInfo's
 // per-range scale and offset. Sample i of a block is stamped on the device clock at first_tick +
 // floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
 // (32-bit ticks, half-range rule around the tick the stepping rule gives the block's index from
@@ -37,11 +40,12 @@ namespace imukit::drivers {
 
 struct ImukitCodecOptions {
   bool send_commands = true;  // false: decode only (replay of a capture)
-  double rate_hz = 0.0;       // 0: keep the device's rate (no Configure)
+  double rate_hz = 0.0;       // 0: the device's first listed rate
   int samples_per_block = 8;
   uint8_t channels = 0;                    // 0: every channel the device has
   TimeNs ping_interval_ns = kNsPerSecond;  // 0: no pings
-  // Repeat an unanswered GetDeviceInfo, or Stop-Configure-Start until the Start is acknowledged.
+  // Repeat an unanswered GetDeviceInfo, or Stop-Configure-Start until the Start is acknowledged
+  // (the latter after twice as long each round, up to ImukitCodec::kMaxRetryNs).
   TimeNs retry_ns = 500'000'000;
 };
 
@@ -50,6 +54,8 @@ class ImukitCodec : public Codec {
   explicit ImukitCodec(ImukitCodecOptions options = {});
 
   std::string name() const override { return "imukit"; }
+  // The longest wait between two rounds of the start-up: links with a round trip up to this.
+  static constexpr TimeNs kMaxRetryNs = 8 * kNsPerSecond;
   void start(TimeNs now) override;
   void tick(TimeNs now) override;
   std::size_t bytes_pending() const override {
@@ -100,11 +106,14 @@ class ImukitCodec : public Codec {
   uint16_t tx_sequence_ = 0;
   std::optional<proto::DeviceInfo> info_;
   uint32_t rate_mhz_ = 0;
-  bool started_ = false;         // Start sent
-  bool configured_ = false;      // the DeviceInfo that set off the start-up arrived
-  bool stream_acked_ = false;    // the device acknowledged our latest Start
-  uint16_t start_sequence_ = 0;  // that Start's frame sequence number
+  bool started_ = false;                        // Start sent
+  bool configured_ = false;                     // the DeviceInfo that set off the start-up arrived
+  bool stream_acked_ = false;                   // the device acknowledged our latest Start
+  uint16_t start_sequence_ = 0;                 // that Start's frame sequence number
+  std::optional<uint16_t> configure_sequence_;  // the latest Configure's
   TimeNs last_request_ = 0;
+  TimeNs retry_interval_ = 0;  // the wait before the next round of the start-up
+  uint32_t frames_missed_before_ = 0;  // frame numbers skipped just before the current frame
   // The first sample of the last block handed out: index and unwrapped tick, from which the
   // device's stepping rule gives the tick due at any other index of the stream, and when it
   // arrived.

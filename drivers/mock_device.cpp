@@ -63,8 +63,10 @@ MockDevice::MockDevice(std::shared_ptr<SignalSource> source, MockOptions options
 
 // The firmware of a device that cannot be commanded starts itself: the mock gives its own model
 // GetDeviceInfo, whose answer goes to the host (so that a decoding codec can scale the counts),
-// and Start, whose Ack goes nowhere (nobody asked). Found in review: with commands=false the
-// mock waited for a Start that never came, and no sample ever arrived.
+// and Start, whose Ack goes to the host too (a decoding host passes it by). Found in review:
+// with commands=false the mock waited for a Start that never came, and no sample ever arrived;
+// and (2026-11-27) a muted Ack still took its frame number, so every such stream showed one
+// frame lost.
 void MockDevice::power_on_stream() {
   const auto request = [&](const auto& message, uint16_t sequence) {
     uint8_t frame[proto::kMaxFrameSize];
@@ -73,9 +75,7 @@ void MockDevice::power_on_stream() {
   // A profile that cannot run at the rate would be refused (Nack) where nobody hears it: say so.
   validate_hardware_model(opt_.hardware, opt_.rate_hz);
   request(proto::GetDeviceInfo{}, 0);
-  mute_ = true;
   request(proto::Start{}, 1);
-  mute_ = false;
   assert(model_->state() == proto::DeviceState::kStreaming);
 }
 
@@ -152,7 +152,6 @@ bool MockDevice::read_sensors(uint32_t tick, uint8_t channels, proto::SensorSamp
 }
 
 bool MockDevice::write(const uint8_t* data, std::size_t n) {
-  if (mute_) return true;
   // The block flushed as the device goes is the last frame that leaves it.
   if (gone_ && flushed_after_gone_) return true;
   if (gone_) flushed_after_gone_ = true;

@@ -126,7 +126,6 @@ class MockDevice : public ByteTransport, private proto::Hal {
   uint64_t samples_in_dropped_ = 0;
   uint64_t bytes_flipped_ = 0;
   uint64_t samples_made_ = 0;
-  bool mute_ = false;  // what the device writes goes nowhere (its answers to itself at power-on)
   bool gone_ = false;
   bool flushed_after_gone_ = false;
   std::vector<uint8_t> calibration_;

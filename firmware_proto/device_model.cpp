@@ -100,10 +100,8 @@ uint8_t DeviceModel::check(const Configure& c) const {
     rate_listed = rate_listed || info_.rates_mhz[i] == c.rate_mhz;
   }
   // The sample period must be at least one tick and small enough for the signed tick comparison
-  // in poll() (2^30 ticks).
-  const uint64_t ticks_scaled = static_cast<uint64_t>(info_.tick_hz) * 1000u;
-  if (!rate_listed || c.rate_mhz == 0 || ticks_scaled / c.rate_mhz == 0 ||
-      ticks_scaled / c.rate_mhz > (1u << 30)) {
+  // in poll() (2^30 ticks; `1u << 30` was undefined where int is 16 bits, review 2026-11-27).
+  if (!rate_listed || !info_.rate_fits_clock(c.rate_mhz)) {
     return static_cast<uint8_t>(NackCode::kUnsupportedRate);
   }
   if (c.channels == 0) return static_cast<uint8_t>(NackCode::kNoSensorsEnabled);

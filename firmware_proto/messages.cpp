@@ -32,8 +32,10 @@ bool valid_sensor(const SensorInfo& s) {
 bool valid_device_info(const DeviceInfo& m) {
   if (!valid_text(m.vendor) || !valid_text(m.model) || !valid_text(m.serial)) return false;
   if (m.tick_hz == 0 || m.rate_count < 1 || m.rate_count > kMaxRates) return false;
+  // Each rate fits the clock, as Configure requires (a 1 kHz tick listing 2 kHz was a DeviceInfo
+  // whose own rate the device then refused; review, 2026-11-27).
   for (uint8_t i = 0; i < m.rate_count; ++i) {
-    if (m.rates_mhz[i] == 0) return false;
+    if (!m.rate_fits_clock(m.rates_mhz[i])) return false;
   }
   if (m.sensor_count < 1 || m.sensor_count > kMaxSensors) return false;
   uint8_t seen = 0;

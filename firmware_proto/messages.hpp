@@ -121,6 +121,12 @@ struct DeviceInfo {
   const SensorInfo* find(SensorKind kind) const;
   // Channel mask of the sensors present.
   uint8_t channels() const;
+  // A rate's sample period is 1 to 2^30 ticks (poll()'s signed tick comparison): what Configure
+  // accepts, and what every listed rate must be for the DeviceInfo to be valid.
+  bool rate_fits_clock(uint32_t rate_mhz) const {
+    const uint64_t period = rate_mhz == 0 ? 0 : uint64_t{tick_hz} * 1000u / rate_mhz;
+    return period >= 1 && period <= (uint64_t{1} << 30);
+  }
 };
 
 // 0x02, host -> device: acknowledged, or not-acknowledged with the reason.

@@ -6,12 +6,15 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <deque>
+#include <memory>
 #include <optional>
 #include <set>
 
 #include "imukit/core/error.hpp"
 #include "imukit/drivers/reader.hpp"
 #include "imukit/drivers/uri.hpp"
+#include "imukit/firmware_proto/device_model.hpp"
 #include "support/example_models.hpp"
 #include "support/test_data.hpp"
 #include "test_util.hpp"
@@ -544,6 +547,156 @@ TEST(ImukitCodec, AnEarlierSessionsBlocksBeforeTheStartAckAreNoLoss) {
   EXPECT_EQ(codec.stats().samples_dropped, 0u);
   EXPECT_EQ(codec.stats().samples_decoded, 16u);
   EXPECT_EQ(codec.stats().counter_resets, 0u);
+}
+
+// The reference firmware (DeviceModel) and a live codec, stepped 1 ms at a time over a link that
+// delays every frame by `delay_ms` each way.
+class Link : public proto::Hal {
+ public:
+  explicit Link(int delay_ms) : delay_ns_(TimeNs{delay_ms} * 1'000'000) {
+    codec.start(t_);
+    reboot();
+  }
+  // The device resets: idle, default configuration, its frame numbers from 0. It announces
+  // itself with its DeviceInfo, its frame 0 (docs/protocol.md, section 4: the reference model
+  // sends it when asked, so it is asked here, as a firmware's boot code would).
+  void reboot() {
+    device_ = std::make_unique<proto::DeviceModel>(*this, info_);
+    uint8_t frame[proto::kMaxFrameSize];
+    device_->on_bytes(frame, proto::encode_message(proto::GetDeviceInfo{}, 0, frame, sizeof frame));
+  }
+  void run_ms(int ms) {
+    for (int k = 0; k < ms; ++k) {
+      t_ += 1'000'000;
+      while (!to_device_.empty() && to_device_.front().first <= t_) {
+        device_->on_bytes(to_device_.front().second.data(), to_device_.front().second.size());
+        to_device_.pop_front();
+      }
+      device_->poll();
+      while (!to_host_.empty() && to_host_.front().first <= t_) {
+        codec.feed(to_host_.front().second, t_, samples);
+        to_host_.pop_front();
+      }
+      codec.tick(t_);
+      const std::vector<uint8_t> cmd = codec.take_outgoing();
+      if (!cmd.empty()) to_device_.push_back({t_ + delay_ns_, cmd});
+    }
+  }
+  proto::DeviceState state() const { return device_->state(); }
+
+  ImukitCodec codec{ImukitCodecOptions{true, 100.0, 8, 0, 0}};
+  std::vector<Sample> samples;
+
+ private:
+  uint32_t ticks() override {
+    return static_cast<uint32_t>(static_cast<uint64_t>(t_) * info_.tick_hz / 1'000'000'000u);
+  }
+  bool read_sensors(uint32_t, uint8_t, proto::SensorSample& out) override {
+    out = proto::SensorSample{};
+    return true;
+  }
+  bool write(const uint8_t* data, size_t n) override {
+    to_host_.push_back({t_ + delay_ns_, std::vector<uint8_t>(data, data + n)});
+    return true;
+  }
+  bool apply_configuration(const proto::Configure&) override { return true; }
+  bool store_calibration(const uint8_t*, size_t) override { return true; }
+  size_t load_calibration(uint8_t*, size_t) override { return 0; }
+
+  proto::DeviceInfo info_ = test_info();
+  TimeNs delay_ns_;
+  TimeNs t_ = 0;
+  std::unique_ptr<proto::DeviceModel> device_;
+  std::deque<std::pair<TimeNs, std::vector<uint8_t>>> to_device_, to_host_;
+};
+
+// Only the Ack of the latest Start begins the stream, and the start-up was repeated every 0.5 s:
+// over a link whose round trip is longer, each Ack answered a Start already replaced, and the
+// session never started, silently (review, 2026-11-27). Each round now waits twice as long.
+TEST(ImukitCodec, AStartUpSlowerThanItsRetryIntervalStillStarts) {
+  for (const int delay_ms : {10, 300, 1500}) {
+    Link link(delay_ms);
+    link.run_ms(30'000);
+    EXPECT_GT(link.samples.size(), 2000u) << delay_ms << " ms each way";
+    EXPECT_EQ(link.codec.stats().samples_dropped, 0u) << delay_ms;
+    for (std::size_t i = 0; i < link.samples.size(); ++i)
+      ASSERT_EQ(link.samples[i].sequence, i) << delay_ms;  // one stream, from sample 0
+  }
+}
+
+// A device that reboots is idle with its default configuration; the host only restarted its
+// frame numbering, and the session went on with no samples, no loss and no error (review,
+// 2026-11-27). Its DeviceInfo numbered 0 runs the start-up again.
+TEST(ImukitCodec, ADeviceThatRebootsIsStartedAgain) {
+  Link link(5);
+  link.run_ms(2'000);
+  const std::size_t before = link.samples.size();
+  EXPECT_GT(before, 150u);
+  link.reboot();
+  link.run_ms(3'000);
+  EXPECT_EQ(link.state(), proto::DeviceState::kStreaming);
+  EXPECT_GT(link.samples.size(), before + 250u);
+}
+
+// Section 5.3: sample_index counts from 0 at Start. A new session whose first block was lost
+// began where that block ended, the lost samples counted nowhere (review, 2026-11-27).
+TEST(ImukitCodec, ANewSessionsLostFirstBlockIsCountedAsDropped) {
+  // Frames 1-10: a session's blocks 0-9. Then the device stops and starts again on another
+  // clock phase: frame 11 (its Ack, not decoded here) and frame 12 (the new session's block 0)
+  // are lost; frames 13-16 carry its blocks 1-4.
+  std::vector<BlockAt> blocks = fifty_blocks_with(in_order(0, 10));
+  for (int k = 1; k < 5; ++k) {
+    blocks.push_back({static_cast<uint16_t>(12 + k), 8 * k,
+                      static_cast<uint32_t>(50'000 + 8 * k * 32768 / 100)});
+  }
+  ImukitCodec codec(ImukitCodecOptions{false, 0, 8, 0, 0});
+  std::vector<Sample> out;
+  codec.feed(blocks_at(blocks), 0, out);
+  EXPECT_EQ(out.size(), 80u + 32u);
+  EXPECT_EQ(codec.stats().counter_resets, 1u);
+  EXPECT_EQ(codec.stats().samples_dropped, 8u);
+  EXPECT_EQ(out[80].sequence, 8u);
+  // No frame lost before it (a stream caught late): its index is taken as it comes.
+  for (std::size_t k = 10; k < blocks.size(); ++k) blocks[k].seq = static_cast<uint16_t>(k + 1);
+  ImukitCodec late(ImukitCodecOptions{false, 0, 8, 0, 0});
+  out.clear();
+  late.feed(blocks_at(blocks), 0, out);
+  EXPECT_EQ(late.stats().counter_resets, 1u);
+  EXPECT_EQ(late.stats().samples_dropped, 0u);
+}
+
+// A Nack in a capture, or one answering another host's request, is no refusal of this session:
+// the golden Nack of docs/protocol.md, section 8, ended a replay with "the device refused
+// Configure" (review, 2026-11-27).
+TEST(ImukitCodec, ANackOfSomeoneElsesRequestIsRecordedNotFatal) {
+  proto::Nack nack;
+  nack.request_type = static_cast<uint8_t>(proto::MessageType::kConfigure);
+  nack.request_sequence = 2;
+  nack.code = proto::NackCode::kUnsupportedRate;
+  const Stream st = make_stream(2);
+  std::vector<uint8_t> bytes = encode_imukit_message(nack, 9);
+  bytes.insert(bytes.end(), st.bytes.begin(), st.bytes.end());
+  ImukitCodec replay(ImukitCodecOptions{false, 100.0, 8, 0, 0});
+  std::vector<Sample> out;
+  EXPECT_NO_THROW(replay.feed(bytes, 0, out));
+  EXPECT_EQ(out.size(), 16u);
+  EXPECT_EQ(replay.stats().device_errors, 1u);
+  // Live, the Nack of our own Configure (GetDeviceInfo 0, Stop 1, Configure 2) still ends it;
+  // one numbered otherwise does not.
+  for (const uint16_t sequence : {uint16_t{7}, uint16_t{2}}) {
+    ImukitCodec live(ImukitCodecOptions{true, 100.0, 8, 0, 0});
+    live.start(0);
+    out.clear();
+    live.feed(std::vector<uint8_t>(st.bytes.begin(), st.bytes.begin() + static_cast<std::ptrdiff_t>(
+                                                                            st.block_start[0])),
+              1, out);
+    nack.request_sequence = sequence;
+    if (sequence == 2) {
+      EXPECT_THROW(live.feed(encode_imukit_message(nack, 3), 2, out), Error);
+    } else {
+      EXPECT_NO_THROW(live.feed(encode_imukit_message(nack, 3), 2, out));
+    }
+  }
 }
 
 // A read-only descriptor (a pipe or a file on stdin) cannot carry commands: the codec decodes

@@ -399,8 +399,13 @@ TEST(MockDevice, WithoutCommandsItStreamsFromPowerOn) {
     EXPECT_NEAR(samples[i].accel[2], 9.80665, 16 * 9.80665 / 32768);
   }
   EXPECT_EQ(reader.stats().samples_dropped, 0u);
-  EXPECT_EQ(reader.stats().frames_other, 1u);
+  EXPECT_EQ(reader.stats().frames_other, 2u);           // the DeviceInfo and the Start's Ack
   EXPECT_EQ(mock->model().link_stats().frames_ok, 2u);  // its own GetDeviceInfo and Start
+  // The Ack reaches the host: muted, it took frame 1 and every such stream showed a frame lost
+  // (review, 2026-11-27).
+  const auto& codec = dynamic_cast<const ImukitCodec&>(reader.codec());
+  EXPECT_EQ(codec.frame_stats().sequence_gaps, 0u);
+  EXPECT_EQ(codec.frame_stats().frames_missed, 0u);
 }
 
 TEST(MockDevice, RealTimeReaderDeliversAtTheRate) {

@@ -1,6 +1,7 @@
 #include "proto_test_util.hpp"
 
 #include <gtest/gtest.h>
+#include <algorithm>
 
 #include <cstring>
 
@@ -66,8 +67,12 @@ DeviceInfo random_device_info(TestRng& rng) {
   m.firmware_patch = static_cast<uint16_t>(rng.bits());
   m.tick_hz = static_cast<uint32_t>(1 + rng.below(0xFFFFFFFFu));
   m.rate_count = static_cast<uint8_t>(1 + rng.below(kMaxRates));
+  // Rates whose sample period is 1 to 2^30 ticks (DeviceInfo::rate_fits_clock).
+  const uint64_t ticks_scaled = uint64_t{m.tick_hz} * 1000u;
+  const uint64_t fastest = std::min<uint64_t>(ticks_scaled, 0xFFFFFFFFu);
+  const uint64_t slowest = std::max<uint64_t>(1, (ticks_scaled + (uint64_t{1} << 30) - 1) >> 30);
   for (uint8_t i = 0; i < m.rate_count; ++i) {
-    m.rates_mhz[i] = static_cast<uint32_t>(1 + rng.below(0xFFFFFFFFu));
+    m.rates_mhz[i] = static_cast<uint32_t>(slowest + rng.below(fastest - slowest + 1));
   }
   // A random non-empty subset of kinds, in random order.
   uint8_t kinds[4] = {0, 1, 2, 3};
