@@ -194,8 +194,10 @@ build() {  # build VARIANT EXTRA_FLAGS...
   echo "   RAM of one FrameDecoder: $decoder bytes; CRC tables in flash: $tables bytes"
 
   # Forbidden symbols anywhere in the program.
-  local bad
-  bad=$("${prefix}nm" "$dir/firmware.elf" | awk '{print $NF}' | grep -E "$forbidden" | sort -u || true)
+  # nm on its own first: `|| true` on the whole pipe hid a failing nm, and an empty list passed.
+  local bad symbols
+  symbols=$("${prefix}nm" "$dir/firmware.elf" | awk '{print $NF}')
+  bad=$(grep -E "$forbidden" <<<"$symbols" | sort -u || true)
   for sym in $bad; do
     finding "$variant: the program contains '$sym' (heap, exceptions or RTTI): see $dir/firmware.map"
   done

@@ -1,4 +1,4 @@
-#!/ usr / bin / env python3
+#!/usr/bin/env python3
 """Runs `imukit identify` on every BROAD trial in ../shared/data/broad (the command of issue 8,
 one trial at a time) and prints the docs/validation.md table: RMSE of simulated against measured
 accelerometer and gyroscope before and after identification, and the identified parameters with
@@ -21,9 +21,14 @@ out_dir = sys.argv[3] if len(sys.argv) > 3 else "/tmp/imukit_identify_broad"
 os.makedirs(out_dir, exist_ok=True)
 
 rows = []
-for trial in sorted(glob.glob(os.path.join(data, "broad", "*.csv"))):
+trials = sorted(glob.glob(os.path.join(data, "broad", "*.csv")))
+if not trials:
+    sys.exit(f"no BROAD trials in {os.path.join(data, 'broad')} (give the shared data folder)")
+for trial in trials:
     name = os.path.splitext(os.path.basename(trial))[0]
     out = os.path.join(out_dir, name + ".placement.json")
+    if os.path.exists(out):
+        os.remove(out)  # an earlier run's file is no answer of this one
     start = resource.getrusage(resource.RUSAGE_CHILDREN)
     r = subprocess.run([imukit, "identify", "--imu", trial, "--columns", "t,ax,ay,az,gx,gy,gz,_,_,_,_,_,_,_,_,_,_,_",
                         "--pose", trial, "--columns", "t,_,_,_,_,_,_,_,_,_,qw,qx,qy,qz,px,py,pz,_",
@@ -32,8 +37,9 @@ for trial in sorted(glob.glob(os.path.join(data, "broad", "*.csv"))):
     # says more about its load than about imukit.
     end = resource.getrusage(resource.RUSAGE_CHILDREN)
     wall = (end.ru_utime - start.ru_utime) + (end.ru_stime - start.ru_stime)
-    if r.returncode not in (0, 2):
-        sys.exit(f"{name}: {r.stderr.strip()}")
+    # Exit 1 with the JSON written: a parameter the trial cannot observe (named in the table).
+    if r.returncode not in (0, 1) or not os.path.exists(out):
+        sys.exit(f"{name}: exit {r.returncode}: {r.stderr.strip()}")
     j = json.load(open(out))
     p = {e["name"]: e for e in j["parameters"]}
 
@@ -43,14 +49,14 @@ for trial in sorted(glob.glob(os.path.join(data, "broad", "*.csv"))):
             return "unobservable"
         return f"{e['value'] * scale:.{digits}f} ± {e['std_error'] * scale:.{digits}f}"
 
-#Independent check from the rest phase before the motion(t < 20 s, IMU still) : the mean
-#gyro is the gyro bias; the mean of accel - R_world_imu ^ T(0, 0, 9.80665) with the optical
-#orientation is the accelerometer bias(to the optical rotation's accuracy, ~0.1 deg ~ 0.02 m/s^2).
+    # Independent check from the rest phase before the motion (t < 20 s, IMU still): the mean
+    # gyro is the gyro bias; the mean of accel - R_world_imu^T (0, 0, 9.80665) with the optical
+    # orientation is the accelerometer bias (to the optical rotation's accuracy, ~0.1 deg ~ 0.02 m/s^2).
     d = np.genfromtxt(trial, delimiter=",", skip_header=1)
     rest = (d[:, 0] < 20.0) & np.all(np.isfinite(d[:, 10:14]), axis=1)
     q = d[rest, 10:14] / np.linalg.norm(d[rest, 10:14], axis=1)[:, None]
     w, x, y, z = q.T
-#Third row of R_world_imu = world z in IMU axes.
+    # Third row of R_world_imu = world z in IMU axes.
     up = np.column_stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
     rest_ba = np.mean(d[rest, 1:4] - 9.80665 * up, axis=0)
     rest_bg = np.mean(d[rest, 4:7], axis=0)

@@ -28,6 +28,7 @@
 #include "imukit/drivers/serial_transport.hpp"
 #include "imukit/drivers/uri.hpp"
 #include "imukit/drivers/witmotion_codec.hpp"
+#include "support/test_data.hpp"
 
 namespace imukit::drivers {
 namespace {
@@ -168,6 +169,7 @@ class Umockdev : public ::testing::Test {
   void SetUp() override {
     const char* preload = std::getenv("LD_PRELOAD");
     if (!preload || !std::strstr(preload, "libumockdev-preload")) {
+      if (imukit::testing::running_in_ci()) FAIL() << "not running under umockdev-wrapper under CI";
       GTEST_SKIP() << "not running under umockdev-wrapper (LD_PRELOAD=libumockdev-preload.so.0): "
                       "umockdev cannot emulate devices here";
     }
