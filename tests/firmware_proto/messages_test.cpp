@@ -518,6 +518,20 @@ TEST(Messages, WritersRefuseValuesTheProtocolDoesNotAllow) {
   info = golden_device_info();
   info.rate_count = 0;
   EXPECT_TRUE(encode(info, 0).empty());
+  // Every listed rate's period is 1 to 2^30 ticks, what Configure takes: a 1 kHz tick listing
+  // 2 kHz was valid, and the device then refused its own rate (review, 2026-11-27).
+  info = golden_device_info();
+  info.tick_hz = 1000;
+  info.rates_mhz[1] = 1'000'000;  // 1 kHz: one tick, the fastest
+  EXPECT_FALSE(encode(info, 0).empty());
+  info.rates_mhz[1] = 2'000'000;  // 2 kHz: half a tick
+  EXPECT_TRUE(encode(info, 0).empty());
+  info = golden_device_info();  // 1 MHz tick
+  info.rates_mhz[0] = 1;        // 1 mHz: 10^9 ticks, under 2^30 = 1.07e9
+  EXPECT_FALSE(encode(info, 0).empty());
+  info.tick_hz = 2'000'000;  // 2 * 10^9 ticks: beyond
+  info.rates_mhz[1] = 100'000;
+  EXPECT_TRUE(encode(info, 0).empty());
   Configure c = golden_configure();
   c.channels = 0x20;
   EXPECT_TRUE(encode(c, 0).empty());
