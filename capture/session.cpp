@@ -90,9 +90,10 @@ void reader_thread(Device& d, bool wait_when_full) {
   drivers::ReaderOptions options;
   std::size_t syncs_forwarded = 0;
   uint64_t refused = 0;  // since the last sample the queue took
-  // Time-sync replies go to the writer as they are decoded; the reader hands over only reads
-  // that produced samples, so this runs once more at the end for replies that came after the
-  // last sample (a stop, an unplugged device, the end of a file).
+  // Time-sync replies go to the writer with the samples of the read that decoded them, or of a
+  // later one (a read without samples updates the counts only), and this runs once more at the
+  // end for replies that came after the last sample (a stop, an unplugged device, the end of a
+  // file).
   const auto forward_syncs = [&] {
     const std::span<const drivers::SyncPoint> points = d.spec.device.codec->sync_points();
     while (syncs_forwarded < points.size() &&
@@ -103,7 +104,10 @@ void reader_thread(Device& d, bool wait_when_full) {
   const drivers::EndReason end = drivers::DeviceReader::run(
       *d.spec.device.transport, *d.spec.device.codec, options, d.stop,
       [&](std::vector<drivers::Sample>& batch) {
-        if (batch.empty()) {  // bytes that decoded to nothing (yet): their counts only
+        // Bytes that decoded to no sample: their counts only. Their time-sync replies go with
+        // the next samples, as before: forwarded first, they moved the first chunk's close
+        // (and the live file's first bytes on disk) from 20 ms to 250 ms after the start.
+        if (batch.empty()) {
           const std::lock_guard lock(d.mutex);
           d.stats = d.spec.device.codec->stats();
           return;

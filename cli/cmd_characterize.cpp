@@ -65,6 +65,11 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
   const CharacterizeResult r = characterize_runs(runs, options);
   const std::optional<hwmodel::TriadNoise>& acc = r.accel;
   const std::optional<hwmodel::TriadNoise>& gyr = r.gyro;
+  // The plots first: they answer the question a refused fit asks (was the device still?).
+  if (!args.plot_dir.empty()) {
+    plot_noise(args.plot_dir, r);
+    fmt::print("plots in {}\n", args.plot_dir);
+  }
   // A profile is what simulate and augment take as the sensor's noise: numbers the model does
   // not describe are not written without being asked for (review, 2026-11-27: the warning was
   // printed and the profile written all the same).
@@ -75,7 +80,7 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
     if (!args.keep_bad_fit) {
       throw Error(fmt::format(
           "{}: the noise model does not describe the Allan deviation of {}: was the device "
-          "still? Nothing written; --fit-tau-min leaves out a filter's or a vibration's mark, "
+          "still? No profile written; --fit-tau-min leaves out a filter's or a vibration's mark, "
           "--keep-bad-fit writes the numbers all the same",
           r.noise_run, axes));
     }
@@ -117,10 +122,6 @@ int run_characterize(const CharacterizeArgs& args, const std::vector<std::string
                    name, r.noise_run, name);
       }
     }
-  }
-  if (!args.plot_dir.empty()) {
-    plot_noise(args.plot_dir, r);
-    fmt::print("plots in {}\n", args.plot_dir);
   }
   return 0;
 }

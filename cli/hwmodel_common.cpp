@@ -149,7 +149,7 @@ void print_triad(const char* name, const char* unit, const hwmodel::TriadNoise& 
                pm(f.value[3], f.sigma[3], f.active[3], f.upper[3]), f.chi2_per_dof, rd(s.white),
                rd(s.bias_instability), rd(s.random_walk));
     if (!f.note.empty()) fmt::print("        note: {}\n", f.note);
-    // Real sensors fit with chi2/dof of about 1 to 30 (docs/validation.md); a record with
+    // Real sensors fit with chi2/dof of about 1 to 34 (docs/validation.md); a record with
     // motion in it, 1e4 and more (found in review: a multi-position session gave a profile).
     if (f.chi2_per_dof > kBadNoiseFitChi2PerDof) {
       fmt::print(

@@ -38,7 +38,8 @@ inline TimeNs sample_time(TimeNs t0, int64_t index, double rate_hz) {
 // The samples of a grid at rate_hz over duration_s, both ends included: the whole periods in the
 // duration, plus one. A product within 1e-6 periods of a whole number is that number: 0.29 s at
 // 100 Hz is 28.999999999999996 periods in doubles, and floor() lost the last frame (review,
-// 2026-11-27). Doubles' rounding stays below 1e-8 periods up to the 1e7 frames imukit takes.
+// 2026-11-27). Doubles' rounding stays below 1e-6 periods up to about 4e9 periods (a longer
+// procedural scene, 46 days at 1 kHz, can lose its last frame to it).
 inline int64_t samples_spanning(double duration_s, double rate_hz) {
   const double periods = duration_s * rate_hz;
   const double nearest = std::round(periods);

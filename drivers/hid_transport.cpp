@@ -59,6 +59,11 @@ HidTransport::HidTransport(const std::string& path) : name_("hid " + path) {
   // /dev/null or a capture file given to hid: crashed the process (review, 2026-11-27; fixed
   // upstream in 0.14). Only hidraw nodes, known to sysfs, reach it.
   std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw TransportError("cannot open " + name_ +
+                         ": no such device (unplugged? `imukit devices` "
+                         "lists them)");
+  }
   const std::filesystem::path real = std::filesystem::canonical(path, ec);
   const std::string node = (ec ? std::filesystem::path(path) : real).filename().string();
   if (node.rfind("hidraw", 0) != 0 || !std::filesystem::exists("/sys/class/hidraw/" + node, ec)) {

@@ -223,10 +223,12 @@ void ImukitCodec::on_frame(const proto::Frame& f, TimeNs host_time, std::vector<
       }
       info_ = info;
       if (rate_mhz_ == 0 && info.rate_count > 0) rate_mhz_ = info.rates_mhz[0];
-      // Frame 0 after the start-up: the device rebooted and is idle with its default
+      // Frame 0 after our stream began: the device rebooted and is idle with its default
       // configuration (docs/protocol.md, section 6). The start-up runs again; until review,
-      // 2026-11-27, the session went on with no samples, no loss and no error.
-      const bool rebooted = configured_ && f.sequence == 0;
+      // 2026-11-27, the session went on with no samples, no loss and no error. (Answers to our
+      // repeated GetDeviceInfo all come before the Ack of the Start sent after them, so none
+      // of them, its number wrapped to 0, is taken for a reboot.)
+      const bool rebooted = stream_acked_ && f.sequence == 0;
       if (opt_.send_commands && (!configured_ || rebooted)) {
         configured_ = true;
         stream_acked_ = false;

@@ -11,8 +11,8 @@
 // twice as long each round up to kMaxRetryNs, so a link whose round trip is longer than retry_ns
 // still gets the Ack of the latest Start; a refused Configure or Start ends the stream with the
 // device's reason, except "not allowed in this state" (a Stop that was lost: the next round stops
-// the device again). A DeviceInfo numbered 0 after the start-up is a device that rebooted (idle,
-// default configuration): the start-up runs again. Raw counts are scaled with the DeviceInfo's
+// the device again). A DeviceInfo numbered 0 after the stream began is a device that rebooted
+// (idle, default configuration): the start-up runs again. Raw counts are scaled with the DeviceInfo's
 // per-range scale and offset. Sample i of a block is stamped on the device clock at first_tick +
 // floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
 // (32-bit ticks, half-range rule around the tick the stepping rule gives the block's index from

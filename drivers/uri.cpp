@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <fmt/core.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cctype>
@@ -322,12 +321,11 @@ OpenedDevice open_device(const std::string& text) {
       }
       const int flags = fcntl(fd, F_GETFL);
       if (flags < 0) throw TransportError(os_error("fd " + u.address, errno));
-      // A regular file is a replay (FdTransport says so) even when opened read-write (`3<>`):
-      // commands written at its offset overwrote the recorded bytes (review, 2026-11-27).
-      struct stat st {};
-      const bool regular_file = ::fstat(fd, &st) == 0 && S_ISREG(st.st_mode);
+      // FdTransport takes a regular file for a replay, never written, even when opened
+      // read-write (`3<>`: commands overwrote the recorded bytes until review, 2026-11-27).
       const bool read_only = (flags & O_ACCMODE) == O_RDONLY;
-      const bool writable = !read_only && !regular_file;
+      auto transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, !read_only);
+      const bool writable = transport->can_write();
       const std::string codec = codec_for(u, std::nullopt);
       check_keys_are_used(u, codec);
       CodecOptions o = u.keys;
@@ -342,7 +340,7 @@ OpenedDevice open_device(const std::string& text) {
         o["commands"] = "false";
       }
       d.codec = make_codec(codec, o);
-      d.transport = std::make_unique<FdTransport>(fd, false, "fd " + u.address, writable);
+      d.transport = std::move(transport);
     } else if (u.scheme == "serial") {
       const int64_t baud = option_int(u.keys, "baud", 115200);
       if (baud <= 0 || baud > 20'000'000) throw Error("baud: expected a positive baud rate");

@@ -152,9 +152,12 @@ def test_characterize_says_what_its_records_cannot_give(run, workdir):
     moving = white(60000, 100.0, 1e-3) + np.sin(2 * np.pi * 0.05 * tm)[:, None]
     motion = write("motion.txt", tm, moving, white(60000, 100.0, 1e-2) + [0, 0, 9.8])
     m_json = os.path.join(workdir, "m.json")
-    r = run("characterize", motion, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", m_json)
+    m_plots = os.path.join(workdir, "m_plots")
+    r = run("characterize", motion, "--columns", "t,gx,gy,gz,ax,ay,az", "-o", m_json, "--plot", m_plots)
+    assert os.path.exists(os.path.join(m_plots, "gyroscope_allan.dat")), \
+        "the plots are written, the profile refused: they show why"
     assert r.returncode == 1 and r.stdout.count("the noise model does not describe this curve") >= 3 \
-        and not os.path.exists(m_json) and "Nothing written" in r.stderr \
+        and not os.path.exists(m_json) and "No profile written" in r.stderr \
         and all(f"gyroscope {a} (chi2/dof" in r.stderr for a in "xyz"), \
         f"motion: a warning per gyroscope axis, exit 1 and no profile (review, 2026-11-27: it " \
         f"was written) ({r.returncode}, {r.stdout[:600]}, {r.stderr})"

@@ -1256,6 +1256,9 @@ class Experiments(unittest.TestCase):
                 har_main(argv + ["--out", os.path.join(d, "b"), "--folds", "s2,s3"])
             a, b = (os.path.join(d, x, "one_at_a_time.json") for x in "ab")
             self.assertEqual([r["test"] for r in load_json(a)["runs"]], ["s1"])
+            # Baseline arms read no scene: their results are no scene's (review, 2026-11-27: a
+            # baseline experiment could not go on after the scenes were fitted again).
+            self.assertNotIn("scene_fingerprints", load_json(a)["data"])
             self.assertEqual(sorted(r["test"] for r in load_json(b)["runs"]), ["s2", "s3"])
             with self.assertRaisesRegex(ValueError, r"--folds: no subject\(s\) \['s9'\]"):
                 har_main(argv + ["--out", os.path.join(d, "c"), "--folds", "s9"])
@@ -1288,13 +1291,19 @@ class Experiments(unittest.TestCase):
             with open(os.path.join(d, "m2", "one_at_a_time.md"), encoding="utf-8") as f:
                 self.assertIn("The files' recordings differ for subject(s) s3: 1 recording(s) have a scene "
                               "in one file and not in another (r_s3_t1).", f.read())
-            # Scenes fitted again: the same recordings, another scene digest.
-            other["data"]["fingerprints"] = load_json(a)["data"]["fingerprints"]
+            # Scenes fitted again (parts of an experiment with PPDA arms): the same recordings,
+            # another scene digest.
+            first = load_json(a)
+            first["data"]["scene_fingerprints"] = {"s2": "1" * 16}
+            a_ppda = os.path.join(d, "a_ppda.json")
+            with open(a_ppda, "w", encoding="utf-8") as f:
+                json.dump(first, f)
+            other["data"]["fingerprints"] = first["data"]["fingerprints"]
             other["data"]["recordings_without_scene"] = []
             other["data"]["scene_fingerprints"] = {"s2": "0" * 16}
             with open(c, "w", encoding="utf-8") as f:
                 json.dump(other, f)
-            merged = experiments.merge([a, c])
+            merged = experiments.merge([a_ppda, c])
             self.assertEqual((merged["data"]["fingerprints_differ"], merged["data"]["scenes_differ"]),
                              ([], ["s2"]))
             self.assertIn("The files' fitted scenes differ for subject(s) s2 (their files' contents: "

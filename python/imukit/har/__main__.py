@@ -59,7 +59,6 @@ def _data(args):
     source["recordings_count"] = len(R)
     source["rate_hz"] = R.rate_hz  # one rate, or a FormatError before any training
     source["fingerprints"] = experiments.subject_fingerprints(R)
-    source["scene_fingerprints"] = experiments.scene_fingerprints(R)
     source["subjects"] = R.subjects
     return R, source
 
@@ -174,6 +173,10 @@ def main(argv=None):
     missing = experiments.check_scenes(R, arms)
     experiments.check_splits(runs, state)
     source["recordings_without_scene"] = missing
+    # Only arms that re-simulate read the scenes: a baseline or STDA experiment continues on
+    # scenes fitted again (review, 2026-11-27).
+    if any(experiments.parse_arm(a).kind == "ppda" for a in arms):
+        source["scene_fingerprints"] = experiments.scene_fingerprints(R)
     os.makedirs(args.out, exist_ok=True)
     store = experiments.ResultStore(os.path.join(args.out, f"{name}.json"), name, settings, source)
     for other in ("one_at_a_time", "sim_only", "fewer_subjects"):
