@@ -12,13 +12,13 @@
 // still gets the Ack of the latest Start; a refused Configure or Start ends the stream with the
 // device's reason, except "not allowed in this state" (a Stop that was lost: the next round stops
 // the device again). A DeviceInfo numbered 0 after the stream began is a device that rebooted
-// (idle, default configuration): the start-up runs again. Raw counts are scaled with the DeviceInfo's
-// per-range scale and offset. Sample i of a block is stamped on the device clock at first_tick +
-// floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule, unwrapped to 64 bits
-// (32-bit ticks, half-range rule around the tick the stepping rule gives the block's index from
-// the last block's, so a loss of any length keeps the time). Gaps in the 32-bit cumulative
-// sample index are counted as dropped samples. A block whose index is behind the stream (by the
-// half-range rule) is a repeat or a late arrival when its frame is numbered just before the
+// (idle, default configuration): the start-up runs again. Raw counts are scaled with the
+// DeviceInfo's per-range scale and offset. Sample i of a block is stamped on the device clock at
+// first_tick + floor(i * tick_hz * 1000 / rate_mhz) ticks, the device's own stepping rule,
+// unwrapped to 64 bits (32-bit ticks, half-range rule around the tick the stepping rule gives the
+// block's index from the last block's, so a loss of any length keeps the time). Gaps in the 32-bit
+// cumulative sample index are counted as dropped samples. A block whose index is behind the stream
+// (by the half-range rule) is a repeat or a late arrival when its frame is numbered just before the
 // newest frame (proto::kReorderWindow) and its first tick is the one due at its index on this
 // stream: its samples already passed are not handed out again (samples_stale). It is a loss of
 // 2^31 samples or more, its index 2^32 further on, when its first tick is due there and not at
@@ -112,7 +112,7 @@ class ImukitCodec : public Codec {
   uint16_t start_sequence_ = 0;                 // that Start's frame sequence number
   std::optional<uint16_t> configure_sequence_;  // the latest Configure's
   TimeNs last_request_ = 0;
-  TimeNs retry_interval_ = 0;  // the wait before the next round of the start-up
+  TimeNs retry_interval_ = 0;          // the wait before the next round of the start-up
   uint32_t frames_missed_before_ = 0;  // frame numbers skipped just before the current frame
   // The first sample of the last block handed out: index and unwrapped tick, from which the
   // device's stepping rule gives the tick due at any other index of the stream, and when it
