@@ -168,10 +168,13 @@ def prepare(recordings, settings):
             "subject": np.array([recordings[i].subject for i in W.recording])}
 
 
-def _init_worker(state):
+def _init_worker(state, abort=None):
     # Never raises: a pool whose initializer raises replaces the worker and calls it again,
     # forever. The error is kept for run_one, whose error the pool hands to the caller.
+    # `abort` (an Event) is set by the parent once a run failed: the runs not yet begun are
+    # skipped (run_one returns None).
     _STATE.clear()
+    _STATE["abort"] = abort
     try:
         train.set_threads(1)
         _STATE.update(state)
@@ -195,7 +198,9 @@ def check_splits(runs, state):
 
 def run_one(run):
     """Trains and tests one run (a dict: arm, model, test, val, train, seed); returns it with
-    its results."""
+    its results; None when skipped because another run failed."""
+    if _STATE.get("abort") is not None and _STATE["abort"].is_set():
+        return None
     if "error" in _STATE:
         raise _STATE["error"]
     check_splits([run], _STATE)
@@ -484,11 +489,35 @@ def execute(runs, store, state, jobs=1, log=print):
         for i, run in enumerate(pending):
             finished(i, run_one(run))
     else:
+        # A failed run ends the experiment after the runs under way finish (their results are
+        # kept) and the rest are skipped; the pool then ends on its own. Terminating it at the
+        # first error could kill a worker in the middle of handing back a result, holding the
+        # result queue's lock, and the pool's own shutdown then waited for that lock forever
+        # (seen under load, review of 2026-11-27).
         ctx = multiprocessing.get_context("fork")
-        with ctx.Pool(jobs, initializer=_init_worker, initargs=(state,),
+        abort = ctx.Event()
+        failure = None
+        with ctx.Pool(jobs, initializer=_init_worker, initargs=(state, abort),
                       maxtasksperchild=None) as pool:
-            for i, r in enumerate(pool.imap_unordered(run_one, pending)):
-                finished(i, r)
+            results = pool.imap_unordered(run_one, pending)
+            i = 0
+            while True:
+                try:
+                    r = next(results)
+                except StopIteration:
+                    break
+                except Exception as e:  # noqa: BLE001 (any run's error ends the experiment)
+                    if failure is None:
+                        failure = e
+                        abort.set()
+                    continue
+                if r is not None:
+                    finished(i, r)
+                    i += 1
+            pool.close()
+            pool.join()
+        if failure is not None:
+            raise failure
     return time.perf_counter() - t0
 
 
