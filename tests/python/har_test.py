@@ -1345,14 +1345,19 @@ class CommandErrors(unittest.TestCase):
         self.assertTrue(code == 2 or len(lines) == 1, err)  # argparse prints its usage first
         return lines[-1]
 
+    def pool_of_baseline_runs(self, name):
+        """(runs, store, state): a baseline run per fold of the noise recordings, tiny models,
+        with an empty store `name` in the class's folder."""
+        R = rf.read_recordings(self.rec)
+        settings = experiments.Settings(epochs=1, tiny=True)
+        runs = experiments.one_at_a_time_runs(R.subjects, ["baseline"], ["deepconvlstm"], 1)
+        store = experiments.ResultStore(os.path.join(self.tmp.name, name), "one_at_a_time", settings, {})
+        return runs, store, experiments.prepare(R, settings)
+
     def test_a_worker_that_cannot_start_reports_its_error_instead_of_starting_again(self):
         # Found in review: the pool's initializer raised, and multiprocessing replaced the
         # worker and ran it again, forever, at full CPU.
-        R = rf.read_recordings(self.rec)
-        settings = experiments.Settings(epochs=1, tiny=True)
-        state = experiments.prepare(R, settings)
-        runs = experiments.one_at_a_time_runs(R.subjects, ["baseline"], ["deepconvlstm"], 1)
-        store = experiments.ResultStore(os.path.join(self.tmp.name, "w.json"), "one_at_a_time", settings, {})
+        runs, store, state = self.pool_of_baseline_runs("w.json")
         with mock.patch.object(train, "set_threads", side_effect=RuntimeError("no thread for this worker")), \
                 deadline(120), self.assertRaisesRegex(RuntimeError, "^no thread for this worker$"):
             experiments.execute(runs, store, state, jobs=2, log=lambda s: None)
@@ -1362,11 +1367,7 @@ class CommandErrors(unittest.TestCase):
         # Review, 2026-11-27: the pool was terminated at the first error, which could kill a
         # worker holding the result queue's lock, and shutting the pool down then waited for it
         # forever (1 run in 4 of this class under load). Runs under way finish, the rest skip.
-        R = rf.read_recordings(self.rec)
-        settings = experiments.Settings(epochs=1, tiny=True)
-        state = experiments.prepare(R, settings)
-        runs = experiments.one_at_a_time_runs(R.subjects, ["baseline"], ["deepconvlstm"], 1)
-        store = experiments.ResultStore(os.path.join(self.tmp.name, "f.json"), "one_at_a_time", settings, {})
+        runs, store, state = self.pool_of_baseline_runs("f.json")
         with mock.patch.object(experiments, "run_one", failing_on_s1), deadline(120), \
                 self.assertRaisesRegex(RuntimeError, "^run testing s1 failed$"):
             experiments.execute(runs, store, state, jobs=2, log=lambda s: None)
