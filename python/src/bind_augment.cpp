@@ -5,6 +5,8 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <string>
+#include <type_traits>
 
 #include "common.hpp"
 #include "imukit/augment/dataset.hpp"
@@ -911,7 +913,7 @@ write(dir) writes X.npy, y.npy, sub_policy.npy and dataset.json.)doc")
           },
           py::arg("dir"));
 
-  py::class_<augment::DatasetOptions>(m, "DatasetOptions", R"doc(
+  py::class_<augment::DatasetOptions> options(m, "DatasetOptions", R"doc(
 The settings of generate_dataset, field by field those of `imukit augment`: window, stride (samples),
 count (windows to write; 0: one pass over the base windows), batch_size (windows per sub-policy
 draw), seed, threads (0: all cores; the output does not depend on it), normalize (z-score every
@@ -919,58 +921,44 @@ channel), identity_fraction (batches left unaugmented), method ("spline" or "fd"
 and max_bytes (the dataset's memory limit; 0: half the physical memory). DatasetOptions(**fields).
 The defaults are the command's, except threads: 0 here, 1 in the command. The integers take the
 command's ranges (window [2, 1e7], stride and batch_size [1, 1e7], count [0, 1e12], seed
-[0, 2^63 - 1], threads [0, 1024]); outside them an imukit.Error, a bool a TypeError.)doc")
-      .def(py::init([](const py::kwargs& fields) {
-        augment::DatasetOptions o = python_dataset_options();
-        set_dataset_fields(o, fields, "DatasetOptions");
-        return o;
-      }))
-      // The integers through the argument helpers with `imukit augment`'s ranges: pybind11's
-      // casters took True as 1, seeds from 2^63 the command refuses, and said "incompatible
-      // function arguments" for -1 (found in review, 2026-11-27).
-      .def_property(
-          "window", [](const augment::DatasetOptions& o) { return o.window; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.window = window_argument(v, "DatasetOptions: window");
-          })
-      .def_property(
-          "stride", [](const augment::DatasetOptions& o) { return o.stride; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.stride = stride_argument(v, "DatasetOptions: stride");
-          })
-      .def_property(
-          "count", [](const augment::DatasetOptions& o) { return o.count; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.count = uint_argument(v, "DatasetOptions: count", 1'000'000'000'000);
-          })
-      .def_property(
-          "batch_size", [](const augment::DatasetOptions& o) { return o.batch_size; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.batch_size = uint_argument(v, "DatasetOptions: batch_size", 10'000'000, 1);
-          })
-      .def_property(
-          "seed", [](const augment::DatasetOptions& o) { return o.seed; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.seed = seed_argument(v, "DatasetOptions: seed");
-          })
-      .def_property(
-          "threads", [](const augment::DatasetOptions& o) { return o.threads; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.threads = static_cast<unsigned>(uint_argument(v, "DatasetOptions: threads", 1024));
-          })
-      .def_readwrite("normalize", &augment::DatasetOptions::normalize)
+[0, 2^63 - 1], threads [0, 1024]); outside them an imukit.Error, a bool a TypeError.)doc");
+  options.def(py::init([](const py::kwargs& fields) {
+    augment::DatasetOptions o = python_dataset_options();
+    set_dataset_fields(o, fields, "DatasetOptions");
+    return o;
+  }));
+  // The integers through the argument helpers with `imukit augment`'s ranges: pybind11's
+  // casters took True as 1, seeds from 2^63 the command refuses, and said "incompatible
+  // function arguments" for -1 (found in review, 2026-11-27).
+  const auto def_checked = [&options](const char* name, auto member, auto parse) {
+    options.def_property(
+        name, [member](const augment::DatasetOptions& o) { return o.*member; },
+        [member, parse, what = std::string("DatasetOptions: ") + name](augment::DatasetOptions& o,
+                                                                       py::handle v) {
+          using Field = std::remove_reference_t<decltype(o.*member)>;
+          o.*member = static_cast<Field>(parse(v, what));
+        });
+  };
+  const auto at_most = [](uint64_t max, uint64_t min = 0) {
+    return [max, min](py::handle v, const std::string& what) {
+      return uint_argument(v, what, max, min);
+    };
+  };
+  def_checked("window", &augment::DatasetOptions::window, window_argument);
+  def_checked("stride", &augment::DatasetOptions::stride, stride_argument);
+  def_checked("count", &augment::DatasetOptions::count, at_most(1'000'000'000'000));
+  def_checked("batch_size", &augment::DatasetOptions::batch_size, at_most(10'000'000, 1));
+  def_checked("seed", &augment::DatasetOptions::seed, seed_argument);
+  def_checked("threads", &augment::DatasetOptions::threads, at_most(1024));
+  def_checked("max_bytes", &augment::DatasetOptions::max_bytes,
+              at_most(std::numeric_limits<std::size_t>::max()));
+  options.def_readwrite("normalize", &augment::DatasetOptions::normalize)
       .def_readwrite("identity_fraction", &augment::DatasetOptions::identity_fraction)
       .def_property(
           "method",
           [](const augment::DatasetOptions& o) { return std::string(sim::to_string(o.method)); },
           [](augment::DatasetOptions& o, const std::string& m) {
             o.method = sim::parse_derivative_method(m);
-          })
-      .def_property(
-          "max_bytes", [](const augment::DatasetOptions& o) { return o.max_bytes; },
-          [](augment::DatasetOptions& o, py::handle v) {
-            o.max_bytes = uint_argument(v, "DatasetOptions: max_bytes",
-                                        std::numeric_limits<std::size_t>::max());
           });
 
   m.def(

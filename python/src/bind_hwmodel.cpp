@@ -1,5 +1,6 @@
 // Allan-family deviations and the noise-model fit on NumPy arrays.
 #include <memory>
+#include <vector>
 
 #include "common.hpp"
 #include "imukit/core/error.hpp"
@@ -111,6 +112,31 @@ std::shared_ptr<AllanResult> allan(py::handle samples_obj, py::handle t_obj,
   return std::make_shared<AllanResult>(hwmodel::allan_deviation(t, matrix, o));
 }
 
+// Read-only views (fit reads this memory) that keep the Python owner alive.
+template <class Scalar>
+py::object read_only_view(const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& m,
+                          py::handle owner) {
+  return read_only(matrix_view(m, owner));
+}
+template <class T>
+py::object read_only_view(const std::vector<T>& v, py::handle owner) {
+  return read_only(vector_view(v, owner));
+}
+
+template <class Member>
+auto curve_member(Member DeviationCurve::*member) {
+  return [member](py::object self) {
+    return read_only_view(self.cast<const CurveHandle&>().curve->*member, self);
+  };
+}
+
+template <class Member>
+auto result_member(Member AllanResult::*member) {
+  return [member](py::object self) {
+    return read_only_view(self.cast<const AllanResult&>().*member, self);
+  };
+}
+
 py::dict fit_dict(const NoiseFit& f) {
   py::dict d;
   for (int k = 0; k < hwmodel::kNoiseTerms; ++k)
@@ -126,50 +152,20 @@ One deviation over the tau grid; arrays are (axes, taus) read-only views of the 
 deviation, lower, upper (confidence interval), edf (equivalent degrees of freedom), alpha (noise
 type the interval assumed), terms (squared differences per estimate). AllanResult.fit reads this
 memory: change a copy (np.array(curve.deviation)).)doc")
-      .def_property_readonly(
-          "deviation",
-          [](py::object self) {
-            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->deviation, self));
-          })
-      .def_property_readonly(
-          "lower",
-          [](py::object self) {
-            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->lower, self));
-          })
-      .def_property_readonly(
-          "upper",
-          [](py::object self) {
-            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->upper, self));
-          })
-      .def_property_readonly(
-          "edf",
-          [](py::object self) {
-            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->edf, self));
-          })
-      .def_property_readonly(
-          "alpha",
-          [](py::object self) {
-            return read_only(matrix_view(self.cast<const CurveHandle&>().curve->alpha, self));
-          })
-      .def_property_readonly("terms", [](py::object self) {
-        return read_only(vector_view(self.cast<const CurveHandle&>().curve->terms, self));
-      });
+      .def_property_readonly("deviation", curve_member(&DeviationCurve::deviation))
+      .def_property_readonly("lower", curve_member(&DeviationCurve::lower))
+      .def_property_readonly("upper", curve_member(&DeviationCurve::upper))
+      .def_property_readonly("edf", curve_member(&DeviationCurve::edf))
+      .def_property_readonly("alpha", curve_member(&DeviationCurve::alpha))
+      .def_property_readonly("terms", curve_member(&DeviationCurve::terms));
 
   py::class_<AllanResult, std::shared_ptr<AllanResult>>(m, "AllanResult", R"doc(
 Result of allan_deviation: tau_s and factors (read-only views: fit reads them), tau0_s, uniform, sample count n, and the
 curves allan, modified, hadamard (DeviationCurve, or None when not computed).
 fit(axis, ...) fits the noise model to one axis' Allan deviation (generalised least squares,
 as `imukit characterize` does).)doc")
-      .def_property_readonly(
-          "tau_s",
-          [](py::object self) {
-            return read_only(vector_view(self.cast<const AllanResult&>().tau_s, self));
-          })
-      .def_property_readonly(
-          "factors",
-          [](py::object self) {
-            return read_only(vector_view(self.cast<const AllanResult&>().factors, self));
-          })
+      .def_property_readonly("tau_s", result_member(&AllanResult::tau_s))
+      .def_property_readonly("factors", result_member(&AllanResult::factors))
       .def_property_readonly("tau0_s", [](const AllanResult& r) { return r.tau0_s; })
       .def_property_readonly("uniform", [](const AllanResult& r) { return r.uniform; })
       .def_property_readonly("n", [](const AllanResult& r) { return r.sampling.samples; })
