@@ -7,12 +7,13 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <numeric>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/input_file.hpp"
 #include "imukit/core/npy.hpp"
 #include "imukit/core/sampling.hpp"
 #include "imukit/core/text_parse.hpp"
@@ -153,11 +154,14 @@ std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<co
     }
     const auto s = static_cast<std::size_t>(starts[w]);
     counts.clear();
-    for (std::size_t i = s; i < s + window; ++i)
-      if (labels[i] != kNoLabel) ++counts[labels[i]];
+    for (std::size_t i = s; i < s + window; ++i) ++counts[labels[i]];
+    // The plurality of the window's samples, unlabelled ones included: a window of 99
+    // unlabelled samples and one of class 3 was class 3 (found in review, 2026-11-27). Map
+    // order puts kNoLabel first, so it loses every tie, and ties between classes keep the
+    // smaller label.
     std::size_t best = 0;
     for (const auto& [label, n] : counts) {
-      if (n > best) {  // map order: ties keep the smaller label
+      if (n > best || (label != kNoLabel && n == best && out[w] == kNoLabel)) {
         best = n;
         out[w] = label;
       }
@@ -213,6 +217,13 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
   const std::filesystem::path d(dir);
   const std::size_t xs[3] = {shape.windows, shape.samples, shape.channels};
   const std::size_t ys[1] = {shape.windows};
+  // dataset.json goes first and comes back last: a run that fails between the arrays (each
+  // replaced whole) leaves no description of another run's shape beside them (found in review,
+  // 2026-11-27: new X.npy and y.npy sat beside the old dataset.json).
+  const std::filesystem::path description = d / "dataset.json";
+  std::filesystem::remove(description, ec);
+  if (ec)
+    throw Error(description.string() + ": cannot remove the old description: " + ec.message());
   write_npy((d / "X.npy").string(), X, xs);
   write_npy((d / "y.npy").string(), y, ys);
   write_npy((d / "sub_policy.npy").string(), sub_policy, ys);
@@ -242,20 +253,19 @@ void write_dataset(const std::string& dir, std::span<const float> X, const Batch
                 {"batch_size", info.batch_size},
                 {"identity_fraction", info.identity_fraction},
                 {"streams",
-                 "batch b draws from Rng(seed).child(b): one uniform when identity_fraction > 0 "
-                 "(below it the batch is not augmented), one uniform choosing the sub-policy, "
-                 "then for PPDA one 64-bit draw s (window k of the batch: Rng(s).child(k)), for "
-                 "STDA the methods' draws for the whole batch (augment/stda.hpp)"}};
+                 "windows are dealt into batches in the order of a Fisher-Yates shuffle drawn "
+                 "from Rng(seed, 1); batch b draws from Rng(seed).child(b): one uniform when "
+                 "identity_fraction > 0 (below it the batch is not augmented), one uniform "
+                 "choosing the sub-policy, then for PPDA one 64-bit draw s (the batch's k-th "
+                 "window: Rng(s).child(k)), for STDA the methods' draws for the whole batch "
+                 "(augment/stda.hpp)"}};
   if (info.mode == "ppda") {
     j["method"] = info.method;
     j["too_short_windows"] = info.too_short_windows;
   }
   j["policy"] = info.policy_json.empty() ? json() : json::parse(info.policy_json);
   j["sub_policy_file"] = "sub_policy.npy";
-  const std::string path = (d / "dataset.json").string();
-  std::ofstream out(path, std::ios::binary);
-  out << j.dump(2) << "\n";
-  if (!out.good()) throw Error(path + ": write failed");
+  write_text_file(description.string(), j.dump(2) + "\n");
 }
 
 namespace {
@@ -307,8 +317,10 @@ void check_options(const DatasetOptions& o, const Policy& policy) {
 }
 
 // N windows of T samples and C channels (float32, plus an int64 label and sub-policy index each)
+// and `working` more windows' worth of float32 held beside them (a batch, the source's windows)
 // must fit in the memory allowed before they are allocated.
-void check_size(std::size_t N, std::size_t T, std::size_t C, std::size_t max_bytes) {
+void check_size(std::size_t N, std::size_t working, std::size_t T, std::size_t C,
+                std::size_t max_bytes) {
   if (max_bytes == 0) {
     const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
     max_bytes = pages > 0 && page > 0
@@ -316,14 +328,30 @@ void check_size(std::size_t N, std::size_t T, std::size_t C, std::size_t max_byt
                     : std::size_t{4} << 30;
   }
   // In long double: the product of three size_t can exceed 2^64.
-  const long double bytes = static_cast<long double>(N) *
-                            (static_cast<long double>(T) * static_cast<long double>(C) * 4 + 16);
+  const long double window_bytes = static_cast<long double>(T) * static_cast<long double>(C) * 4;
+  const long double bytes = static_cast<long double>(N) * (window_bytes + 16) +
+                            static_cast<long double>(working) * window_bytes;
   if (bytes <= static_cast<long double>(max_bytes)) return;
   const auto gib = [](long double b) { return static_cast<double>(b / (1 << 30)); };
   throw Error(fmt::format(
-      "augment: {} windows x {} samples x {} channels need {:.3g} GiB in memory, more than the "
+      "augment: {} windows x {} samples x {} channels need {:.3g} GiB in memory (with the "
+      "working copies), more than the "
       "{:.3g} GiB allowed (half this machine's memory); ask for fewer windows (--count)",
       N, T, C, gib(bytes), gib(static_cast<long double>(max_bytes))));
+}
+
+// The output windows in batch order (batch b holds positions b * batch_size onwards): a
+// seeded shuffle of 0 .. N-1 drawn from stream 1 of the seed (the batches draw from stream 0's
+// children), so that a batch, which shares one sub-policy, holds windows from all over the
+// source, as a training mini-batch does. Batches of consecutive windows were runs of one
+// activity under one or two sub-policies, augmentation tied to the label (found in review,
+// 2026-11-27).
+std::vector<std::size_t> batch_order(std::size_t N, uint64_t seed) {
+  std::vector<std::size_t> order(N);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  Rng rng(seed, 1);
+  for (std::size_t i = N; i > 1; --i) std::swap(order[i - 1], order[rng.uniform_index(i)]);
+  return order;
 }
 
 // Sub-policy of batch b (-1: identity), drawn from the batch's stream.
@@ -341,8 +369,96 @@ DatasetInfo base_info(const Policy& policy, const DatasetOptions& o) {
   info.seed = o.seed;
   info.batch_size = o.batch_size;
   info.identity_fraction = o.identity_fraction;
-  info.method = o.method == sim::DerivativeMethod::fd ? "fd" : "spline";
+  info.method = std::string(sim::to_string(o.method));
   return info;
+}
+
+// With normalize and a hardware-ranges sub-policy, the jitter is in standard deviations and
+// must wait for the z-scoring: taken out of specs (where it is last) and returned.
+std::vector<StdaSpec> jitter_in_standard_deviations(std::vector<StdaSpec>& specs,
+                                                    const SubPolicy& sub,
+                                                    const DatasetOptions& options) {
+  std::vector<StdaSpec> after_normalizing;
+  if (!options.normalize || sub.hardware.kind != HardwareOp::Kind::ranges) return after_normalizing;
+  for (auto it = specs.begin(); it != specs.end();) {
+    if (it->method == StdaMethod::jittering) {
+      after_normalizing.push_back(*it);
+      it = specs.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return after_normalizing;
+}
+
+// Time scaling of a batch from the recording itself (whole: n rows of C channels): window k,
+// base window members[k] mod the base count, becomes the recording at start + c + b (i - c),
+// c = (T-1)/2, b ~ U[lo, hi] (moved inside the recording where it would leave it), linearly
+// interpolated -- a faster window shows b T recorded samples instead of holding its edge values
+// as apply_stda does on bare windows. check_time_scaling_fits made sure every b fits.
+void scale_time_from_recording(const StdaSpec& spec, std::span<const float> whole, std::size_t n,
+                               std::size_t C, std::span<const int64_t> base,
+                               std::span<const std::size_t> members, Rng& rng,
+                               std::span<float> batch_x, std::size_t T) {
+  const double c = 0.5 * static_cast<double>(T - 1), last = static_cast<double>(n - 1);
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    const double b = rng.uniform_in(spec.lo, spec.hi);
+    const auto s0 = static_cast<double>(base[members[k] % base.size()]);
+    const double first = s0 + c - b * c, end = s0 + c + b * c;
+    const double shift = first < 0.0 ? -first : end > last ? last - end : 0.0;
+    float* o = batch_x.data() + k * T * C;
+    for (std::size_t i = 0; i < T; ++i) {
+      const double pos = std::clamp(s0 + c + b * (static_cast<double>(i) - c) + shift, 0.0, last);
+      const auto j = std::min(static_cast<std::size_t>(pos), n - 2);
+      const double f = pos - static_cast<double>(j);
+      for (std::size_t ch = 0; ch < C; ++ch) {
+        const double a0 = whole[j * C + ch], a1 = whole[(j + 1) * C + ch];
+        o[i * C + ch] = static_cast<float>(a0 + f * (a1 - a0));
+      }
+    }
+  }
+}
+
+// Before any work: every sub-policy's fastest time scaling must fit a window in the recording
+// (a window of T samples at b times the speed spans b (T-1) + 1 samples). It failed at the first
+// batch that drew such a speed, possibly hours in.
+void check_time_scaling_fits(const Policy& policy, bool normalize, double rate, std::size_t T,
+                             std::size_t n) {
+  for (std::size_t p = 0; p < policy.sub_policies.size(); ++p) {
+    for (const StdaSpec& spec :
+         stda_counterparts(policy.sub_policies[p], policy, normalize, rate)) {
+      if (spec.method != StdaMethod::time_scaling) continue;
+      const double span = spec.hi * static_cast<double>(T - 1) + 1.0;
+      if (span > static_cast<double>(n)) {
+        throw Error(fmt::format(
+            "augment: sub-policy {} scales time up to {:g}x: a window of {} samples then spans "
+            "{:.0f} samples, and the recording has {}; use a shorter window or a slower policy",
+            p, spec.hi, T, std::ceil(span), n));
+      }
+    }
+  }
+}
+
+// Every accelerometer and gyroscope value of the streams is finite: a NaN or an infinity went
+// into the windows, and with normalize into a whole channel's statistics (found in review,
+// 2026-11-27).
+void check_finite(const std::vector<std::string>& names,
+                  const std::vector<const ImuSeries*>& streams) {
+  for (std::size_t s = 0; s < streams.size(); ++s) {
+    for (const auto* m : {&streams[s]->accel, &streams[s]->gyro}) {
+      for (Eigen::Index i = 0; i < m->cols(); ++i) {
+        if (!m->col(i).allFinite()) {
+          throw Error(fmt::format(
+              "augment: stream {}: the {} of sample {} (t = {:.9f} s) is not finite; STDA needs "
+              "every sample (cut the recording or fill its gaps first)",
+              quote_excerpt(names[s]), m == &streams[s]->accel ? "accelerometer" : "gyroscope", i,
+              static_cast<double>(streams[s]->t[static_cast<std::size_t>(i)] -
+                                  streams[s]->t.front()) *
+                  1e-9));
+        }
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -363,30 +479,32 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = aug.channels();
-  check_size(N, T, C, options.max_bytes);
+  check_size(N, std::min(options.batch_size, N), T, C, options.max_bytes);  // X and a batch
   Dataset d;
   d.shape = {N, T, C};
   d.X.resize(d.shape.size());
   d.y.resize(N);
   d.sub_policy.resize(N);
   const Rng root(options.seed);
+  const std::vector<std::size_t> order = batch_order(N, options.seed);
   const SubPolicy identity;
   std::size_t too_short_windows = 0;
+  std::vector<float> rows;  // the batch's windows, then scattered to their places in X
   for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
     const std::size_t n = std::min(options.batch_size, N - b0);
+    const std::span<const std::size_t> members(order.data() + b0, n);
     Rng br = root.child(batch);
     const int64_t idx = batch_sub_policy(policy, options.identity_fraction, br);
     std::vector<int64_t> starts(n);
     for (std::size_t k = 0; k < n; ++k) {
-      starts[k] = base[(b0 + k) % base.size()];
-      d.y[b0 + k] = base_labels[(b0 + k) % base.size()];
-      d.sub_policy[b0 + k] = idx;
+      starts[k] = base[members[k] % base.size()];
+      d.y[members[k]] = base_labels[members[k] % base.size()];
+      d.sub_policy[members[k]] = idx;
     }
     const SubPolicy& sub = idx < 0 ? identity : policy.sub_policies[static_cast<std::size_t>(idx)];
-    float* const rows = d.X.data() + b0 * T * C;
+    rows.resize(n * T * C);
     std::vector<uint8_t> too_short(n, 0);
-    aug.apply(sub, starts, br, std::span<float>(rows, n * T * C), options.threads, nullptr,
-              too_short);
+    aug.apply(sub, starts, br, rows, options.threads, nullptr, too_short);
     // A speed drawn too fast for the motion around a window needs frames the scene does not
     // have: that window is written unaugmented (sub_policy -1) and counted. It ended the whole
     // run until review, 2026-11-27; whether a sub-policy can need too much depends on its draw.
@@ -399,11 +517,24 @@ Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
       aug.apply(identity, plain_starts, plain_rng, plain, options.threads);
       for (std::size_t k = 0, j = 0; k < n; ++k) {
         if (too_short[k] == 0) continue;
-        std::copy_n(plain.data() + j++ * T * C, T * C, rows + k * T * C);
-        d.sub_policy[b0 + k] = -1;
+        std::copy_n(plain.data() + j++ * T * C, T * C, rows.data() + k * T * C);
+        d.sub_policy[members[k]] = -1;
       }
       too_short_windows += plain_starts.size();
     }
+    for (std::size_t k = 0; k < n; ++k)
+      std::copy_n(rows.data() + k * T * C, T * C, d.X.data() + members[k] * T * C);
+  }
+  // Not one window augmented (every speed drawn too fast for the scene) is no augmentation at
+  // all; it was written as one, with only too_short_windows in dataset.json to say so (found in
+  // review, 2026-11-27).
+  if (too_short_windows > 0 &&
+      std::none_of(d.sub_policy.begin(), d.sub_policy.end(), [](int64_t k) { return k >= 0; })) {
+    throw Error(fmt::format(
+        "augment: each of the {} windows to augment drew a speed that needs more motion than the "
+        "scene has around it ({:.6g} s of motion, windows of {} samples): nothing would be "
+        "augmented; use a longer scene, a shorter window or a slower speed range",
+        too_short_windows, static_cast<double>(aug.sample_count()) / aug.rate_hz(), T));
   }
   d.info = base_info(policy, options);
   d.info.too_short_windows = too_short_windows;
@@ -448,6 +579,7 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
       }
     }
   }
+  check_finite(stream_names, streams);
   const std::vector<int64_t> base = window_starts(n, options.window, options.stride);
   if (base.empty())
     throw Error(fmt::format("augment: the recording ({} samples) is shorter than a window of {}", n,
@@ -457,7 +589,9 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   const std::vector<int64_t> base_labels = window_labels(labels, base, options.window);
   const std::size_t N = options.count > 0 ? options.count : base.size();
   const std::size_t T = options.window, C = 6 * streams.size();
-  check_size(N + base.size(), T, C, options.max_bytes);  // the base windows are held too
+  check_time_scaling_fits(policy, options.normalize, rate, T, n);
+  // X, the base windows, a batch and (for time scaling) the whole recording are held at once.
+  check_size(N, base.size() + std::min(options.batch_size, N) + n / T + 1, T, C, options.max_bytes);
   std::vector<float> windows = extract_windows(streams, base, options.window);
   Dataset d;
   d.info = base_info(policy, options);
@@ -475,80 +609,42 @@ Dataset generate_dataset(const std::vector<std::string>& stream_names,
   d.y.resize(N);
   d.sub_policy.resize(N);
   const Rng root(options.seed);
-  std::vector<float> whole;  // the recording itself, for time scaling
+  const std::vector<std::size_t> order = batch_order(N, options.seed);
+  std::vector<float> whole;    // the recording itself, for time scaling
+  std::vector<float> batch_x;  // the batch's windows, then scattered to their places in X
   for (std::size_t b0 = 0, batch = 0; b0 < N; b0 += options.batch_size, ++batch) {
     const std::size_t nb = std::min(options.batch_size, N - b0);
+    const std::span<const std::size_t> members(order.data() + b0, nb);
     Rng br = root.child(batch);
     const int64_t idx = batch_sub_policy(policy, options.identity_fraction, br);
+    batch_x.resize(nb * T * C);
     for (std::size_t k = 0; k < nb; ++k) {
-      const std::size_t src = (b0 + k) % base.size();
-      std::copy_n(windows.data() + src * T * C, T * C, d.X.data() + (b0 + k) * T * C);
-      d.y[b0 + k] = base_labels[src];
-      d.sub_policy[b0 + k] = idx;
+      const std::size_t src = members[k] % base.size();
+      std::copy_n(windows.data() + src * T * C, T * C, batch_x.data() + k * T * C);
+      d.y[members[k]] = base_labels[src];
+      d.sub_policy[members[k]] = idx;
     }
-    const std::span<float> batch_x(d.X.data() + b0 * T * C, nb * T * C);
-    if (idx < 0) {
+    if (idx >= 0) {
+      const SubPolicy& sub = policy.sub_policies[static_cast<std::size_t>(idx)];
+      std::vector<StdaSpec> specs = stda_counterparts(sub, policy, options.normalize, rate);
+      std::vector<StdaSpec> after_normalizing = jitter_in_standard_deviations(specs, sub, options);
+      const auto scaling = std::find_if(specs.begin(), specs.end(), [](const StdaSpec& spec) {
+        return spec.method == StdaMethod::time_scaling;
+      });
+      if (scaling != specs.end()) {
+        if (whole.empty()) whole = extract_windows(streams, std::vector<int64_t>{0}, n);
+        scale_time_from_recording(*scaling, whole, n, C, base, members, br, batch_x, T);
+        specs.erase(scaling);
+      }
+      for (const StdaSpec& spec : specs) apply_stda(spec, layout, batch_x, {nb, T, C}, br);
       if (options.normalize) apply_normalization(batch_x, C, d.info);
-      continue;
+      for (const StdaSpec& spec : after_normalizing)
+        apply_stda(spec, layout, batch_x, {nb, T, C}, br);
+    } else if (options.normalize) {
+      apply_normalization(batch_x, C, d.info);
     }
-    const BatchShape shape{nb, T, C};
-    const SubPolicy& sub = policy.sub_policies[static_cast<std::size_t>(idx)];
-    std::vector<StdaSpec> specs = stda_counterparts(sub, policy, options.normalize, rate);
-    // Jitter in standard deviations waits for the z-scoring (it is last in the list).
-    std::vector<StdaSpec> after_normalizing;
-    if (options.normalize && sub.hardware.kind == HardwareOp::Kind::ranges) {
-      for (auto it = specs.begin(); it != specs.end();) {
-        if (it->method == StdaMethod::jittering) {
-          after_normalizing.push_back(*it);
-          it = specs.erase(it);
-        } else {
-          ++it;
-        }
-      }
-    }
-    // Time scaling first, from the recording itself: window k becomes the recording at
-    // start + c + b (i - c), c = (T-1)/2, b ~ U[lo, hi] (moved inside the recording when it
-    // would leave it), linearly interpolated -- a faster window shows b T recorded samples
-    // instead of holding its edge values. The other methods then act on the result.
-    for (auto it = specs.begin(); it != specs.end(); ++it) {
-      if (it->method != StdaMethod::time_scaling) continue;
-      if (whole.empty()) {
-        // The whole recording, made the first time it is needed.
-        const std::vector<int64_t> whole_start{0};
-        whole = extract_windows(streams, whole_start, n);
-      }
-      const double c = 0.5 * static_cast<double>(T - 1), last = static_cast<double>(n - 1);
-      for (std::size_t k = 0; k < nb; ++k) {
-        const double b = it->lo == it->hi ? it->lo : br.uniform(it->lo, it->hi);
-        const auto s0 = static_cast<double>(base[(b0 + k) % base.size()]);
-        const double first = s0 + c - b * c;
-        double shift = 0.0;
-        const double end = s0 + c + b * c;
-        if (end - first > last)
-          throw Error(
-              fmt::format("augment: a window of {} samples at {:g}x speed needs {:.0f} "
-                          "samples; the recording has {}",
-                          T, b, end - first + 1, n));
-        if (first < 0.0) shift = -first;
-        if (end > last) shift = last - end;
-        float* o = batch_x.data() + k * T * C;
-        for (std::size_t i = 0; i < T; ++i) {
-          const double pos =
-              std::clamp(s0 + c + b * (static_cast<double>(i) - c) + shift, 0.0, last);
-          const auto j = std::min(static_cast<std::size_t>(pos), n - 2);
-          const double f = pos - static_cast<double>(j);
-          for (std::size_t ch = 0; ch < C; ++ch) {
-            const double a0 = whole[j * C + ch], a1 = whole[(j + 1) * C + ch];
-            o[i * C + ch] = static_cast<float>(a0 + f * (a1 - a0));
-          }
-        }
-      }
-      specs.erase(it);
-      break;
-    }
-    for (const StdaSpec& spec : specs) apply_stda(spec, layout, batch_x, shape, br);
-    if (options.normalize) apply_normalization(batch_x, C, d.info);
-    for (const StdaSpec& spec : after_normalizing) apply_stda(spec, layout, batch_x, shape, br);
+    for (std::size_t k = 0; k < nb; ++k)
+      std::copy_n(batch_x.data() + k * T * C, T * C, d.X.data() + members[k] * T * C);
   }
   return d;
 }

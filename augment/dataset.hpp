@@ -47,8 +47,9 @@ std::vector<int64_t> read_labels(const std::string& path, std::span<const double
 
 // Window starts 0, stride, 2 stride, ... while start + window <= samples.
 std::vector<int64_t> window_starts(std::size_t samples, std::size_t window, std::size_t stride);
-// The majority label of each window (ties to the smaller label; kNoLabel loses every tie and
-// wins only when the whole window is unlabelled). Empty labels: every window kNoLabel. Throws
+// The majority label of each window: the most frequent of its samples' labels, kNoLabel
+// included (a window mostly unlabelled is unlabelled), kNoLabel losing every tie and ties
+// between classes going to the smaller label. Empty labels: every window kNoLabel. Throws
 // imukit::Error for a label below kNoLabel.
 std::vector<int64_t> window_labels(std::span<const int64_t> labels, std::span<const int64_t> starts,
                                    std::size_t window);
@@ -70,7 +71,7 @@ struct DatasetInfo {
   uint64_t seed = 0;
   std::size_t batch_size = 0;
   double identity_fraction = 0.0;
-  std::string method;  // PPDA: "spline" or "fd" (DatasetOptions::method)
+  std::string method;  // PPDA: "spline", "fd" or "reference" (DatasetOptions::method)
   // PPDA: windows written unaugmented (sub_policy -1) because their drawn speed needed more
   // motion than the scene has around them.
   std::size_t too_short_windows = 0;
@@ -110,18 +111,21 @@ struct Dataset {
 };
 
 // Base windows every `stride` samples; output window i uses base window i mod (base count) (so a
-// count above the base count repeats the windows under fresh draws), batch b of `batch_size`
-// windows uses sub-policy sample_sub_policy(policy, Rng(seed).child(b)) (or identity for the
-// identity_fraction of batches decided by the same stream) and draws its windows from
-// Rng(seed).child(b) as PpdaAugmenter::apply does. A window whose drawn speed needs more motion
-// than the scene has around it is written unaugmented (sub_policy -1, from Rng(seed).child(b)
-// .child(0)) and counted in info.too_short_windows.
+// count above the base count repeats the windows under fresh draws). The output windows are
+// dealt into batches of `batch_size` in a shuffled order (a Fisher-Yates shuffle drawn from
+// Rng(seed, 1)), so a batch holds windows from all over the source; batch b uses sub-policy
+// sample_sub_policy(policy, Rng(seed).child(b)) (or identity for the identity_fraction of
+// batches decided by the same stream) and draws its windows, in shuffled order, from
+// Rng(seed).child(b) as PpdaAugmenter::apply does. X stays in window order. A window whose
+// drawn speed needs more motion than the scene has around it is written unaugmented
+// (sub_policy -1, from Rng(seed).child(b).child(0)) and counted in info.too_short_windows.
 // labels: per sample (at the sensor rate), may be empty.
 Dataset generate_dataset(const sim::Scene& scene, const Policy& policy,
                          std::span<const int64_t> labels, const DatasetOptions& options);
 // The STDA counterparts of the policy applied to recorded windows. Time scaling runs first and
 // reads the recording around each window (a faster window shows more of it), instead of holding
-// the window's edge values as apply_stda does on bare windows.
+// the window's edge values as apply_stda does on bare windows; the recording must hold a window
+// at the policy's fastest speed, and every sample must be finite (both checked before any work).
 Dataset generate_dataset(const std::vector<std::string>& stream_names,
                          const std::vector<const ImuSeries*>& streams, const Policy& policy,
                          std::span<const int64_t> labels, const DatasetOptions& options);

@@ -90,8 +90,7 @@ class DrawSource {
   std::size_t pos_ = 0;
 };
 
-std::size_t draws_per_window(const StdaSpec& spec, const ChannelLayout& layout,
-                             const BatchShape& shape) {
+std::size_t draws_per_window(const StdaSpec& spec, const BatchShape& shape) {
   const std::size_t curves = spec.per_channel ? shape.channels : 1;
   switch (spec.method) {
     case StdaMethod::identity:
@@ -105,7 +104,7 @@ std::size_t draws_per_window(const StdaSpec& spec, const ChannelLayout& layout,
     case StdaMethod::time_warping:
       return static_cast<std::size_t>(spec.knots + 1);
     case StdaMethod::rotation:
-      return 3 * layout.sensors.size();
+      return 3;
     case StdaMethod::jittering:
       return shape.samples * shape.channels;
   }
@@ -190,14 +189,17 @@ void run(const StdaSpec& spec, const ChannelLayout& layout, std::span<T> batch,
         break;
       }
       case StdaMethod::rotation: {
+        // One rotation for every sensor of the window, as the paper's X'_n = R X_n: a rotation
+        // per sensor changed the sensors' orientations relative to each other (found in
+        // review, 2026-11-27).
+        double ang[3];
+        for (int k = 0; k < 3; ++k)
+          ang[k] = src.uniform(-spec.max_angle_rad[k], spec.max_angle_rad[k]);
+        const Eigen::Matrix3d R = (Eigen::AngleAxisd(ang[0], Eigen::Vector3d::UnitX()) *
+                                   Eigen::AngleAxisd(ang[1], Eigen::Vector3d::UnitY()) *
+                                   Eigen::AngleAxisd(ang[2], Eigen::Vector3d::UnitZ()))
+                                      .toRotationMatrix();
         for (const SensorChannels& s : layout.sensors) {
-          double ang[3];
-          for (int k = 0; k < 3; ++k)
-            ang[k] = src.uniform(-spec.max_angle_rad[k], spec.max_angle_rad[k]);
-          const Eigen::Matrix3d R = (Eigen::AngleAxisd(ang[0], Eigen::Vector3d::UnitX()) *
-                                     Eigen::AngleAxisd(ang[1], Eigen::Vector3d::UnitY()) *
-                                     Eigen::AngleAxisd(ang[2], Eigen::Vector3d::UnitZ()))
-                                        .toRotationMatrix();
           for (std::size_t first : s.triads) {
             for (std::size_t i = 0; i < T_; ++i) {
               T* v = x + i * C + first;
@@ -240,7 +242,7 @@ template <class T>
 void apply_impl(const StdaSpec& spec, const ChannelLayout& layout, std::span<T> batch,
                 const BatchShape& shape, Rng* rng, StdaDraws* log, const StdaDraws* replay) {
   check(spec, layout, batch.size(), shape);
-  const std::size_t per = draws_per_window(spec, layout, shape);
+  const std::size_t per = draws_per_window(spec, shape);
   if (replay != nullptr) {
     if (replay->method != spec.method || replay->per_window != per ||
         replay->values.size() != per * shape.windows) {

@@ -4,7 +4,7 @@
 // of a NumPy/PyTorch batch. Methods: magnitude scaling, magnitude warping (not-a-knot cubic
 // spline through K+2 knots), time scaling (t' = t / b around the window centre), time warping
 // (tsaug semantics: PCHIP warp, linear resampling, one warp for all channels, realised speed
-// ratio exactly r), rotation (one rotation per sensor, applied to all of its 3-axis blocks) and
+// ratio exactly r), rotation (one rotation per window, applied to every sensor's 3-axis blocks) and
 // jittering (sigma per channel kind in SI units, or in standard deviations of z-scored data).
 //
 // Randomness: every method draws from a caller-owned Rng, window after window, in the order
@@ -59,7 +59,7 @@ enum class StdaMethod {
   magnitude_warping,  // X' = a(t) X, a(t) the not-a-knot spline through K+2 knots ~ N(1, sigma^2)
   time_scaling,       // X'(i) = X(c + b (i - c)), c = (T-1)/2, b ~ U[lo, hi]; ends held
   time_warping,       // tsaug TimeWarp(n_speed_change = K, max_speed_ratio = r)
-  rotation,           // per sensor R = Rx(ax) Ry(ay) Rz(az), angles ~ U[-max, max] per axis
+  rotation,           // R = Rx(ax) Ry(ay) Rz(az), angles ~ U[-max, max] per axis, every sensor
   jittering,          // X' = X + N(0, sigma_kind^2) per sample and channel
 };
 std::string_view to_string(StdaMethod method);
@@ -88,7 +88,7 @@ struct StdaSpec {
 //  magnitude_warping  the K+2 knot values (per channel: channel after channel)
 //  time_scaling       b
 //  time_warping       the K+1 uniforms u (the speeds follow from them exactly)
-//  rotation           ax, ay, az (rad) per sensor, sensor after sensor
+//  rotation           ax, ay, az (rad), one rotation for all sensors
 //  jittering          the T x C standard normal draws, sample after sample (scaled afterwards)
 struct StdaDraws {
   StdaMethod method = StdaMethod::identity;

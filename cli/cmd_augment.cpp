@@ -4,6 +4,7 @@
 // --threads says.
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <memory>
 #include <optional>
 
@@ -29,6 +30,7 @@ struct AugmentArgs {
   // whose default is the scene's.
   augment::DatasetOptions dataset;
   std::optional<uint64_t> seed;
+  bool method_given = false;
   bool list = false;
 };
 
@@ -47,6 +49,10 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     throw UsageError("augment: give either --scene SCENE.json or --input RECORDING");
   if (!a.scene.empty() && !extra.empty())
     throw UsageError("augment: unexpected argument " + quote_excerpt(extra.front()));
+  if (!a.input.empty() && a.method_given)
+    throw UsageError(
+        "augment: --method chooses how a --scene is simulated again; a recording "
+        "(--input) is not simulated");
   augment::DatasetOptions o = a.dataset;
   augment::Dataset d;
   if (!a.scene.empty()) {
@@ -63,6 +69,17 @@ int run_augment(const AugmentArgs& a, const std::vector<std::string>& extra) {
     }
     d = augment::generate_dataset(scene, policy, labels, o);
     d.info.source = a.scene;
+    if (d.info.too_short_windows > 0) {
+      const auto augmented = static_cast<std::size_t>(std::count_if(
+          d.sub_policy.begin(), d.sub_policy.end(), [](int64_t k) { return k >= 0; }));
+      fmt::print(stderr,
+                 "warning: augment: {} of the {} windows to augment ({:.1f} %) are written "
+                 "unaugmented (sub_policy -1): their drawn speed needs more motion than the scene "
+                 "has around them\n",
+                 d.info.too_short_windows, augmented + d.info.too_short_windows,
+                 100.0 * static_cast<double>(d.info.too_short_windows) /
+                     static_cast<double>(augmented + d.info.too_short_windows));
+    }
   } else {
     std::vector<std::string> tokens{a.input};
     tokens.insert(tokens.end(), extra.begin(), extra.end());
@@ -145,8 +162,12 @@ IMUKIT_REGISTER_COMMAND(
               ->check(real_in(0, 1, ""));
           sub.add_option_function<std::string>(
                  "--method",
-                 [&o](const std::string& m) { o.method = sim::parse_derivative_method(m); },
-                 "Derivative method of the re-simulation: spline (default) or fd (faster)")
+                 [&o, a](const std::string& m) {
+                   o.method = sim::parse_derivative_method(m);
+                   a->method_given = true;
+                 },
+                 "Derivative method of the re-simulation (--scene): spline (default) or fd "
+                 "(faster)")
               ->check(CLI::IsMember({"spline", "fd"}));
           sub.add_flag("--list-sub-policies", a->list, "Print the policy's sub-policies and exit");
           sub.allow_extras();

@@ -69,17 +69,16 @@ void write_raw(const std::string& path, NpyDtype dtype, const void* data, std::s
   head += static_cast<char>(len >> 8);
   head += dict;
 
-  std::FILE* out = std::fopen(path.c_str(), "wb");
-  if (!out)
-    throw IoError(fmt::format("{}: cannot open for writing: {}", path, std::strerror(errno)));
-  const std::size_t bytes = count * item_size(dtype);
-  const bool ok = std::fwrite(head.data(), 1, head.size(), out) == head.size() &&
-                  (bytes == 0 || std::fwrite(data, 1, bytes, out) == bytes);
-  const int saved = errno;
-  const bool closed = std::fclose(out) == 0;
-  if (!ok || !closed) {
-    throw IoError(fmt::format("{}: write failed: {}", path, std::strerror(ok ? errno : saved)));
-  }
+  // Through a temporary renamed over the file: a failed write (a full disk, a kill) leaves an
+  // earlier file as it was, never a truncated array under its name (found in review,
+  // 2026-11-27: a dataset folder held a new X.npy beside the old run's files).
+  write_file_atomically(path, [&](std::FILE* out) {
+    const std::size_t bytes = count * item_size(dtype);
+    if (std::fwrite(head.data(), 1, head.size(), out) != head.size() ||
+        (bytes != 0 && std::fwrite(data, 1, bytes, out) != bytes)) {
+      throw IoError(fmt::format("{}: write failed: {}", path, std::strerror(errno)));
+    }
+  });
 }
 
 [[noreturn]] void fail(const std::string& source, std::size_t offset, const std::string& what) {

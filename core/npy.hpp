@@ -1,5 +1,6 @@
 // NumPy .npy files (format version 1.0): what Python users load with one numpy.load. imukit
-// writes C-order little-endian float32, float64 and int64 arrays, and reads the same back
+// writes C-order little-endian float32, float64 and int64 arrays (each file through a temporary
+// renamed over it), and reads the same back
 // (strictly: anything else is rejected with the byte offset of the problem).
 #pragma once
 

@@ -222,8 +222,14 @@ Placement vary_placement(Placement pl, std::string& preset, const PlacementVaria
     pl.q_joint_sensor = r * pl.q_joint_sensor;
     pl.p_joint_sensor = r * pl.p_joint_sensor;
   }
-  if (v.flip && rng.uniform() < 0.5)
-    pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d(0, 0, std::numbers::pi));
+  if (v.flip) {
+    // A reversed mounting: none, or a half turn about the sensor's x, y or z, a quarter each
+    // (the group of 180-degree flips along each axis, the paper's; only z turned until review,
+    // 2026-11-27, never upside down). One draw, as before.
+    const int axis = static_cast<int>(rng.uniform() * 4.0) - 1;
+    if (axis >= 0)
+      pl.q_joint_sensor = pl.q_joint_sensor * so3_exp(Vector3d::Unit(axis) * std::numbers::pi);
+  }
   Quaterniond off = Quaterniond::Identity();
   for (int k = 0; k < 3; ++k) {
     const double a = rng.uniform_in(-v.rotation_range_rad[k], v.rotation_range_rad[k]);

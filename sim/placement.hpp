@@ -75,13 +75,14 @@ PlacementPreset describe_placement(const Placement& placement, const Body& body,
 // How a placement varies for augmentation (PPDA's placement group, seed-summary section 2),
 // applied by vary_placement in this order: swap to a preset drawn from swap_presets (when the
 // sensor's preset is one of them), shift within the preset's position range (L, A, N), rotation
-// about the segment's long axis L, flip (180 deg about the sensor's z, probability 1/2), rotation
-// about the sensor's x, y, z (three draws always). Rotations are composed, never added as angles:
+// about the segment's long axis L, flip (none, or 180 deg about the sensor's x, y or z: 1/4 each),
+// rotation about the sensor's x, y, z (three draws always). Rotations are composed, never added
+// as angles:
 // q_joint_sensor' = R_L q_joint_sensor R_flip Rx Ry Rz.
 struct PlacementVariation {
   Eigen::Vector3d rotation_range_rad = Eigen::Vector3d::Zero();  // U[-r, r] about sensor x, y, z
   double long_axis_range_rad = 0.0;  // extra U[-r, r] about the segment's long axis (0 = off)
-  bool flip = false;                 // 180 degrees about the sensor's z axis with probability 1/2
+  bool flip = false;  // none or 180 degrees about the sensor's x, y or z, probability 1/4 each
   // Shift within the preset's position range (sensors without a preset stay).
   bool shift = false;
   // Swap: a sensor whose preset is in this list is moved to a preset drawn uniformly from it.

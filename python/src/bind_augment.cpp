@@ -6,6 +6,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <type_traits>
 
 #include "common.hpp"
@@ -189,6 +190,46 @@ py::array target_for(const py::array& x_in, py::handle out_obj, const char* what
   return out;
 }
 
+// The keyword parameters each STDA method reads (augment/stda.hpp, StdaSpec).
+std::vector<std::string_view> parameters_of(augment::StdaMethod method) {
+  using augment::StdaMethod;
+  switch (method) {
+    case StdaMethod::identity:
+      return {};
+    case StdaMethod::magnitude_scaling:
+      return {"sigma", "per_channel"};
+    case StdaMethod::magnitude_warping:
+      return {"sigma", "knots", "per_channel"};
+    case StdaMethod::time_scaling:
+      return {"lo", "hi"};
+    case StdaMethod::time_warping:
+      return {"knots", "ratio"};
+    case StdaMethod::rotation:
+      return {"max_angle_rad"};
+    case StdaMethod::jittering:
+      return {"jitter_sigma"};
+  }
+  return {};
+}
+
+bool known_parameter(const std::string& key) {
+  for (const char* k :
+       {"sigma", "knots", "per_channel", "lo", "hi", "ratio", "max_angle_rad", "jitter_sigma"})
+    if (key == k) return true;
+  return false;
+}
+
+std::string unused_parameter_message(augment::StdaMethod method, const std::string& key,
+                                     const std::vector<std::string_view>& takes) {
+  std::string list;
+  for (const std::string_view t : takes) list += (list.empty() ? "" : ", ") + std::string(t);
+  std::string message = "stda: " + std::string(augment::to_string(method)) + " does not use '" +
+                        key + "' (it takes " + (list.empty() ? "no parameters" : list) + ")";
+  if (method == augment::StdaMethod::jittering && key == "sigma")
+    message += "; its noise is jitter_sigma=[accelerometer, gyroscope, magnetometer, other]";
+  return message;
+}
+
 // A StdaSpec, or a method name with its parameters as keywords, each converted here so that a
 // wrong type names the parameter (found in review: sigma="0.1" was "Unable to cast ... to C++
 // type 'double'").
@@ -204,9 +245,14 @@ StdaSpec spec_from(py::handle obj, const py::kwargs& params) {
                          type_name(obj));
   }
   s.method = augment::parse_stda_method(obj.cast<std::string>());
+  const std::vector<std::string_view> takes = parameters_of(s.method);
   for (auto [key_obj, value] : params) {
     const auto key = key_obj.cast<std::string>();
     const std::string what = "stda: " + key;
+    // A parameter the method does not use was taken and ignored: stda(x, "jittering", seed,
+    // sigma=0.2) added no noise at all (found in review, 2026-11-27).
+    if (known_parameter(key) && std::find(takes.begin(), takes.end(), key) == takes.end())
+      throw py::type_error(unused_parameter_message(s.method, key, takes));
     if (key == "sigma") {
       s.sigma = number_argument(value, what);
     } else if (key == "knots") {

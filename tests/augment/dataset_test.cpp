@@ -3,9 +3,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/npy.hpp"
@@ -22,8 +25,15 @@ TEST(Dataset, WindowStartsAndMajorityLabels) {
   EXPECT_THROW(window_starts(10, 0, 1), Error);
   const std::vector<int64_t> labels = {1, 1, 2, 2, 2, kNoLabel, kNoLabel, kNoLabel, 7, 7};
   const std::vector<int64_t> starts = {0, 1, 4, 5, 6};
-  // [1 1 2 2] tie -> 1; [1 2 2 2] -> 2; [2 - - -] -> 2; [- - - 7] -> 7; [- - 7 7] -> 7.
-  EXPECT_EQ(window_labels(labels, starts, 4), (std::vector<int64_t>{1, 2, 2, 7, 7}));
+  // [1 1 2 2] tie -> 1; [1 2 2 2] -> 2; [2 - - -] -> none; [- - - 7] -> none; [- - 7 7] tie
+  // -> 7 (unlabelled samples vote, and lose ties: until review, 2026-11-27, one labelled sample
+  // labelled a window).
+  EXPECT_EQ(window_labels(labels, starts, 4), (std::vector<int64_t>{1, 2, kNoLabel, kNoLabel, 7}));
+  const std::vector<int64_t> at_zero = {0};
+  const std::vector<int64_t> mostly_none = {kNoLabel, kNoLabel, 3, 4, kNoLabel};
+  EXPECT_EQ(window_labels(mostly_none, at_zero, 5), (std::vector<int64_t>{kNoLabel}));
+  const std::vector<int64_t> ties = {kNoLabel, kNoLabel, 4, 4, 3, 3};
+  EXPECT_EQ(window_labels(ties, at_zero, 6), (std::vector<int64_t>{3}));
   const std::vector<int64_t> none = {kNoLabel, kNoLabel, kNoLabel};
   const std::vector<int64_t> s0 = {0};
   EXPECT_EQ(window_labels(none, s0, 3), (std::vector<int64_t>{kNoLabel}));
@@ -123,6 +133,45 @@ sim::Scene small_scene() {
   return scene;
 }
 
+// A batch shares one sub-policy, so its windows are drawn from all over the source, as a
+// training mini-batch: batches of consecutive windows were runs of one activity, each class
+// seen under one or two sub-policies (found in review, 2026-11-27). 70 windows, 7 labels of 10
+// windows each, batches of 10: in time order each label was one batch.
+TEST(Dataset, BatchesMixWindowsFromAllOverTheSource) {
+  const sim::Scene scene =
+      testing::preset_scene({"left_wrist_watch"}, {.rate_hz = 50, .frames = 3500});
+  DatasetOptions o;
+  o.window = 50;
+  o.stride = 50;
+  o.batch_size = 10;
+  o.seed = 5;
+  std::vector<int64_t> labels(3500);
+  for (std::size_t k = 0; k < labels.size(); ++k) labels[k] = static_cast<int64_t>(k / 500);
+  const Dataset d = generate_dataset(scene, builtin_policy("paper"), labels, o);
+  ASSERT_EQ(d.y.size(), 70u);
+  std::map<int64_t, std::set<int64_t>> sub_policies_of_label;
+  std::map<int64_t, std::size_t> windows_of_sub_policy;
+  for (std::size_t k = 0; k < 70; ++k) {
+    EXPECT_EQ(d.y[k], static_cast<int64_t>(k / 10)) << k;
+    sub_policies_of_label[d.y[k]].insert(d.sub_policy[k]);
+    ++windows_of_sub_policy[d.sub_policy[k]];
+  }
+  ASSERT_EQ(windows_of_sub_policy.size(), 7u);  // 7 batches, 7 different draws of 810
+  for (const auto& [sub, n] : windows_of_sub_policy) EXPECT_EQ(n, 10u) << sub;
+  // 10 windows dealt at random into 7 batches of 10 land in at most 2 batches with a chance
+  // below 1e-4.
+  for (const auto& [label, subs] : sub_policies_of_label) EXPECT_GE(subs.size(), 3u) << label;
+  // The written order is the window order, whatever the shuffle: the unaugmented dataset
+  // (identity_fraction 1) is the plain windows in time order.
+  o.identity_fraction = 1.0;
+  const Dataset plain = generate_dataset(scene, builtin_policy("paper"), labels, o);
+  PpdaAugmenter aug(scene, PpdaOptions{.window = 50});
+  std::vector<float> expected(plain.X.size());
+  Rng unused(0);
+  aug.apply(SubPolicy{}, aug.window_starts(50), unused, expected, 1);
+  EXPECT_EQ(plain.X, expected);
+}
+
 TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
   const sim::Scene scene = small_scene();
   const Policy policy = builtin_policy("imukit");
@@ -147,11 +196,17 @@ TEST(Dataset, GenerateIsBitIdenticalForAnyThreadCountAndRepeatsBaseWindows) {
   po.window = 50;
   const std::size_t nbase = PpdaAugmenter(scene, po).window_starts(50).size();
   ASSERT_EQ(nbase, 14u);  // 700 samples
+  std::map<int64_t, std::size_t> per_sub_policy;
   for (std::size_t k = 0; k < 30; ++k) {
     const std::size_t base = k % nbase;
-    EXPECT_EQ(a.y[k], static_cast<int64_t>(base * 50 / 100)) << k;
-    EXPECT_EQ(a.sub_policy[k], a.sub_policy[k - k % 8]);  // one per batch
+    EXPECT_EQ(a.y[k], static_cast<int64_t>(base * 50 / 100)) << k;  // X stays in window order
+    ++per_sub_policy[a.sub_policy[k]];
   }
+  // One sub-policy per batch of 8 (8, 8, 8 and 6 windows), the four drawn apart.
+  std::vector<std::size_t> sizes;
+  for (const auto& [sub, n] : per_sub_policy) sizes.push_back(n);
+  std::sort(sizes.begin(), sizes.end());
+  EXPECT_EQ(sizes, (std::vector<std::size_t>{6, 8, 8, 8}));
   // Found in review (2026-11-27): more labels than samples were taken (the first ones used),
   // where the recording path refused them.
   std::vector<int64_t> longer = labels;

@@ -279,16 +279,19 @@ TEST(Stda, JitterHasTheStatedSigmaPerChannelKind) {
   EXPECT_NEAR(moments(gyr).second, 0.02, 0.02 * 0.01);
 }
 
-TEST(Stda, RotationTurnsASensorsTriadsTogetherAndKeepsNorms) {
+// One rotation per window for every sensor, the paper's X'_n = R X_n: each sensor drew its own
+// until review, 2026-11-27, which turned the sensors relative to each other.
+TEST(Stda, RotationTurnsEverySensorsTriadsByOneRotationAndKeepsNorms) {
   const BatchShape shape{10, 20, 12};
   const ChannelLayout layout = ChannelLayout::imu({"a", "b"});
   std::vector<double> x = make_batch(shape), x0 = x;
   Rng rng(3);
   StdaDraws log;
   apply_stda(spec_of(StdaMethod::rotation), layout, x, shape, rng, &log);
+  ASSERT_EQ(log.per_window, 3u);
   for (std::size_t w = 0; w < shape.windows; ++w) {
     for (std::size_t s = 0; s < 2; ++s) {
-      const double* a = &log.values[w * 6 + 3 * s];
+      const double* a = &log.values[w * 3];
       const Eigen::Matrix3d R = (Eigen::AngleAxisd(a[0], Eigen::Vector3d::UnitX()) *
                                  Eigen::AngleAxisd(a[1], Eigen::Vector3d::UnitY()) *
                                  Eigen::AngleAxisd(a[2], Eigen::Vector3d::UnitZ()))

@@ -64,8 +64,12 @@ def test_ppda_shapes_labels_and_description(ppda_dataset):
     base = np.where(starts + 25 <= 500, 3, 5)  # majority: the window's first half decides ties to 3
     expect = np.array([base[i % len(starts)] for i in range(40)])
     assert np.array_equal(y, expect), "labels are the majority of the segments in each window"
-    assert np.all((sp >= 0) & (sp < 810)) and len(set(sp[:16])) == 1 and len(set(sp[16:32])) == 1, \
-        "one sub-policy index per batch of 16"
+    # One sub-policy per batch of 16 (16, 16 and 8 windows), the batches dealt in a shuffled order
+    # (until review, 2026-11-27, each batch was 16 consecutive windows).
+    counts = sorted(np.unique(sp, return_counts=True)[1].tolist())
+    assert np.all((sp >= 0) & (sp < 810)) and counts == [8, 16, 16], \
+        f"one sub-policy index per batch of 16: {counts}"
+    assert len(set(sp[:16])) > 1, "the first 16 windows are not one batch"
     assert meta["schema"] == "imukit.dataset/1" and meta["mode"] == "ppda" and meta["rate_hz"] == 50 \
         and meta["window"] == 50 and meta["stride"] == 25 and meta["sensors"] == ["watch", "belt"] \
         and meta["channels"][:6] == ["watch.ax", "watch.ay", "watch.az", "watch.gx", "watch.gy", "watch.gz"] \
@@ -156,3 +160,28 @@ def test_errors_are_one_line(run, workdir, scene_file, simulated):
     r = run("augment", "--input", still, "--labels", seg, "-o", os.path.join(tmp, "x"))
     assert r.returncode == 1 and "still.csv: the time stamps do not advance" in r.stderr, \
         "a recording whose times do not advance is refused before its labels are mapped"
+
+
+def test_options_that_do_not_apply_and_windows_left_unaugmented_are_said(run, workdir, scene_file, simulated):
+    """Found in review (2026-11-27): --method was ignored with --input, and windows whose drawn
+    speed needed more motion than the scene has were written unaugmented with only a count in
+    dataset.json to say so."""
+    out = os.path.join(workdir, "m")
+    r = run("augment", "--input", os.path.join(simulated[0], "watch.csv"), "--method", "fd", "-o", out)
+    assert r.returncode == 2 and "--method chooses how a --scene is simulated again" in r.stderr, \
+        f"--method with --input is refused: {r.stderr}"
+    # 20 s of motion, windows of 10 s at 1.6-2.4x the speed: a window drawn faster than about 2x
+    # needs more than the 20 s (windows slide inwards, so only the whole scene's length counts).
+    pol = {"schema": "imukit.policy/1", "name": "fast",
+           "sub_policies": [{"speed": {"method": "scaling", "range": [1.6, 2.4]}}]}
+    ppath = os.path.join(workdir, "fast.json")
+    json.dump(pol, open(ppath, "w"))
+    fast = os.path.join(workdir, "fast")
+    r = run("augment", "--scene", scene_file, "--policy", ppath, "--window", "500", "--stride", "50", "-o", fast)
+    sp = np.load(os.path.join(fast, "sub_policy.npy"))
+    meta = json.load(open(os.path.join(fast, "dataset.json")))
+    short = int((sp == -1).sum())
+    assert r.returncode == 0 and 0 < short < len(sp) and meta["too_short_windows"] == short, \
+        f"some windows re-timed, some not ({short} of {len(sp)}): {r.stderr}"
+    assert f"warning: augment: {short} of the {len(sp)} windows to augment" in r.stderr, \
+        f"the windows written unaugmented are counted on stderr: {r.stderr}"

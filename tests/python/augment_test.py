@@ -233,9 +233,44 @@ class Stda(unittest.TestCase):
             np.testing.assert_array_equal(a, imukit.stda(x, "rotation", seed))
             np.testing.assert_array_equal(a, imukit.stda(x, "rotation", imukit.Rng(np.uint64(seed))))
         np.testing.assert_array_equal(imukit.stda(x, "rotation", np.int64(3)), imukit.stda(x, "rotation", 3))
-        np.testing.assert_array_equal(imukit.stda(x, "magnitude_scaling", 4, sigma=np.float32(0.25), knots=np.int32(3)),
-                                      imukit.stda(x, "magnitude_scaling", 4, sigma=0.25, knots=3))
+        np.testing.assert_array_equal(imukit.stda(x, "magnitude_warping", 4, sigma=np.float32(0.25), knots=np.int32(3)),
+                                      imukit.stda(x, "magnitude_warping", 4, sigma=0.25, knots=3))
         self.assertEqual(imukit.Rng(np.int64(3), stream=np.int8(2)).stream, 2)
+
+
+    def test_a_parameter_the_method_does_not_use_is_refused(self):
+        """Found in review (2026-11-27): stda(x, "jittering", seed, sigma=0.2) took sigma, which
+        jittering does not read, and added no noise at all; so did ratio= on time scaling."""
+        x = batch(dtype=np.float64)
+        cases = (
+            (lambda: imukit.stda(x, "jittering", 1, sigma=0.2),
+             "stda: jittering does not use 'sigma' (it takes jitter_sigma); its noise is "
+             "jitter_sigma=[accelerometer, gyroscope, magnetometer, other]"),
+            (lambda: imukit.stda(x, "time_scaling", 1, ratio=2.0),
+             "stda: time_scaling does not use 'ratio' (it takes lo, hi)"),
+            (lambda: imukit.StdaSpec("magnitude_scaling", knots=3),
+             "stda: magnitude_scaling does not use 'knots' (it takes sigma, per_channel)"),
+            (lambda: imukit.stda(x, "identity", 1, sigma=0.1),
+             "stda: identity does not use 'sigma' (it takes no parameters)"),
+        )
+        for call, message in cases:
+            with self.assertRaises(TypeError) as e:
+                call()
+            self.assertEqual(str(e.exception), message)
+        # The parameters a method does use still work, and jitter_sigma adds the noise asked for.
+        y = imukit.stda(x, "jittering", 1, jitter_sigma=[0.2, 0.0, 0.0, 0.0], layout=["watch", "belt"])
+        self.assertAlmostEqual(float(np.std(y[..., 0:3] - x[..., 0:3])), 0.2, delta=0.02)
+        np.testing.assert_array_equal(y[..., 3:6], x[..., 3:6])
+
+    def test_rotation_is_one_rotation_for_every_sensor(self):
+        """Found in review (2026-11-27): each sensor drew its own rotation; the paper turns all
+        the window's sensors by one R, which keeps their relative orientation."""
+        x = batch(dtype=np.float64)
+        x[..., 6:12] = x[..., 0:6]  # two sensors measuring the same
+        y, draws = imukit.stda(x, "rotation", 9, layout=["watch", "belt"], return_draws=True)
+        self.assertEqual(draws.per_window, 3)
+        np.testing.assert_array_equal(y[..., 0:6], y[..., 6:12])
+        self.assertFalse(np.allclose(y, x))
 
 
 class Policies(unittest.TestCase):

@@ -1,7 +1,8 @@
 """Sliding windows over labelled recordings, as the paper: a window of T samples every `stride`
-samples while a whole window fits, labelled with the majority of its samples' labels (ties to the
-smaller label; windows without any label are dropped), and per-channel standardisation with
-statistics of the training windows only.
+samples while a whole window fits, labelled with the majority of its samples' labels (unlabelled
+samples vote and lose ties; ties between classes go to the smaller label; windows whose majority
+is unlabelled are dropped), and per-channel standardisation with statistics of the training
+windows only.
 
 Window starts and majority labels come from imukit (`window_starts`, `window_labels`), the
 functions `imukit augment` uses.
