@@ -8,6 +8,7 @@
 #include <fmt/core.h>
 #include <fmt/os.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
@@ -42,6 +43,8 @@ struct IdentifyArgs {
   double segment_prior = 0.05;
   std::optional<double> time_offset;
   std::optional<double> motion_start;
+  // Options of a skeleton's motion given with --pose, where they do not apply.
+  std::vector<std::string> skeleton_only_given;
   double max_time_offset = 1.0;
   double gravity = kStandardGravity;
   int threads = 1;
@@ -209,6 +212,11 @@ sim::IdentifyOptions identify_options(const IdentifyArgs& a) {
   o.function_tolerance = a.function_tolerance;
   o.accel_bias_prior_mps2 = a.accel_bias_prior;
   o.gyro_bias_prior_radps = a.gyro_bias_prior;
+  // A name in both lists was estimated here and fixed from Python (found in review,
+  // 2026-11-27): refused in both.
+  for (const std::string& n : a.fix)
+    if (std::find(a.estimate.begin(), a.estimate.end(), n) != a.estimate.end())
+      throw UsageError("identify: '" + n + "' is both in --fix and in --estimate");
   apply_names(a.fix, false, o, "--fix");
   apply_names(a.estimate, true, o, "--estimate");
   if (a.time_offset) {
@@ -231,12 +239,18 @@ FitMotion pose_motion(const IdentifyArgs& a, const InputArg& pose, sim::Identify
     throw UsageError(
         "identify --pose: the tracked body is the joint; --joint, --init and --segments do not "
         "apply");
+  // They were taken and ignored (found in review, 2026-11-27).
+  if (!a.skeleton_only_given.empty())
+    throw UsageError("identify --pose: " + a.skeleton_only_given.front() +
+                     " is an option of a skeleton's motion (--motion); it does not apply");
   sim::PoseMotion pm = sim::pose_track_motion(load_pose_track(pose), pose.path);
   FitMotion m;
   m.body = std::move(pm.body);
   m.motion = std::make_shared<sim::Motion>(std::move(pm.motion));
   o.joint = 0;
-  o.motion_start_ns = pm.start_ns;
+  // The track's first row, on the track's clock, unless --motion-start puts it on the IMU's (a
+  // track on another clock); the option was silently ignored until review, 2026-11-27.
+  o.motion_start_ns = a.motion_start ? from_seconds(*a.motion_start) : pm.start_ns;
   o.invalid_motion = pm.gaps;
   // The tracked orientation is the sensor frame's or close to it: start from identity.
   o.init_rotation_from_data = false;
@@ -294,7 +308,7 @@ void print_result(const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
       r.samples_used, r.samples_excluded, r.seconds, r.iterations,
       r.converged ? "" : " (not converged)");
   for (const std::string& w : r.warnings) fmt::print(stderr, "warning: {}\n", w);
-  fmt::print("coarse time offset (|w| cross-correlation): {:.4f} s\n", r.coarse_time_offset_s);
+  fmt::print("time offset the fine fit started from: {:.4f} s\n", r.coarse_time_offset_s);
   fmt::print("{:<22} {:>14} {:>12}\n", "parameter", "value", "std error");
   for (const sim::ParameterEstimate& e : r.parameters) {
     if (!e.estimated) continue;
@@ -336,15 +350,14 @@ void print_result(const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
   }
 }
 
-// --scene-out: the fitted motion on the IMU's clock, frame k at first + k / rate with the mean
-// rate, as many frames as IMU samples (the last on the last sample), in a scene.
+// --scene-out: the fitted motion on the IMU's clock (sim::fitted_scene_clock) in a scene.
 void write_scene(const IdentifyArgs& a, const FitMotion& m, const ImuSeries& imu,
                  const sim::IdentifyResult& r, const sim::IdentifyOptions& o) {
   const sim::Body& body = m.body;
-  const double rate =
-      1e9 * static_cast<double>(imu.size() - 1) / static_cast<double>(imu.t.back() - imu.t.front());
+  const sim::FittedSceneClock clock = sim::fitted_scene_clock(imu.t);
+  const double rate = clock.rate_hz;
   const sim::Motion fitted =
-      sim::fitted_motion(body, *m.motion, r, imu.t.front(), static_cast<int64_t>(imu.size()), rate);
+      sim::fitted_motion(body, *m.motion, r, clock.first_ns, clock.frames, clock.rate_hz);
   sim::write_fitted_scene(a.scene_out, body, fitted, r,
                           a.sensor_name.empty()
                               ? body.joint(static_cast<std::size_t>(r.placement.joint)).name
@@ -443,7 +456,9 @@ IMUKIT_REGISTER_COMMAND(
                          "search range of the cross-correlation, s (default 1)")
               ->check(real_in(0, 3600, "s", LowEnd::open));
           sub.add_option("--motion-start", a->motion_start,
-                         "IMU-clock time of motion frame 0, s (default: the first IMU sample)")
+                         "IMU-clock time of motion frame 0 (with --pose: of the track's first "
+                         "row), s (default: the first IMU sample; with --pose the track's own "
+                         "time)")
               ->check(real_in(-4e9, 4e9, "s"));
           sub.add_option("--gravity", a->gravity, "gravity magnitude, m/s^2")
               ->check(gravity_range());
@@ -498,7 +513,11 @@ IMUKIT_REGISTER_COMMAND(
                      "      --pose 02_undisturbed_slow_rotation_B.csv --columns "
                      "t,_9,qw,qx,qy,qz,px,py,pz,_ \\\n"
                      "      --gaps qw,qx,qy,qz,px,py,pz -o placement.json\n");
-          return [&sub, a] { return run_identify(*a, sub.remaining()); };
+          return [&sub, a] {
+            for (const char* name : {"--height", "--bvh-scale", "--up"})
+              if (sub.count(name) > 0) a->skeleton_only_given.emplace_back(name);
+            return run_identify(*a, sub.remaining());
+          };
         }});
 
 }  // namespace imukit::cli

@@ -183,7 +183,9 @@ struct IdentifyResult {
   // Residual RMS and per-axis fidelity of the model against the measurement over the samples
   // used: before = the motion as given (the initial position, the initial rotation or, with
   // init_rotation_from_data, Wahba's at time offset 0; zero bias/scale, no time offset or clock
-  // rate, no correction); after = identified.
+  // rate, no correction), over the samples used that lie inside the motion at offset 0 (the
+  // others' columns of accel_before/gyro_before are NaN; fidelity_before.samples counts them;
+  // none: NaN figures); after = identified.
   TriadRms rms_before, rms_after;
   Fidelity fidelity_before, fidelity_after;
   double sigma_accel = 0.0, sigma_gyro = 0.0;  // robust residual std used to weight the fit
@@ -223,6 +225,20 @@ std::string placement_json(const IdentifyResult& result, const Body& body);
 // orientation).
 Motion fitted_motion(const Body& body, MotionSource& motion, const IdentifyResult& result,
                      TimeNs first_ns, int64_t frames, double rate_hz);
+
+// The grid of a fitted scene on an IMU's time stamps: from the first stamp at the IMU's sampling
+// rate to the last. Without samples missing (SamplingStats::samples_missing) that is the mean
+// rate and one frame per sample (frame k on sample k, the last on the last); with samples
+// missing the mean rate is low by their share and the frames drift off the samples (88.6 Hz
+// for a 120 Hz IMU that lost 0.5 s; found in review, 2026-11-27), so the rate is the mean
+// between the gaps and the frames span the recording at it (a gap's samples have frames, the
+// samples after it frames of their own times).
+struct FittedSceneClock {
+  TimeNs first_ns = 0;
+  int64_t frames = 0;
+  double rate_hz = 0.0;
+};
+FittedSceneClock fitted_scene_clock(std::span<const TimeNs> imu_t);
 
 // A scene folder that `imukit simulate`, read_scene and PPDA's Augmenter load (docs/formats.md,
 // "Fitted scenes"): `motion.csv` (the fitted motion, joint-quaternion CSV), `scene.json` (the

@@ -1,5 +1,6 @@
 // Identification (sim/identify.hpp, docs/identification.md): placement, hardware, timing and the
 // segment correction fitted to a real IMU; the fitted motion; fidelity.
+#include <algorithm>
 #include <memory>
 
 #include "common.hpp"
@@ -19,9 +20,7 @@ namespace {
 struct IdentifyHandle {
   sim::IdentifyResult result;
   sim::Body body;
-  double imu_rate_hz = 0.0;  // mean rate of the IMU given (fitted_motion's default)
-  int64_t imu_samples = 0;
-  TimeNs imu_first_ns = 0;
+  sim::FittedSceneClock imu_clock;  // the fitted motion's default grid (fitted_scene_clock)
   // The gravity the fit used: write_scene's default, as the command writes the fitted scene
   // with it (found in review, 2026-11-27: 9.80665 was written after a fit at 9.81).
   Eigen::Vector3d gravity_world = kStandardGravityWorld;
@@ -94,8 +93,13 @@ std::shared_ptr<IdentifyHandle> run_identify(
     double tilt_prior_rad, double smoothness, double max_clock_rate,
     std::optional<int64_t> motion_start_ns, std::optional<double> time_offset_s,
     double max_time_offset_s, py::handle gravity, py::handle invalid_motion, int threads,
-    double function_tolerance, double accel_bias_prior, double gyro_bias_prior) {
+    double function_tolerance, double accel_bias_prior, double gyro_bias_prior, py::handle segments,
+    double segment_prior) {
   sim::IdentifyOptions o;
+  // The command's --segments and --segment-prior (missing here until review, 2026-11-27).
+  for (const std::string& name : string_list(segments, "identify: segments"))
+    o.segments.push_back(body.index_of(name));
+  o.segment_prior = segment_prior;
   if (init) {
     o.init = sim::preset_placement(*init, body);
     o.joint = o.init.joint;
@@ -121,6 +125,14 @@ std::shared_ptr<IdentifyHandle> run_identify(
     o.init.q_joint_sensor = r.normalized();
   }
   o.init_rotation_from_data = rotation_from_data;
+  // A name in both lists was fixed here and estimated by the command (found in review,
+  // 2026-11-27): refused in both.
+  {
+    const std::vector<std::string> fixed = string_list(fix, "identify: fix");
+    for (const std::string& n : string_list(estimate, "identify: estimate"))
+      if (std::find(fixed.begin(), fixed.end(), n) != fixed.end())
+        throw Error("identify: '" + n + "' is both in fix and in estimate");
+  }
   apply_names(estimate, true, o, "estimate");
   apply_names(fix, false, o, "fix");
   o.correction = sim::parse_segment_correction(correction);
@@ -166,11 +178,7 @@ std::shared_ptr<IdentifyHandle> run_identify(
     py::gil_scoped_release release;
     h->result = sim::identify(body, motion, imu, o);
   }
-  // The mean rate: frame k of the fitted motion at first + k / rate, the last on the last sample.
-  h->imu_rate_hz =
-      1e9 * static_cast<double>(imu.size() - 1) / static_cast<double>(imu.t.back() - imu.t.front());
-  h->imu_samples = static_cast<int64_t>(imu.size());
-  h->imu_first_ns = imu.t.front();
+  h->imu_clock = sim::fitted_scene_clock(imu.t);
   h->gravity_world = o.gravity_world;
   return h;
 }
@@ -301,8 +309,8 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
             {
               py::gil_scoped_release release;
               out = std::make_shared<sim::Motion>(sim::fitted_motion(
-                  h.body, motion, h.result, first_ns.value_or(h.imu_first_ns),
-                  frames.value_or(h.imu_samples), rate_hz.value_or(h.imu_rate_hz)));
+                  h.body, motion, h.result, first_ns.value_or(h.imu_clock.first_ns),
+                  frames.value_or(h.imu_clock.frames), rate_hz.value_or(h.imu_clock.rate_hz)));
             }
             return out;
           },
@@ -320,14 +328,16 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
             const std::string name = sensor_name.value_or(
                 h.body.joint(static_cast<std::size_t>(h.result.placement.joint)).name);
             py::gil_scoped_release release;
-            const sim::Motion fitted = sim::fitted_motion(h.body, motion, h.result, h.imu_first_ns,
-                                                          h.imu_samples, h.imu_rate_hz);
+            const sim::Motion fitted =
+                sim::fitted_motion(h.body, motion, h.result, h.imu_clock.first_ns,
+                                   h.imu_clock.frames, h.imu_clock.rate_hz);
             sim::write_fitted_scene(dir, h.body, fitted, h.result, name, g);
           },
           py::arg("dir"), py::arg("motion"), py::arg("sensor_name") = py::none(),
           py::arg("gravity") = py::none(),
-          "Writes dir/scene.json, motion.csv (the fitted motion on the IMU's clock: scene sample "
-          "k = IMU sample k) and placement.json (docs/formats.md, \"Fitted scenes\"); "
+          "Writes dir/scene.json, motion.csv (the fitted motion on the IMU's clock, "
+          "fitted_scene_clock: scene sample k = IMU sample k unless samples are missing) and "
+          "placement.json (docs/formats.md, \"Fitted scenes\"); "
           "imukit.read_scene(dir + '/scene.json') and Augmenter load it. gravity: m/s^2 in "
           "[0.1, 100] (default the gravity identify fitted with).");
 
@@ -342,7 +352,8 @@ fitted_motion(motion) bakes the fit into a Motion on the IMU's clock.)doc")
         py::arg("time_offset_s") = py::none(), py::arg("max_time_offset_s") = 1.0,
         py::arg("gravity") = py::none(), py::arg("invalid_motion") = py::none(),
         py::arg("threads") = 1, py::arg("function_tolerance") = 1e-12,
-        py::arg("accel_bias_prior_mps2") = 0.0, py::arg("gyro_bias_prior_radps") = 0.0, R"doc(
+        py::arg("accel_bias_prior_mps2") = 0.0, py::arg("gyro_bias_prior_radps") = 0.0,
+        py::arg("segments") = py::tuple(), py::arg("segment_prior") = 0.05, R"doc(
 Fits a sensor's placement, biases (scale errors, clock rate with estimate=[...]), the time offset
 and optionally a smooth correction of the sensor segment's rotation (correction="twist" or
 "rotation") so that the simulator reproduces a real IMU (imukit.Series with accel and gyro).
@@ -352,7 +363,9 @@ placement, over the preset's (the rotation is found from the data unless
 rotation_from_data=False);
 motion_start_ns: IMU time of motion frame 0 (default the first IMU sample); time_offset_s:
 search only within +-0.25 s of it and start from the peak (from it when nothing correlates there); *_bias_prior_*: 1-sigma Gaussian priors on the biases
-(0: none). Returns an IdentifyResult; raises imukit.Error for
+(0: none); segments: joints on the sensor's chain whose offset from their parent (the parent
+segment's length) is fitted, with a Gaussian prior of relative width segment_prior (default 0.05;
+`imukit identify --segments`). A name in both estimate and fix is refused. Returns an IdentifyResult; raises imukit.Error for
 unusable input. gravity: m/s^2 in [0.1, 100] (default 9.80665). The GIL is released while it
 runs; threads evaluate the Jacobian in parallel (default 1, as `imukit identify --threads`; 0 is
 1 here, not all cores).)doc");

@@ -192,3 +192,21 @@ def test_errors_are_one_line(run, simulated_wrist):
     r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "-o", fresh,
             "--scene-out", fresh + ".scene", "--sensor-name", "a/b")
     assert r.returncode == 2 and "cannot hold '/'" in r.stderr and not os.path.exists(fresh), r.stderr
+
+
+def test_options_that_do_not_apply_or_contradict_are_refused(run, simulated_wrist):
+    """Found in review, 2026-11-27: --pose took --height, --bvh-scale and --up and ignored them; a
+    name in both --fix and --estimate was estimated (fixed from Python); a clock rate estimated
+    within +-0 made Ceres refuse the problem and the start was written as the fit, exit 0."""
+    s = simulated_wrist
+    imu, motion, placement = s.imu, s.motion, s.placement + ".refused.json"
+    r = run("identify", "--imu", imu, "--pose", imu, "--columns", "t,qw,qx,qy,qz,px,py,pz", "--height", "1.6",
+            "-o", placement)
+    assert r.returncode == 2 and "--height is an option of a skeleton's motion" in r.stderr, r.stderr
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--fix", "clock_rate",
+            "--estimate", "clock_rate", "-o", placement)
+    assert r.returncode == 2 and "'clock_rate' is both in --fix and in --estimate" in r.stderr, r.stderr
+    r = run("identify", "--imu", imu, "--motion", motion, "--joint", "left_elbow", "--estimate", "clock_rate",
+            "--max-clock-rate", "0", "-o", placement)
+    assert r.returncode == 1 and "estimated within +-0" in r.stderr, r.stderr
+    assert not os.path.exists(placement), "nothing is written"
