@@ -112,6 +112,15 @@ void LineReader::check_text(std::string_view line, int64_t number) const {
   // read before the check and must stay so; found in review).
   std::size_t text_end = line.size();
   while (text_end > 0 && is_blank(line[text_end - 1])) --text_end;
+  // First one pass without an early exit, which the compiler vectorises: the byte-by-byte loop
+  // below took a fifth of parse_euroc_csv's time (perf, 2026-11-27); it now runs only to name
+  // the byte of a line that has one.
+  unsigned char control = 0;
+  for (std::size_t i = 0; i < text_end; ++i) {
+    const auto c = static_cast<unsigned char>(line[i]);
+    control |= static_cast<unsigned char>((c < 0x20) & (c != '\t'));
+  }
+  if (control == 0) return;
   for (std::size_t i = 0; i < text_end; ++i) {
     const auto c = static_cast<unsigned char>(line[i]);
     if (c >= 0x20 || c == '\t') continue;
