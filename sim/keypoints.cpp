@@ -1420,6 +1420,10 @@ void filled_stretches(const Cleaned& c, const KeypointMotionOptions& opt, Keypoi
   merge_stretches(out.invalid_motion);
 }
 
+// A hinge bent less than this may be bent either way in the keypoints (see twist_angles).
+constexpr double kHingeSignMinBendDeg = 30.0;
+const double kHingeSignMinBendSine = std::sin(kHingeSignMinBendDeg * kRadPerDeg);
+
 // Step 5, one segment's twist: the angle (rad) about the bone at each output frame from the
 // secondary directions, weighted by their distance from the bone, then smoothed. `observed`
 // counts the frames whose twist is well seen (weight >= 0.5).
@@ -1440,11 +1444,24 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
     const auto pos = [&](int64_t k) {
       return [&S, k](int j) { return Vector3d(S[static_cast<std::size_t>(j)].col(k)); };
     };
-    double last = 0.0;
-    bool have_last = false;
+    // Each frame's candidates: the twist each secondary direction gives, its weight, and
+    // whether it is a hinge's plane normal bent too little for its sign to be trusted.
+    //
+    // A hinge's plane normal has the sign of the bend's direction, and a limb near straight
+    // bends either way in the keypoints (Kinect jitter, an apparent hyperextension): the sign
+    // flipped, and the twist with it by pi, a made-up half turn of the upper arm in 0.3 s on 17
+    // of 96 UTD-MHAD swing and throw trials (found in review, 2026-11-27). Below
+    // kHingeSignMinBendDeg such a normal is taken as an axis: the branch a + k pi nearest the
+    // neighbouring frame's twist. The unwrapping starts at the first frame with a candidate
+    // whose sign is trusted and runs forwards and backwards from it.
+    struct Candidate {
+      double a, w;
+      bool axis;
+    };
+    std::vector<std::vector<Candidate>> cands(static_cast<std::size_t>(N));
+    int64_t start = -1, first_any = -1;
     for (int64_t k = 0; k < N; ++k) {
       const auto kk = static_cast<std::size_t>(k);
-      double sx = 0.0, sy = 0.0, wmax = 0.0;
       for (std::size_t ci = 0; ci < s.secondary.size(); ++ci) {
         double sine = 1.0;
         const Vector3d v = direction_of(s.secondary[ci], pos(k), sine);
@@ -1455,12 +1472,26 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
             smooth_ramp(perp.norm() / vn, s_lo, s_hi) * smooth_ramp(sine, s_lo, s_hi);
         if (wgt <= 0.0) continue;
         const Vector3d pred = Fr[kk] * n0[ci];
-        const double a = std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp));
-        sx += wgt * std::cos(a);
-        sy += wgt * std::sin(a);
-        wmax = std::max(wmax, wgt);
+        const bool axis = s.secondary[ci].cross && sine < kHingeSignMinBendSine;
+        cands[kk].push_back(
+            {std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp)), wgt, axis});
+        if (start < 0 && !axis) start = k;
+        if (first_any < 0) first_any = k;
       }
-      if (wmax <= 0.0) continue;
+    }
+    if (start < 0) start = first_any;
+    bool have_last = false;
+    double last = 0.0;
+    const auto combine = [&](int64_t k) {
+      const auto kk = static_cast<std::size_t>(k);
+      if (cands[kk].empty()) return;
+      double sx = 0.0, sy = 0.0, wmax = 0.0;
+      for (const Candidate& c : cands[kk]) {
+        const double a = c.axis && have_last ? c.a + kPi * std::round((last - c.a) / kPi) : c.a;
+        sx += c.w * std::cos(a);
+        sy += c.w * std::sin(a);
+        wmax = std::max(wmax, c.w);
+      }
       double a = std::atan2(sy, sx);
       if (have_last) a += 2.0 * kPi * std::round((last - a) / (2.0 * kPi));
       phi[kk] = a;
@@ -1468,6 +1499,11 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
       last = a;
       have_last = true;
       if (wmax >= 0.5) ++observed;
+    };
+    if (start >= 0) {
+      for (int64_t k = start; k < N; ++k) combine(k);
+      last = phi[static_cast<std::size_t>(start)];
+      for (int64_t k = start - 1; k >= 0; --k) combine(k);
     }
     if (have_last) {
       const Eigen::MatrixXd y = Eigen::Map<const Eigen::RowVectorXd>(phi.data(), N);

@@ -134,6 +134,34 @@ class FromBvh(unittest.TestCase):
             imukit.motion_from_keypoints(kp, "kinect_v1_20", rate_hz=120.0, body=imukit.Body.default_humanoid())
 
 
+class HingeNearStraight(unittest.TestCase):
+    def test_an_elbow_bending_through_straight_does_not_spin_the_upper_arm(self):
+        """Found in review, 2026-11-27: the elbow plane's normal was taken with its sign, so an arm
+        passing straight into an apparent hyperextension turned the upper arm by 180 degrees about
+        itself (17 of 96 UTD-MHAD swing and throw trials, 195 degrees in 0.3 s in a12_s1_t1)."""
+        names = imukit.keypoint_topology("kinect_v1_20")["keypoints"]
+        pose = {  # a T-pose, z up, the arms along x
+            "head": (0, 0, 1.65), "shoulder_center": (0, 0, 1.45), "spine": (0, 0, 1.1), "hip_center": (0, 0, 0.95),
+            "left_shoulder": (-0.2, 0, 1.42), "left_elbow": (-0.47, 0, 1.42), "left_wrist": (-0.72, 0, 1.42),
+            "left_hand": (-0.8, 0, 1.42), "right_shoulder": (0.2, 0, 1.42), "left_hip": (-0.1, 0, 0.9),
+            "left_knee": (-0.1, 0.02, 0.5), "left_ankle": (-0.1, 0, 0.1), "left_foot": (-0.1, 0.12, 0.05),
+            "right_hip": (0.1, 0, 0.9), "right_knee": (0.1, 0.02, 0.5), "right_ankle": (0.1, 0, 0.1),
+            "right_foot": (0.1, 0.12, 0.05)}
+        fps, frames = 30, 120
+        kp = np.zeros((frames, len(names), 3))
+        bends = 25 + 45 * np.cos(2 * np.pi * np.arange(frames) / frames)  # 70 degrees to -20 and back
+        for i, bend in enumerate(np.radians(bends)):
+            elbow = np.array([0.47, 0, 1.42])
+            forearm = np.array([np.cos(bend), np.sin(bend), 0])
+            pose.update(right_elbow=elbow, right_wrist=elbow + 0.25 * forearm, right_hand=elbow + 0.33 * forearm)
+            kp[i] = [pose[n] for n in names]
+            kp[i] += 1e-4 * np.sin(np.arange(kp[i].size).reshape(kp[i].shape) + i)  # a little jitter
+        body, motion, _ = imukit.motion_from_keypoints(kp, "kinect_v1_20", rate_hz=fps, up=[0, 0, 1])
+        q = np.asarray(motion.rotations_wxyz())[:, body.joint_names.index("right_shoulder")]
+        twist = np.degrees(2 * np.arctan2(q[:, 1], q[:, 0]))  # about the upper arm (x)
+        self.assertLess(np.max(np.abs(twist)), 5.0, f"upper-arm twist up to {np.max(np.abs(twist)):.1f} degrees")
+
+
 class CustomBody(unittest.TestCase):
     def test_from_arrays_round_trips_and_simulates_with_presets(self):
         names = ["Hips", "Spine1", "RightArm", "RightForeArm", "RightHand"]
