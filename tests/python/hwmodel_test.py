@@ -85,6 +85,30 @@ class AllanOnArrays(unittest.TestCase):
         with self.assertRaisesRegex(imukit.Error, "unknown term 'X'"):
             imukit.fit_noise_model(list(tau), adev, [1000.0] * len(tau), terms=["X"])
 
+    def test_goodness_of_fit_does_not_depend_on_the_grid_density(self):
+        """Found in review, 2026-11-27: the whitener floored small eigenvalues but the degrees of
+        freedom counted every point, so chi^2/dof of white noise fell from about 1 at 10 points
+        per decade to 0.22 at 100, and a record with motion passed the goodness-of-fit gate
+        with --points-per-decade 50."""
+        rng = np.random.default_rng(7)
+        rate, n, density = 100.0, 20000, 1e-3
+        means = {}
+        for ppd in (10, 100):
+            chi = []
+            for rep in range(2):
+                x = np.ascontiguousarray(rng.standard_normal((n, 3)) * density * math.sqrt(rate))
+                r = imukit.allan_deviation(x, rate_hz=rate, points_per_decade=ppd, modified=False, hadamard=False)
+                for axis in range(3):
+                    f = imukit.fit_noise_model_gls(list(r.tau_s), list(np.asarray(r.allan.deviation)[axis]),
+                                                   list(r.factors), n)
+                    chi.append(f.chi2_per_dof)
+                    self.assertLess(abs(f.value["N"] / density - 1), 0.05)
+            means[ppd] = float(np.mean(chi))
+        # 6 fits each: the mean of chi^2/dof is 1 within its spread (about 0.1 here).
+        for ppd, mean in means.items():
+            self.assertTrue(0.7 < mean < 1.4, f"{ppd} points per decade: mean chi2/dof {mean:.2f}")
+        self.assertTrue(0.75 < means[100] / means[10] < 1.35, means)
+
 
 def characterized_by_the_command(test, seed):
     """A white-noise recording written as EuRoC CSV, the profile `imukit characterize` writes for
