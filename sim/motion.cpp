@@ -247,13 +247,21 @@ QuaternionColumns quaternion_columns(const std::vector<Field>& fields, const Bod
   QuaternionColumns cols;
   cols.role.assign(fields.size(), -1);
   std::vector<std::array<bool, 4>> have(body.size(), {false, false, false, false});
+  std::array<bool, 4> have_t_root{false, false, false, false};  // t, root_x, root_y, root_z
   for (std::size_t i = 0; i < fields.size(); ++i) {
     const std::string name(fields[i].text);
-    if (name == "t" || name == "time" || name == "t_s") {
-      cols.role[i] = 0;
-      cols.have_t = true;
-    } else if (name == "root_x" || name == "root_y" || name == "root_z") {
-      cols.role[i] = 1 + (name.back() - 'x');
+    const bool is_t = name == "t" || name == "time" || name == "t_s";
+    const bool is_root = name == "root_x" || name == "root_y" || name == "root_z";
+    if (is_t || is_root) {
+      // A second one was taken, the last winning (a second time column gave "not uniform";
+      // found in review, 2026-11-27).
+      const int role = is_t ? 0 : 1 + (name.back() - 'x');
+      if (have_t_root[static_cast<std::size_t>(role)])
+        throw Error(at(fields[i].column),
+                    fmt::format("a second {} column", is_t ? "time" : quote_excerpt(name)));
+      have_t_root[static_cast<std::size_t>(role)] = true;
+      cols.role[i] = role;
+      cols.have_t = cols.have_t || is_t;
     } else if (name.size() > 3 && name[name.size() - 3] == '_' && name[name.size() - 2] == 'q') {
       const char c = name.back();
       const int comp = c == 'w' ? 0 : c == 'x' ? 1 : c == 'y' ? 2 : c == 'z' ? 3 : -1;
@@ -380,6 +388,9 @@ Motion parse_quaternion_csv(std::string_view text, const std::string& source_nam
     throw Error(InputLocation{source_name, 1, 1, std::nullopt},
                 "empty file: expected a header row");
   split_fields(*line, fields);
+  // A given rate is checked as a measured one (NaN, 0 or -5 came back as the motion's rate;
+  // found in review, 2026-11-27).
+  if (rate_hz) check_rate(*rate_hz, source_name + ": rate_hz");
   const QuaternionColumns cols = quaternion_columns(fields, body, at);
   if (!cols.have_t && !rate_hz) throw Error(at(1), "no t column: give the frame rate");
   std::vector<double> times;

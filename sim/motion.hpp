@@ -186,8 +186,9 @@ class ProceduralMotion : public MotionSource {
 // columns `root_x,root_y,root_z` (m), and per joint `<NAME>_qw,<NAME>_qx,<NAME>_qy,<NAME>_qz`
 // (w first, as everywhere in imukit files). Joint names are matched to the body (aliases
 // allowed); body joints without columns stay at identity. The rate is taken from the t column
-// (must be uniform to 1e-6 relative), or is rate_hz (a t column then must agree with it to
-// 1e-6). Errors name file, line and column.
+// (each step within 1 % of the median), or is rate_hz (a valid rate; a t column then must
+// agree with it to 1 % of a period). A second time or root column is an error. Errors name
+// file, line and column.
 Motion parse_quaternion_csv(std::string_view text, const std::string& source_name, const Body& body,
                             std::optional<double> rate_hz = std::nullopt,
                             std::vector<std::string>* warnings = nullptr);

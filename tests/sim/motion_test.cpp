@@ -85,6 +85,30 @@ TEST(Motion, QuaternionCsvReadsJointsByNameAndRateFromTime) {
   EXPECT_EQ(m.rotation(0, 0).coeffs(), Eigen::Quaterniond::Identity().coeffs());
 }
 
+// Found in review, 2026-11-27: a second root column was taken (the last winning), a second time
+// column gave "not uniform", and a given rate of NaN, 0 or -5 became the motion's rate.
+TEST(Motion, QuaternionCsvRefusesRepeatedTimeOrRootColumnsAndBadRates) {
+  const std::string rows = "0,1,2,3,1,0,0,0\n0.02,1,2,3,1,0,0,0\n";
+  testing::expect_error(
+      [&] {
+        (void)parse_quaternion_csv(
+            "t,root_x,root_x,root_z,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy\n" + rows, "m.csv",
+            small_body());
+      },
+      {"m.csv:1:10: a second 'root_x' column"});
+  testing::expect_error(
+      [&] {
+        (void)parse_quaternion_csv("t,time,root_y,root_z,L_ELBOW_qw,L_ELBOW_qx,L_ELBOW_qy\n" + rows,
+                                   "m.csv", small_body());
+      },
+      {"m.csv:1:3: a second time column"});
+  const std::string text = "root_x,root_y,root_z\n1,2,3\n1,2,3\n";
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), 0.0, -5.0,
+                           std::numeric_limits<double>::infinity()})
+    EXPECT_THROW((void)parse_quaternion_csv(text, "m.csv", small_body(), bad), Error) << bad;
+  EXPECT_EQ(parse_quaternion_csv(text, "m.csv", small_body(), 25.0).rate_hz(), 25.0);
+}
+
 // Review, 2026-11-27: each step had to match the mean step to 1e-6, so times printed to the
 // microsecond at 30 Hz, epoch seconds and imukit's own ns-rounded CSV at 7 kHz were refused as
 // "not uniform". Each step within 1 % of the median and each frame within 1 % of a period of

@@ -2,8 +2,9 @@
 per trial, 8 subjects x 27 actions x about 4 trials.
 
 The files are MATLAB v5 (`d_iner`: N x 6, accelerometer in g, gyroscope in deg/s, 50 Hz;
-`d_skel`: 20 x 3 x F joint positions in metres, Kinect camera frame x right, y up, z away from
-the camera). SciPy's loadmat reads them (Debian python3-scipy); the C++ side has no need for
+`d_skel`: 20 x 3 x F joint positions in metres, Kinect camera frame: right-handed, x to the
+camera's left (the subject's right when facing it), y up, z away from the camera, as
+docs/formats.md says; "x right" here read as a left-handed frame until review, 2026-11-27). SciPy's loadmat reads them (Debian python3-scipy); the C++ side has no need for
 MATLAB files, so no libmatio dependency is added for one dataset.
 
 The reader converts to SI (m/s^2 with standard gravity, rad/s) and changes nothing else: the
