@@ -894,6 +894,27 @@ NoiseFit gls_eliminating(const std::vector<double>& tau_s, const std::vector<dou
 NoiseFit fit_noise_model_gls(const std::vector<double>& tau_s, const std::vector<double>& adev,
                              const std::vector<int64_t>& factors, int64_t n,
                              const NoiseFitOptions& options) {
+  // The covariance takes tau0 from the first point and the sample count from n: factors twice
+  // too large gave a chi^2/dof of 0.64 for 1.27 without a word (found in review, 2026-11-27).
+  // Every tau must be its factor times one tau0, and n must hold the largest factor (an n too
+  // large cannot be told from the curve).
+  if (tau_s.size() == factors.size() && !tau_s.empty() && factors.front() > 0) {
+    const double tau0 = tau_s.front() / static_cast<double>(factors.front());
+    for (std::size_t k = 0; k < tau_s.size(); ++k) {
+      if (!(std::abs(tau_s[k] - tau0 * static_cast<double>(factors[k])) <= 1e-9 * tau_s[k])) {
+        throw Error(fmt::format(
+            "noise fit: tau {} is {:g} s, and its factor {} times tau0 {:g} s is not: tau, "
+            "factors and n must come from one Allan deviation",
+            k, tau_s[k], factors[k], tau0));
+      }
+    }
+    const int64_t largest = *std::max_element(factors.begin(), factors.end());
+    if (n < 2 * largest + 1) {
+      throw Error(fmt::format(
+          "noise fit: {} samples cannot give an Allan deviation at factor {} (needs {} or more)", n,
+          largest, 2 * largest + 1));
+    }
+  }
   const DeviationScale s(adev);
   return s.restore(gls_eliminating(tau_s, s.scaled(), factors, n, options));
 }

@@ -108,6 +108,13 @@ class AllanOnArrays(unittest.TestCase):
         for ppd, mean in means.items():
             self.assertTrue(0.7 < mean < 1.4, f"{ppd} points per decade: mean chi2/dof {mean:.2f}")
         self.assertTrue(0.75 < means[100] / means[10] < 1.35, means)
+        # Factors that are not the taus' (twice too large: chi^2/dof 0.64 for 1.27, no error
+        # until the same review), or more than n holds, are refused.
+        tau, dev, factors = list(r.tau_s), list(np.asarray(r.allan.deviation)[0]), list(r.factors)
+        with self.assertRaisesRegex(imukit.Error, "tau, factors and n must come from one Allan deviation"):
+            imukit.fit_noise_model_gls(tau, dev, [2 * m for m in factors[:1]] + factors[1:], n)
+        with self.assertRaisesRegex(imukit.Error, "cannot give an Allan deviation at factor"):
+            imukit.fit_noise_model_gls(tau, dev, factors, 2 * max(factors))
 
 
 def characterized_by_the_command(test, seed):
