@@ -13,6 +13,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import time
 import unittest
 from unittest import mock
 
@@ -82,6 +83,16 @@ def failing_on_s1(run):
     fails and whose others succeed at once."""
     if run["test"] == "s1":
         raise RuntimeError("run testing s1 failed")
+    return dict(run, test_f1=0.5, val_f1=0.5, best_epoch=1, epochs_run=1, seconds=0.0, imukit_share=0.0)
+
+
+def killed_on_seed_1(run):
+    """A run_one for the pool whose run of seed 1 kills its own worker (as the out-of-memory
+    killer or a crash in native code would), and whose others succeed after a moment."""
+    if run["seed"] == 1:
+        time.sleep(1.0)  # after the other worker's first runs were handed back
+        os.kill(os.getpid(), signal.SIGKILL)
+    time.sleep(0.2)
     return dict(run, test_f1=0.5, val_f1=0.5, best_epoch=1, epochs_run=1, seconds=0.0, imukit_share=0.0)
 
 
@@ -214,7 +225,81 @@ class Metrics(unittest.TestCase):
         self.assertNotIn("| PPDA residual all 810 uniform | |", md)   # not among the baseline-only rows
         fs = [dict(r, arm=r["arm"].replace(":placement:1", ":all"), n_train=1) for r in runs]
         md, _ = report.fewer_subjects({"runs": fs})
-        self.assertIn("- PPDA residual all 810 uniform vs PPDA all 810 uniform: +6.5 pp, p = 0.008 (n=8)", md)
+        self.assertIn("- PPDA residual all 810 uniform vs PPDA all 810 uniform: +6.5 pp, p = 0.008 (n=8 test subjects)", md)
+
+
+def report_run(arm, test, f1, seed=0, val_f1=0.5, train_=("a",), **extra):
+    return dict({"arm": arm, "model": "deepconvlstm", "test": test, "val": "v" + test, "train": list(train_),
+                 "seed": seed, "test_f1": f1, "val_f1": val_f1}, **extra)
+
+
+class Report(unittest.TestCase):
+    """The report's paired tests and tables (found in review, 2026-11-27)."""
+
+    def test_the_seeds_of_a_fold_are_one_unit_of_the_paired_test(self):
+        # Eight folds' PPDA - STDA differences, three seeds each with a little seed noise: pairing
+        # every (fold, seed) made 24 pairs and p < 0.01 from evidence that is p = 0.11 per fold.
+        fold = np.array([2.0, -1.0, 3.0, 1.5, -0.5, 2.5, 1.0, -0.8]) / 100
+        noise = np.random.default_rng(0).normal(0, 0.005, (8, 3))
+        runs = []
+        for i in range(8):
+            for seed in range(3):
+                runs += [report_run("stda:placement:1", f"s{i + 1}", 0.5, seed),
+                         report_run("ppda:placement:1", f"s{i + 1}", 0.5 + fold[i] + noise[i, seed], seed),
+                         report_run("baseline", f"s{i + 1}", 0.5, seed)]
+        md, _ = report.one_at_a_time({"runs": runs})
+        p, n, d = report.wilcoxon(0.5 + fold + noise.mean(axis=1), np.full(8, 0.5))
+        self.assertEqual(n, 8)
+        self.assertAlmostEqual(p, 0.109375, places=9)
+        row = next(line for line in md.splitlines() if line.startswith("| rotation / placement |"))
+        self.assertIn(f"| {100 * d:+.1f} (n=8) | {report._fmt_p(p)} |", row)
+        self.assertIn("paired per fold: the unit of replication is the test subject (the seeds of a fold "
+                      "averaged first), n = the folds both arms ran.", md)
+
+    def test_fewer_subjects_pools_the_sizes_per_test_subject(self):
+        # The committed curve: four sizes x two splits, the splits testing s1 and s2 only. Its
+        # eight splits were eight "pairs"; they are two test subjects.
+        runs = []
+        for n_train, train_set in ((1, ["s5"]), (2, ["s5", "s8"]), (4, ["s3", "s4", "s5", "s7"]), (6, ["s3"])):
+            for i, test in enumerate(("s1", "s2")):
+                runs += [dict(report_run("stda:all", test, 0.40, train_=train_set), n_train=n_train),
+                         dict(report_run("ppda:all", test, 0.45 + 0.01 * n_train + 0.02 * i, train_=train_set),
+                              n_train=n_train)]
+        md, _ = report.fewer_subjects({"runs": runs})
+        # s1: PPDA - STDA = 0.05 + 0.01 * 3.25 = 0.0825; s2: 0.1025; mean 9.25 points
+        self.assertIn("- PPDA all 810 uniform vs STDA all 810 uniform: +9.2 pp, p = 0.500 (n=2 test subjects)", md)
+        self.assertIn("n = the test subjects both arms ran (2 here: s1, s2;", md)
+
+    def test_the_option_is_chosen_per_fold_on_that_folds_own_validation(self):
+        # Option 3 has the better validation F1 over all folds, option 2 on fold s1's own
+        # validation subject: s1 reports option 2's test score. Choosing by the mean over all
+        # folds looked at every test subject's labels (each subject validates one LOSO fold).
+        runs = []
+        for i in range(8):
+            t = f"s{i + 1}"
+            runs += [report_run("baseline", t, 0.5),
+                     report_run("stda:speed_scaling:2", t, 0.40, val_f1=0.70 if t == "s1" else 0.40),
+                     report_run("stda:speed_scaling:3", t, 0.60, val_f1=0.60),
+                     report_run("ppda:speed_scaling:3", t, 0.55, val_f1=0.60)]
+        md, _ = report.one_at_a_time({"runs": runs})
+        row = next(line for line in md.splitlines() if line.startswith("| time scaling / speed scaling |"))
+        self.assertTrue(row.startswith("| time scaling / speed scaling | 57.5 ± 7.1 | 55.0 ± 0.0 |"), row)
+        self.assertTrue(row.endswith("| 2 (1), 3 (7) / 3 |"), row)
+        arms = {a[0]: rs for a, rs in report._by(runs, "arm").items()}
+        chosen = report._best_option_runs(arms, "stda", "speed_scaling")
+        self.assertEqual(sorted((r["test"], r["arm"]) for r in chosen),
+                         [("s1", "stda:speed_scaling:2")] + [(f"s{i}", "stda:speed_scaling:3") for i in range(2, 9)])
+
+    def test_arms_of_no_pair_are_reported_in_their_own_columns(self):
+        # An STDA `all` arm was written in the PPDA column, its p under "p PPDA vs baseline".
+        runs = []
+        for t in ("s1", "s2", "s3"):
+            runs += [report_run("baseline", t, 0.5), report_run("stda:all", t, 0.3),
+                     report_run("sim:identity", t, 0.4)]
+        md, _ = report.one_at_a_time({"runs": runs})
+        self.assertIn("| all 810 uniform (STDA / PPDA) | 30.0 ± 0.0 | - | +0.0 (n=0) | - | 0.250 | - | - / - |", md)
+        self.assertIn("| sim-only (re-simulated windows) | 40.0 ± 0.0 | -10.0 (n=3) | 0.250 |", md)
+        self.assertNotIn("| STDA all 810 uniform |", md)
 
 
 class Format(unittest.TestCase):
@@ -1044,6 +1129,31 @@ class LearnedPolicy(unittest.TestCase):
         expected = soft[k] * (torch.eye(3)[k] - soft)
         np.testing.assert_allclose(g.logits.grad.numpy(), expected.numpy(), atol=1e-6)
 
+    def test_a_learned_arm_trains_on_the_baselines_batches(self):
+        # Found in review, 2026-11-27: the policy step's validation batches were drawn from the
+        # stream that orders the training windows, so from the second epoch on the learned arm
+        # trained on other batches than every other arm of its seed.
+        with tempfile.TemporaryDirectory() as d:
+            R = rf.read_recordings(noise_recordings(d, {"s1": 300, "s2": 150, "s3": 150}))
+            settings = experiments.Settings(epochs=3, patience=0, batch_size=4, tiny=True)
+            experiments._init_worker(experiments.prepare(R, settings))
+            seen = []
+            batch = augmentation.BatchAugmenter.batch
+
+            def spy(self, k, index, seed):
+                seen[-1].append(index.tolist())
+                return batch(self, k, index, seed)
+            batches = {}
+            with mock.patch.object(augmentation.BatchAugmenter, "batch", spy):
+                for arm in ("baseline", "stda:all:learned", "stda:all"):
+                    seen.append([])
+                    experiments.run_one({"arm": arm, "model": "deepconvlstm", "test": "s3", "val": "s2",
+                                         "train": ["s1"], "seed": 0})
+                    batches[arm] = seen[-1]
+            self.assertEqual(len(batches["baseline"]), 3 * (2 * 11 // 4))
+            self.assertEqual(batches["stda:all:learned"], batches["baseline"])
+            self.assertEqual(batches["stda:all"], batches["baseline"])
+
     def test_the_finite_difference_hypergradient_matches_exact_second_order_autograd(self):
         torch.manual_seed(0)
         torch.set_default_dtype(torch.float64)
@@ -1134,6 +1244,10 @@ class Experiments(unittest.TestCase):
             ppda = [r for r in doc["runs"] if r["arm"] == "ppda:placement:1"]
             self.assertTrue(all(r["augmented_windows"] > 0 and r["imukit_seconds"] > 0 for r in ppda))
             self.assertEqual([r["outside_scene_windows"] for r in ppda], [0, 0, 0])
+            # Each run records the code that made it, and the results their protocol (review,
+            # 2026-11-27).
+            self.assertEqual(doc["settings"]["protocol"], experiments.PROTOCOL)
+            self.assertTrue(all(r["code"]["imukit"] == imukit.__version__ for r in doc["runs"]))
             learned = [r for r in doc["runs"] if r["arm"] == "ppda:all:learned"]
             self.assertTrue(all(len(r["learned_top"]) == 10 for r in learned))
             with open(os.path.join(out, "one_at_a_time.md"), encoding="utf-8") as f:
@@ -1213,6 +1327,38 @@ class Experiments(unittest.TestCase):
                              {1: (10, 2), 2: (10, 2)})
             # Results from before the setting were made with one pass per epoch.
             self.assertEqual(experiments.settings_of({"settings": {}})["steps_per_epoch"], 0)
+
+    def test_results_of_another_protocol_are_neither_continued_reused_nor_merged(self):
+        # Found in review, 2026-11-27: results recorded no code version, so runs of two
+        # definitions of an arm (the learned arms' batches, attend's head) continued and merged
+        # under one name. JSON without `protocol` is protocol 1, every result until that day.
+        self.assertEqual(experiments.Settings().protocol, 2)
+        self.assertEqual(experiments.settings_of({"settings": {}})["protocol"], 1)
+        with tempfile.TemporaryDirectory() as d:
+            settings = experiments.Settings(epochs=1, tiny=True)
+            run = {"arm": "baseline", "model": "deepconvlstm", "test": "s1", "val": "s2", "train": ["s3"], "seed": 0}
+            old = {"schema": "imukit.har/1", "experiment": "one_at_a_time",
+                   "settings": {k: v for k, v in dataclasses.asdict(settings).items() if k != "protocol"},
+                   "data": {}, "runs": [dict(run, test_f1=0.5, val_f1=0.5, test_acc=0.5, seconds=1.0,
+                                             imukit_share=0.0, step_seconds_mean=0.1, epochs_run=1)]}
+            path = os.path.join(d, "old", "one_at_a_time.json")
+            os.makedirs(os.path.dirname(path))
+            with open(path, "w", encoding="utf-8") as f:
+                json.dump(old, f)
+            with self.assertRaisesRegex(ValueError, r"one_at_a_time.json: made by protocol 1 of imukit.har, this is "
+                                                    r"protocol 2 \(what some arms compute changed"):
+                experiments.ResultStore(path, "one_at_a_time", settings, {})
+            new = experiments.ResultStore(os.path.join(d, "new.json"), "sim_only", settings, {})
+            self.assertEqual(experiments.reuse([run], new, path, log=lambda s: None), 0)
+            new.add(dict(old["runs"][0], test="s2", val="s3"))
+            with self.assertRaisesRegex(ValueError, r"new.json: made by protocol 1 of imukit.har, this is protocol 2"):
+                experiments.merge([path, new.path])
+            # Still read and reported, as protocol 1.
+            self.assertIn("protocol 1 (docs/har.md", report.write(experiments.read_results(path), os.path.dirname(path)))
+            # Each run records the code that made it.
+            version = experiments.code_version()
+            self.assertEqual(version["imukit"], imukit.__version__)
+            self.assertEqual(set(version), {"imukit", "git"})
 
     def test_scene_digests_follow_the_scene_its_motion_offset_and_biases(self):
         # Found in review, 2026-11-27: a scene's contents were in no digest, so results of two
@@ -1374,6 +1520,43 @@ class CommandErrors(unittest.TestCase):
             experiments.execute(runs, store, state, jobs=2, log=lambda s: None)
         self.assertNotIn("s1", [r["test"] for r in store.doc["runs"]])
         self.assertTrue(all(r["test_f1"] == 0.5 for r in store.doc["runs"]))
+
+    def test_a_worker_that_dies_fails_the_experiment_naming_its_run(self):
+        # Found in review, 2026-11-27: multiprocessing.Pool replaced a worker killed by a signal
+        # (the out-of-memory killer, a crash in native code) and waited for its run forever.
+        R = rf.read_recordings(self.rec)
+        settings = experiments.Settings(epochs=1, tiny=True)
+        runs = [dict(run, seed=seed) for seed in range(4)
+                for run in experiments.one_at_a_time_runs(R.subjects, ["baseline"], ["deepconvlstm"], 1)[:1]]
+        store = experiments.ResultStore(os.path.join(self.tmp.name, "k.json"), "one_at_a_time", settings, {})
+        lost = experiments.run_key(runs[1])
+        with mock.patch.object(experiments, "run_one", killed_on_seed_1), deadline(60), \
+                self.assertRaises(RuntimeError) as e:
+            experiments.execute(runs, store, experiments.prepare(R, settings), jobs=2, log=lambda s: None)
+        message = str(e.exception)
+        self.assertTrue(message.startswith("a worker process died (killed, e.g. by the out-of-memory killer, "
+                                           "or crashed in native code) while running "), message)
+        self.assertIn(lost, message)
+        # The runs handed back are saved, and the lost one is not among them.
+        saved = [experiments.run_key(r) for r in load_json(store.path)["runs"]]
+        self.assertNotIn(lost, saved)
+        self.assertTrue(saved)
+        self.assertIn(f"The {len(saved)} run(s) finished are saved in {store.path}", message)
+
+    def test_arms_other_than_the_baseline_need_the_paper_grid(self):
+        # Found in review, 2026-11-27: the arms name sub-policies by their place in the `paper`
+        # grid; under another --policy they picked others, or failed at their first run.
+        out = os.path.join(self.tmp.name, "other_policy")
+        argv = ["one-at-a-time", "--recordings", self.rec, "--out", out, "--tiny", "--epochs", "1",
+                "--models", "deepconvlstm", "--jobs", "1", "--seeds", "1", "--policy", "imukit"]
+        self.assertEqual(self.error(argv + ["--arms", "baseline,stda:all,ppda:placement"]),
+                         "python3 -m imukit.har: error: --policy imukit: the arms stda:all, ppda:placement:1 are "
+                         "defined on the `paper` grid (sub-policies named by their place in it); only "
+                         "`baseline` runs under another policy")
+        self.assertFalse(os.path.exists(out))
+        self.assertEqual(self.error(["sim-only"] + argv[1:]).split(": the arms ")[1].split(" are")[0], "sim:identity")
+        code, err = cli(argv + ["--arms", "baseline"])
+        self.assertEqual((code, err), (0, ""))
 
     def test_settings_and_data_are_checked_before_any_worker_starts(self):
         # Each hung (--jobs 2) or was a traceback before review.

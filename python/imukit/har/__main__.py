@@ -170,6 +170,7 @@ def main(argv=None):
         arms = ["baseline", "sim:identity"]
         runs = experiments.one_at_a_time_runs(subjects, arms, args.models, args.seeds, _folds(args))
         name = "sim_only"
+    experiments.check_policy(settings.policy, arms)
     missing = experiments.check_scenes(R, arms)
     experiments.check_splits(runs, state)
     source["recordings_without_scene"] = missing

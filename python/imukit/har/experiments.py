@@ -16,6 +16,7 @@ appended to the experiment's JSON as soon as it ends, so a killed experiment con
 stopped. Runs are spread over `jobs` worker processes of one torch thread each.
 """
 import collections
+import concurrent.futures.process
 import dataclasses
 import hashlib
 import itertools
@@ -105,6 +106,10 @@ ONE_AT_A_TIME_ARMS = (["baseline"] + [f"stda:{m}" for m in PAIRS] + [f"ppda:{m}"
 FEWER_SUBJECTS_ARMS = ["baseline", "stda:all", "ppda:all", "ppda:all:learned"]
 
 
+# The protocol of this code (Settings.protocol).
+PROTOCOL = 2
+
+
 @dataclasses.dataclass
 class Settings:
     """What every run of an experiment shares (recorded in the JSON; a resumed experiment must
@@ -126,11 +131,19 @@ class Settings:
     output_screen: float = 8.0
     # Mini-batches per epoch, 0: one pass over the training windows (train.TrainConfig).
     steps_per_epoch: int = 0
+    # What a run of this code computes, as a number raised whenever the code changes what an
+    # existing arm computes without any setting changing (found in review, 2026-11-27: results
+    # recorded no code version, so a resumed, reused or merged experiment could hold runs of
+    # two definitions of one arm under one name). Being a setting, results of another protocol
+    # are refused by resume, `reuse` and `merge` like other settings. 1: every result up to
+    # 2026-11-27 (JSON without the key); 2: after that day's review (the learned arms draw their
+    # validation batches from their own stream, train.Trainer.fit).
+    protocol: int = PROTOCOL
 
 
 # Settings keys added after results were written, with the value those results were made with:
 # a JSON without the key continues only under that value.
-LEGACY_SETTINGS = {"output_screen": 0.0, "steps_per_epoch": 0}
+LEGACY_SETTINGS = {"output_screen": 0.0, "steps_per_epoch": 0, "protocol": 1}
 
 
 def settings_of(doc):
@@ -165,16 +178,18 @@ def prepare(recordings, settings):
     policy = read_policy(settings.policy)
     W = windowing.make_windows(recordings, settings.window, settings.stride)
     return {"recordings": recordings, "settings": settings, "windows": W, "policy": policy, "ppda": None,
-            "subject": np.array([recordings[i].subject for i in W.recording])}
+            "subject": np.array([recordings[i].subject for i in W.recording]), "code": code_version()}
 
 
-def _init_worker(state, abort=None):
+def _init_worker(state, abort=None, started=None):
     # Never raises: a pool whose initializer raises replaces the worker and calls it again,
     # forever. The error is kept for run_one, whose error the pool hands to the caller.
     # `abort` (an Event) is set by the parent once a run failed: the runs not yet begun are
-    # skipped (run_one returns None).
+    # skipped (run_one returns None). `started` (a SimpleQueue) gets the key of each run the
+    # worker begins (execute).
     _STATE.clear()
     _STATE["abort"] = abort
+    _STATE["started"] = started
     try:
         train.set_threads(1)
         _STATE.update(state)
@@ -236,6 +251,7 @@ def run_one(run):
     result["implausible_windows"] = augmenter.implausible_windows
     result["implausible_outputs"] = augmenter.implausible_outputs
     result["too_short_windows"] = augmenter.too_short_windows
+    result["code"] = _STATE.get("code")
     return dict(run, **result)
 
 
@@ -366,6 +382,29 @@ def data_mismatch(old, new):
     return sorted(differ)
 
 
+def protocol_differs(old, new, path):
+    """ValueError naming `path` when settings `old` and `new` are of different protocols
+    (Settings.protocol): the runs of one would be taken as the other's."""
+    if old["protocol"] != new["protocol"]:
+        raise ValueError(f"{path}: made by protocol {old['protocol']} of imukit.har, this is protocol "
+                         f"{new['protocol']} (what some arms compute changed: docs/har.md, \"Protocol "
+                         "versions\"); its runs cannot be continued or mixed with this one's: use another --out")
+
+
+def code_version():
+    """The package's version and, when it lies in a git work tree (a build inside the
+    repository), `git describe --always --dirty` of it: recorded per run (`code`) so a result
+    says which code made it (found in review, 2026-11-27); '' parts when unknown."""
+    import subprocess
+    try:
+        git = subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(__file__)), "describe", "--always",
+                              "--dirty"], capture_output=True, text=True, timeout=20)
+        describe = git.stdout.strip() if git.returncode == 0 else ""
+    except (OSError, subprocess.SubprocessError):
+        describe = ""
+    return {"imukit": getattr(imukit, "__version__", ""), "git": describe}
+
+
 class ResultStore:
     """The experiment's JSON: settings plus one entry per finished run, rewritten atomically
     after each run. Refuses to continue a JSON written with other settings or other data."""
@@ -376,6 +415,7 @@ class ResultStore:
                     "settings": dataclasses.asdict(settings), "data": data, "runs": []}
         if os.path.exists(path):
             old = read_results(path)
+            protocol_differs(settings_of(old), self.doc["settings"], path)
             if settings_of(old) != self.doc["settings"] or old.get("experiment") != experiment:
                 raise ValueError(f"{path}: written with other settings {old.get('settings')}; "
                                  "use another --out or delete it")
@@ -417,6 +457,7 @@ def reuse(runs, store, other_path, log=print):
     if not os.path.exists(other_path):
         return 0
     other = read_results(other_path)
+    # Another protocol's runs are never copied (its other settings may well agree).
     if settings_of(other) != store.doc["settings"] or data_mismatch(other.get("data"), store.doc["data"]):
         return 0
     have = {run_key(r): r for r in other.get("runs", [])}
@@ -443,6 +484,7 @@ def merge(paths):
     first = docs[0]
     seen = {}
     for p, d in zip(paths, docs):
+        protocol_differs(settings_of(first), settings_of(d), p)
         if d.get("experiment") != first.get("experiment") or settings_of(d) != settings_of(first):
             raise ValueError(f"{p}: experiment {d.get('experiment')!r} with settings {settings_of(d)} "
                              f"differs from {paths[0]}: {first.get('experiment')!r} with {settings_of(first)}")
@@ -488,37 +530,77 @@ def execute(runs, store, state, jobs=1, log=print):
         _init_worker(state)
         for i, run in enumerate(pending):
             finished(i, run_one(run))
-    else:
-        # A failed run ends the experiment after the runs under way finish (their results are
-        # kept) and the rest are skipped; the pool then ends on its own. Terminating it at the
-        # first error could kill a worker in the middle of handing back a result, holding the
-        # result queue's lock, and the pool's own shutdown then waited for that lock forever
-        # (seen under load, review of 2026-11-27).
-        ctx = multiprocessing.get_context("fork")
-        abort = ctx.Event()
-        failure = None
-        with ctx.Pool(jobs, initializer=_init_worker, initargs=(state, abort),
-                      maxtasksperchild=None) as pool:
-            results = pool.imap_unordered(run_one, pending)
-            i = 0
-            while True:
-                try:
-                    r = next(results)
-                except StopIteration:
-                    break
-                except Exception as e:  # noqa: BLE001 (any run's error ends the experiment)
-                    if failure is None:
-                        failure = e
-                        abort.set()
-                    continue
-                if r is not None:
-                    finished(i, r)
-                    i += 1
-            pool.close()
-            pool.join()
-        if failure is not None:
-            raise failure
+        return time.perf_counter() - t0
+    # A failed run ends the experiment after the runs under way finish (their results are kept)
+    # and the rest are skipped. Terminating the workers at the first error could kill one in the
+    # middle of handing back a result, holding the result queue's lock, and the pool's own
+    # shutdown then waited for that lock forever (seen under load, review of 2026-11-27).
+    # A worker that dies (the OOM killer, a crash in native code) ends the experiment with an
+    # error naming the runs it lost: concurrent.futures notices a dead worker and fails the
+    # futures (BrokenProcessPool), where multiprocessing.Pool replaced the worker and waited for
+    # its lost run forever (found in review, 2026-11-27). Each worker says which run it starts
+    # (`started`, written before the run begins), so the runs lost are those started and not
+    # handed back.
+    ctx = multiprocessing.get_context("fork")
+    abort = ctx.Event()
+    started = ctx.SimpleQueue()
+    failure, broken, i = None, False, 0
+    begun, handed_back = set(), set()
+
+    def drain():  # read as the runs go: a full pipe would block the workers' next announcement
+        while not started.empty():
+            begun.add(started.get())
+    with concurrent.futures.ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_init_worker,
+                                                initargs=(state, abort, started)) as pool:
+        futures = {pool.submit(_run_announced, run_one, run): run for run in pending}
+        for future in concurrent.futures.as_completed(futures):
+            drain()
+            try:
+                r = future.result()
+            except concurrent.futures.process.BrokenProcessPool:
+                broken = True
+                continue
+            except Exception as e:  # noqa: BLE001 (any run's error ends the experiment)
+                handed_back.add(run_key(futures[future]))
+                if failure is None:
+                    failure = e
+                    abort.set()
+                continue
+            handed_back.add(run_key(futures[future]))
+            if r is not None:
+                finished(i, r)
+                i += 1
+    if broken:
+        drain()
+        lost = sorted(begun - handed_back)
+        raise RuntimeError(f"a worker process died (killed, e.g. by the out-of-memory killer, or crashed in "
+                           f"native code) while running {' or '.join(lost) or 'a run'}; the other runs "
+                           f"under way were stopped with it. The {i} run(s) finished are saved in "
+                           f"{getattr(store, 'path', 'the results')}: run the same command again to "
+                           "continue")
+    if failure is not None:
+        raise failure
     return time.perf_counter() - t0
+
+
+def _run_announced(run_fn, run):
+    """run_fn(run) in a worker, its run key told to the parent first (execute)."""
+    if _STATE.get("started") is not None and not (_STATE.get("abort") is not None and _STATE["abort"].is_set()):
+        _STATE["started"].put(run_key(run))
+    return run_fn(run)
+
+
+def check_policy(policy, arms):
+    """Refuses a policy other than `paper` for any arm but the baseline: the arms name sub-policies
+    by their place in the `paper` grid (the identity first, grid_index's strides), and PPDA
+    re-simulates with that grid's parameters. Found in review, 2026-11-27: with another
+    `--policy` they silently selected other sub-policies, or failed at their first run after the
+    runs before it had finished."""
+    named = [a for a in arms if a != "baseline"]
+    if policy != "paper" and named:
+        raise ValueError(f"--policy {policy}: the arms {', '.join(named)} are defined on the `paper` grid "
+                         "(sub-policies named by their place in it); only `baseline` runs under another "
+                         "policy")
 
 
 def expand_arms(arms, options_all=False):

@@ -36,40 +36,84 @@ def _by(runs, *keys):
     return out
 
 
-def _paired(runs_a, runs_b, metric="test_f1"):
-    """Values of two arms on the splits and seeds both have, in the same order."""
+def _fold(r):
+    return (r["test"], r["val"], ",".join(r["train"]))
+
+
+def _paired(runs_a, runs_b, metric="test_f1", unit=_fold):
+    """Values of two arms, one per unit of replication, in the same order: the runs both have
+    (same split and seed) are matched, and the matched values are averaged per `unit` (a run's
+    key; by default its fold, so the seeds of a fold count once). Found in review, 2026-11-27:
+    the seeds of a fold share its test, validation and training subjects, so their differences
+    are not independent, and pairing every (fold, seed) counted each fold once per seed (eight
+    folds' evidence went from p = 0.15 to p = 0.0096 with three seeds)."""
     def key(r):
-        return (r["test"], r["val"], ",".join(r["train"]), r["seed"])
-    a = {key(r): r[metric] for r in runs_a}
-    b = {key(r): r[metric] for r in runs_b}
-    common = sorted(set(a) & set(b))
-    return [a[k] for k in common], [b[k] for k in common]
+        return _fold(r) + (r["seed"],)
+    a = {key(r): r for r in runs_a}
+    b = {key(r): r for r in runs_b}
+    units = collections.defaultdict(lambda: ([], []))
+    for k in sorted(set(a) & set(b)):
+        u = units[unit(a[k])]
+        u[0].append(a[k][metric])
+        u[1].append(b[k][metric])
+    order = sorted(units)
+    return [float(np.mean(units[u][0])) for u in order], [float(np.mean(units[u][1])) for u in order]
 
 
 def _fmt_p(p):
     return "-" if p is None else (f"{p:.3f}" if p >= 0.001 else f"{p:.1e}")
 
 
-def _best_option(arm_runs, kind, method):
-    """Among the options of (kind, method) that were run, the one with the best mean validation F1
-    (the selection never looks at the test subject)."""
-    cands = {a: rs for a, rs in arm_runs.items() if a.startswith(f"{kind}:{method}:")}
+def _options_run(arms, kind, method):
+    return {a: rs for a, rs in arms.items() if a.startswith(f"{kind}:{method}:")}
+
+
+def _best_option_runs(arm_runs, kind, method):
+    """The runs standing for (kind, method) when several of its options ran: per fold, the runs
+    of the option with the best mean validation F1 on that fold (over its seeds); None if no
+    option ran. Found in review, 2026-11-27: the option was chosen by its mean validation F1
+    over all folds, and each subject validates one fold (LOSO validates fold i on subject i + 1),
+    so the choice for a fold had seen its test subject's labels. A fold's own validation subject
+    is never its test subject."""
+    cands = _options_run(arm_runs, kind, method)
     if not cands:
         return None
-    return max(cands, key=lambda a: np.mean([r["val_f1"] for r in cands[a]]))
+    by_fold = collections.defaultdict(lambda: collections.defaultdict(list))
+    for a, rs in cands.items():
+        for r in rs:
+            by_fold[_fold(r)][a].append(r)
+    chosen = []
+    for fold, options in sorted(by_fold.items()):
+        a = max(sorted(options), key=lambda o: np.mean([r["val_f1"] for r in options[o]]))
+        chosen += options[a]
+    return chosen
+
+
+def _option_label(runs):
+    """The options a method's runs are of: `2`, or per option its folds when folds chose
+    differently (`2 (5), 3 (3)`); `-` for none."""
+    if not runs:
+        return "-"
+    folds = collections.defaultdict(set)
+    for r in runs:
+        folds[r["arm"].split(":")[2]].add(_fold(r))
+    if len(folds) == 1:
+        return next(iter(folds))
+    return ", ".join(f"{o} ({len(f)})" for o, f in sorted(folds.items()))
 
 
 def _arm_for(arms, kind, rest):
-    """The arm of `kind` standing for `rest`: a method's option with the best validation F1
-    (`_best_option`), or the arm `kind:rest` itself (`all`, `all:learned`); None if not run."""
+    """The runs of `kind` standing for `rest`: a method's runs (per fold its option with the best
+    validation F1 on that fold: `_best_option_runs`), or the arm `kind:rest` itself (`all`,
+    `all:learned`); None if not run."""
     if rest in PAIRS:
-        return _best_option(arms, kind, rest)
-    return f"{kind}:{rest}" if f"{kind}:{rest}" in arms else None
+        return _best_option_runs(arms, kind, rest)
+    return arms.get(f"{kind}:{rest}")
 
 
 def _vs(runs_a, runs_b):
-    """`wilcoxon` of a against b over the runs both have (same split and seed: `_paired`);
-    (None, 0, 0.0) when either arm did not run."""
+    """`wilcoxon` of a against b over the folds both have (same split and seed, seeds averaged
+    per fold: `_paired`); (None, 0, 0.0) when either arm did not run."""
     if not runs_a or not runs_b:
         return None, 0, 0.0
     return wilcoxon(*_paired(runs_a, runs_b))
@@ -79,9 +123,17 @@ def _test_f1(runs):
     return _pct([r["test_f1"] for r in runs])
 
 
+UNIT_FOLD = ("p: two-sided Wilcoxon signed-rank, paired per fold: the unit of replication is the "
+             "test subject (the seeds of a fold averaged first), n = the folds both arms ran.")
+
+# The rows of the one-at-a-time table: the six method pairs, then the `all` arms side by side.
+_ALL_ROWS = {"all": "all 810 uniform", "all:learned": "all 810 learned"}
+
+
 def one_at_a_time(doc):
     """Markdown: per model, each arm's test macro F1 (mean ± std over folds x seeds) and per pair
-    the Wilcoxon test PPDA vs STDA and each vs baseline; returns (markdown, figure data)."""
+    the Wilcoxon test PPDA vs STDA and each vs baseline, paired per fold; returns (markdown,
+    figure data)."""
     lines = []
     fig = {}
     for model, runs in sorted(_by(doc["runs"], "model").items()):
@@ -91,35 +143,45 @@ def one_at_a_time(doc):
         folds = sorted({r["test"] for r in runs})
         seeds = sorted({r["seed"] for r in runs})
         lines += [f"### {model}", "",
-                  f"Test macro F1 (%), mean ± std over {len(folds)} test subjects x {len(seeds)} seed(s); "
-                  f"baseline {_test_f1(base)}. p: two-sided Wilcoxon signed-rank "
-                  "over the paired (test subject, seed) runs.", "",
+                  f"Test macro F1 (%), mean ± std over every run ({len(folds)} test subjects x {len(seeds)} "
+                  f"seed(s)); baseline {_test_f1(base)}. {UNIT_FOLD}", "",
                   "| method pair | STDA | PPDA | PPDA - STDA (pp) | p PPDA vs STDA | p STDA vs baseline | p PPDA vs baseline | option (STDA / PPDA) |",
                   "|---|---|---|---|---|---|---|---|"]
         fig[model] = {"baseline": [r["test_f1"] for r in base], "pairs": []}
-        for method, (stda_name, ppda_name, *_rest) in PAIRS.items():
-            sa, pa = _arm_for(arms, "stda", method), _arm_for(arms, "ppda", method)
-            if sa is None and pa is None:
+        rows = [(m, f"{n[0]} / {n[1]}", f"{n[0]}\n{n[1]}") for m, n in PAIRS.items()]
+        rows += [(rest, f"{name} (STDA / PPDA)", f"{name}\n(STDA / PPDA)") for rest, name in _ALL_ROWS.items()]
+        for rest, name, fig_name in rows:
+            s_runs = _arm_for(arms, "stda", rest) or []
+            p_runs = _arm_for(arms, "ppda", rest) or []
+            if not s_runs and not p_runs:
                 continue
-            s_runs, p_runs = arms.get(sa, []), arms.get(pa, [])
-            p_ps, n, diff = wilcoxon(*_paired(p_runs, s_runs))
-            opt = f"{sa.split(':')[2] if sa else '-'} / {pa.split(':')[2] if pa else '-'}"
-            lines.append(f"| {stda_name} / {ppda_name} | {_test_f1(s_runs)} | {_test_f1(p_runs)} | "
+            p_ps, n, diff = _vs(p_runs, s_runs)
+            opt = f"{_option_label(s_runs)} / {_option_label(p_runs)}" if rest in PAIRS else "- / -"
+            lines.append(f"| {name} | {_test_f1(s_runs)} | {_test_f1(p_runs)} | "
                          f"{100 * diff:+.1f} (n={n}) | {_fmt_p(p_ps)} | {_fmt_p(_vs(s_runs, base)[0])} | "
                          f"{_fmt_p(_vs(p_runs, base)[0])} | {opt} |")
-            fig[model]["pairs"].append((f"{stda_name}\n{ppda_name}", [r["test_f1"] for r in s_runs],
+            fig[model]["pairs"].append((fig_name, [r["test_f1"] for r in s_runs],
                                         [r["test_f1"] for r in p_runs]))
-        extra = [a for a in arms if a != "baseline" and a.split(":")[1] not in PAIRS
-                 and not a.startswith("ppda-residual:")]
-        for a in sorted(extra):
-            lines.append(f"| {parse_arm(a).label} | | {_test_f1(arms[a])} | | | | {_fmt_p(_vs(arms[a], base)[0])} | |")
         lines.append("")
+        # Arms of no pair (sim-only, ...) in a table of their own. Found in review, 2026-11-27:
+        # they were rows of the pair table with their F1 in the PPDA column and their p under
+        # "p PPDA vs baseline", STDA arms (`stda:all`) included.
+        paired = {f"{k}:{rest}" for k in ("stda", "ppda") for rest in _ALL_ROWS}
+        extra = sorted(a for a in arms if a != "baseline" and a not in paired
+                       and a.split(":")[1] not in PAIRS and not a.startswith("ppda-residual:"))
+        if extra:
+            lines += ["Other arms:", "", "| arm | test F1 | - baseline (pp) | p vs baseline |", "|---|---|---|---|"]
+            for a in extra:
+                p, n, d = _vs(arms[a], base)
+                lines.append(f"| {parse_arm(a).label} | {_test_f1(arms[a])} | {100 * d:+.1f} (n={n}) | {_fmt_p(p)} |")
+            lines.append("")
         lines += _residual_rows(arms, base)
         options = sorted(a for a in arms if a.count(":") == 2 and a.split(":")[1] in PAIRS)
         kinds = ("stda", "ppda", "ppda-residual")
         if any(len([o for o in options if o.startswith(f"{k}:{m}:")]) > 1 for k in kinds for m in PAIRS):
-            lines += ["Every option (the table above takes, per method, the option with the best mean "
-                      "validation F1):", "", "| arm | validation F1 | test F1 |", "|---|---|---|"]
+            lines += ["Every option (the tables above take, per method and fold, the option with the best "
+                      "validation F1 on that fold, never its test score; the option column counts the folds "
+                      "of each option chosen):", "", "| arm | validation F1 | test F1 |", "|---|---|---|"]
             for a in options:
                 lines.append(f"| {a} | {_pct([r['val_f1'] for r in arms[a]])} | {_test_f1(arms[a])} |")
             lines.append("")
@@ -127,28 +189,27 @@ def one_at_a_time(doc):
 
 
 def _residual_rows(arms, base):
-    """Markdown rows for the residual PPDA arms run: each (per method the option with the best
-    validation F1; the `all` arms as they are) against PPDA proper, STDA and the baseline,
-    paired; [] when none ran."""
+    """Markdown rows for the residual PPDA arms run: each (per method and fold the option with the
+    best validation F1 on that fold; the `all` arms as they are) against PPDA proper, STDA and the
+    baseline, paired per fold; [] when none ran."""
     rows = []
-    for rest in list(PAIRS) + ["all", "all:learned"]:
-        ra = _arm_for(arms, "ppda-residual", rest)
-        if ra is None:
+    for rest in list(PAIRS) + list(_ALL_ROWS):
+        r_runs = _arm_for(arms, "ppda-residual", rest)
+        if not r_runs:
             continue
-        r_runs = arms[ra]
         cells = []
         for kind in ("ppda", "stda"):
             other = _arm_for(arms, kind, rest)
-            p, n, d = _vs(r_runs, arms[other]) if other else (None, 0, 0.0)
+            p, n, d = _vs(r_runs, other) if other else (None, 0, 0.0)
             cells.append(f"{100 * d:+.1f} (n={n}) | {_fmt_p(p)}" if other else "- | -")
-        name = PAIRS[rest][1] if rest in PAIRS else parse_arm(ra).label
-        option = ra.split(":")[2] if rest in PAIRS else "-"
+        name = PAIRS[rest][1] if rest in PAIRS else parse_arm(f"ppda-residual:{rest}").label
+        option = _option_label(r_runs) if rest in PAIRS else "-"
         rows.append(f"| {name} | {_test_f1(r_runs)} | {cells[0]} | {cells[1]} | "
                     f"{_fmt_p(_vs(r_runs, base)[0])} | {option} |")
     if not rows:
         return []
-    return ["Residual PPDA (the sub-policy's change added to the real window), paired over the same "
-            "(test subject, seed) runs:", "",
+    return ["Residual PPDA (the sub-policy's change added to the real window), paired per fold as "
+            "above (the unit is the test subject):", "",
             "| method | PPDA residual | - PPDA (pp) | p | - STDA (pp) | p | p vs baseline | option |",
             "|---|---|---|---|---|---|---|---|"] + rows + [""]
 
@@ -173,7 +234,15 @@ def fewer_subjects(doc):
                     fig[model][a].append((n, float(np.mean(v)), float(np.std(v))))
             lines.append(f"| {n} | " + " | ".join(cells) + " |")
         lines.append("")
-        lines += ["Paired (same split) Wilcoxon p-values over all sizes:", ""]
+        # Found in review, 2026-11-27: the splits of all sizes were tested as independent pairs,
+        # but splits share their test subject (and their validation subject, and the smaller
+        # training sets lie inside the larger ones): eight splits over two test subjects read as
+        # eight pairs. Each test subject's splits are averaged first, over every size.
+        tests = sorted({r["test"] for r in runs})
+        lines += [f"Two-sided Wilcoxon signed-rank over all sizes, paired per test subject: the unit of "
+                  f"replication is the test subject (its splits of every size, matched by split and seed, "
+                  f"averaged first), n = the test subjects both arms ran ({len(tests)} here: "
+                  f"{', '.join(tests)}; an exact two-sided p is at least 2 / 2^n, none with fewer than 2):", ""]
         for a, b in (("ppda:all", "stda:all"), ("ppda:all:learned", "ppda:all"), ("ppda:all", "baseline"),
                      ("stda:all", "baseline"), ("ppda:all:learned", "baseline"),
                      ("ppda-residual:all", "ppda:all"), ("ppda-residual:all", "stda:all"),
@@ -182,8 +251,9 @@ def fewer_subjects(doc):
             ra = [r for r in runs if r["arm"] == a]
             rb = [r for r in runs if r["arm"] == b]
             if ra and rb:
-                p, n, d = wilcoxon(*_paired(ra, rb))
-                lines.append(f"- {parse_arm(a).label} vs {parse_arm(b).label}: {100 * d:+.1f} pp, p = {_fmt_p(p)} (n={n})")
+                p, n, d = wilcoxon(*_paired(ra, rb, unit=lambda r: r["test"]))
+                lines.append(f"- {parse_arm(a).label} vs {parse_arm(b).label}: {100 * d:+.1f} pp, p = {_fmt_p(p)} "
+                             f"(n={n} test subjects)")
         lines.append("")
     return "\n".join(lines), fig
 
@@ -200,7 +270,8 @@ def sim_only(doc):
                   "|---|---|---|---|",
                   f"| real windows | {_pct([r['test_f1'] for r in real])} | {_pct([r['test_acc'] for r in real])} | {_pct([r['val_f1'] for r in real])} |",
                   f"| re-simulated windows only | {_pct([r['test_f1'] for r in sim])} | {_pct([r['test_acc'] for r in sim])} | {_pct([r['val_f1'] for r in sim])} |",
-                  "", f"Fidelity gap (sim-only minus real, paired): {100 * d:+.1f} pp macro F1, p = {_fmt_p(p)} (n={n}).", ""]
+                  "", f"Fidelity gap (sim-only minus real, paired per fold, the seeds of a fold averaged "
+                  f"first): {100 * d:+.1f} pp macro F1, p = {_fmt_p(p)} (n={n} test subjects).", ""]
     return "\n".join(lines), None
 
 
@@ -301,7 +372,7 @@ def write(doc, out_dir):
           f"window {s['window']} / stride {s['stride']} samples, batch {s['batch_size']}, up to {s['epochs']} epochs{steps} "
           f"(early stop after {s['patience']} without a better validation F1), policy grid `{s['policy']}`"
           f"{', tiny models' if s['tiny'] else ''}"
-          f"{screen}.", "", table, "#### Speed", "", speed(doc), ""]
+          f"{screen}; protocol {s['protocol']} (docs/har.md, \"Protocol versions\").", "", table, "#### Speed", "", speed(doc), ""]
     md += provenance(doc)
     text = "\n".join(md)
     with open(os.path.join(out_dir, f"{exp}.md"), "w", encoding="utf-8") as f:

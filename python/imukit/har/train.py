@@ -153,6 +153,11 @@ class Trainer:
         """Trains on `train` (Windows, raw); returns a dict of results (scores, epochs, timing)."""
         c = self.config
         order_rng = np.random.default_rng([c.seed, 1])
+        # The learned arms' validation batches come from a stream of their own, so every arm of a
+        # seed trains on the same window order (found in review, 2026-11-27: drawn from
+        # order_rng, they moved the learned arms' training batches off the other arms' from the
+        # first policy step on; protocol 2, experiments.Settings.protocol).
+        val_rng = np.random.default_rng([c.seed, 2])
         learn = isinstance(self.sampler, GumbelPolicy)
         best = (-1.0, -1, None)
         history = []
@@ -198,7 +203,7 @@ class Trainer:
                 for p, g in zip(params, grads):
                     p.grad = g
                 if learn and steps % self.sampler.every == 0:
-                    vi = order_rng.choice(len(val_y), size=min(c.batch_size, len(val_y)), replace=False)
+                    vi = val_rng.choice(len(val_y), size=min(c.batch_size, len(val_y)), replace=False)
                     self._policy_step(X, y, k, noise, grads, torch.from_numpy(val_X[vi]),
                                       torch.from_numpy(val_y[vi]))
                 self.optimizer.step()
