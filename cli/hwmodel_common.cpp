@@ -410,6 +410,19 @@ CalibrateResult calibrate_series(const ImuSeries& s, const CalibrateOptions& opt
                             options.init_static_s, too_few_poses_hint(s, opt)));
   }
   const hwmodel::CalibrationResult& r = out.fit;
+  // SI data whose scale comes out far from 1 is in another unit, or --gravity is: SI data with
+  // --gravity 1 wrote an accelerometer scale of about 10, data in g a scale of 0.1, exit 0
+  // (found in review, 2026-11-27).
+  if (!options.raw) {
+    const double lo = r.accel.scale.minCoeff(), hi = r.accel.scale.maxCoeff();
+    if (!(lo > 0.5 && hi < 2.0)) {
+      throw Error(fmt::format(
+          "calibrate: the accelerometer's scale comes out {:.3g} to {:.3g} against a gravity of "
+          "{:g} m/s^2: the data are not in m/s^2 (counts need --raw, g needs the input's unit "
+          "option) or --gravity is not the local gravity in m/s^2",
+          lo, hi, options.gravity));
+    }
+  }
   fmt::print("{} static poses (threshold {} x the initial static variance), fit in {:.3f} s\n",
              r.poses.size(), r.threshold_factor, r.seconds);
   print_calibration("accelerometer", r.accel, options.raw, "m/s^2");

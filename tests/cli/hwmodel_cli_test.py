@@ -72,6 +72,16 @@ def test_calibrate_xsens_raw_counts(run, workdir, characterized, data_file):
     assert r.returncode == 0 and p["gravity"] == 9.81744 and "calibration" in p["accelerometer"], r.stderr
 
 
+def test_calibrate_refuses_data_in_another_unit_than_it_is_told(run, workdir, data_file):
+    """Found in review, 2026-11-27: counts or g read as m/s^2, or SI data with --gravity 1, gave a
+    calibration scaled by 10 or 400, exit 0. The scale of SI data must come out near 1."""
+    xs = os.path.dirname(data_file("imu_tk_xsens", "xsens_acc.txt"))
+    out = os.path.join(workdir, "unit.json")
+    r = run("calibrate", os.path.join(xs, "xsens_acc.txt"), "--columns", "t,ax,ay,az", "--no-gyro", "-o", out)
+    assert r.returncode == 1 and "the data are not in m/s^2 (counts need --raw" in r.stderr, r.stderr
+    assert not os.path.exists(out), "nothing written"
+
+
 def test_calibrate_refuses_poses_about_one_axis(run, workdir, characterized):
     """Poses about one axis only cannot calibrate: a clear one-line error, exit code != 0."""
     rng = characterized[2]
