@@ -190,7 +190,10 @@ KeypointTopology h36m_17() {
     const std::string side = s < 0 ? "left_" : "right_";
     const auto knee_plane =
         b.cross(side + "hip", side + "knee", side + "knee", side + "ankle", -Vector3d::UnitX());
-    const auto hips = b.vec("left_hip", "right_hip", Vector3d::UnitX());
+    auto hips = b.vec("left_hip", "right_hip", Vector3d::UnitX());
+    // Only where the knee plane is not seen: as an equal partner it halved a bent knee's thigh
+    // twist (found in review, 2026-11-27).
+    hips.fallback = true;
     const char* leg_note =
         "knee plane (thigh x shank) with the knee bent; else guessed: the hip line (no foot "
         "keypoint)";
@@ -347,7 +350,7 @@ KeypointTopology parse_topology_impl(std::string_view text, const std::string& s
       if (!sec.is_array()) json_fail(source, path + ".secondary", "expected an array");
       for (std::size_t k = 0; k < sec.size(); ++k) {
         const std::string sp = path + ".secondary[" + std::to_string(k) + "]";
-        json_only_keys(sec[k], {"from", "to", "cross", "neutral"}, source, sp);
+        json_only_keys(sec[k], {"from", "to", "cross", "neutral", "fallback"}, source, sp);
         SecondaryDirection d;
         if (sec[k].contains("cross")) {
           const json& c = sec[k]["cross"];
@@ -365,6 +368,8 @@ KeypointTopology parse_topology_impl(std::string_view text, const std::string& s
         }
         if (!sec[k].contains("neutral")) json_fail(source, sp + ".neutral", "missing");
         d.neutral = jvec3(sec[k]["neutral"], source, sp + ".neutral");
+        if (sec[k].contains("fallback"))
+          d.fallback = json_boolean(sec[k]["fallback"], source, sp + ".fallback");
         s.secondary.push_back(d);
       }
     }
@@ -535,6 +540,7 @@ std::string keypoint_topology_json(const KeypointTopology& t) {
         jd["to"] = name(d.a_to);
       }
       jd["neutral"] = v3(d.neutral);
+      if (d.fallback) jd["fallback"] = true;
       sec.push_back(jd);
     }
     js["secondary"] = sec;
@@ -1457,6 +1463,7 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
     struct Candidate {
       double a, w;
       bool axis;
+      bool fallback;
     };
     std::vector<std::vector<Candidate>> cands(static_cast<std::size_t>(N));
     int64_t start = -1, first_any = -1;
@@ -1473,9 +1480,18 @@ std::vector<double> twist_angles(const KeypointSegment& s, const std::vector<Eig
         if (wgt <= 0.0) continue;
         const Vector3d pred = Fr[kk] * n0[ci];
         const bool axis = s.secondary[ci].cross && sine < kHingeSignMinBendSine;
-        cands[kk].push_back(
-            {std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp)), wgt, axis});
-        if (start < 0 && !axis) start = k;
+        cands[kk].push_back({std::atan2(pred.cross(perp).dot(bone[kk]), pred.dot(perp)), wgt, axis,
+                             s.secondary[ci].fallback});
+      }
+      // Fallbacks count only as far as the other candidates are not seen.
+      double seen = 0.0;
+      for (const Candidate& c : cands[kk])
+        if (!c.fallback) seen = std::max(seen, c.w);
+      for (Candidate& c : cands[kk])
+        if (c.fallback) c.w *= 1.0 - seen;
+      std::erase_if(cands[kk], [](const Candidate& c) { return !(c.w > 0.0); });
+      for (const Candidate& c : cands[kk]) {
+        if (start < 0 && !c.axis) start = k;
         if (first_any < 0) first_any = k;
       }
     }

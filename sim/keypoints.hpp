@@ -59,6 +59,10 @@ struct SecondaryDirection {
   int b_from = -1, b_to = -1;  // -1 unless cross
   bool cross = false;
   Eigen::Vector3d neutral = Eigen::Vector3d::UnitY();
+  // A fallback counts only as far as the segment's other candidates are not seen: its weight
+  // is scaled by 1 - the largest weight among them (Human3.6M's hip line for the thigh, used
+  // where the knee is straight).
+  bool fallback = false;
 };
 
 // One Body joint: the segment that starts at keypoint `origin` and points at keypoint `end`

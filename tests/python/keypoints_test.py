@@ -162,6 +162,32 @@ class HingeNearStraight(unittest.TestCase):
         self.assertLess(np.max(np.abs(twist)), 5.0, f"upper-arm twist up to {np.max(np.abs(twist)):.1f} degrees")
 
 
+class H36mThighTwist(unittest.TestCase):
+    def test_a_bent_knee_gives_the_whole_thigh_rotation(self):
+        """Found in review, 2026-11-27: Human3.6M's hip line, a fallback for a straight knee, was
+        averaged with the knee plane as an equal partner, so a thigh turned by theta with the knee
+        bent 90 degrees read theta / 2 and the knee took the rest as a sideways rotation."""
+        names = imukit.keypoint_topology("h36m_17")["keypoints"]
+        base = {"pelvis": (0, 0, 0.95), "right_hip": (0.1, 0, 0.92), "right_knee": (0.1, 0, 0.5),
+                "right_ankle": (0.1, 0, 0.1), "left_hip": (-0.1, 0, 0.92), "left_knee": (-0.1, 0, 0.5),
+                "spine": (0, 0, 1.15), "thorax": (0, 0, 1.4), "neck": (0, 0.02, 1.5), "head": (0, 0, 1.65),
+                "left_shoulder": (-0.2, 0, 1.4), "left_elbow": (-0.45, 0, 1.4), "left_wrist": (-0.55, 0.25, 1.4),
+                "right_shoulder": (0.2, 0, 1.4), "right_elbow": (0.45, 0, 1.4), "right_wrist": (0.55, 0.25, 1.4)}
+        frames = 60
+        for theta in (20.0, 60.0):
+            pose = dict(base)
+            th = np.radians(theta)  # the shank, bent 90 degrees, swung by theta about the vertical thigh
+            pose["left_ankle"] = tuple(np.array(base["left_knee"]) + 0.4 * np.array([np.sin(th), -np.cos(th), 0]))
+            one = np.array([pose[n] for n in names])
+            kp = np.stack([one + 1e-4 * np.sin(i + np.arange(len(names)))[:, None] for i in range(frames)])
+            body, motion, _ = imukit.motion_from_keypoints(kp, "h36m_17", times=np.arange(frames) / 30,
+                                                           up=[0, 0, 1])
+            q = np.asarray(motion.rotations_wxyz())[frames // 2]
+            thigh, knee = q[body.joint_names.index("left_hip")], q[body.joint_names.index("left_knee")]
+            self.assertAlmostEqual(np.degrees(2 * np.arctan2(thigh[3], thigh[0])), theta, delta=1.0)
+            self.assertLess(np.max(np.abs(knee[2:])), 0.01, f"the knee bends about one axis: {knee}")
+
+
 class CustomBody(unittest.TestCase):
     def test_from_arrays_round_trips_and_simulates_with_presets(self):
         names = ["Hips", "Spine1", "RightArm", "RightForeArm", "RightHand"]
