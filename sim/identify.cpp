@@ -42,6 +42,7 @@ constexpr TimeNs kTimeStepNs = 100'000;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // The coarse search tries at most this many clock rates (grid of +-max_clock_rate).
 constexpr int kMaxCoarseRates = 401;
+constexpr double kMaxCoarseProducts = 1e12;  // the coarse search's samples x lags x rates
 
 // Rows of the per-sample kinematics, all in the joint frame at the sample's motion time:
 // specific force of the joint origin (nominal segment lengths), angular rate, angular
@@ -570,6 +571,19 @@ CoarseTiming coarse_timing(const Body& body, MotionSource& motion, const Identif
   }
   const auto L = static_cast<int64_t>(std::ceil(half_width_s / h));
   const int64_t C = std::llround(center_s / h);  // lags C - L .. C + L
+  // Brute force over samples x lags x rates, with no progress to show: bounded before it starts
+  // (10 minutes at 100 Hz searched +-3600 s at 401 rates is 1.7e13 products, days; found in
+  // review, 2026-11-27). About 8 ns a product on this project's machines: 1e12 is a few hours.
+  const double products = static_cast<double>(meas.size()) * static_cast<double>(2 * L + 1) *
+                          static_cast<double>(rates.size());
+  if (products > kMaxCoarseProducts) {
+    throw Error(fmt::format(
+        "identify: the time-offset search over +-{:g} s ({} lags) at {} clock rate(s) on {} "
+        "samples would take {:.2g} products, more than the {:.0e} allowed (hours): give the "
+        "offset (--time-offset) or the motion's start (--motion-start), or narrow "
+        "--max-time-offset or --max-clock-rate",
+        half_width_s, 2 * L + 1, rates.size(), meas.size(), products, kMaxCoarseProducts));
+  }
   std::vector<double> r(static_cast<std::size_t>(2 * L + 1));
   std::vector<double> best_r;
   for (const double kappa : rates) {
@@ -622,7 +636,8 @@ CoarseTiming coarse_timing(const Body& body, MotionSource& motion, const Identif
   if (best.peak_r < -1.0) {  // no lag had 10 samples of both (or any variation in them)
     throw Error(fmt::format(
         "identify: the IMU recording and the motion do not overlap by 10 samples at any time "
-        "offset within {:g} +- {:g} s (or one of them does not move); check --motion-start",
+        "offset within {:g} +- {:g} s, or one of them does not move (a still recording leaves "
+        "the offset unobservable); check the motion's start",
         center_s, half_width_s));
   }
   return best;

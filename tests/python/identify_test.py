@@ -296,6 +296,17 @@ class ReviewOfTheFit(unittest.TestCase):
             with self.assertRaisesRegex(imukit.Error, message, msg=str(kw)):
                 imukit.identify(b, m, imu, init="right_wrist_watch", motion_start_ns=0, **kw)
 
+    def test_a_coarse_search_that_would_take_hours_is_refused_at_once(self):
+        """Ten minutes at 100 Hz searched over +-3600 s at the clock-rate grid's 401 rates is 1.7e13
+        products: days with no progress shown (found in review, 2026-11-27)."""
+        rng = np.random.default_rng(2)
+        n = 60000
+        imu = imukit.Series(np.arange(n, dtype=np.int64) * 10_000_000, rng.normal(0, 0.1, (n, 3)) + [0, 0, 9.81],
+                            rng.normal(0, 0.1, (n, 3)))
+        with self.assertRaisesRegex(imukit.Error, "time-offset search over \\+-3600 s .* more than the 1e\\+12 allowed"):
+            imukit.identify(self.body, self.motion, imu, init="right_wrist_watch", motion_start_ns=0,
+                            estimate=["clock_rate"], max_clock_rate=0.05, max_time_offset_s=3600)
+
     def test_a_still_recording_with_only_the_position_free_ends_without_a_crash(self):
         """Every free column zero: Eigen's solver ran on a 0 x 0 matrix and aborted Python."""
         R, P = self.motion.rotations_wxyz(), self.motion.root_translation()
