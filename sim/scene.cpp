@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cassert>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <nlohmann/json.hpp>
@@ -45,6 +46,13 @@ std::string resolve(const std::string& base, const std::string& name) {
 
 Eigen::Quaterniond rotation_of(const json& j, const std::string& source, const std::string& path) {
   json_only_keys(j, {"quaternion_wxyz", "euler", "order", "intrinsic", "unit"}, source, path);
+  // One or the other: Euler angles beside a quaternion were dropped (found in review,
+  // 2026-11-27).
+  if (j.contains("quaternion_wxyz")) {
+    for (const char* k : {"euler", "order", "intrinsic", "unit"})
+      if (j.contains(k))
+        json_fail(source, path + "." + k, "give either quaternion_wxyz or euler, not both");
+  }
   if (j.contains("quaternion_wxyz")) {
     const json& q = j["quaternion_wxyz"];
     if (!q.is_array() || q.size() != 4)
@@ -183,6 +191,18 @@ namespace {
 // nullptr when the motion is not a BVH file.
 std::shared_ptr<Motion> parse_bvh_motion(const json& m, const std::string& source,
                                          const std::string& base_dir, Scene& scene) {
+  // One kind of motion; scale and up are the BVH reader's. Anything else beside it was dropped
+  // (found in review, 2026-11-27: a BVH's rate_hz, a procedural motion next to a BVH).
+  int kinds = 0;
+  for (const char* k : {"bvh", "quaternion_csv", "procedural"}) kinds += m.contains(k) ? 1 : 0;
+  if (kinds > 1) json_fail(source, "motion", "give one of bvh, quaternion_csv and procedural");
+  for (const char* k : {"scale", "up"})
+    if (m.contains(k) && !m.contains("bvh"))
+      json_fail(source, std::string("motion.") + k, "applies to a bvh motion only");
+  if (m.contains("rate_hz") && !m.contains("quaternion_csv"))
+    json_fail(source, "motion.rate_hz",
+              "applies to a quaternion_csv motion only (a BVH has its frame time, a procedural "
+              "motion its own rate_hz)");
   if (!m.contains("bvh")) return nullptr;
   BvhOptions o;
   if (m.contains("scale")) o.scale = json_number(m["scale"], source, "motion.scale");
@@ -404,12 +424,32 @@ SceneSensor parse_sensor(const json& js, std::size_t i, std::string_view text,
   if (s.spec.name.empty() || s.spec.name.find_first_of("/\\") != std::string::npos) {
     json_fail(source, path + ".name", "must be non-empty without '/' (it names output files)");
   }
+  // A sensor's files are <name>.csv and <name>.truth.csv, .orientation.csv, .mag.csv and
+  // .mag.truth.csv: a sensor named "w.truth" beside a "w" with ground truth wrote both into one
+  // file (found in review, 2026-11-27), and "W" beside "w" collide on a case-insensitive disk.
+  const auto lower = [](std::string n) {
+    for (char& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return n;
+  };
+  for (const char* suffix : {".truth", ".orientation", ".mag"}) {
+    if (lower(s.spec.name).ends_with(suffix))
+      json_fail(source, path + ".name",
+                fmt::format("'{}' ends in {}, the name of another sensor's output file",
+                            s.spec.name, suffix));
+  }
   for (const SceneSensor& other : scene.sensors) {
-    if (other.spec.name == s.spec.name)
-      json_fail(source, path + ".name", "duplicate sensor name '" + s.spec.name + "'");
+    if (lower(other.spec.name) == lower(s.spec.name))
+      json_fail(source, path + ".name",
+                "duplicate sensor name '" + s.spec.name + "' (names name files; case is ignored)");
   }
   if (js.contains("preset")) {
     if (js.contains("segment")) json_fail(source, path, "give either preset or segment, not both");
+    // A preset is a whole placement: a position or rotation beside it was dropped (found in
+    // review, 2026-11-27).
+    for (const char* k : {"position_m", "rotation"})
+      if (js.contains(k))
+        json_fail(source, path + "." + k,
+                  "a preset places the sensor; give segment with position_m and rotation instead");
     s.preset = json_string(js["preset"], source, path + ".preset");
     try {
       s.spec.placement = preset_placement(s.preset, scene.body, s.spec.name);

@@ -80,6 +80,37 @@ TEST(Scene, ErrorsNameThePathOrLine) {
   EXPECT_NE(scene_error("[6E666]").find("s.json"), std::string::npos);
 }
 
+// Found in review, 2026-11-27: keys of alternatives were accepted and dropped (a preset's
+// position and rotation, Euler angles beside a quaternion, a BVH's rate_hz, a procedural motion
+// beside a BVH), and sensor names could name another sensor's output file.
+TEST(Scene, KeysOfOneAlternativeBesideAnotherAndCollidingNamesAreRefused) {
+  const auto with = [](const std::string& from, const std::string& to) {
+    std::string text = kScene;
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return text.replace(at, from.size(), to);
+  };
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {with(R"("preset": "left_wrist_watch",)",
+            R"("preset": "left_wrist_watch", "position_m": [0.5, 0.5, 0.5],)"),
+       "sensors[0].position_m: a preset places the sensor"},
+      {with(R"("rotation": {"euler")", R"("rotation": {"quaternion_wxyz": [1, 0, 0, 0], "euler")"),
+       "sensors[1].rotation.euler: give either quaternion_wxyz or euler, not both"},
+      {with(R"("motion": {"procedural")", R"("motion": {"bvh": "walk.bvh", "procedural")"),
+       "motion: give one of bvh, quaternion_csv and procedural"},
+      {with(R"("motion": {"procedural")", R"("motion": {"rate_hz": 10, "procedural")"),
+       "motion.rate_hz: applies to a quaternion_csv motion only"},
+      {with(R"("motion": {"procedural")", R"("motion": {"scale": 0.01, "procedural")"),
+       "motion.scale: applies to a bvh motion only"},
+      {with(R"({"name": "custom")", R"({"name": "watch.truth")"),
+       "sensors[1].name: 'watch.truth' ends in .truth"},
+      {with(R"({"name": "custom")", R"({"name": "Watch")"),
+       "sensors[1].name: duplicate sensor name 'Watch' (names name files; case is ignored)"},
+  };
+  for (const auto& [text, message] : cases)
+    EXPECT_NE(scene_error(text).find(message), std::string::npos) << scene_error(text);
+}
+
 // Seeds are the integers 0 to 2^63 - 1 (core/rng.hpp's kMaxSeed), as simulate --seed takes
 // (found in review, 2026-11-26: a scene's seeds were doubles up to 2^53, 9007199254740993 became
 // 9007199254740992, and the error rounded the value, "got 9.22337e+18", naming no line).
