@@ -499,7 +499,7 @@ void fit_gyroscope(std::span<const TimeNs> t, const Eigen::Matrix3Xd& accel,
 // component of at least kMinAxisGravity g each way): the rank test passes pose sets that
 // determine the bias only weakly. Poses tilted at most 30 degrees from z up put the z bias
 // 9-23 % off with a residual of 1e-5 m/s^2 (found in review, 2026-11-27).
-constexpr double kMinAxisGravity = 0.7;  // cos(45.6 degrees)
+constexpr double kMinAxisGravity = 0.55;  // 33 degrees above the horizontal
 void require_each_axis_up_and_down(const CalibrationResult& r, const Eigen::Matrix3Xd& accel) {
   Eigen::Vector3d up = Eigen::Vector3d::Constant(-1.0), down = Eigen::Vector3d::Constant(1.0);
   for (const Eigen::Vector3d& m : pose_means(accel, r.poses)) {
