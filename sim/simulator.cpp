@@ -1044,9 +1044,11 @@ void spline_on_frames(const OnFrameInputs& in, std::span<const std::size_t> samp
         const std::size_t col = samples[t0 + i];
         const Quaterniond q_ws = Quaterniond(jt[i], jt[T + i], jt[2 * T + i], jt[3 * T + i]) *
                                  spec.placement.q_joint_sensor;
-        // As the per-sample path has it (the sign from the rotation matrix).
-        if (spec.outputs.orientation)
-          out[s].q_world_sensor[col] = Quaterniond(q_ws.toRotationMatrix()).normalized();
+        // Orientation outputs are sign-canonical (w >= 0, so3.hpp's canonical()) in every path:
+        // the sign came from the input frames (fd, reference) or the rotation matrix (spline),
+        // so one sample could be q in one method and -q in another, and an input alternating
+        // q / -q alternated the output (found in review, 2026-11-27).
+        if (spec.outputs.orientation) out[s].q_world_sensor[col] = canonical(q_ws.normalized());
         if (spec.outputs.magnetometer)
           out[s].magnetic_field.col(static_cast<Eigen::Index>(col)) =
               q_ws.conjugate() * in.magnetic_field_world;
@@ -1528,7 +1530,7 @@ void Simulator::Workspace::write_spline_sample(const Simulator& sim, std::size_t
       out[s].specific_force.col(col) = Rs.transpose() * (acc - sim.options_.gravity_world);
     }
     if (o.gyroscope) out[s].angular_rate.col(col) = Rs.transpose() * w[k];
-    if (o.orientation) out[s].q_world_sensor[i] = Quaterniond(Rs).normalized();
+    if (o.orientation) out[s].q_world_sensor[i] = canonical(Quaterniond(Rs).normalized());
     if (o.magnetometer)
       out[s].magnetic_field.col(col) = Rs.transpose() * sim.options_.magnetic_field_world;
   }
@@ -1786,7 +1788,7 @@ void Simulator::Workspace::grid_to_samples(const Simulator& sim, std::size_t s,
       const Quaterniond q_ws =
           u == 0.0 ? q0.normalized()
                    : slerp(q0, qw(pos[i].frame + 1, k) * pl.q_joint_sensor, u).normalized();
-      if (o.orientation) out[s].q_world_sensor[i] = q_ws;
+      if (o.orientation) out[s].q_world_sensor[i] = canonical(q_ws);
       if (o.magnetometer) store3(om + 3 * i, rotate_inverse(q_ws, B_world));
     }
   }

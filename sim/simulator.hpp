@@ -106,10 +106,10 @@ struct SimulationOptions {
 // The samples of one sensor for a block of times. Channels not requested have 0 columns.
 struct SensorBlock {
   std::vector<TimeNs> t;
-  Eigen::Matrix3Xd specific_force;  // m/s^2, sensor frame
-  Eigen::Matrix3Xd angular_rate;    // rad/s, sensor frame
-  Eigen::Matrix3Xd magnetic_field;  // T, sensor frame
-  std::vector<Eigen::Quaterniond> q_world_sensor;
+  Eigen::Matrix3Xd specific_force;                 // m/s^2, sensor frame
+  Eigen::Matrix3Xd angular_rate;                   // rad/s, sensor frame
+  Eigen::Matrix3Xd magnetic_field;                 // T, sensor frame
+  std::vector<Eigen::Quaterniond> q_world_sensor;  // unit, sign-canonical: w > 0 (so3.hpp)
 };
 
 // Which joints a scene needs and how they connect.

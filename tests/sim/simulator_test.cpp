@@ -488,7 +488,9 @@ TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
     SimulationOptions opt;
     opt.method = method;
     opt.rate_hz = method == DerivativeMethod::spline ? 173.0 : 0.0;
-    Simulator sim(two_joint_body(T.offset), {sensor_on(1, T.r)}, opt);
+    SensorSpec spec = sensor_on(1, T.r);
+    spec.outputs.orientation = true;
+    Simulator sim(two_joint_body(T.offset), {spec}, opt);
     std::vector<SensorBlock> a, b;
     const auto times = grid_times(sim, m, m.frames());
     sim.evaluate(m, times, a);
@@ -497,6 +499,15 @@ TEST(Simulator, QuaternionSignFlipsBetweenFramesChangeNothing) {
         << to_string(method);
     EXPECT_LT((a[0].angular_rate - b[0].angular_rate).cwiseAbs().maxCoeff(), 1e-12)
         << to_string(method);
+    // The orientation output is sign-canonical (w >= 0) in every method: fd and reference
+    // copied the input frames' signs, so a q / -q input alternated the output, and the spline
+    // took the rotation matrix's branch (found in review, 2026-11-27).
+    ASSERT_EQ(a[0].q_world_sensor.size(), times.size());
+    for (std::size_t i = 0; i < times.size(); ++i) {
+      EXPECT_GE(a[0].q_world_sensor[i].w(), 0.0) << to_string(method) << " " << i;
+      EXPECT_LT((a[0].q_world_sensor[i].coeffs() - b[0].q_world_sensor[i].coeffs()).norm(), 1e-12)
+          << to_string(method) << " " << i;
+    }
   }
 }
 
