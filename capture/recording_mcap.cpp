@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "imukit/capture/ros_messages.hpp"
 #include "imukit/core/error.hpp"
@@ -130,6 +131,7 @@ RecordingRead read_recording(const std::string& path,
   std::map<std::string, std::vector<ImuMessage>> samples;
   std::map<uint16_t, std::string> mag_channels;  // channel -> stream name
   std::map<std::string, std::vector<MagneticFieldMessage>> mag_samples;
+  std::set<std::string> with_orientation;
   McapHandlers handlers;
   handlers.on_schema = [&](const McapSchema& s) { schema_names[s.id] = s.name; };
   handlers.on_channel = [&](const McapChannel& c) {
@@ -155,6 +157,7 @@ RecordingRead read_recording(const std::string& path,
       ImuMessage msg = decode_imu_cdr(m.data, where);
       require_finite(msg.angular_velocity, where, "angular velocity");
       require_finite(msg.linear_acceleration, where, "linear acceleration");
+      if (msg.orientation_covariance[0] != -1.0) with_orientation.insert(it->second);
       samples[it->second].push_back(std::move(msg));
     } else if (const auto mt = mag_channels.find(m.channel_id); mt != mag_channels.end()) {
       const std::string where =
@@ -176,6 +179,7 @@ RecordingRead read_recording(const std::string& path,
     }
   };
   out.summary = read(handlers);
+  out.streams_with_orientation.assign(with_orientation.begin(), with_orientation.end());
   // The recording's own metadata as is; other records (device info, session statistics) with
   // their record's name in front of each key.
   for (const auto& md : out.summary.metadata) {

@@ -31,6 +31,9 @@ void write_recording_mcap(const std::string& path, const Recording& recording,
 struct RecordingRead {
   Recording recording;
   McapReadSummary summary;  // complete == false with a note when the file was cut short
+  // Streams whose sensor_msgs/Imu carried an orientation (orientation_covariance[0] != -1, the
+  // ROS mark of "not provided"): a Recording does not hold it, so a rewrite loses it.
+  std::vector<std::string> streams_with_orientation;
 };
 
 // Reads the sensor_msgs/Imu channels (streams named after their topic without "/imu/"), their

@@ -130,6 +130,17 @@ int run_convert(const std::vector<std::string>& tokens, const std::string& out, 
   const std::string ext = fs::path(out).extension().string();
   if (ext == ".mcap" || ext == ".csv" || ext == ".npy" || ext.empty()) {
     warn_of_dropped_channels(r, ext);
+    // EuRoC CSV and .npy keep no orientation either (an MCAP output lists it with the other
+    // topics it does not write, below).
+    if (ext != ".mcap") {
+      for (const std::string& t : other_topics) {
+        if (t.rfind("the orientation of ", 0) == 0)
+          fmt::print(stderr,
+                     "imukit: warning: convert: {} is not written ({} holds accelerometer "
+                     "and gyroscope)\n",
+                     t, ext.empty() ? "a folder of EuRoC CSVs" : ext);
+      }
+    }
     // Pose columns are read by `identify --pose`, not kept in an IMU recording.
     std::string pose;
     if (!inputs.front().columns.empty()) {

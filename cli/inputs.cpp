@@ -157,6 +157,10 @@ Recording read_mcap_recording(const InputArg& input,
         kept = kept || c.topic == "/imu/" + name || c.topic == "/imu/" + name + "/mag";
       if (!kept) other_topics->push_back(c.topic);
     }
+    // The orientation inside kept topics goes too (a simulation's true orientation was
+    // dropped without a word; found in review, 2026-11-27).
+    for (const std::string& name : read.streams_with_orientation)
+      other_topics->push_back("the orientation of /imu/" + name);
   }
   if (read.recording.streams.empty()) {
     // An empty file, or one cut before its first complete chunk: nothing to work on.

@@ -161,6 +161,21 @@ def test_mcap_to_mcap_names_what_it_leaves_and_never_overwrites_its_input(run, c
     r = run("convert", rec, "-o", copy)
     assert r.returncode == 0 and "its other topics are not written: /imu/mock_static/raw, " \
         "/imu/mock_static/time_sync" in r.stderr, r.stderr
+    # A simulation's true orientation rides in the kept /imu/<name> messages: it was dropped
+    # without a word (found in review, 2026-11-27).
+    scene = os.path.join(converted.tmp, "orientation.json")
+    with open(scene, "w") as f:
+        json.dump({"schema": "imukit.scene/1",
+                   "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 3}},
+                   "simulation": {"seed": 7, "rate_hz": 100},
+                   "sensors": [{"name": "w", "preset": "left_wrist_watch",
+                                "outputs": ["accelerometer", "gyroscope", "orientation"]}]}, f)
+    sim = os.path.join(converted.tmp, "orientation.mcap")
+    assert run("simulate", scene, "-o", sim).returncode == 0
+    r = run("convert", sim, "-o", copy)
+    assert r.returncode == 0 and "its other topics are not written: the orientation of /imu/w" in r.stderr, r.stderr
+    r = run("convert", sim, "-o", os.path.join(converted.tmp, "orientation.csv"))
+    assert r.returncode == 0 and "the orientation of /imu/w is not written (.csv holds" in r.stderr, r.stderr
 
 
 def test_cut_recording_reads_with_a_note_and_recovers(run, converted, mcap_file):
