@@ -446,16 +446,14 @@ void check_finite(const std::vector<std::string>& names,
                   const std::vector<const ImuSeries*>& streams) {
   for (std::size_t s = 0; s < streams.size(); ++s) {
     for (const auto* m : {&streams[s]->accel, &streams[s]->gyro}) {
-      for (Eigen::Index i = 0; i < m->cols(); ++i) {
-        if (!m->col(i).allFinite()) {
-          throw Error(fmt::format(
-              "augment: stream {}: the {} of sample {} (t = {:.9f} s) is not finite; STDA needs "
-              "every sample (cut the recording or fill its gaps first)",
-              quote_excerpt(names[s]), m == &streams[s]->accel ? "accelerometer" : "gyroscope", i,
-              static_cast<double>(streams[s]->t[static_cast<std::size_t>(i)] -
-                                  streams[s]->t.front()) *
-                  1e-9));
-        }
+      if (const auto i = first_non_finite_sample(*m)) {
+        throw Error(fmt::format(
+            "augment: stream {}: the {} of sample {} (t = {:.9f} s) is not finite; STDA needs "
+            "every sample (cut the recording or fill its gaps first)",
+            quote_excerpt(names[s]), m == &streams[s]->accel ? "accelerometer" : "gyroscope", *i,
+            static_cast<double>(streams[s]->t[static_cast<std::size_t>(*i)] -
+                                streams[s]->t.front()) *
+                1e-9));
       }
     }
   }

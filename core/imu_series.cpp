@@ -66,6 +66,12 @@ void check_time_order(std::span<const TimeNs> t, std::string_view source) {
   }
 }
 
+std::optional<Eigen::Index> first_non_finite_sample(const Eigen::Matrix3Xd& channel) {
+  for (Eigen::Index i = 0; i < channel.cols(); ++i)
+    if (!channel.col(i).allFinite()) return i;
+  return std::nullopt;
+}
+
 ImuSeriesView ImuSeries::slice(std::size_t begin, std::size_t count) const {
   assert(begin + count <= size());
   return ImuSeriesView(std::span<const TimeNs>(t).subspan(begin, count),

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <map>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -49,6 +50,10 @@ struct ImuSeries {
 
 // Throws imukit::Error, naming `source` and the sample, where a time is before the one before.
 void check_time_order(std::span<const TimeNs> t, std::string_view source);
+
+// The first sample (column) of a channel with a NaN or infinite value, if any: what a caller
+// that needs every sample (calibration, STDA datasets) names in its error.
+std::optional<Eigen::Index> first_non_finite_sample(const Eigen::Matrix3Xd& channel);
 
 // A read-only window into an ImuSeries; valid while the series is alive and not resized.
 class ImuSeriesView {

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "imukit/core/error.hpp"
+#include "imukit/core/imu_series.hpp"
 #include "imukit/core/sampling.hpp"
 
 namespace imukit::hwmodel {
@@ -530,14 +531,13 @@ CalibrationResult calibrate(std::span<const TimeNs> t, const Eigen::Matrix3Xd& a
   // removed its axis from the static detector (review, 2026-11-27). Poses and the gyroscope's
   // integration between them need every sample.
   const auto require_finite = [&](const Eigen::Matrix3Xd& m, const char* what) {
-    for (Eigen::Index i = 0; i < m.cols(); ++i) {
-      if (!m.col(i).allFinite()) {
-        throw Error(fmt::format(
-            "calibration: {} sample {} (t = {:.6f} s) is not finite ({}, {}, {}): a "
-            "multi-position calibration integrates the gyroscope between poses and needs every "
-            "sample; cut the recording before the gap or record the session again",
-            what, i, to_seconds(t[static_cast<std::size_t>(i)] - t[0]), m(0, i), m(1, i), m(2, i)));
-      }
+    if (const auto i = first_non_finite_sample(m)) {
+      throw Error(fmt::format(
+          "calibration: {} sample {} (t = {:.6f} s) is not finite ({}, {}, {}): a "
+          "multi-position calibration integrates the gyroscope between poses and needs every "
+          "sample; cut the recording before the gap or record the session again",
+          what, *i, to_seconds(t[static_cast<std::size_t>(*i)] - t[0]), m(0, *i), m(1, *i),
+          m(2, *i)));
     }
   };
   require_finite(accel, "accelerometer");
