@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 namespace imukit::capture {
 namespace {
@@ -370,6 +371,9 @@ void DeviceClock::add_sample(uint64_t device_ticks, TimeNs host_receive,
     accept(s);
     last_accepted_ = true;
     continues_ = false;
+    // A reply to the ping sent at the start may come before the stream's first sample.
+    for (const Ping& p : std::exchange(pings_before_first_, {}))
+      add_ping(p.host_send, p.device_receive_ticks, p.device_transmit_ticks, p.host_receive);
     return;
   }
   if (continues_segment(s) && overturns_second(s)) {
@@ -488,7 +492,12 @@ TimeNs DeviceClock::online_time() {
 
 void DeviceClock::add_ping(TimeNs host_send, uint64_t device_receive_ticks,
                            uint64_t device_transmit_ticks, TimeNs host_receive) {
-  if (segments_.empty()) return;  // no clock to correct yet
+  if (segments_.empty()) {  // no clock to correct yet: kept for the first sample's
+    if (pings_before_first_.size() < kEarlyPings)
+      pings_before_first_.push_back(
+          {host_send, device_receive_ticks, device_transmit_ticks, host_receive});
+    return;
+  }
   shifts_dirty_ = true;
   Segment& seg = segments_.back();
   seg.mapper.add_ping(host_send, device_receive_ticks, device_transmit_ticks, host_receive);

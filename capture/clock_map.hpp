@@ -216,7 +216,8 @@ class DeviceClock {
   // The online time of the sample just added: the fit of its segment, slewed so that it never
   // goes before the previous sample's; outliers advance by the host time elapsed.
   TimeNs online_time();
-  // One time-sync exchange, on the clock of the current segment.
+  // One time-sync exchange, on the clock of the current segment (before the first sample: the
+  // first kEarlyPings are held for the first segment).
   void add_ping(TimeNs host_send, uint64_t device_receive_ticks, uint64_t device_transmit_ticks,
                 TimeNs host_receive);
   // Enters the last packet into the fit (at the end of a recording or of a pass).
@@ -251,6 +252,7 @@ class DeviceClock {
     // first: run_continues_first).
     std::vector<Ping> early_pings;
   };
+  std::vector<Ping> pings_before_first_;  // add_ping before any sample
   struct Outlier {
     std::size_t segment;
     Stamp before;  // the last sample its segment had accepted

@@ -271,6 +271,26 @@ TEST(DeviceClock, APingThatMovesTheFitIsSlewedThrough) {
   EXPECT_EQ(mapper.map_near(0, link.ticks_at(1.0)), link.host_at(1.0));  // the latency is removed
 }
 
+// The reply to the ping a session sends at the start can arrive before the stream's first
+// sample (found with the session's replies written in receive order): it corrects the first
+// segment's fit as a later one would, and the latency is removed from the start.
+TEST(DeviceClock, APingBeforeTheFirstSampleCorrectsTheFirstSegment) {
+  Link link;
+  link.drift_ppm = 0;
+  DeviceClock clock(link.tick_hz);
+  const double t = -0.01;  // 10 ms before the first sample is made
+  clock.add_ping(link.host_at(t), link.ticks_at(t + link.latency_s),
+                 link.ticks_at(t + link.latency_s), link.host_at(t + 2 * link.latency_s));
+  for (int64_t i = 0; i < 1000; ++i) {
+    const double s = link.true_time(i);
+    clock.add_sample(link.ticks_at(s), link.host_at(s + link.latency_s));
+  }
+  clock.flush();
+  EXPECT_EQ(clock.fit().pings, 1u);
+  EXPECT_TRUE(clock.fit().ping_corrected);
+  EXPECT_EQ(clock.map_near(0, link.ticks_at(0.5)), link.host_at(0.5));
+}
+
 // Blocks of 8 samples from `link` (as in the tests above), each sample's tick from tick_of(i):
 // what a DeviceClock makes of them online and offline.
 struct Replay {
