@@ -33,7 +33,8 @@ struct MotionTooShort : Error {
 };
 
 // Frames of margin on each side of a window's motion: the spline simulator's stencil reaches
-// one frame back and two ahead of an interval, and the source interpolation one more.
+// one frame back and two ahead of an interval, and the source interpolation one more. An
+// anti-aliasing simulator reaches further (Impl::margin).
 constexpr int64_t kMargin = 3;
 
 // Which joints carry a sensor in one apply() call, and the virtual sensors simulated for them:
@@ -354,6 +355,10 @@ struct PpdaAugmenter::Impl {
   int64_t frames = 0;
   double motion_rate = 0.0;
   double rate = 0.0;
+  // Frames of the window's motion beyond its samples on each side: kMargin, plus the filter's
+  // reach where the simulator anti-aliases (so an identity window's samples are the plain
+  // simulation's, edges included).
+  int64_t margin = kMargin;
   int64_t samples = 0;
   std::vector<sim::SceneSensor> sensors;
   std::vector<std::string> names;
@@ -386,7 +391,7 @@ struct PpdaAugmenter::Impl {
 
   int64_t window_frames() const {
     const double span = static_cast<double>(options.window - 1) / rate * motion_rate;
-    return static_cast<int64_t>(std::ceil(span - 1e-9)) + 1 + 2 * kMargin;
+    return static_cast<int64_t>(std::ceil(span - 1e-9)) + 1 + 2 * margin;
   }
 
   void simulate_window(const SubPolicy& sub, const Carriers& carriers, int64_t start, Rng& rng,
@@ -395,13 +400,15 @@ struct PpdaAugmenter::Impl {
   struct WindowTiming {
     int64_t first_frame = 0;  // identity speed: the window's first source frame
     int64_t F = 0;            // frames of the window's motion
+    int64_t lead = 0;         // other speeds: its frames before the first sample's time
   };
   WindowTiming retime(const SpeedOp& speed, int64_t start, Rng& rng, Worker& wk,
                       PpdaWindowLog* log) const;
   sim::Motion& window_motion(Worker& wk, int64_t F) const;
   void warp_amplitude(const AmplitudeOp& amplitude, Worker& wk, sim::Motion& wm, int64_t F,
                       Rng& rng, PpdaWindowLog* log) const;
-  void simulate_carriers(const SpeedOp& speed, int64_t start, int64_t first_frame, Worker& wk,
+  void simulate_carriers(const SpeedOp& speed, int64_t start, const WindowTiming& timing,
+                         Worker& wk,
                          sim::Motion& wm) const;
   sim::Placement sensor_placement(std::size_t s, const PlacementOp& op,
                                   const SubjectPlacements* subject, Rng& rng) const;
@@ -440,6 +447,10 @@ PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
   }
   const sim::Simulator probe(m.body, specs, m.sim_options);
   m.samples = probe.sample_count(*m.motion, m.frames);
+  if (probe.anti_aliases(*m.motion)) {
+    m.margin += static_cast<int64_t>(
+        std::ceil(sim::AntiAliasFilter::half_width_periods * m.motion_rate / m.rate));
+  }
   // In unsigned terms: int64_t(window) of a window above 2^63 was negative and passed (found in
   // review, 2026-11-27). sample_count is never negative.
   if (options.window > static_cast<uint64_t>(m.samples)) {
@@ -486,7 +497,7 @@ void PpdaAugmenter::Impl::simulate_window(const SubPolicy& sub, const Carriers& 
   const WindowTiming timing = retime(sub.speed, start, rng, wk, log);
   sim::Motion& wm = window_motion(wk, timing.F);
   warp_amplitude(sub.amplitude, wk, wm, timing.F, rng, log);
-  simulate_carriers(sub.speed, start, timing.first_frame, wk, wm);
+  simulate_carriers(sub.speed, start, timing, wk, wm);
 
   // 5. Placement per sensor, then hardware, then the output (ax ay az gx gy gz per sensor).
   const std::size_t S = sensors.size();
@@ -516,7 +527,7 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   const TimeNs t_start_ns = sample_time(0, start, rate);
   const double t_start = static_cast<double>(t_start_ns) * 1e-9;
   // Identity: the window's motion is the source's own frames first_frame .. first_frame + F - 1,
-  // the samples' frames plus kMargin each side, cut at the motion's ends -- never moved -- so the
+  // the samples' frames plus the margin each side, cut at the motion's ends -- never moved -- so the
   // simulator sees the same frames around every sample, and the same one-sided stencils and end
   // conditions at the true ends, as when it simulates the whole motion.
   int64_t first_frame = 0;
@@ -524,13 +535,13 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
     const TimeNs t_end_ns = sample_time(0, start + static_cast<int64_t>(T) - 1, rate);
     int64_t f1 = sim::Simulator::frame_at(t_end_ns, motion_rate);
     if (sample_time(0, f1, motion_rate) < t_end_ns) ++f1;
-    first_frame = std::max<int64_t>(0, sim::Simulator::frame_at(t_start_ns, motion_rate) - kMargin);
-    F = std::min<int64_t>(frames - 1, f1 + kMargin) - first_frame + 1;
+    first_frame = std::max<int64_t>(0, sim::Simulator::frame_at(t_start_ns, motion_rate) - margin);
+    F = std::min<int64_t>(frames - 1, f1 + margin) - first_frame + 1;
   }
   wk.u.resize(static_cast<std::size_t>(F));
   wk.x.resize(static_cast<std::size_t>(F));
   for (int64_t j = 0; j < F; ++j)
-    wk.u[static_cast<std::size_t>(j)] = static_cast<double>(j - kMargin) * h / dt;
+    wk.u[static_cast<std::size_t>(j)] = static_cast<double>(j - margin) * h / dt;
   switch (speed.method) {
     case WarpMethod::identity: {
       const TimeNs t_first = sample_time(0, first_frame, motion_rate);
@@ -576,10 +587,14 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
     }
   }
   // Keep a re-timed span inside the motion (a speed-changed window near an end slides inwards;
-  // identity spans are inside by construction).
+  // identity spans are inside by construction): the samples' frames and kMargin each side. The
+  // anti-aliasing filter's reach beyond them is cut where it passes an end of the motion (the
+  // simulator holds the window's end values there, as at the motion's own ends), so a window
+  // that fits without it is never refused for it.
   const double last = static_cast<double>(frames - 1);
+  const auto reach = static_cast<std::ptrdiff_t>(F > 2 * (margin - kMargin) ? margin - kMargin : 0);
   // The extremes, not the ends: a warp's margins need not be monotonic.
-  const auto [x_min, x_max] = std::minmax_element(wk.x.begin(), wk.x.end());
+  const auto [x_min, x_max] = std::minmax_element(wk.x.begin() + reach, wk.x.end() - reach);
   const double x0 = *x_min, x1 = *x_max;
   if (x1 - x0 > last) {
     throw MotionTooShort(
@@ -591,8 +606,17 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   if (x0 < 0.0) shift = -x0;
   if (x1 > last) shift = last - x1;
   if (shift != 0.0)
-    for (double& v : wk.x) v = std::clamp(v + shift, 0.0, last);
-  return {first_frame, F};
+    for (double& v : wk.x) v += shift;
+  std::ptrdiff_t cut_front = 0, cut_back = 0;
+  while (cut_front < reach && wk.x[static_cast<std::size_t>(cut_front)] < 0.0) ++cut_front;
+  while (cut_back < reach && wk.x[wk.x.size() - 1 - static_cast<std::size_t>(cut_back)] > last)
+    ++cut_back;
+  for (std::vector<double>* v : {&wk.x, &wk.u}) {
+    v->erase(v->end() - cut_back, v->end());
+    v->erase(v->begin(), v->begin() + cut_front);
+  }
+  for (double& v : wk.x) v = std::clamp(v, 0.0, last);
+  return {first_frame, F - cut_front - cut_back, margin - cut_front};
 }
 
 // 2. The window's motion: plan joints at the source positions, 4-point Lagrange interpolation
@@ -733,7 +757,7 @@ void PpdaAugmenter::Impl::warp_amplitude(const AmplitudeOp& amplitude, Worker& w
 
 // 4. Simulate the carriers at the output sample times.
 void PpdaAugmenter::Impl::simulate_carriers(const SpeedOp& speed, int64_t start,
-                                            int64_t first_frame, Worker& wk,
+                                            const WindowTiming& timing, Worker& wk,
                                             sim::Motion& wm) const {
   const std::size_t T = options.window;
   const double dt = 1.0 / rate;
@@ -741,13 +765,13 @@ void PpdaAugmenter::Impl::simulate_carriers(const SpeedOp& speed, int64_t start,
   wk.times.resize(T);
   if (speed.method == WarpMethod::identity) {
     // The plain simulation's sample times, counted from the window's first frame.
-    const TimeNs t_first = sample_time(0, first_frame, motion_rate);
+    const TimeNs t_first = sample_time(0, timing.first_frame, motion_rate);
     for (std::size_t i = 0; i < T; ++i)
       wk.times[i] = sample_time(0, start + static_cast<int64_t>(i), rate) - t_first;
   } else {
     for (std::size_t i = 0; i < T; ++i) {
       wk.times[i] = static_cast<TimeNs>(
-          std::llround((static_cast<double>(i) * dt + static_cast<double>(kMargin) * h) * 1e9));
+          std::llround((static_cast<double>(i) * dt + static_cast<double>(timing.lead) * h) * 1e9));
     }
   }
   wk.simulator->evaluate(wm, wk.times, wk.blocks);

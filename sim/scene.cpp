@@ -301,11 +301,18 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
   scene.frames = scene.motion->frame_count();
 }
 
-// "simulation": method, rate, gravity, magnetic field, seed, chunk size.
+// "simulation": method, rate, anti-aliasing, gravity, magnetic field, seed, chunk size.
 void parse_simulation(const json& s, std::string_view text, const std::string& source,
                       Scene& scene) {
-  json_only_keys(s, {"method", "rate_hz", "gravity", "magnetic_field", "seed", "chunk_frames"},
+  json_only_keys(s,
+                 {"method", "rate_hz", "anti_alias", "gravity", "magnetic_field", "seed",
+                  "chunk_frames"},
                  source, "simulation");
+  if (s.contains("anti_alias")) {
+    if (!s["anti_alias"].is_boolean())
+      json_fail(source, "simulation.anti_alias", "expected true or false");
+    scene.options.anti_alias = s["anti_alias"].get<bool>();
+  }
   if (s.contains("method")) {
     try {
       scene.options.method =

@@ -34,15 +34,28 @@ struct FramePosition {
 // Position of time t (ns) on the frame grid of a motion at rate_hz. Integer arithmetic for a
 // whole-number rate keeps it exact however late t is; otherwise the 64-bit long double mantissa.
 // (Called per sample: the whole-number test is a cast, not a libm modf call.)
+//
+// A time within 1 ns of a frame is on that frame (frac 0). Frame times are whole ns
+// (sample_time), a third of a ns off the exact frame at 30, 60 or 120 Hz, and times counted from
+// another frame (a PPDA window's) are off by up to 1 ns more: read exactly, such a time fell just
+// before or after its frame, into the neighbouring interval's cubic, whose acceleration differs
+// from the frame's by the spline's own error (0.01-0.02 m/s^2 on the bundled walk: PPDA identity
+// windows were not the plain simulation; found 2026-11-27), and off the on-frame path.
 inline FramePosition frame_position(TimeNs t, double rate_hz) {
   if (rate_hz >= 1.0 && rate_hz <= 1e6 && t >= 0) {
     const auto whole = static_cast<int64_t>(rate_hz);
     int64_t num = 0;
     if (static_cast<double>(whole) == rate_hz && !__builtin_mul_overflow(t, whole, &num)) {
-      return {num / kNsPerSecond, static_cast<double>(num % kNsPerSecond) * 1e-9};
+      const int64_t frame = num / kNsPerSecond, rest = num % kNsPerSecond;  // rest: ns x Hz
+      if (rest <= whole) return {frame, 0.0};
+      if (kNsPerSecond - rest <= whole) return {frame + 1, 0.0};
+      return {frame, static_cast<double>(rest) * 1e-9};
     }
   }
   const long double u = static_cast<long double>(t) * static_cast<long double>(rate_hz) / 1e9L;
+  const long double nearest = std::round(u);
+  if (std::abs(u - nearest) * 1e9L <= static_cast<long double>(rate_hz))
+    return {static_cast<int64_t>(nearest), 0.0};
   const long double fl = std::floor(u);
   return {static_cast<int64_t>(fl), static_cast<double>(u - fl)};
 }
@@ -1794,8 +1807,135 @@ void Simulator::Workspace::grid_to_samples(const Simulator& sim, std::size_t s,
   }
 }
 
+double AntiAliasFilter::kernel(double x) {
+  const double r = std::abs(x) / half_width_periods;
+  if (!(r < 1.0)) return 0.0;
+  const double sinc = x == 0.0 ? 1.0 : std::sin(std::numbers::pi * x) / (std::numbers::pi * x);
+  return sinc * std::cyl_bessel_i(0.0, kaiser_beta * std::sqrt(1.0 - r * r)) /
+         std::cyl_bessel_i(0.0, kaiser_beta);
+}
+
+namespace {
+
+// AntiAliasFilter::kernel (an even function) tabulated on [0, half_width_periods], kPerPeriod
+// points per sensor period, linearly interpolated: within 2e-6 of the kernel (its curvature is
+// at most pi^2 / 3), where a Bessel function per weight cost a microsecond.
+class AntiAliasTable {
+ public:
+  static constexpr int kPerPeriod = 512;
+  AntiAliasTable() {
+    const auto n = static_cast<std::size_t>(AntiAliasFilter::half_width_periods * kPerPeriod);
+    values_.resize(n + 2, 0.0);  // the last stays 0: the kernel's end
+    for (std::size_t i = 0; i <= n; ++i)
+      values_[i] = AntiAliasFilter::kernel(static_cast<double>(i) / kPerPeriod);
+    end_ = static_cast<double>(n);
+  }
+  double operator()(double x) const {
+    const double p = std::abs(x) * kPerPeriod;
+    if (!(p < end_)) return 0.0;
+    const auto i = static_cast<std::size_t>(p);
+    return values_[i] + (p - static_cast<double>(i)) * (values_[i + 1] - values_[i]);
+  }
+
+ private:
+  std::vector<double> values_;
+  double end_ = 0.0;
+};
+
+const AntiAliasTable& anti_alias_table() {
+  static const AntiAliasTable table;
+  return table;
+}
+
+// Frames one pass of evaluate_band_limited evaluates at most (beyond one sample's reach): 65536
+// frames of values, 72 bytes each per sensor with every output.
+constexpr int64_t kMaxPassFrames = 65536;
+
+}  // namespace
+
+bool Simulator::anti_aliases(const MotionSource& motion) const {
+  return options_.anti_alias && sample_rate_hz(options_, motion) < motion.rate_hz();
+}
+
 void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
                          std::vector<SensorBlock>& out) {
+  if (anti_aliases(motion))
+    evaluate_band_limited(motion, times, out);
+  else
+    evaluate_points(motion, times, out);
+}
+
+// The values on the frames around the times, then each sample the kernel's weighted mean of
+// them (AntiAliasFilter). The frames are evaluated in passes of at most kMaxPassFrames (plus
+// one sample's reach), so memory does not grow with the block.
+void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const TimeNs> times,
+                                      std::vector<SensorBlock>& out) {
+  require_simulatable(motion, "simulation");
+  const int64_t N = motion.frame_count().value_or(kEndless);
+  const double motion_rate = motion.rate_hz();
+  const double periods_per_frame = sample_rate_hz(options_, motion) / motion_rate;
+  const double reach = AntiAliasFilter::half_width_periods / periods_per_frame;  // frames
+  size_outputs(sensors_, times, out);
+  if (times.empty() || sensors_.empty()) return;
+  ws_->frame_positions(times, motion_rate, N);  // the times checked: inside, increasing
+  std::vector<double> u(times.size());          // each time in frames
+  for (std::size_t i = 0; i < times.size(); ++i)
+    u[i] = static_cast<double>(ws_->pos[i].frame) + ws_->pos[i].frac;
+  // The pose at the sample itself: no filter acts on it.
+  if (std::any_of(sensors_.begin(), sensors_.end(),
+                  [](const SensorSpec& s) { return s.outputs.orientation; })) {
+    evaluate_points(motion, times, frame_blocks_);
+    for (std::size_t s = 0; s < sensors_.size(); ++s)
+      out[s].q_world_sensor = frame_blocks_[s].q_world_sensor;
+  }
+  const AntiAliasTable& kernel = anti_alias_table();
+  std::vector<double> weights;
+  std::vector<Eigen::Index> columns;
+  const auto clamped = [N](double f) {
+    return static_cast<int64_t>(std::clamp(f, 0.0, static_cast<double>(N - 1)));
+  };
+  for (std::size_t i0 = 0; i0 < times.size();) {
+    const int64_t lo = clamped(std::floor(u[i0] - reach));
+    std::size_t i1 = i0 + 1;
+    while (i1 < times.size() && u[i1] + reach - static_cast<double>(lo) < kMaxPassFrames) ++i1;
+    const int64_t hi = clamped(std::ceil(u[i1 - 1] + reach));
+    frame_times_.resize(static_cast<std::size_t>(hi - lo + 1));
+    for (int64_t f = lo; f <= hi; ++f)
+      frame_times_[static_cast<std::size_t>(f - lo)] = sample_time(0, f, motion_rate);
+    evaluate_points(motion, frame_times_, frame_blocks_);
+    for (std::size_t i = i0; i < i1; ++i) {
+      weights.clear();
+      columns.clear();
+      double sum = 0.0;
+      for (auto f = static_cast<int64_t>(std::ceil(u[i] - reach));
+           static_cast<double>(f) <= u[i] + reach; ++f) {
+        const double w = kernel((static_cast<double>(f) - u[i]) * periods_per_frame);
+        if (w == 0.0) continue;
+        weights.push_back(w);
+        // Past an end the motion holds its first or last frame.
+        columns.push_back(static_cast<Eigen::Index>(std::clamp<int64_t>(f, lo, hi) - lo));
+        sum += w;
+      }
+      const auto col = static_cast<Eigen::Index>(i);
+      const auto filter = [&](const Eigen::Matrix3Xd& on_frames, Eigen::Matrix3Xd& samples) {
+        if (samples.cols() == 0) return;
+        Vector3d y = Vector3d::Zero();
+        for (std::size_t j = 0; j < weights.size(); ++j)
+          y += weights[j] * on_frames.col(columns[j]);
+        samples.col(col) = y / sum;
+      };
+      for (std::size_t s = 0; s < sensors_.size(); ++s) {
+        filter(frame_blocks_[s].specific_force, out[s].specific_force);
+        filter(frame_blocks_[s].angular_rate, out[s].angular_rate);
+        filter(frame_blocks_[s].magnetic_field, out[s].magnetic_field);
+      }
+    }
+    i0 = i1;
+  }
+}
+
+void Simulator::evaluate_points(MotionSource& motion, std::span<const TimeNs> times,
+                                std::vector<SensorBlock>& out) {
   require_simulatable(motion, "simulation");
   Workspace& ws = *ws_;
   const int64_t N = motion.frame_count().value_or(kEndless);

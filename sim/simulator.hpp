@@ -101,6 +101,27 @@ struct SimulationOptions {
   // spline: evaluate samples that fall on frames through the vectorised on-frame path (the same
   // values to rounding; docs/simulation.md). Off only to compare the two paths.
   bool spline_on_frames = true;
+  // Where the motion's frames come faster than the sensor samples, band-limit the motion to the
+  // sensor's Nyquist frequency before sampling it (AntiAliasFilter): what a sensor's filter
+  // before its converter does. Off, the motion is point-sampled and its content above the
+  // Nyquist frequency folds into the band.
+  bool anti_alias = true;
+};
+
+// The anti-aliasing filter of SimulationOptions::anti_alias: the sensor's specific force,
+// angular rate and magnetic field at a sample time t are their values on the motion's frames
+// weighted by k((t_frame - t) f_s), k(x) = sinc(x) w(x) with w the Kaiser window (beta 6) over
+// |x| <= 12 sensor periods, the weights normalised to sum to 1 (constants pass exactly). Frames
+// past the motion's ends hold its first and last values. Cut at the Nyquist frequency f_s / 2:
+// flat within 0.1 % to 0.4 f_s, and content from 0.6 f_s up -- what folds into 0..0.4 f_s --
+// at least 60 dB down (docs/simulation.md, "Anti-aliasing"; tests/sim measure both).
+// Orientation outputs are the pose at t itself. The hardware model's bandwidth low-pass runs
+// afterwards, on the samples, as before.
+struct AntiAliasFilter {
+  static constexpr double half_width_periods = 12.0;
+  static constexpr double kaiser_beta = 6.0;
+  // k(x), x in sensor periods.
+  static double kernel(double x);
 };
 
 // The samples of one sensor for a block of times. Channels not requested have 0 columns.
@@ -150,12 +171,16 @@ class Simulator {
   TimeNs sample_time_ns(const MotionSource& motion, int64_t n) const;
   // The motion frame at or before time t (ns since frame 0).
   static int64_t frame_at(TimeNs t, double motion_rate_hz);
+  // True when evaluate() band-limits the motion (SimulationOptions::anti_alias): the motion's
+  // frame rate is above the sensor rate.
+  bool anti_aliases(const MotionSource& motion) const;
   // The most samples a streamed block holds: chunks of frames alone held every sample of
   // chunk_frames frames, 253 MB for a 1 Hz motion simulated at 5 kHz (review, 2026-11-27).
   static constexpr std::size_t kMaxBlockSamples = 65536;
 
   // Values at the given times (ns since frame 0, increasing, inside the motion) for every
-  // sensor: out[s] is resized. Reads only the frames the times need.
+  // sensor: out[s] is resized. Reads only the frames the times need (and, anti-aliasing, the
+  // filter's reach around them).
   void evaluate(MotionSource& motion, std::span<const TimeNs> times, std::vector<SensorBlock>& out);
 
   // Streams the whole motion (or its first `frame_limit` frames; required for an endless
@@ -168,11 +193,18 @@ class Simulator {
 
  private:
   struct Workspace;
+  // The motion sampled at the times, each value its own (no filter).
+  void evaluate_points(MotionSource& motion, std::span<const TimeNs> times,
+                       std::vector<SensorBlock>& out);
+  void evaluate_band_limited(MotionSource& motion, std::span<const TimeNs> times,
+                             std::vector<SensorBlock>& out);
   SimulationPlan plan_;
   std::vector<SensorSpec> sensors_;
   SimulationOptions options_;
   std::vector<Eigen::Vector3d> offsets_;  // per plan joint, offset from its plan parent
   std::unique_ptr<Workspace> ws_;
+  std::vector<TimeNs> frame_times_;        // evaluate_band_limited's frames
+  std::vector<SensorBlock> frame_blocks_;  // and the values on them
 };
 
 // The motion the `spline` method differentiates, sampled at any times (ns since frame 0,

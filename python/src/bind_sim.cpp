@@ -151,7 +151,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
                                         py::handle frames_obj, const std::string& method,
                                         double rate_hz, py::handle gravity, const py::object& seed,
                                         bool ground_truth, int64_t chunk_frames,
-                                        py::handle magnetic_field) {
+                                        py::handle magnetic_field, bool anti_alias) {
   auto h = std::make_shared<SceneHandle>();
   sim::Scene& s = h->scene;
   if (motion->joint_count() != body.size()) {
@@ -165,6 +165,7 @@ std::shared_ptr<SceneHandle> make_scene(const Body& body, std::shared_ptr<Motion
   s.options.method = sim::parse_derivative_method(method);
   if (rate_hz != 0.0) sim::check_rate(rate_hz, "Scene: rate_hz");
   s.options.rate_hz = rate_hz;
+  s.options.anti_alias = anti_alias;
   if (!gravity.is_none()) {
     s.options.gravity_world = gravity_argument(gravity);
     sim::check_gravity(s.options.gravity_world, "Scene: gravity");
@@ -481,7 +482,9 @@ magnitude or a world vector; default 9.80665 down), seed=0 (an int from 0 to 2^6
 `imukit simulate --seed` and a scene file take), ground_truth=False, chunk_frames=4096
 (motion frames streamed at a time, which bounds the memory: a whole number in [8, 1e7], as a
 scene file's simulation.chunk_frames takes), magnetic_field=None (world vector,
-T; default the mid-latitude Earth field)),
+T; default the mid-latitude Earth field), anti_alias=True (band-limit the motion to the
+sensor's Nyquist frequency where its frames come faster than the samples, as a scene file's
+simulation.anti_alias)),
 then add_sensor(...) per sensor (magnetometer=True adds Series.mag); or read_scene(path) /
 parse_scene(text).
 simulate(seed=None) -> {name: Series} (and "<name>.truth" with ground_truth): the same
@@ -490,7 +493,8 @@ stays). A hardware profile is checked at the scene's rate when its sensor is add
       .def(py::init(&make_scene), py::arg("body"), py::arg("motion"), py::kw_only(),
            py::arg("frames") = py::none(), py::arg("method") = "fd", py::arg("rate_hz") = 0.0,
            py::arg("gravity") = py::none(), py::arg("seed") = 0, py::arg("ground_truth") = false,
-           py::arg("chunk_frames") = 4096, py::arg("magnetic_field") = py::none())
+           py::arg("chunk_frames") = 4096, py::arg("magnetic_field") = py::none(),
+           py::arg("anti_alias") = true)
       .def("add_sensor", &add_sensor, py::arg("name") = py::none(), py::kw_only(),
            py::arg("preset") = py::none(), py::arg("joint") = py::none(),
            py::arg("position_m") = py::none(), py::arg("q_joint_sensor") = py::none(),
@@ -519,6 +523,12 @@ stays). A hardware profile is checked at the scene's rate when its sensor is add
             const sim::DerivativeMethod method = sim::parse_derivative_method(s);
             const auto lock = lock_for_change(h);
             h.scene.options.method = method;
+          })
+      .def_property(
+          "anti_alias", [](const SceneHandle& h) { return h.scene.options.anti_alias; },
+          [](SceneHandle& h, bool a) {
+            const auto lock = lock_for_change(h);
+            h.scene.options.anti_alias = a;
           })
       .def_property_readonly("rate_hz",
                              [](const SceneHandle& h) { return sim::scene_rate_hz(h.scene); })

@@ -504,3 +504,55 @@ class BindingsReview(unittest.TestCase):
         # Scene took chunk_frames, which neither its docstring nor docs/python.md named.
         self.assertIn("chunk_frames=4096", imukit.Scene.__doc__)
         self.assertIn("[8, 1e7]", imukit.Scene.__doc__)
+
+
+class AntiAliasing(unittest.TestCase):
+    """The bundled 2 s walk (CMU 131_01, 120 Hz frames) on a left wrist, sampled at 24 Hz. With
+    the filter the samples are what an independent resampler makes of the 120 Hz simulation
+    (SciPy's resample_poly, a Kaiser FIR of its own design): 0.028 m/s^2 and 0.0036 rad/s RMS
+    apart, where the accelerometer signal is 9.2 m/s^2 RMS (measured 2026-11-27). Point samples
+    are every fifth 120 Hz sample, 5.4 m/s^2 RMS from the band-limited signal: the walk above
+    12 Hz folded into the band."""
+
+    BVH = os.path.join(os.path.dirname(__file__), "..", "..", "examples", "motion", "cmu_131_01_walk_2s.bvh")
+
+    def simulate(self, rate_hz, **kwargs):
+        body, motion, _ = imukit.read_bvh(self.BVH)
+        scene = imukit.Scene(body, motion, rate_hz=rate_hz, method="spline", **kwargs)
+        scene.add_sensor(preset="left_wrist_watch")
+        return scene, scene.simulate()["left_wrist_watch"]
+
+    def test_samples_are_the_band_limited_simulation_and_point_samples_fold(self):
+        from scipy.signal import resample_poly
+        _, full = self.simulate(120.0)  # at the motion's rate: no filter
+        scene, aa = self.simulate(24.0)
+        self.assertTrue(scene.anti_alias)
+        _, points = self.simulate(24.0, anti_alias=False)
+        n = len(aa)
+        inner = slice(12, n - 12)  # the filter's reach (12 samples) from the motion's ends
+        rms = lambda d: float(np.sqrt((d[inner] ** 2).sum(axis=1).mean()))
+        for kind, tol in (("accel", 0.05), ("gyro", 0.01)):
+            ref = resample_poly(getattr(full, kind), 1, 5, axis=0)[:n]
+            self.assertLess(rms(getattr(aa, kind) - ref), tol, kind)
+            np.testing.assert_array_equal(getattr(points, kind), getattr(full, kind)[::5][:n])
+        self.assertGreater(rms(points.accel - resample_poly(full.accel, 1, 5, axis=0)[:n]), 2.0)
+
+    def test_the_scene_key_and_property(self):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "scene.json")
+            with open(path, "w") as f:
+                json.dump({"schema": "imukit.scene/1", "motion": {"bvh": os.path.abspath(self.BVH)},
+                           "simulation": {"rate_hz": 24, "anti_alias": False},
+                           "sensors": [{"name": "w", "preset": "left_wrist_watch"}]}, f)
+            scene = imukit.read_scene(path)
+            self.assertFalse(scene.anti_alias)
+            off = scene.simulate()["w"].accel
+            scene.anti_alias = True
+            self.assertGreater(np.abs(scene.simulate()["w"].accel - off).max(), 1.0)
+            with open(path, "w") as f:
+                json.dump({"schema": "imukit.scene/1", "motion": {"bvh": os.path.abspath(self.BVH)},
+                           "simulation": {"anti_alias": "yes"}, "sensors": []}, f)
+            with self.assertRaises(imukit.Error) as e:
+                imukit.read_scene(path)
+            self.assertIn("simulation.anti_alias", str(e.exception))
+            self.assertIn("expected true or false", str(e.exception))
