@@ -408,8 +408,7 @@ struct PpdaAugmenter::Impl {
   void warp_amplitude(const AmplitudeOp& amplitude, Worker& wk, sim::Motion& wm, int64_t F,
                       Rng& rng, PpdaWindowLog* log) const;
   void simulate_carriers(const SpeedOp& speed, int64_t start, const WindowTiming& timing,
-                         Worker& wk,
-                         sim::Motion& wm) const;
+                         Worker& wk, sim::Motion& wm) const;
   sim::Placement sensor_placement(std::size_t s, const PlacementOp& op,
                                   const SubjectPlacements* subject, Rng& rng) const;
   void apply_hardware(const HardwareOp& hw, std::size_t s, SensorSignalArgs& sig, Worker& wk,
@@ -527,8 +526,8 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   const TimeNs t_start_ns = sample_time(0, start, rate);
   const double t_start = static_cast<double>(t_start_ns) * 1e-9;
   // Identity: the window's motion is the source's own frames first_frame .. first_frame + F - 1,
-  // the samples' frames plus the margin each side, cut at the motion's ends -- never moved -- so the
-  // simulator sees the same frames around every sample, and the same one-sided stencils and end
+  // the samples' frames plus the margin each side, cut at the motion's ends -- never moved -- so
+  // the simulator sees the same frames around every sample, and the same one-sided stencils and end
   // conditions at the true ends, as when it simulates the whole motion.
   int64_t first_frame = 0;
   if (speed.method == WarpMethod::identity) {

@@ -304,10 +304,9 @@ void parse_motion(const json& m, std::string_view text, const std::string& sourc
 // "simulation": method, rate, anti-aliasing, gravity, magnetic field, seed, chunk size.
 void parse_simulation(const json& s, std::string_view text, const std::string& source,
                       Scene& scene) {
-  json_only_keys(s,
-                 {"method", "rate_hz", "anti_alias", "gravity", "magnetic_field", "seed",
-                  "chunk_frames"},
-                 source, "simulation");
+  json_only_keys(
+      s, {"method", "rate_hz", "anti_alias", "gravity", "magnetic_field", "seed", "chunk_frames"},
+      source, "simulation");
   if (s.contains("anti_alias")) {
     if (!s["anti_alias"].is_boolean())
       json_fail(source, "simulation.anti_alias", "expected true or false");

@@ -202,7 +202,7 @@ TEST(Ppda, IdentityWindowsEqualThePlainSimulationAtBothEndsAndInside) {
                   << sim::to_string(method) << " " << sensor_rate << " Hz, start " << starts[w]
                   << " sample " << i << " sensor " << s << " channel " << k;
               ASSERT_NEAR(y[o], r, 1e-9 + ns_off) << sim::to_string(method) << " " << sensor_rate
-                                         << " Hz, start " << starts[w] << " sample " << i;
+                                                  << " Hz, start " << starts[w] << " sample " << i;
             }
           }
         }

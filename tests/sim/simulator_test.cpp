@@ -6,10 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <complex>
 #include <numbers>
 #include <sstream>
 
@@ -981,9 +981,8 @@ TEST(Simulator, AntiAliasingPassesAConstantSpinExactlyToTheEnds) {
   opt.method = DerivativeMethod::spline;
   opt.rate_hz = 30.0;
   const Vector3d r(0.1, 0.2, 0.05);
-  Simulator sim(two_joint_body(Vector3d::Zero()), {sensor_on(0, r, Quaterniond::Identity(),
-                                                             {true, true, true, false})},
-                opt);
+  Simulator sim(two_joint_body(Vector3d::Zero()),
+                {sensor_on(0, r, Quaterniond::Identity(), {true, true, true, false})}, opt);
   ASSERT_TRUE(sim.anti_aliases(m));
   std::vector<SensorBlock> out;
   const std::vector<TimeNs> times = grid_times(sim, m, m.frames());
