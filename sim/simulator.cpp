@@ -12,6 +12,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <unordered_map>
 
 #include "imukit/core/error.hpp"
 #include "imukit/core/isa.hpp"
@@ -1878,9 +1879,10 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
   size_outputs(sensors_, times, out);
   if (times.empty() || sensors_.empty()) return;
   ws_->frame_positions(times, motion_rate, N);  // the times checked: inside, increasing
-  std::vector<double> u(times.size());          // each time in frames
+  const std::vector<FramePosition> pos = ws_->pos;
+  std::vector<double> u(times.size());  // each time in frames
   for (std::size_t i = 0; i < times.size(); ++i)
-    u[i] = static_cast<double>(ws_->pos[i].frame) + ws_->pos[i].frac;
+    u[i] = static_cast<double>(pos[i].frame) + pos[i].frac;
   // The pose at the sample itself: no filter acts on it.
   if (std::any_of(sensors_.begin(), sensors_.end(),
                   [](const SensorSpec& s) { return s.outputs.orientation; })) {
@@ -1889,8 +1891,30 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
       out[s].q_world_sensor = frame_blocks_[s].q_world_sensor;
   }
   const AntiAliasTable& kernel = anti_alias_table();
-  std::vector<double> weights;
-  std::vector<Eigen::Index> columns;
+  // A sample's weights depend on its position within its frame interval only: taps k (frames
+  // from the interval's start) from ceil(frac - reach) to floor(frac + reach), weight
+  // kernel((k - frac) f_s / f_m), normalised. Samples at a rational ratio of the rates take a
+  // few positions (5 for 50 Hz from 120): their weights are computed once per call.
+  struct Taps {
+    int64_t first;                // k of weights[0]
+    std::vector<double> weights;  // summing to 1
+  };
+  std::unordered_map<double, Taps> taps_at;
+  const auto taps_for = [&](double frac) -> const Taps& {
+    if (const auto it = taps_at.find(frac); it != taps_at.end()) return it->second;
+    Taps t;
+    t.first = static_cast<int64_t>(std::ceil(frac - reach));
+    const auto last = static_cast<int64_t>(std::floor(frac + reach));
+    double sum = 0.0;
+    for (int64_t k = t.first; k <= last; ++k) {
+      t.weights.push_back(kernel((static_cast<double>(k) - frac) * periods_per_frame));
+      sum += t.weights.back();
+    }
+    for (double& w : t.weights) w /= sum;
+    if (taps_at.size() >= 256) taps_at.clear();  // jittered or irrational times: no reuse
+    return taps_at.emplace(frac, std::move(t)).first->second;
+  };
+  std::vector<double> folded;  // a sample's weights with the taps past the ends folded in
   const auto clamped = [N](double f) {
     return static_cast<int64_t>(std::clamp(f, 0.0, static_cast<double>(N - 1)));
   };
@@ -1904,25 +1928,33 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
       frame_times_[static_cast<std::size_t>(f - lo)] = sample_time(0, f, motion_rate);
     evaluate_points(motion, frame_times_, frame_blocks_);
     for (std::size_t i = i0; i < i1; ++i) {
-      weights.clear();
-      columns.clear();
-      double sum = 0.0;
-      for (auto f = static_cast<int64_t>(std::ceil(u[i] - reach));
-           static_cast<double>(f) <= u[i] + reach; ++f) {
-        const double w = kernel((static_cast<double>(f) - u[i]) * periods_per_frame);
-        if (w == 0.0) continue;
-        weights.push_back(w);
+      const Taps& taps = taps_for(pos[i].frac);
+      const int64_t f0 = pos[i].frame + taps.first;
+      const int64_t f1 = f0 + static_cast<int64_t>(taps.weights.size()) - 1;
+      const int64_t c0 = std::clamp(f0, lo, hi), c1 = std::clamp(f1, lo, hi);
+      const double* weights = taps.weights.data();
+      std::size_t n = taps.weights.size();
+      if (c0 != f0 || c1 != f1) {
         // Past an end the motion holds its first or last frame.
-        columns.push_back(static_cast<Eigen::Index>(std::clamp<int64_t>(f, lo, hi) - lo));
-        sum += w;
+        folded.assign(static_cast<std::size_t>(c1 - c0 + 1), 0.0);
+        for (int64_t f = f0; f <= f1; ++f)
+          folded[static_cast<std::size_t>(std::clamp(f, c0, c1) - c0)] +=
+              taps.weights[static_cast<std::size_t>(f - f0)];
+        weights = folded.data();
+        n = folded.size();
       }
       const auto col = static_cast<Eigen::Index>(i);
+      // The weighted sum over consecutive frames' columns (3 doubles each).
       const auto filter = [&](const Eigen::Matrix3Xd& on_frames, Eigen::Matrix3Xd& samples) {
         if (samples.cols() == 0) return;
-        Vector3d y = Vector3d::Zero();
-        for (std::size_t j = 0; j < weights.size(); ++j)
-          y += weights[j] * on_frames.col(columns[j]);
-        samples.col(col) = y / sum;
+        const double* p = on_frames.data() + 3 * (c0 - lo);
+        double x = 0.0, y = 0.0, z = 0.0;
+        for (std::size_t k = 0; k < n; ++k, p += 3) {
+          x += weights[k] * p[0];
+          y += weights[k] * p[1];
+          z += weights[k] * p[2];
+        }
+        samples.col(col) = Vector3d(x, y, z);
       };
       for (std::size_t s = 0; s < sensors_.size(); ++s) {
         filter(frame_blocks_[s].specific_force, out[s].specific_force);
