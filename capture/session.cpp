@@ -563,6 +563,9 @@ SessionReport finish(McapWriter& writer, Devices& devices, const SessionOptions&
   if (options.finalize) {
     fits = refit_recording_clocks(live_path, options.path);
     std::filesystem::remove(live_path);
+  } else {
+    // Complete: it replaces the output now (a file there stays as it was until then).
+    std::filesystem::rename(live_path, options.path);
   }
   for (auto& d : devices) {
     DeviceProgress p = progress_of(*d);
@@ -605,14 +608,14 @@ SessionReport record_session(std::vector<SessionDevice> specs, const SessionOpti
   for (auto& s : specs)
     devices.push_back(std::make_unique<Device>(std::move(s), options.queue_capacity));
 
-  // Record into a temporary name; the finished (refitted) file replaces it at the end, and a
-  // crash leaves the temporary file readable up to its last chunk.
-  const std::string live_path = options.finalize ? partial_path(options.path) : options.path;
+  // Record into a temporary name; the finished file (refitted, unless finalize is off) replaces
+  // the output at the end, and a crash leaves the temporary file readable up to its last chunk.
+  // Found in review (2026-11-27): without the refit the output itself was the live file, so an
+  // earlier recording there was truncated at the start, whatever became of this one.
+  const std::string live_path = partial_path(options.path);
   McapWriterOptions live_options = options.mcap;
-  if (options.finalize) {
-    check_no_partial_recording(options.path);
-    live_options.create_new = true;  // and no other recording may create it meanwhile
-  }
+  check_no_partial_recording(options.path);
+  live_options.create_new = true;  // and no other recording may create it meanwhile
   McapWriter writer(live_path, live_options);
   const SessionChannels channels = open_channels(writer, devices, options);
   start_readers(devices);

@@ -216,7 +216,7 @@ int run_record(const RecordArgs& args) {
   }
   // Before any device is opened (a device may be reset or configured by opening it) and before
   // "recording ..." is printed: a crashed recording's partial file stops this one.
-  if (!args.no_refit) capture::check_no_partial_recording(args.output);
+  capture::check_no_partial_recording(args.output);
   std::vector<capture::SessionDevice> devices = open_devices(args);
   // A virtual-clock mock makes data as fast as the disk takes it: without a limit it would fill
   // the disk before anyone reached for Ctrl-C. A guide is a limit only if it can complete.

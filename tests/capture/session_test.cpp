@@ -346,6 +346,35 @@ TEST(Session, RefusesToStartOverThePartialFileOfACrashedRecording) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// Found in review (2026-11-27): without the refit (`record --no-refit`) the output was the live
+// file, so an earlier recording under that name was truncated as the session started. Now every
+// session records into FILE.partial.mcap, refuses one a crash left there, and the finished file
+// replaces the output only at the end: the earlier file is whole while the session runs.
+TEST(Session, WithoutTheRefitAnEarlierFileStaysUntilTheSessionEnds) {
+  testing::TempDir dir;
+  const std::string out = (dir / "rec.mcap").string();
+  const std::string earlier = "an earlier recording";
+  std::ofstream(out, std::ios::binary) << earlier;
+  const auto mock = drivers::make_mock_device("static", {{"rate", "1000"}, {"clock", "virtual"}});
+  SessionOptions options;
+  options.path = out;
+  options.finalize = false;
+  options.max_samples = 3000;
+  std::size_t passes = 0;  // the writer's passes, each asking for markers
+  options.take_markers = [&](std::vector<Event>&) {
+    if (++passes > 20) return;
+    EXPECT_EQ(testing::read_file(out), earlier);
+    EXPECT_TRUE(std::filesystem::exists(partial_path(out)));
+  };
+  const SessionReport report = record_session(one_kilohertz_mock(*mock), options);
+  EXPECT_EQ(report.devices.at(0).samples, 3000u);
+  EXPECT_EQ(raw_rows(out, "mock").size(), 3000u);  // a complete recording now
+  EXPECT_FALSE(std::filesystem::exists(partial_path(out)));
+  std::ofstream(partial_path(out), std::ios::binary) << "what a crash left";
+  EXPECT_THROW(record_session(one_kilohertz_mock(*mock), options), IoError);
+  EXPECT_GT(passes, 0u);
+}
+
 // Found in review: --duration 2 at 1 kHz kept 2008 samples. The limit compared receive times,
 // which the 8 samples of a block share, so the block received 2.000 s after the first took in
 // samples made up to 2.007 s after it. Now the samples made in [0, duration) after the first
