@@ -5,8 +5,12 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <array>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -42,35 +46,35 @@ struct SimulateArgs {
   std::optional<double> gravity;
 };
 
-// A CSV file written block by block: the header once, then rows in the EuRoC layout.
+// A CSV file written block by block into the temporary write_file_atomically gives it.
 class StreamFile {
  public:
-  StreamFile(const std::string& path, const std::string& header) : path_(path) {
-    f_ = std::fopen(path.c_str(), "wb");
-    if (f_ == nullptr) throw IoError(path + ": cannot open for writing");
-    put(header + "\n");
-  }
-  ~StreamFile() {
-    if (f_ != nullptr) std::fclose(f_);
-  }
-  StreamFile(const StreamFile&) = delete;
-  StreamFile& operator=(const StreamFile&) = delete;
+  StreamFile(std::string path, std::FILE* f) : path_(std::move(path)), f_(f) {}
   void put(const std::string& s) {
     if (std::fwrite(s.data(), 1, s.size(), f_) != s.size())
-      throw IoError(path_ + ": write failed (disk full?)");
-  }
-  void close() {
-    if (f_ != nullptr && std::fclose(f_) != 0) {
-      f_ = nullptr;
-      throw IoError(path_ + ": write failed on close");
-    }
-    f_ = nullptr;
+      throw IoError(fmt::format("{}: write failed: {}", path_, std::strerror(errno)));
   }
 
  private:
   std::string path_;
-  std::FILE* f_ = nullptr;
+  std::FILE* f_;
 };
+
+// Opens paths[k..] each through write_file_atomically, one inside the other, and runs `body`
+// with all of them open: each replaces its name only when `body` has returned, so a run stopped
+// by an error (bad input found while simulating, a full disk) leaves every earlier file as it
+// was and no temporary (found in review, 2026-11-27: the CSVs were written in place).
+void with_files_atomically(const std::vector<std::string>& paths, std::size_t k,
+                           std::vector<std::FILE*>& files, const std::function<void()>& body) {
+  if (k == paths.size()) {
+    body();
+    return;
+  }
+  write_file_atomically(paths[k], [&](std::FILE* f) {
+    files[k] = f;
+    with_files_atomically(paths, k + 1, files, body);
+  });
+}
 
 void write_rows(StreamFile& file, const sim::SensorBlock& b) {
   std::string buf;
@@ -356,44 +360,57 @@ int run_simulate(const SimulateArgs& a) {
     return 0;
   }
   std::filesystem::create_directories(out);
-  const std::string header(kEurocHeader);
-  std::vector<std::unique_ptr<StreamFile>> files, truth, orient, mag, mag_truth;
-  for (const sim::SceneSensor& s : scene.sensors) {
-    files.push_back(std::make_unique<StreamFile>((out / (s.spec.name + ".csv")).string(), header));
-    truth.push_back(scene.ground_truth ? std::make_unique<StreamFile>(
-                                             (out / (s.spec.name + ".truth.csv")).string(), header)
-                                       : nullptr);
-    orient.push_back(
-        s.spec.outputs.orientation
-            ? std::make_unique<StreamFile>((out / (s.spec.name + ".orientation.csv")).string(),
-                                           "#timestamp [ns],q_WS_w,q_WS_x,q_WS_y,q_WS_z")
-            : nullptr);
-    // The magnetometer in its own file per sensor (the EuRoC layout has no magnetometer).
-    const bool m = s.spec.outputs.magnetometer;
-    mag.push_back(
-        m ? std::make_unique<StreamFile>((out / (s.spec.name + ".mag.csv")).string(), kMagHeader)
-          : nullptr);
-    mag_truth.push_back(m && scene.ground_truth
-                            ? std::make_unique<StreamFile>(
-                                  (out / (s.spec.name + ".mag.truth.csv")).string(), kMagHeader)
-                            : nullptr);
-  }
-  std::vector<int64_t> samples(scene.sensors.size(), 0);
-  sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
-    write_rows(*files[s], m);
-    if (t != nullptr && truth[s]) write_rows(*truth[s], *t);
-    if (orient[s]) write_orientation_rows(*orient[s], m);
-    if (mag[s]) write_mag_rows(*mag[s], m);
-    if (t != nullptr && mag_truth[s]) write_mag_rows(*mag_truth[s], *t);
-    samples[s] += static_cast<int64_t>(m.t.size());
-  });
-  for (auto* v : {&files, &truth, &orient, &mag, &mag_truth}) {
-    for (auto& f : *v) {
-      if (f) f->close();
+  // Per sensor, the files it writes: its CSV, then (when asked for) the truth, the orientation,
+  // the magnetometer and its truth, each a slot in `paths` or -1.
+  enum Kind { kMeasured, kTruth, kOrientation, kMag, kMagTruth, kKinds };
+  std::vector<std::string> paths, headers;
+  std::vector<std::array<int, kKinds>> slot(scene.sensors.size());
+  for (std::size_t s = 0; s < scene.sensors.size(); ++s) {
+    const sim::SceneSensor& ss = scene.sensors[s];
+    const bool m = ss.spec.outputs.magnetometer;  // in its own file (EuRoC has no magnetometer)
+    struct Output {
+      bool wanted;
+      const char* suffix;
+      std::string_view header;
+    };
+    const std::array<Output, kKinds> outputs{{
+        {true, ".csv", kEurocHeader},
+        {scene.ground_truth, ".truth.csv", kEurocHeader},
+        {ss.spec.outputs.orientation, ".orientation.csv",
+         "#timestamp [ns],q_WS_w,q_WS_x,q_WS_y,q_WS_z"},
+        {m, ".mag.csv", kMagHeader},
+        {m && scene.ground_truth, ".mag.truth.csv", kMagHeader},
+    }};
+    for (std::size_t k = 0; k < kKinds; ++k) {
+      slot[s][k] = -1;
+      if (!outputs[k].wanted) continue;
+      slot[s][k] = static_cast<int>(paths.size());
+      paths.push_back((out / (ss.spec.name + outputs[k].suffix)).string());
+      headers.emplace_back(outputs[k].header);
     }
   }
-  StreamFile info((out / "simulation.json").string(), description);
-  info.close();
+  std::vector<int64_t> samples(scene.sensors.size(), 0);
+  std::vector<std::FILE*> handles(paths.size(), nullptr);
+  with_files_atomically(paths, 0, handles, [&] {
+    std::vector<StreamFile> files;
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+      files.emplace_back(paths[i], handles[i]);
+      files.back().put(headers[i] + "\n");
+    }
+    const auto file = [&](std::size_t s, Kind k) -> StreamFile* {
+      const int i = slot[s][static_cast<std::size_t>(k)];
+      return i < 0 ? nullptr : &files[static_cast<std::size_t>(i)];
+    };
+    sim::run_scene(scene, [&](std::size_t s, const sim::SensorBlock& m, const sim::SensorBlock* t) {
+      write_rows(*file(s, kMeasured), m);
+      if (StreamFile* f = file(s, kTruth); f != nullptr && t != nullptr) write_rows(*f, *t);
+      if (StreamFile* f = file(s, kOrientation)) write_orientation_rows(*f, m);
+      if (StreamFile* f = file(s, kMag)) write_mag_rows(*f, m);
+      if (StreamFile* f = file(s, kMagTruth); f != nullptr && t != nullptr) write_mag_rows(*f, *t);
+      samples[s] += static_cast<int64_t>(m.t.size());
+    });
+  });
+  write_text_file((out / "simulation.json").string(), description);
   fmt::print("simulate: {} sensor(s), {} at {:g} Hz ({} method) -> {}\n", scene.sensors.size(),
              sample_counts(samples), rate, sim::to_string(scene.options.method), out.string());
   return 0;

@@ -253,6 +253,36 @@ def test_a_failed_simulation_to_mcap_leaves_the_earlier_file(run, workdir):
     assert sorted(os.listdir(folder)) == ["out.mcap", "scene.json"], "and no temporary is left"
 
 
+def test_a_failed_simulation_to_csv_leaves_the_earlier_files(run, workdir):
+    """Found in review (2026-11-27): `simulate -o DIR` wrote its CSVs in place, so a run that
+    failed mid-way left truncated files beside an earlier simulation.json. Now each CSV goes
+    through a temporary renamed over its name when the whole run is done, simulation.json last:
+    exit 3, the earlier files unchanged, no temporary left."""
+    folder = os.path.join(workdir, "atomic_simulate_csv")
+    scene = os.path.join(workdir, "csv_scene.json")
+    with open(scene, "w") as f:
+        json.dump({"schema": "imukit.scene/1",
+                   "motion": {"procedural": {"rate_hz": 100, "duration_s": 60, "seed": 1}},
+                   "simulation": {"rate_hz": 400},
+                   "sensors": [{"preset": "left_wrist_watch"}, {"preset": "right_wrist_watch"}]}, f)
+    small = os.path.join(workdir, "csv_scene_small.json")
+    with open(small, "w") as f:
+        json.dump({"schema": "imukit.scene/1",
+                   "motion": {"procedural": {"rate_hz": 100, "duration_s": 1, "seed": 1}},
+                   "sensors": [{"preset": "left_wrist_watch"}, {"preset": "right_wrist_watch"}]}, f)
+    assert run("simulate", small, "-o", folder).returncode == 0
+    names = sorted(os.listdir(folder))
+    assert names == ["left_wrist_watch.csv", "right_wrist_watch.csv", "simulation.json"], names
+    earlier = {n: open(os.path.join(folder, n), "rb").read() for n in names}
+    r = run("simulate", scene, "-o", folder, preexec_fn=limited_file_size(200_000))
+    assert r.returncode == 3 and "File too large" in r.stderr, (r.returncode, r.stderr)
+    assert sorted(os.listdir(folder)) == names, "no temporary is left"
+    for n in names:
+        assert open(os.path.join(folder, n), "rb").read() == earlier[n], f"{n} is unchanged"
+    assert run("simulate", scene, "-o", folder).returncode == 0  # and a run that ends replaces them
+    assert open(os.path.join(folder, "simulation.json"), "rb").read() != earlier["simulation.json"]
+
+
 def test_a_text_file_without_data_rows_is_an_error(run, workdir):
     # Review, 2026-11-27: it read as "0 samples over 0.000 s", exit 0.
     for name, text in (("empty.txt", ""), ("header_only.txt", "t,ax,ay,az\n")):
