@@ -51,6 +51,11 @@ class SpscQueue {
     return true;
   }
 
+  // Consumer only: nothing to pop now (the producer may push right after).
+  bool empty() const {
+    return tail_.load(std::memory_order_relaxed) == head_.load(std::memory_order_acquire);
+  }
+
   std::size_t capacity() const { return mask_ + 1; }
   // Deepest the queue has been, as the producer saw it after each push (the consumer may have
   // taken values meanwhile, so this can exceed the true depth by what it took since).
