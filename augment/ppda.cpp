@@ -389,9 +389,10 @@ struct PpdaAugmenter::Impl {
     Eigen::MatrixXd basis;        // frames x (K + 2)
   };
 
-  int64_t window_frames() const {
+  // Frames of a window's motion at speed 1 with `each_side` frames beyond its samples.
+  int64_t window_frames(int64_t each_side) const {
     const double span = static_cast<double>(options.window - 1) / rate * motion_rate;
-    return static_cast<int64_t>(std::ceil(span - 1e-9)) + 1 + 2 * margin;
+    return static_cast<int64_t>(std::ceil(span - 1e-9)) + 1 + 2 * each_side;
   }
 
   void simulate_window(const SubPolicy& sub, const Carriers& carriers, int64_t start, Rng& rng,
@@ -457,7 +458,9 @@ PpdaAugmenter::PpdaAugmenter(const sim::Scene& scene, PpdaOptions options)
         fmt::format("augment: the motion has {} samples at {:g} Hz, fewer than a window of {}",
                     m.samples, m.rate, options.window));
   }
-  if (m.frames < m.window_frames() + 4) {
+  // The filter's reach beyond kMargin is cut at the motion's ends (retime): not asked for here
+  // (review, 2026-11-27: the bundled 2 s walk took windows of 71 samples at 50 Hz, not 96).
+  if (m.frames < m.window_frames(kMargin) + 4) {
     throw Error(
         fmt::format("augment: the motion ({} frames) is too short for a window of {} "
                     "samples with its margins",
@@ -522,7 +525,7 @@ PpdaAugmenter::Impl::WindowTiming PpdaAugmenter::Impl::retime(const SpeedOp& spe
   const std::size_t T = options.window;
   const double dt = 1.0 / rate;
   const double h = 1.0 / motion_rate;
-  int64_t F = window_frames();
+  int64_t F = window_frames(margin);
   const TimeNs t_start_ns = sample_time(0, start, rate);
   const double t_start = static_cast<double>(t_start_ns) * 1e-9;
   // Identity: the window's motion is the source's own frames first_frame .. first_frame + F - 1,

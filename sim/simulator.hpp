@@ -113,8 +113,9 @@ struct SimulationOptions {
 // weighted by k((t_frame - t) f_s), k(x) = sinc(x) w(x) with w the Kaiser window (beta 6) over
 // |x| <= 12 sensor periods, the weights normalised to sum to 1 (constants pass exactly). Frames
 // past the motion's ends hold its first and last values. Cut at the Nyquist frequency f_s / 2:
-// flat within 0.1 % to 0.4 f_s, and content from 0.6 f_s up -- what folds into 0..0.4 f_s --
-// at least 60 dB down (docs/simulation.md, "Anti-aliasing"; tests/sim measure both).
+// flat within 0.1 % to 0.4 f_s (0.12 % where the frames come barely faster than the samples),
+// and content from 0.6 f_s up -- what folds into 0..0.4 f_s -- at least 60 dB down
+// (docs/simulation.md, "Anti-aliasing"; tests/sim measure both).
 // Orientation outputs are the pose at t itself. The hardware model's bandwidth low-pass runs
 // afterwards, on the samples, as before.
 struct AntiAliasFilter {

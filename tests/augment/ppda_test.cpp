@@ -140,6 +140,49 @@ TEST(Ppda, DoublingTheSpeedDoublesTheRateQuadruplesTheTangentialAccelerationKeep
   }
 }
 
+// The anti-aliasing filter's reach beyond a window's samples is cut at the motion's ends, so
+// it asks no more motion of a window: 2 s of 120 Hz frames at 50 Hz take a window of 96 samples
+// as point samples do (71 was the most until review, 2026-11-27), every window of it at speed 0.9
+// (the reach past both ends) is finite, and its identity windows are the plain (filtered)
+// simulation.
+TEST(Ppda, AntiAliasingAsksNoMoreMotionOfAWindow) {
+  sim::Scene scene = testing::preset_scene(
+      {"left_wrist_watch"}, {.rate_hz = 120.0, .frames = 240, .seed = 5, .amplitude_rad = 0.2});
+  scene.options.rate_hz = 50.0;
+  for (const bool anti_alias : {true, false}) {
+    scene.options.anti_alias = anti_alias;
+    PpdaOptions po;
+    po.method = sim::DerivativeMethod::spline;
+    po.window = 96;
+    PpdaAugmenter aug(scene, po);
+    const std::vector<int64_t> starts = aug.window_starts(1);
+    ASSERT_EQ(starts.size(), 5u);
+    sim::SimulationOptions so = scene.options;
+    so.method = po.method;
+    std::vector<sim::SensorSpec> specs{scene.sensors[0].spec};
+    sim::Simulator plain(scene.body, specs, so);
+    std::vector<sim::SensorBlock> ref;
+    std::vector<TimeNs> times;
+    for (int64_t k = 0; k < aug.sample_count(); ++k) times.push_back(sample_time(0, k, 50.0));
+    plain.evaluate(*scene.motion, times, ref);
+    for (const int64_t start : starts) {
+      const std::vector<double> y = run_window(aug, SubPolicy{}, start, 1);
+      for (std::size_t i = 0; i < 96; ++i) {
+        const auto c = static_cast<Eigen::Index>(start + static_cast<int64_t>(i));
+        for (int k = 0; k < 3; ++k) {
+          ASSERT_NEAR(y[6 * i + k], ref[0].specific_force(k, c), 1e-7) << anti_alias << start;
+          ASSERT_NEAR(y[6 * i + 3 + k], ref[0].angular_rate(k, c), 1e-7) << anti_alias << start;
+        }
+      }
+      SubPolicy slower;
+      slower.speed.method = WarpMethod::scaling;
+      slower.speed.lo = slower.speed.hi = 0.9;
+      const std::vector<double> z = run_window(aug, slower, start, 1);
+      for (const double v : z) ASSERT_TRUE(std::isfinite(v)) << anti_alias << start;
+    }
+  }
+}
+
 // Identity windows are the plain simulation's samples, at the motion's ends too: the window's
 // motion is cut at the true ends (the simulator's one-sided stencils and end conditions apply
 // there as in the whole-motion run) and never slides. Once the first and last windows slid 3
