@@ -623,7 +623,10 @@ void run_scene_clocked(Scene& scene, const SceneSink& sink, double rate, int64_t
   std::vector<TimeNs> times;
   std::vector<SensorBlock> blocks;
   SensorBlock measured;
-  for (int64_t chunk_end = scene.options.chunk_frames;; chunk_end += scene.options.chunk_frames) {
+  // Blocks of frames as Simulator::run takes them (the first group's filter, where it has one:
+  // every group samples at the scene's rate within its clock error).
+  const int64_t block = groups.front().sim->block_frames(motion);
+  for (int64_t chunk_end = block;; chunk_end += block) {
     bool more = false;
     for (TimingGroup& g : groups) {
       times.clear();

@@ -1848,14 +1848,22 @@ const AntiAliasTable& anti_alias_table() {
   return table;
 }
 
-// Frames one pass of evaluate_band_limited evaluates at most (beyond one sample's reach): 65536
-// frames of values, 72 bytes each per sensor with every output.
+// Frames evaluate_band_limited evaluates at a time: 65536 frames of values, 72 bytes each per
+// sensor with every output.
 constexpr int64_t kMaxPassFrames = 65536;
 
 }  // namespace
 
 bool Simulator::anti_aliases(const MotionSource& motion) const {
   return options_.anti_alias && sample_rate_hz(options_, motion) < motion.rate_hz();
+}
+
+int64_t Simulator::block_frames(const MotionSource& motion) const {
+  if (!anti_aliases(motion)) return options_.chunk_frames;
+  const double reach =
+      AntiAliasFilter::half_width_periods * motion.rate_hz() / sample_rate_hz(options_, motion);
+  return std::max<int64_t>(options_.chunk_frames,
+                           static_cast<int64_t>(std::min(4.0 * std::ceil(reach), 1e15)));
 }
 
 void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
@@ -1866,9 +1874,8 @@ void Simulator::evaluate(MotionSource& motion, std::span<const TimeNs> times,
     evaluate_points(motion, times, out);
 }
 
-// The values on the frames around the times, then each sample the kernel's weighted mean of
-// them (AntiAliasFilter). The frames are evaluated in passes of at most kMaxPassFrames (plus
-// one sample's reach), so memory does not grow with the block.
+// The values on the frames around the times, and each sample the kernel's weighted mean of them
+// (AntiAliasFilter).
 void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const TimeNs> times,
                                       std::vector<SensorBlock>& out) {
   require_simulatable(motion, "simulation");
@@ -1894,75 +1901,106 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
   // A sample's weights depend on its position within its frame interval only: taps k (frames
   // from the interval's start) from ceil(frac - reach) to floor(frac + reach), weight
   // kernel((k - frac) f_s / f_m), normalised. Samples at a rational ratio of the rates take a
-  // few positions (5 for 50 Hz from 120): their weights are computed once per call.
+  // few positions (5 for 50 Hz from 120): their weights are computed once per call. A sensor
+  // far slower than the motion has too many taps to keep (24 x 60000 at 1/60 Hz from 1 kHz):
+  // its weights are computed tap by tap, with their sum once per sample.
+  constexpr std::size_t kMaxKeptTaps = 4096;
   struct Taps {
-    int64_t first;                // k of weights[0]
-    std::vector<double> weights;  // summing to 1
+    int64_t first = 0, last = 0;  // k of the first and last tap
+    std::vector<double> weights;  // summing to 1; empty: computed tap by tap
+    double inverse_sum = 0.0;     // for taps computed one by one
   };
   std::unordered_map<double, Taps> taps_at;
   const auto taps_for = [&](double frac) -> const Taps& {
     if (const auto it = taps_at.find(frac); it != taps_at.end()) return it->second;
     Taps t;
     t.first = static_cast<int64_t>(std::ceil(frac - reach));
-    const auto last = static_cast<int64_t>(std::floor(frac + reach));
+    t.last = static_cast<int64_t>(std::floor(frac + reach));
+    const bool keep = static_cast<std::size_t>(t.last - t.first + 1) <= kMaxKeptTaps;
     double sum = 0.0;
-    for (int64_t k = t.first; k <= last; ++k) {
-      t.weights.push_back(kernel((static_cast<double>(k) - frac) * periods_per_frame));
-      sum += t.weights.back();
+    for (int64_t k = t.first; k <= t.last; ++k) {
+      const double w = kernel((static_cast<double>(k) - frac) * periods_per_frame);
+      if (keep) t.weights.push_back(w);
+      sum += w;
     }
     for (double& w : t.weights) w /= sum;
+    t.inverse_sum = 1.0 / sum;
     if (taps_at.size() >= 256) taps_at.clear();  // jittered or irrational times: no reuse
     return taps_at.emplace(frac, std::move(t)).first->second;
   };
-  std::vector<double> folded;  // a sample's weights with the taps past the ends folded in
+  // The filtered channels are sums over the taps, frame chunk after frame chunk: the frames are
+  // evaluated once each, at most kMaxPassFrames at a time, so memory does not grow with the block
+  // nor with how much slower than the motion the sensor is. Each sample adds its taps in frame
+  // order whatever the chunks, so its value does not depend on them.
+  for (std::size_t s = 0; s < sensors_.size(); ++s) {
+    out[s].specific_force.setZero();
+    out[s].angular_rate.setZero();
+    out[s].magnetic_field.setZero();
+  }
   const auto clamped = [N](double f) {
     return static_cast<int64_t>(std::clamp(f, 0.0, static_cast<double>(N - 1)));
   };
-  for (std::size_t i0 = 0; i0 < times.size();) {
-    const int64_t lo = clamped(std::floor(u[i0] - reach));
-    std::size_t i1 = i0 + 1;
-    while (i1 < times.size() && u[i1] + reach - static_cast<double>(lo) < kMaxPassFrames) ++i1;
-    const int64_t hi = clamped(std::ceil(u[i1 - 1] + reach));
-    frame_times_.resize(static_cast<std::size_t>(hi - lo + 1));
-    for (int64_t f = lo; f <= hi; ++f)
-      frame_times_[static_cast<std::size_t>(f - lo)] = sample_time(0, f, motion_rate);
+  const int64_t lo = clamped(std::floor(u.front() - reach));
+  const int64_t hi = clamped(std::ceil(u.back() + reach));
+  std::size_t done = 0;         // samples before it have all their taps
+  std::vector<double> scratch;  // weights of taps not kept
+  for (int64_t c0 = lo; c0 <= hi; c0 += kMaxPassFrames) {
+    const int64_t c1 = std::min(hi, c0 + kMaxPassFrames - 1);
+    frame_times_.resize(static_cast<std::size_t>(c1 - c0 + 1));
+    for (int64_t f = c0; f <= c1; ++f)
+      frame_times_[static_cast<std::size_t>(f - c0)] = sample_time(0, f, motion_rate);
     evaluate_points(motion, frame_times_, frame_blocks_);
-    for (std::size_t i = i0; i < i1; ++i) {
+    // The taps this chunk serves: its frames, and past the motion's ends (where the motion holds
+    // its first or last frame) the taps beyond them, in the chunk that holds the end frame.
+    const int64_t t0 = c0 == 0 ? std::numeric_limits<int64_t>::min() : c0;
+    const int64_t t1 = c1 == N - 1 ? std::numeric_limits<int64_t>::max() : c1;
+    for (std::size_t i = done; i < times.size(); ++i) {
       const Taps& taps = taps_for(pos[i].frac);
-      const int64_t f0 = pos[i].frame + taps.first;
-      const int64_t f1 = f0 + static_cast<int64_t>(taps.weights.size()) - 1;
-      const int64_t c0 = std::clamp(f0, lo, hi), c1 = std::clamp(f1, lo, hi);
-      const double* weights = taps.weights.data();
-      std::size_t n = taps.weights.size();
-      if (c0 != f0 || c1 != f1) {
-        // Past an end the motion holds its first or last frame.
-        folded.assign(static_cast<std::size_t>(c1 - c0 + 1), 0.0);
-        for (int64_t f = f0; f <= f1; ++f)
-          folded[static_cast<std::size_t>(std::clamp(f, c0, c1) - c0)] +=
-              taps.weights[static_cast<std::size_t>(f - f0)];
-        weights = folded.data();
-        n = folded.size();
+      const int64_t f0 = pos[i].frame + taps.first, f1 = pos[i].frame + taps.last;
+      if (f1 < t0) {
+        if (i == done) ++done;
+        continue;
+      }
+      if (f0 > t1) break;  // and so are the later samples'
+      const int64_t a = std::max(f0, t0), b = std::min(f1, t1);
+      // The weights of taps a..b: kept, or computed once here for every channel.
+      const double* w = taps.weights.data() + (a - f0);
+      if (taps.weights.empty()) {
+        scratch.resize(static_cast<std::size_t>(b - a + 1));
+        for (int64_t f = a; f <= b; ++f) {
+          scratch[static_cast<std::size_t>(f - a)] =
+              kernel((static_cast<double>(f - pos[i].frame) - pos[i].frac) * periods_per_frame) *
+              taps.inverse_sum;
+        }
+        w = scratch.data();
       }
       const auto col = static_cast<Eigen::Index>(i);
-      // The weighted sum over consecutive frames' columns (3 doubles each).
-      const auto filter = [&](const Eigen::Matrix3Xd& on_frames, Eigen::Matrix3Xd& samples) {
+      const auto add = [&](const Eigen::Matrix3Xd& on_frames, Eigen::Matrix3Xd& samples) {
         if (samples.cols() == 0) return;
-        const double* p = on_frames.data() + 3 * (c0 - lo);
-        double x = 0.0, y = 0.0, z = 0.0;
-        for (std::size_t k = 0; k < n; ++k, p += 3) {
-          x += weights[k] * p[0];
-          y += weights[k] * p[1];
-          z += weights[k] * p[2];
+        double x = samples(0, col), y = samples(1, col), z = samples(2, col);
+        if (a >= c0 && b <= c1) {  // the common case, in one run
+          const double* p = on_frames.data() + 3 * (a - c0);
+          for (int64_t k = 0; k <= b - a; ++k, p += 3) {
+            x += w[k] * p[0];
+            y += w[k] * p[1];
+            z += w[k] * p[2];
+          }
+        } else {
+          for (int64_t f = a; f <= b; ++f) {
+            const double* p = on_frames.data() + 3 * (std::clamp(f, c0, c1) - c0);
+            x += w[f - a] * p[0];
+            y += w[f - a] * p[1];
+            z += w[f - a] * p[2];
+          }
         }
         samples.col(col) = Vector3d(x, y, z);
       };
       for (std::size_t s = 0; s < sensors_.size(); ++s) {
-        filter(frame_blocks_[s].specific_force, out[s].specific_force);
-        filter(frame_blocks_[s].angular_rate, out[s].angular_rate);
-        filter(frame_blocks_[s].magnetic_field, out[s].magnetic_field);
+        add(frame_blocks_[s].specific_force, out[s].specific_force);
+        add(frame_blocks_[s].angular_rate, out[s].angular_rate);
+        add(frame_blocks_[s].magnetic_field, out[s].magnetic_field);
       }
     }
-    i0 = i1;
   }
 }
 
@@ -2001,7 +2039,8 @@ void Simulator::run(MotionSource& motion,
   std::vector<SensorBlock> blocks;
   SampleClock clock(0, rate);
   int64_t n = 0;
-  int64_t chunk_end = options_.chunk_frames;
+  const int64_t block = block_frames(motion);
+  int64_t chunk_end = block;
   while (n < total) {
     times.clear();
     while (n < total && times.size() < kMaxBlockSamples) {
@@ -2011,7 +2050,7 @@ void Simulator::run(MotionSource& motion,
       ++n;
     }
     while (n < total && frame_position(clock(n), motion_rate).frame >= chunk_end)
-      chunk_end += options_.chunk_frames;
+      chunk_end += block;
     evaluate(source, times, blocks);
     for (std::size_t s = 0; s < blocks.size(); ++s) sink(s, blocks[s]);
   }

@@ -175,6 +175,12 @@ class Simulator {
   // True when evaluate() band-limits the motion (SimulationOptions::anti_alias): the motion's
   // frame rate is above the sensor rate.
   bool anti_aliases(const MotionSource& motion) const;
+  // Motion frames whose samples a streamed block takes: chunk_frames, or, anti-aliasing, at
+  // least 4 times the filter's reach (each block evaluates its frames and the reach on both
+  // sides: 1/60 Hz from 1 kHz frames evaluated 70 times as many frames as the motion has with
+  // blocks of 4096 frames; review, 2026-11-27). Memory stays bounded: evaluate() takes the
+  // frames in chunks.
+  int64_t block_frames(const MotionSource& motion) const;
   // The most samples a streamed block holds: chunks of frames alone held every sample of
   // chunk_frames frames, 253 MB for a 1 Hz motion simulated at 5 kHz (review, 2026-11-27).
   static constexpr std::size_t kMaxBlockSamples = 65536;

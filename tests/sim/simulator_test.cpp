@@ -968,6 +968,58 @@ TEST(Simulator, AntiAliasingLeavesAtMost1e3OfMotionAboveNyquist) {
   for (const double f0 : {60.0, 75.0, 95.0}) EXPECT_GT(peak(f0, false), 0.95) << f0 << " Hz";
 }
 
+// A motion source that counts the frames read through it.
+class CountingMotion : public MotionSource {
+ public:
+  explicit CountingMotion(MotionSource& inner) : inner_(inner) {}
+  double rate_hz() const override { return inner_.rate_hz(); }
+  std::size_t joint_count() const override { return inner_.joint_count(); }
+  std::optional<int64_t> frame_count() const override { return inner_.frame_count(); }
+  void read(int64_t first, int64_t count, std::span<const int> joints, MotionChunk& out) override {
+    frames_read += count;
+    inner_.read(first, count, joints, out);
+  }
+  int64_t frames_read = 0;
+
+ private:
+  MotionSource& inner_;
+};
+
+// A sensor far slower than the motion: 1/60 Hz from 1 kHz frames, the filter reaching 720,000
+// frames to each side of a sample. Streamed, each frame is read about once (blocks of 4096
+// frames each read their frames and the reach on both sides: 70 times the motion until review,
+// 2026-11-27, and a pass held every frame of a sample's reach at once, 585 MB), and a constant
+// spin reads its rate to the rounding of 1.44 million taps.
+TEST(Simulator, AntiAliasingASensorFarSlowerThanTheMotionReadsEachFrameAboutOnce) {
+  ProceduralMotionOptions po;
+  po.rate_hz = 1000.0;
+  po.frames = 1'200'001;  // 20 min
+  ProceduralMotion procedural(2, po);
+  CountingMotion counted(procedural);
+  SimulationOptions opt;
+  opt.rate_hz = 1.0 / 60.0;
+  Simulator sim(two_joint_body(), {sensor_on(1, Vector3d(0.1, 0.2, 0.3))}, opt);
+  ASSERT_TRUE(sim.anti_aliases(counted));
+  int64_t samples = 0;
+  sim.run(counted, [&](std::size_t, const SensorBlock& b) {
+    samples += static_cast<int64_t>(b.t.size());
+    for (Eigen::Index i = 0; i < b.specific_force.cols(); ++i)
+      ASSERT_TRUE(b.specific_force.col(i).allFinite() && b.angular_rate.col(i).allFinite());
+  });
+  EXPECT_EQ(samples, 21);
+  EXPECT_LT(counted.frames_read, 2 * *po.frames) << counted.frames_read;
+
+  Motion spin = constant_spin(1000.0, 600'001);  // 10 min
+  Simulator slow(two_joint_body(), {sensor_on(0, Vector3d::Zero())}, opt);
+  std::vector<SensorBlock> out;
+  const std::vector<TimeNs> times = grid_times(slow, spin, spin.frames());
+  ASSERT_EQ(times.size(), 11u);
+  slow.evaluate(spin, times, out);
+  for (Eigen::Index i = 0; i < 11; ++i)
+    EXPECT_LT((out[0].angular_rate.col(i) - kSpinRate * kSpinAxis).norm(), 1e-9)
+        << i;  // 1.44e6 taps
+}
+
 // Constants pass exactly (the weights sum to 1), at the motion's ends too, where the filter
 // holds the end frames: a constant spin's rate, sampled at 30 Hz from 240 Hz frames, is the
 // truth to rounding, and the orientation is the pose at the sample time itself (to the 1 ns
