@@ -870,15 +870,24 @@ TEST(Simulator, StreamedChunksEqualOneBlock) {
 }
 
 // Anti-aliasing (DESIGN.md, AntiAliasFilter): a joint swings about a fixed axis by
-// theta = A sin(2 pi f0 t), its frames at 1 kHz, the sensor at 100 Hz; the gyroscope reads
-// theta' on the axis. Returns the largest error against theta' at the sample times over the
-// interior samples (the filter's reach from both ends), relative to the amplitude A 2 pi f0.
-double swing_error(double f0, bool anti_alias, DerivativeMethod method = DerivativeMethod::spline) {
-  const Vector3d axis = Vector3d(0.2, 0.9, -0.3).normalized();
-  const double A = 0.01, W = 2.0 * std::numbers::pi * f0;
+// theta = A sin(2 pi f0 t), A = 0.01 rad, its frames at 1 kHz over 3 s, the sensor at 100 Hz;
+// the gyroscope reads theta' on the axis.
+const Vector3d kSwingAxis = Vector3d(0.2, 0.9, -0.3).normalized();
+constexpr double kSwingAngle = 0.01;  // rad
+
+// The gyroscope's samples of the swing (times and rates), and its amplitude A 2 pi f0.
+struct Swing {
+  std::vector<TimeNs> times;
+  Eigen::Matrix3Xd rate;
+  double amplitude = 0.0;
+};
+Swing swing(double f0, bool anti_alias, DerivativeMethod method = DerivativeMethod::spline) {
+  const double W = 2.0 * std::numbers::pi * f0;
   Motion m = sampled_motion(
       1000.0, 3001, [](double) { return Quaterniond::Identity(); },
-      [&](double t) { return Quaterniond(Eigen::AngleAxisd(A * std::sin(W * t), axis)); },
+      [&](double t) {
+        return Quaterniond(Eigen::AngleAxisd(kSwingAngle * std::sin(W * t), kSwingAxis));
+      },
       [](double) { return Vector3d::Zero(); });
   SimulationOptions opt;
   opt.method = method;
@@ -886,16 +895,27 @@ double swing_error(double f0, bool anti_alias, DerivativeMethod method = Derivat
   opt.anti_alias = anti_alias;
   Simulator sim(two_joint_body(), {sensor_on(1, Vector3d::Zero())}, opt);
   std::vector<SensorBlock> out;
-  const std::vector<TimeNs> times = grid_times(sim, m, m.frames());
-  sim.evaluate(m, times, out);
+  Swing r;
+  r.times = grid_times(sim, m, m.frames());
+  sim.evaluate(m, r.times, out);
+  r.rate = out[0].angular_rate;
+  r.amplitude = kSwingAngle * W;
+  return r;
+}
+
+// The largest error against theta' at the sample times over the interior samples (12 periods,
+// the filter's reach, from both ends), relative to the amplitude.
+double swing_error(double f0, bool anti_alias, DerivativeMethod method = DerivativeMethod::spline) {
+  const Swing s = swing(f0, anti_alias, method);
+  const double W = 2.0 * std::numbers::pi * f0;
   double worst = 0.0;
-  for (std::size_t i = 0; i < times.size(); ++i) {
-    const double t = to_seconds(times[i]);
-    if (t < 0.15 || t > 2.85) continue;  // 12 periods of the sensor from the ends
-    const Vector3d truth = axis * A * W * std::cos(W * t);
-    worst = std::max(worst, (out[0].angular_rate.col(static_cast<Eigen::Index>(i)) - truth).norm());
+  for (std::size_t i = 0; i < s.times.size(); ++i) {
+    const double t = to_seconds(s.times[i]);
+    if (t < 0.15 || t > 2.85) continue;
+    const Vector3d truth = kSwingAxis * s.amplitude * std::cos(W * t);
+    worst = std::max(worst, (s.rate.col(static_cast<Eigen::Index>(i)) - truth).norm());
   }
-  return worst / (A * W);
+  return worst / s.amplitude;
 }
 
 // The filter's own response, from its kernel on a grid 100 times finer than the sensor's
@@ -943,24 +963,10 @@ TEST(Simulator, AntiAliasingKeepsTheBandAndStopsWhatWouldFoldIntoIt) {
 // amplitude, for swings above the sensor's Nyquist frequency.
 TEST(Simulator, AntiAliasingLeavesAtMost1e3OfMotionAboveNyquist) {
   const auto peak = [](double f0, bool anti_alias) {
-    const Vector3d axis = Vector3d::UnitY();
-    const double A = 0.01, W = 2.0 * std::numbers::pi * f0;
-    Motion m = sampled_motion(
-        1000.0, 3001, [](double) { return Quaterniond::Identity(); },
-        [&](double t) { return Quaterniond(Eigen::AngleAxisd(A * std::sin(W * t), axis)); },
-        [](double) { return Vector3d::Zero(); });
-    SimulationOptions opt;
-    opt.method = DerivativeMethod::spline;
-    opt.rate_hz = 100.0;
-    opt.anti_alias = anti_alias;
-    Simulator sim(two_joint_body(), {sensor_on(1, Vector3d::Zero())}, opt);
-    std::vector<SensorBlock> out;
-    const std::vector<TimeNs> times = grid_times(sim, m, m.frames());
-    sim.evaluate(m, times, out);
+    const Swing s = swing(f0, anti_alias);
     double p = 0.0;
-    for (std::size_t i = 15; i + 15 < times.size(); ++i)
-      p = std::max(p, out[0].angular_rate.col(static_cast<Eigen::Index>(i)).norm());
-    return p / (A * W);
+    for (Eigen::Index i = 15; i + 15 < s.rate.cols(); ++i) p = std::max(p, s.rate.col(i).norm());
+    return p / s.amplitude;
   };
   for (const double f0 : {60.0, 75.0, 95.0, 200.0, 400.0, 499.0})
     EXPECT_LT(peak(f0, true), 1e-3) << f0 << " Hz";
