@@ -1964,8 +1964,10 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
       if (f0 > t1) break;  // and so are the later samples'
       const int64_t a = std::max(f0, t0), b = std::min(f1, t1);
       // The weights of taps a..b: kept, or computed once here for every channel.
-      const double* w = taps.weights.data() + (a - f0);
-      if (taps.weights.empty()) {
+      const double* w = nullptr;
+      if (!taps.weights.empty()) {
+        w = taps.weights.data() + (a - f0);
+      } else {
         scratch.resize(static_cast<std::size_t>(b - a + 1));
         for (int64_t f = a; f <= b; ++f) {
           scratch[static_cast<std::size_t>(f - a)] =
