@@ -1887,9 +1887,9 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
   if (times.empty() || sensors_.empty()) return;
   ws_->frame_positions(times, motion_rate, N);  // the times checked: inside, increasing
   const std::vector<FramePosition> pos = ws_->pos;
-  std::vector<double> u(times.size());  // each time in frames
-  for (std::size_t i = 0; i < times.size(); ++i)
-    u[i] = static_cast<double>(pos[i].frame) + pos[i].frac;
+  const auto in_frames = [](const FramePosition& p) {
+    return static_cast<double>(p.frame) + p.frac;
+  };
   // The pose at the sample itself: no filter acts on it.
   if (std::any_of(sensors_.begin(), sensors_.end(),
                   [](const SensorSpec& s) { return s.outputs.orientation; })) {
@@ -1940,8 +1940,8 @@ void Simulator::evaluate_band_limited(MotionSource& motion, std::span<const Time
   const auto clamped = [N](double f) {
     return static_cast<int64_t>(std::clamp(f, 0.0, static_cast<double>(N - 1)));
   };
-  const int64_t lo = clamped(std::floor(u.front() - reach));
-  const int64_t hi = clamped(std::ceil(u.back() + reach));
+  const int64_t lo = clamped(std::floor(in_frames(pos.front()) - reach));
+  const int64_t hi = clamped(std::ceil(in_frames(pos.back()) + reach));
   std::size_t done = 0;         // samples before it have all their taps
   std::vector<double> scratch;  // weights of taps not kept
   for (int64_t c0 = lo; c0 <= hi; c0 += kMaxPassFrames) {
